@@ -1,0 +1,169 @@
+"""3-D gradient noise with an exact analytic gradient, built so that shader nodes can rebuild it.
+
+The lattice gradients come from Blender's White Noise texture (3-D, Color output) evaluated at
+the integer corner positions: `2 * color - 1`. That hash is Bob Jenkins' lookup3 on the float
+bits of the input (Cycles `util/hash.h`: hash_float3_to_float3), reproduced here bit for bit
+in uint32 arithmetic, so a node graph of Floor, Add, White Noise, Dot Product and Math nodes
+gives the same lattice. Between the lattice points the noise is Perlin's: corner dot products
+blended with the quintic fade 6t^5 - 15t^4 + 10t^3 (C2 everywhere).
+
+From Gustavson's note and the paper's section 4.6: fractal sum, turbulence and a dented
+composite g(f) = f^k, all with their gradients through the chain rule.
+"""
+
+import numpy as np
+
+from .vecmath import as_float
+
+_U32 = np.uint32
+
+
+def _rot(x, k):
+    return (x << _U32(k)) | (x >> _U32(32 - k))
+
+
+def _final(a, b, c):
+    # lookup3 final(a, b, c): the same sequence as Cycles' `final` macro.
+    c = (c ^ b) - _rot(b, 14)
+    a = (a ^ c) - _rot(c, 11)
+    b = (b ^ a) - _rot(a, 25)
+    c = (c ^ b) - _rot(b, 16)
+    a = (a ^ c) - _rot(c, 4)
+    b = (b ^ a) - _rot(a, 14)
+    c = (c ^ b) - _rot(b, 24)
+    return a, b, c
+
+
+def _mix(a, b, c):
+    a = (a - c) ^ _rot(c, 4)
+    c = c + b
+    b = (b - a) ^ _rot(a, 6)
+    a = a + c
+    c = (c - b) ^ _rot(b, 8)
+    b = b + a
+    a = (a - c) ^ _rot(c, 16)
+    c = c + b
+    b = (b - a) ^ _rot(a, 19)
+    a = a + c
+    c = (c - b) ^ _rot(b, 4)
+    b = b + a
+    return a, b, c
+
+
+def hash_uint3(kx, ky, kz):
+    """Cycles' hash_uint3 (Jenkins lookup3) on uint32 arrays."""
+    kx, ky, kz = (np.asarray(k, dtype=_U32) for k in (kx, ky, kz))
+    init = _U32((0xDEADBEEF + (3 << 2) + 13) & 0xFFFFFFFF)
+    a = init + kx
+    b = init + ky
+    c = init + kz
+    return _final(a, b, c)[2]
+
+
+def hash_uint4(kx, ky, kz, kw):
+    """Cycles' hash_uint4 (Jenkins lookup3) on uint32 arrays."""
+    kx, ky, kz, kw = (np.asarray(k, dtype=_U32) for k in (kx, ky, kz, kw))
+    init = _U32((0xDEADBEEF + (4 << 2) + 13) & 0xFFFFFFFF)
+    a, b, c = _mix(init + kx, init + ky, init + kz)
+    a = a + kw
+    return _final(a, b, c)[2]
+
+
+def _uint_to_float_incl(h):
+    # (float)n * (1.0f / (float)0xFFFFFFFFu); (float)0xFFFFFFFF rounds to 2^32, so the factor
+    # is exactly 2^-32 and the product is exact after the uint->float rounding.
+    return h.astype(np.float32) * np.float32(2.0 ** -32)
+
+
+def white_noise_color(p):
+    """Blender's White Noise texture, 3-D, Color output, for positions p (..., 3) as float32.
+
+    Returns float32 (..., 3) in [0, 1]: (hash3(p), hash4(p, 1), hash4(p, 2)).
+    """
+    bits = np.ascontiguousarray(np.asarray(p, dtype=np.float32)).view(_U32)
+    x, y, z = bits[..., 0], bits[..., 1], bits[..., 2]
+    one = np.full_like(x, np.float32(1.0).view(_U32))
+    two = np.full_like(x, np.float32(2.0).view(_U32))
+    return np.stack([_uint_to_float_incl(hash_uint3(x, y, z)),
+                     _uint_to_float_incl(hash_uint4(x, y, z, one)),
+                     _uint_to_float_incl(hash_uint4(x, y, z, two))], axis=-1)
+
+
+def lattice_gradient(corner):
+    """The gradient vector at integer lattice points: 2 * WhiteNoiseColor(corner) - 1."""
+    return 2.0 * white_noise_color(corner) - 1.0
+
+
+def _fade(t):
+    return t * t * t * (t * (t * 6 - 15) + 10)
+
+
+def _fade_deriv(t):
+    return 30 * t * t * (t * (t - 2) + 1)
+
+
+_CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=np.int8)
+
+
+def gradient_noise(p):
+    """Perlin-style gradient noise at p (..., 3). Returns (value (...,), gradient (..., 3)).
+
+    value = sum over the 8 cell corners c of w_c(fade(f)) * dot(g_c, f - c), with f = p -
+    floor(p); the gradient is its exact derivative (product rule over the trilinear weights).
+    """
+    (p,) = as_float(p)
+    cell = np.floor(p)
+    f = p - cell
+    u = _fade(f)
+    du = _fade_deriv(f)
+    value = np.zeros(p.shape[:-1], dtype=p.dtype)
+    grad = np.zeros(p.shape, dtype=p.dtype)
+    for c in _CORNERS:
+        # cell + c also turns floor(-0.0) = -0.0 into +0.0, as a node graph's Add does.
+        g = lattice_gradient(cell + c).astype(p.dtype)
+        d = f - c
+        dotted = np.sum(g * d, axis=-1)
+        # Trilinear weight per axis: u where the corner is 1, 1 - u where it is 0.
+        wa = np.where(c == 1, u, 1 - u)
+        dwa = np.where(c == 1, du, -du)
+        w = wa[..., 0] * wa[..., 1] * wa[..., 2]
+        dw = np.stack([dwa[..., 0] * wa[..., 1] * wa[..., 2],
+                       wa[..., 0] * dwa[..., 1] * wa[..., 2],
+                       wa[..., 0] * wa[..., 1] * dwa[..., 2]], axis=-1)
+        value += w * dotted
+        grad += w[..., None] * g + dotted[..., None] * dw
+    return value, grad
+
+
+def fractal_sum(p, octaves=4, lacunarity=2.0, gain=0.5):
+    """Perlin's fractal sum: sum_i gain^i * noise(lacunarity^i * p), with its gradient."""
+    (p,) = as_float(p)
+    value = np.zeros(p.shape[:-1], dtype=p.dtype)
+    grad = np.zeros(p.shape, dtype=p.dtype)
+    for i in range(octaves):
+        freq, amp = lacunarity ** i, gain ** i
+        v, g = gradient_noise(p * freq)
+        value += amp * v
+        grad += (amp * freq) * g  # chain rule: d/dp noise(freq p) = freq * grad
+    return value, grad
+
+
+def turbulence(p, octaves=4, lacunarity=2.0, gain=0.5):
+    """Perlin's turbulence: sum_i gain^i * |noise(lacunarity^i * p)|, with its gradient
+    (sign(noise) * gradient; undefined only on the zero set of each octave)."""
+    (p,) = as_float(p)
+    value = np.zeros(p.shape[:-1], dtype=p.dtype)
+    grad = np.zeros(p.shape, dtype=p.dtype)
+    for i in range(octaves):
+        freq, amp = lacunarity ** i, gain ** i
+        v, g = gradient_noise(p * freq)
+        value += amp * np.abs(v)
+        grad += (amp * freq) * np.sign(v)[..., None] * g
+    return value, grad
+
+
+def dented(p, k=3.0, octaves=4, lacunarity=2.0, gain=0.5):
+    """The dented composite of section 4.6: g(turbulence) with g(x) = x^k, and its gradient
+    by (g o f)' = g'(f) f'."""
+    t, gt = turbulence(p, octaves, lacunarity, gain)
+    return t ** k, (k * t ** (k - 1))[..., None] * gt

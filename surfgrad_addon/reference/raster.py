@@ -1,0 +1,287 @@
+"""Meshes into texels: rasterise a mesh's triangles into the W x H texture of one UV map.
+
+Conventions follow Blender's bake: texel (i, j) is shaded at its centre
+((i + 0.5) / W, (j + 0.5) / H), row j = 0 at v = 0 (bottom, as in Image.pixels). A texel
+centre exactly on an edge shared by two triangles goes to the triangle it is deepest inside
+(ties to the lower triangle index), so a UV square is covered exactly once. Texels no
+triangle covers are marked (triangle index -1), never filled in.
+
+Everything is vectorised over candidate texels: triangles are expanded to the texels of their
+bounding boxes in chunks, and only a loop over chunks remains.
+"""
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from .vecmath import cross, normalize
+
+# Candidate texels examined per chunk: bounds memory at about 40 bytes x this.
+_CHUNK = 1 << 22
+
+
+@dataclass
+class MeshArrays:
+    """A triangulated mesh as plain arrays, per triangle corner like Blender's loop triangles.
+
+    positions (V, 3) object space; triangles (T, 3) vertex indices; corner_normals (T, 3, 3)
+    (split normals); uv_maps {name: (T, 3, 2)}; tangents {name: (T, 3, 3)} and
+    tangent_signs {name: (T, 3)} as MikkTSpace gives them (optional per UV map);
+    matrix_world (4, 4).
+    """
+    positions: np.ndarray
+    triangles: np.ndarray
+    corner_normals: np.ndarray
+    uv_maps: dict
+    tangents: dict = field(default_factory=dict)
+    tangent_signs: dict = field(default_factory=dict)
+    matrix_world: np.ndarray = field(default_factory=lambda: np.eye(4))
+    name: str = "mesh"
+
+    def validate(self):
+        """Raise ValueError naming the problem and the fix; return self when usable."""
+        p = np.asarray(self.positions)
+        t = np.asarray(self.triangles)
+        if p.ndim != 2 or p.shape[1] != 3 or len(p) == 0:
+            raise ValueError(f"{self.name}: positions must be a non-empty (V, 3) array, "
+                             f"got shape {p.shape}; the object has no mesh data")
+        if t.ndim != 2 or t.shape[1] != 3 or len(t) == 0:
+            raise ValueError(f"{self.name}: triangles must be a non-empty (T, 3) array, got "
+                             f"shape {t.shape}; the mesh has no faces to bake")
+        if t.min() < 0 or t.max() >= len(p):
+            raise ValueError(f"{self.name}: triangle indices must lie in [0, {len(p)})")
+        if np.asarray(self.corner_normals).shape != (len(t), 3, 3):
+            raise ValueError(f"{self.name}: corner_normals must have shape {(len(t), 3, 3)}")
+        if not self.uv_maps:
+            raise ValueError(f"{self.name}: the mesh has no UV map; add one (UV > Unwrap) "
+                             f"before baking")
+        for name, uv in self.uv_maps.items():
+            if np.asarray(uv).shape != (len(t), 3, 2):
+                raise ValueError(f"{self.name}: UV map {name!r} must have shape {(len(t), 3, 2)}")
+        for label, arr in (("positions", p), ("corner_normals", self.corner_normals),
+                           ("matrix_world", self.matrix_world),
+                           *((f"UV map {k!r}", v) for k, v in self.uv_maps.items())):
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"{self.name}: {label} contain non-finite values (NaN or "
+                                 f"Inf); fix the mesh data before baking")
+        return self
+
+    def uv(self, name):
+        if name not in self.uv_maps:
+            raise KeyError(f"{self.name}: no UV map named {name!r}; available: "
+                           f"{sorted(self.uv_maps)}")
+        return np.asarray(self.uv_maps[name], dtype=np.float64)
+
+    @cached_property
+    def normal_matrix(self):
+        """Inverse transpose of the upper 3x3: how normals go from object to world."""
+        return np.linalg.inv(np.asarray(self.matrix_world, dtype=np.float64)[:3, :3]).T
+
+    @cached_property
+    def corner_positions_world(self):
+        m = np.asarray(self.matrix_world, dtype=np.float64)
+        p = np.asarray(self.positions, dtype=np.float64)[np.asarray(self.triangles)]
+        return p @ m[:3, :3].T + m[:3, 3]
+
+    @cached_property
+    def geometric_normals_world(self):
+        """Unit face normals (T, 3) in world space, from the object-space winding (so they keep
+        facing out under negative scale, as in Cycles)."""
+        p = np.asarray(self.positions, dtype=np.float64)[np.asarray(self.triangles)]
+        ng = cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        return normalize(ng @ self.normal_matrix.T)
+
+    def triangle_derivatives(self, uv_name):
+        """Exact world-space dP/ds and dP/dt per triangle (T, 3) each, for one UV map, and a
+        (T,) mask of triangles whose UVs are degenerate (zero area: derivatives set to 0)."""
+        p = self.corner_positions_world
+        uv = self.uv(uv_name)
+        e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+        d1, d2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+        det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+        scale = np.abs(d1).sum(1) * np.abs(d2).sum(1)
+        degenerate = np.abs(det) <= 1e-14 * np.maximum(scale, 1e-300)
+        inv = np.where(degenerate, 0.0, 1.0 / np.where(degenerate, 1.0, det))[:, None]
+        # [dP/ds dP/dt] = [e1 e2] [d1 d2]^-1
+        dp_ds = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * inv
+        dp_dt = (e2 * d1[:, 0:1] - e1 * d2[:, 0:1]) * inv
+        return dp_ds, dp_dt, degenerate
+
+
+@dataclass
+class TexelData:
+    """Every covered texel of a bake: which triangle, where, and the surface there.
+
+    `triangle` is (H, W) with -1 where no triangle covers the texel; `pixel` (N, 2) holds the
+    (x, y) of the N covered texels in row-major order and every per-texel array below is (N, ...)
+    in that order. World space throughout; `normal` and `tangent` are interpolated but NOT
+    normalised (the MikkTSpace convention); `geometric_normal` is unit length.
+    """
+    mesh: MeshArrays
+    uv_map: str
+    width: int
+    height: int
+    triangle: np.ndarray
+    pixel: np.ndarray
+    barycentric: np.ndarray
+
+    @property
+    def covered(self):
+        return self.triangle >= 0
+
+    @cached_property
+    def tri(self):
+        return self.triangle[self.pixel[:, 1], self.pixel[:, 0]]
+
+    def _interpolate(self, corner_values):
+        v = np.asarray(corner_values, dtype=np.float64)[self.tri]
+        return np.einsum("nk,nk...->n...", self.barycentric, v)
+
+    @cached_property
+    def position(self):
+        return self._interpolate(self.mesh.corner_positions_world)
+
+    @cached_property
+    def position_object(self):
+        p = np.asarray(self.mesh.positions, dtype=np.float64)[np.asarray(self.mesh.triangles)]
+        return self._interpolate(p)
+
+    @cached_property
+    def normal(self):
+        return self._interpolate(self.mesh.corner_normals) @ self.mesh.normal_matrix.T
+
+    @cached_property
+    def geometric_normal(self):
+        return self.mesh.geometric_normals_world[self.tri]
+
+    def uv(self, name=None):
+        return self._interpolate(self.mesh.uv(name or self.uv_map))
+
+    def tangent(self, name=None):
+        """Interpolated world tangent (N, 3), unnormalised, and its sign (N,) for a UV map."""
+        name = name or self.uv_map
+        if name not in self.mesh.tangents:
+            raise KeyError(f"{self.mesh.name}: no tangents for UV map {name!r}; compute "
+                           f"MikkTSpace tangents for it (or use the procedural basis, L4)")
+        m3 = np.asarray(self.mesh.matrix_world, dtype=np.float64)[:3, :3]
+        t = self._interpolate(self.mesh.tangents[name]) @ m3.T
+        # Interpolated like any attribute, as Cycles' Normal Map node does; MikkTSpace gives
+        # one sign per triangle, so this is +-1 in practice.
+        sign = self._interpolate(self.mesh.tangent_signs[name])
+        return t, sign
+
+    def derivatives(self, name=None):
+        """Exact per-triangle world dP/ds, dP/dt (N, 3) for a UV map, and the degenerate mask."""
+        dp_ds, dp_dt, bad = self.mesh.triangle_derivatives(name or self.uv_map)
+        return dp_ds[self.tri], dp_dt[self.tri], bad[self.tri]
+
+    def texel_steps(self, name=None):
+        """Derivatives per bake-texel step, the bake's stand-in for ddx/ddy: returns
+        (dpdx, dpdy, dst_dx, dst_dy) where x steps one texel in s and y one texel in t of
+        the bake's UV map, and dst_* are the matching steps of UV map `name`."""
+        dp_ds, dp_dt, _ = self.derivatives(self.uv_map)
+        dpdx, dpdy = dp_ds / self.width, dp_dt / self.height
+        if name is None or name == self.uv_map:
+            n = len(self.pixel)
+            dst_dx = np.tile([1.0 / self.width, 0.0], (n, 1))
+            dst_dy = np.tile([0.0, 1.0 / self.height], (n, 1))
+            return dpdx, dpdy, dst_dx, dst_dy
+        # Chain rule through the triangle's affine map from the bake UVs to the other UVs.
+        uv_a, uv_b = self.mesh.uv(self.uv_map)[self.tri], self.mesh.uv(name)[self.tri]
+        a1, a2 = uv_a[:, 1] - uv_a[:, 0], uv_a[:, 2] - uv_a[:, 0]
+        b1, b2 = uv_b[:, 1] - uv_b[:, 0], uv_b[:, 2] - uv_b[:, 0]
+        det = (a1[:, 0] * a2[:, 1] - a2[:, 0] * a1[:, 1])[:, None]
+        dst_ds = (b1 * a2[:, 1:2] - b2 * a1[:, 1:2]) / det
+        dst_dt = (b2 * a1[:, 0:1] - b1 * a2[:, 0:1]) / det
+        return dpdx, dpdy, dst_ds / self.width, dst_dt / self.height
+
+    def to_image(self, values, fill=np.nan):
+        """Scatter per-texel values (N, ...) into an (H, W, ...) image, `fill` elsewhere."""
+        values = np.asarray(values)
+        out = np.full((self.height, self.width) + values.shape[1:], fill, dtype=np.result_type(
+            values, np.asarray(fill)))
+        out[self.pixel[:, 1], self.pixel[:, 0]] = values
+        return out
+
+    def interior(self, margin=1):
+        """(N,) mask of covered texels whose (2 margin + 1)^2 neighbourhood is all covered:
+        their footprint does not touch a UV-island border or the image edge."""
+        cov = self.covered
+        ok = np.zeros_like(cov)
+        h, w = cov.shape
+        ok[margin:h - margin, margin:w - margin] = True
+        for dy in range(-margin, margin + 1):
+            for dx in range(-margin, margin + 1):
+                ok[margin:h - margin, margin:w - margin] &= \
+                    cov[margin + dy:h - margin + dy, margin + dx:w - margin + dx]
+        return ok[self.pixel[:, 1], self.pixel[:, 0]]
+
+
+def rasterize(mesh, uv_map, width, height):
+    """Rasterise `mesh` into a width x height texture of UV map `uv_map` (see module doc)."""
+    mesh.validate()
+    if width < 1 or height < 1:
+        raise ValueError(f"bake resolution must be positive, got {width} x {height}")
+    uv = mesh.uv(uv_map)
+    # Texel-centre space: texel (i, j) sits at (i, j).
+    q = uv * np.array([width, height], dtype=np.float64) - 0.5
+    a, b, c = q[:, 0], q[:, 1], q[:, 2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    lo = np.ceil(q.min(axis=1) - 1e-9).astype(np.int64)
+    hi = np.floor(q.max(axis=1) + 1e-9).astype(np.int64)
+    lo = np.maximum(lo, 0)
+    hi = np.minimum(hi, [width - 1, height - 1])
+    span = np.maximum(hi - lo + 1, 0)
+    counts = span[:, 0] * span[:, 1]
+    counts[area == 0] = 0  # zero-area UV triangles cover nothing
+    best_score = np.full(width * height, -np.inf)
+    best_tri = np.full(width * height, -1, dtype=np.int64)
+    best_bary = np.zeros((width * height, 3))
+    tri_ids = np.nonzero(counts)[0]
+    # Chunks of whole triangles, each with at most about _CHUNK candidates.
+    cum = np.cumsum(counts[tri_ids])
+    starts = np.searchsorted(cum, np.arange(0, cum[-1] if len(cum) else 0, _CHUNK), side="right")
+    bounds = list(starts) + [len(tri_ids)]
+    for k0, k1 in zip(bounds[:-1], bounds[1:]):
+        if k1 <= k0:
+            continue
+        tris = tri_ids[k0:k1]
+        n = counts[tris]
+        t = np.repeat(tris, n)
+        local = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+        bw = span[t, 0]
+        px = lo[t, 0] + local % bw
+        py = lo[t, 1] + local // bw
+        pt = np.stack([px, py], axis=1).astype(np.float64)
+        # Barycentrics as signed sub-triangle areas over the triangle's signed area, so the
+        # inside test holds for clockwise and counter-clockwise (mirrored) UVs alike.
+        at, bt, ct = a[t], b[t], c[t]
+        w0 = _edge(bt, ct, pt)
+        w1 = _edge(ct, at, pt)
+        w2 = _edge(at, bt, pt)
+        bary = np.stack([w0, w1, w2], axis=1) / area[t][:, None]
+        score = bary.min(axis=1)
+        inside = score >= -1e-12
+        flat = (py * width + px)[inside]
+        score, t, bary = score[inside], t[inside], bary[inside]
+        # Best candidate per texel within the chunk, then against earlier chunks.
+        order = np.lexsort((-score, flat))
+        flat, score, t, bary = flat[order], score[order], t[order], bary[order]
+        first = np.ones(len(flat), dtype=bool)
+        first[1:] = flat[1:] != flat[:-1]
+        flat, score, t, bary = flat[first], score[first], t[first], bary[first]
+        better = score > best_score[flat]
+        best_score[flat[better]] = score[better]
+        best_tri[flat[better]] = t[better]
+        best_bary[flat[better]] = bary[better]
+    covered_flat = np.nonzero(best_tri >= 0)[0]
+    pixel = np.stack([covered_flat % width, covered_flat // width], axis=1)
+    bary = np.clip(best_bary[covered_flat], 0.0, None)
+    bary /= bary.sum(axis=1, keepdims=True)
+    return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
+                     triangle=best_tri.reshape(height, width), pixel=pixel, barycentric=bary)
+
+
+def _edge(p0, p1, q):
+    return (p1[:, 0] - p0[:, 0]) * (q[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (q[:, 0] - p0[:, 0])
