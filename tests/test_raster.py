@@ -1,0 +1,156 @@
+"""Meshes into texels: hand-computed texels, exact coverage, exact derivatives, clear errors."""
+
+import numpy as np
+import pytest
+
+import surfgrad_addon.reference as R
+
+
+def one_mesh(positions, tris, uvs, normals=None, matrix=None, extra_uv=None):
+    positions = np.asarray(positions, float)
+    tris = np.asarray(tris)
+    if normals is None:
+        normals = np.tile([0, 0, 1.0], (len(tris), 3, 1))
+    uv_maps = {"UVMap": np.asarray(uvs, float)}
+    if extra_uv is not None:
+        uv_maps["Second"] = np.asarray(extra_uv, float)
+    return R.MeshArrays(positions, tris, np.asarray(normals, float), uv_maps,
+                        matrix_world=np.eye(4) if matrix is None else matrix, name="Test")
+
+
+def test_single_triangle_hand_computed_texels():
+    # UV triangle (0,0), (1,0), (0,1) on a 4x4 texture: texel (i, j) has its centre at
+    # ((i + .5)/4, (j + .5)/4), inside when (i + .5) + (j + .5) <= 4, i.e. i + j <= 3
+    # (i + j = 3 lies exactly on the hypotenuse and is included).
+    mesh = one_mesh([[0, 0, 0], [2, 0, 0], [0, 3, 0]], [[0, 1, 2]],
+                    [[[0, 0], [1, 0], [0, 1]]])
+    td = R.rasterize(mesh, "UVMap", 4, 4)
+    expect = {(i, j) for i in range(4) for j in range(4) if i + j <= 3}
+    got = {tuple(p) for p in td.pixel}
+    assert got == expect
+    # Texel (1, 2): centre (0.375, 0.625) -> barycentrics (0, .375, .625).
+    k = [tuple(p) for p in td.pixel].index((1, 2))
+    np.testing.assert_allclose(td.barycentric[k], [0.0, 0.375, 0.625], atol=1e-12)
+    np.testing.assert_allclose(td.position[k], [0.75, 1.875, 0], atol=1e-12)
+    dp_ds, dp_dt, bad = td.derivatives()
+    np.testing.assert_allclose(dp_ds[k], [2, 0, 0])
+    np.testing.assert_allclose(dp_dt[k], [0, 3, 0])
+    assert not bad.any()
+    assert td.triangle[1, 3] == -1 and td.triangle[0, 3] == 0 and td.covered.sum() == len(expect)
+
+
+def brute_force_owners(mesh, w, h):
+    """How many triangles contain each texel centre (closed triangles), by plain loops over
+    triangles with a half-plane test (independent of the rasteriser's algorithm)."""
+    counts = np.zeros((h, w), int)
+    centres = R.texel_centres(w, h)
+    for tri_uv in mesh.uv_maps["UVMap"]:
+        a, b, c = tri_uv
+        def side(p0, p1):
+            return ((p1[0] - p0[0]) * (centres[..., 1] - p0[1])
+                    - (p1[1] - p0[1]) * (centres[..., 0] - p0[0]))
+        s = np.stack([side(a, b), side(b, c), side(c, a)])
+        tol = 1e-12
+        inside = np.all(s >= -tol, 0) | np.all(s <= tol, 0)
+        counts += inside
+    return counts
+
+
+@pytest.mark.parametrize("w,h", [(16, 16), (37, 23)])
+def test_uv_square_is_covered_exactly_once(w, h):
+    mesh = R.meshes.plane(size=2.0, subdivisions=5)
+    td = R.rasterize(mesh, "UVMap", w, h)
+    assert td.covered.all()
+    assert len(td.pixel) == w * h and len(np.unique(td.pixel, axis=0)) == w * h
+    owners = brute_force_owners(mesh, w, h)
+    assert owners.min() >= 1          # every texel centre lies in some triangle...
+    # ...and the chosen triangle is one that contains it.
+    uv = td.uv()
+    np.testing.assert_allclose(uv, R.texel_centres(w, h)[td.pixel[:, 1], td.pixel[:, 0]],
+                               atol=1e-12)
+
+
+def test_mirrored_island_and_transformed_object():
+    # Two triangles, the second with mirrored (clockwise) UVs; object rotated, scaled
+    # non-uniformly and negatively.
+    ang = np.radians(30)
+    rot = np.array([[np.cos(ang), -np.sin(ang), 0], [np.sin(ang), np.cos(ang), 0], [0, 0, 1]])
+    m3 = rot @ np.diag([2.0, -0.5, 3.0])
+    mat = np.eye(4)
+    mat[:3, :3] = m3
+    mat[:3, 3] = [10.0, 0, -5]
+    mesh = one_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [3, 0, 0], [4, 0, 0], [3, 1, 0]],
+                    [[0, 1, 2], [3, 4, 5]],
+                    [[[0.0, 0.0], [0.5, 0.0], [0.0, 1.0]],
+                     [[1.0, 0.0], [0.5, 0.0], [1.0, 1.0]]], matrix=mat)
+    td = R.rasterize(mesh, "UVMap", 32, 32)
+    dp_ds, dp_dt, _ = td.derivatives()
+    first = td.tri == 0
+    np.testing.assert_allclose(dp_ds[first], np.tile(m3 @ [2, 0, 0], (first.sum(), 1)), atol=1e-12)
+    np.testing.assert_allclose(dp_ds[~first], np.tile(m3 @ [-2, 0, 0], ((~first).sum(), 1)),
+                               atol=1e-12)
+    np.testing.assert_allclose(dp_dt[~first], np.tile(m3 @ [0, 1, 0], ((~first).sum(), 1)),
+                               atol=1e-12)
+    # World positions: M p + translation, checked through the UVs (p = (2s, t) on triangle 0).
+    uv = td.uv()
+    p_obj = np.stack([2 * uv[first, 0], uv[first, 1], 0 * uv[first, 0]], -1)
+    np.testing.assert_allclose(td.position[first], p_obj @ m3.T + mat[:3, 3], atol=1e-12)
+    # Normals go by the inverse transpose; the geometric normal keeps facing +z of the object.
+    n_expect = np.linalg.inv(m3).T @ [0, 0, 1]
+    np.testing.assert_allclose(td.normal[0], n_expect, atol=1e-12)
+    np.testing.assert_allclose(td.geometric_normal[0], n_expect / np.linalg.norm(n_expect),
+                               atol=1e-12)
+
+
+def test_second_uv_map_steps_follow_the_chain_rule():
+    mesh = R.meshes.plane(size=2.0, subdivisions=2)
+    td = R.rasterize(mesh, "UVMap", 8, 8)
+    dpdx, dpdy, dst_dx, dst_dy = td.texel_steps("Detail")
+    a = np.radians(R.meshes.DETAIL_ROTATION_DEG)
+    rot = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]]) * R.meshes.DETAIL_TILING
+    np.testing.assert_allclose(dst_dx, np.tile(rot[:, 0] / 8, (64, 1)), atol=1e-12)
+    np.testing.assert_allclose(dst_dy, np.tile(rot[:, 1] / 8, (64, 1)), atol=1e-12)
+    np.testing.assert_allclose(dpdx, np.tile([2 / 8, 0, 0], (64, 1)), atol=1e-12)
+
+
+def test_sphere_texels_lie_on_the_sphere_and_interior_excludes_borders():
+    mesh = R.meshes.uv_sphere(segments=48, rings=24)
+    td = R.rasterize(mesh, "UVMap", 128, 64)
+    r = np.linalg.norm(td.position, axis=-1)
+    chord_sag = 1 - np.cos(np.pi / 48)
+    assert np.all(r <= 1 + 1e-12) and np.all(r >= 1 - 2 * chord_sag)
+    inner = td.interior()
+    assert 0.8 < inner.mean() < 1.0
+    # Interior texels have all 8 neighbours covered.
+    px = td.pixel[inner]
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            assert td.covered[px[:, 1] + dy, px[:, 0] + dx].all()
+    img = td.to_image(r)
+    assert np.isnan(img[~td.covered]).all() and np.isfinite(img[td.covered]).all()
+
+
+def test_degenerate_uv_triangles_cover_nothing_and_are_flagged():
+    mesh = one_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]],
+                    [[[0.2, 0.2], [0.4, 0.4], [0.6, 0.6]]])
+    td = R.rasterize(mesh, "UVMap", 8, 8)
+    assert not td.covered.any()
+    assert mesh.triangle_derivatives("UVMap")[2].all()
+
+
+def test_bad_meshes_get_clear_errors():
+    good = R.meshes.plane()
+    with pytest.raises(KeyError, match="no UV map named 'Nope'"):
+        R.rasterize(good, "Nope", 8, 8)
+    empty = R.MeshArrays(np.zeros((0, 3)), np.zeros((0, 3), int), np.zeros((0, 3, 3)),
+                         {"UVMap": np.zeros((0, 3, 2))}, name="Empty")
+    with pytest.raises(ValueError, match="no mesh data"):
+        R.rasterize(empty, "UVMap", 8, 8)
+    no_uv = R.MeshArrays(good.positions, good.triangles, good.corner_normals, {}, name="NoUV")
+    with pytest.raises(ValueError, match="no UV map; add one"):
+        R.rasterize(no_uv, "UVMap", 8, 8)
+    bad = R.meshes.plane()
+    bad.positions = bad.positions.copy()
+    bad.positions[0, 0] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        R.rasterize(bad, "UVMap", 8, 8)
