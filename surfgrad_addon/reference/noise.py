@@ -105,6 +105,23 @@ def _fade_deriv(t):
 _CORNERS = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=np.int8)
 
 
+def _unique_rows(cells):
+    """Distinct rows of an (N, 3) array of integer-valued floats, and each row's index."""
+    if len(cells) == 0:
+        return cells, np.zeros(0, dtype=np.int64)
+    k = cells.astype(np.int64)
+    lo = k.min(axis=0)
+    span = k.max(axis=0) - lo
+    if np.all(span < (1 << 21)):
+        # Pack three 21-bit offsets into one int64 key: a 1-D unique is much faster.
+        o = k - lo
+        key = (o[:, 0] << 42) | (o[:, 1] << 21) | o[:, 2]
+        _, first, which = np.unique(key, return_index=True, return_inverse=True)
+    else:
+        _, first, which = np.unique(k, axis=0, return_index=True, return_inverse=True)
+    return cells[first], which.reshape(-1)
+
+
 def gradient_noise(p):
     """Perlin-style gradient noise at p (..., 3). Returns (value (...,), gradient (..., 3)).
 
@@ -118,20 +135,25 @@ def gradient_noise(p):
     du = _fade_deriv(f)
     value = np.zeros(p.shape[:-1], dtype=p.dtype)
     grad = np.zeros(p.shape, dtype=p.dtype)
+    # Hash each distinct cell's corners once: dense samples share few cells.
+    unique_cells, which = _unique_rows(cell.reshape(-1, 3))
+    # Per axis: the trilinear weight is u where the corner is 1 and 1 - u where it is 0.
+    weight = [(1 - u[..., a], u[..., a]) for a in range(3)]
+    dweight = [(-du[..., a], du[..., a]) for a in range(3)]
     for c in _CORNERS:
         # cell + c also turns floor(-0.0) = -0.0 into +0.0, as a node graph's Add does.
-        g = lattice_gradient(cell + c).astype(p.dtype)
+        g = lattice_gradient(unique_cells + c).astype(p.dtype)[which].reshape(p.shape)
         d = f - c
-        dotted = np.sum(g * d, axis=-1)
-        # Trilinear weight per axis: u where the corner is 1, 1 - u where it is 0.
-        wa = np.where(c == 1, u, 1 - u)
-        dwa = np.where(c == 1, du, -du)
-        w = wa[..., 0] * wa[..., 1] * wa[..., 2]
-        dw = np.stack([dwa[..., 0] * wa[..., 1] * wa[..., 2],
-                       wa[..., 0] * dwa[..., 1] * wa[..., 2],
-                       wa[..., 0] * wa[..., 1] * dwa[..., 2]], axis=-1)
+        dotted = g[..., 0] * d[..., 0] + g[..., 1] * d[..., 1] + g[..., 2] * d[..., 2]
+        wx, wy, wz = weight[0][c[0]], weight[1][c[1]], weight[2][c[2]]
+        wyz = wy * wz
+        w = wx * wyz
         value += w * dotted
-        grad += w[..., None] * g + dotted[..., None] * dw
+        # Product rule: d(w * dot(g, p - corner)) = w g + dot(g, p - corner) grad w.
+        grad += w[..., None] * g
+        grad[..., 0] += dotted * dweight[0][c[0]] * wyz
+        grad[..., 1] += dotted * wx * dweight[1][c[1]] * wz
+        grad[..., 2] += dotted * wx * wy * dweight[2][c[2]]
     return value, grad
 
 

@@ -235,6 +235,7 @@ def rasterize(mesh, uv_map, width, height):
     span = np.maximum(hi - lo + 1, 0)
     counts = span[:, 0] * span[:, 1]
     counts[area == 0] = 0  # zero-area UV triangles cover nothing
+    coef = _barycentric_coefficients(a, b, c, area)
     best_score = np.full(width * height, -np.inf)
     best_tri = np.full(width * height, -1, dtype=np.int64)
     best_bary = np.zeros((width * height, 3))
@@ -253,24 +254,22 @@ def rasterize(mesh, uv_map, width, height):
         bw = span[t, 0]
         px = lo[t, 0] + local % bw
         py = lo[t, 1] + local // bw
-        pt = np.stack([px, py], axis=1).astype(np.float64)
-        # Barycentrics as signed sub-triangle areas over the triangle's signed area, so the
-        # inside test holds for clockwise and counter-clockwise (mirrored) UVs alike.
-        at, bt, ct = a[t], b[t], c[t]
-        w0 = _edge(bt, ct, pt)
-        w1 = _edge(ct, at, pt)
-        w2 = _edge(at, bt, pt)
-        bary = np.stack([w0, w1, w2], axis=1) / area[t][:, None]
+        # Barycentric k is affine in the texel position: coef[t, k] . (x, y, 1).
+        bary = (coef[t, :, 0] * px[:, None] + coef[t, :, 1] * py[:, None]) + coef[t, :, 2]
         score = bary.min(axis=1)
         inside = score >= -1e-12
         flat = (py * width + px)[inside]
         score, t, bary = score[inside], t[inside], bary[inside]
-        # Best candidate per texel within the chunk, then against earlier chunks.
-        order = np.lexsort((-score, flat))
-        flat, score, t, bary = flat[order], score[order], t[order], bary[order]
-        first = np.ones(len(flat), dtype=bool)
-        first[1:] = flat[1:] != flat[:-1]
-        flat, score, t, bary = flat[first], score[first], t[first], bary[first]
+        # Best candidate per texel within the chunk, then against earlier chunks. Only the
+        # few texels claimed twice (centres on shared edges) need sorting.
+        shared = np.bincount(flat, minlength=width * height)[flat] > 1
+        if shared.any():
+            order = np.lexsort((-score[shared], flat[shared]))
+            keep = np.nonzero(shared)[0][order]
+            first = np.ones(len(keep), dtype=bool)
+            first[1:] = flat[keep[1:]] != flat[keep[:-1]]
+            keep = np.concatenate([np.nonzero(~shared)[0], keep[first]])
+            flat, score, t, bary = flat[keep], score[keep], t[keep], bary[keep]
         better = score > best_score[flat]
         best_score[flat[better]] = score[better]
         best_tri[flat[better]] = t[better]
@@ -283,5 +282,13 @@ def rasterize(mesh, uv_map, width, height):
                      triangle=best_tri.reshape(height, width), pixel=pixel, barycentric=bary)
 
 
-def _edge(p0, p1, q):
-    return (p1[:, 0] - p0[:, 0]) * (q[:, 1] - p0[:, 1]) - (p1[:, 1] - p0[:, 1]) * (q[:, 0] - p0[:, 0])
+def _barycentric_coefficients(a, b, c, area):
+    """(T, 3, 3): barycentric k of texel (x, y) is coef[:, k, 0] x + coef[:, k, 1] y +
+    coef[:, k, 2]. Signed sub-triangle areas over the signed area, so the inside test holds for
+    clockwise and counter-clockwise (mirrored) UVs alike."""
+    safe = np.where(area == 0, 1.0, area)
+    rows = []
+    for p0, p1 in ((b, c), (c, a), (a, b)):     # the edge opposite each corner
+        ex, ey = p1[:, 0] - p0[:, 0], p1[:, 1] - p0[:, 1]
+        rows.append(np.stack([-ey, ex, ey * p0[:, 0] - ex * p0[:, 1]], axis=1) / safe[:, None])
+    return np.stack(rows, axis=1)

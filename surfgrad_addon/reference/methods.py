@@ -1,0 +1,154 @@
+"""Whole bump methods evaluated on rasterised texels: the reference side of every bake.
+
+Each `*_surfgrad` function returns (base_normal, surface_gradient) for the covered texels of a
+TexelData, in world space, so contributions can be added before one resolve (Eq. 14); the
+plain names resolve. Bake differentials stand in for ddx/ddy: x steps one bake texel along s
+and y one along t (TexelData.texel_steps). Colour images are normal maps in [0, 1].
+"""
+
+import numpy as np
+
+from . import listings as L
+from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin1985, triplanar_geiss
+from .height_map import deriv_from_height_map, deriv_three_tap
+from .image_sampling import sample_image
+from .noise import fractal_sum
+from .prologue import mikkts_renormalize
+from .vecmath import normalize
+
+HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
+
+
+def unit_base_normal(td):
+    return normalize(td.normal)
+
+
+def decode_normal_map(rgb):
+    return 2.0 * np.asarray(rgb, dtype=np.float64)[..., :3] - 1.0
+
+
+def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Linear"):
+    """SG Normal Map: MikkTSpace tangent-space map on a UV map with stored tangents (L2, L3,
+    and Listing 9's 1/|n| renormalisation)."""
+    t, sign = td.tangent(uv_map)
+    n, t, b = mikkts_renormalize(td.normal, t, sign)
+    m = decode_normal_map(sample_image(image, td.uv(uv_map), interpolation))
+    return n, strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m), t, b)
+
+
+def procedural_basis_surfgrad(td, image, uv_map, strength=1.0, interpolation="Linear"):
+    """SG Procedural Basis: a tangent frame generated from the UV map's derivatives (L4)."""
+    n = unit_base_normal(td)
+    dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
+    t, b = L.gen_basis_tb(n, dpdx, dpdy, dst_dx, dst_dy)
+    m = decode_normal_map(sample_image(image, td.uv(uv_map), interpolation))
+    return n, strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m), t, b)
+
+
+def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
+                        interpolation="Linear"):
+    """SG Height Map: scale-dependent bump (L6) with the height's derivative from Listing 7
+    ('forward': three taps one bake texel apart), or Listing 16 at level 0 ('one-texel',
+    'hq')."""
+    if variant not in HEIGHT_VARIANTS:
+        raise ValueError(f"unknown height-map variant {variant!r}; use one of {HEIGHT_VARIANTS}")
+    n = unit_base_normal(td)
+    dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
+    st = td.uv(uv_map)
+    if variant == "forward":
+        d = deriv_three_tap(height, st, dst_dx, dst_dy, interpolation)
+        sg = L.surfgrad_scale_dependent(n, dpdx, dpdy, d, dst_dx, dst_dy, None,
+                                        is_deriv_screen_space=True)
+    else:
+        d = deriv_from_height_map(height, st, hq=(variant == "hq"), interpolation=interpolation)
+        dim = (np.shape(height)[1], np.shape(height)[0])
+        sg = L.surfgrad_scale_dependent(n, dpdx, dpdy, d, dst_dx, dst_dy, dim)
+    return n, bump_scale * sg
+
+
+def noise_gradient_world(td, scale=4.0, octaves=4):
+    """Fractal-sum noise of the object-space position and its gradient in world space
+    (object gradient times the scale, through the inverse transpose)."""
+    h, g = fractal_sum(td.position_object * scale, octaves=octaves)
+    return h, (scale * g) @ td.mesh.normal_matrix.T
+
+
+def volume_noise_surfgrad(td, scale=4.0, amount=0.05, octaves=4):
+    """SG Noise through SG Volume Gradient (L8)."""
+    n = unit_base_normal(td)
+    _, g = noise_gradient_world(td, scale, octaves)
+    return n, amount * L.surfgrad_from_volume_gradient(n, g)
+
+
+def triplanar_samples(td, image, scale=1.0, interpolation="Linear"):
+    """Derivatives of the three planar projections of a normal map, sampled at world (z, y),
+    (x, z) and (x, y) times `scale` (Eq. 19's planes)."""
+    p = td.position * scale
+    return [L.tspace_normal_to_derivative(decode_normal_map(
+        sample_image(image, p[:, list(ax)], interpolation))) for ax in ((2, 1), (0, 2), (0, 1))]
+
+
+def triplanar_surfgrad(td, image, scale=1.0, k=3.0, strength=1.0):
+    """SG Triplanar (L13 with L14's weights)."""
+    n = unit_base_normal(td)
+    w = L.determine_triplanar_weights(n, k)
+    return n, strength * L.surfgrad_from_triplanar_projection(n, w, *triplanar_samples(
+        td, image, scale))
+
+
+def decal_frame(projector):
+    """Projector matrix (4x4, object to world of a unit cube [-1, 1]^3) to its unit axes and
+    the world-to-projector transform."""
+    m = np.asarray(projector, dtype=np.float64)
+    axes = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    return axes[:, 0], axes[:, 1], axes[:, 2], np.linalg.inv(m)
+
+
+def decal_surfgrad(td, image, projector, strength=1.0):
+    """SG Decal (L15): the map projected along the projector's -z over [-1, 1]^2 of its local
+    x, y; outside the box nothing."""
+    n = unit_base_normal(td)
+    ax, ay, _, to_local = decal_frame(projector)
+    local = td.position @ to_local[:3, :3].T + to_local[:3, 3]
+    inside = np.all(np.abs(local) <= 1.0, axis=-1)
+    st = local[:, :2] * 0.5 + 0.5
+    # A tangent-space normal map is TBN-style (slopes in its own unit frame), so its
+    # derivative goes straight onto the unit projector axes, independent of the box size.
+    deriv = L.tspace_normal_to_derivative(decode_normal_map(sample_image(image, st)))
+    sg = L.surfgrad_from_decal(n, deriv, ax, ay)
+    return n, strength * np.where(inside[:, None], sg, 0.0)
+
+
+def resolve(n_sg):
+    n, sg = n_sg
+    return L.resolve_normal_from_surface_gradient(n, sg)
+
+
+def layered_normal(td, normal_image, detail_image, detail_uv="Detail", noise_amount=0.02):
+    """The Figure 1 stack: a normal map on the first UV map, generic detail on a second UV map
+    through the procedural basis, noise on top; one sum of surface gradients, one resolve."""
+    n, sg1 = normal_map_surfgrad(td, normal_image)
+    _, sg2 = procedural_basis_surfgrad(td, detail_image, detail_uv, strength=0.5)
+    _, sg3 = volume_noise_surfgrad(td, amount=noise_amount)
+    return L.resolve_normal_from_surface_gradient(n, sg1 + sg2 + sg3)
+
+
+# Baselines, evaluated on the same texels for comparison.
+
+def volume_noise_perlin1985(td, scale=4.0, amount=0.05, octaves=4):
+    _, g = noise_gradient_world(td, scale, octaves)
+    return perturb_normal_perlin1985(unit_base_normal(td), amount * g)
+
+
+def triplanar_geiss_normal(td, image, scale=1.0, k=3.0):
+    n = unit_base_normal(td)
+    p = td.position * scale
+    ms = [decode_normal_map(sample_image(image, p[:, list(ax)])) for ax in ((2, 1), (0, 2), (0, 1))]
+    return triplanar_geiss(n, L.determine_triplanar_weights(n, k), *ms)
+
+
+def height_map_lxengine(td, height, bump_scale=1.0, uv_map=None):
+    n = unit_base_normal(td)
+    dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
+    d = bump_scale * deriv_three_tap(height, td.uv(uv_map), dst_dx, dst_dy)
+    return bump_screen_derivative_lxengine(n, dpdx, dpdy, d[:, 0], d[:, 1])
