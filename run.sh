@@ -3,6 +3,7 @@
 # the pinned requirements, then:
 #   bash run.sh main [ARGS]   the main job: writes out/demo (maps, summary, overview picture)
 #   bash run.sh test [ARGS]   the test suite (pytest ARGS)
+#   bash run.sh bench [ARGS]  benchmark of the reference: out/bench_reference.json
 # Needs only Python 3.11 (python3.11, or python3 if that is 3.11; or set PYTHON).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -39,5 +40,7 @@ cmd=${1:-}
 case "$cmd" in
   main) exec "$VENV/bin/python" -m surfgrad_addon demo --out out/demo --overwrite "$@" ;;
   test) exec "$VENV/bin/python" -m pytest "$@" ;;
-  *) echo "usage: bash run.sh main|test [ARGS]" >&2; exit 2 ;;
+  bench) exec "$VENV/bin/python" -m surfgrad_addon bench-reference \
+           --out out/bench_reference.json --overwrite "$@" ;;
+  *) echo "usage: bash run.sh main|test|bench [ARGS]" >&2; exit 2 ;;
 esac

@@ -178,5 +178,5 @@ def _overview(pictures, names, path, overwrite, log):
     fig.suptitle("Reference normals baked into each UV layout (world-space normal as colour)",
                  fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=80)
     plt.close(fig)
