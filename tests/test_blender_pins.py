@@ -3,10 +3,12 @@
 1. `white_noise_color` equals the White Noise Texture node (3D, Color) bit for bit at integer
    lattice points, negative ones and +-0 included.
 2. `sample_image` equals the Image Texture node ('Closest'/'Linear' x 'REPEAT'/'EXTEND') to
-   float32 rounding at generic coordinates. At EXACT texel boundaries 'Closest' + 'REPEAT'
-   differs: Cycles takes the texel index from `frac()` in kernel/device/cpu/image.h,
-   `i = (int)x - (x < 0 ? 1 : 0)` with x = u * width in float32, which is floor(x) everywhere
-   except at negative integers, where it is floor(x) - 1. The reference uses floor(x).
+   float32 rounding at generic coordinates, and bit for bit for 'Closest' even at EXACT texel
+   boundaries: Cycles takes the texel index from `frac()` (kernel/device/cpu/image.h),
+   `i = (int)x - (x < 0 ? 1 : 0)` with x = u * width in float32, which is floor(x) except at
+   negative integers, where it is floor(x) - 1; the reference uses the same rule.
+3. The bake shades texel (i, j) at ((i + 0.501) / W, (j + 0.502) / H), as the reference's
+   rasteriser assumes.
 
 Every probe bakes EMIT (Emission strength 1) into a float Non-Color image, 1 sample, margin 0.
 Note the bake sample points are texel centres plus (0.001, 0.002) texels (see
@@ -19,7 +21,7 @@ import pytest
 pytest.importorskip("bpy")
 
 import blender_bake_probe as probe  # noqa: E402
-from surfgrad_addon.reference.image_sampling import sample_image  # noqa: E402
+from surfgrad_addon.reference.image_sampling import bake_sample_points, sample_image  # noqa: E402
 from surfgrad_addon.reference.noise import white_noise_color  # noqa: E402
 
 BAKE = 32                      # bake target is BAKE x BAKE texels
@@ -54,6 +56,8 @@ def test_bake_samples_texel_centre_plus_blender_offset():
     assert np.all(np.abs(offset_texels[..., 1] - 0.002) < 2e-5)
     # ... and to float32 rounding exactly the points bake_sample_uv models (measured 3.4e-8).
     np.testing.assert_allclose(px[..., :2], probe.bake_sample_uv(BAKE, BAKE), rtol=0, atol=1e-7)
+    # The reference's rasteriser uses the same points.
+    np.testing.assert_allclose(px[..., :2], bake_sample_points(BAKE, BAKE), rtol=0, atol=1e-7)
     assert np.all(px[..., 2] == 0.0)          # the UV output's z
     assert np.all(px[..., 3] == 1.0)          # every texel was covered
 
@@ -258,13 +262,12 @@ def test_closest_texel_index_is_cycles_frac_rule_on_exact_boundaries(extension):
         assert not changed.any()
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "sample_image('Closest', 'REPEAT') uses floor(u * width); Cycles uses "
-    "(int)x - (x < 0), i.e. floor(x) - 1 at negative integer x = u * width, so the reference "
-    "picks the wrong texel exactly on negative texel boundaries (400 of 1024 probe texels)."))
-def test_reference_closest_repeat_matches_blender_on_exact_boundaries():
-    img, st, got = _exact_boundary_probe("Closest", "REPEAT")
-    expected = sample_image(img[..., :3].astype(np.float64), st, "Closest", "REPEAT")
+@pytest.mark.parametrize("extension", ["REPEAT", "EXTEND"])
+def test_reference_closest_matches_blender_on_exact_boundaries(extension):
+    """The reference's Closest lookup uses Cycles' integer-part rule, so it matches the bake
+    bit for bit even exactly on (negative) texel boundaries."""
+    img, st, got = _exact_boundary_probe("Closest", extension)
+    expected = sample_image(img[..., :3].astype(np.float64), st, "Closest", extension)
     assert np.array_equal(got, expected), (
         f"{np.count_nonzero(np.any(got != expected, axis=-1))} texels differ")
 

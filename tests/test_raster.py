@@ -19,31 +19,36 @@ def one_mesh(positions, tris, uvs, normals=None, matrix=None, extra_uv=None):
 
 
 def test_single_triangle_hand_computed_texels():
-    # UV triangle (0,0), (1,0), (0,1) on a 4x4 texture: texel (i, j) has its centre at
-    # ((i + .5)/4, (j + .5)/4), inside when (i + .5) + (j + .5) <= 4, i.e. i + j <= 3
-    # (i + j = 3 lies exactly on the hypotenuse and is included).
+    # UV triangle (0,0), (1,0), (0,1) on a 4x4 texture. Blender samples texel (i, j) at
+    # ((i + .501)/4, (j + .502)/4): inside when (i + .501) + (j + .502) <= 4, i.e. i + j <= 2
+    # (the diagonal i + j = 3 falls just outside, by the bake offset).
     mesh = one_mesh([[0, 0, 0], [2, 0, 0], [0, 3, 0]], [[0, 1, 2]],
                     [[[0, 0], [1, 0], [0, 1]]])
     td = R.rasterize(mesh, "UVMap", 4, 4)
-    expect = {(i, j) for i in range(4) for j in range(4) if i + j <= 3}
+    expect = {(i, j) for i in range(4) for j in range(4) if i + j <= 2}
     got = {tuple(p) for p in td.pixel}
     assert got == expect
-    # Texel (1, 2): centre (0.375, 0.625) -> barycentrics (0, .375, .625).
-    k = [tuple(p) for p in td.pixel].index((1, 2))
-    np.testing.assert_allclose(td.barycentric[k], [0.0, 0.375, 0.625], atol=1e-12)
-    np.testing.assert_allclose(td.position[k], [0.75, 1.875, 0], atol=1e-12)
+    # Texel (1, 1): sample (1.501/4, 1.502/4) -> barycentrics (1 - s - t, s, t).
+    k = [tuple(p) for p in td.pixel].index((1, 1))
+    s_, t_ = 1.501 / 4, 1.502 / 4
+    np.testing.assert_allclose(td.barycentric[k], [1 - s_ - t_, s_, t_], atol=1e-12)
+    np.testing.assert_allclose(td.position[k], [2 * s_, 3 * t_, 0], atol=1e-12)
     dp_ds, dp_dt, bad = td.derivatives()
     np.testing.assert_allclose(dp_ds[k], [2, 0, 0])
     np.testing.assert_allclose(dp_dt[k], [0, 3, 0])
     assert not bad.any()
-    assert td.triangle[1, 3] == -1 and td.triangle[0, 3] == 0 and td.covered.sum() == len(expect)
+    assert td.triangle[0, 3] == -1 and td.triangle[0, 2] == 0 and td.covered.sum() == 6
+    # With exact centres (offset 0.5) the diagonal texels are on the edge and included.
+    centred = R.rasterize(mesh, "UVMap", 4, 4, sample_offset=(0.5, 0.5))
+    assert {tuple(p) for p in centred.pixel} == {(i, j) for i in range(4) for j in range(4)
+                                                  if i + j <= 3}
 
 
 def brute_force_owners(mesh, w, h):
     """How many triangles contain each texel centre (closed triangles), by plain loops over
     triangles with a half-plane test (independent of the rasteriser's algorithm)."""
     counts = np.zeros((h, w), int)
-    centres = R.texel_centres(w, h)
+    centres = R.bake_sample_points(w, h)
     for tri_uv in mesh.uv_maps["UVMap"]:
         a, b, c = tri_uv
         def side(p0, p1):
@@ -66,7 +71,7 @@ def test_uv_square_is_covered_exactly_once(w, h):
     assert owners.min() >= 1          # every texel centre lies in some triangle...
     # ...and the chosen triangle is one that contains it.
     uv = td.uv()
-    np.testing.assert_allclose(uv, R.texel_centres(w, h)[td.pixel[:, 1], td.pixel[:, 0]],
+    np.testing.assert_allclose(uv, R.bake_sample_points(w, h)[td.pixel[:, 1], td.pixel[:, 0]],
                                atol=1e-12)
 
 

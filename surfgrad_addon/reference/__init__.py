@@ -17,7 +17,8 @@ from .parallax import (parallax_occlusion_march, parallax_offset_limited,
                        project_vec_to_texture_space, tex_space_offs_to_surface)
 from .compositing import (blend_pd, blend_rnm, blend_udn, blend_whiteout, post_resolve_bump,
                           surfgrad_blend, surfgrad_blend_rnm, table1_inputs)
-from .image_sampling import sample_image, texel_centres
+from .image_sampling import (BAKE_TEXEL_OFFSET, bake_sample_points, sample_image,
+                             texel_centres)
 from .height_map import deriv_from_height_map, deriv_three_tap
 from .noise import (dented, fractal_sum, gradient_noise, hash_uint3, hash_uint4,
                     lattice_gradient, turbulence, white_noise_color)

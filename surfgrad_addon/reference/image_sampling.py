@@ -4,10 +4,12 @@ Images are arrays of shape (height, width) or (height, width, channels) in Blend
 order: row 0 is the BOTTOM row (v = 0), as in `Image.pixels`. A texel (i, j) covers
 [i/width, (i+1)/width) x [j/height, (j+1)/height) and its centre sits at half-integers.
 
-Interpolation (Cycles `kernel/device/*/image.h`):
-- 'Closest': texel floor(u * width), floor(v * height).
-- 'Linear':  bilinear between floor(u * width - 0.5) and the next texel, weights
-  frac(u * width - 0.5) (so a texel centre returns that texel exactly).
+Interpolation (Cycles `kernel/device/*/image.h`), with Cycles' integer part
+i(x) = (int)x - (x < 0), which is floor(x) except at negative integers, where it is x - 1:
+- 'Closest': texel i(u * width), i(v * height).
+- 'Linear':  bilinear between i(u * width - 0.5) and the next texel, weights
+  x - i(x) (so a texel centre returns that texel exactly).
+Both rules are pinned against Cycles bakes in tests/test_blender_pins.py.
 Extension: 'REPEAT' wraps periodically; 'EXTEND' clamps to the edge texel.
 """
 
@@ -15,6 +17,12 @@ import numpy as np
 
 INTERPOLATIONS = ("Closest", "Linear")
 EXTENSIONS = ("REPEAT", "EXTEND")
+
+
+def cycles_int_part(x):
+    """Cycles' frac() integer part: (int)x - (x < 0 ? 1 : 0). Equals floor(x) except at
+    negative integers (-2.0 -> -3), where Closest then picks the texel to the left."""
+    return np.trunc(x).astype(np.int64) - (x < 0)
 
 
 def wrap_texel_index(i, size, extension):
@@ -41,20 +49,18 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     u = st[..., 0] * width
     v = st[..., 1] * height
     if interpolation == "Closest":
-        ix = wrap_texel_index(np.floor(u).astype(np.int64), width, extension)
-        iy = wrap_texel_index(np.floor(v).astype(np.int64), height, extension)
+        ix = wrap_texel_index(cycles_int_part(u), width, extension)
+        iy = wrap_texel_index(cycles_int_part(v), height, extension)
         return image[iy, ix]
     if interpolation != "Linear":
         raise ValueError(f"unsupported interpolation {interpolation!r}; "
                          f"use one of {INTERPOLATIONS}")
     u = u - 0.5
     v = v - 0.5
-    fu = np.floor(u)
-    fv = np.floor(v)
-    tx = u - fu
-    ty = v - fv
-    x0 = fu.astype(np.int64)
-    y0 = fv.astype(np.int64)
+    x0 = cycles_int_part(u)
+    y0 = cycles_int_part(v)
+    tx = u - x0.astype(u.dtype)
+    ty = v - y0.astype(v.dtype)
     x1 = wrap_texel_index(x0 + 1, width, extension)
     y1 = wrap_texel_index(y0 + 1, height, extension)
     x0 = wrap_texel_index(x0, width, extension)
@@ -64,6 +70,19 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
         ty = ty[..., None]
     return ((1 - ty) * ((1 - tx) * image[y0, x0] + tx * image[y0, x1])
             + ty * ((1 - tx) * image[y1, x0] + tx * image[y1, x1]))
+
+
+# Blender's bake rasteriser shades texel (i, j) at ((i + 0.5 + 0.001) / W, (j + 0.5 + 0.002) / H)
+# (render/intern/bake.cc subtracts 0.5 + 0.001 and 0.5 + 0.002); pinned by a bake test.
+BAKE_TEXEL_OFFSET = (0.501, 0.502)
+
+
+def bake_sample_points(width, height, dtype=np.float64):
+    """Where a width x height bake shades each texel, shape (height, width, 2)."""
+    s = (np.arange(width, dtype=dtype) + BAKE_TEXEL_OFFSET[0]) / width
+    t = (np.arange(height, dtype=dtype) + BAKE_TEXEL_OFFSET[1]) / height
+    ss, tt = np.meshgrid(s, t)
+    return np.stack([ss, tt], axis=-1)
 
 
 def texel_centres(width, height, dtype=np.float64):

@@ -1,10 +1,11 @@
 """Meshes into texels: rasterise a mesh's triangles into the W x H texture of one UV map.
 
-Conventions follow Blender's bake: texel (i, j) is shaded at its centre
-((i + 0.5) / W, (j + 0.5) / H), row j = 0 at v = 0 (bottom, as in Image.pixels). A texel
-centre exactly on an edge shared by two triangles goes to the triangle it is deepest inside
-(ties to the lower triangle index), so a UV square is covered exactly once. Texels no
-triangle covers are marked (triangle index -1), never filled in.
+Conventions follow Blender's bake: texel (i, j) is shaded at its centre nudged by Blender's
+bake offset, ((i + 0.501) / W, (j + 0.502) / H) (image_sampling.BAKE_TEXEL_OFFSET), row j = 0
+at v = 0 (bottom, as in Image.pixels). A sample point exactly on an edge shared by two
+triangles goes to the triangle it is deepest inside (ties to the lower triangle index), so a
+UV square is covered exactly once. Texels no triangle covers are marked (triangle index -1),
+never filled in.
 
 Everything is vectorised over candidate texels: triangles are expanded to the texels of their
 bounding boxes in chunks, and only a loop over chunks remains.
@@ -15,6 +16,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .image_sampling import BAKE_TEXEL_OFFSET
 from .vecmath import cross, normalize
 
 # Candidate texels examined per chunk: bounds memory at about 40 bytes x this.
@@ -218,14 +220,15 @@ class TexelData:
         return ok[self.pixel[:, 1], self.pixel[:, 0]]
 
 
-def rasterize(mesh, uv_map, width, height):
-    """Rasterise `mesh` into a width x height texture of UV map `uv_map` (see module doc)."""
+def rasterize(mesh, uv_map, width, height, sample_offset=BAKE_TEXEL_OFFSET):
+    """Rasterise `mesh` into a width x height texture of UV map `uv_map` (see module doc).
+    sample_offset: where in its texel each texel is sampled ((0.5, 0.5) for exact centres)."""
     mesh.validate()
     if width < 1 or height < 1:
         raise ValueError(f"bake resolution must be positive, got {width} x {height}")
     uv = mesh.uv(uv_map)
-    # Texel-centre space: texel (i, j) sits at (i, j).
-    q = uv * np.array([width, height], dtype=np.float64) - 0.5
+    # Sample space: texel (i, j) is sampled at (i, j).
+    q = uv * np.array([width, height], dtype=np.float64) - np.asarray(sample_offset)
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
     lo = np.ceil(q.min(axis=1) - 1e-9).astype(np.int64)
