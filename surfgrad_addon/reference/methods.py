@@ -13,7 +13,6 @@ from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin198
 from .height_map import deriv_from_height_map, deriv_three_tap
 from .image_sampling import sample_image
 from .noise import fractal_sum
-from .prologue import mikkts_renormalize
 from .vecmath import normalize
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
@@ -27,11 +26,24 @@ def decode_normal_map(rgb):
     return 2.0 * np.asarray(rgb, dtype=np.float64)[..., :3] - 1.0
 
 
+def mikktspace_frame(td, uv_map=None):
+    """Listing 9's frame (n/|n|, t/|n|, b/|n|) in world space, built as Blender's Normal Map
+    node does: tangent, sign and the unnormalised normal interpolated in object space,
+    b = sign * cross(n, t) there, and all three taken to world space by the normal matrix
+    (Cycles combines in object space and transforms the result as a normal)."""
+    t_obj, sign = td.tangent_object(uv_map)
+    n_obj = td.normal_object
+    b_obj = np.asarray(sign)[:, None] * np.cross(n_obj, t_obj)
+    nm = td.mesh.normal_matrix.T
+    n_w, t_w, b_w = n_obj @ nm, t_obj @ nm, b_obj @ nm
+    renorm = 1.0 / np.linalg.norm(n_w, axis=-1, keepdims=True)
+    return n_w * renorm, t_w * renorm, b_w * renorm
+
+
 def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Linear"):
     """SG Normal Map: MikkTSpace tangent-space map on a UV map with stored tangents (L2, L3,
-    and Listing 9's 1/|n| renormalisation)."""
-    t, sign = td.tangent(uv_map)
-    n, t, b = mikkts_renormalize(td.normal, t, sign)
+    and Listing 9's 1/|n| renormalisation), in Blender's Normal Map node's frame."""
+    n, t, b = mikktspace_frame(td, uv_map)
     m = decode_normal_map(sample_image(image, td.uv(uv_map), interpolation))
     return n, strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m), t, b)
 

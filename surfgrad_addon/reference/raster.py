@@ -150,8 +150,12 @@ class TexelData:
         return self._interpolate(p)
 
     @cached_property
+    def normal_object(self):
+        return self._interpolate(self.mesh.corner_normals)
+
+    @cached_property
     def normal(self):
-        return self._interpolate(self.mesh.corner_normals) @ self.mesh.normal_matrix.T
+        return self.normal_object @ self.mesh.normal_matrix.T
 
     @cached_property
     def geometric_normal(self):
@@ -160,18 +164,23 @@ class TexelData:
     def uv(self, name=None):
         return self._interpolate(self.mesh.uv(name or self.uv_map))
 
-    def tangent(self, name=None):
-        """Interpolated world tangent (N, 3), unnormalised, and its sign (N,) for a UV map."""
+    def tangent_object(self, name=None):
+        """Interpolated object-space tangent (N, 3), unnormalised, and its sign (N,), for a UV
+        map. The sign is interpolated like any attribute, as Cycles' Normal Map node does;
+        MikkTSpace gives one sign per triangle, so it is +-1 in practice."""
         name = name or self.uv_map
         if name not in self.mesh.tangents:
             raise KeyError(f"{self.mesh.name}: no tangents for UV map {name!r}; compute "
                            f"MikkTSpace tangents for it (or use the procedural basis, L4)")
+        t = self._interpolate(self.mesh.tangents[name])
+        return t, self._interpolate(self.mesh.tangent_signs[name])
+
+    def tangent(self, name=None):
+        """The tangent of tangent_object carried to world space as a direction (by the
+        object matrix), with its sign."""
+        t, sign = self.tangent_object(name)
         m3 = np.asarray(self.mesh.matrix_world, dtype=np.float64)[:3, :3]
-        t = self._interpolate(self.mesh.tangents[name]) @ m3.T
-        # Interpolated like any attribute, as Cycles' Normal Map node does; MikkTSpace gives
-        # one sign per triangle, so this is +-1 in practice.
-        sign = self._interpolate(self.mesh.tangent_signs[name])
-        return t, sign
+        return t @ m3.T, sign
 
     def derivatives(self, name=None):
         """Exact per-triangle world dP/ds, dP/dt (N, 3) for a UV map, and the degenerate mask."""

@@ -1,0 +1,225 @@
+"""A small layer for building shader node groups by code, so that a builder reads like the
+listing it implements:
+
+    b = GroupBuilder(tree)
+    n = b.input_normal()
+    sg = b.input("Surface Gradient", "VECTOR", description="...")
+    with b.frame("Listing 1: resolve"):
+        b.output("Normal", "VECTOR", b.normalize(b.sub(n, sg)), description="...")
+
+Arithmetic helpers take sockets or constants and return output sockets. `ensure_group` makes
+building idempotent and versioned: a group that already has the current version is reused; an
+older one is rebuilt in place (same datablock, same interface socket identifiers where the
+socket still exists), so links from existing materials survive an add-on update.
+"""
+
+from contextlib import contextmanager
+
+import bpy
+
+VERSION_KEY = "surfgrad_version"
+SOCKET_TYPES = {"VECTOR": "NodeSocketVector", "FLOAT": "NodeSocketFloat",
+                "COLOR": "NodeSocketColor", "BOOLEAN": "NodeSocketBool",
+                "INT": "NodeSocketInt"}
+
+
+def ensure_group(name, version, build, description):
+    """Return node group `name`, (re)building it with build(GroupBuilder) unless it already
+    carries `version`."""
+    tree = bpy.data.node_groups.get(name)
+    if tree is not None and tree.bl_idname != "ShaderNodeTree":
+        raise ValueError(f"a {tree.bl_idname} named {name!r} already exists; rename it so the "
+                         f"surface-gradient shader group can be created")
+    if tree is not None and tree.get(VERSION_KEY) == version:
+        return tree
+    if tree is None:
+        tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    tree.nodes.clear()
+    tree.description = description
+    builder = GroupBuilder(tree)
+    build(builder)
+    builder.finish()
+    tree[VERSION_KEY] = version
+    return tree
+
+
+class GroupBuilder:
+    """Creates sockets and nodes in a shader node group; see the module doc."""
+
+    def __init__(self, tree):
+        self.tree = tree
+        self.nodes = tree.nodes
+        self.links = tree.links
+        self._frame = None
+        self._wanted = []          # interface items in order, to prune stale ones at the end
+        self.group_in = self.nodes.new("NodeGroupInput")
+        self.group_out = self.nodes.new("NodeGroupOutput")
+
+    # -- interface ---------------------------------------------------------------------------
+    def _socket(self, name, in_out, kind, description, default=None, min_value=None,
+                max_value=None, subtype=None, hide_value=False):
+        bl_type = SOCKET_TYPES[kind]
+        item = None
+        for it in self.tree.interface.items_tree:
+            if (it.item_type == "SOCKET" and it.name == name and it.in_out == in_out
+                    and it not in self._wanted):
+                item = it
+                break
+        if item is not None and item.socket_type != bl_type:
+            self.tree.interface.remove(item)
+            item = None
+        if item is None:
+            item = self.tree.interface.new_socket(name, in_out=in_out, socket_type=bl_type)
+        item.description = description
+        if subtype is not None and hasattr(item, "subtype"):
+            item.subtype = subtype
+        if default is not None:
+            item.default_value = default
+        if min_value is not None:
+            item.min_value = min_value
+        if max_value is not None:
+            item.max_value = max_value
+        item.hide_value = hide_value
+        self._wanted.append(item)
+        return item
+
+    def input(self, name, kind, description, default=None, min_value=None, max_value=None,
+              subtype=None, hide_value=False):
+        """A group input; returns its socket on the Group Input node."""
+        item = self._socket(name, "INPUT", kind, description, default, min_value, max_value,
+                            subtype, hide_value)
+        return self._group_socket(self.group_in.outputs, item)
+
+    def output(self, name, kind, source, description):
+        """A group output fed by `source`."""
+        item = self._socket(name, "OUTPUT", kind, description)
+        self.link(source, self._group_socket(self.group_out.inputs, item))
+
+    def _group_socket(self, sockets, item):
+        for s in sockets:
+            if s.identifier == item.identifier:
+                return s
+        raise KeyError(item.name)
+
+    def finish(self):
+        iface = self.tree.interface
+        for it in list(iface.items_tree):
+            if it.item_type == "SOCKET" and it not in self._wanted:
+                iface.remove(it)
+        # Interface order: outputs first, then inputs, in the order they were declared.
+        order = [w for w in self._wanted if w.in_out == "OUTPUT"] + \
+                [w for w in self._wanted if w.in_out == "INPUT"]
+        for position, it in enumerate(order):
+            iface.move(it, position)
+        self._layout()
+
+    # -- nodes -------------------------------------------------------------------------------
+    @contextmanager
+    def frame(self, label):
+        """Nodes created inside belong to a frame titled `label` (a listing or equation)."""
+        node = self.nodes.new("NodeFrame")
+        node.label = label
+        node.shrink = True
+        outer, self._frame = self._frame, node
+        try:
+            yield node
+        finally:
+            self._frame = outer
+
+    def node(self, bl_idname, label=None, **props):
+        n = self.nodes.new(bl_idname)
+        for key, value in props.items():
+            setattr(n, key, value)
+        if label:
+            n.label = label
+        if self._frame is not None:
+            n.parent = self._frame
+        return n
+
+    def link(self, source, target):
+        """Link a socket, or set a constant on `target`."""
+        if isinstance(source, bpy.types.NodeSocket):
+            self.links.new(source, target)
+        elif source is not None:
+            target.default_value = source
+
+    def _op(self, bl_idname, op, inputs, output=0):
+        n = self.node(bl_idname, operation=op)
+        slots = [s for s in n.inputs if s.enabled]
+        for slot, value in zip(slots, inputs):
+            self.link(value, slot)
+        return n.outputs[output]
+
+    # Vector Math (outputs[0] is the vector, outputs[1] the value).
+    def vmath(self, op, *inputs):
+        return self._op("ShaderNodeVectorMath", op, inputs, 1 if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else 0)
+
+    def math(self, op, *inputs):
+        return self._op("ShaderNodeMath", op, inputs)
+
+    def add(self, a, b):
+        return self.vmath("ADD", a, b)
+
+    def sub(self, a, b):
+        return self.vmath("SUBTRACT", a, b)
+
+    def scale(self, v, s):
+        n = self.node("ShaderNodeVectorMath", operation="SCALE")
+        self.link(v, n.inputs[0])
+        self.link(s, n.inputs["Scale"])
+        return n.outputs[0]
+
+    def dot(self, a, b):
+        return self.vmath("DOT_PRODUCT", a, b)
+
+    def cross(self, a, b):
+        return self.vmath("CROSS_PRODUCT", a, b)
+
+    def normalize(self, v):
+        return self.vmath("NORMALIZE", v)
+
+    def length(self, v):
+        return self.vmath("LENGTH", v)
+
+    def separate(self, v):
+        n = self.node("ShaderNodeSeparateXYZ")
+        self.link(v, n.inputs[0])
+        return n.outputs[0], n.outputs[1], n.outputs[2]
+
+    def combine(self, x, y, z=0.0):
+        n = self.node("ShaderNodeCombineXYZ")
+        for slot, value in zip(n.inputs, (x, y, z)):
+            self.link(value, slot)
+        return n.outputs[0]
+
+    def mix_vector(self, factor, a, b):
+        """(1 - factor) a + factor b with a scalar factor."""
+        n = self.node("ShaderNodeMix", data_type="VECTOR", clamp_factor=False)
+        self.link(factor, n.inputs[0])
+        self.link(a, n.inputs[4])
+        self.link(b, n.inputs[5])
+        return n.outputs[1]
+
+    # -- layout ------------------------------------------------------------------------------
+    def _layout(self):
+        """Columns by longest path from the inputs; tidy enough to read, no overlaps."""
+        depth = {self.group_in: 0}
+        nodes = [n for n in self.nodes if n.bl_idname != "NodeFrame"]
+        for _ in range(len(nodes)):
+            changed = False
+            for link in self.links:
+                a, b = link.from_node, link.to_node
+                d = depth.get(a, 0) + 1
+                if d > depth.get(b, 0):
+                    depth[b] = d
+                    changed = True
+            if not changed:
+                break
+        last = max(depth.values(), default=0) + 1
+        depth[self.group_out] = last
+        rows = {}
+        for n in nodes:
+            col = depth.get(n, 0)
+            row = rows.get(col, 0)
+            rows[col] = row + 1
+            n.location = (col * 220.0, -row * 170.0)
