@@ -2,7 +2,7 @@
 
 The evaluated mesh (modifiers applied) is triangulated with Blender's own loop triangles;
 per-corner normals are Blender's corner normals (smooth, flat and custom split normals alike);
-tangents and signs are Blender's MikkTSpace (`Mesh.calc_tangents`) for every UV map.
+tangents and signs are MikkTSpace for every UV map, computed on the triangles as Cycles does.
 """
 
 import numpy as np
@@ -45,23 +45,45 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True):
         tri_loops = _get(mesh.loop_triangles, "loops", nt, 3, np.int64)
         tri_verts = _get(mesh.loop_triangles, "vertices", nt, 3, np.int64)
         corner_normals = _get(mesh.corner_normals, "vector", nl, 3)[tri_loops]
-        uv_maps, tangents, signs = {}, {}, {}
-        for layer in mesh.uv_layers:
-            uv = _get(layer.uv, "vector", nl, 2)
-            uv_maps[layer.name] = uv[tri_loops]
-            if need_tangents:
-                try:
-                    mesh.calc_tangents(uvmap=layer.name)
-                except RuntimeError as err:   # n-gons with more than 4 sides, etc.
-                    raise MeshDataError(f"object {obj.name!r}: MikkTSpace tangents for UV map "
-                                        f"{layer.name!r} failed ({err})") from err
-                tangents[layer.name] = _get(mesh.loops, "tangent", nl, 3)[tri_loops]
-                signs[layer.name] = _get(mesh.loops, "bitangent_sign", nl, 1)[tri_loops]
-        if need_tangents:
-            mesh.free_tangents()
+        names = [layer.name for layer in mesh.uv_layers]
+        uv_maps = {name: _get(mesh.uv_layers[name].uv, "vector", nl, 2)[tri_loops]
+                   for name in names}
         matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
-        return MeshArrays(positions=positions, triangles=tri_verts,
-                          corner_normals=corner_normals, uv_maps=uv_maps, tangents=tangents,
-                          tangent_signs=signs, matrix_world=matrix, name=obj.name).validate()
+        arrays = MeshArrays(positions=positions, triangles=tri_verts,
+                            corner_normals=corner_normals, uv_maps=uv_maps,
+                            matrix_world=matrix, name=obj.name).validate()
     finally:
         eval_obj.to_mesh_clear()
+    if need_tangents:
+        arrays.tangents, arrays.tangent_signs = triangle_mikktspace(arrays)
+    return arrays
+
+
+def triangle_mikktspace(arrays):
+    """MikkTSpace tangents and signs per triangle corner for every UV map, computed as Cycles
+    does: on the triangulated mesh (Cycles' own triangles) with the corner normals. Blender's
+    calc_tangents on the original quads splits some quads differently (their UV diagonals tie)
+    and can differ by degrees. Works on a temporary mesh that is removed afterwards."""
+    import bpy
+
+    tmp = bpy.data.meshes.new(".surfgrad_tangents")
+    try:
+        tmp.from_pydata(arrays.positions.tolist(), [], arrays.triangles.tolist())
+        tmp.polygons.foreach_set("use_smooth", np.ones(len(tmp.polygons), dtype=bool))
+        tmp.normals_split_custom_set(arrays.corner_normals.reshape(-1, 3).tolist())
+        for name, uv in arrays.uv_maps.items():
+            tmp.uv_layers.new(name=name)
+            tmp.uv_layers[name].uv.foreach_set("vector", uv.reshape(-1))
+        n = len(tmp.loops)
+        tangents, signs = {}, {}
+        for name in arrays.uv_maps:
+            try:
+                tmp.calc_tangents(uvmap=name)
+            except RuntimeError as err:
+                raise MeshDataError(f"object {arrays.name!r}: MikkTSpace tangents for UV map "
+                                    f"{name!r} failed ({err})") from err
+            tangents[name] = _get(tmp.loops, "tangent", n, 3).reshape(-1, 3, 3)
+            signs[name] = _get(tmp.loops, "bitangent_sign", n, 1).reshape(-1, 3)
+        return tangents, signs
+    finally:
+        bpy.data.meshes.remove(tmp)

@@ -1,0 +1,350 @@
+"""Bake a method's node groups with Cycles and compare them texel by texel with the reference.
+
+    python -m surfgrad_addon compare --blend FILE --object NAME --method METHOD \\
+        --resolution N --json OUT [--uv-map NAME] [--image PATH] [--variant V]
+
+Without --blend the procedural test scene (blender/test_scenes.py) is used. The bake and the
+reference see the same mesh (the evaluated object, Blender's MikkTSpace tangents), the same
+images (their pixels as Cycles reads them) and the same parameters. Angular error is measured
+over interior texels (whose 3 x 3 neighbourhood is covered): texels at UV-island borders and
+texels only one side covered are excluded and counted.
+"""
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import reference as R
+from ..png import write_png
+from ..reference import methods as M
+from . import bake as B
+from . import groups as G
+from .mesh_data import MeshDataError, mesh_arrays_from_object
+
+DETAIL_UV = "Detail"
+NORMAL_IMAGE_SIZE = 128
+
+
+class CompareError(ValueError):
+    """Bad input for a comparison: the message names the thing and the fix."""
+
+
+@dataclass
+class Inputs:
+    """Everything a method needs, shared by its node graph and its reference."""
+    obj: object
+    uv_map: str
+    detail_uv: str
+    images: dict = field(default_factory=dict)      # name -> (numpy pixels (H, W, C), bpy image)
+    variant: str = "hq"
+
+    def pixels(self, name):
+        return self.images[name][0]
+
+    def bpy_image(self, name):
+        return self.images[name][1]
+
+
+# Node-graph helpers --------------------------------------------------------------------------
+
+def _group(nodes, tree):
+    node = nodes.new("ShaderNodeGroup")
+    node.node_tree = tree
+    return node
+
+
+def _link(links, source, target):
+    if source is not None:
+        links.new(source, target)
+
+
+def _image_node(nodes, links, image, vector, interpolation="Linear", extension="REPEAT"):
+    node = nodes.new("ShaderNodeTexImage")
+    node.image = image
+    node.interpolation = interpolation
+    node.extension = extension
+    _link(links, vector, node.inputs["Vector"])
+    return node.outputs["Color"]
+
+
+def _uv(nodes, uv_map):
+    node = nodes.new("ShaderNodeUVMap")
+    node.uv_map = uv_map
+    return node.outputs["UV"]
+
+
+def _resolve(nodes, links, surface_gradient):
+    node = _group(nodes, G.resolve_group())
+    links.new(surface_gradient, node.inputs["Surface Gradient"])
+    return node.outputs["Normal"]
+
+
+def _add(nodes, links, a, b):
+    node = nodes.new("ShaderNodeVectorMath")
+    node.operation = "ADD"
+    links.new(a, node.inputs[0])
+    links.new(b, node.inputs[1])
+    return node.outputs[0]
+
+
+# Methods: (node graph, reference) pairs -------------------------------------------------------
+
+def _normal_map_graph(inp, nodes, links, image="normal", strength=1.0):
+    color = _image_node(nodes, links, inp.bpy_image(image), _uv(nodes, inp.uv_map))
+    node = _group(nodes, G.normal_map_group(inp.uv_map))
+    links.new(color, node.inputs["Color"])
+    node.inputs["Strength"].default_value = strength
+    return node.outputs["Surface Gradient"]
+
+
+def _procedural_basis_graph(inp, nodes, links, image="detail", strength=1.0):
+    uv = _uv(nodes, inp.detail_uv)
+    basis = _group(nodes, G.procedural_basis_group())
+    links.new(uv, basis.inputs["UV"])
+    color = _image_node(nodes, links, inp.bpy_image(image), uv)
+    tn = _group(nodes, G.tangent_normal_group())
+    links.new(color, tn.inputs["Color"])
+    links.new(basis.outputs["Tangent"], tn.inputs["Tangent"])
+    links.new(basis.outputs["Bitangent"], tn.inputs["Bitangent"])
+    tn.inputs["Strength"].default_value = strength
+    return tn.outputs["Surface Gradient"]
+
+
+def _object_normal_vector_graph(inp, nodes, links):
+    """v = (2 c - 1) + 2 N: an arbitrary front-facing world-space normal from an image."""
+    color = _image_node(nodes, links, inp.bpy_image("normal"), _uv(nodes, inp.uv_map))
+    m = nodes.new("ShaderNodeVectorMath")
+    m.operation = "MULTIPLY"
+    links.new(color, m.inputs[0])
+    m.inputs[1].default_value = (2.0, 2.0, 2.0)
+    s = nodes.new("ShaderNodeVectorMath")
+    s.operation = "SUBTRACT"
+    links.new(m.outputs[0], s.inputs[0])
+    s.inputs[1].default_value = (1.0, 1.0, 1.0)
+    geo = nodes.new("ShaderNodeNewGeometry")
+    n2 = nodes.new("ShaderNodeVectorMath")
+    n2.operation = "SCALE"
+    links.new(geo.outputs["Normal"], n2.inputs[0])
+    n2.inputs["Scale"].default_value = 2.0
+    return _add(nodes, links, s.outputs[0], n2.outputs[0])
+
+
+def _object_normal_graph(inp, nodes, links):
+    node = _group(nodes, G.object_normal_group())
+    links.new(_object_normal_vector_graph(inp, nodes, links), node.inputs["Perturbed Normal"])
+    return node.outputs["Surface Gradient"]
+
+
+def _object_normal_reference(inp, td):
+    n = M.unit_base_normal(td)
+    v = M.decode_normal_map(R.sample_image(inp.pixels("normal"), td.uv(inp.uv_map))) + 2 * n
+    return n, R.surfgrad_from_perturbed_normal(n, v)
+
+
+BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
+
+
+def _blend_graph(mode):
+    def graph(inp, nodes, links):
+        uv = _uv(nodes, inp.uv_map)
+        a = _image_node(nodes, links, inp.bpy_image("normal"), uv)
+        b = _image_node(nodes, links, inp.bpy_image("detail"), uv)
+        blend = _group(nodes, G.blend_normals_group())
+        links.new(a, blend.inputs["Color A"])
+        links.new(b, blend.inputs["Color B"])
+        blend.inputs["Method"].default_value = BLEND_MODES[mode]
+        nm = _group(nodes, G.normal_map_group(inp.uv_map))
+        links.new(blend.outputs["Color"], nm.inputs["Color"])
+        return nm.outputs["Surface Gradient"]
+    return graph
+
+
+def _blend_reference(mode):
+    method = {"blend-pd": "pd", "blend-whiteout": "whiteout", "blend-udn": "udn"}.get(mode)
+
+    def reference(inp, td):
+        n, t, bt = M.mikktspace_frame(td, inp.uv_map)
+        uv = td.uv(inp.uv_map)
+        a = M.decode_normal_map(R.sample_image(inp.pixels("normal"), uv))
+        b = M.decode_normal_map(R.sample_image(inp.pixels("detail"), uv))
+        if method is None:
+            return n, R.surfgrad_blend_rnm(a, b, t, bt)
+        return n, R.surfgrad_blend(method, a, t, bt, b, t, bt)
+    return reference
+
+
+METHODS = {
+    "normal-map": (lambda inp, nodes, links: _normal_map_graph(inp, nodes, links),
+                   lambda inp, td: M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map)),
+    "procedural-basis": (lambda inp, nodes, links: _procedural_basis_graph(inp, nodes, links),
+                         lambda inp, td: M.procedural_basis_surfgrad(td, inp.pixels("detail"),
+                                                                     inp.detail_uv)),
+    "object-normal": (_object_normal_graph, _object_normal_reference),
+    **{mode: (_blend_graph(mode), _blend_reference(mode)) for mode in BLEND_MODES},
+}
+
+
+# Inputs -----------------------------------------------------------------------------------------
+
+def _bpy_float_image(name, pixels):
+    import bpy
+    px = np.asarray(pixels, dtype=np.float32)
+    if px.ndim == 2:
+        px = np.repeat(px[..., None], 3, axis=-1)
+    h, w = px.shape[:2]
+    if px.shape[2] == 3:
+        px = np.concatenate([px, np.ones((h, w, 1), np.float32)], axis=-1)
+    img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True)
+    img.colorspace_settings.name = "Non-Color"
+    img.pixels.foreach_set(px.ravel())
+    img.pack()
+    return img
+
+
+def _load_image(path):
+    """An image file as Cycles will read it (Non-Color), and its pixels for the reference."""
+    import bpy
+    path = Path(path)
+    if not path.is_file():
+        raise CompareError(f"image {str(path)!r} does not exist; give an existing file to "
+                           f"--image")
+    try:
+        img = bpy.data.images.load(str(path.resolve()), check_existing=False)
+    except RuntimeError as err:
+        raise CompareError(f"image {str(path)!r} could not be read ({err})") from err
+    img.colorspace_settings.name = "Non-Color"
+    w, h = img.size
+    if w == 0 or h == 0:
+        raise CompareError(f"image {str(path)!r} is empty")
+    px = np.empty(w * h * img.channels, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    px = px.reshape(h, w, img.channels).astype(np.float64)
+    if not np.all(np.isfinite(px)):
+        raise CompareError(f"image {str(path)!r} has non-finite pixels (NaN or Inf); fix "
+                           f"or clamp them before using it as a bump map")
+    return px[..., :3] if img.channels >= 3 else px[..., 0], img
+
+
+def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
+    if obj.type != "MESH":
+        raise CompareError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh")
+    names = [uv.name for uv in obj.data.uv_layers]
+    if not names:
+        raise CompareError(f"object {obj.name!r} has no UV map; add one (UV > Unwrap)")
+    if uv_map is None:
+        active = [uv.name for uv in obj.data.uv_layers if uv.active_render]
+        uv_map = active[0] if active else names[0]
+    elif uv_map not in names:
+        raise CompareError(f"object {obj.name!r} has no UV map named {uv_map!r}; it has "
+                           f"{names}")
+    detail = DETAIL_UV if DETAIL_UV in names else uv_map
+    inp = Inputs(obj=obj, uv_map=uv_map, detail_uv=detail, variant=variant)
+    if image is not None:
+        px, img = _load_image(image)
+        inp.images["normal"] = (px, img)
+    else:
+        px = R.test_images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)
+        inp.images["normal"] = (px.astype(np.float32).astype(np.float64),
+                                _bpy_float_image("sg_normal", px))
+    px = R.test_images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8, radius=0.6)
+    inp.images["detail"] = (px.astype(np.float32).astype(np.float64),
+                            _bpy_float_image("sg_detail", px))
+    h = R.test_images.wave_height_image(NORMAL_IMAGE_SIZE)
+    inp.images["height"] = (h.astype(np.float32).astype(np.float64),
+                            _bpy_float_image("sg_height", h))
+    return inp
+
+
+# The comparison -----------------------------------------------------------------------------------
+
+def angle_deg(a, b):
+    """Angle between vectors in float64, accurate near zero (atan2 of |a x b| and a . b)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1),
+                                 np.sum(a * b, axis=-1)))
+
+
+def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq", log=print):
+    """Bake `method` on obj and compare with the reference. Returns (report dict, per-texel
+    error image (H, W) with NaN where not compared)."""
+    if method not in METHODS:
+        raise CompareError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
+    inp = prepare_inputs(obj, uv_map, image, variant)
+    graph, reference = METHODS[method]
+    G.build_all()
+    pixels, covered, bake_seconds = B.bake_vector(
+        obj, lambda nodes, links: _resolve(nodes, links, graph(inp, nodes, links)),
+        resolution, resolution, uv_map=inp.uv_map)
+    try:
+        mesh = mesh_arrays_from_object(obj)
+    except MeshDataError as err:
+        raise CompareError(str(err)) from err
+    t0 = time.perf_counter()
+    td = R.rasterize(mesh, inp.uv_map, resolution, resolution)
+    ref = M.resolve(reference(inp, td))
+    reference_seconds = time.perf_counter() - t0
+    baked = pixels[td.pixel[:, 1], td.pixel[:, 0]].astype(np.float64)
+    in_bake = covered[td.pixel[:, 1], td.pixel[:, 0]]
+    interior = td.interior() & in_bake
+    err = angle_deg(baked[interior], ref[interior])
+    excluded = int(len(td.pixel) - interior.sum() + (covered & ~td.covered).sum())
+    report = {
+        "method": method, "object": obj.name, "uv_map": inp.uv_map,
+        "variant": variant if method == "height-map" else None,
+        "resolution": resolution, "texels_compared": int(interior.sum()),
+        "texels_excluded": excluded,
+        "excluded_fraction": excluded / max(1, int(interior.sum()) + excluded),
+        "mean_deg": float(err.mean()), "p99_deg": float(np.percentile(err, 99)),
+        "max_deg": float(err.max()), "bake_seconds": bake_seconds,
+        "reference_seconds": reference_seconds,
+        "finite_unit_fraction": float(np.mean(np.isfinite(baked[interior]).all(-1) & (
+            np.abs(np.linalg.norm(baked[interior], axis=-1) - 1) < 1e-4))),
+    }
+    heat = np.full((resolution, resolution), np.nan)
+    heat[td.pixel[interior, 1], td.pixel[interior, 0]] = err
+    return report, heat
+
+
+def write_heat_map(path, heat, overwrite):
+    """Error in degrees as a picture: black 0, white at the max (or 0.5 deg, whichever is
+    larger), uncompared texels dark blue."""
+    top = max(0.5, float(np.nanmax(heat)) if np.isfinite(heat).any() else 0.5)
+    v = np.clip(np.nan_to_num(heat, nan=0.0) / top, 0, 1)
+    rgb = np.stack([v, v ** 0.5 * 0.8, v ** 2], axis=-1)
+    rgb[np.isnan(heat)] = (0.05, 0.05, 0.2)
+    return write_png(path, rgb, overwrite=overwrite)
+
+
+def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
+        variant="hq", overwrite=False, log=print):
+    """The command: load, bake, compare, write the JSON and the heat map, print a summary."""
+    import bpy
+    json_out = Path(json_out)
+    heat_path = json_out.with_name(json_out.stem + "_error.png")
+    for p in (json_out, heat_path):
+        if p.exists() and not overwrite:
+            raise CompareError(f"{p} exists; pass --overwrite to replace it")
+    if blend:
+        if not Path(blend).is_file():
+            raise CompareError(f".blend file {blend!r} does not exist")
+        bpy.ops.wm.open_mainfile(filepath=str(blend))
+    else:
+        from . import test_scenes
+        test_scenes.new_scene()
+    obj = bpy.data.objects.get(object_name)
+    if obj is None:
+        raise CompareError(f"no object named {object_name!r}; objects: "
+                           f"{sorted(o.name for o in bpy.data.objects)}")
+    report, heat = compare_object(obj, method, resolution, uv_map, image, variant, log)
+    json_out.parent.mkdir(parents=True, exist_ok=True)
+    json_out.write_text(json.dumps(report, indent=2))
+    write_heat_map(heat_path, heat, overwrite)
+    log(f"{method} on {obj.name} at {resolution}^2: {report['texels_compared']} texels, "
+        f"mean {report['mean_deg']:.4f} p99 {report['p99_deg']:.4f} max "
+        f"{report['max_deg']:.4f} deg; excluded {report['texels_excluded']}; bake "
+        f"{report['bake_seconds']:.2f} s, reference {report['reference_seconds']:.2f} s")
+    return report

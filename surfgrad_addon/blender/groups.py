@@ -1,0 +1,314 @@
+"""The surface-gradient framework as shader node groups, one builder per group.
+
+Shader nodes have no ddx/ddy. What they have instead (pinned in tests/test_blender_facts.py):
+the Bump node. Fed a scalar h with Strength 1, Distance 1 and base normal N it returns
+n = normalize(N - grad_S h) (its forward differences are exact for h linear on a triangle, such
+as a UV coordinate), so g = N - n / dot(n, N) recovers the surface gradient grad_S h
+(".SG Surface Gradient"). The surface gradients of a UV map's s and t carry everything
+Listings 4 and 6 need from dP/dx, dP/dy and d(st)/dx, d(st)/dy; the formulas below are those
+listings rewritten in them (the screen basis cancels).
+"""
+
+from .node_builder import ensure_group
+
+VERSION = 1
+MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
+
+
+def menu_group(name):
+    def register(fn):
+        MENU_GROUPS.append((name, fn))
+        return fn
+    return register
+
+
+# Sockets shared by many groups -------------------------------------------------------------
+
+def normal_input(b, description="Base normal to perturb (world space). Leave unlinked for "
+                                "the shading normal; link a resolved normal for post-resolve "
+                                "bump mapping"):
+    """The group's Normal input; unlinked it is the shading normal (through .SG Base Normal)."""
+    raw = b.input("Normal", "VECTOR", description, hide_value=True)
+    node = b.node("ShaderNodeGroup", label="Base normal", node_tree=base_normal_group())
+    b.link(raw, node.inputs[0])
+    return node.outputs[0]
+
+
+def sub_group(b, tree, label, **inputs):
+    node = b.node("ShaderNodeGroup", label=label, node_tree=tree)
+    for name, value in inputs.items():
+        b.link(value, node.inputs[name.replace("_", " ")])
+    return node
+
+
+def sign_nonneg(b, x):
+    """The listings' `x < 0 ? -1 : 1`."""
+    return b.math("SUBTRACT", 1.0, b.math("MULTIPLY", 2.0, b.math("LESS_THAN", x, 0.0)))
+
+
+# Internal helpers (names start with "." so the Group menu hides them) -----------------------
+
+def base_normal_group():
+    def build(b):
+        raw = b.input("Normal", "VECTOR", "A normal, or nothing for the shading normal",
+                      hide_value=True)
+        with b.frame("Unlinked means the shading normal"):
+            # A Bump node with no height returns its Normal input, or the shading normal
+            # when that input carries nothing (an unlinked group socket).
+            bump = b.node("ShaderNodeBump")
+            b.link(raw, bump.inputs["Normal"])
+        b.output("Normal", "VECTOR", bump.outputs[0], "The base normal")
+    return ensure_group(".SG Base Normal", VERSION, build, "Shading normal when unlinked")
+
+
+def surface_gradient_group():
+    def build(b):
+        value = b.input("Value", "FLOAT", "Scalar whose surface gradient is wanted (linear on "
+                        "each triangle for an exact result, e.g. a UV coordinate)")
+        n = b.input("Normal", "VECTOR", "Unit base normal", hide_value=True)
+        with b.frame("Bump node inverted: g = N - n / (n . N)"):
+            bump = b.node("ShaderNodeBump")
+            bump.inputs["Strength"].default_value = 1.0
+            bump.inputs["Distance"].default_value = 1.0
+            if "Filter Width" in bump.inputs:
+                bump.inputs["Filter Width"].default_value = BUMP_FILTER_WIDTH
+            b.link(value, bump.inputs["Height"])
+            b.link(n, bump.inputs["Normal"])
+            nb = bump.outputs[0]
+            g = b.sub(n, b.scale(nb, b.math("DIVIDE", 1.0, b.dot(nb, n))))
+        b.output("Gradient", "VECTOR", g, "Surface gradient of Value")
+    return ensure_group(".SG Surface Gradient", VERSION, build,
+                        "Surface gradient of a scalar through the Bump node")
+
+
+# Shifted copies see UV + fw * dUV: for linear attributes any step is exact, and a large one
+# keeps float32 cancellation in the forward differences small.
+BUMP_FILTER_WIDTH = 10.0
+
+
+def uv_gradients_group():
+    def build(b):
+        uv = b.input("UV", "VECTOR", "Texture coordinate (link a UV Map node for any UV map)",
+                     hide_value=True)
+        n = b.input("Normal", "VECTOR", "Unit base normal", hide_value=True)
+        s, t, _ = b.separate(uv)
+        sg = surface_gradient_group()
+        with b.frame("Surface gradients of s and t (Eq. 7 with H = s, H = t)"):
+            gs = sub_group(b, sg, "grad s", Value=s, Normal=n).outputs[0]
+            gt = sub_group(b, sg, "grad t", Value=t, Normal=n).outputs[0]
+        b.output("Gradient S", "VECTOR", gs, "Surface gradient of s")
+        b.output("Gradient T", "VECTOR", gt, "Surface gradient of t")
+    return ensure_group(".SG UV Gradients", VERSION, build, "Surface gradients of a UV map")
+
+
+# Menu groups ----------------------------------------------------------------------------------
+
+@menu_group("SG Resolve")
+def resolve_group():
+    def build(b):
+        n = normal_input(b)
+        sg = b.input("Surface Gradient", "VECTOR", "Sum of the surface gradients to apply",
+                     hide_value=True)
+        with b.frame("Listing 1: normalize(n - surfGrad)"):
+            v = b.sub(n, sg)
+            unit = b.normalize(v)
+            # Where n - surfGrad has no direction keep the base normal (always a unit vector).
+            ok = b.math("GREATER_THAN", b.length(v), 0.0)
+            out = b.mix_vector(ok, n, unit)
+        b.output("Normal", "VECTOR", out, "Perturbed unit normal (world space): link it to a "
+                 "BSDF's Normal")
+    return ensure_group("SG Resolve", VERSION, build,
+                        "Listing 1: the perturbed normal from the base normal and the summed "
+                        "surface gradient")
+
+
+@menu_group("SG Volume Gradient")
+def volume_gradient_group():
+    def build(b):
+        n = normal_input(b)
+        grad = b.input("Gradient", "VECTOR", "Gradient of a volume bump function (world space), "
+                       "e.g. SG Noise's Gradient", hide_value=True)
+        strength = b.input("Strength", "FLOAT", "Bump scale (world units per unit of the "
+                           "function)", default=1.0, min_value=-1000.0, max_value=1000.0)
+        with b.frame("Listing 8: grad - (n . grad) n"):
+            sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, strength),
+                 "Surface gradient: add to others, then SG Resolve")
+    return ensure_group("SG Volume Gradient", VERSION, build,
+                        "Listing 8: surface gradient of a volume bump map")
+
+
+@menu_group("SG Object Normal")
+def object_normal_group():
+    def build(b):
+        n = normal_input(b)
+        v = b.input("Perturbed Normal", "VECTOR", "The normal to reach, world space, any "
+                    "positive length (for an object-space map, convert it with a Vector "
+                    "Transform node, type Normal)", hide_value=True)
+        strength = b.input("Strength", "FLOAT", "Scale of the resulting bump", default=1.0,
+                           min_value=-100.0, max_value=100.0)
+        with b.frame("Listing 5: (k n - v) / max(eps, |k|), k = n . v"):
+            k = b.dot(n, v)
+            denom = b.math("MAXIMUM", b.math("ABSOLUTE", k), 1.192092896e-07)
+            sg = b.scale(b.sub(b.scale(n, k), v), b.math("DIVIDE", 1.0, denom))
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, strength), "Surface gradient")
+    return ensure_group("SG Object Normal", VERSION, build,
+                        "Listing 5: surface gradient from an object- or world-space normal")
+
+
+def tangent_normal_to_surfgrad(b, color, strength, t, bt):
+    """Listing 2 (abs z, 1/128 clamp) then Listing 3, scaled by strength."""
+    with b.frame("Listing 2: derivative from a tangent-space normal"):
+        m = b.vmath("SUBTRACT", b.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
+        mx, my, mz = b.separate(m)
+        z_ma = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
+            "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx),
+                                             b.math("ABSOLUTE", my))))
+        z_ma = b.math("MAXIMUM", z_ma, 1e-30)
+        inv = b.math("DIVIDE", b.math("MULTIPLY", strength, -1.0), z_ma)
+        dx = b.math("MULTIPLY", mx, inv)
+        dy = b.math("MULTIPLY", my, inv)
+    with b.frame("Listing 3: deriv.x t + deriv.y b"):
+        return b.add(b.scale(t, dx), b.scale(bt, dy))
+
+
+@menu_group("SG Procedural Basis")
+def procedural_basis_group():
+    def build(b):
+        n = normal_input(b)
+        uv = b.input("UV", "VECTOR", "Texture coordinate of a UV map without stored tangents "
+                     "(link a UV Map node)", hide_value=True)
+        grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
+        gs, gt = grads.outputs[0], grads.outputs[1]
+        with b.frame("Listing 4 in surface gradients: t = normalize(sgn (grad t x n))"):
+            # sign_det * flip_sign of Listing 4 is the orientation of the unwrap, the sign
+            # of n . (grad s x grad t).
+            orient = sign_nonneg(b, b.dot(n, b.cross(gs, gt)))
+            t = b.normalize(b.scale(b.cross(gt, n), orient))
+            bt = b.scale(b.cross(n, t), orient)
+        b.output("Tangent", "VECTOR", t, "Unit tangent along +s")
+        b.output("Bitangent", "VECTOR", bt, "Unit bitangent toward +t")
+    return ensure_group("SG Procedural Basis", VERSION, build,
+                        "Listing 4: a tangent frame for any UV map, generated per pixel")
+
+
+@menu_group("SG Tangent Normal")
+def tangent_normal_group():
+    def build(b):
+        color = b.input("Color", "COLOR", "Tangent-space normal map colour (Non-Color image)",
+                        default=(0.5, 0.5, 1.0, 1.0))
+        strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
+                           max_value=10.0)
+        t = b.input("Tangent", "VECTOR", "Tangent (e.g. from SG Procedural Basis)",
+                    hide_value=True)
+        bt = b.input("Bitangent", "VECTOR", "Bitangent (e.g. from SG Procedural Basis)",
+                     hide_value=True)
+        sg = tangent_normal_to_surfgrad(b, color, strength, t, bt)
+        b.output("Surface Gradient", "VECTOR", sg, "Surface gradient")
+    return ensure_group("SG Tangent Normal", VERSION, build,
+                        "Listings 2 and 3: tangent-space normal to surface gradient on a "
+                        "given tangent frame")
+
+
+def mikktspace_frame_group(uv_map=""):
+    """Listing 9's frame for one UV map, from Normal Map nodes fed constant colours.
+
+    The Normal Map node returns normalize(M^-T (m.x T + m.y B + m.z N)) for the interpolated,
+    unnormalised MikkTSpace T, B = sign N x T and N. Unit colours give the directions of T, B
+    and N; (1, 0, 1) and (0, 1, 1) the directions of T + N and B + N, which fix the lengths of
+    T and B relative to N. Out come T/|N|, B/|N| and N/|N| (all through M^-T).
+    """
+    def probe(b, m):
+        node = b.node("ShaderNodeNormalMap", space="TANGENT", uv_map=uv_map)
+        node.inputs["Color"].default_value = (0.5 * m[0] + 0.5, 0.5 * m[1] + 0.5,
+                                              0.5 * m[2] + 0.5, 1.0)
+        return node.outputs[0]
+
+    def relative(b, axis_dir, sum_dir, n):
+        # v = normalize(A + N) with A = |A| a: A/|N| = lam v - n, lam from cross(a, .) = 0.
+        c1 = b.cross(axis_dir, n)
+        c2 = b.cross(axis_dir, sum_dir)
+        lam = b.math("DIVIDE", b.dot(c1, c2), b.math("MAXIMUM", b.dot(c2, c2), 1e-30))
+        return b.sub(b.scale(sum_dir, lam), n)
+
+    def build(b):
+        with b.frame("MikkTSpace frame from the Normal Map node"):
+            n = probe(b, (0, 0, 1))
+            t_dir, b_dir = probe(b, (1, 0, 0)), probe(b, (0, 1, 0))
+            tn, bn = probe(b, (1, 0, 1)), probe(b, (0, 1, 1))
+        with b.frame("Listing 9: scale t, b by 1/|n|"):
+            t = relative(b, t_dir, tn, n)
+            bt = relative(b, b_dir, bn, n)
+        b.output("Tangent", "VECTOR", t, "MikkTSpace tangent / |n| (world)")
+        b.output("Bitangent", "VECTOR", bt, "MikkTSpace bitangent / |n| (world)")
+        b.output("Normal", "VECTOR", n, "Unit interpolated vertex normal (world)")
+    name = ".SG MikkTSpace Frame" + (f" [{uv_map}]" if uv_map else "")
+    return ensure_group(name, VERSION, build, "Listing 9's MikkTSpace frame")
+
+
+def normal_map_group(uv_map=""):
+    """SG Normal Map for a UV map ("" = the active render UV map, the menu's group)."""
+    def build(b):
+        color = b.input("Color", "COLOR", "Tangent-space normal map colour (Non-Color image, "
+                        "sampled on the same UV map)", default=(0.5, 0.5, 1.0, 1.0))
+        strength = b.input("Strength", "FLOAT", "Bump scale (1 reproduces the map)",
+                           default=1.0, min_value=-10.0, max_value=10.0)
+        frame = sub_group(b, mikktspace_frame_group(uv_map), "MikkTSpace frame")
+        sg = tangent_normal_to_surfgrad(b, color, strength, frame.outputs[0], frame.outputs[1])
+        b.output("Surface Gradient", "VECTOR", sg, "Surface gradient: add to others, then "
+                 "SG Resolve (with its Normal unlinked)")
+    name = "SG Normal Map" + (f" [{uv_map}]" if uv_map else "")
+    return ensure_group(name, VERSION, build,
+                        "Tangent-space normal map to surface gradient, MikkTSpace compliant "
+                        f"(Listings 2, 3, 9) on UV map {uv_map or '(active render map)'}")
+
+
+menu_group("SG Normal Map")(normal_map_group)
+
+
+@menu_group("SG Blend Normals")
+def blend_normals_group():
+    def build(b):
+        ca = b.input("Color A", "COLOR", "First (base) tangent-space normal colour",
+                     default=(0.5, 0.5, 1.0, 1.0))
+        cb = b.input("Color B", "COLOR", "Second (detail) tangent-space normal colour",
+                     default=(0.5, 0.5, 1.0, 1.0))
+        method = b.input("Method", "INT", "0: partial derivatives (PD), 1: whiteout, 2: UDN, "
+                         "3: reoriented normal mapping (RNM)", default=0, min_value=0,
+                         max_value=3)
+        with b.frame("Decode: m = 2 c - 1"):
+            a = b.vmath("SUBTRACT", b.vmath("MULTIPLY", ca, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
+            bb = b.vmath("SUBTRACT", b.vmath("MULTIPLY", cb, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
+            ax, ay, az = b.separate(a)
+            bx, by, bz = b.separate(bb)
+        with b.frame("PD: a.xy b.z + b.xy a.z, a.z b.z"):
+            pd = b.combine(b.math("ADD", b.math("MULTIPLY", ax, bz), b.math("MULTIPLY", bx, az)),
+                           b.math("ADD", b.math("MULTIPLY", ay, bz), b.math("MULTIPLY", by, az)),
+                           b.math("MULTIPLY", az, bz))
+        with b.frame("Whiteout: a.xy + b.xy, a.z b.z"):
+            sx, sy = b.math("ADD", ax, bx), b.math("ADD", ay, by)
+            wo = b.combine(sx, sy, b.math("MULTIPLY", az, bz))
+        with b.frame("UDN: a.xy + b.xy, a.z"):
+            udn = b.combine(sx, sy, az)
+        with b.frame("RNM, Eq. 18"):
+            ap = b.vmath("ADD", a, (0.0, 0.0, 1.0))
+            bp = b.vmath("MULTIPLY", bb, (-1.0, -1.0, 1.0))
+            k = b.math("DIVIDE", b.dot(ap, bp), b.math("ADD", az, 1.0))
+            rnm = b.sub(b.scale(ap, k), bp)
+        with b.frame("Select the method, encode as colour"):
+            out = pd
+            for index, candidate in ((1, wo), (2, udn), (3, rnm)):
+                pick = b.math("COMPARE", method, float(index), 0.5)
+                out = b.mix_vector(pick, out, candidate)
+            color = b.vmath("ADD", b.vmath("MULTIPLY", b.normalize(out), (0.5, 0.5, 0.5)),
+                            (0.5, 0.5, 0.5))
+        b.output("Color", "COLOR", color, "Blended tangent-space normal colour: feed it to "
+                 "SG Normal Map")
+    return ensure_group("SG Blend Normals", VERSION, build,
+                        "Classic blends of two tangent-space normals on one UV map (Table 1, "
+                        "Eq. 18); through SG Normal Map each equals its surface-gradient form")
+
+
+def build_all():
+    """Create (or update) every menu group and its helpers; returns {name: tree}."""
+    return {name: fn() for name, fn in MENU_GROUPS}
