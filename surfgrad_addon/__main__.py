@@ -3,13 +3,21 @@
   demo             the main job: evaluate the reference on procedural scenes, write maps and
                    a summary (later stages add Cycles bakes and their comparison)
   bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
+  compare          bake a method's node groups with Cycles and compare with the reference
+                   (needs bpy; also: blender -b FILE --python surfgrad_addon/blender_cli.py
+                   -- compare ...)
 """
 
 import argparse
 import sys
 
 
-def main(argv=None):
+COMPARE_METHODS = ("normal-map", "procedural-basis", "object-normal", "height-map",
+                   "volume-noise", "triplanar", "decal", "parallax", "layered", "blend-udn",
+                   "blend-whiteout", "blend-rnm", "blend-pd")
+
+
+def main(argv=None, in_blender=False):
     parser = argparse.ArgumentParser(prog="python -m surfgrad_addon", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -22,6 +30,22 @@ def main(argv=None):
     bench.add_argument("--sizes", type=int, nargs="+", default=None,
                        help="bake sizes (default 256 512 1024 2048)")
     bench.add_argument("--overwrite", action="store_true", help="replace an existing JSON")
+    cmp = sub.add_parser("compare", help="bake a method and compare it with the reference")
+    cmp.add_argument("--blend", default=None,
+                     help=".blend file to open (default: the procedural test scene; inside "
+                          "Blender: the open file)")
+    cmp.add_argument("--object", required=True, help="name of the mesh object to bake")
+    cmp.add_argument("--method", required=True, help="one of: " + ", ".join(COMPARE_METHODS))
+    cmp.add_argument("--resolution", type=int, default=128, help="bake size in texels")
+    cmp.add_argument("--json", required=True, help="report path (an _error.png heat map is "
+                                                   "written beside it)")
+    cmp.add_argument("--uv-map", default=None, help="UV map to bake into (default: the active "
+                                                    "render UV map)")
+    cmp.add_argument("--image", default=None, help="normal map image to use instead of the "
+                                                   "procedural test image")
+    cmp.add_argument("--variant", default="hq", choices=("forward", "one-texel", "hq"),
+                     help="height-map derivative variant")
+    cmp.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     args = parser.parse_args(argv)
     try:
         if args.command == "demo":
@@ -31,7 +55,12 @@ def main(argv=None):
             from . import bench_reference
             bench_reference.run(args.out, args.sizes or bench_reference.SIZES,
                                 overwrite=args.overwrite)
-    except (FileExistsError, ValueError, KeyError) as err:
+        elif args.command == "compare":
+            from .blender import compare
+            compare.run(args.blend, args.object, args.method, args.resolution, args.json,
+                        args.uv_map, args.image, args.variant, args.overwrite,
+                        from_open_file=in_blender)
+    except (FileExistsError, ValueError, KeyError, RuntimeError) as err:
         print(f"surfgrad: error: {err}", file=sys.stderr)
         return 2
     return 0

@@ -6,20 +6,26 @@ Everything numpy here is float64 and independent of bpy except `mesh_arrays`, wh
 bpy mesh into a `surfgrad_addon.reference.MeshArrays`.
 
 The bake model (read from the Cycles kernel of bpy 5.0.1 and pinned by the tests):
-- Blender's bake rasteriser hands Cycles barycentric differentials per texel that are HALF the
-  per-texel ones (render/intern/bake.cc `bake_differentials`: `A = 0.5f / A`).
+- Blender's bake rasteriser hands Cycles barycentric differentials that are HALF the
+  per-texel ones (render/intern/bake.cc `bake_differentials`, `A = 0.5f / A` as remembered:
+  that file is not in the wheel; the factor is pinned by the image-bump bakes, where twice
+  this r is 11-16 degrees off).
 - integrator/init_from_bake.h turns them into world dP.dx, dP.dy and compacts them into one
   radius `r = 0.5 * (|dP.dx| + |dP.dy|)` (util/differential.h `differential_make_compact`),
   so r = 0.25 * (|dP/ds| / W + |dP/dt| / H): half the mean world length of a texel's sides.
 - The shading point expands r back into the isotropic pair `r * make_orthonormals(Ng)`
-  (`differential_from_compact`): dPdx = r * normalize((1,1,1) x Ng), dPdy = Ng x dPdx / |.|*r,
-  diagonals of the tangent plane that know nothing of the texel axes.
+  (`differential_from_compact`): dPdx = r a, dPdy = r (Ng x a) with a = normalize((1,1,1) x Ng),
+  directions in the triangle's plane that know nothing of the texel axes.
 - Shifted copies of a Bump node's Height graph see P + fw * dPdx (P + fw * dPdy) and every
   triangle attribute at f + fw * df/dx (df/dy), i.e. the attribute at the shifted point: for
   attributes linear on the triangle (UVs) exactly.
 - svm_node_set_bump (svm/displace.h): Rx = dPdy x N, Ry = N x dPdx, det = dPdx . Rx,
   n = normalize(fw * |det| * N - D * sign(det) * ((h_x - h_c) Rx + (h_y - h_c) Ry)),
   then normalize(Strength * n + (1 - Strength) * N).
+- Shading normals: see `shading_normal` (a single-user mesh has its transform applied, so
+  vertex normals are normalised in WORLD space before interpolation); the Normal Map and
+  Tangent nodes: `cycles_normal_map`, `cycles_tangent_node` (object-space frame, taken to world
+  by the normal matrix).
 """
 
 import numpy as np
@@ -240,6 +246,46 @@ def uv_surface_gradients(td, n, name=None):
     uv = td.mesh.uv(name or td.uv_map)
     return (linear_surface_gradient(td, uv[..., 0], n),
             linear_surface_gradient(td, uv[..., 1], n))
+
+
+def _object_frame(td, name, smooth):
+    """What Cycles' Normal Map node works in (object space): the interpolated, UNnormalised
+    MikkTSpace tangent and sign of UV map `name`, and the normal: smooth, the UNnormalised
+    interpolation of the unit object-space vertex normals; flat, the unit geometric normal."""
+    m = td.mesh
+    t = td._interpolate(m.tangents[name])
+    sign = td._interpolate(m.tangent_signs[name])
+    if smooth:
+        n = td._interpolate(_normalize(np.asarray(m.corner_normals, np.float64)))
+    else:
+        p = np.asarray(m.positions, np.float64)[np.asarray(m.triangles)]
+        n = _normalize(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))[td.tri]
+    return t, sign, n
+
+
+def cycles_normal_map(td, color, name=None, smooth=True, strength=1.0):
+    """svm_node_normal_map, tangent space (svm/tex_coord.h), for a constant colour:
+    c = 2 colour - 1 (xy scaled by strength, z = mix(1, z, saturate(strength))),
+    B = sign * cross(N, T) and normalize(c.x T + c.y B + c.z N) in OBJECT space with the
+    unnormalised frame of `_object_frame`, then to world by the NORMAL matrix (inverse
+    transpose), normalised."""
+    t, sign, n = _object_frame(td, name or td.uv_map, smooth)
+    c = 2.0 * (np.asarray(color, np.float64)[:3] - 0.5)
+    c = np.array([c[0] * strength, c[1] * strength,
+                  1.0 + (c[2] - 1.0) * min(max(strength, 0.0), 1.0)])
+    b = sign[:, None] * np.cross(n, t)
+    v = _normalize(c[0] * t + c[1] * b + c[2] * n)
+    return _normalize(v @ td.mesh.normal_matrix.T)
+
+
+def cycles_tangent_node(td, name=None, smooth=True):
+    """svm_node_tangent, UV-map direction: the interpolated MikkTSpace tangent (no sign) taken
+    to world by the NORMAL matrix, then cross(N, normalize(cross(T, N))) with the shading
+    normal N: projected onto N's plane, unit length."""
+    t, _, _ = _object_frame(td, name or td.uv_map, smooth)
+    tw = _normalize(t @ td.mesh.normal_matrix.T)
+    n = shading_normal(td, smooth)
+    return np.cross(n, _normalize(np.cross(tw, n)))
 
 
 def make_orthonormals(n):

@@ -78,7 +78,8 @@ def _temporary_material(obj, material):
         yield
     finally:
         if added:
-            obj.data.materials.pop(index=len(obj.data.materials) - 1)
+            # The mesh had no materials: clear() (unlike pop) also drops the object's slot.
+            obj.data.materials.clear()
         else:
             for slot, mat in zip(obj.material_slots, saved):
                 slot.material = mat

@@ -272,8 +272,18 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     """Bake `method` on obj and compare with the reference. Returns (report dict, per-texel
     error image (H, W) with NaN where not compared)."""
     if method not in METHODS:
-        raise CompareError(f"unknown method {method!r}; use one of {sorted(METHODS)}")
+        raise CompareError(f"method {method!r} is not available; use one of "
+                           f"{sorted(METHODS)}")
     inp = prepare_inputs(obj, uv_map, image, variant)
+    try:
+        return _compare(inp, obj, method, resolution)
+    finally:
+        import bpy
+        for _, img in inp.images.values():
+            bpy.data.images.remove(img)
+
+
+def _compare(inp, obj, method, resolution):
     graph, reference = METHODS[method]
     G.build_all()
     pixels, covered, bake_seconds = B.bake_vector(
@@ -294,7 +304,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     excluded = int(len(td.pixel) - interior.sum() + (covered & ~td.covered).sum())
     report = {
         "method": method, "object": obj.name, "uv_map": inp.uv_map,
-        "variant": variant if method == "height-map" else None,
+        "variant": inp.variant if method == "height-map" else None,
         "resolution": resolution, "texels_compared": int(interior.sum()),
         "texels_excluded": excluded,
         "excluded_fraction": excluded / max(1, int(interior.sum()) + excluded),
@@ -320,7 +330,7 @@ def write_heat_map(path, heat, overwrite):
 
 
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
-        variant="hq", overwrite=False, log=print):
+        variant="hq", overwrite=False, log=print, from_open_file=False):
     """The command: load, bake, compare, write the JSON and the heat map, print a summary."""
     import bpy
     json_out = Path(json_out)
@@ -332,7 +342,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
         if not Path(blend).is_file():
             raise CompareError(f".blend file {blend!r} does not exist")
         bpy.ops.wm.open_mainfile(filepath=str(blend))
-    else:
+    elif not from_open_file:
         from . import test_scenes
         test_scenes.new_scene()
     obj = bpy.data.objects.get(object_name)

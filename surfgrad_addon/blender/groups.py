@@ -11,7 +11,7 @@ listings rewritten in them (the screen basis cancels).
 
 from .node_builder import ensure_group
 
-VERSION = 1
+VERSION = 2
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
 
 
@@ -253,10 +253,14 @@ def normal_map_group(uv_map=""):
                         "sampled on the same UV map)", default=(0.5, 0.5, 1.0, 1.0))
         strength = b.input("Strength", "FLOAT", "Bump scale (1 reproduces the map)",
                            default=1.0, min_value=-10.0, max_value=10.0)
+        n = normal_input(b, "Base normal the result is resolved against (leave unlinked: "
+                            "the shading normal)")
         frame = sub_group(b, mikktspace_frame_group(uv_map), "MikkTSpace frame")
         sg = tangent_normal_to_surfgrad(b, color, strength, frame.outputs[0], frame.outputs[1])
+        with b.frame("+ (n - n_frame): resolve against n lands on the frame's normal"):
+            sg = b.add(sg, b.sub(n, frame.outputs[2]))
         b.output("Surface Gradient", "VECTOR", sg, "Surface gradient: add to others, then "
-                 "SG Resolve (with its Normal unlinked)")
+                 "SG Resolve")
     name = "SG Normal Map" + (f" [{uv_map}]" if uv_map else "")
     return ensure_group(name, VERSION, build,
                         "Tangent-space normal map to surface gradient, MikkTSpace compliant "

@@ -49,9 +49,11 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True):
         uv_maps = {name: _get(mesh.uv_layers[name].uv, "vector", nl, 2)[tri_loops]
                    for name in names}
         matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
+        # Cycles applies the object transform to a mesh used by one object only.
         arrays = MeshArrays(positions=positions, triangles=tri_verts,
                             corner_normals=corner_normals, uv_maps=uv_maps,
-                            matrix_world=matrix, name=obj.name).validate()
+                            matrix_world=matrix, name=obj.name,
+                            transform_applied=obj.data.users == 1).validate()
     finally:
         eval_obj.to_mesh_clear()
     if need_tangents:

@@ -78,9 +78,10 @@ def build(objects=SCENE_OBJECTS):
         made["Plane"] = _finish(bpy.context.active_object, "Plane")
     if "Transformed" in objects:
         ops.primitive_uv_sphere_add(segments=24, ring_count=12, radius=1.0, calc_uvs=True,
-                                    location=(3, 3, 0), rotation=(0.4, -0.7, 1.1),
-                                    scale=(1.6, 0.6, 1.1))
-        made["Transformed"] = _finish(bpy.context.active_object, "Transformed")
+                                    location=(3, 3, 0), rotation=(0.4, -0.7, 1.1))
+        obj = bpy.context.active_object
+        obj.scale = (1.6, 0.6, 1.1)      # an object transform (the operator's scale is baked
+        made["Transformed"] = _finish(obj, "Transformed")   # into the mesh)
     return made
 
 

@@ -19,7 +19,8 @@ HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 
 
 def unit_base_normal(td):
-    return normalize(td.normal)
+    """The base normal of every method: the renderer's unit shading normal."""
+    return td.shading_normal
 
 
 def decode_normal_map(rgb):
@@ -42,10 +43,16 @@ def mikktspace_frame(td, uv_map=None):
 
 def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Linear"):
     """SG Normal Map: MikkTSpace tangent-space map on a UV map with stored tangents (L2, L3,
-    and Listing 9's 1/|n| renormalisation), in Blender's Normal Map node's frame."""
-    n, t, b = mikktspace_frame(td, uv_map)
+    and Listing 9's 1/|n| renormalisation), in Blender's Normal Map node's frame.
+
+    The frame's own normal n_f can differ from the shading normal n (under non-uniform scale
+    Cycles normalises vertex normals in world space first): adding n - n_f makes the resolve
+    against n land exactly on the frame's result, so the map still matches its bake."""
+    n_f, t, b = mikktspace_frame(td, uv_map)
+    n = unit_base_normal(td)
     m = decode_normal_map(sample_image(image, td.uv(uv_map), interpolation))
-    return n, strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m), t, b)
+    sg = strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m), t, b)
+    return n, sg + (n - n_f)
 
 
 def procedural_basis_surfgrad(td, image, uv_map, strength=1.0, interpolation="Linear"):

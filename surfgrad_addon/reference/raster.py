@@ -40,6 +40,9 @@ class MeshArrays:
     tangent_signs: dict = field(default_factory=dict)
     matrix_world: np.ndarray = field(default_factory=lambda: np.eye(4))
     name: str = "mesh"
+    # Cycles applies the object transform to a mesh only one object uses: its corner normals
+    # then go to world space and are normalised before interpolation (see shading_normal).
+    transform_applied: bool = True
 
     def validate(self):
         """Raise ValueError naming the problem and the fix; return self when usable."""
@@ -156,6 +159,17 @@ class TexelData:
     @cached_property
     def normal(self):
         return self.normal_object @ self.mesh.normal_matrix.T
+
+    @cached_property
+    def shading_normal(self):
+        """The unit shading normal a renderer shades with (Cycles' sd->N), world space: the
+        interpolated corner normals, each taken to world space and normalised first when the
+        transform is applied to the mesh (the default), else interpolated in object space and
+        then transformed. The two differ only under non-uniform scale."""
+        if self.mesh.transform_applied:
+            n = np.asarray(self.mesh.corner_normals, dtype=np.float64) @ self.mesh.normal_matrix.T
+            return normalize(self._interpolate(normalize(n)))
+        return normalize(self.normal)
 
     @cached_property
     def geometric_normal(self):

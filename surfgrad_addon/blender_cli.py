@@ -1,0 +1,19 @@
+"""Run surfgrad's command line inside Blender:
+
+    blender -b FILE --python surfgrad_addon/blender_cli.py -- compare --object NAME ...
+
+Arguments after `--` are those of `python -m surfgrad_addon`. Without --blend, `compare` works
+on the file Blender opened.
+"""
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from surfgrad_addon.__main__ import main  # noqa: E402
+
+argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+code = main(argv, in_blender=True)
+if code:
+    sys.exit(code)
