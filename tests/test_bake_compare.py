@@ -35,6 +35,10 @@ def test_bake_matches_reference(scene, obj_name, method):
     assert report["p99_deg"] <= 0.1, report
     assert report["max_deg"] <= 0.5, report
     assert report["finite_unit_fraction"] == 1.0
+    # The method really bends the normals, and the bake bends them as much (a shader that
+    # failed to compile would bake the plain normal and must not pass).
+    assert report["tilt_mean_deg"] > 1.0
+    assert abs(report["bake_tilt_mean_deg"] - report["tilt_mean_deg"]) < 0.01
     assert np.isfinite(heat).sum() == report["texels_compared"]
 
 

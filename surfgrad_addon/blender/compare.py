@@ -144,6 +144,24 @@ def _object_normal_reference(inp, td):
     return n, R.surfgrad_from_perturbed_normal(n, v)
 
 
+NOISE_SCALE, NOISE_AMOUNT = 4.0, 0.05
+
+
+def _noise_gradient_graph(nodes, links, turbulence=False):
+    noise = _group(nodes, G.noise_group())
+    noise.inputs["Scale"].default_value = NOISE_SCALE
+    noise.inputs["Octaves"].default_value = 4
+    noise.inputs["Turbulence"].default_value = turbulence
+    return noise.outputs["Gradient"]
+
+
+def _volume_noise_graph(inp, nodes, links, amount=NOISE_AMOUNT):
+    vg = _group(nodes, G.volume_gradient_group())
+    links.new(_noise_gradient_graph(nodes, links), vg.inputs["Gradient"])
+    vg.inputs["Strength"].default_value = amount
+    return vg.outputs["Surface Gradient"]
+
+
 BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
 
 
@@ -183,6 +201,8 @@ METHODS = {
                          lambda inp, td: M.procedural_basis_surfgrad(td, inp.pixels("detail"),
                                                                      inp.detail_uv)),
     "object-normal": (_object_normal_graph, _object_normal_reference),
+    "volume-noise": (_volume_noise_graph,
+                     lambda inp, td: M.volume_noise_surfgrad(td, NOISE_SCALE, NOISE_AMOUNT, 4)),
     **{mode: (_blend_graph(mode), _blend_reference(mode)) for mode in BLEND_MODES},
 }
 
@@ -302,8 +322,12 @@ def _compare(inp, obj, method, resolution):
     interior = td.interior() & in_bake
     err = angle_deg(baked[interior], ref[interior])
     excluded = int(len(td.pixel) - interior.sum() + (covered & ~td.covered).sum())
+    base = M.unit_base_normal(td)[interior]
+    tilt_bake = angle_deg(baked[interior], base)
+    tilt_ref = angle_deg(ref[interior], base)
     report = {
         "method": method, "object": obj.name, "uv_map": inp.uv_map,
+        "tilt_mean_deg": float(tilt_ref.mean()), "bake_tilt_mean_deg": float(tilt_bake.mean()),
         "variant": inp.variant if method == "height-map" else None,
         "resolution": resolution, "texels_compared": int(interior.sum()),
         "texels_excluded": excluded,
