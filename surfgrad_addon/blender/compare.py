@@ -40,6 +40,7 @@ class Inputs:
     detail_uv: str
     images: dict = field(default_factory=dict)      # name -> (numpy pixels (H, W, C), bpy image)
     variant: str = "hq"
+    projector: object = None                         # a temporary decal projector (an empty)
 
     def pixels(self, name):
         return self.images[name][0]
@@ -162,6 +163,73 @@ def _volume_noise_graph(inp, nodes, links, amount=NOISE_AMOUNT):
     return vg.outputs["Surface Gradient"]
 
 
+def _triplanar_graph(inp, nodes, links):
+    coords = _group(nodes, G.triplanar_coordinates_group())
+    tri = _group(nodes, G.triplanar_group())
+    for axis in "XYZ":
+        color = _image_node(nodes, links, inp.bpy_image("normal"), coords.outputs[f"UV {axis}"])
+        links.new(color, tri.inputs[f"Color {axis}"])
+    return tri.outputs["Surface Gradient"]
+
+
+DECAL_FALLOFF = 0.2
+
+
+def _decal_projector(obj):
+    """A temporary empty projecting onto obj: centred on it, tilted, smaller than it."""
+    import bpy
+    from mathutils import Euler, Matrix, Vector
+    empty = bpy.data.objects.new("SG Decal Projector (temporary)", None)
+    bpy.context.scene.collection.objects.link(empty)
+    centre = obj.matrix_world @ Vector(np.mean(np.array(obj.bound_box), axis=0))
+    size = max(obj.dimensions) * 0.5
+    empty.matrix_world = (Matrix.Translation(centre) @ Euler((0.5, 0.3, 0.2)).to_matrix()
+                          .to_4x4() @ Matrix.Diagonal((0.55 * size, 0.4 * size, 1.2 * size, 1)))
+    bpy.context.view_layer.update()
+    return empty
+
+
+def _decal_graph(inp, nodes, links):
+    tc = nodes.new("ShaderNodeTexCoord")
+    tc.object = inp.projector
+    decal = _group(nodes, G.decal_group())
+    coords = _group(nodes, G.decal_coordinates_group())
+    links.new(tc.outputs["Object"], decal.inputs["Decal Coordinates"])
+    links.new(tc.outputs["Object"], coords.inputs["Decal Coordinates"])
+    color = _image_node(nodes, links, inp.bpy_image("normal"), coords.outputs["Decal UV"])
+    links.new(color, decal.inputs["Color"])
+    ax, ay, _, _ = M.decal_frame(np.array(inp.projector.matrix_world))
+    decal.inputs["Axis X"].default_value = ax
+    decal.inputs["Axis Y"].default_value = ay
+    decal.inputs["Falloff"].default_value = DECAL_FALLOFF
+    return decal.outputs["Surface Gradient"]
+
+
+def _decal_reference(inp, td):
+    return M.decal_surfgrad(td, inp.pixels("normal"), np.array(inp.projector.matrix_world),
+                            falloff=DECAL_FALLOFF)
+
+
+LAYER_DETAIL, LAYER_NOISE = 0.5, 0.02
+
+
+def _layered_graph(inp, nodes, links):
+    combine = _group(nodes, G.combine_group())
+    links.new(_normal_map_graph(inp, nodes, links), combine.inputs["A"])
+    links.new(_procedural_basis_graph(inp, nodes, links, strength=LAYER_DETAIL),
+              combine.inputs["B"])
+    return _add(nodes, links, combine.outputs[0],
+                _volume_noise_graph(inp, nodes, links, amount=LAYER_NOISE))
+
+
+def _layered_reference(inp, td):
+    n, sg1 = M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map)
+    _, sg2 = M.procedural_basis_surfgrad(td, inp.pixels("detail"), inp.detail_uv,
+                                         strength=LAYER_DETAIL)
+    _, sg3 = M.volume_noise_surfgrad(td, NOISE_SCALE, LAYER_NOISE, 4)
+    return n, sg1 + sg2 + sg3
+
+
 BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
 
 
@@ -203,6 +271,10 @@ METHODS = {
     "object-normal": (_object_normal_graph, _object_normal_reference),
     "volume-noise": (_volume_noise_graph,
                      lambda inp, td: M.volume_noise_surfgrad(td, NOISE_SCALE, NOISE_AMOUNT, 4)),
+    "triplanar": (_triplanar_graph,
+                  lambda inp, td: M.triplanar_surfgrad(td, inp.pixels("normal"))),
+    "decal": (_decal_graph, _decal_reference),
+    "layered": (_layered_graph, _layered_reference),
     **{mode: (_blend_graph(mode), _blend_reference(mode)) for mode in BLEND_MODES},
 }
 
@@ -281,11 +353,15 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
 # The comparison -----------------------------------------------------------------------------------
 
 def angle_deg(a, b):
-    """Angle between vectors in float64, accurate near zero (atan2 of |a x b| and a . b)."""
+    """Angle between vectors in float64, accurate near zero (atan2 of |a x b| and a . b).
+    A zero-length or non-finite vector has no direction: it scores 180 degrees, never 0."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
-    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1),
-                                 np.sum(a * b, axis=-1)))
+    ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1),
+                                np.sum(a * b, axis=-1)))
+    valid = (np.isfinite(a).all(-1) & np.isfinite(b).all(-1)
+             & (np.linalg.norm(a, axis=-1) > 0) & (np.linalg.norm(b, axis=-1) > 0))
+    return np.where(valid, ang, 180.0)
 
 
 def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq", log=print):
@@ -295,12 +371,16 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
     inp = prepare_inputs(obj, uv_map, image, variant)
+    import bpy
     try:
+        if method == "decal":
+            inp.projector = _decal_projector(obj)
         return _compare(inp, obj, method, resolution)
     finally:
-        import bpy
         for _, img in inp.images.values():
             bpy.data.images.remove(img)
+        if inp.projector is not None:
+            bpy.data.objects.remove(inp.projector)
 
 
 def _compare(inp, obj, method, resolution):

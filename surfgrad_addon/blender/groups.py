@@ -11,7 +11,7 @@ listings rewritten in them (the screen basis cancels).
 
 from .node_builder import ensure_group
 
-VERSION = 3
+VERSION = 6
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
 
 
@@ -156,20 +156,22 @@ def object_normal_group():
                         "Listing 5: surface gradient from an object- or world-space normal")
 
 
+def decode_tangent_normal(b, color):
+    """m = 2 c - 1 and Listing 2's derivative (abs z, 1/128 clamp), as two float sockets."""
+    m = b.vmath("SUBTRACT", b.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
+    mx, my, mz = b.separate(m)
+    z_ma = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
+        "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx), b.math("ABSOLUTE", my))))
+    inv = b.math("DIVIDE", -1.0, b.math("MAXIMUM", z_ma, 1e-30))
+    return b.math("MULTIPLY", mx, inv), b.math("MULTIPLY", my, inv)
+
+
 def tangent_normal_to_surfgrad(b, color, strength, t, bt):
     """Listing 2 (abs z, 1/128 clamp) then Listing 3, scaled by strength."""
     with b.frame("Listing 2: derivative from a tangent-space normal"):
-        m = b.vmath("SUBTRACT", b.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
-        mx, my, mz = b.separate(m)
-        z_ma = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
-            "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx),
-                                             b.math("ABSOLUTE", my))))
-        z_ma = b.math("MAXIMUM", z_ma, 1e-30)
-        inv = b.math("DIVIDE", b.math("MULTIPLY", strength, -1.0), z_ma)
-        dx = b.math("MULTIPLY", mx, inv)
-        dy = b.math("MULTIPLY", my, inv)
+        dx, dy = decode_tangent_normal(b, color)
     with b.frame("Listing 3: deriv.x t + deriv.y b"):
-        return b.add(b.scale(t, dx), b.scale(bt, dy))
+        return b.scale(b.add(b.scale(t, dx), b.scale(bt, dy)), strength)
 
 
 @menu_group("SG Procedural Basis")
@@ -425,6 +427,140 @@ def noise_group():
     return ensure_group("SG Noise", VERSION, build,
                         "The reference's 3-D gradient noise (fractal sum or turbulence) with its "
                         "exact gradient, bit-compatible lattice (White Noise hash)")
+
+
+def position_input(b, description):
+    """A Position input; unlinked (zero) it is the world position of the shading point."""
+    raw = b.input("Position", "VECTOR", description, hide_value=True)
+    world = b.node("ShaderNodeNewGeometry").outputs["Position"]
+    unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
+    return b.mix_vector(unlinked, raw, world)
+
+
+@menu_group("SG Triplanar Coordinates")
+def triplanar_coordinates_group():
+    def build(b):
+        p = position_input(b, "Where to project from (unlinked: world position)")
+        scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
+                        min_value=0.0, max_value=1e4)
+        with b.frame("Eq. 19 planes: X samples (z, y), Y (x, z), Z (x, y)"):
+            x, y, z = b.separate(b.scale(p, scale))
+            uvx, uvy, uvz = b.combine(z, y), b.combine(x, z), b.combine(x, y)
+        b.output("UV X", "VECTOR", uvx, "Coordinates for the image projected along X")
+        b.output("UV Y", "VECTOR", uvy, "Coordinates for the image projected along Y")
+        b.output("UV Z", "VECTOR", uvz, "Coordinates for the image projected along Z")
+    return ensure_group("SG Triplanar Coordinates", VERSION, build,
+                        "The three planar projections of triplanar mapping (Eq. 19): feed "
+                        "three Image Texture nodes, then SG Triplanar")
+
+
+@menu_group("SG Triplanar")
+def triplanar_group():
+    def build(b):
+        n = normal_input(b)
+        cx = b.input("Color X", "COLOR", "Tangent-space normal map sampled at UV X",
+                     default=(0.5, 0.5, 1.0, 1.0))
+        cy = b.input("Color Y", "COLOR", "Tangent-space normal map sampled at UV Y",
+                     default=(0.5, 0.5, 1.0, 1.0))
+        cz = b.input("Color Z", "COLOR", "Tangent-space normal map sampled at UV Z",
+                     default=(0.5, 0.5, 1.0, 1.0))
+        k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
+                    min_value=1.0, max_value=64.0)
+        strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
+                           max_value=10.0)
+        with b.frame("Listing 14: w = max(|n| - 0.2, 0)^k, normalised"):
+            base = b.separate(b.vmath("MAXIMUM", b.vmath("SUBTRACT", b.vmath("ABSOLUTE", n),
+                                                          (0.2, 0.2, 0.2)), (0.0, 0.0, 0.0)))
+            wx, wy, wz = (b.math("POWER", c, k) for c in base)
+            w = b.combine(wx, wy, wz)
+            total = b.math("MAXIMUM", b.math("ADD", b.math("ADD", wx, wy), wz), 1e-30)
+            w = b.scale(w, b.math("DIVIDE", 1.0, total))
+            w0, w1, w2 = b.separate(w)
+        with b.frame("Listing 2 per plane"):
+            dxx, dxy = decode_tangent_normal(b, cx)
+            dyx, dyy = decode_tangent_normal(b, cy)
+            dzx, dzy = decode_tangent_normal(b, cz)
+        with b.frame("Listing 13: volume gradient of Eq. 19, then Listing 8"):
+            grad = b.combine(
+                b.math("ADD", b.math("MULTIPLY", w2, dzx), b.math("MULTIPLY", w1, dyx)),
+                b.math("ADD", b.math("MULTIPLY", w2, dzy), b.math("MULTIPLY", w0, dxy)),
+                b.math("ADD", b.math("MULTIPLY", w0, dxx), b.math("MULTIPLY", w1, dyy)))
+            sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, strength), "Surface gradient")
+        b.output("Weights", "VECTOR", w, "The blend weights (x, y, z)")
+    return ensure_group("SG Triplanar", VERSION, build,
+                        "Listings 13 and 14: triplanar normal mapping as a volume bump map")
+
+
+@menu_group("SG Decal Coordinates")
+def decal_coordinates_group():
+    def build(b):
+        q = b.input("Decal Coordinates", "VECTOR", "Position in the projector's space (a "
+                    "Texture Coordinate node's Object output, the projector as its object)",
+                    hide_value=True)
+        with b.frame("[-1, 1]^2 of the projector to [0, 1]^2"):
+            uv = b.vmath("ADD", b.vmath("MULTIPLY", q, (0.5, 0.5, 0.0)), (0.5, 0.5, 0.0))
+        b.output("Decal UV", "VECTOR", uv, "Where to sample the decal image (its Image "
+                 "Texture's Vector)")
+    return ensure_group("SG Decal Coordinates", VERSION, build,
+                        "Image coordinates of a decal projector: feed the decal's Image "
+                        "Texture, then SG Decal")
+
+
+@menu_group("SG Decal")
+def decal_group():
+    def build(b):
+        n = normal_input(b)
+        q = b.input("Decal Coordinates", "VECTOR", "Position in the projector's space: a "
+                    "Texture Coordinate node's Object output with the projector (an empty) "
+                    "as its object; the decal covers [-1, 1] in x and y", hide_value=True)
+        color = b.input("Color", "COLOR", "Tangent-space normal map sampled at the Decal UV "
+                        "of SG Decal Coordinates", default=(0.5, 0.5, 1.0, 1.0))
+        axis_x = b.input("Axis X", "VECTOR", "The projector's X axis in world space (unit "
+                         "length; the Add Decal Projector operator drives it)",
+                         default=(1.0, 0.0, 0.0), subtype="DIRECTION")
+        axis_y = b.input("Axis Y", "VECTOR", "The projector's Y axis in world space (unit "
+                         "length)", default=(0.0, 1.0, 0.0), subtype="DIRECTION")
+        strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
+                           max_value=10.0)
+        falloff = b.input("Falloff", "FLOAT", "Depth over which the decal fades out toward the "
+                          "projector box's near and far faces (fraction of its depth)",
+                          default=0.2, min_value=0.0, max_value=1.0)
+        qx, qy, qz = b.separate(q)
+        with b.frame("Falloff as a bump scale: box mask times depth fade"):
+            inside = b.math("MULTIPLY", b.math("LESS_THAN", b.math("ABSOLUTE", qx), 1.000001),
+                            b.math("LESS_THAN", b.math("ABSOLUTE", qy), 1.000001))
+            fade = b.math("DIVIDE", b.math("SUBTRACT", 1.0, b.math("ABSOLUTE", qz)),
+                          b.math("MAXIMUM", falloff, 1e-6))
+            fade = b.math("MINIMUM", b.math("MAXIMUM", fade, 0.0), 1.0)
+            scale = b.math("MULTIPLY", b.math("MULTIPLY", inside, fade), strength)
+        with b.frame("Listing 2"):
+            dx, dy = decode_tangent_normal(b, color)
+        with b.frame("Listing 15: grad = deriv.x X + deriv.y Y, then Listing 8"):
+            grad = b.add(b.scale(axis_x, dx), b.scale(axis_y, dy))
+            sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, scale), "Surface gradient")
+    return ensure_group("SG Decal", VERSION, build,
+                        "Listing 15: a decal projector as a volume bump map, faded by its "
+                        "falloff")
+
+
+@menu_group("SG Combine")
+def combine_group():
+    def build(b):
+        a = b.input("A", "VECTOR", "First surface gradient", hide_value=True)
+        c = b.input("B", "VECTOR", "Second surface gradient", hide_value=True)
+        scale_a = b.input("Scale A", "FLOAT", "Weight of A (negative inverts that bump)",
+                          default=1.0, min_value=-100.0, max_value=100.0)
+        scale_b = b.input("Scale B", "FLOAT", "Weight of B (negative inverts that bump)",
+                          default=1.0, min_value=-100.0, max_value=100.0)
+        mask = b.input("Mask B", "FLOAT", "Mask for B (0 hides it, 1 keeps it)", default=1.0,
+                       min_value=0.0, max_value=1.0, subtype="FACTOR")
+        with b.frame("Eq. 14: surface gradients add linearly"):
+            out = b.add(b.scale(a, scale_a), b.scale(c, b.math("MULTIPLY", scale_b, mask)))
+        b.output("Surface Gradient", "VECTOR", out, "Scale A x A + Scale B x Mask B x B")
+    return ensure_group("SG Combine", VERSION, build,
+                        "Layering (Eq. 13-14): add, scale, mask or invert surface gradients")
 
 
 def build_all():

@@ -95,7 +95,7 @@ in this file first if needed"""
     def description(cls, _context, properties):
         name = properties.group
         tree = bpy.data.node_groups.get(name)
-        text = tree.description if tree is not None and tree.description else ""
+        text = tree.description.rstrip(". ") if tree is not None else ""
         how = (f"Add an \u201c{name}\u201d group node" if tree is not None else
                f"Add an \u201c{name}\u201d group node (the group is created in this file)")
         return f"{text}.\n{how}" if text else how

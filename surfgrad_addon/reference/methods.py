@@ -123,19 +123,21 @@ def decal_frame(projector):
     return axes[:, 0], axes[:, 1], axes[:, 2], np.linalg.inv(m)
 
 
-def decal_surfgrad(td, image, projector, strength=1.0):
+def decal_surfgrad(td, image, projector, strength=1.0, falloff=0.2):
     """SG Decal (L15): the map projected along the projector's -z over [-1, 1]^2 of its local
-    x, y; outside the box nothing."""
+    x, y, faded to zero over `falloff` of its depth toward the box's near and far faces
+    (the falloff is a bump scale, footnote 2 of the paper); outside the box nothing."""
     n = unit_base_normal(td)
     ax, ay, _, to_local = decal_frame(projector)
     local = td.position @ to_local[:3, :3].T + to_local[:3, 3]
-    inside = np.all(np.abs(local) <= 1.0, axis=-1)
+    inside = np.all(np.abs(local[:, :2]) <= 1.0, axis=-1)
+    fade = np.clip((1.0 - np.abs(local[:, 2])) / max(falloff, 1e-6), 0.0, 1.0)
     st = local[:, :2] * 0.5 + 0.5
     # A tangent-space normal map is TBN-style (slopes in its own unit frame), so its
     # derivative goes straight onto the unit projector axes, independent of the box size.
     deriv = L.tspace_normal_to_derivative(decode_normal_map(sample_image(image, st)))
     sg = L.surfgrad_from_decal(n, deriv, ax, ay)
-    return n, strength * np.where(inside[:, None], sg, 0.0)
+    return n, (strength * inside * fade)[:, None] * sg
 
 
 def resolve(n_sg):

@@ -1,0 +1,124 @@
+"""Build and validate the extension zip with Blender's own extension builder.
+
+    python -m surfgrad_addon.blender.package --out DIR      # prints the zip's path
+
+No `blender` binary is needed: the bpy wheel ships the `bl_pkg` add-on, whose
+`bl_extension_cli.cli_extension_handler(args)` is what `blender --command extension ARGS` runs.
+The extension's root is the `surfgrad_addon` package itself (its `__init__.py` has
+register/unregister), so the build stages `blender_manifest.toml` next to the package's
+contents in a temporary folder (without `__pycache__`) and builds from there: tests, .venv, out/
+and the rest of the repository never reach the zip.
+"""
+
+import argparse
+import contextlib
+import io
+import os
+import shutil
+import sys
+import tempfile
+import tomllib
+from pathlib import Path
+
+PACKAGE_DIR = Path(__file__).resolve().parents[1]         # surfgrad_addon/
+ROOT = PACKAGE_DIR.parent                                 # the repository
+MANIFEST = ROOT / "blender_manifest.toml"
+IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "*.pyo")
+
+
+class ExtensionToolError(RuntimeError):
+    """Blender's extension command failed; the message carries its output."""
+
+
+def manifest():
+    with open(MANIFEST, "rb") as fh:
+        return tomllib.load(fh)
+
+
+def zip_name():
+    m = manifest()
+    return f"{m['id']}-{m['version']}.zip"
+
+
+def stage(dest):
+    """Copy the manifest and the package's contents (the extension's root) into `dest`."""
+    dest = Path(dest)
+    shutil.copytree(PACKAGE_DIR, dest, ignore=IGNORE, dirs_exist_ok=True)
+    shutil.copy2(MANIFEST, dest / "blender_manifest.toml")
+    return dest
+
+
+def expected_files():
+    """The zip's file list: the manifest and every package file, paths relative to the root."""
+    files = {"blender_manifest.toml"}
+    for dirpath, dirnames, filenames in os.walk(PACKAGE_DIR):
+        dirnames[:] = [d for d in dirnames if d != "__pycache__"]
+        rel = Path(dirpath).relative_to(PACKAGE_DIR)
+        files.update((rel / f).as_posix() for f in filenames
+                     if not f.endswith((".pyc", ".pyo")))
+    return files
+
+
+def extension_cli():
+    """Blender's `cli_extension_handler` from the wheel's bl_pkg add-on (imports bpy)."""
+    import bpy
+    try:
+        from bl_pkg import bl_extension_cli
+    except ImportError:            # addons_core not on sys.path: add it from the install
+        sys.path.append(bpy.utils.system_resource('SCRIPTS', path="addons_core"))
+        from bl_pkg import bl_extension_cli
+    return bl_extension_cli.cli_extension_handler
+
+
+def run_extension_command(args):
+    """`blender --command extension ARGS`; returns its output, raises ExtensionToolError."""
+    handler = extension_cli()
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(out):
+        try:
+            rc = handler(list(args))
+        except SystemExit as ex:     # argparse errors
+            rc = ex.code if isinstance(ex.code, int) else 1
+    text = out.getvalue()
+    if rc != 0:
+        raise ExtensionToolError(f"extension {' '.join(args)} failed ({rc}):\n{text}")
+    return text
+
+
+def validate(path):
+    """Blender's validator on a source folder or a built zip; returns its output."""
+    return run_extension_command(["validate", str(path)])
+
+
+def build(out_dir, log=None):
+    """Stage, validate, build and validate the zip; returns the zip's path in `out_dir`."""
+    out_dir = Path(out_dir).resolve()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    target = out_dir / zip_name()
+    with tempfile.TemporaryDirectory(prefix="surfgrad-stage-") as tmp:
+        source = stage(Path(tmp) / "surfgrad")
+        messages = [validate(source),
+                    run_extension_command(["build", "--source-dir", str(source),
+                                           "--output-filepath", str(target)]),
+                    validate(target)]
+    if log is not None:
+        log.write("".join(messages))
+    return target
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m surfgrad_addon.blender.package",
+                                     description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", required=True, help="folder for the zip")
+    args = parser.parse_args(argv)
+    try:
+        path = build(args.out, log=sys.stderr)
+    except ExtensionToolError as ex:
+        print(ex, file=sys.stderr)
+        return 1
+    print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
