@@ -30,6 +30,8 @@ The bake model (read from the Cycles kernel of bpy 5.0.1 and pinned by the tests
 
 import numpy as np
 
+from surfgrad_addon.reference.cycles_bake import bump_differentials, make_orthonormals, uv_step  # noqa: E402,F401
+
 import blender_bake_probe as base
 from surfgrad_addon.reference import MeshArrays, rasterize
 from surfgrad_addon.reference.image_sampling import sample_image
@@ -288,39 +290,9 @@ def cycles_tangent_node(td, name=None, smooth=True):
     return np.cross(n, _normalize(np.cross(tw, n)))
 
 
-def make_orthonormals(n):
-    """Cycles' make_orthonormals (util/math_float3.h): a = normalize((1,1,1) x N) (or
-    (-1,1,1) x N when N.x == N.y == N.z), b = N x a."""
-    n = np.asarray(n, dtype=np.float64)
-    x, y, z = n[..., 0], n[..., 1], n[..., 2]
-    same = (x == y) & (x == z)
-    a = np.where(same[..., None], np.stack([z - y, x + z, -y - x], -1),
-                 np.stack([z - y, x - z, y - x], -1))
-    a = _normalize(a)
-    return a, np.cross(n, a)
-
-
-def cycles_bake_bump_differentials(texel_data):
-    """dPdx, dPdy (N, 3) per texel that a Cycles bake gives the Bump node (and the shifted
-    copies of its Height graph): r * make_orthonormals(Ng), with r = 0.25 * (|dP/ds| / W +
-    |dP/dt| / H) of the bake's UV map (half the texel differentials of Blender's bake,
-    compacted to their mean length by Cycles)."""
-    td = texel_data
-    dp_ds, dp_dt, _ = td.derivatives(td.uv_map)
-    r = 0.25 * (np.linalg.norm(dp_ds, axis=-1) / td.width
-                + np.linalg.norm(dp_dt, axis=-1) / td.height)
-    a, b = make_orthonormals(td.geometric_normal)
-    return r[:, None] * a, r[:, None] * b
-
-
-def uv_step(td, v, name=None):
-    """The change of UV map `name` along the in-plane world vector v (N, 3) on each texel's
-    triangle: what Cycles adds to an attribute in a Bump node's shifted copies (fw * df)."""
-    dp_ds, dp_dt, _ = td.derivatives(name or td.uv_map)
-    ng = td.geometric_normal
-    r1, r2 = np.cross(dp_dt, ng), np.cross(ng, dp_ds)
-    det = _dot(dp_ds, r1)
-    return np.concatenate([_dot(v, r1), _dot(v, r2)], -1) / det
+# The bake's differentials live in the reference (reference/cycles_bake.py); the tests here
+# pin them against real bakes.
+cycles_bake_bump_differentials = bump_differentials
 
 
 def cycles_bump_normal(n, dpdx, dpdy, h_c, h_x, h_y, distance=1.0, filter_width=0.1,

@@ -24,12 +24,16 @@ def scene():
     return test_scenes.new_scene()
 
 
-@pytest.mark.parametrize("method", sorted(compare.METHODS))
+CASES = [(m, "hq") for m in sorted(compare.METHODS) if m != "height-map"] + \
+    [("height-map", v) for v in ("forward", "one-texel", "hq")]
+
+
+@pytest.mark.parametrize("method,variant", CASES)
 @pytest.mark.parametrize("obj_name", test_scenes.SCENE_OBJECTS)
-def test_bake_matches_reference(scene, obj_name, method):
+def test_bake_matches_reference(scene, obj_name, method, variant):
     report, heat = compare.compare_object(bpy.data.objects[obj_name], method, RESOLUTION,
-                                          log=lambda *_: None)
-    REPORTS[(method, obj_name)] = report
+                                          variant=variant, log=lambda *_: None)
+    REPORTS[(method, variant, obj_name)] = report
     assert report["texels_compared"] > 0.6 * RESOLUTION ** 2 * (0.9 if obj_name != "Transformed" else 0.8)
     assert report["excluded_fraction"] < 0.15
     assert report["p99_deg"] <= 0.1, report

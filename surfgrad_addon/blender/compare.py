@@ -26,6 +26,7 @@ from .mesh_data import MeshDataError, mesh_arrays_from_object
 
 DETAIL_UV = "Detail"
 NORMAL_IMAGE_SIZE = 128
+HEIGHT_IMAGE_SIZE = 32       # small: bakes magnify it, where the variants differ
 
 
 class CompareError(ValueError):
@@ -230,6 +231,28 @@ def _layered_reference(inp, td):
     return n, sg1 + sg2 + sg3
 
 
+HEIGHT_BUMP_SCALE = 0.05
+
+
+def _height_map_graph(inp, nodes, links):
+    uv = _uv(nodes, inp.uv_map)
+    if inp.variant == "forward":
+        height = nodes.new("ShaderNodeSeparateXYZ")
+        links.new(_image_node(nodes, links, inp.bpy_image("height"), uv), height.inputs[0])
+        node = _group(nodes, G.height_map_forward_group())
+        links.new(height.outputs[0], node.inputs["Height"])
+    else:
+        node = _group(nodes, G.height_map_group(inp.bpy_image("height"), inp.variant))
+        links.new(uv, node.inputs["UV"])
+    node.inputs["Bump Scale"].default_value = HEIGHT_BUMP_SCALE
+    return node.outputs["Surface Gradient"]
+
+
+def _height_map_reference(inp, td):
+    return M.height_map_surfgrad(td, inp.pixels("height"), inp.variant, HEIGHT_BUMP_SCALE,
+                                 inp.uv_map)
+
+
 BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
 
 
@@ -271,6 +294,7 @@ METHODS = {
     "object-normal": (_object_normal_graph, _object_normal_reference),
     "volume-noise": (_volume_noise_graph,
                      lambda inp, td: M.volume_noise_surfgrad(td, NOISE_SCALE, NOISE_AMOUNT, 4)),
+    "height-map": (_height_map_graph, _height_map_reference),
     "triplanar": (_triplanar_graph,
                   lambda inp, td: M.triplanar_surfgrad(td, inp.pixels("normal"))),
     "decal": (_decal_graph, _decal_reference),
@@ -344,7 +368,7 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
     px = R.test_images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8, radius=0.6)
     inp.images["detail"] = (px.astype(np.float32).astype(np.float64),
                             _bpy_float_image("sg_detail", px))
-    h = R.test_images.wave_height_image(NORMAL_IMAGE_SIZE)
+    h = R.test_images.wave_height_image(HEIGHT_IMAGE_SIZE)
     inp.images["height"] = (h.astype(np.float32).astype(np.float64),
                             _bpy_float_image("sg_height", h))
     return inp

@@ -11,7 +11,7 @@ listings rewritten in them (the screen basis cancels).
 
 from .node_builder import ensure_group
 
-VERSION = 6
+VERSION = 7
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
 
 
@@ -84,6 +84,7 @@ def surface_gradient_group():
 # Shifted copies see UV + fw * dUV: for linear attributes any step is exact, and a large one
 # keeps float32 cancellation in the forward differences small.
 BUMP_FILTER_WIDTH = 10.0
+FORWARD_FILTER_WIDTH = 2.0      # = reference.methods.FORWARD_FILTER_WIDTH
 
 
 def uv_gradients_group():
@@ -561,6 +562,113 @@ def combine_group():
         b.output("Surface Gradient", "VECTOR", out, "Scale A x A + Scale B x Mask B x B")
     return ensure_group("SG Combine", VERSION, build,
                         "Layering (Eq. 13-14): add, scale, mask or invert surface gradients")
+
+
+def _height_image_node(b, image, vector, interpolation, extension):
+    node = b.node("ShaderNodeTexImage", interpolation=interpolation, extension=extension)
+    node.image = image
+    b.link(vector, node.inputs["Vector"])
+    return b.separate(node.outputs["Color"])[0]
+
+
+def height_map_group(image=None, variant="hq", extension="REPEAT"):
+    """SG Height Map for one height image: Listing 16 at level 0 ('one-texel': three Linear
+    taps one texel apart; 'hq': the 4x4 Closest block of Eq. 20/21), through Listing 6 in
+    surface gradients: grad_S H = W dH/du grad s + H dH/dv grad t."""
+    if variant not in ("one-texel", "hq"):
+        raise ValueError(f"height map variant {variant!r}: use 'one-texel' or 'hq' (the "
+                         f"forward variant is SG Height Map Forward)")
+    w, h = (image.size[0], image.size[1]) if image is not None else (1024, 1024)
+
+    def build(b):
+        n = normal_input(b)
+        uv = b.input("UV", "VECTOR", "Texture coordinate of the height image (link a UV Map "
+                     "node)", hide_value=True)
+        scale = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
+                        default=0.05, min_value=-1000.0, max_value=1000.0)
+        grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
+        if variant == "one-texel":
+            with b.frame("Listing 16 (level 0): forward differences one texel apart"):
+                hc = _height_image_node(b, image, uv, "Linear", extension)
+                hr = _height_image_node(b, image, b.vmath("ADD", uv, (1.0 / w, 0.0, 0.0)),
+                                        "Linear", extension)
+                hu = _height_image_node(b, image, b.vmath("ADD", uv, (0.0, 1.0 / h, 0.0)),
+                                        "Linear", extension)
+                du, dv = b.math("SUBTRACT", hr, hc), b.math("SUBTRACT", hu, hc)
+        else:
+            with b.frame("Eq. 20/21: Sobel derivatives of the 4x4 block, bilinearly blended"):
+                f = b.vmath("SUBTRACT", b.vmath("MULTIPLY", uv, (float(w), float(h), 0.0)),
+                            (0.5, 0.5, 0.0))
+                fl = b.vmath("FLOOR", f)
+                tx, ty, _ = b.separate(b.sub(f, fl))
+                ax, ay = b.math("SUBTRACT", 1.0, tx), tx
+                bx, by = b.math("SUBTRACT", 1.0, ty), ty
+
+                def weights(p, q):
+                    smooth = [b.math("MULTIPLY", p, 0.25),
+                              b.math("MULTIPLY", b.math("ADD", b.math("MULTIPLY", p, 2.0), q), 0.25),
+                              b.math("MULTIPLY", b.math("ADD", p, b.math("MULTIPLY", q, 2.0)), 0.25),
+                              b.math("MULTIPLY", q, 0.25)]
+                    diff = [b.math("MULTIPLY", p, -0.5), b.math("MULTIPLY", q, -0.5),
+                            b.math("MULTIPLY", p, 0.5), b.math("MULTIPLY", q, 0.5)]
+                    return smooth, diff
+                smooth_u, diff_u = weights(ax, ay)
+                smooth_v, diff_v = weights(bx, by)
+                du, dv = 0.0, 0.0
+                for i in range(4):          # rows (v)
+                    for j in range(4):      # columns (u)
+                        centre = b.vmath("DIVIDE", b.vmath("ADD", fl, (j - 0.5, i - 0.5, 0.0)),
+                                         (float(w), float(h), 1.0))
+                        q = _height_image_node(b, image, centre, "Closest", extension)
+                        du = b.math("ADD", du, b.math("MULTIPLY", b.math(
+                            "MULTIPLY", smooth_v[i], diff_u[j]), q))
+                        dv = b.math("ADD", dv, b.math("MULTIPLY", b.math(
+                            "MULTIPLY", diff_v[i], smooth_u[j]), q))
+        with b.frame("Listing 6 in surface gradients: W dH/du grad s + H dH/dv grad t"):
+            sg = b.add(b.scale(grads.outputs[0], b.math("MULTIPLY", du, float(w))),
+                       b.scale(grads.outputs[1], b.math("MULTIPLY", dv, float(h))))
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, scale), "Surface gradient")
+    def stale(tree):
+        # Rebuild when the image it samples was replaced or removed, or changed size.
+        taps = [nd for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
+        return any(nd.image != image for nd in taps) or tree.get("surfgrad_size") != [w, h]
+
+    label = {"hq": "HQ", "one-texel": "One-Texel"}[variant]
+    name = f"SG Height Map {label}" + (f" [{image.name}]" if image is not None else "")
+    tree = ensure_group(name, VERSION, build,
+                        f"Scale-dependent bump from a height image ({label}, Listing 16 and "
+                        f"Listing 6); image {image.name if image else '(none: use Add Height Map)'}",
+                        stale=stale)
+    tree["surfgrad_size"] = [w, h]
+    return tree
+
+
+menu_group("SG Height Map HQ")(height_map_group)
+
+
+@menu_group("SG Height Map Forward")
+def height_map_forward_group():
+    def build(b):
+        n = normal_input(b)
+        height = b.input("Height", "FLOAT", "Height (link an Image Texture or any scalar "
+                         "graph)", default=0.0, hide_value=True)
+        scale = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
+                        default=0.05, min_value=-1000.0, max_value=1000.0)
+        with b.frame("Listing 7: forward differences along the render's differentials "
+                     "(the Bump node, inverted: g = N - n / (n . N))"):
+            bump = b.node("ShaderNodeBump")
+            bump.inputs["Strength"].default_value = 1.0
+            bump.inputs["Distance"].default_value = 1.0
+            if "Filter Width" in bump.inputs:
+                bump.inputs["Filter Width"].default_value = FORWARD_FILTER_WIDTH
+            b.link(height, bump.inputs["Height"])
+            b.link(n, bump.inputs["Normal"])
+            nb = bump.outputs[0]
+            g = b.sub(n, b.scale(nb, b.math("DIVIDE", 1.0, b.dot(nb, n))))
+        b.output("Surface Gradient", "VECTOR", b.scale(g, scale), "Surface gradient")
+    return ensure_group("SG Height Map Forward", VERSION, build,
+                        "Scale-dependent bump from any height by forward differences "
+                        "(Listing 7, Listing 6)")
 
 
 def build_all():

@@ -23,14 +23,15 @@ SOCKET_TYPES = {"VECTOR": "NodeSocketVector", "FLOAT": "NodeSocketFloat",
                 "INT": "NodeSocketInt"}
 
 
-def ensure_group(name, version, build, description):
+def ensure_group(name, version, build, description, stale=None):
     """Return node group `name`, (re)building it with build(GroupBuilder) unless it already
-    carries `version`."""
+    carries `version` (and `stale(tree)`, if given, is false: e.g. an image it references is
+    gone)."""
     tree = bpy.data.node_groups.get(name)
     if tree is not None and tree.bl_idname != "ShaderNodeTree":
         raise ValueError(f"a {tree.bl_idname} named {name!r} already exists; rename it so the "
                          f"surface-gradient shader group can be created")
-    if tree is not None and tree.get(VERSION_KEY) == version:
+    if tree is not None and tree.get(VERSION_KEY) == version and not (stale and stale(tree)):
         return tree
     if tree is None:
         tree = bpy.data.node_groups.new(name, "ShaderNodeTree")

@@ -9,6 +9,7 @@ and y one along t (TexelData.texel_steps). Colour images are normal maps in [0, 
 import numpy as np
 
 from . import listings as L
+from .cycles_bake import bump_differentials, uv_step
 from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin1985, triplanar_geiss
 from .height_map import deriv_from_height_map, deriv_three_tap
 from .image_sampling import sample_image
@@ -16,6 +17,9 @@ from .noise import fractal_sum
 from .vecmath import normalize
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
+# Filter Width of the Forward variant's Bump node: a bake's differentials are half a texel
+# long, so 2 steps about one texel, like the paper's one-pixel screen differences.
+FORWARD_FILTER_WIDTH = 2.0
 
 
 def unit_base_normal(td):
@@ -67,18 +71,24 @@ def procedural_basis_surfgrad(td, image, uv_map, strength=1.0, interpolation="Li
 def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
                         interpolation="Linear"):
     """SG Height Map: scale-dependent bump (L6) with the height's derivative from Listing 7
-    ('forward': three taps one bake texel apart), or Listing 16 at level 0 ('one-texel',
-    'hq')."""
+    ('forward': three taps along the bake's differentials, as Blender's Bump node takes them),
+    or Listing 16 at level 0 ('one-texel', 'hq'). bump_scale: world units per unit height."""
     if variant not in HEIGHT_VARIANTS:
         raise ValueError(f"unknown height-map variant {variant!r}; use one of {HEIGHT_VARIANTS}")
     n = unit_base_normal(td)
-    dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
     st = td.uv(uv_map)
     if variant == "forward":
-        d = deriv_three_tap(height, st, dst_dx, dst_dy, interpolation)
-        sg = L.surfgrad_scale_dependent(n, dpdx, dpdy, d, dst_dx, dst_dy, None,
+        # Listing 7's screen-space taps, with the differentials a Cycles bake gives its
+        # Bump node (the Forward variant is that node), FORWARD_FILTER_WIDTH steps long.
+        dpdx, dpdy = (FORWARD_FILTER_WIDTH * d for d in bump_differentials(td))
+        h_c = sample_image(height, st, interpolation)
+        h_x = sample_image(height, st + uv_step(td, dpdx, uv_map), interpolation)
+        h_y = sample_image(height, st + uv_step(td, dpdy, uv_map), interpolation)
+        d = np.stack([h_x - h_c, h_y - h_c], axis=-1)
+        sg = L.surfgrad_scale_dependent(n, dpdx, dpdy, d, None, None, None,
                                         is_deriv_screen_space=True)
     else:
+        dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
         d = deriv_from_height_map(height, st, hq=(variant == "hq"), interpolation=interpolation)
         dim = (np.shape(height)[1], np.shape(height)[0])
         sg = L.surfgrad_scale_dependent(n, dpdx, dpdy, d, dst_dx, dst_dy, dim)
