@@ -253,6 +253,38 @@ def _height_map_reference(inp, td):
                                  inp.uv_map)
 
 
+PARALLAX_SCALE = 0.15
+VIEW_TILT = (0.45, -0.3, 0.2)      # view = normalize(n + VIEW_TILT): oblique, front-facing
+
+
+def _parallax_graph(inp, nodes, links):
+    geo = nodes.new("ShaderNodeNewGeometry")
+    view = nodes.new("ShaderNodeVectorMath")
+    view.operation = "ADD"
+    links.new(geo.outputs["Normal"], view.inputs[0])
+    view.inputs[1].default_value = VIEW_TILT
+    unit = nodes.new("ShaderNodeVectorMath")
+    unit.operation = "NORMALIZE"
+    links.new(view.outputs[0], unit.inputs[0])
+    par = _group(nodes, G.parallax_group(inp.bpy_image("height")))
+    links.new(_uv(nodes, inp.uv_map), par.inputs["UV"])
+    links.new(unit.outputs[0], par.inputs["View"])
+    par.inputs["Bump Scale"].default_value = PARALLAX_SCALE
+    color = _image_node(nodes, links, inp.bpy_image("normal"), par.outputs["UV"])
+    nm = _group(nodes, G.normal_map_group(inp.uv_map))
+    links.new(color, nm.inputs["Color"])
+    return nm.outputs["Surface Gradient"]
+
+
+def _parallax_reference(inp, td):
+    n = M.unit_base_normal(td)
+    view = R.vecmath.normalize(n + np.array(VIEW_TILT))
+    offs = M.parallax_offset(td, inp.pixels("height"), view, PARALLAX_SCALE, G.POM_STEPS,
+                             inp.uv_map)
+    return M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map,
+                                 st=td.uv(inp.uv_map) + offs)
+
+
 BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
 
 
@@ -298,6 +330,7 @@ METHODS = {
     "triplanar": (_triplanar_graph,
                   lambda inp, td: M.triplanar_surfgrad(td, inp.pixels("normal"))),
     "decal": (_decal_graph, _decal_reference),
+    "parallax": (_parallax_graph, _parallax_reference),
     "layered": (_layered_graph, _layered_reference),
     **{mode: (_blend_graph(mode), _blend_reference(mode)) for mode in BLEND_MODES},
 }

@@ -13,6 +13,7 @@ from .cycles_bake import bump_differentials, uv_step
 from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin1985, triplanar_geiss
 from .height_map import deriv_from_height_map, deriv_three_tap
 from .image_sampling import sample_image
+from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .noise import fractal_sum
 from .vecmath import normalize
 
@@ -45,7 +46,17 @@ def mikktspace_frame(td, uv_map=None):
     return n_w * renorm, t_w * renorm, b_w * renorm
 
 
-def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Linear"):
+def parallax_offset(td, height, view, bump_scale, steps=8, uv_map=None):
+    """The parallax-occlusion texture offset (Listing 11's vector, the fixed-step march of
+    reference/parallax.py) for unit view directions `view` (N, 3) toward the viewer."""
+    n = unit_base_normal(td)
+    dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
+    v = project_vec_to_texture_space(n, dpdx, dpdy, dst_dx, dst_dy, view, bump_scale)
+    return parallax_occlusion_march(lambda q: sample_image(height, q), td.uv(uv_map), v, steps)
+
+
+def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Linear",
+                        st=None):
     """SG Normal Map: MikkTSpace tangent-space map on a UV map with stored tangents (L2, L3,
     and Listing 9's 1/|n| renormalisation), in Blender's Normal Map node's frame.
 
@@ -54,7 +65,8 @@ def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Lin
     against n land exactly on the frame's result, so the map still matches its bake."""
     n_f, t, b = mikktspace_frame(td, uv_map)
     n = unit_base_normal(td)
-    m = decode_normal_map(sample_image(image, td.uv(uv_map), interpolation))
+    m = decode_normal_map(sample_image(image, td.uv(uv_map) if st is None else st,
+                                       interpolation))
     sg = strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m), t, b)
     return n, sg + (n - n_f)
 
