@@ -164,11 +164,11 @@ def _volume_noise_graph(inp, nodes, links, amount=NOISE_AMOUNT):
     return vg.outputs["Surface Gradient"]
 
 
-def _triplanar_graph(inp, nodes, links):
+def _triplanar_graph(inp, nodes, links, image="normal"):
     coords = _group(nodes, G.triplanar_coordinates_group())
     tri = _group(nodes, G.triplanar_group())
     for axis in "XYZ":
-        color = _image_node(nodes, links, inp.bpy_image("normal"), coords.outputs[f"UV {axis}"])
+        color = _image_node(nodes, links, inp.bpy_image(image), coords.outputs[f"UV {axis}"])
         links.new(color, tri.inputs[f"Color {axis}"])
     return tri.outputs["Surface Gradient"]
 
@@ -285,6 +285,27 @@ def _parallax_reference(inp, td):
                                  st=td.uv(inp.uv_map) + offs)
 
 
+def _post_resolve_graph(inp, nodes, links):
+    """Figure 7(b): a baked normal map resolved first, then triplanar detail on top with the
+    resolved normal as the new base normal (weights, projection and second resolve)."""
+    first = _resolve(nodes, links, _normal_map_graph(inp, nodes, links))
+    tri_sg = _triplanar_graph(inp, nodes, links, image="detail")
+    tri = tri_sg.node
+    links.new(first, tri.inputs["Normal"])
+    tri.inputs["Strength"].default_value = 0.5
+    final = _group(nodes, G.resolve_group())
+    links.new(first, final.inputs["Normal"])
+    links.new(tri_sg, final.inputs["Surface Gradient"])
+    return final.outputs["Normal"]
+
+
+def _post_resolve_reference(inp, td):
+    n, sg = M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map)
+    n1 = R.resolve_normal_from_surface_gradient(n, sg)
+    _, sg2 = M.triplanar_surfgrad(td, inp.pixels("detail"), strength=0.5, base_normal=n1)
+    return n1, sg2
+
+
 BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
 
 
@@ -331,6 +352,7 @@ METHODS = {
                   lambda inp, td: M.triplanar_surfgrad(td, inp.pixels("normal"))),
     "decal": (_decal_graph, _decal_reference),
     "parallax": (_parallax_graph, _parallax_reference),
+    "post-resolve": (_post_resolve_graph, _post_resolve_reference),
     "layered": (_layered_graph, _layered_reference),
     **{mode: (_blend_graph(mode), _blend_reference(mode)) for mode in BLEND_MODES},
 }
@@ -443,9 +465,13 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
 def _compare(inp, obj, method, resolution):
     graph, reference = METHODS[method]
     G.build_all()
-    pixels, covered, bake_seconds = B.bake_vector(
-        obj, lambda nodes, links: _resolve(nodes, links, graph(inp, nodes, links)),
-        resolution, resolution, uv_map=inp.uv_map)
+    def build(nodes, links):
+        out = graph(inp, nodes, links)
+        # Graphs return a surface gradient to resolve against the shading normal, or (post-
+        # resolve) an already resolved normal.
+        return out if out.name == "Normal" else _resolve(nodes, links, out)
+    pixels, covered, bake_seconds = B.bake_vector(obj, build, resolution, resolution,
+                                                  uv_map=inp.uv_map)
     try:
         mesh = mesh_arrays_from_object(obj)
     except MeshDataError as err:

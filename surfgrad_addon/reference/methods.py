@@ -129,9 +129,10 @@ def triplanar_samples(td, image, scale=1.0, interpolation="Linear"):
         sample_image(image, p[:, list(ax)], interpolation))) for ax in ((2, 1), (0, 2), (0, 1))]
 
 
-def triplanar_surfgrad(td, image, scale=1.0, k=3.0, strength=1.0):
-    """SG Triplanar (L13 with L14's weights)."""
-    n = unit_base_normal(td)
+def triplanar_surfgrad(td, image, scale=1.0, k=3.0, strength=1.0, base_normal=None):
+    """SG Triplanar (L13 with L14's weights); base_normal replaces the shading normal for
+    post-resolve bump mapping (section 4.6: weights and projection follow it)."""
+    n = unit_base_normal(td) if base_normal is None else base_normal
     w = L.determine_triplanar_weights(n, k)
     return n, strength * L.surfgrad_from_triplanar_projection(n, w, *triplanar_samples(
         td, image, scale))
