@@ -1,8 +1,9 @@
 """Command line: python -m surfgrad_addon <command> ...
 
-  demo             the main job: evaluate the reference on procedural scenes, write maps and
-                   a summary (later stages add Cycles bakes and their comparison)
+  demo             the main job: evaluate the reference on procedural scenes (maps and a
+                   summary), then bake every method with Cycles and compare (compare-all)
   bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
+  compare-all      every method on every procedural test object: table, JSON, heat maps
   compare          bake a method's node groups with Cycles and compare with the reference
                    (needs bpy; also: blender -b FILE --python surfgrad_addon/blender_cli.py
                    -- compare ...)
@@ -46,11 +47,26 @@ def main(argv=None, in_blender=False):
     cmp.add_argument("--variant", default="hq", choices=("forward", "one-texel", "hq"),
                      help="height-map derivative variant")
     cmp.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    call = sub.add_parser("compare-all", help="every method on every test object (needs bpy)")
+    call.add_argument("--out", default="out/compare", help="output folder")
+    call.add_argument("--resolution", type=int, default=64, help="bake size in texels")
+    call.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    demo.add_argument("--compare-resolution", type=int, default=64,
+                      help="bake size of the bake-vs-reference stage")
+    demo.add_argument("--no-bake", action="store_true",
+                      help="skip the Cycles bake stage (reference only)")
     args = parser.parse_args(argv)
     try:
         if args.command == "demo":
             from . import main_job
             main_job.run(args.out, args.resolution, args.overwrite)
+            if not args.no_bake:
+                from .blender import compare
+                compare.run_all(f"{args.out}/compare", args.compare_resolution,
+                                args.overwrite)
+        elif args.command == "compare-all":
+            from .blender import compare
+            compare.run_all(args.out, args.resolution, args.overwrite)
         elif args.command == "bench-reference":
             from . import bench_reference
             bench_reference.run(args.out, args.sizes or bench_reference.SIZES,
