@@ -173,6 +173,12 @@ def _triplanar_graph(inp, nodes, links, image="normal"):
     return tri.outputs["Surface Gradient"]
 
 
+def _triplanar_height_graph(inp, nodes, links):
+    node = _group(nodes, G.triplanar_height_group(inp.bpy_image("height")))
+    node.inputs["Bump Scale"].default_value = HEIGHT_BUMP_SCALE
+    return node.outputs["Surface Gradient"]
+
+
 DECAL_FALLOFF = 0.2
 
 
@@ -350,6 +356,9 @@ METHODS = {
     "height-map": (_height_map_graph, _height_map_reference),
     "triplanar": (_triplanar_graph,
                   lambda inp, td: M.triplanar_surfgrad(td, inp.pixels("normal"))),
+    "triplanar-height": (_triplanar_height_graph,
+                         lambda inp, td: M.triplanar_height_surfgrad(
+                             td, inp.pixels("height"), bump_scale=HEIGHT_BUMP_SCALE)),
     "decal": (_decal_graph, _decal_reference),
     "parallax": (_parallax_graph, _parallax_reference),
     "post-resolve": (_post_resolve_graph, _post_resolve_reference),

@@ -671,6 +671,61 @@ def height_map_forward_group():
                         "(Listing 7, Listing 6)")
 
 
+def triplanar_height_group(image=None, extension="REPEAT"):
+    """SG Triplanar Height for one height image used on all three planes: per plane the
+    one-texel derivative of Listing 16 (three Linear taps), in world units, into Listing 13's
+    volume gradient with Listing 14's weights; Listing 8 projects it."""
+    w, h = (image.size[0], image.size[1]) if image is not None else (1024, 1024)
+
+    def build(b):
+        n = normal_input(b)
+        p = position_input(b, "Where to project from (unlinked: world position)")
+        scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
+                        min_value=0.0, max_value=1e4)
+        k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
+                    min_value=1.0, max_value=64.0)
+        bump = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
+                       default=0.05, min_value=-1000.0, max_value=1000.0)
+        with b.frame("Listing 14: weights"):
+            base = b.separate(b.vmath("MAXIMUM", b.vmath("SUBTRACT", b.vmath("ABSOLUTE", n),
+                                                          (0.2, 0.2, 0.2)), (0.0, 0.0, 0.0)))
+            wx, wy, wz = (b.math("POWER", c, k) for c in base)
+            total = b.math("MAXIMUM", b.math("ADD", b.math("ADD", wx, wy), wz), 1e-30)
+            w0, w1, w2 = (b.math("DIVIDE", c, total) for c in (wx, wy, wz))
+        x, y, z = b.separate(b.scale(p, scale))
+        derivs = []
+        for label, (u, v) in (("X: (z, y)", (z, y)), ("Y: (x, z)", (x, z)), ("Z: (x, y)", (x, y))):
+            with b.frame(f"Plane {label}: Listing 16 one-texel derivative, per world unit"):
+                uv = b.combine(u, v)
+                hc = _height_image_node(b, image, uv, "Linear", extension)
+                hr = _height_image_node(b, image, b.vmath("ADD", uv, (1.0 / w, 0.0, 0.0)),
+                                        "Linear", extension)
+                hu = _height_image_node(b, image, b.vmath("ADD", uv, (0.0, 1.0 / h, 0.0)),
+                                        "Linear", extension)
+                derivs.append((b.math("MULTIPLY", b.math("SUBTRACT", hr, hc), b.math("MULTIPLY", scale, float(w))),
+                               b.math("MULTIPLY", b.math("SUBTRACT", hu, hc), b.math("MULTIPLY", scale, float(h)))))
+        (dxx, dxy), (dyx, dyy), (dzx, dzy) = derivs
+        with b.frame("Listing 13: volume gradient of Eq. 19, then Listing 8"):
+            grad = b.combine(
+                b.math("ADD", b.math("MULTIPLY", w2, dzx), b.math("MULTIPLY", w1, dyx)),
+                b.math("ADD", b.math("MULTIPLY", w2, dzy), b.math("MULTIPLY", w0, dxy)),
+                b.math("ADD", b.math("MULTIPLY", w0, dxx), b.math("MULTIPLY", w1, dyy)))
+            sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, bump), "Surface gradient")
+
+    def stale(tree):
+        taps = [nd for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
+        return any(nd.image != image for nd in taps)
+
+    name = "SG Triplanar Height" + (f" [{image.name}]" if image is not None else "")
+    return ensure_group(name, VERSION, build,
+                        "Listings 13 and 14 from a height image on all three planes",
+                        stale=stale)
+
+
+menu_group("SG Triplanar Height")(triplanar_height_group)
+
+
 POM_STEPS = 8
 
 

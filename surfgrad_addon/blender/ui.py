@@ -50,6 +50,20 @@ def _uses_tree(group, tree, seen=None):
                and _uses_tree(node.node_tree, tree, seen) for node in group.nodes)
 
 
+def image_bound(name):
+    """True for menu groups built per image (their builder takes an `image`)."""
+    import inspect
+    return "image" in inspect.signature(dict(groups.MENU_GROUPS)[name]).parameters
+
+
+def active_image(tree):
+    """The image of the tree's active Image Texture node, or None."""
+    node = tree.nodes.active
+    if node is not None and node.bl_idname == "ShaderNodeTexImage":
+        return node.image
+    return None
+
+
 def add_group_node(tree, name, location=(0.0, 0.0)):
     """Build the menu group `name` if needed and add a group node for it to `tree` at
     `location`, selected and active (all other nodes deselected). Returns the node; raises
@@ -58,7 +72,13 @@ def add_group_node(tree, name, location=(0.0, 0.0)):
     if name not in builders:
         raise KeyError(f"unknown surface-gradient group {name!r}; the menu has "
                        + ", ".join(builders))
-    group = builders[name]()          # idempotent: reuses a current group, updates an old one
+    builder = builders[name]
+    if image_bound(name):
+        # Shader groups cannot take images as inputs: an image-bound group (height map,
+        # parallax, triplanar height) is built for the image of the active Image Texture node.
+        group = builder(image=active_image(tree))
+    else:
+        group = builder()             # idempotent: reuses a current group, updates an old one
     if _uses_tree(group, tree):
         raise ValueError(f"{name!r} cannot be added inside itself")
     for node in tree.nodes:
@@ -131,11 +151,17 @@ in this file first if needed"""
             self.report({'ERROR'}, problem)
             return {'CANCELLED'}
         space = context.space_data
+        tree = space.edit_tree
+        unbound = self.group in dict(groups.MENU_GROUPS) and image_bound(self.group) \
+            and active_image(tree) is None
         try:
-            add_group_node(space.edit_tree, self.group, space.cursor_location)
+            add_group_node(tree, self.group, space.cursor_location)
         except (KeyError, ValueError) as ex:
             self.report({'ERROR'}, str(ex.args[0]))
             return {'CANCELLED'}
+        if unbound:
+            self.report({'WARNING'}, f"{self.group} samples its height image itself: make an "
+                        f"Image Texture node holding the image active, then add it again")
         return {'FINISHED'}
 
 

@@ -138,6 +138,19 @@ def triplanar_surfgrad(td, image, scale=1.0, k=3.0, strength=1.0, base_normal=No
         td, image, scale))
 
 
+def triplanar_height_surfgrad(td, height, scale=1.0, k=3.0, bump_scale=1.0):
+    """SG Triplanar Height: one height image on the three planes, each plane's one-texel
+    derivative (Listing 16) in world units, into Listing 13 with Listing 14's weights."""
+    n = unit_base_normal(td)
+    w = L.determine_triplanar_weights(n, k)
+    hh, hw = np.shape(height)
+    per_unit = np.array([hw * scale, hh * scale])
+    p = td.position * scale
+    d = [deriv_from_height_map(height, p[:, list(ax)]) * per_unit
+         for ax in ((2, 1), (0, 2), (0, 1))]
+    return n, bump_scale * L.surfgrad_from_triplanar_projection(n, w, *d)
+
+
 def decal_frame(projector):
     """Projector matrix (4x4, object to world of a unit cube [-1, 1]^3) to its unit axes and
     the world-to-projector transform."""

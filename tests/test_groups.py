@@ -1,0 +1,104 @@
+"""Building the node groups: idempotent, versioned without breaking links, tidy; and SG Noise's
+value equal to the reference noise."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import reference as R  # noqa: E402
+from surfgrad_addon.blender import bake, groups as G, test_scenes  # noqa: E402
+from surfgrad_addon.blender.mesh_data import mesh_arrays_from_object  # noqa: E402
+
+
+@pytest.fixture()
+def fresh():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def test_building_twice_gives_one_group_each(fresh):
+    G.build_all()
+    names = sorted(g.name for g in bpy.data.node_groups)
+    G.build_all()
+    assert sorted(g.name for g in bpy.data.node_groups) == names
+    assert all(not name.endswith(".001") for name in names)
+    menu = [n for n, _ in G.MENU_GROUPS]
+    assert set(menu) <= set(names)
+    hidden = [n for n in names if n not in menu]
+    assert hidden and all(n.startswith(".") for n in hidden)
+
+
+def test_a_newer_version_rebuilds_in_place_and_keeps_links(fresh, monkeypatch):
+    tree = G.resolve_group()
+    mat = bpy.data.materials.new("User")
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    group = nodes.new("ShaderNodeGroup")
+    group.node_tree = tree
+    bsdf = nodes.new("ShaderNodeBsdfDiffuse")
+    geo = nodes.new("ShaderNodeNewGeometry")
+    links.new(group.outputs["Normal"], bsdf.inputs["Normal"])
+    links.new(geo.outputs["Normal"], group.inputs["Surface Gradient"])
+    ptr = tree.as_pointer()
+    nodes_before = len(tree.nodes)
+    monkeypatch.setattr(G, "VERSION", G.VERSION + 1)
+    tree.nodes.new("ShaderNodeMath")            # a stray edit the rebuild must clear
+    rebuilt = G.resolve_group()
+    assert rebuilt.as_pointer() == ptr and rebuilt["surfgrad_version"] == G.VERSION
+    assert len(rebuilt.nodes) == nodes_before
+    assert bsdf.inputs["Normal"].is_linked and group.inputs["Surface Gradient"].is_linked
+    assert all(link.is_valid for link in links)
+
+
+def test_every_group_is_documented_with_frames(fresh):
+    for name, tree in G.build_all().items():
+        assert tree.description, name
+        for item in tree.interface.items_tree:
+            if item.item_type == "SOCKET":
+                assert item.description, (name, item.name)
+        assert any(n.bl_idname == "NodeFrame" and n.label for n in tree.nodes), name
+
+
+def test_sg_noise_value_and_gradient_equal_the_reference(fresh):
+    """SG Noise's Value (baked through the emission's red channel) and Gradient, against
+    reference.fractal_sum on the object coordinates: to float32 precision."""
+    obj = test_scenes.build(["Transformed"])["Transformed"]
+    res, scale = 48, 4.0
+
+    def graph(output):
+        def build(nodes, links):
+            noise = nodes.new("ShaderNodeGroup")
+            noise.node_tree = G.noise_group()
+            noise.inputs["Scale"].default_value = scale
+            if output == "Value":
+                comb = nodes.new("ShaderNodeCombineXYZ")
+                links.new(noise.outputs["Value"], comb.inputs[0])
+                return comb.outputs[0]
+            return noise.outputs["Gradient"]
+        return build
+    value_px, cov, _ = bake.bake_vector(obj, graph("Value"), res, res, "UVMap")
+    grad_px, _, _ = bake.bake_vector(obj, graph("Gradient"), res, res, "UVMap")
+    td = R.rasterize(mesh_arrays_from_object(obj), "UVMap", res, res)
+    inside = cov[td.pixel[:, 1], td.pixel[:, 0]]
+    h, g = R.fractal_sum(td.position_object * scale, octaves=4)
+    g_world = (scale * g) @ td.mesh.normal_matrix.T
+    got_v = value_px[td.pixel[:, 1], td.pixel[:, 0], 0][inside]
+    got_g = grad_px[td.pixel[:, 1], td.pixel[:, 0]][inside]
+    assert np.ptp(h[inside]) > 0.5                     # the noise really varies
+    np.testing.assert_allclose(got_v, h[inside], atol=2e-5)
+    np.testing.assert_allclose(got_g, g_world[inside], rtol=1e-4,
+                               atol=2e-4 * np.abs(g_world).max())
+
+
+def test_image_bound_groups_take_the_active_image_texture(fresh):
+    from surfgrad_addon.blender import ui
+    mat = bpy.data.materials.new("M")
+    tree = mat.node_tree
+    img = bpy.data.images.new("rock_height", 8, 4, float_buffer=True)
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    tree.nodes.active = tex
+    node = ui.add_group_node(tree, "SG Height Map HQ")
+    taps = [n for n in node.node_tree.nodes if n.bl_idname == "ShaderNodeTexImage"]
+    assert node.node_tree.name == "SG Height Map HQ [rock_height]"
+    assert len(taps) == 16 and all(t.image == img for t in taps)
+    assert ui.image_bound("SG Parallax") and not ui.image_bound("SG Resolve")
