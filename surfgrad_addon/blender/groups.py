@@ -671,11 +671,16 @@ def height_map_forward_group():
                         "(Listing 7, Listing 6)")
 
 
-def triplanar_height_group(image=None, extension="REPEAT"):
-    """SG Triplanar Height for one height image used on all three planes: per plane the
-    one-texel derivative of Listing 16 (three Linear taps), in world units, into Listing 13's
-    volume gradient with Listing 14's weights; Listing 8 projects it."""
-    w, h = (image.size[0], image.size[1]) if image is not None else (1024, 1024)
+def triplanar_height_group(image=None, extension="REPEAT", images=None):
+    """SG Triplanar Height for height images: `image` on all three planes, or `images`, one
+    per plane (X, Y, Z). Per plane the one-texel derivative of Listing 16 (three Linear taps),
+    in world units, into Listing 13's volume gradient with Listing 14's weights; Listing 8
+    projects it."""
+    plane_images = list(images) if images is not None else [image] * 3
+    if len(plane_images) != 3:
+        raise ValueError("triplanar height needs one image or three (for X, Y and Z)")
+    sizes = [(im.size[0], im.size[1]) if im is not None else (1024, 1024)
+             for im in plane_images]
 
     def build(b):
         n = normal_input(b)
@@ -694,13 +699,14 @@ def triplanar_height_group(image=None, extension="REPEAT"):
             w0, w1, w2 = (b.math("DIVIDE", c, total) for c in (wx, wy, wz))
         x, y, z = b.separate(b.scale(p, scale))
         derivs = []
-        for label, (u, v) in (("X: (z, y)", (z, y)), ("Y: (x, z)", (x, z)), ("Z: (x, y)", (x, y))):
+        planes = (("X: (z, y)", (z, y)), ("Y: (x, z)", (x, z)), ("Z: (x, y)", (x, y)))
+        for (label, (u, v)), img, (w, h) in zip(planes, plane_images, sizes):
             with b.frame(f"Plane {label}: Listing 16 one-texel derivative, per world unit"):
                 uv = b.combine(u, v)
-                hc = _height_image_node(b, image, uv, "Linear", extension)
-                hr = _height_image_node(b, image, b.vmath("ADD", uv, (1.0 / w, 0.0, 0.0)),
+                hc = _height_image_node(b, img, uv, "Linear", extension)
+                hr = _height_image_node(b, img, b.vmath("ADD", uv, (1.0 / w, 0.0, 0.0)),
                                         "Linear", extension)
-                hu = _height_image_node(b, image, b.vmath("ADD", uv, (0.0, 1.0 / h, 0.0)),
+                hu = _height_image_node(b, img, b.vmath("ADD", uv, (0.0, 1.0 / h, 0.0)),
                                         "Linear", extension)
                 derivs.append((b.math("MULTIPLY", b.math("SUBTRACT", hr, hc), b.math("MULTIPLY", scale, float(w))),
                                b.math("MULTIPLY", b.math("SUBTRACT", hu, hc), b.math("MULTIPLY", scale, float(h)))))
@@ -715,9 +721,11 @@ def triplanar_height_group(image=None, extension="REPEAT"):
 
     def stale(tree):
         taps = [nd for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
-        return any(nd.image != image for nd in taps)
+        return [nd.image for nd in taps] != [im for im in plane_images for _ in range(3)]
 
-    name = "SG Triplanar Height" + (f" [{image.name}]" if image is not None else "")
+    named = [im.name for im in plane_images if im is not None]
+    label = named[0] if len(set(named)) == 1 and len(named) == 3 else " | ".join(named)
+    name = "SG Triplanar Height" + (f" [{label}]" if label else "")
     return ensure_group(name, VERSION, build,
                         "Listings 13 and 14 from a height image on all three planes",
                         stale=stale)

@@ -139,15 +139,16 @@ def triplanar_surfgrad(td, image, scale=1.0, k=3.0, strength=1.0, base_normal=No
 
 
 def triplanar_height_surfgrad(td, height, scale=1.0, k=3.0, bump_scale=1.0):
-    """SG Triplanar Height: one height image on the three planes, each plane's one-texel
-    derivative (Listing 16) in world units, into Listing 13 with Listing 14's weights."""
+    """SG Triplanar Height: a height image on the three planes (or a list of three, for X,
+    Y and Z), each plane's one-texel derivative (Listing 16) in world units, into Listing 13
+    with Listing 14's weights."""
     n = unit_base_normal(td)
     w = L.determine_triplanar_weights(n, k)
-    hh, hw = np.shape(height)
-    per_unit = np.array([hw * scale, hh * scale])
+    heights = list(height) if isinstance(height, (list, tuple)) else [height] * 3
     p = td.position * scale
-    d = [deriv_from_height_map(height, p[:, list(ax)]) * per_unit
-         for ax in ((2, 1), (0, 2), (0, 1))]
+    d = [deriv_from_height_map(hgt, p[:, list(ax)])
+         * np.array([np.shape(hgt)[1] * scale, np.shape(hgt)[0] * scale])
+         for hgt, ax in zip(heights, ((2, 1), (0, 2), (0, 1)))]
     return n, bump_scale * L.surfgrad_from_triplanar_projection(n, w, *d)
 
 
