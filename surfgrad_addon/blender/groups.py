@@ -11,7 +11,7 @@ listings rewritten in them (the screen basis cancels).
 
 from .node_builder import ensure_group
 
-VERSION = 7
+VERSION = 8
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
 
 
@@ -438,6 +438,38 @@ def position_input(b, description):
     return b.mix_vector(unlinked, raw, world)
 
 
+def triplanar_weights(b, n, k):
+    """Listing 14: w = max(|n| - 0.2, 0)^k, normalised; returns the three weight sockets."""
+    with b.frame("Listing 14: w = max(|n| - 0.2, 0)^k, normalised"):
+        base = b.separate(b.vmath("MAXIMUM", b.vmath("SUBTRACT", b.vmath("ABSOLUTE", n),
+                                                      (0.2, 0.2, 0.2)), (0.0, 0.0, 0.0)))
+        wx, wy, wz = (b.math("POWER", c, k) for c in base)
+        total = b.math("MAXIMUM", b.math("ADD", b.math("ADD", wx, wy), wz), 1e-30)
+        return tuple(b.math("DIVIDE", c, total) for c in (wx, wy, wz))
+
+
+def triplanar_surface_gradient(b, n, weights, derivs):
+    """Listing 13: the volume gradient of Eq. 19 from the planes' derivatives (sampled at
+    (z, y), (x, z), (x, y)), projected by Listing 8."""
+    w0, w1, w2 = weights
+    (dxx, dxy), (dyx, dyy), (dzx, dzy) = derivs
+    with b.frame("Listing 13: volume gradient of Eq. 19, then Listing 8"):
+        grad = b.combine(
+            b.math("ADD", b.math("MULTIPLY", w2, dzx), b.math("MULTIPLY", w1, dyx)),
+            b.math("ADD", b.math("MULTIPLY", w2, dzy), b.math("MULTIPLY", w0, dxy)),
+            b.math("ADD", b.math("MULTIPLY", w0, dxx), b.math("MULTIPLY", w1, dyy)))
+        return b.sub(grad, b.scale(n, b.dot(n, grad)))
+
+
+def images_stale(expected):
+    """A `stale` test for image-bound groups: rebuild when their Image Texture nodes no longer
+    hold `expected` (in node order), e.g. an image was replaced or removed."""
+    def stale(tree):
+        taps = [nd.image for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
+        return taps != list(expected(len(taps)))
+    return stale
+
+
 @menu_group("SG Triplanar Coordinates")
 def triplanar_coordinates_group():
     def build(b):
@@ -469,24 +501,11 @@ def triplanar_group():
                     min_value=1.0, max_value=64.0)
         strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
                            max_value=10.0)
-        with b.frame("Listing 14: w = max(|n| - 0.2, 0)^k, normalised"):
-            base = b.separate(b.vmath("MAXIMUM", b.vmath("SUBTRACT", b.vmath("ABSOLUTE", n),
-                                                          (0.2, 0.2, 0.2)), (0.0, 0.0, 0.0)))
-            wx, wy, wz = (b.math("POWER", c, k) for c in base)
-            w = b.combine(wx, wy, wz)
-            total = b.math("MAXIMUM", b.math("ADD", b.math("ADD", wx, wy), wz), 1e-30)
-            w = b.scale(w, b.math("DIVIDE", 1.0, total))
-            w0, w1, w2 = b.separate(w)
+        weights = triplanar_weights(b, n, k)
         with b.frame("Listing 2 per plane"):
-            dxx, dxy = decode_tangent_normal(b, cx)
-            dyx, dyy = decode_tangent_normal(b, cy)
-            dzx, dzy = decode_tangent_normal(b, cz)
-        with b.frame("Listing 13: volume gradient of Eq. 19, then Listing 8"):
-            grad = b.combine(
-                b.math("ADD", b.math("MULTIPLY", w2, dzx), b.math("MULTIPLY", w1, dyx)),
-                b.math("ADD", b.math("MULTIPLY", w2, dzy), b.math("MULTIPLY", w0, dxy)),
-                b.math("ADD", b.math("MULTIPLY", w0, dxx), b.math("MULTIPLY", w1, dyy)))
-            sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
+            derivs = [decode_tangent_normal(b, c) for c in (cx, cy, cz)]
+        sg = triplanar_surface_gradient(b, n, weights, derivs)
+        w = b.combine(*weights)
         b.output("Surface Gradient", "VECTOR", b.scale(sg, strength), "Surface gradient")
         b.output("Weights", "VECTOR", w, "The blend weights (x, y, z)")
     return ensure_group("SG Triplanar", VERSION, build,
@@ -628,10 +647,11 @@ def height_map_group(image=None, variant="hq", extension="REPEAT"):
             sg = b.add(b.scale(grads.outputs[0], b.math("MULTIPLY", du, float(w))),
                        b.scale(grads.outputs[1], b.math("MULTIPLY", dv, float(h))))
         b.output("Surface Gradient", "VECTOR", b.scale(sg, scale), "Surface gradient")
+    same_image = images_stale(lambda count: [image] * count)
+
     def stale(tree):
         # Rebuild when the image it samples was replaced or removed, or changed size.
-        taps = [nd for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
-        return any(nd.image != image for nd in taps) or tree.get("surfgrad_size") != [w, h]
+        return same_image(tree) or tree.get("surfgrad_size") != [w, h]
 
     label = {"hq": "HQ", "one-texel": "One-Texel"}[variant]
     name = f"SG Height Map {label}" + (f" [{image.name}]" if image is not None else "")
@@ -691,12 +711,7 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
                     min_value=1.0, max_value=64.0)
         bump = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
                        default=0.05, min_value=-1000.0, max_value=1000.0)
-        with b.frame("Listing 14: weights"):
-            base = b.separate(b.vmath("MAXIMUM", b.vmath("SUBTRACT", b.vmath("ABSOLUTE", n),
-                                                          (0.2, 0.2, 0.2)), (0.0, 0.0, 0.0)))
-            wx, wy, wz = (b.math("POWER", c, k) for c in base)
-            total = b.math("MAXIMUM", b.math("ADD", b.math("ADD", wx, wy), wz), 1e-30)
-            w0, w1, w2 = (b.math("DIVIDE", c, total) for c in (wx, wy, wz))
+        weights = triplanar_weights(b, n, k)
         x, y, z = b.separate(b.scale(p, scale))
         derivs = []
         planes = (("X: (z, y)", (z, y)), ("Y: (x, z)", (x, z)), ("Z: (x, y)", (x, y)))
@@ -710,18 +725,10 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
                                         "Linear", extension)
                 derivs.append((b.math("MULTIPLY", b.math("SUBTRACT", hr, hc), b.math("MULTIPLY", scale, float(w))),
                                b.math("MULTIPLY", b.math("SUBTRACT", hu, hc), b.math("MULTIPLY", scale, float(h)))))
-        (dxx, dxy), (dyx, dyy), (dzx, dzy) = derivs
-        with b.frame("Listing 13: volume gradient of Eq. 19, then Listing 8"):
-            grad = b.combine(
-                b.math("ADD", b.math("MULTIPLY", w2, dzx), b.math("MULTIPLY", w1, dyx)),
-                b.math("ADD", b.math("MULTIPLY", w2, dzy), b.math("MULTIPLY", w0, dxy)),
-                b.math("ADD", b.math("MULTIPLY", w0, dxx), b.math("MULTIPLY", w1, dyy)))
-            sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
+        sg = triplanar_surface_gradient(b, n, weights, derivs)
         b.output("Surface Gradient", "VECTOR", b.scale(sg, bump), "Surface gradient")
 
-    def stale(tree):
-        taps = [nd for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
-        return [nd.image for nd in taps] != [im for im in plane_images for _ in range(3)]
+    stale = images_stale(lambda count: [im for im in plane_images for _ in range(3)])
 
     named = [im.name for im in plane_images if im is not None]
     label = named[0] if len(set(named)) == 1 and len(named) == 3 else " | ".join(named)
@@ -800,10 +807,7 @@ def parallax_group(image=None, extension="REPEAT"):
                  "along the surface (Listing 12)")
         b.output("Height", "FLOAT", hit, "Height where the view ray meets the height field")
 
-    def stale(tree):
-        taps = [nd for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
-        return any(nd.image != image for nd in taps)
-
+    stale = images_stale(lambda count: [image] * count)
     name = "SG Parallax" + (f" [{image.name}]" if image is not None else "")
     return ensure_group(name, VERSION, build,
                         "Listings 11 and 12: parallax mapping with offset limiting and "
