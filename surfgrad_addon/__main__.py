@@ -4,6 +4,8 @@
                    summary), then bake every method with Cycles and compare (compare-all)
   bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
+  bench            speed against accuracy of every method (charts, table, JSON, heat maps)
+                   and the stability suite
   compare          bake a method's node groups with Cycles and compare with the reference
                    (needs bpy; also: blender -b FILE --python surfgrad_addon/blender_cli.py
                    -- compare ...)
@@ -55,6 +57,16 @@ def main(argv=None, in_blender=False):
                       help="bake size of the bake-vs-reference stage")
     demo.add_argument("--no-bake", action="store_true",
                       help="skip the Cycles bake stage (reference only)")
+    bch = sub.add_parser("bench", help="speed against accuracy for every method, and the "
+                                       "stability suite (needs bpy)")
+    bch.add_argument("--out", default="out/bench", help="output folder")
+    bch.add_argument("--quick", action="store_true", help="small bakes, 2 repeats (minutes "
+                                                          "become seconds)")
+    bch.add_argument("--resolution", type=int, default=None, help="bake size (default 256, "
+                                                                  "quick 64)")
+    bch.add_argument("--repeats", type=int, default=None, help="timed repeats (default 5)")
+    bch.add_argument("--only", nargs="+", default=None, help="scenario names to run")
+    bch.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     args = parser.parse_args(argv)
     try:
         if args.command == "demo":
@@ -64,6 +76,10 @@ def main(argv=None, in_blender=False):
                 from .blender import compare
                 compare.run_all(f"{args.out}/compare", args.compare_resolution,
                                 args.overwrite)
+        elif args.command == "bench":
+            from .bench import run as bench_run
+            bench_run.run(args.out, args.quick, args.resolution, args.repeats, args.only,
+                          args.overwrite)
         elif args.command == "compare-all":
             from .blender import compare
             compare.run_all(args.out, args.resolution, args.overwrite)

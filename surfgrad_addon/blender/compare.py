@@ -422,7 +422,10 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
                            f"{names}")
     detail = DETAIL_UV if DETAIL_UV in names else uv_map
     inp = Inputs(obj=obj, uv_map=uv_map, detail_uv=detail, variant=variant)
-    if image is not None:
+    if isinstance(image, np.ndarray):       # pixels given directly (the stability suite)
+        inp.images["normal"] = (image[..., :3].astype(np.float32).astype(np.float64),
+                                _bpy_float_image("sg_normal", image))
+    elif image is not None:
         px, img = _load_image(image)
         inp.images["normal"] = (px, img)
     else:
@@ -463,7 +466,11 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     try:
         if method == "decal":
             inp.projector = _decal_projector(obj)
-        return _compare(inp, obj, method, resolution)
+        graph, reference = METHODS[method]
+        report, heat = compare_graph(inp, obj, graph, reference, resolution)
+        report["method"] = method
+        report["variant"] = inp.variant if method == "height-map" else None
+        return report, heat
     finally:
         for _, img in inp.images.values():
             bpy.data.images.remove(img)
@@ -471,8 +478,10 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
             bpy.data.objects.remove(inp.projector)
 
 
-def _compare(inp, obj, method, resolution):
-    graph, reference = METHODS[method]
+def compare_graph(inp, obj, graph, reference, resolution):
+    """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
+    and the per-texel error image."""
+    method = getattr(graph, "__name__", "graph")
     G.build_all()
     def build(nodes, links):
         out = graph(inp, nodes, links)
@@ -497,10 +506,24 @@ def _compare(inp, obj, method, resolution):
     base = M.unit_base_normal(td)[interior]
     tilt_bake = angle_deg(baked[interior], base)
     tilt_ref = angle_deg(ref[interior], base)
+    # Over every texel both cover (borders included): the stability figures.
+    both = in_bake
+    ng = td.geometric_normal[both]
+    b_all, r_all = baked[both], ref[both]
+    norms = np.linalg.norm(b_all, axis=-1)
+    finite_unit = np.isfinite(b_all).all(-1) & (np.abs(norms - 1) < 1e-3)
+    away = np.sum(b_all * ng, axis=-1) < -1e-3
+    truth_away = np.sum(r_all * ng, axis=-1) < 1e-3
+    report_all = {
+        "finite_unit_fraction_all": float(finite_unit.mean()),
+        "facing_away_fraction": float(away.mean()),
+        "truth_facing_away_fraction": float((np.sum(r_all * ng, axis=-1) < 0).mean()),
+        "faces_away_where_truth_does_not": int(np.sum(away & ~truth_away)),
+    }
     report = {
+        **report_all,
         "method": method, "object": obj.name, "uv_map": inp.uv_map,
         "tilt_mean_deg": float(tilt_ref.mean()), "bake_tilt_mean_deg": float(tilt_bake.mean()),
-        "variant": inp.variant if method == "height-map" else None,
         "resolution": resolution, "texels_compared": int(interior.sum()),
         "texels_excluded": excluded,
         "excluded_fraction": excluded / max(1, int(interior.sum()) + excluded),

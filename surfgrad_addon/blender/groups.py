@@ -11,7 +11,7 @@ listings rewritten in them (the screen basis cancels).
 
 from .node_builder import ensure_group
 
-VERSION = 8
+VERSION = 9
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
 
 
@@ -27,9 +27,10 @@ def menu_group(name):
 def normal_input(b, description="Base normal to perturb (world space). Leave unlinked for "
                                 "the shading normal; link a resolved normal for post-resolve "
                                 "bump mapping"):
-    """The group's Normal input; unlinked it is the shading normal (through .SG Base Normal)."""
+    """The group's Normal input, normalised; unlinked (zero), NaN or Inf it is the shading
+    normal (through .SG Safe Normal)."""
     raw = b.input("Normal", "VECTOR", description, hide_value=True)
-    node = b.node("ShaderNodeGroup", label="Base normal", node_tree=base_normal_group())
+    node = b.node("ShaderNodeGroup", label="Base normal", node_tree=safe_normal_group())
     b.link(raw, node.inputs[0])
     return node.outputs[0]
 
@@ -48,17 +49,24 @@ def sign_nonneg(b, x):
 
 # Internal helpers (names start with "." so the Group menu hides them) -----------------------
 
-def base_normal_group():
+def safe_normal_group():
     def build(b):
-        raw = b.input("Normal", "VECTOR", "A normal, or nothing for the shading normal",
-                      hide_value=True)
-        with b.frame("Unlinked means the shading normal"):
-            # A Bump node with no height returns its Normal input, or the shading normal
-            # when that input carries nothing (an unlinked group socket).
-            bump = b.node("ShaderNodeBump")
-            b.link(raw, bump.inputs["Normal"])
-        b.output("Normal", "VECTOR", bump.outputs[0], "The base normal")
-    return ensure_group(".SG Base Normal", VERSION, build, "Shading normal when unlinked")
+        v = b.input("Vector", "VECTOR", "A direction of any length, or nothing", hide_value=True)
+        with b.frame("normalize(v), or the shading normal where v is zero, NaN or Inf"):
+            # Cycles' Normal Map node in World space normalises its colour input (c - 0.5) * 2
+            # and, alone among shader nodes, replaces a zero or non-finite result by the
+            # shading normal: arithmetic cannot remove a NaN, this node can. It negates its
+            # result on back faces, so the input is negated there first.
+            back = b.node("ShaderNodeNewGeometry").outputs["Backfacing"]
+            flip = b.math("SUBTRACT", 1.0, b.math("MULTIPLY", back, 2.0))
+            color = b.vmath("ADD", b.vmath("MULTIPLY", b.scale(v, flip), (0.5, 0.5, 0.5)),
+                            (0.5, 0.5, 0.5))
+            nm = b.node("ShaderNodeNormalMap", space="WORLD")
+            nm.inputs["Strength"].default_value = 1.0
+            b.link(color, nm.inputs["Color"])
+        b.output("Normal", "VECTOR", nm.outputs[0], "Unit normal, always finite")
+    return ensure_group(".SG Safe Normal", VERSION, build,
+                        "normalize(v) with the shading normal as fallback")
 
 
 def surface_gradient_group():
@@ -111,11 +119,11 @@ def resolve_group():
         sg = b.input("Surface Gradient", "VECTOR", "Sum of the surface gradients to apply",
                      hide_value=True)
         with b.frame("Listing 1: normalize(n - surfGrad)"):
-            v = b.sub(n, sg)
-            unit = b.normalize(v)
-            # Where n - surfGrad has no direction keep the base normal (always a unit vector).
-            ok = b.math("GREATER_THAN", b.length(v), 0.0)
-            out = b.mix_vector(ok, n, unit)
+            # Where n - surfGrad has no direction (zero, NaN, Inf) the shading normal is used:
+            # the result is always a finite unit vector.
+            safe = b.node("ShaderNodeGroup", label="normalize", node_tree=safe_normal_group())
+            b.link(b.sub(n, sg), safe.inputs[0])
+            out = safe.outputs[0]
         b.output("Normal", "VECTOR", out, "Perturbed unit normal (world space): link it to a "
                  "BSDF's Normal")
     return ensure_group("SG Resolve", VERSION, build,

@@ -85,6 +85,18 @@ def build(objects=SCENE_OBJECTS):
     return made
 
 
+def decal_stage():
+    """A torus tilted through a plane (the paper's Figure 6 set-up); returns {name: object}."""
+    import bpy
+    ops = bpy.ops.mesh
+    ops.primitive_torus_add(major_segments=48, minor_segments=16, major_radius=0.8,
+                            minor_radius=0.3, rotation=(1.1, 0.0, 0.0), generate_uvs=True)
+    torus = _finish(bpy.context.active_object, "DecalTorus")
+    ops.primitive_plane_add(size=3.0, calc_uvs=True)
+    plane = _finish(bpy.context.active_object, "DecalPlane")
+    return {"DecalTorus": torus, "DecalPlane": plane}
+
+
 def new_scene(objects=SCENE_OBJECTS):
     """A fresh empty Blender session holding the test objects."""
     import bpy
