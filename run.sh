@@ -3,7 +3,8 @@
 # the pinned requirements, then:
 #   bash run.sh main [ARGS]   the main job: writes out/demo (maps, summary, overview picture)
 #   bash run.sh test [ARGS]   the test suite (pytest ARGS)
-#   bash run.sh bench [ARGS]  benchmark of the reference: out/bench_reference.json
+#   bash run.sh bench [ARGS]  speed against accuracy of every method, stability: out/bench
+#   bash run.sh bench-reference  throughput of the numpy reference: out/bench_reference.json
 # Needs only Python 3.11 (python3.11, or python3 if that is 3.11; or set PYTHON).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -40,7 +41,8 @@ cmd=${1:-}
 case "$cmd" in
   main) exec "$VENV/bin/python" -m surfgrad_addon demo --out out/demo --overwrite "$@" ;;
   test) exec "$VENV/bin/python" -m pytest "$@" ;;
-  bench) exec "$VENV/bin/python" -m surfgrad_addon bench-reference \
+  bench) exec "$VENV/bin/python" -m surfgrad_addon bench --out out/bench --overwrite "$@" ;;
+  bench-reference) exec "$VENV/bin/python" -m surfgrad_addon bench-reference \
            --out out/bench_reference.json --overwrite "$@" ;;
-  *) echo "usage: bash run.sh main|test|bench [ARGS]" >&2; exit 2 ;;
+  *) echo "usage: bash run.sh main|test|bench|bench-reference [ARGS]" >&2; exit 2 ;;
 esac

@@ -1,7 +1,8 @@
 """Command line: python -m surfgrad_addon <command> ...
 
   demo             the main job: evaluate the reference on procedural scenes (maps and a
-                   summary), then bake every method with Cycles and compare (compare-all)
+                   summary), bake every method with Cycles and compare (compare-all), and
+                   chart speed against accuracy (bench --quick)
   bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
   bench            speed against accuracy of every method (charts, table, JSON, heat maps)
@@ -76,6 +77,8 @@ def main(argv=None, in_blender=False):
                 from .blender import compare
                 compare.run_all(f"{args.out}/compare", args.compare_resolution,
                                 args.overwrite)
+                from .bench import run as bench_run
+                bench_run.run(f"{args.out}/bench", quick=True, overwrite=args.overwrite)
         elif args.command == "bench":
             from .bench import run as bench_run
             bench_run.run(args.out, args.quick, args.resolution, args.repeats, args.only,
