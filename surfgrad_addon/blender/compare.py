@@ -42,6 +42,7 @@ class Inputs:
     images: dict = field(default_factory=dict)      # name -> (numpy pixels (H, W, C), bpy image)
     variant: str = "hq"
     projector: object = None                         # a temporary decal projector (an empty)
+    modifier: object = None                          # a temporary SG Displace modifier
 
     def pixels(self, name):
         return self.images[name][0]
@@ -312,6 +313,44 @@ def _post_resolve_reference(inp, td):
     return n1, sg2
 
 
+DISPLACE = {"Amount": 0.1, "Scale": 2.0, "Octaves": 2}
+BUMP_ON_TOP = (8.0, 0.02, 2)                   # scale, amount, octaves of the finer bump
+
+
+def add_displace_modifier(obj, settings=None):
+    """SG Displace as a Geometry Nodes modifier on obj (returns the modifier)."""
+    tree = G.displace_group()
+    mod = obj.modifiers.new("SG Displace", "NODES")
+    mod.node_group = tree
+    for item in tree.interface.items_tree:
+        if item.item_type == "SOCKET" and item.in_out == "INPUT" and \
+                item.name in (settings or DISPLACE):
+            mod[item.identifier] = (settings or DISPLACE)[item.name]
+    obj.data.update()
+    return mod
+
+
+def _displace_bump_graph(inp, nodes, links):
+    """Gustavson's fragment shader: finer SG Noise at the undisplaced object coordinates,
+    through SG Volume Gradient and SG Resolve, on the analytically displaced surface."""
+    scale, amount, octaves = BUMP_ON_TOP
+    rest = _group(nodes, G.rest_position_group())
+    noise = _group(nodes, G.noise_group())
+    links.new(rest.outputs[0], noise.inputs["Vector"])
+    noise.inputs["Scale"].default_value = scale
+    noise.inputs["Octaves"].default_value = octaves
+    vg = _group(nodes, G.volume_gradient_group())
+    links.new(noise.outputs["Gradient"], vg.inputs["Gradient"])
+    vg.inputs["Strength"].default_value = amount
+    return vg.outputs["Surface Gradient"]
+
+
+def _displace_bump_reference(inp, td):
+    scale, amount, octaves = BUMP_ON_TOP
+    return M.volume_noise_surfgrad(td, scale, amount, octaves,
+                                   coords=td.point_attribute(G.REST_ATTRIBUTE))
+
+
 BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
 
 
@@ -362,6 +401,7 @@ METHODS = {
     "decal": (_decal_graph, _decal_reference),
     "parallax": (_parallax_graph, _parallax_reference),
     "post-resolve": (_post_resolve_graph, _post_resolve_reference),
+    "displace-bump": (_displace_bump_graph, _displace_bump_reference),
     "layered": (_layered_graph, _layered_reference),
     **{mode: (_blend_graph(mode), _blend_reference(mode)) for mode in BLEND_MODES},
 }
@@ -466,6 +506,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     try:
         if method == "decal":
             inp.projector = _decal_projector(obj)
+        if method == "displace-bump":
+            inp.modifier = add_displace_modifier(obj)
         graph, reference = METHODS[method]
         report, heat = compare_graph(inp, obj, graph, reference, resolution)
         report["method"] = method
@@ -476,6 +518,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
             bpy.data.images.remove(img)
         if inp.projector is not None:
             bpy.data.objects.remove(inp.projector)
+        if inp.modifier is not None:
+            obj.modifiers.remove(inp.modifier)
 
 
 def compare_graph(inp, obj, graph, reference, resolution):

@@ -48,12 +48,19 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True):
         names = [layer.name for layer in mesh.uv_layers]
         uv_maps = {name: _get(mesh.uv_layers[name].uv, "vector", nl, 2)[tri_loops]
                    for name in names}
+        # Vector point attributes (e.g. SG Displace's rest position) for methods that read them.
+        point_attributes = {}
+        for attr in mesh.attributes:
+            if (attr.domain == "POINT" and attr.data_type == "FLOAT_VECTOR"
+                    and not attr.name.startswith(".") and attr.name != "position"):
+                point_attributes[attr.name] = _get(attr.data, "vector", nv, 3)
         matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
         # Cycles applies the object transform to a mesh used by one object only.
         arrays = MeshArrays(positions=positions, triangles=tri_verts,
                             corner_normals=corner_normals, uv_maps=uv_maps,
                             matrix_world=matrix, name=obj.name,
-                            transform_applied=obj.data.users == 1).validate()
+                            transform_applied=obj.data.users == 1,
+                            point_attributes=point_attributes).validate()
     finally:
         eval_obj.to_mesh_clear()
     if need_tangents:

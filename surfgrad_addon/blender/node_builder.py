@@ -20,21 +20,21 @@ import bpy
 VERSION_KEY = "surfgrad_version"
 SOCKET_TYPES = {"VECTOR": "NodeSocketVector", "FLOAT": "NodeSocketFloat",
                 "COLOR": "NodeSocketColor", "BOOLEAN": "NodeSocketBool",
-                "INT": "NodeSocketInt"}
+                "INT": "NodeSocketInt", "GEOMETRY": "NodeSocketGeometry"}
 
 
-def ensure_group(name, version, build, description, stale=None):
+def ensure_group(name, version, build, description, stale=None, tree_type="ShaderNodeTree"):
     """Return node group `name`, (re)building it with build(GroupBuilder) unless it already
     carries `version` (and `stale(tree)`, if given, is false: e.g. an image it references is
-    gone)."""
+    gone). tree_type: "ShaderNodeTree" or "GeometryNodeTree"."""
     tree = bpy.data.node_groups.get(name)
-    if tree is not None and tree.bl_idname != "ShaderNodeTree":
+    if tree is not None and tree.bl_idname != tree_type:
         raise ValueError(f"a {tree.bl_idname} named {name!r} already exists; rename it so the "
-                         f"surface-gradient shader group can be created")
+                         f"surface-gradient group can be created")
     if tree is not None and tree.get(VERSION_KEY) == version and not (stale and stale(tree)):
         return tree
     if tree is None:
-        tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
+        tree = bpy.data.node_groups.new(name, tree_type)
     tree.nodes.clear()
     tree.description = description
     builder = GroupBuilder(tree)

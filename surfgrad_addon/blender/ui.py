@@ -64,10 +64,42 @@ def active_image(tree):
     return None
 
 
+GEOMETRY_MENU_IDNAME = "NODE_MT_surfgrad_geometry_add"
+GEOMETRY_ADD_MENU = "NODE_MT_geometry_node_add_all"
+
+
+def geometry_tree_problem(context):
+    """None when `context` has an editable Geometry Nodes tree, else the reason."""
+    space = context.space_data
+    if space is None or space.type != 'NODE_EDITOR' or \
+            space.tree_type != 'GeometryNodeTree':
+        return "SG Displace is added in a Geometry Nodes editor"
+    tree = space.edit_tree
+    if tree is None:
+        return "No active Geometry Nodes tree: add a Geometry Nodes modifier first"
+    if not tree.is_editable:
+        return "The active Geometry Nodes tree is not editable (linked or override data)"
+    return None
+
+
 def add_group_node(tree, name, location=(0.0, 0.0)):
     """Build the menu group `name` if needed and add a group node for it to `tree` at
     `location`, selected and active (all other nodes deselected). Returns the node; raises
     KeyError for an unknown name and ValueError when the group cannot be added to `tree`."""
+    geometry = dict(groups.GEOMETRY_MENU_GROUPS)
+    if name in geometry:
+        if tree.bl_idname != "GeometryNodeTree":
+            raise ValueError(f"{name!r} is a Geometry Nodes group: add it in a Geometry "
+                             f"Nodes editor (e.g. on a Geometry Nodes modifier)")
+        group = geometry[name]()
+        for node in tree.nodes:
+            node.select = False
+        node = tree.nodes.new("GeometryNodeGroup")
+        node.node_tree = group
+        node.location = location
+        node.select = True
+        tree.nodes.active = node
+        return node
     builders = dict(groups.MENU_GROUPS)
     if name not in builders:
         raise KeyError(f"unknown surface-gradient group {name!r}; the menu has "
@@ -123,7 +155,7 @@ in this file first if needed"""
     @classmethod
     def poll(cls, context):
         problem = shader_tree_problem(context)
-        if problem is not None:
+        if problem is not None and geometry_tree_problem(context) is not None:
             cls.poll_message_set(problem)
             return False
         return True
@@ -146,13 +178,14 @@ in this file first if needed"""
         return result
 
     def execute(self, context):
-        problem = shader_tree_problem(context)
+        is_geometry = self.group in dict(groups.GEOMETRY_MENU_GROUPS)
+        problem = (geometry_tree_problem if is_geometry else shader_tree_problem)(context)
         if problem is not None:
             self.report({'ERROR'}, problem)
             return {'CANCELLED'}
         space = context.space_data
         tree = space.edit_tree
-        unbound = self.group in dict(groups.MENU_GROUPS) and image_bound(self.group) \
+        unbound = not is_geometry and self.group in dict(groups.MENU_GROUPS) and image_bound(self.group) \
             and active_image(tree) is None
         try:
             add_group_node(tree, self.group, space.cursor_location)
@@ -185,6 +218,35 @@ class NODE_MT_surfgrad_add(bpy.types.Menu):
             props.use_transform = True
 
 
+class NODE_MT_surfgrad_geometry_add(bpy.types.Menu):
+    """Gustavson's procedural displacement with analytic normals (surfgrad)"""
+    bl_idname = GEOMETRY_MENU_IDNAME
+    bl_label = "Surface Gradient"
+
+    @classmethod
+    def poll(cls, context):
+        space = context.space_data
+        return space is not None and getattr(space, "tree_type", None) == 'GeometryNodeTree'
+
+    def draw(self, _context):
+        layout = self.layout
+        layout.operator_context = 'INVOKE_REGION_WIN'
+        for name, _ in groups.GEOMETRY_MENU_GROUPS:
+            props = layout.operator(SURFGRAD_OT_add_group.bl_idname, text=name,
+                                    translate=False, icon='NODETREE')
+            props.group = name
+            props.use_transform = True
+
+
+def draw_geometry_add_menu(self, context):
+    """Appended to the Geometry Nodes Add menu: the "Surface Gradient" submenu."""
+    space = context.space_data
+    if space is not None and getattr(space, "tree_type", None) != 'GeometryNodeTree':
+        return
+    self.layout.separator()
+    self.layout.menu(GEOMETRY_MENU_IDNAME, icon='NODETREE')
+
+
 def draw_add_menu(self, context):
     """Appended to the shader Add menu: the "Surface Gradient" submenu at its end."""
     space = context.space_data
@@ -195,21 +257,24 @@ def draw_add_menu(self, context):
     layout.menu(MENU_IDNAME, icon='NODETREE')
 
 
-CLASSES = (SURFGRAD_OT_add_group, NODE_MT_surfgrad_add)
+CLASSES = (SURFGRAD_OT_add_group, NODE_MT_surfgrad_add, NODE_MT_surfgrad_geometry_add)
+MENU_HOOKS = ((ADD_MENU, draw_add_menu), (GEOMETRY_ADD_MENU, draw_geometry_add_menu))
 
 
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
-    menu = getattr(bpy.types, ADD_MENU)
-    menu.remove(draw_add_menu)        # never twice, even after a failed unregister
-    menu.append(draw_add_menu)
+    for menu_name, draw in MENU_HOOKS:
+        menu = getattr(bpy.types, menu_name)
+        menu.remove(draw)             # never twice, even after a failed unregister
+        menu.append(draw)
 
 
 def unregister():
-    menu = getattr(bpy.types, ADD_MENU, None)
-    if menu is not None:
-        menu.remove(draw_add_menu)
+    for menu_name, draw in MENU_HOOKS:
+        menu = getattr(bpy.types, menu_name, None)
+        if menu is not None:
+            menu.remove(draw)
     for cls in reversed(CLASSES):
         if getattr(cls, "is_registered", False):
             bpy.utils.unregister_class(cls)

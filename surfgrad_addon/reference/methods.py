@@ -107,17 +107,20 @@ def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
     return n, bump_scale * sg
 
 
-def noise_gradient_world(td, scale=4.0, octaves=4):
-    """Fractal-sum noise of the object-space position and its gradient in world space
-    (object gradient times the scale, through the inverse transpose)."""
-    h, g = fractal_sum(td.position_object * scale, octaves=octaves)
+def noise_gradient_world(td, scale=4.0, octaves=4, coords=None):
+    """Fractal-sum noise of the object-space position (or `coords`) and its gradient in world
+    space (object gradient times the scale, through the inverse transpose)."""
+    p = td.position_object if coords is None else coords
+    h, g = fractal_sum(p * scale, octaves=octaves)
     return h, (scale * g) @ td.mesh.normal_matrix.T
 
 
-def volume_noise_surfgrad(td, scale=4.0, amount=0.05, octaves=4):
-    """SG Noise through SG Volume Gradient (L8)."""
+def volume_noise_surfgrad(td, scale=4.0, amount=0.05, octaves=4, coords=None):
+    """SG Noise through SG Volume Gradient (L8). coords: object-space positions to evaluate
+    the noise at (default the texels' own; for bump on a displaced surface, its rest
+    position, as in Gustavson's fragment shader)."""
     n = unit_base_normal(td)
-    _, g = noise_gradient_world(td, scale, octaves)
+    _, g = noise_gradient_world(td, scale, octaves, coords)
     return n, amount * L.surfgrad_from_volume_gradient(n, g)
 
 

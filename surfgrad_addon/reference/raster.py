@@ -43,6 +43,7 @@ class MeshArrays:
     # Cycles applies the object transform to a mesh only one object uses: its corner normals
     # then go to world space and are normalised before interpolation (see shading_normal).
     transform_applied: bool = True
+    point_attributes: dict = field(default_factory=dict)   # {name: (V, C)} per vertex
 
     def validate(self):
         """Raise ValueError naming the problem and the fix; return self when usable."""
@@ -177,6 +178,13 @@ class TexelData:
 
     def uv(self, name=None):
         return self._interpolate(self.mesh.uv(name or self.uv_map))
+
+    def point_attribute(self, name):
+        """A per-vertex attribute of the mesh interpolated at each texel."""
+        if name not in self.mesh.point_attributes:
+            raise KeyError(f"{self.mesh.name}: no point attribute {name!r}")
+        values = np.asarray(self.mesh.point_attributes[name], dtype=np.float64)
+        return self._interpolate(values[np.asarray(self.mesh.triangles)])
 
     def tangent_object(self, name=None):
         """Interpolated object-space tangent (N, 3), unnormalised, and its sign (N,), for a UV
