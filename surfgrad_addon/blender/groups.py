@@ -894,8 +894,9 @@ GEOMETRY_MENU_GROUPS = [("SG Displace", displace_group)]
 @menu_group("SG Rest Position")
 def rest_position_group():
     def build(b):
-        attr = b.node("ShaderNodeAttribute", attribute_type="GEOMETRY",
-                      attribute_name=REST_ATTRIBUTE)
+        with b.frame(f"Attribute '{REST_ATTRIBUTE}' written by SG Displace"):
+            attr = b.node("ShaderNodeAttribute", attribute_type="GEOMETRY",
+                          attribute_name=REST_ATTRIBUTE)
         b.output("Rest Position", "VECTOR", attr.outputs["Vector"], "Object-space position "
                  "before SG Displace moved it: feed SG Noise's Vector for bump on top")
     return ensure_group("SG Rest Position", VERSION, build,
