@@ -72,3 +72,22 @@ def test_sg_displace_is_added_to_geometry_node_trees_only():
     mat = bpy.data.materials.new("M")
     with pytest.raises(ValueError, match="Geometry Nodes group"):
         ui.add_group_node(mat.node_tree, "SG Displace")
+
+
+def test_recomputed_normals_converge_to_the_analytic_ones():
+    from surfgrad_addon.bench import displacement
+    rows = displacement.convergence(levels=range(4), repeats=1, log=lambda *_: None)
+    means = [r["mean_deg"] for r in rows]
+    assert means[0] > 5 and all(a > b for a, b in zip(means, means[1:])), means
+    assert [r["vertices"] for r in rows] == sorted(r["vertices"] for r in rows)
+
+
+def test_bump_departs_from_true_displacement_as_amplitude_grows():
+    """Blinn's approximation on the unit sphere, float64: the angle between the bump-mapped
+    and the exactly displaced normal grows with amplitude/radius, about quadratically."""
+    from surfgrad_addon.bench import displacement
+    rows = displacement.bump_vs_exact(amplitudes=(0.01, 0.02, 0.1, 0.4), samples=5000)
+    means = [r["mean_deg"] for r in rows]
+    assert all(a < b for a, b in zip(means, means[1:])), means
+    assert means[0] < 0.01 and means[-1] > 0.5
+    assert 3.0 < means[1] / means[0] < 5.0          # doubling A: ~4x (second order)

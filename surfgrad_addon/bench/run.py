@@ -34,14 +34,18 @@ def run(out_dir, quick=False, resolution=None, repeats=None, only=None, overwrit
         for r in rows:
             log(f"    {r['method']:38s} cost {r['cost_ratio']:5.2f}  mean {r['mean_deg']:7.3f}"
                 f"  p95 {r['p95_deg']:7.3f}  max {r['max_deg']:7.2f} deg")
-    stability_md = None
+    from . import displacement
+    log("Gustavson's displacement: convergence and bump against true displacement")
+    disp, disp_md = displacement.run(out, quick, log)
+    (out / "displacement.json").write_text(__import__("json").dumps(disp, indent=2))
     from . import stability
     log("stability suite")
     stab = stability.run(quick, log)
-    stability_md = stability.markdown(stab)
+    stability_md = disp_md + "\n" + stability.markdown(stab)
     (out / "stability.json").write_text(__import__("json").dumps(stab, indent=2))
     settings["seconds"] = time.perf_counter() - t0
     charts = report.write_all(out, chosen, results, heat, settings, stability_md)
-    log(f"wrote {out}/bench.md, bench.json, stability.json, {len(charts)} charts and "
+    log(f"wrote {out}/bench.md, bench.json, displacement.json, stability.json, "
+        f"{len(charts) + 1} charts and "
         f"{len(heat)} heat maps in {settings['seconds']:.0f} s")
     return results

@@ -85,12 +85,13 @@ def _temporary_material(obj, material):
                 slot.material = mat
 
 
-def bake_vector(obj, build, width, height, uv_map=None, log=None):
+def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=None):
     """Bake the vector returned by `build(nodes, links)` (an output socket of a node created in
     the given temporary material's tree) over obj's UV map `uv_map` (default: the active one).
 
     Returns (pixels (height, width, 3) float32, coverage (height, width) bool, seconds), row 0
-    at the bottom. Texels the bake did not write are marked uncovered: the image is cleared to
+    at the bottom. `displacement(nodes, links)`, if given, returns a displacement vector for
+    Cycles' true displacement of the surface during the bake. Texels the bake did not write are marked uncovered: the image is cleared to
     alpha 0 and the bake writes alpha 1.
     """
     import bpy
@@ -120,6 +121,13 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None):
         emit.inputs["Strength"].default_value = 1.0
         links.new(build(nodes, links), emit.inputs["Color"])
         links.new(emit.outputs["Emission"], out.inputs["Surface"])
+        if displacement is not None:
+            # Cycles' true displacement: the vector from `displacement` moves the surface.
+            links.new(displacement(nodes, links), out.inputs["Displacement"])
+            if hasattr(material, "displacement_method"):
+                material.displacement_method = "DISPLACEMENT"
+            else:                                           # before 4.x's move
+                material.cycles.displacement_method = "DISPLACEMENT"
         target = nodes.new("ShaderNodeTexImage")
         target.image = image
         nodes.active = target

@@ -11,7 +11,7 @@ listings rewritten in them (the screen basis cancels).
 
 from .node_builder import ensure_group
 
-VERSION = 9
+VERSION = 10
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
 
 
@@ -846,6 +846,9 @@ def displace_group():
                           default=1, min_value=1, max_value=NOISE_OCTAVES)
         gain = b.input("Gain", "FLOAT", "Amplitude ratio between octaves", default=0.5,
                        min_value=0.0, max_value=1.0)
+        analytic = b.input("Analytic Normals", "BOOLEAN", "Set the normals from the noise's "
+                           "gradient (Eq. 4-8); off: Blender recomputes them from the "
+                           "displaced geometry, which needs a dense mesh", default=True)
         p0 = b.node("GeometryNodeInputPosition").outputs[0]
         n0 = b.normalize(b.node("GeometryNodeInputNormal").outputs[0])
         p = b.scale(p0, scale)
@@ -881,7 +884,11 @@ def displace_group():
             setn = b.node("GeometryNodeSetMeshNormal", mode="FREE", domain="POINT")
             b.link(setpos.outputs["Geometry"], setn.inputs["Mesh"])
             b.link(capture.outputs[1], setn.inputs["Custom Normal"])
-        b.output("Geometry", "GEOMETRY", setn.outputs[0], "Displaced mesh with analytic normals "
+            switch = b.node("GeometryNodeSwitch", input_type="GEOMETRY")
+            b.link(analytic, switch.inputs["Switch"])
+            b.link(setpos.outputs["Geometry"], switch.inputs["False"])
+            b.link(setn.outputs[0], switch.inputs["True"])
+        b.output("Geometry", "GEOMETRY", switch.outputs[0], "Displaced mesh with analytic normals "
                  f"and its rest position in the '{REST_ATTRIBUTE}' attribute")
     return ensure_group("SG Displace", VERSION, build,
                         "Gustavson's procedural displacement: noise along the normal, normals "
