@@ -5,6 +5,7 @@
                    chart speed against accuracy (bench --quick)
   bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
+  bake-normal-map  bake an object's material into a tangent- or object-space normal map file
   bench            speed against accuracy of every method (charts, table, JSON, heat maps)
                    and the stability suite
   compare          bake a method's node groups with Cycles and compare with the reference
@@ -68,6 +69,18 @@ def main(argv=None, in_blender=False):
     bch.add_argument("--repeats", type=int, default=None, help="timed repeats (default 5)")
     bch.add_argument("--only", nargs="+", default=None, help="scenario names to run")
     bch.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    nb = sub.add_parser("bake-normal-map", help="bake an object's material into a normal "
+                                                "map file (PNG or EXR)")
+    nb.add_argument("--blend", default=None, help=".blend file to open (inside Blender: the "
+                                                  "open file)")
+    nb.add_argument("--object", required=True, help="mesh object to bake")
+    nb.add_argument("--output", required=True, help="file to write: .png (8-bit) or .exr "
+                                                    "(float)")
+    nb.add_argument("--space", default="tangent", choices=("tangent", "object"))
+    nb.add_argument("--resolution", type=int, default=1024)
+    nb.add_argument("--uv-map", default=None, help="UV map (default: the active render one)")
+    nb.add_argument("--margin", type=int, default=16, help="texels to extend past UV borders")
+    nb.add_argument("--overwrite", action="store_true", help="replace an existing file")
     args = parser.parse_args(argv)
     try:
         if args.command == "demo":
@@ -83,6 +96,19 @@ def main(argv=None, in_blender=False):
             from .bench import run as bench_run
             bench_run.run(args.out, args.quick, args.resolution, args.repeats, args.only,
                           args.overwrite)
+        elif args.command == "bake-normal-map":
+            import bpy
+            from .blender import normal_bake
+            if args.blend and not in_blender:
+                if not __import__("os").path.isfile(args.blend):
+                    raise ValueError(f".blend file {args.blend!r} does not exist")
+                bpy.ops.wm.open_mainfile(filepath=args.blend)
+            obj = bpy.data.objects.get(args.object)
+            if obj is None:
+                raise ValueError(f"no object named {args.object!r}; objects: "
+                                 f"{sorted(o.name for o in bpy.data.objects)}")
+            normal_bake.bake_normal_map(obj, args.output, args.space, args.resolution,
+                                        args.uv_map, args.margin, overwrite=args.overwrite)
         elif args.command == "compare-all":
             from .blender import compare
             compare.run_all(args.out, args.resolution, args.overwrite)

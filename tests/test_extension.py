@@ -229,8 +229,11 @@ def session_installed(zip_path, work):
     report["submenus"] = [(idname, getattr(bpy.types, idname).bl_label) for idname in submenus]
     menu_cls = next(getattr(bpy.types, i) for i in submenus
                     if getattr(bpy.types, i).bl_label == MENU_LABEL)
+    drawn = [c for c in _draw(menu_cls.draw, 'ShaderNodeTree') if c[0] == "operator"]
+    # After the group entries come the artist operators (layer stack, convert, decal).
+    report["tool_entries"] = [c[1] for c in drawn if c[1] != "surfgrad.add_group"]
     entries = [(c[1], c[2]["text"], vars(c[2]["props"]))
-               for c in _draw(menu_cls.draw, 'ShaderNodeTree') if c[0] == "operator"]
+               for c in drawn if c[1] == "surfgrad.add_group"]
     report["entries"] = [{"operator": op, "text": text, "props": props}
                          for op, text, props in entries]
     operators = {}
@@ -451,6 +454,8 @@ def test_install_menu_operator_and_clean_disable(installed):
     assert [e["text"] for e in r["entries"]] == r["menu_groups"]
     assert [e["props"]["group"] for e in r["entries"]] == r["menu_groups"]
     assert {e["operator"] for e in r["entries"]} == {"surfgrad.add_group"}
+    assert r["tool_entries"] == ["surfgrad.add_layer_stack", "surfgrad.convert_node",
+                                 "surfgrad.add_decal_projector"]
     op = r["operators"]["surfgrad.add_group"]
     assert op["class"] == "SURFGRAD_OT_add_group"
     assert op["bl_options"] == ["REGISTER", "UNDO"]

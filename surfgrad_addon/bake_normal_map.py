@@ -1,0 +1,21 @@
+"""Bake an object's material into a normal map file, inside Blender:
+
+    blender -b scene.blend --python surfgrad_addon/bake_normal_map.py -- \\
+        --object Rock --output rock_normal.png [--space tangent|object] [--resolution 2048] \\
+        [--uv-map NAME] [--margin 16] [--overwrite]
+
+The same as `python -m surfgrad_addon bake-normal-map --blend scene.blend ...` with the bpy
+module. See surfgrad_addon/blender/normal_bake.py.
+"""
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from surfgrad_addon.__main__ import main  # noqa: E402
+
+argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+code = main(["bake-normal-map", *argv], in_blender=True)
+if code:
+    sys.exit(code)

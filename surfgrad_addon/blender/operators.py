@@ -1,0 +1,264 @@
+"""Operators an artist reaches for: a surface-gradient layer stack on the active material,
+Normal Map / Bump nodes converted to their SG equivalents, and a decal projector. Each is
+undoable and reports what it did or why it could not. The work is in plain functions (usable
+from scripts and tests); the operators wrap them.
+"""
+
+import bpy
+from bpy.props import StringProperty
+
+from . import groups as G
+
+NORMAL_SOCKET = "Normal"
+
+
+class SurfgradError(ValueError):
+    """A request that cannot be carried out; the message says why and what to do."""
+
+
+def _active_tree(context):
+    obj = context.object
+    if obj is None:
+        raise SurfgradError("No active object: select the object whose material to edit")
+    mat = obj.active_material
+    if mat is None:
+        raise SurfgradError(f"{obj.name!r} has no material: add one in the Material "
+                            f"Properties first")
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    return mat, mat.node_tree
+
+
+def _surface_shader(tree):
+    """The node linked to the active Material Output's Surface, and its Normal input."""
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None or not output.inputs["Surface"].is_linked:
+        raise SurfgradError("The material has no shader linked to its Material Output's "
+                            "Surface: link a BSDF first")
+    shader = output.inputs["Surface"].links[0].from_node
+    if NORMAL_SOCKET not in shader.inputs:
+        raise SurfgradError(f"{shader.name!r} has no Normal input: link a BSDF (e.g. "
+                            f"Principled BSDF) to the Material Output")
+    return shader
+
+
+def _group_node(tree, builder, location, label=None):
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = builder()
+    node.location = location
+    if label:
+        node.label = label
+    return node
+
+
+def add_layer_stack(tree, uv_map=""):
+    """SG Normal Map -> SG Combine -> SG Resolve -> the surface shader's Normal. Returns the
+    new nodes. An existing link into the shader's Normal is replaced (and reported)."""
+    shader = _surface_shader(tree)
+    x, y = shader.location
+    replaced = shader.inputs[NORMAL_SOCKET].is_linked
+    resolve = _group_node(tree, G.resolve_group, (x - 260, y - 420))
+    combine = _group_node(tree, G.combine_group, (x - 520, y - 420))
+    normal_map = _group_node(tree, lambda: G.normal_map_group(uv_map), (x - 780, y - 340))
+    links = tree.links
+    links.new(normal_map.outputs[0], combine.inputs["A"])
+    links.new(combine.outputs[0], resolve.inputs["Surface Gradient"])
+    links.new(resolve.outputs[0], shader.inputs[NORMAL_SOCKET])
+    return {"resolve": resolve, "combine": combine, "normal_map": normal_map,
+            "replaced": replaced}
+
+
+def convert_node(tree, node):
+    """Replace a Normal Map (tangent space) or Bump node by its surface-gradient equivalent
+    with the same look; the node's input and output links are carried over. Returns the
+    SG Resolve node that now feeds what the old node fed."""
+    links = tree.links
+    if node.bl_idname not in ("ShaderNodeNormalMap", "ShaderNodeBump"):
+        raise SurfgradError(f"{node.name!r} is a {node.bl_idname}: select a Normal Map or a "
+                            f"Bump node to convert")
+    outgoing = [lk.to_socket for lk in node.outputs["Normal"].links]
+    x, y = node.location
+    if node.bl_idname == "ShaderNodeNormalMap":
+        if node.space != "TANGENT":
+            raise SurfgradError(f"{node.name!r} is an {node.space.lower()}-space Normal Map: "
+                                f"use SG Object Normal for object or world space maps")
+        sg = _group_node(tree, lambda: G.normal_map_group(node.uv_map), (x, y))
+        _move_input(tree, node.inputs["Color"], sg.inputs["Color"])
+        _move_input(tree, node.inputs["Strength"], sg.inputs["Strength"])
+    else:
+        sg = _group_node(tree, G.height_map_forward_group, (x, y))
+        _move_input(tree, node.inputs["Height"], sg.inputs["Height"])
+        _move_input(tree, node.inputs["Normal"], sg.inputs["Normal"])
+        distance = node.inputs["Distance"].default_value
+        strength = node.inputs["Strength"].default_value
+        # Bump's Strength blends toward the unperturbed normal; as a bump scale it is close to
+        # scaling the height for the usual small tilts.
+        sg.inputs["Bump Scale"].default_value = distance * strength * (-1 if node.invert else 1)
+    resolve = _group_node(tree, G.resolve_group, (x + 220, y))
+    links.new(sg.outputs[0], resolve.inputs["Surface Gradient"])
+    if "Normal" in sg.inputs and sg.inputs["Normal"].is_linked:
+        links.new(sg.inputs["Normal"].links[0].from_socket, resolve.inputs["Normal"])
+    for socket in outgoing:
+        links.new(resolve.outputs[0], socket)
+    tree.nodes.remove(node)
+    return resolve
+
+
+def _move_input(tree, old, new):
+    if old.is_linked:
+        tree.links.new(old.links[0].from_socket, new)
+    elif hasattr(old, "default_value") and hasattr(new, "default_value"):
+        try:
+            new.default_value = old.default_value
+        except (TypeError, ValueError):
+            pass
+
+
+def add_decal_projector(context, tree, image=None, name="SG Decal Projector"):
+    """An empty (a cube display, the projection box) at the 3D cursor, and in `tree` the decal
+    chain: Texture Coordinate (object = the empty) -> SG Decal Coordinates -> Image Texture ->
+    SG Decal, whose Axis X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
+    empty = bpy.data.objects.new(name, None)
+    empty.empty_display_type = "CUBE"
+    empty.location = context.scene.cursor.location
+    context.scene.collection.objects.link(empty)
+    tc = tree.nodes.new("ShaderNodeTexCoord")
+    tc.object = empty
+    coords = _group_node(tree, G.decal_coordinates_group, (tc.location.x + 200, tc.location.y))
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tex.extension = "CLIP"
+    tex.location = (coords.location.x + 220, coords.location.y)
+    decal = _group_node(tree, G.decal_group, (tex.location.x + 300, tex.location.y))
+    links = tree.links
+    links.new(tc.outputs["Object"], coords.inputs[0])
+    links.new(tc.outputs["Object"], decal.inputs["Decal Coordinates"])
+    links.new(coords.outputs[0], tex.inputs["Vector"])
+    links.new(tex.outputs["Color"], decal.inputs["Color"])
+    for axis, column in (("Axis X", 0), ("Axis Y", 1)):
+        drive_axis(decal.inputs[axis], empty, column)
+    return empty, decal
+
+
+def drive_axis(socket, obj, column):
+    """Drive a vector socket with the unit world direction of obj's local axis `column`
+    (simple expressions only, so they run without auto-run Python scripts)."""
+    names = "abc"
+    for i in range(3):
+        fcurve = socket.driver_add("default_value", i)
+        drv = fcurve.driver
+        drv.type = "SCRIPTED"
+        for row, var_name in enumerate(names):
+            var = drv.variables.new()
+            var.name = var_name
+            var.type = "SINGLE_PROP"
+            var.targets[0].id = obj
+            # RNA indexes matrices column first: [column][row].
+            var.targets[0].data_path = f"matrix_world[{column}][{row}]"
+        drv.expression = f"{names[i]} / sqrt(a * a + b * b + c * c)"
+
+
+# Operators ------------------------------------------------------------------------------------
+
+class SURFGRAD_OT_add_layer_stack(bpy.types.Operator):
+    """Add a surface-gradient layer stack to the active material: SG Normal Map into SG Combine \
+into SG Resolve, wired into the BSDF's Normal"""
+    bl_idname = "surfgrad.add_layer_stack"
+    bl_label = "Add Surface-Gradient Layer Stack"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    uv_map: StringProperty(name="UV Map", description="UV map of the normal map (empty: the "
+                           "active render UV map)", default="")
+
+    def execute(self, context):
+        try:
+            _, tree = _active_tree(context)
+            made = add_layer_stack(tree, self.uv_map)
+        except SurfgradError as err:
+            self.report({'ERROR'}, str(err))
+            return {'CANCELLED'}
+        note = " (replaced the previous link into Normal)" if made["replaced"] else ""
+        self.report({'INFO'}, f"Added SG Normal Map, SG Combine and SG Resolve{note}; link "
+                              f"your normal map image into SG Normal Map's Color")
+        return {'FINISHED'}
+
+
+class SURFGRAD_OT_convert_node(bpy.types.Operator):
+    """Replace the active Normal Map or Bump node by its surface-gradient equivalent with the \
+same look (links are kept)"""
+    bl_idname = "surfgrad.convert_node"
+    bl_label = "Convert to Surface Gradient"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        space = context.space_data
+        if space is None or getattr(space, "tree_type", None) != "ShaderNodeTree" or \
+                space.edit_tree is None:
+            cls.poll_message_set("Works in a Shader Editor with a node tree")
+            return False
+        return True
+
+    def execute(self, context):
+        tree = context.space_data.edit_tree
+        node = tree.nodes.active
+        if node is None:
+            self.report({'ERROR'}, "No active node: click a Normal Map or Bump node first")
+            return {'CANCELLED'}
+        kind = node.bl_label
+        try:
+            convert_node(tree, node)
+        except SurfgradError as err:
+            self.report({'ERROR'}, str(err))
+            return {'CANCELLED'}
+        self.report({'INFO'}, f"Converted the {kind} node to surface gradients")
+        return {'FINISHED'}
+
+
+class SURFGRAD_OT_add_decal_projector(bpy.types.Operator):
+    """Add a decal projector (an empty at the 3D cursor) and its SG Decal chain to the active \
+material; the decal's axes follow the empty"""
+    bl_idname = "surfgrad.add_decal_projector"
+    bl_label = "Add Decal Projector"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    image: StringProperty(name="Image", description="Decal normal map (an image in this file)",
+                          default="")
+
+    def execute(self, context):
+        try:
+            _, tree = _active_tree(context)
+            image = bpy.data.images.get(self.image) if self.image else None
+            if self.image and image is None:
+                raise SurfgradError(f"No image named {self.image!r} in this file: open it "
+                                    f"first (Image > Open)")
+            empty, _ = add_decal_projector(context, tree, image)
+        except SurfgradError as err:
+            self.report({'ERROR'}, str(err))
+            return {'CANCELLED'}
+        self.report({'INFO'}, f"Added {empty.name!r}: scale it to size the decal; add its SG "
+                              f"Decal output to your surface gradients")
+        return {'FINISHED'}
+
+
+class NODE_PT_surfgrad(bpy.types.Panel):
+    """Surface-gradient tools in the Shader Editor's sidebar"""
+    bl_space_type = "NODE_EDITOR"
+    bl_region_type = "UI"
+    bl_category = "Surface Gradient"
+    bl_label = "Surface Gradient"
+
+    @classmethod
+    def poll(cls, context):
+        return getattr(context.space_data, "tree_type", None) == "ShaderNodeTree"
+
+    def draw(self, context):
+        col = self.layout.column(align=True)
+        col.operator(SURFGRAD_OT_add_layer_stack.bl_idname, icon="NODETREE")
+        col.operator(SURFGRAD_OT_convert_node.bl_idname, icon="FILE_REFRESH")
+        col.operator(SURFGRAD_OT_add_decal_projector.bl_idname, icon="MOD_UVPROJECT")
+
+
+CLASSES = (SURFGRAD_OT_add_layer_stack, SURFGRAD_OT_convert_node,
+           SURFGRAD_OT_add_decal_projector, NODE_PT_surfgrad)
