@@ -6,6 +6,7 @@
   bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
   bake-normal-map  bake an object's material into a tangent- or object-space normal map file
+  demo-blend       build demo.blend from code (exhibits, packed textures), render pictures
   bench            speed against accuracy of every method (charts, table, JSON, heat maps)
                    and the stability suite
   compare          bake a method's node groups with Cycles and compare with the reference
@@ -81,6 +82,12 @@ def main(argv=None, in_blender=False):
     nb.add_argument("--uv-map", default=None, help="UV map (default: the active render one)")
     nb.add_argument("--margin", type=int, default=16, help="texels to extend past UV borders")
     nb.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    db = sub.add_parser("demo-blend", help="build demo.blend (exhibits, packed textures) and "
+                                           "optionally render its pictures")
+    db.add_argument("--out", default="demo.blend", help="the .blend to write")
+    db.add_argument("--pictures", default=None, help="folder for a Cycles render of each "
+                                                     "exhibit")
+    db.add_argument("--overwrite", action="store_true", help="replace an existing file")
     args = parser.parse_args(argv)
     try:
         if args.command == "demo":
@@ -109,6 +116,11 @@ def main(argv=None, in_blender=False):
                                  f"{sorted(o.name for o in bpy.data.objects)}")
             normal_bake.bake_normal_map(obj, args.output, args.space, args.resolution,
                                         args.uv_map, args.margin, overwrite=args.overwrite)
+        elif args.command == "demo-blend":
+            from .blender import demo
+            cams = demo.save_demo(args.out, args.overwrite)
+            if args.pictures:
+                demo.render_pictures(cams, args.pictures)
         elif args.command == "compare-all":
             from .blender import compare
             compare.run_all(args.out, args.resolution, args.overwrite)
