@@ -15,11 +15,23 @@ from ..reference import test_images as T
 from . import groups as G
 
 EXHIBIT_SPACING = 6.0
+HEIGHT_BUMP = 0.2
 
 
 def _image(name, pixels):
-    from .compare import _bpy_float_image
-    img = _bpy_float_image(name, pixels)
+    """A float image packed into the file (as OpenEXR: generated images need a format and a
+    path before pack() keeps their pixels)."""
+    import bpy
+    px = np.asarray(pixels, dtype=np.float32)
+    if px.ndim == 2:
+        px = np.repeat(px[..., None], 3, axis=-1)
+    h, w = px.shape[:2]
+    px = np.concatenate([px[..., :3], np.ones((h, w, 1), np.float32)], axis=-1)
+    img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True)
+    img.colorspace_settings.name = "Non-Color"
+    img.pixels.foreach_set(px.ravel())
+    img.file_format = "OPEN_EXR"
+    img.filepath_raw = f"//{name}.exr"
     img.pack()
     return img
 
@@ -127,7 +139,8 @@ def build_demo(log=print):
     scene.collection.objects.link(sun)
     hemi = _image("Hemispheres", T.hemisphere_tile_image(256))
     detail = _image("Detail tile", T.hemisphere_tile_image(256, 8, 0.6))
-    height = _image("Height 64", T.wave_height_image(64, (6.0, 3.0)))
+    height = _image("Height 64", T.wave_height_image(64, (4.0, 2.0)))
+    domes = _image("Dome heights", T.hemisphere_tile_height_image(256))
     cams = {}
 
     def uv(g, name="UVMap"):
@@ -149,10 +162,10 @@ def build_demo(log=print):
         basis = g.group(G.procedural_basis_group(), UV=uv(g, "Detail"))
         tn = g.group(G.tangent_normal_group(), Color=g.image(detail, uv(g, "Detail")),
                      Tangent=basis.outputs[0], Bitangent=basis.outputs[1])
-        comb = g.group(G.combine_group(), A=nm(g, hemi), B=tn.outputs[0], Scale_B=0.7)
+        comb = g.group(G.combine_group(), A=nm(g, hemi), B=tn.outputs[0], Scale_B=1.0)
         return g.resolve(comb.outputs[0])
     _pair(x, "Detail on a second, rotated UV map", layered_usual, layered_sg)
-    cams["layered"] = _camera("Camera layered", x)
+    cams["layered"] = _camera("Camera layered", x, distance=6.4)
 
     # 2. Triplanar on a rock (Figure 5), and post-resolve triplanar on a normal map (7b).
     x += EXHIBIT_SPACING
@@ -232,10 +245,10 @@ def build_demo(log=print):
     x += EXHIBIT_SPACING
     variants = [("forward", lambda g: g.resolve(g.group(
         G.height_map_forward_group(), Height=g.first(g.image(height, uv(g))),
-        Bump_Scale=0.08).outputs[0]))]
+        Bump_Scale=HEIGHT_BUMP).outputs[0]))]
     for v in ("one-texel", "hq"):
         variants.append((v, lambda g, v=v: g.resolve(g.group(
-            G.height_map_group(height, v), UV=uv(g), Bump_Scale=0.08).outputs[0])))
+            G.height_map_group(height, v), UV=uv(g), Bump_Scale=HEIGHT_BUMP).outputs[0])))
     for i, (label, build) in enumerate(variants):
         obj = _mesh("sphere", (x - 2.4 + 1.6 * i, 0, 1.1), f"Height map | {label}")
         obj.scale = (0.72, 0.72, 0.72)
@@ -250,7 +263,7 @@ def build_demo(log=print):
     arrays = mesh_arrays_from_object(obj)
     nmap = _image("Normal map from height", bake_normal_map_from_truth(
         arrays, "UVMap", 128, lambda td: M.resolve(exact_height_surfgrad(
-            td, T.wave_height(td.uv(), (6.0, 3.0))[1], 0.08))))
+            td, T.wave_height(td.uv(), (4.0, 2.0))[1], HEIGHT_BUMP))))
     obj.data.materials.append(_material("Height map: normal map", lambda g: g.resolve(
         g.group(G.normal_map_group("UVMap"), Color=g.image(nmap, uv(g))).outputs[0])))
     _label("normal map", (x + 2.4, 0, 0.05), 0.2)
@@ -282,9 +295,9 @@ def build_demo(log=print):
     def parallax(detail_on_top):
         def build(g):
             view = g.geometry("Incoming")
-            par = g.group(G.parallax_group(height), UV=uv(g), View=view, Bump_Scale=0.12)
+            par = g.group(G.parallax_group(domes), UV=uv(g), View=view, Bump_Scale=0.12)
             base = g.resolve(g.group(G.normal_map_group("UVMap"),
-                                     Color=g.image(nmap, par.outputs["UV"])).outputs[0])
+                                     Color=g.image(hemi, par.outputs["UV"])).outputs[0])
             if not detail_on_top:
                 return base
             noise = g.group(G.noise_group(), Scale=12.0, Octaves=2)

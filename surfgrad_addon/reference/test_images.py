@@ -44,3 +44,12 @@ def wave_height(st, freq=(3.0, 2.0)):
 def wave_height_image(size=256, freq=(3.0, 2.0)):
     """wave_height at the texel centres: (size, size)."""
     return wave_height(texel_centres(size, size), freq)[0]
+
+
+def hemisphere_tile_height_image(size=256, tiles=4, radius=0.85):
+    """The height field whose normal is hemisphere_tile_normal: sqrt(r^2 - rho^2) / r in each
+    cell (1 at a dome's top, 0 between domes), at the texel centres."""
+    st = texel_centres(size, size)
+    local = (np.mod(st * tiles, 1.0) - 0.5) * 2.0
+    rho2 = np.sum(local * local, axis=-1)
+    return np.sqrt(np.maximum(radius * radius - rho2, 0.0)) / radius
