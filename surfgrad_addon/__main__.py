@@ -1,8 +1,9 @@
 """Command line: python -m surfgrad_addon <command> ...
 
   demo             the main job: evaluate the reference on procedural scenes (maps and a
-                   summary), bake every method with Cycles and compare (compare-all), and
-                   chart speed against accuracy (bench --quick)
+                   summary), bake every method with Cycles and compare (compare-all),
+                   chart speed against accuracy (bench --quick), build demo.blend and render
+                   its exhibits
   bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
   bake-normal-map  bake an object's material into a tangent- or object-space normal map file
@@ -99,6 +100,9 @@ def main(argv=None, in_blender=False):
                                 args.overwrite)
                 from .bench import run as bench_run
                 bench_run.run(f"{args.out}/bench", quick=True, overwrite=args.overwrite)
+                from .blender import demo
+                cams = demo.save_demo(f"{args.out}/demo.blend", overwrite=args.overwrite)
+                demo.render_pictures(cams, f"{args.out}/pictures")
         elif args.command == "bench":
             from .bench import run as bench_run
             bench_run.run(args.out, args.quick, args.resolution, args.repeats, args.only,
