@@ -40,7 +40,8 @@ cmd=${1:-}
 [ $# -gt 0 ] && shift
 case "$cmd" in
   main) exec "$VENV/bin/python" -m surfgrad_addon demo --out out/demo --overwrite "$@" ;;
-  test) exec "$VENV/bin/python" -m pytest "$@" ;;
+  test) bash tools/install_eevee_deps.sh || true      # Mesa EGL for the EEVEE test
+        exec "$VENV/bin/python" -m pytest "$@" ;;
   bench) exec "$VENV/bin/python" -m surfgrad_addon bench --out out/bench --overwrite "$@" ;;
   bench-reference) exec "$VENV/bin/python" -m surfgrad_addon bench-reference \
            --out out/bench_reference.json --overwrite "$@" ;;

@@ -406,6 +406,15 @@ METHODS = {
     **{mode: (_blend_graph(mode), _blend_reference(mode)) for mode in BLEND_MODES},
 }
 
+# Methods built on a group that older Blender lines lack (groups.REQUIRES).
+METHOD_GROUPS = {"displace-bump": "SG Displace"}
+
+
+def unavailable_reason(method):
+    """None when `method` can run in this Blender, else why not (docs/versions.md)."""
+    group = METHOD_GROUPS.get(method)
+    return G.unavailable_reason(group) if group else None
+
 
 # Inputs -----------------------------------------------------------------------------------------
 
@@ -501,6 +510,9 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
+    reason = unavailable_reason(method)
+    if reason is not None:
+        raise CompareError(f"method {method!r} is not available in this Blender: {reason}")
     inp = prepare_inputs(obj, uv_map, image, variant)
     import bpy
     try:
@@ -624,8 +636,10 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
 
 
 def compare_cases():
-    """(method, variant) for every method, each height-map variant separately."""
-    return [(m, "hq") for m in sorted(METHODS) if m != "height-map"] + \
+    """(method, variant) for every method this Blender can run, each height-map variant
+    separately."""
+    return [(m, "hq") for m in sorted(METHODS)
+            if m != "height-map" and unavailable_reason(m) is None] + \
         [("height-map", v) for v in ("forward", "one-texel", "hq")]
 
 
@@ -641,6 +655,9 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print):
     (out / "heat").mkdir(parents=True, exist_ok=True)
     objects = test_scenes.new_scene()
     cases = compare_cases()
+    for method in METHODS:
+        if unavailable_reason(method) is not None:
+            log(f"skipped {method}: {unavailable_reason(method)}")
     reports = []
     total = len(cases) * len(objects)
     for i, (method, variant) in enumerate(cases):

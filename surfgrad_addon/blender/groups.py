@@ -9,10 +9,34 @@ Listings 4 and 6 need from dP/dx, dP/dy and d(st)/dx, d(st)/dy; the formulas bel
 listings rewritten in them (the screen basis cancels).
 """
 
+import bpy
+
 from .node_builder import ensure_group
 
-VERSION = 10
+VERSION = 11
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
+
+
+class FeatureUnavailable(ValueError):
+    """A group needs a node this Blender does not have; the message names the node and the
+    Blender version that has it (docs/versions.md)."""
+
+
+# Groups that need a node newer than blender_version_min: name -> (node type, the first LTS
+# line checked to have it, what the group does with it). Tested by the node's presence, not by
+# the version number.
+REQUIRES = {"SG Displace": ("GeometryNodeSetMeshNormal", "4.5", "it sets the analytic normals "
+                            "with the Geometry Nodes Set Mesh Normal node")}
+
+
+def unavailable_reason(name):
+    """None when group `name` can be built in the running Blender, else why not."""
+    need = REQUIRES.get(name)
+    if need is None or hasattr(bpy.types, need[0]):
+        return None
+    node_type, line, use = need
+    return (f"{name} needs Blender {line} or newer: {use} ({node_type}), which Blender "
+            f"{bpy.app.version_string} does not have")
 
 
 def menu_group(name):
@@ -54,13 +78,19 @@ def safe_normal_group():
     def build(b):
         v = b.input("Vector", "VECTOR", "A direction of any length, or nothing", hide_value=True)
         with b.frame("normalize(v), or the shading normal where v is zero, NaN or Inf"):
-            # Cycles' Normal Map node in World space normalises its colour input (c - 0.5) * 2
-            # and, alone among shader nodes, replaces a zero or non-finite result by the
-            # shading normal: arithmetic cannot remove a NaN, this node can. It negates its
-            # result on back faces, so the input is negated there first.
-            back = b.node("ShaderNodeNewGeometry").outputs["Backfacing"]
-            flip = b.math("SUBTRACT", 1.0, b.math("MULTIPLY", back, 2.0))
-            color = b.vmath("ADD", b.vmath("MULTIPLY", b.scale(v, flip), (0.5, 0.5, 0.5)),
+            # A World-space Normal Map node normalises (c - 0.5) * 2. Cycles' replaces a zero
+            # or non-finite result by the shading normal (arithmetic cannot remove a NaN,
+            # this node can) and negates its result on back faces; EEVEE's does neither. So:
+            # zero becomes the shading normal before the node (for EEVEE), and the input is
+            # multiplied by the node's own sign on this face, measured on the shading normal.
+            geo = b.node("ShaderNodeNewGeometry").outputs["Normal"]
+            probe = b.node("ShaderNodeNormalMap", space="WORLD", label="sign probe")
+            b.link(b.vmath("ADD", b.vmath("MULTIPLY", geo, (0.5, 0.5, 0.5)), (0.5, 0.5, 0.5)),
+                   probe.inputs["Color"])
+            sign = b.dot(probe.outputs[0], geo)
+            zero = b.math("COMPARE", b.length(v), 0.0, 0.0)
+            v = b.add(v, b.scale(geo, zero))
+            color = b.vmath("ADD", b.vmath("MULTIPLY", b.scale(v, sign), (0.5, 0.5, 0.5)),
                             (0.5, 0.5, 0.5))
             nm = b.node("ShaderNodeNormalMap", space="WORLD")
             nm.inputs["Strength"].default_value = 1.0
@@ -679,7 +709,11 @@ menu_group("SG Height Map HQ")(height_map_group)
 
 
 @menu_group("SG Height Map Forward")
-def height_map_forward_group():
+def height_map_forward_group(filter_width=None):
+    """Forward differences through the Bump node, Filter Width differentials apart (default
+    FORWARD_FILTER_WIDTH, about a texel; another width gives a variant group, e.g. to keep the
+    look of a converted Bump node)."""
+    fw = FORWARD_FILTER_WIDTH if filter_width is None else float(filter_width)
     def build(b):
         n = normal_input(b)
         height = b.input("Height", "FLOAT", "Height (link an Image Texture or any scalar "
@@ -692,13 +726,14 @@ def height_map_forward_group():
             bump.inputs["Strength"].default_value = 1.0
             bump.inputs["Distance"].default_value = 1.0
             if "Filter Width" in bump.inputs:
-                bump.inputs["Filter Width"].default_value = FORWARD_FILTER_WIDTH
+                bump.inputs["Filter Width"].default_value = fw
             b.link(height, bump.inputs["Height"])
             b.link(n, bump.inputs["Normal"])
             nb = bump.outputs[0]
             g = b.sub(n, b.scale(nb, b.math("DIVIDE", 1.0, b.dot(nb, n))))
         b.output("Surface Gradient", "VECTOR", b.scale(g, scale), "Surface gradient")
-    return ensure_group("SG Height Map Forward", VERSION, build,
+    name = "SG Height Map Forward" + ("" if fw == FORWARD_FILTER_WIDTH else f" (filter {fw:g})")
+    return ensure_group(name, VERSION, build,
                         "Scale-dependent bump from any height by forward differences "
                         "(Listing 7, Listing 6)")
 
@@ -835,7 +870,12 @@ REST_ATTRIBUTE = "sg_rest_position"
 def displace_group():
     """Gustavson's displacement (Eq. 3-8) in Geometry Nodes: P = P0 + amount h(scale P0) N0,
     and the new normal normalize(N0 - amount (g - (g . N0) N0)) set analytically with Set
-    Mesh Normal; h and g are the reference's fractal-sum noise (SG Noise's lattice)."""
+    Mesh Normal; h and g are the reference's fractal-sum noise (SG Noise's lattice).
+    Raises FeatureUnavailable where Set Mesh Normal does not exist (before 4.5)."""
+    reason = unavailable_reason("SG Displace")
+    if reason is not None:
+        raise FeatureUnavailable(reason)
+
     def build(b):
         geo = b.input("Geometry", "GEOMETRY", "Mesh to displace")
         amount = b.input("Amount", "FLOAT", "Displacement along the normal per unit of noise "

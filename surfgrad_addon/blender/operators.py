@@ -87,7 +87,9 @@ def convert_node(tree, node):
         _move_input(tree, node.inputs["Color"], sg.inputs["Color"])
         _move_input(tree, node.inputs["Strength"], sg.inputs["Strength"])
     else:
-        sg = _group_node(tree, G.height_map_forward_group, (x, y))
+        # Same steps as the Bump node (its Filter Width, where the node has one): same look.
+        fw = node.inputs["Filter Width"].default_value if "Filter Width" in node.inputs else None
+        sg = _group_node(tree, lambda: G.height_map_forward_group(fw), (x, y))
         _move_input(tree, node.inputs["Height"], sg.inputs["Height"])
         _move_input(tree, node.inputs["Normal"], sg.inputs["Normal"])
         distance = node.inputs["Distance"].default_value

@@ -1,0 +1,127 @@
+"""The artist operators' work: a layer stack wired into the BSDF, Normal Map and Bump nodes
+converted with the same look (measured by bakes), decal projectors with driven axes."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.blender import bake, compare, operators as O, test_scenes  # noqa: E402
+from surfgrad_addon.reference import test_images as T  # noqa: E402
+
+
+@pytest.fixture()
+def sphere():
+    return test_scenes.new_scene(["Sphere"])["Sphere"]
+
+
+def _material(obj, shader="ShaderNodeBsdfPrincipled"):
+    mat = bpy.data.materials.new("Mat")
+    tree = mat.node_tree
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    bsdf = tree.nodes.new(shader)
+    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    obj.data.materials.append(mat)
+    return mat, tree, bsdf
+
+
+def test_layer_stack_is_wired_into_the_bsdf_normal(sphere):
+    _, tree, bsdf = _material(sphere)
+    made = O.add_layer_stack(tree)
+    assert bsdf.inputs["Normal"].links[0].from_node == made["resolve"]
+    assert made["resolve"].inputs["Surface Gradient"].links[0].from_node == made["combine"]
+    assert made["combine"].inputs["A"].links[0].from_node == made["normal_map"]
+    assert made["normal_map"].node_tree.name == "SG Normal Map" and not made["replaced"]
+
+
+def test_layer_stack_needs_a_bsdf(sphere):
+    _, tree, _ = _material(sphere, "ShaderNodeEmission")
+    with pytest.raises(O.SurfgradError, match="no Normal input"):
+        O.add_layer_stack(tree)
+    tree.links.clear()
+    with pytest.raises(O.SurfgradError, match="no shader linked"):
+        O.add_layer_stack(tree)
+
+
+def _bake_converted(obj, make_node, convert):
+    """Bake the node's Normal, before or after conversion (a Reroute keeps the link)."""
+    def build(nodes, links):
+        node = make_node(nodes, links)
+        reroute = nodes.new("NodeReroute")
+        links.new(node.outputs["Normal"], reroute.inputs[0])
+        if convert:
+            O.convert_node(node.id_data, node)
+        return reroute.outputs[0]
+    px, cov, _ = bake.bake_vector(obj, build, 48, 48, "UVMap")
+    return px[cov]
+
+
+def test_normal_map_conversion_keeps_the_look(sphere):
+    img = compare._bpy_float_image("nm", T.hemisphere_tile_image(64))
+
+    def make(nodes, links):
+        uv = nodes.new("ShaderNodeUVMap")
+        uv.uv_map = "UVMap"
+        tex = nodes.new("ShaderNodeTexImage")
+        tex.image = img
+        links.new(uv.outputs[0], tex.inputs["Vector"])
+        nm = nodes.new("ShaderNodeNormalMap")
+        nm.uv_map = "UVMap"
+        links.new(tex.outputs["Color"], nm.inputs["Color"])
+        return nm
+    before = _bake_converted(sphere, make, False)
+    after = _bake_converted(sphere, make, True)
+    err = compare.angle_deg(before, after)
+    assert err.max() <= 0.05, err.max()
+    assert compare.angle_deg(before, before * 0 + [0, 0, 1.0]).std() > 10   # really bumpy
+
+
+def test_bump_conversion_keeps_the_look(sphere):
+    """The converted group steps the Bump node's own Filter Width, so the inverted Bump and
+    the resolve give back the same normal."""
+    img = compare._bpy_float_image("h", T.wave_height_image(64, (3.0, 2.0)))
+
+    def make(nodes, links):
+        uv = nodes.new("ShaderNodeUVMap")
+        uv.uv_map = "UVMap"
+        tex = nodes.new("ShaderNodeTexImage")
+        tex.image = img
+        links.new(uv.outputs[0], tex.inputs["Vector"])
+        sep = nodes.new("ShaderNodeSeparateXYZ")
+        links.new(tex.outputs["Color"], sep.inputs[0])
+        bump = nodes.new("ShaderNodeBump")
+        bump.inputs["Distance"].default_value = 0.1
+        links.new(sep.outputs[0], bump.inputs["Height"])
+        return bump
+    before = _bake_converted(sphere, make, False)
+    after = _bake_converted(sphere, make, True)
+    err = compare.angle_deg(before, after)
+    tilt = compare.angle_deg(before, after * 0 + [0, 0, 1.0])
+    assert err.max() <= 0.05, err.max()
+    assert tilt.std() > 10
+
+
+def test_convert_refuses_other_nodes(sphere):
+    _, tree, bsdf = _material(sphere)
+    with pytest.raises(O.SurfgradError, match="select a Normal Map or a Bump node"):
+        O.convert_node(tree, bsdf)
+    nm = tree.nodes.new("ShaderNodeNormalMap")
+    nm.space = "OBJECT"
+    with pytest.raises(O.SurfgradError, match="SG Object Normal"):
+        O.convert_node(tree, nm)
+
+
+def test_decal_projector_axes_follow_the_empty(sphere):
+    _, tree, _ = _material(sphere)
+    empty, decal = O.add_decal_projector(bpy.context, tree)
+    empty.rotation_euler = (0.3, -0.5, 1.2)
+    empty.scale = (2.0, 0.5, 1.0)
+    bpy.context.view_layer.update()
+    bpy.context.scene.frame_set(bpy.context.scene.frame_current)   # evaluate the drivers
+    m = np.array(empty.matrix_world)[:3, :3]
+    for socket, column in (("Axis X", 0), ("Axis Y", 1)):
+        got = np.array(decal.inputs[socket].default_value)
+        np.testing.assert_allclose(got, m[:, column] / np.linalg.norm(m[:, column]), atol=1e-5)
+    tc = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeTexCoord")
+    assert tc.object == empty
