@@ -76,17 +76,14 @@ def _mesh(kind, location, name, **kw):
     ops = bpy.ops.mesh
     if kind == "sphere":
         ops.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.0, location=location)
-    elif kind == "rock":
-        ops.primitive_ico_sphere_add(subdivisions=4, radius=1.0, location=location)
-        bpy.ops.object.shade_smooth()
+    elif kind == "rock":          # a dense UV sphere; SG Displace makes it a rock
+        ops.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0, location=location)
     elif kind == "plane":
         ops.primitive_plane_add(size=2.2, location=location, rotation=(math.radians(70), 0, 0))
     elif kind == "torus":
         ops.primitive_torus_add(major_radius=0.8, minor_radius=0.3, location=location,
                                 rotation=(1.1, 0, 0), generate_uvs=True)
     obj = bpy.context.active_object
-    if kind == "rock":
-        obj.data.uv_layers.new(name="UVMap")
     return test_scenes._finish(obj, name)
 
 
@@ -187,14 +184,28 @@ def build_demo(log=print):
         for axis, color in zip("XYZ", tri_colors(g)):
             g.link(color, node.inputs[f"Color {axis}"])
         return g.resolve(node.outputs[0])
+    def tri_post_resolve(g):
+        # Figure 7(b): a baked macro normal map resolved first, then triplanar detail with
+        # the resolved normal as the new base normal (weights, projection, second resolve).
+        first = g.resolve(g.group(G.normal_map_group("UVMap"),
+                                  Color=g.image(macro, uv(g))).outputs[0])
+        node = g.group(G.triplanar_group(), Normal=first, Strength=0.6)
+        for axis, color in zip("XYZ", tri_colors(g)):
+            g.link(color, node.inputs[f"Color {axis}"])
+        return g.resolve(node.outputs[0], normal=first)
+    macro = _image("Macro normal map", T.hemisphere_tile_image(128, 2, 0.95))
     a, b = _pair(x, "Triplanar on a rock", tri_usual, tri_sg, kind="rock")
-    for obj in (a, b):
+    c = _mesh("rock", (x + 3.75, 0, 1.1), "Triplanar on a rock | post-resolve")
+    c.data.materials.append(_material("Triplanar: post-resolve on a normal map",
+                                      tri_post_resolve))
+    _label("post-resolve (7b)", (x + 3.75, 0, -0.25), 0.2)
+    for obj in (a, b, c):
         from .compare import add_displace_modifier
         add_displace_modifier(obj, {"Amount": 0.18, "Scale": 1.6, "Octaves": 3})
-    cams["triplanar"] = _camera("Camera triplanar", x)
+    cams["triplanar"] = _camera("Camera triplanar", x + 1.25, distance=9.0)
 
     # 3. Decal across a torus and a plane (Figure 6).
-    x += EXHIBIT_SPACING
+    x += EXHIBIT_SPACING + 3.0          # room for the triplanar exhibit's third rock
     projectors = []
     for dx, side in ((-1.25, "usual"), (1.25, "surface gradient")):
         empty = bpy.data.objects.new(f"Decal projector ({side})", None)
