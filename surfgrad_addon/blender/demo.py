@@ -332,6 +332,8 @@ def save_demo(path, overwrite=False, log=print):
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass --overwrite to replace it")
     cams = build_demo(log)
+    if path.exists():
+        path.unlink()            # told to overwrite: replace it without a .blend1 backup
     bpy.ops.wm.save_as_mainfile(filepath=str(path.resolve()), compress=True)
     log(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return cams
