@@ -421,13 +421,14 @@ def _table(results, tolerances):
     return "\n".join(lines)
 
 
-@pytest.fixture(scope="module")
-def renders(tmp_path_factory):
-    out_dir = tmp_path_factory.mktemp("eevee")
+def run_eevee_child(script, out_dir, what="render"):
+    """Run `script` (a test file run as a script) in a fresh interpreter that renders into
+    out_dir: skip with the reason when no OpenGL context can be made, fail on anything else.
+    Returns (wall seconds, shader errors found in the output)."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env["PYTHONPATH"] = str(ROOT)
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), str(out_dir)],
+    out = subprocess.run([sys.executable, str(Path(script).resolve()), str(out_dir)],
                          cwd=out_dir, env=env, capture_output=True, text=True, timeout=TIMEOUT)
     wall = time.perf_counter() - t0
     if BPY_OK not in out.stdout:
@@ -442,9 +443,17 @@ def renders(tmp_path_factory):
         pytest.skip(reason)
     errors = _shader_errors(out.stdout + "\n" + out.stderr)
     if out.returncode != 0 or "SG_EEVEE_DONE" not in out.stdout:
-        pytest.fail(f"EEVEE made its context, then the render failed (exit {out.returncode})"
-                    f"{': shader errors: ' + chr(10).join(errors[:20]) if errors else ''}\n"
-                    f"stdout:\n{out.stdout[-2000:]}\nstderr:\n{out.stderr[-3000:]}")
+        shader = ": shader errors: " + "\n".join(errors[:20]) if errors else ""
+        pytest.fail(f"EEVEE made its context, then the {what} failed (exit "
+                    f"{out.returncode}){shader}\nstdout:\n{out.stdout[-2000:]}\n"
+                    f"stderr:\n{out.stderr[-3000:]}")
+    return wall, errors
+
+
+@pytest.fixture(scope="module")
+def renders(tmp_path_factory):
+    out_dir = tmp_path_factory.mktemp("eevee")
+    wall, errors = run_eevee_child(__file__, out_dir)
     meta = json.loads((out_dir / "renders.json").read_text())
     meta["wall_seconds"] = wall
     data = np.load(out_dir / "renders.npz")

@@ -31,8 +31,6 @@ grazing included (the mipmaps alone put up to 50 degrees between the engines the
 
 import json
 import math
-import os
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -41,11 +39,9 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_eevee import (BPY_OK, CONTEXT_OK, _angle_deg, _no_context,  # noqa: E402
-                        _shader_errors, _skip_reason)
+from test_eevee import BPY_OK, CONTEXT_OK, _angle_deg, run_eevee_child  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-TIMEOUT = 600
 MAX_VIEW_ANGLE = 70.0         # degrees between the position render's normal and the view ray
 FRONT_HALF_TEXEL = 2.0        # pixel <= half a texel at the front: magnified up to 60 degrees
 
@@ -437,28 +433,7 @@ def _table(results):
 @pytest.fixture(scope="module")
 def renders(tmp_path_factory):
     out_dir = tmp_path_factory.mktemp("eevee_demo")
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(ROOT)
-    t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), str(out_dir)],
-                         cwd=out_dir, env=env, capture_output=True, text=True, timeout=TIMEOUT)
-    wall = time.perf_counter() - t0
-    if BPY_OK not in out.stdout:
-        pytest.fail(f"the EEVEE child could not import bpy (exit {out.returncode}):\n"
-                    f"{out.stderr[-3000:]}")
-    if CONTEXT_OK not in out.stdout:
-        if not _no_context(out):
-            pytest.fail(f"the EEVEE probe render failed before its GPU context was checked "
-                        f"(exit {out.returncode}):\n{out.stdout[-2000:]}\n{out.stderr[-3000:]}")
-        reason = _skip_reason(out)
-        print(reason)
-        pytest.skip(reason)
-    errors = _shader_errors(out.stdout + "\n" + out.stderr)
-    if out.returncode != 0 or "SG_EEVEE_DONE" not in out.stdout:
-        shader = ": shader errors: " + "\n".join(errors[:20]) if errors else ""
-        pytest.fail(f"EEVEE made its context, then the demo render failed (exit "
-                    f"{out.returncode}){shader}\nstdout:\n{out.stdout[-2000:]}\n"
-                    f"stderr:\n{out.stderr[-3000:]}")
+    wall, errors = run_eevee_child(__file__, out_dir, "demo render")
     meta = json.loads((out_dir / "renders.json").read_text())
     meta["wall_seconds"] = wall
     data = np.load(out_dir / "renders.npz")
