@@ -263,27 +263,7 @@ def _child(out_dir):
 
     rd = scene.render
     rd.resolution_x, rd.resolution_y = ncol * CELL, nrow * CELL
-    rd.resolution_percentage = 100
-    rd.film_transparent = True
-    rd.use_motion_blur = False
-    rd.filter_size = 0.0
-    settings = rd.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_depth = "32"
-    settings.color_mode = "RGBA"
-    scene.view_settings.view_transform = "Standard"
-    cy = scene.cycles
-    cy.device = "CPU"
-    cy.samples = 1
-    cy.use_denoising = False
-    cy.use_adaptive_sampling = False
-    cy.seed = 0
-    cy.pixel_filter_type = "BOX"
-    cy.filter_width = 0.01
-    ee = scene.eevee
-    ee.taa_render_samples = 1
-    ee.use_shadows = False
-    ee.use_raytracing = False
+    configure_render(scene)
 
     seconds = {"probe": t_probe}
     pixels = {}
@@ -419,6 +399,33 @@ def _table(results, tolerances):
                      f"|  {r['all_interior_mean_deg']:.4f} {r['all_interior_p99_deg']:.4f} "
                      f"{r['all_interior_max_deg']:.3f}")
     return "\n".join(lines)
+
+
+def configure_render(scene):
+    """Render settings that make EEVEE and Cycles comparable: one sample at the pixel centre
+    (filter off), no motion blur, linear 32-bit EXR output, Standard view transform."""
+    rd = scene.render
+    rd.resolution_percentage = 100
+    rd.film_transparent = True
+    rd.use_motion_blur = False
+    rd.filter_size = 0.0
+    settings = rd.image_settings
+    settings.file_format = "OPEN_EXR"
+    settings.color_depth = "32"
+    settings.color_mode = "RGBA"
+    scene.view_settings.view_transform = "Standard"
+    cy = scene.cycles
+    cy.device = "CPU"
+    cy.samples = 1
+    cy.use_denoising = False
+    cy.use_adaptive_sampling = False
+    cy.seed = 0
+    cy.pixel_filter_type = "BOX"
+    cy.filter_width = 0.01
+    ee = scene.eevee
+    ee.taa_render_samples = 1
+    ee.use_shadows = False
+    ee.use_raytracing = False
 
 
 def run_eevee_child(script, out_dir, what="render"):

@@ -39,7 +39,8 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_eevee import BPY_OK, CONTEXT_OK, _angle_deg, run_eevee_child  # noqa: E402
+from test_eevee import (BPY_OK, CONTEXT_OK, _angle_deg, configure_render,  # noqa: E402
+                        run_eevee_child)
 
 ROOT = Path(__file__).resolve().parents[1]
 MAX_VIEW_ANGLE = 70.0         # degrees between the position render's normal and the view ray
@@ -257,27 +258,7 @@ def _child(out_dir, only=None):
     made = {k: v for k, v in emit_normals(bpy).items() if k in on_meshes}
     scene.world = None
     rd = scene.render
-    rd.resolution_percentage = 100
-    rd.film_transparent = True
-    rd.use_motion_blur = False
-    rd.filter_size = 0.0
-    settings = rd.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_depth = "32"
-    settings.color_mode = "RGBA"
-    scene.view_settings.view_transform = "Standard"
-    cy = scene.cycles
-    cy.device = "CPU"
-    cy.samples = 1
-    cy.use_denoising = False
-    cy.use_adaptive_sampling = False
-    cy.seed = 0
-    cy.pixel_filter_type = "BOX"
-    cy.filter_width = 0.01
-    ee = scene.eevee
-    ee.taa_render_samples = 1
-    ee.use_shadows = False
-    ee.use_raytracing = False
+    configure_render(scene)
     position = _position_material(bpy)
     view_layer = bpy.context.view_layer
 

@@ -1,44 +1,14 @@
 """A few helpers for building a bake material's node graph by code (the bench's methods)."""
 
-import bpy
-
 from ..blender import groups as G
+from ..blender.node_builder import NodeOps
 
 
-class Graph:
+class Graph(NodeOps):
+    """A bake material's node tree, with NodeOps' arithmetic and a few material helpers."""
+
     def __init__(self, nodes, links):
         self.nodes, self.links = nodes, links
-
-    def node(self, bl_idname, **props):
-        n = self.nodes.new(bl_idname)
-        for key, value in props.items():
-            setattr(n, key, value)
-        return n
-
-    def link(self, source, target):
-        if isinstance(source, bpy.types.NodeSocket):
-            self.links.new(source, target)
-        elif source is not None:
-            target.default_value = source
-
-    def _op(self, idname, op, inputs, output=0):
-        n = self.node(idname, operation=op)
-        for slot, value in zip([s for s in n.inputs if s.enabled], inputs):
-            self.link(value, slot)
-        return n.outputs[output]
-
-    def vmath(self, op, *inputs):
-        return self._op("ShaderNodeVectorMath", op, inputs,
-                        1 if op in ("DOT_PRODUCT", "LENGTH") else 0)
-
-    def math(self, op, *inputs):
-        return self._op("ShaderNodeMath", op, inputs)
-
-    def scale(self, v, s):
-        n = self.node("ShaderNodeVectorMath", operation="SCALE")
-        self.link(v, n.inputs[0])
-        self.link(s, n.inputs["Scale"])
-        return n.outputs[0]
 
     def group(self, tree, **inputs):
         n = self.node("ShaderNodeGroup")
@@ -60,9 +30,7 @@ class Graph:
 
     def first(self, v):
         """The x (red) component of a vector or colour."""
-        n = self.node("ShaderNodeSeparateXYZ")
-        self.link(v, n.inputs[0])
-        return n.outputs[0]
+        return self.separate(v)[0]
 
     def geometry(self, output):
         return self.node("ShaderNodeNewGeometry").outputs[output]

@@ -44,7 +44,85 @@ def ensure_group(name, version, build, description, stale=None, tree_type="Shade
     return tree
 
 
-class GroupBuilder:
+class NodeOps:
+    """Node arithmetic shared by group builders and material graphs: sockets or constants in,
+    output sockets out. Subclasses provide self.nodes, self.links and node()."""
+
+    def node(self, bl_idname, label=None, **props):
+        n = self.nodes.new(bl_idname)
+        for key, value in props.items():
+            setattr(n, key, value)
+        if label:
+            n.label = label
+        return n
+
+    def link(self, source, target):
+        """Link a socket, or set a constant on `target`."""
+        if isinstance(source, bpy.types.NodeSocket):
+            self.links.new(source, target)
+        elif source is not None:
+            target.default_value = source
+
+    def _op(self, bl_idname, op, inputs, output=0):
+        n = self.node(bl_idname, operation=op)
+        slots = [s for s in n.inputs if s.enabled]
+        for slot, value in zip(slots, inputs):
+            self.link(value, slot)
+        return n.outputs[output]
+
+    # Vector Math (outputs[0] is the vector, outputs[1] the value).
+    def vmath(self, op, *inputs):
+        return self._op("ShaderNodeVectorMath", op, inputs, 1 if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else 0)
+
+    def math(self, op, *inputs):
+        return self._op("ShaderNodeMath", op, inputs)
+
+    def add(self, a, b):
+        return self.vmath("ADD", a, b)
+
+    def sub(self, a, b):
+        return self.vmath("SUBTRACT", a, b)
+
+    def scale(self, v, s):
+        n = self.node("ShaderNodeVectorMath", operation="SCALE")
+        self.link(v, n.inputs[0])
+        self.link(s, n.inputs["Scale"])
+        return n.outputs[0]
+
+    def dot(self, a, b):
+        return self.vmath("DOT_PRODUCT", a, b)
+
+    def cross(self, a, b):
+        return self.vmath("CROSS_PRODUCT", a, b)
+
+    def normalize(self, v):
+        return self.vmath("NORMALIZE", v)
+
+    def length(self, v):
+        return self.vmath("LENGTH", v)
+
+    def separate(self, v):
+        n = self.node("ShaderNodeSeparateXYZ")
+        self.link(v, n.inputs[0])
+        return n.outputs[0], n.outputs[1], n.outputs[2]
+
+    def combine(self, x, y, z=0.0):
+        n = self.node("ShaderNodeCombineXYZ")
+        for slot, value in zip(n.inputs, (x, y, z)):
+            self.link(value, slot)
+        return n.outputs[0]
+
+    def mix_vector(self, factor, a, b):
+        """(1 - factor) a + factor b with a scalar factor."""
+        n = self.node("ShaderNodeMix", data_type="VECTOR", clamp_factor=False)
+        self.link(factor, n.inputs[0])
+        self.link(a, n.inputs[4])
+        self.link(b, n.inputs[5])
+        return n.outputs[1]
+
+
+
+class GroupBuilder(NodeOps):
     """Creates sockets and nodes in a shader node group; see the module doc."""
 
     def __init__(self, tree):
@@ -128,78 +206,10 @@ class GroupBuilder:
             self._frame = outer
 
     def node(self, bl_idname, label=None, **props):
-        n = self.nodes.new(bl_idname)
-        for key, value in props.items():
-            setattr(n, key, value)
-        if label:
-            n.label = label
+        n = super().node(bl_idname, label, **props)
         if self._frame is not None:
             n.parent = self._frame
         return n
-
-    def link(self, source, target):
-        """Link a socket, or set a constant on `target`."""
-        if isinstance(source, bpy.types.NodeSocket):
-            self.links.new(source, target)
-        elif source is not None:
-            target.default_value = source
-
-    def _op(self, bl_idname, op, inputs, output=0):
-        n = self.node(bl_idname, operation=op)
-        slots = [s for s in n.inputs if s.enabled]
-        for slot, value in zip(slots, inputs):
-            self.link(value, slot)
-        return n.outputs[output]
-
-    # Vector Math (outputs[0] is the vector, outputs[1] the value).
-    def vmath(self, op, *inputs):
-        return self._op("ShaderNodeVectorMath", op, inputs, 1 if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else 0)
-
-    def math(self, op, *inputs):
-        return self._op("ShaderNodeMath", op, inputs)
-
-    def add(self, a, b):
-        return self.vmath("ADD", a, b)
-
-    def sub(self, a, b):
-        return self.vmath("SUBTRACT", a, b)
-
-    def scale(self, v, s):
-        n = self.node("ShaderNodeVectorMath", operation="SCALE")
-        self.link(v, n.inputs[0])
-        self.link(s, n.inputs["Scale"])
-        return n.outputs[0]
-
-    def dot(self, a, b):
-        return self.vmath("DOT_PRODUCT", a, b)
-
-    def cross(self, a, b):
-        return self.vmath("CROSS_PRODUCT", a, b)
-
-    def normalize(self, v):
-        return self.vmath("NORMALIZE", v)
-
-    def length(self, v):
-        return self.vmath("LENGTH", v)
-
-    def separate(self, v):
-        n = self.node("ShaderNodeSeparateXYZ")
-        self.link(v, n.inputs[0])
-        return n.outputs[0], n.outputs[1], n.outputs[2]
-
-    def combine(self, x, y, z=0.0):
-        n = self.node("ShaderNodeCombineXYZ")
-        for slot, value in zip(n.inputs, (x, y, z)):
-            self.link(value, slot)
-        return n.outputs[0]
-
-    def mix_vector(self, factor, a, b):
-        """(1 - factor) a + factor b with a scalar factor."""
-        n = self.node("ShaderNodeMix", data_type="VECTOR", clamp_factor=False)
-        self.link(factor, n.inputs[0])
-        self.link(a, n.inputs[4])
-        self.link(b, n.inputs[5])
-        return n.outputs[1]
 
     # -- layout ------------------------------------------------------------------------------
     def _layout(self):
