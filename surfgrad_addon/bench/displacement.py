@@ -18,6 +18,7 @@ import time
 import numpy as np
 
 from .. import reference as R
+from ..blender import modifier_inputs
 from ..blender.compare import angle_deg
 
 CONVERGENCE = {"Amount": 0.1, "Scale": 2.0, "Octaves": 3}
@@ -39,11 +40,9 @@ def convergence(levels=range(7), repeats=3, log=print):
     obj.data.polygons.foreach_set("use_smooth", np.ones(len(obj.data.polygons), dtype=bool))
     sub = obj.modifiers.new("Subdivision", "SUBSURF")
     mod = compare.add_displace_modifier(obj, CONVERGENCE)
-    switch = next(it.identifier for it in mod.node_group.interface.items_tree
-                  if it.item_type == "SOCKET" and it.name == "Analytic Normals")
 
     def evaluate(analytic):
-        mod[switch] = analytic
+        modifier_inputs.set_input(mod, "Analytic Normals", analytic)
         seconds = []
         for _ in range(repeats):
             obj.update_tag()

@@ -29,7 +29,8 @@ def run_scenario(scenario, resolution, repeats, quick, log=print):
         # Geometry, texels and truth per object, computed once.
         objs = {}
         for name, obj in ctx.objects.items():
-            td = R.rasterize(mesh_arrays_from_object(obj), ctx.uv_map, resolution, resolution)
+            td = R.rasterize(mesh_arrays_from_object(obj), ctx.uv_map, resolution, resolution,
+                             facts=B.running_line())
             objs[name] = (obj, td, td.interior(), scenario.truth(ctx, td),
                           M.unit_base_normal(td))
         times = {m.label: [] for m in methods}

@@ -12,6 +12,14 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from ..reference.blender_lines import facts_for
+
+
+def running_line():
+    """The facts of the running Blender's line (the reference reads them to model its bakes)."""
+    import bpy
+    return facts_for(bpy.app.version)
+
 
 class BakeError(RuntimeError):
     """A bake could not run; the message names the object or setting and the fix."""

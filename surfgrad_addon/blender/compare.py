@@ -22,6 +22,7 @@ from ..png import write_png
 from ..reference import methods as M
 from . import bake as B
 from . import groups as G
+from . import modifier_inputs
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 
 DETAIL_UV = "Detail"
@@ -322,10 +323,8 @@ def add_displace_modifier(obj, settings=None):
     tree = G.displace_group()
     mod = obj.modifiers.new("SG Displace", "NODES")
     mod.node_group = tree
-    for item in tree.interface.items_tree:
-        if item.item_type == "SOCKET" and item.in_out == "INPUT" and \
-                item.name in (settings or DISPLACE):
-            mod[item.identifier] = (settings or DISPLACE)[item.name]
+    for name, value in (settings or DISPLACE).items():
+        modifier_inputs.set_input(mod, name, value)
     obj.data.update()
     return mod
 
@@ -551,7 +550,7 @@ def compare_graph(inp, obj, graph, reference, resolution):
     except MeshDataError as err:
         raise CompareError(str(err)) from err
     t0 = time.perf_counter()
-    td = R.rasterize(mesh, inp.uv_map, resolution, resolution)
+    td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=B.running_line())
     ref = M.resolve(reference(inp, td))
     reference_seconds = time.perf_counter() - t0
     baked = pixels[td.pixel[:, 1], td.pixel[:, 0]].astype(np.float64)

@@ -13,6 +13,7 @@ import numpy as np
 from ..bench.graph import Graph
 from ..reference import test_images as T
 from . import groups as G
+from . import modifier_inputs
 
 EXHIBIT_SPACING = 6.0
 HEIGHT_BUMP = 0.2
@@ -295,9 +296,7 @@ def build_demo(log=print):
     from .compare import add_displace_modifier
     for obj, analytic in ((a, False), (b, True)):
         mod = add_displace_modifier(obj, {"Amount": 0.15, "Scale": 1.8, "Octaves": 2})
-        key = next(i.identifier for i in mod.node_group.interface.items_tree
-                   if i.item_type == "SOCKET" and i.name == "Analytic Normals")
-        mod[key] = analytic
+        modifier_inputs.set_input(mod, "Analytic Normals", analytic)
     cams["displacement"] = _camera("Camera displacement", x)
 
     # 7. Parallax with post-resolve detail (Figure 7c).

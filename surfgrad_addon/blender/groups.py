@@ -13,7 +13,7 @@ import bpy
 
 from .node_builder import ensure_group
 
-VERSION = 11
+VERSION = 12
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
 
 
@@ -916,14 +916,14 @@ def displace_group():
             capture = b.node("GeometryNodeCaptureAttribute", domain="POINT")
             capture.capture_items.new("VECTOR", "Normal")
             b.link(store.outputs["Geometry"], capture.inputs["Geometry"])
-            b.link(normal, capture.inputs[1])
+            b.link(normal, capture.inputs["Normal"])      # by name: 5.1 added Selection
         with b.frame("Eq. 3: P = P0 + amount h N0, then the analytic normals"):
             setpos = b.node("GeometryNodeSetPosition")
             b.link(capture.outputs["Geometry"], setpos.inputs["Geometry"])
             b.link(b.scale(n0, b.math("MULTIPLY", value, amount)), setpos.inputs["Offset"])
             setn = b.node("GeometryNodeSetMeshNormal", mode="FREE", domain="POINT")
             b.link(setpos.outputs["Geometry"], setn.inputs["Mesh"])
-            b.link(capture.outputs[1], setn.inputs["Custom Normal"])
+            b.link(capture.outputs["Normal"], setn.inputs["Custom Normal"])
             switch = b.node("GeometryNodeSwitch", input_type="GEOMETRY")
             b.link(analytic, switch.inputs["Switch"])
             b.link(setpos.outputs["Geometry"], switch.inputs["False"])

@@ -18,6 +18,11 @@ from contextlib import contextmanager
 import bpy
 
 VERSION_KEY = "surfgrad_version"
+
+
+class BuildError(RuntimeError):
+    """A socket, node, property or link that this Blender refused or changed: the message
+    names the group and the part, so nothing is lost silently on any Blender line."""
 SOCKET_TYPES = {"VECTOR": "NodeSocketVector", "FLOAT": "NodeSocketFloat",
                 "COLOR": "NodeSocketColor", "BOOLEAN": "NodeSocketBool",
                 "INT": "NodeSocketInt", "GEOMETRY": "NodeSocketGeometry"}
@@ -44,28 +49,78 @@ def ensure_group(name, version, build, description, stale=None, tree_type="Shade
     return tree
 
 
+def check_value(got, want, what):
+    """Raise BuildError unless `got` (a Blender property read back) equals `want` to float32
+    precision."""
+    try:
+        g = [float(x) for x in got] if hasattr(got, "__len__") and not isinstance(got, str) \
+            else [float(got)]
+        w = [float(x) for x in want] if hasattr(want, "__len__") and not isinstance(want, str) \
+            else [float(want)]
+    except (TypeError, ValueError):
+        if got != want:
+            raise BuildError(f"{what} reads back {got!r}, not {want!r}") from None
+        return
+    if len(g) != len(w) or any(abs(a - b) > 1e-6 * max(1.0, abs(b)) for a, b in zip(g, w)):
+        raise BuildError(f"{what} reads back {got!r}, not {want!r}")
+
+
 class NodeOps:
     """Node arithmetic shared by group builders and material graphs: sockets or constants in,
     output sockets out. Subclasses provide self.nodes, self.links and node()."""
 
+    where = "a material"      # named in errors
+
     def node(self, bl_idname, label=None, **props):
-        n = self.nodes.new(bl_idname)
+        try:
+            n = self.nodes.new(bl_idname)
+        except RuntimeError as ex:
+            raise BuildError(f"{self.where}: Blender {bpy.app.version_string} cannot create "
+                             f"a {bl_idname} node ({ex})") from None
         for key, value in props.items():
-            setattr(n, key, value)
+            try:
+                setattr(n, key, value)
+            except (TypeError, AttributeError, ValueError) as ex:
+                raise BuildError(f"{self.where}: cannot set {bl_idname}.{key} = {value!r} "
+                                 f"({ex})") from None
+            if isinstance(value, (str, bool, int)) and getattr(n, key) != value:
+                raise BuildError(f"{self.where}: {bl_idname}.{key} reads back "
+                                 f"{getattr(n, key)!r}, not {value!r}")
         if label:
             n.label = label
         return n
 
     def link(self, source, target):
-        """Link a socket, or set a constant on `target`."""
+        """Link a socket, or set a constant on `target`; raises BuildError when Blender makes
+        no valid link or does not take the value."""
         if isinstance(source, bpy.types.NodeSocket):
-            self.links.new(source, target)
+            if not target.enabled:
+                raise BuildError(f"{self.where}: {target.node.name}.{target.name} is not an "
+                                 f"active input of this node on Blender "
+                                 f"{bpy.app.version_string}")
+            if target.type in ("BOOLEAN", "INT") and source.type in ("VECTOR", "RGBA"):
+                raise BuildError(f"{self.where}: a {source.type.lower()} "
+                                 f"({source.node.name}.{source.name}) would be squashed into "
+                                 f"{target.type.lower()} input {target.node.name}."
+                                 f"{target.name}")
+            made = self.links.new(source, target)
+            if made is None or not made.is_valid or made.to_socket != target:
+                raise BuildError(f"{self.where}: no valid link from {source.node.name}."
+                                 f"{source.name} to {target.node.name}.{target.name}")
         elif source is not None:
+            if not hasattr(target, "default_value"):
+                raise BuildError(f"{self.where}: {target.node.name}.{target.name} takes no "
+                                 f"constant ({source!r})")
             target.default_value = source
+            check_value(target.default_value, source,
+                        f"{self.where}: {target.node.name}.{target.name}")
 
     def _op(self, bl_idname, op, inputs, output=0):
         n = self.node(bl_idname, operation=op)
         slots = [s for s in n.inputs if s.enabled]
+        if len(inputs) > len(slots):
+            raise BuildError(f"{self.where}: {bl_idname} {op} takes {len(slots)} inputs on "
+                             f"Blender {bpy.app.version_string}, {len(inputs)} given")
         for slot, value in zip(slots, inputs):
             self.link(value, slot)
         return n.outputs[output]
@@ -115,10 +170,11 @@ class NodeOps:
     def mix_vector(self, factor, a, b):
         """(1 - factor) a + factor b with a scalar factor."""
         n = self.node("ShaderNodeMix", data_type="VECTOR", clamp_factor=False)
-        self.link(factor, n.inputs[0])
-        self.link(a, n.inputs[4])
-        self.link(b, n.inputs[5])
-        return n.outputs[1]
+        inputs = {s.identifier: s for s in n.inputs}
+        self.link(factor, inputs["Factor_Float"])
+        self.link(a, inputs["A_Vector"])
+        self.link(b, inputs["B_Vector"])
+        return {s.identifier: s for s in n.outputs}["Result_Vector"]
 
 
 
@@ -127,6 +183,7 @@ class GroupBuilder(NodeOps):
 
     def __init__(self, tree):
         self.tree = tree
+        self.where = f"node group {tree.name!r}"
         self.nodes = tree.nodes
         self.links = tree.links
         self._frame = None
@@ -135,31 +192,59 @@ class GroupBuilder(NodeOps):
         self.group_out = self.nodes.new("NodeGroupOutput")
 
     # -- interface ---------------------------------------------------------------------------
+    def _item(self, identifier):
+        for it in self.tree.interface.items_tree:
+            if it.item_type == "SOCKET" and it.identifier == identifier:
+                return it
+        raise BuildError(f"{self.where}: interface socket {identifier} vanished")
+
     def _socket(self, name, in_out, kind, description, default=None, min_value=None,
                 max_value=None, subtype=None, hide_value=False):
+        # Items are tracked by identifier: from Blender 5.1 setting a subtype replaces the
+        # item's Python object (its type becomes e.g. ...VectorDirection).
         bl_type = SOCKET_TYPES[kind]
+        what = f"{self.where}: {in_out.lower()} socket {name!r}"
         item = None
         for it in self.tree.interface.items_tree:
             if (it.item_type == "SOCKET" and it.name == name and it.in_out == in_out
-                    and it not in self._wanted):
+                    and it.identifier not in self._wanted):
                 item = it
                 break
         if item is not None and item.socket_type != bl_type:
             self.tree.interface.remove(item)
             item = None
         if item is None:
-            item = self.tree.interface.new_socket(name, in_out=in_out, socket_type=bl_type)
+            try:
+                item = self.tree.interface.new_socket(name, in_out=in_out, socket_type=bl_type)
+            except (TypeError, RuntimeError) as ex:
+                raise BuildError(f"{what}: cannot create a {bl_type} ({ex})") from None
+        identifier = item.identifier
         item.description = description
-        if subtype is not None and hasattr(item, "subtype"):
+        if subtype is not None:
+            if not hasattr(item, "subtype"):
+                raise BuildError(f"{what}: a {bl_type} has no subtype here")
             item.subtype = subtype
-        if default is not None:
-            item.default_value = default
-        if min_value is not None:
-            item.min_value = min_value
-        if max_value is not None:
-            item.max_value = max_value
+            item = self._item(identifier)
+        for key, value in (("default_value", default), ("min_value", min_value),
+                           ("max_value", max_value)):
+            if value is not None:
+                if not hasattr(item, key):
+                    raise BuildError(f"{what}: a {bl_type} has no {key}")
+                setattr(item, key, value)
         item.hide_value = hide_value
-        self._wanted.append(item)
+        item = self._item(identifier)
+        # Read everything back: a line that drops or clamps a setting is an error, not a loss.
+        if item.name != name or item.socket_type != bl_type or item.in_out != in_out:
+            raise BuildError(f"{what}: became {item.in_out} {item.name!r} {item.socket_type}")
+        if item.description != description:
+            raise BuildError(f"{what}: the tooltip was not kept")
+        if subtype is not None and item.subtype != subtype:
+            raise BuildError(f"{what}: subtype {item.subtype!r}, not {subtype!r}")
+        for key, value in (("default_value", default), ("min_value", min_value),
+                           ("max_value", max_value)):
+            if value is not None:
+                check_value(getattr(item, key), value, f"{what} {key}")
+        self._wanted.append(identifier)
         return item
 
     def input(self, name, kind, description, default=None, min_value=None, max_value=None,
@@ -178,18 +263,26 @@ class GroupBuilder(NodeOps):
         for s in sockets:
             if s.identifier == item.identifier:
                 return s
-        raise KeyError(item.name)
+        raise BuildError(f"{self.where}: the group node has no socket for {item.name!r}")
 
     def finish(self):
         iface = self.tree.interface
         for it in list(iface.items_tree):
-            if it.item_type == "SOCKET" and it not in self._wanted:
+            if it.item_type == "SOCKET" and it.identifier not in self._wanted:
                 iface.remove(it)
         # Interface order: outputs first, then inputs, in the order they were declared.
-        order = [w for w in self._wanted if w.in_out == "OUTPUT"] + \
-                [w for w in self._wanted if w.in_out == "INPUT"]
-        for position, it in enumerate(order):
-            iface.move(it, position)
+        wanted = [self._item(i) for i in self._wanted]
+        order = [w for w in wanted if w.in_out == "OUTPUT"] + \
+                [w for w in wanted if w.in_out == "INPUT"]
+        for position, identifier in enumerate([w.identifier for w in order]):
+            iface.move(self._item(identifier), position)
+        have = [it.identifier for it in iface.items_tree if it.item_type == "SOCKET"]
+        if sorted(have) != sorted(self._wanted):
+            raise BuildError(f"{self.where}: interface has {have}, expected {self._wanted}")
+        bad = [f"{ln.from_node.name}.{ln.from_socket.name} -> {ln.to_node.name}."
+               f"{ln.to_socket.name}" for ln in self.tree.links if not ln.is_valid]
+        if bad:
+            raise BuildError(f"{self.where}: invalid links {bad}")
         self._layout()
 
     # -- nodes -------------------------------------------------------------------------------

@@ -23,12 +23,13 @@ def make_orthonormals(n):
 
 def bump_differentials(td):
     """dPdx, dPdy (N, 3) a bake gives the Bump node: r * make_orthonormals(Ng) with
-    r = (|dP/ds| / W + |dP/dt| / H) / 4 on the bake's UV map (half of Blender's bake
-    differentials, averaged to one length by Cycles), along fixed diagonals of the triangle's
-    plane rather than the texel axes."""
+    r = k (|dP/ds| / W + |dP/dt| / H) on the bake's UV map (Blender's bake differentials,
+    averaged to one length by Cycles), along fixed diagonals of the triangle's plane rather
+    than the texel axes. k is the line's fact: 1/4 up to 5.0 (half-texel differentials), 1/2
+    in 5.2 (blender_lines.LineFacts.bake_differential_scale)."""
     dp_ds, dp_dt, _ = td.derivatives(td.uv_map)
-    r = 0.25 * (np.linalg.norm(dp_ds, axis=-1) / td.width
-                + np.linalg.norm(dp_dt, axis=-1) / td.height)
+    r = td.facts.bake_differential_scale * (np.linalg.norm(dp_ds, axis=-1) / td.width
+                                            + np.linalg.norm(dp_dt, axis=-1) / td.height)
     a, b = make_orthonormals(td.geometric_normal)
     return r[:, None] * a, r[:, None] * b
 

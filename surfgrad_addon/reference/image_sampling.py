@@ -15,6 +15,8 @@ Extension: 'REPEAT' wraps periodically; 'EXTEND' clamps to the edge texel.
 
 import numpy as np
 
+from .blender_lines import MAIN_LINE
+
 INTERPOLATIONS = ("Closest", "Linear")
 EXTENSIONS = ("REPEAT", "EXTEND")
 
@@ -73,8 +75,9 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
 
 
 # Blender's bake rasteriser shades texel (i, j) at ((i + 0.5 + 0.001) / W, (j + 0.5 + 0.002) / H)
-# (render/intern/bake.cc subtracts 0.5 + 0.001 and 0.5 + 0.002); pinned by a bake test.
-BAKE_TEXEL_OFFSET = (0.501, 0.502)
+# (render/intern/bake.cc subtracts 0.5 + 0.001 and 0.5 + 0.002) on every line; pinned by a bake
+# test (tests/test_blender_pins.py) that runs on each.
+BAKE_TEXEL_OFFSET = MAIN_LINE.bake_texel_offset
 
 
 def bake_sample_points(width, height, dtype=np.float64):

@@ -18,8 +18,9 @@ from .noise import fractal_sum
 from .vecmath import normalize
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
-# Filter Width of the Forward variant's Bump node: a bake's differentials are half a texel
-# long, so 2 steps about one texel, like the paper's one-pixel screen differences.
+# Filter Width of the Forward variant's Bump node. Camera differentials in a render and a
+# bake's differentials up to 5.0 are half a pixel / texel, so 2 steps about one, like the
+# paper's one-pixel screen differences (a 5.2 bake steps two texels: blender_lines).
 FORWARD_FILTER_WIDTH = 2.0
 
 
@@ -34,11 +35,12 @@ def decode_normal_map(rgb):
 
 def mikktspace_frame(td, uv_map=None):
     """Listing 9's frame (n/|n|, t/|n|, b/|n|) in world space, built as Blender's Normal Map
-    node does: tangent, sign and the unnormalised normal interpolated in object space,
+    node does: tangent, sign and the normal interpolated in object space (the normal
+    unnormalised up to 5.0, unit in 5.2: TexelData.normal_map_normal_object),
     b = sign * cross(n, t) there, and all three taken to world space by the normal matrix
     (Cycles combines in object space and transforms the result as a normal)."""
     t_obj, sign = td.tangent_object(uv_map)
-    n_obj = td.normal_object
+    n_obj = td.normal_map_normal_object
     b_obj = np.asarray(sign)[:, None] * np.cross(n_obj, t_obj)
     nm = td.mesh.normal_matrix.T
     n_w, t_w, b_w = n_obj @ nm, t_obj @ nm, b_obj @ nm
@@ -91,8 +93,10 @@ def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
     st = td.uv(uv_map)
     if variant == "forward":
         # Listing 7's screen-space taps, with the differentials a Cycles bake gives its
-        # Bump node (the Forward variant is that node), FORWARD_FILTER_WIDTH steps long.
-        dpdx, dpdy = (FORWARD_FILTER_WIDTH * d for d in bump_differentials(td))
+        # Bump node (the Forward variant is that node), FORWARD_FILTER_WIDTH steps long
+        # where the line's Bump node has a Filter Width.
+        fw = td.facts.bump_step_scale(FORWARD_FILTER_WIDTH)
+        dpdx, dpdy = (fw * d for d in bump_differentials(td))
         h_c = sample_image(height, st, interpolation)
         h_x = sample_image(height, st + uv_step(td, dpdx, uv_map), interpolation)
         h_y = sample_image(height, st + uv_step(td, dpdy, uv_map), interpolation)

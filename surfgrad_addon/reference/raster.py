@@ -16,7 +16,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .image_sampling import BAKE_TEXEL_OFFSET
+from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
 from .vecmath import cross, normalize
 
 # Candidate texels examined per chunk: bounds memory at about 40 bytes x this.
@@ -131,6 +131,8 @@ class TexelData:
     triangle: np.ndarray
     pixel: np.ndarray
     barycentric: np.ndarray
+    # The Blender line whose bake this models (blender_lines): differentials, normal storage.
+    facts: LineFacts = MAIN_LINE
 
     @property
     def covered(self):
@@ -158,6 +160,22 @@ class TexelData:
         return self._interpolate(self.mesh.corner_normals)
 
     @cached_property
+    def normal_map_normal_object(self):
+        """The object-space normal Cycles' Normal Map node builds its tangent frame on (smooth
+        shading). Up to 5.0: the unnormalised interpolation of the object's corner normals.
+        In 5.2: the stored corner normals (world space and packed when the transform is
+        applied) taken back to object space, interpolated and normalised."""
+        if not self.facts.normal_map_unit_normal:
+            return self.normal_object
+        n = np.asarray(self.mesh.corner_normals, dtype=np.float64)
+        if self.mesh.transform_applied:
+            m3 = np.asarray(self.mesh.matrix_world, dtype=np.float64)[:3, :3]
+            n = normalize(self._stored(normalize(n @ self.mesh.normal_matrix.T)) @ m3)
+        else:
+            n = self._stored(n)
+        return normalize(self._interpolate(n))
+
+    @cached_property
     def normal(self):
         return self.normal_object @ self.mesh.normal_matrix.T
 
@@ -169,8 +187,15 @@ class TexelData:
         then transformed. The two differ only under non-uniform scale."""
         if self.mesh.transform_applied:
             n = np.asarray(self.mesh.corner_normals, dtype=np.float64) @ self.mesh.normal_matrix.T
-            return normalize(self._interpolate(normalize(n)))
-        return normalize(self.normal)
+            return normalize(self._interpolate(self._stored(normalize(n))))
+        n = self._interpolate(self._stored(np.asarray(self.mesh.corner_normals, np.float64)))
+        return normalize(n @ self.mesh.normal_matrix.T)
+
+    def _stored(self, unit_normals):
+        """Corner normals as the renderer stores them (octahedral 16-bit where it packs)."""
+        if self.facts.packed_normals:
+            return octahedral_unit_vectors(unit_normals)
+        return unit_normals
 
     @cached_property
     def geometric_normal(self):
@@ -251,9 +276,12 @@ class TexelData:
         return ok[self.pixel[:, 1], self.pixel[:, 0]]
 
 
-def rasterize(mesh, uv_map, width, height, sample_offset=BAKE_TEXEL_OFFSET):
+def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE):
     """Rasterise `mesh` into a width x height texture of UV map `uv_map` (see module doc).
-    sample_offset: where in its texel each texel is sampled ((0.5, 0.5) for exact centres)."""
+    sample_offset: where in its texel each texel is sampled (default: where the bake of
+    `facts`' line shades; (0.5, 0.5) for exact centres). facts: the Blender line modelled."""
+    if sample_offset is None:
+        sample_offset = facts.bake_texel_offset
     mesh.validate()
     if width < 1 or height < 1:
         raise ValueError(f"bake resolution must be positive, got {width} x {height}")
@@ -313,7 +341,8 @@ def rasterize(mesh, uv_map, width, height, sample_offset=BAKE_TEXEL_OFFSET):
     bary = np.clip(best_bary[covered_flat], 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
     return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
-                     triangle=best_tri.reshape(height, width), pixel=pixel, barycentric=bary)
+                     triangle=best_tri.reshape(height, width), pixel=pixel, barycentric=bary,
+                     facts=facts)
 
 
 def _barycentric_coefficients(a, b, c, area):

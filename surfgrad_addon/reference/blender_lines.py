@@ -1,0 +1,102 @@
+"""What each supported Blender line does that the reference must reproduce (no bpy here).
+
+The reference is compared with one Blender at a time, so it reads that line's facts:
+`facts_for(bpy.app.version)` on the Blender side, `MAIN_LINE` when no Blender is involved.
+Every fact is pinned by a test that runs on every line (tests/test_blender_facts.py,
+tests/test_blender_pins.py, tests/test_line_facts.py); docs/versions.md has the evidence.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .vecmath import normalize
+
+
+@dataclass(frozen=True)
+class LineFacts:
+    line: str
+    # A bake hands Cycles' Bump node dPdx, dPdy = r * make_orthonormals(Ng) with
+    # r = bake_differential_scale * (|dP/ds| / W + |dP/dt| / H): Blender's per-texel
+    # barycentric differentials averaged to one length. Half-texel differentials up to 5.0
+    # (0.25), whole-texel ones in 5.2 (0.5): at the same Filter Width a 5.2 bake steps twice as
+    # far. Renders are unchanged (camera differentials).
+    bake_differential_scale: float
+    # The Bump node has a Filter Width input (4.4 and later); without it the shifted copies step
+    # one differential, as if Filter Width were 1.
+    bump_filter_width: bool
+    # Cycles stores vertex normals octahedral-encoded in 2 x 16 bits (5.1 and later): the
+    # shading normal interpolates the decoded normals (up to ~0.005 degrees from float32).
+    packed_normals: bool
+    # The Normal Map node (tangent space, smooth) builds its frame on a unit normal: the stored
+    # corner normals back in object space, interpolated and normalised (5.2); up to 5.0 on the
+    # unnormalised interpolation of the object's corner normals.
+    normal_map_unit_normal: bool
+    # The Normal Map node has the `convention` property (OpenGL / DirectX), 5.2 and later.
+    normal_map_convention: bool
+    # Geometry Nodes modifier inputs live in mod.properties.inputs (5.1 and later) rather than
+    # in ID properties.
+    modifier_properties: bool
+    # EEVEE's render engine id.
+    eevee_engine: str
+    # Where a bake shades texel (i, j): ((i + x) / W, (j + y) / H). Same on every line.
+    bake_texel_offset: tuple = (0.501, 0.502)
+    # MikkTSpace tangents come from Cycles' own triangles (not the quads Blender's
+    # calc_tangents sees). Same on every line.
+    tangents_on_triangles: bool = True
+
+    def bump_step_scale(self, filter_width):
+        """How many differentials a Bump node with this Filter Width shifts its copies."""
+        return float(filter_width) if self.bump_filter_width else 1.0
+
+
+LINES = {
+    "4.2": LineFacts("4.2", 0.25, False, False, False, False, False, "BLENDER_EEVEE_NEXT"),
+    "4.5": LineFacts("4.5", 0.25, True, False, False, False, False, "BLENDER_EEVEE_NEXT"),
+    "5.0": LineFacts("5.0", 0.25, True, False, False, False, False, "BLENDER_EEVEE"),
+    "5.2": LineFacts("5.2", 0.5, True, True, True, True, True, "BLENDER_EEVEE"),
+}
+MAIN_LINE = LINES["5.2"]
+OLDEST = (4, 2, 0)
+
+
+def facts_for(version):
+    """The facts of the line a Blender version (a tuple like bpy.app.version) belongs to:
+    the newest supported line not newer than it. 5.1 and 4.3/4.4 are not tested: they get the
+    facts of the line below, which the tests would show wrong before a release claims them."""
+    v = tuple(version)[:3]
+    if v < OLDEST:
+        raise ValueError(f"Blender {'.'.join(map(str, v))} is older than the oldest supported "
+                         f"line, 4.2 LTS")
+    best = None
+    for key, facts in LINES.items():
+        major, minor = (int(x) for x in key.split("."))
+        if (major, minor) <= v[:2]:
+            best = facts
+    return best
+
+
+def octahedral_unit_vectors(v):
+    """Unit vectors (..., 3) after Cycles' 2 x 16-bit octahedral encoding and decoding
+    (Cigolle et al., JCGT 2014: project onto the octahedron |x| + |y| + |z| = 1, fold the lower
+    half over, quantise each coordinate to 16 bits with rounding, and back)."""
+    v = np.asarray(v, dtype=np.float64)
+    f32 = np.float32
+    mu = 65535
+    hmu = f32(mu / 2.0)
+    x, y, z = (v[..., k].astype(f32) for k in range(3))
+    l1 = f32(1.0) / (np.abs(x) + np.abs(y) + np.abs(z) + f32(1e-6))
+    px, py = x * l1, y * l1
+    fx = (f32(1.0) - np.abs(py)) * np.copysign(f32(1.0), px)
+    fy = (f32(1.0) - np.abs(px)) * np.copysign(f32(1.0), py)
+    px, py = np.where(z >= 0, px, fx), np.where(z >= 0, py, fy)
+    qx = np.clip(px * hmu + (hmu + f32(0.5)), 0, mu).astype(np.uint32)
+    qy = np.clip(py * hmu + (hmu + f32(0.5)), 0, mu).astype(np.uint32)
+    inv = f32(2.0 / mu)
+    nx = qx.astype(f32) * inv - f32(1.0)
+    ny = qy.astype(f32) * inv - f32(1.0)
+    nz = f32(1.0) - np.abs(nx) - np.abs(ny)
+    t = np.maximum(-nz, f32(0.0))
+    nx = nx + np.where(nx > 0, -t, t)
+    ny = ny + np.where(ny > 0, -t, t)
+    return normalize(np.stack([nx, ny, nz], -1).astype(np.float64))
