@@ -11,6 +11,7 @@ RE_bake_pixels_populate) maps UVs to pixels as `uv * size - (0.5f + 0.001f)` in 
 """
 
 import numpy as np
+from surfgrad_addon.blender.compat import new_material  # noqa: E402
 
 bpy = None
 
@@ -97,7 +98,7 @@ class EmissionProbe:
     def __init__(self, obj, name="ProbeMat"):
         b = _bpy()
         self.obj = obj
-        mat = b.data.materials.new(name)
+        mat = new_material(name)
         obj.data.materials.append(mat)
         self.tree = mat.node_tree
         self.nodes = self.tree.nodes

@@ -5,14 +5,14 @@ Builds on blender_bake_probe (scene set-up for exact EMIT bakes, float images, E
 Everything numpy here is float64 and independent of bpy except `mesh_arrays`, which reads a
 bpy mesh into a `surfgrad_addon.reference.MeshArrays`.
 
-The bake model (read from the Cycles kernel of bpy 5.0.1 and pinned by the tests):
-- Blender's bake rasteriser hands Cycles barycentric differentials that are HALF the
-  per-texel ones (render/intern/bake.cc `bake_differentials`, `A = 0.5f / A` as remembered:
-  that file is not in the wheel; the factor is pinned by the image-bump bakes, where twice
-  this r is 11-16 degrees off).
+The bake model (read from the Cycles kernels in the bpy wheels and pinned by the tests, on
+every line; LINE holds the running line's facts, surfgrad_addon.reference.blender_lines):
+- Blender's bake rasteriser hands Cycles barycentric differentials: HALF the per-texel ones up
+  to 5.0, whole texels in 5.2 (that code is not in the wheels; the factor is pinned by the
+  image-bump bakes and test_line_facts.py, where the other line's r is degrees off).
 - integrator/init_from_bake.h turns them into world dP.dx, dP.dy and compacts them into one
   radius `r = 0.5 * (|dP.dx| + |dP.dy|)` (util/differential.h `differential_make_compact`),
-  so r = 0.25 * (|dP/ds| / W + |dP/dt| / H): half the mean world length of a texel's sides.
+  so r = k (|dP/ds| / W + |dP/dt| / H), k = 0.25 up to 5.0 and 0.5 in 5.2.
 - The shading point expands r back into the isotropic pair `r * make_orthonormals(Ng)`
   (`differential_from_compact`): dPdx = r a, dPdy = r (Ng x a) with a = normalize((1,1,1) x Ng),
   directions in the triangle's plane that know nothing of the texel axes.
@@ -23,18 +23,43 @@ The bake model (read from the Cycles kernel of bpy 5.0.1 and pinned by the tests
   n = normalize(fw * |det| * N - D * sign(det) * ((h_x - h_c) Rx + (h_y - h_c) Ry)),
   then normalize(Strength * n + (1 - Strength) * N).
 - Shading normals: see `shading_normal` (a single-user mesh has its transform applied, so
-  vertex normals are normalised in WORLD space before interpolation); the Normal Map and
-  Tangent nodes: `cycles_normal_map`, `cycles_tangent_node` (object-space frame, taken to world
-  by the normal matrix).
+  vertex normals are normalised in WORLD space before interpolation; 5.2 stores them
+  octahedral-encoded in 2 x 16 bits); the Normal Map and Tangent nodes: `cycles_normal_map`,
+  `cycles_tangent_node` (object-space frame, taken to world by the normal matrix; the frame's
+  normal is unnormalised up to 5.0 and unit in 5.2).
 """
 
 import numpy as np
 
 from surfgrad_addon.reference.cycles_bake import bump_differentials, make_orthonormals, uv_step  # noqa: E402,F401
 
+import bpy
+
 import blender_bake_probe as base
-from surfgrad_addon.reference import MeshArrays, rasterize
+from surfgrad_addon.reference import MeshArrays
+from surfgrad_addon.reference import rasterize as _rasterize
+from surfgrad_addon.reference.blender_lines import facts_for, octahedral_unit_vectors
 from surfgrad_addon.reference.image_sampling import sample_image
+
+LINE = facts_for(bpy.app.version)
+
+
+def rasterize(mesh, uv_map, width, height, **kw):
+    """The reference's rasteriser with the running line's facts."""
+    return _rasterize(mesh, uv_map, width, height, facts=kw.pop("facts", LINE), **kw)
+
+
+def stored_normals(unit_normals, line=None):
+    """Unit normals as the line's Cycles stores them (5.2: octahedral 2 x 16 bits)."""
+    line = line or LINE
+    return octahedral_unit_vectors(unit_normals) if line.packed_normals else unit_normals
+
+
+def stored_world_normals(m, line=None):
+    """Corner normals of a mesh with its transform applied, as stored: object normals stored,
+    then decoded, taken to world by the normal matrix, normalised and stored again."""
+    n = stored_normals(_normalize(np.asarray(m.corner_normals, np.float64)), line)
+    return stored_normals(_normalize(n @ m.normal_matrix.T), line)
 
 DETAIL_ROTATION_DEG = 30.0
 DETAIL_TILING = 2.0
@@ -208,7 +233,7 @@ def mesh_arrays(obj, tangent_maps=("UVMap",)):
 # ------------------------------------------------------------------------------------------
 # numpy expectations
 
-def shading_normal(td, smooth=True, transform_applied=True):
+def shading_normal(td, smooth=True, transform_applied=True, line=None):
     """Cycles' sd->N at each texel, world space. Flat: the geometric normal. Smooth: the
     interpolated vertex normal, normalised. Cycles bakes a single-user mesh with its object
     transform APPLIED: each corner normal goes to world space by the normal matrix and is
@@ -217,11 +242,11 @@ def shading_normal(td, smooth=True, transform_applied=True):
     instanced mesh gets)."""
     if not smooth:
         return td.geometric_normal
-    if not transform_applied:
-        return _normalize(td.normal)
     m = td.mesh
-    return _normalize(td._interpolate(_normalize(
-        np.asarray(m.corner_normals, np.float64) @ m.normal_matrix.T)))
+    if not transform_applied:
+        n = stored_normals(_normalize(np.asarray(m.corner_normals, np.float64)), line)
+        return _normalize(td._interpolate(n) @ m.normal_matrix.T)
+    return _normalize(td._interpolate(stored_world_normals(m, line)))
 
 
 def triangle_edges(td):
@@ -250,14 +275,21 @@ def uv_surface_gradients(td, n, name=None):
             linear_surface_gradient(td, uv[..., 1], n))
 
 
-def _object_frame(td, name, smooth):
+def _object_frame(td, name, smooth, line=None):
     """What Cycles' Normal Map node works in (object space): the interpolated, UNnormalised
-    MikkTSpace tangent and sign of UV map `name`, and the normal: smooth, the UNnormalised
-    interpolation of the unit object-space vertex normals; flat, the unit geometric normal."""
+    MikkTSpace tangent and sign of UV map `name`, and the normal: smooth, up to 5.0 the
+    UNnormalised interpolation of the unit object-space vertex normals, in 5.2 the stored
+    world normals taken back to object space (each normalised), interpolated and normalised;
+    flat, the unit geometric normal."""
+    line = line or LINE
     m = td.mesh
     t = td._interpolate(m.tangents[name])
     sign = td._interpolate(m.tangent_signs[name])
-    if smooth:
+    if smooth and line.normal_map_unit_normal:
+        world = stored_world_normals(m, line)
+        m3 = np.asarray(m.matrix_world, np.float64)[:3, :3]
+        n = _normalize(td._interpolate(_normalize(world @ m3)))
+    elif smooth:
         n = td._interpolate(_normalize(np.asarray(m.corner_normals, np.float64)))
     else:
         p = np.asarray(m.positions, np.float64)[np.asarray(m.triangles)]
@@ -265,13 +297,13 @@ def _object_frame(td, name, smooth):
     return t, sign, n
 
 
-def cycles_normal_map(td, color, name=None, smooth=True, strength=1.0):
+def cycles_normal_map(td, color, name=None, smooth=True, strength=1.0, line=None):
     """svm_node_normal_map, tangent space (svm/tex_coord.h), for a constant colour:
     c = 2 colour - 1 (xy scaled by strength, z = mix(1, z, saturate(strength))),
     B = sign * cross(N, T) and normalize(c.x T + c.y B + c.z N) in OBJECT space with the
     unnormalised frame of `_object_frame`, then to world by the NORMAL matrix (inverse
     transpose), normalised."""
-    t, sign, n = _object_frame(td, name or td.uv_map, smooth)
+    t, sign, n = _object_frame(td, name or td.uv_map, smooth, line)
     c = 2.0 * (np.asarray(color, np.float64)[:3] - 0.5)
     c = np.array([c[0] * strength, c[1] * strength,
                   1.0 + (c[2] - 1.0) * min(max(strength, 0.0), 1.0)])
@@ -315,6 +347,7 @@ def cycles_bake_bump_image(td, image, filter_width=1.0, distance=1.0, smooth=Tru
     """The Bump node's output in a Cycles bake when Height = Image Texture(image) at UV map
     `uv_name` (Normal unlinked: the shading normal). image (H, W) heights."""
     name = uv_name or td.uv_map
+    filter_width = LINE.bump_step_scale(filter_width)     # 4.2: no Filter Width, one step
     dpdx, dpdy = cycles_bake_bump_differentials(td)
     uv = td.uv(name)
     h = lambda st: sample_image(image, st, interpolation, extension)  # noqa: E731
@@ -375,7 +408,8 @@ class Graph(base.EmissionProbe):
         b = self.node("ShaderNodeBump")
         b.inputs["Strength"].default_value = strength
         b.inputs["Distance"].default_value = distance
-        b.inputs["Filter Width"].default_value = filter_width
+        if "Filter Width" in b.inputs:      # 4.4 and later; 4.2 steps one differential
+            b.inputs["Filter Width"].default_value = filter_width
         if height is not None:
             self.links.new(height, b.inputs["Height"])
         if normal is not None:

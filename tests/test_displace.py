@@ -8,6 +8,13 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import reference as R  # noqa: E402
 from surfgrad_addon.blender import compare, groups as G, test_scenes  # noqa: E402
+from surfgrad_addon.blender.compat import new_material  # noqa: E402
+
+
+# SG Displace is gated below 4.5 (groups.REQUIRES, docs/versions.md): its tests skip there with
+# the gate's own message, and test_displace_is_refused_where_the_gate_says checks the refusal.
+GATE = G.unavailable_reason("SG Displace")
+needs_displace = pytest.mark.skipif(GATE is not None, reason=GATE or "")
 
 
 def _vertex_data(mesh):
@@ -18,6 +25,7 @@ def _vertex_data(mesh):
     return p.reshape(-1, 3), n.reshape(-1, 3)
 
 
+@needs_displace
 @pytest.mark.parametrize("obj_name,settings", [
     ("Sphere", {"Amount": 0.1, "Scale": 2.0, "Octaves": 1}),
     ("Transformed", {"Amount": 0.25, "Scale": 3.0, "Octaves": 3}),
@@ -54,6 +62,7 @@ def test_displaced_positions_and_normals_equal_the_reference(obj_name, settings)
     np.testing.assert_allclose(rest.reshape(-1, 3), p0, atol=1e-6)
 
 
+@needs_displace
 def test_displace_group_is_documented_and_idempotent():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     a = G.displace_group()
@@ -63,17 +72,19 @@ def test_displace_group_is_documented_and_idempotent():
     assert bpy.data.node_groups.get(".SG Gradient Noise (Geometry)") is not None
 
 
+@needs_displace
 def test_sg_displace_is_added_to_geometry_node_trees_only():
     from surfgrad_addon.blender import ui
     bpy.ops.wm.read_factory_settings(use_empty=True)
     gn = bpy.data.node_groups.new("Modifier", "GeometryNodeTree")
     node = ui.add_group_node(gn, "SG Displace")
     assert node.bl_idname == "GeometryNodeGroup" and node.node_tree.name == "SG Displace"
-    mat = bpy.data.materials.new("M")
+    mat = new_material("M")
     with pytest.raises(ValueError, match="Geometry Nodes group"):
         ui.add_group_node(mat.node_tree, "SG Displace")
 
 
+@needs_displace
 def test_recomputed_normals_converge_to_the_analytic_ones():
     from surfgrad_addon.bench import displacement
     rows = displacement.convergence(levels=range(4), repeats=1, log=lambda *_: None)
@@ -91,3 +102,20 @@ def test_bump_departs_from_true_displacement_as_amplitude_grows():
     assert all(a < b for a, b in zip(means, means[1:])), means
     assert means[0] < 0.01 and means[-1] > 0.5
     assert 3.0 < means[1] / means[0] < 5.0          # doubling A: ~4x (second order)
+
+
+def test_displace_is_refused_where_the_gate_says():
+    """Set Mesh Normal arrived in 4.5: below it SG Displace is refused with a message naming the
+    group, the node and this Blender, and no half-built group is left behind."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    has_node = hasattr(bpy.types, "GeometryNodeSetMeshNormal")
+    assert has_node == (bpy.app.version >= (4, 5, 0))
+    if has_node:
+        assert GATE is None
+        return
+    with pytest.raises(G.FeatureUnavailable) as err:
+        G.displace_group()
+    message = str(err.value)
+    assert "SG Displace" in message and "GeometryNodeSetMeshNormal" in message
+    assert bpy.app.version_string in message and "4.5" in message
+    assert bpy.data.node_groups.get("SG Displace") is None

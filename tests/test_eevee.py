@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from surfgrad_addon.blender.compat import new_material  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CELL = 64                     # pixels per exhibit (each sphere is ~53 px across)
@@ -215,7 +216,7 @@ def _child(out_dir):
         # the camera (which looks along +Y), turned a little about Z.
         obj.rotation_euler = (-math.pi / 2, 0.0, 0.3) if back else (0.0, 0.0, 0.4)
         bpy.context.view_layer.update()
-        mat = bpy.data.materials.new(f"EEVEE {name}")
+        mat = new_material(f"EEVEE {name}")
         if mat.node_tree is None:                 # before 5.0 a new material needs use_nodes
             mat.use_nodes = True
         nodes, links = mat.node_tree.nodes, mat.node_tree.links

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from surfgrad_addon.blender.compat import new_material  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_eevee import (BPY_OK, CONTEXT_OK, _angle_deg, configure_render,  # noqa: E402
@@ -209,7 +210,7 @@ def emit_normals(bpy):
 
 
 def _position_material(bpy):
-    mat = bpy.data.materials.new("SG position override")
+    mat = new_material("SG position override")
     if mat.node_tree is None:
         mat.use_nodes = True
     nodes, links = mat.node_tree.nodes, mat.node_tree.links

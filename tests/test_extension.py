@@ -20,6 +20,16 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def new_material(name):
+    """A material with a node tree on every line (before 5.0 it needs use_nodes). Local: this
+    file also runs as a script where surfgrad_addon is not importable."""
+    import bpy
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    return mat
 EXT_MODULE = "bl_ext.user_default.surfgrad"
 MENU_LABEL = "Surface Gradient"
 BAKE_SIZE = 48
@@ -126,7 +136,7 @@ def build_scene(bpy, add_group):
     bpy.ops.mesh.primitive_plane_add(size=2.0, rotation=(0.3, -0.2, 0.4))
     plane = bpy.context.active_object
     plane.name = "SG Plane"
-    mat = bpy.data.materials.new("SG Plane")
+    mat = new_material("SG Plane")
     if mat.node_tree is None:                 # before 5.0
         mat.use_nodes = True
     plane.data.materials.append(mat)
@@ -261,7 +271,7 @@ def session_installed(zip_path, work):
     report["poll_geometry_editor"] = _poll_message(bpy, **override)
 
     # Every entry through the operator, as the menu would run it (EXEC: no mouse event).
-    mat = bpy.data.materials.new("SG All Groups")
+    mat = new_material("SG All Groups")
     if mat.node_tree is None:
         mat.use_nodes = True
     override, space = _shader_editor(bpy, mat.node_tree)
@@ -301,7 +311,7 @@ def session_installed(zip_path, work):
 
     # Undo: operators called from Python push no undo step of their own (bpy.ops runs them
     # inside the caller's step), so push around the call like the UI would, then undo/redo.
-    undo_mat = bpy.data.materials.new("SG Undo")
+    undo_mat = new_material("SG Undo")
     if undo_mat.node_tree is None:
         undo_mat.use_nodes = True
     override, space = _shader_editor(bpy, undo_mat.node_tree)

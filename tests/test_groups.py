@@ -9,6 +9,7 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon import reference as R  # noqa: E402
 from surfgrad_addon.blender import bake, groups as G, test_scenes  # noqa: E402
 from surfgrad_addon.blender.mesh_data import mesh_arrays_from_object  # noqa: E402
+from surfgrad_addon.blender.compat import new_material  # noqa: E402
 
 
 @pytest.fixture()
@@ -30,7 +31,7 @@ def test_building_twice_gives_one_group_each(fresh):
 
 def test_a_newer_version_rebuilds_in_place_and_keeps_links(fresh, monkeypatch):
     tree = G.resolve_group()
-    mat = bpy.data.materials.new("User")
+    mat = new_material("User")
     nodes, links = mat.node_tree.nodes, mat.node_tree.links
     group = nodes.new("ShaderNodeGroup")
     group.node_tree = tree
@@ -91,7 +92,7 @@ def test_sg_noise_value_and_gradient_equal_the_reference(fresh):
 
 def test_image_bound_groups_take_the_active_image_texture(fresh):
     from surfgrad_addon.blender import ui
-    mat = bpy.data.materials.new("M")
+    mat = new_material("M")
     tree = mat.node_tree
     img = bpy.data.images.new("rock_height", 8, 4, float_buffer=True)
     tex = tree.nodes.new("ShaderNodeTexImage")

@@ -13,12 +13,13 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.blender import compare, groups as G, normal_bake, test_scenes  # noqa: E402
 from surfgrad_addon.reference import test_images as T  # noqa: E402
+from surfgrad_addon.blender.compat import new_material  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _sg_material(obj, image):
-    mat = bpy.data.materials.new("SG")
+    mat = new_material("SG")
     tree = mat.node_tree
     tree.nodes.clear()
     out = tree.nodes.new("ShaderNodeOutputMaterial")

@@ -8,6 +8,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.blender import bake, compare, operators as O, test_scenes  # noqa: E402
 from surfgrad_addon.reference import test_images as T  # noqa: E402
+from surfgrad_addon.blender.compat import new_material  # noqa: E402
 
 
 @pytest.fixture()
@@ -16,7 +17,7 @@ def sphere():
 
 
 def _material(obj, shader="ShaderNodeBsdfPrincipled"):
-    mat = bpy.data.materials.new("Mat")
+    mat = new_material("Mat")
     tree = mat.node_tree
     tree.nodes.clear()
     out = tree.nodes.new("ShaderNodeOutputMaterial")

@@ -31,6 +31,16 @@ from types import SimpleNamespace
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def new_material(name):
+    """A material with a node tree on every line (before 5.0 it needs use_nodes). Local: this
+    file also runs as a script where surfgrad_addon is not importable."""
+    import bpy
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    return mat
 OPERATORS = ("surfgrad.add_layer_stack", "surfgrad.convert_node",
              "surfgrad.add_decal_projector")
 MATERIAL = "SG Operators"
@@ -126,7 +136,7 @@ def _misuse(bpy, results, op_id, override, snapshot_of=MATERIAL, **kw):
 
 
 def _principled_material(bpy, name, obj):
-    mat = bpy.data.materials.new(name)
+    mat = new_material(name)
     if mat.node_tree is None:                 # before 5.0
         mat.use_nodes = True
     obj.data.materials.append(mat)
@@ -238,7 +248,7 @@ def session(work):
     report["layer_stack"]["executed"] = results["surfgrad.add_layer_stack"][n_done:]
 
     # Misuse: a material whose output has no BSDF with a Normal input.
-    emit_mat = bpy.data.materials.new("SG Emission")
+    emit_mat = new_material("SG Emission")
     if emit_mat.node_tree is None:
         emit_mat.use_nodes = True
     et = emit_mat.node_tree

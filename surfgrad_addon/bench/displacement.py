@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from .. import reference as R
-from ..blender import modifier_inputs
+from ..blender import compat
 from ..blender.compare import angle_deg
 
 CONVERGENCE = {"Amount": 0.1, "Scale": 2.0, "Octaves": 3}
@@ -42,7 +42,7 @@ def convergence(levels=range(7), repeats=3, log=print):
     mod = compare.add_displace_modifier(obj, CONVERGENCE)
 
     def evaluate(analytic):
-        modifier_inputs.set_input(mod, "Analytic Normals", analytic)
+        compat.set_input(mod, "Analytic Normals", analytic)
         seconds = []
         for _ in range(repeats):
             obj.update_tag()

@@ -13,6 +13,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from ..reference.blender_lines import facts_for
+from .compat import new_material
 
 
 def running_line():
@@ -116,12 +117,9 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
                         f"{uv_names}")
     image = bpy.data.images.new("surfgrad_bake", width, height, alpha=True, float_buffer=True)
     image.colorspace_settings.name = "Non-Color"
-    material = bpy.data.materials.new("surfgrad_bake")
+    material = new_material("surfgrad_bake")
     try:
         tree = material.node_tree
-        if tree is None:              # before 5.0 a new material needs use_nodes
-            material.use_nodes = True
-            tree = material.node_tree
         nodes, links = tree.nodes, tree.links
         nodes.clear()
         out = nodes.new("ShaderNodeOutputMaterial")

@@ -22,7 +22,7 @@ from ..png import write_png
 from ..reference import methods as M
 from . import bake as B
 from . import groups as G
-from . import modifier_inputs
+from . import compat
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 
 DETAIL_UV = "Detail"
@@ -324,7 +324,7 @@ def add_displace_modifier(obj, settings=None):
     mod = obj.modifiers.new("SG Displace", "NODES")
     mod.node_group = tree
     for name, value in (settings or DISPLACE).items():
-        modifier_inputs.set_input(mod, name, value)
+        compat.set_input(mod, name, value)
     obj.data.update()
     return mod
 

@@ -13,7 +13,7 @@ import numpy as np
 from ..bench.graph import Graph
 from ..reference import test_images as T
 from . import groups as G
-from . import modifier_inputs
+from . import compat
 
 EXHIBIT_SPACING = 6.0
 HEIGHT_BUMP = 0.2
@@ -40,7 +40,7 @@ def _image(name, pixels):
 def _material(name, build):
     """A Principled BSDF material whose Normal is build(g) (None: the plain normal)."""
     import bpy
-    mat = bpy.data.materials.new(name)
+    mat = compat.new_material(name)
     tree = mat.node_tree
     tree.nodes.clear()
     out = tree.nodes.new("ShaderNodeOutputMaterial")
@@ -296,7 +296,7 @@ def build_demo(log=print):
     from .compare import add_displace_modifier
     for obj, analytic in ((a, False), (b, True)):
         mod = add_displace_modifier(obj, {"Amount": 0.15, "Scale": 1.8, "Octaves": 2})
-        modifier_inputs.set_input(mod, "Analytic Normals", analytic)
+        compat.set_input(mod, "Analytic Normals", analytic)
     cams["displacement"] = _camera("Camera displacement", x)
 
     # 7. Parallax with post-resolve detail (Figure 7c).

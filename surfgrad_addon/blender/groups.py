@@ -11,7 +11,7 @@ listings rewritten in them (the screen basis cancels).
 
 import bpy
 
-from .node_builder import ensure_group
+from .node_builder import ensure_group, running_line
 
 VERSION = 12
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
@@ -74,9 +74,23 @@ def sign_nonneg(b, x):
 
 # Internal helpers (names start with "." so the Group menu hides them) -----------------------
 
+def zero_unless_finite(b, v):
+    """v where every component is finite, else (0, 0, 0): Maximum/Minimum drop a NaN
+    (fmaxf) and clamp an Inf, and x - x < 0.5 is false exactly for NaN and Inf."""
+    comps = b.separate(v)
+    finite = [b.math("LESS_THAN", b.math("SUBTRACT", c, c), 0.5) for c in comps]
+    clamped = [b.math("MINIMUM", b.math("MAXIMUM", c, -1e30), 1e30) for c in comps]
+    every = b.math("MULTIPLY", b.math("MULTIPLY", finite[0], finite[1]), finite[2])
+    return b.scale(b.combine(*clamped), every)
+
+
 def safe_normal_group():
     def build(b):
         v = b.input("Vector", "VECTOR", "A direction of any length, or nothing", hide_value=True)
+        if not running_line().normal_map_replaces_non_finite:
+            with b.frame("Blender 4.2/4.5: NaN or Inf to zero (their Normal Map node lets "
+                         "non-finite values through)"):
+                v = zero_unless_finite(b, v)
         with b.frame("normalize(v), or the shading normal where v is zero, NaN or Inf"):
             # A World-space Normal Map node normalises (c - 0.5) * 2. Cycles' replaces a zero
             # or non-finite result by the shading normal (arithmetic cannot remove a NaN,

@@ -18,6 +18,14 @@ from contextlib import contextmanager
 import bpy
 
 VERSION_KEY = "surfgrad_version"
+# The Blender line a group was built for: a few interiors differ by line (the interface never
+# does), so a file saved on one line gets its groups rebuilt when used on another.
+LINE_KEY = "surfgrad_line"
+
+
+def running_line():
+    from ..reference.blender_lines import facts_for
+    return facts_for(bpy.app.version)
 
 
 class BuildError(RuntimeError):
@@ -36,7 +44,9 @@ def ensure_group(name, version, build, description, stale=None, tree_type="Shade
     if tree is not None and tree.bl_idname != tree_type:
         raise ValueError(f"a {tree.bl_idname} named {name!r} already exists; rename it so the "
                          f"surface-gradient group can be created")
-    if tree is not None and tree.get(VERSION_KEY) == version and not (stale and stale(tree)):
+    line = running_line().line
+    if (tree is not None and tree.get(VERSION_KEY) == version and tree.get(LINE_KEY) == line
+            and not (stale and stale(tree))):
         return tree
     if tree is None:
         tree = bpy.data.node_groups.new(name, tree_type)
@@ -46,6 +56,7 @@ def ensure_group(name, version, build, description, stale=None, tree_type="Shade
     build(builder)
     builder.finish()
     tree[VERSION_KEY] = version
+    tree[LINE_KEY] = line
     return tree
 
 

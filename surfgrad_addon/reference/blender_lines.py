@@ -32,11 +32,17 @@ class LineFacts:
     # corner normals back in object space, interpolated and normalised (5.2); up to 5.0 on the
     # unnormalised interpolation of the object's corner normals.
     normal_map_unit_normal: bool
+    # The Normal Map node replaces a zero OR non-finite result by the shading normal (5.0 and
+    # later); 4.2 and 4.5 replace only zero, so NaN and Inf pass through it.
+    normal_map_replaces_non_finite: bool
     # The Normal Map node has the `convention` property (OpenGL / DirectX), 5.2 and later.
     normal_map_convention: bool
     # Geometry Nodes modifier inputs live in mod.properties.inputs (5.1 and later) rather than
     # in ID properties.
     modifier_properties: bool
+    # A bake into a float image encodes the result into the image's colour space (5.2); up to
+    # 5.0 float bakes are written as computed. surfgrad's bakes use Non-Color images.
+    bake_applies_target_colorspace: bool
     # EEVEE's render engine id.
     eevee_engine: str
     # Where a bake shades texel (i, j): ((i + x) / W, (j + y) / H). Same on every line.
@@ -50,11 +56,21 @@ class LineFacts:
         return float(filter_width) if self.bump_filter_width else 1.0
 
 
+_UP_TO_5_0 = dict(bake_differential_scale=0.25, bump_filter_width=True, packed_normals=False,
+                 normal_map_unit_normal=False, normal_map_replaces_non_finite=True,
+                 normal_map_convention=False,
+                 modifier_properties=False, bake_applies_target_colorspace=False)
 LINES = {
-    "4.2": LineFacts("4.2", 0.25, False, False, False, False, False, "BLENDER_EEVEE_NEXT"),
-    "4.5": LineFacts("4.5", 0.25, True, False, False, False, False, "BLENDER_EEVEE_NEXT"),
-    "5.0": LineFacts("5.0", 0.25, True, False, False, False, False, "BLENDER_EEVEE"),
-    "5.2": LineFacts("5.2", 0.5, True, True, True, True, True, "BLENDER_EEVEE"),
+    "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
+                     **{**_UP_TO_5_0, "bump_filter_width": False,
+                        "normal_map_replaces_non_finite": False}),
+    "4.5": LineFacts(line="4.5", eevee_engine="BLENDER_EEVEE_NEXT",
+                     **{**_UP_TO_5_0, "normal_map_replaces_non_finite": False}),
+    "5.0": LineFacts(line="5.0", eevee_engine="BLENDER_EEVEE", **_UP_TO_5_0),
+    "5.2": LineFacts(line="5.2", eevee_engine="BLENDER_EEVEE", bake_differential_scale=0.5,
+                     bump_filter_width=True, packed_normals=True, normal_map_unit_normal=True,
+                     normal_map_replaces_non_finite=True, normal_map_convention=True, modifier_properties=True,
+                     bake_applies_target_colorspace=True),
 }
 MAIN_LINE = LINES["5.2"]
 OLDEST = (4, 2, 0)

@@ -167,12 +167,11 @@ class TexelData:
         applied) taken back to object space, interpolated and normalised."""
         if not self.facts.normal_map_unit_normal:
             return self.normal_object
-        n = np.asarray(self.mesh.corner_normals, dtype=np.float64)
         if self.mesh.transform_applied:
             m3 = np.asarray(self.mesh.matrix_world, dtype=np.float64)[:3, :3]
-            n = normalize(self._stored(normalize(n @ self.mesh.normal_matrix.T)) @ m3)
+            n = normalize(self._stored_world_normals @ m3)
         else:
-            n = self._stored(n)
+            n = self._stored(np.asarray(self.mesh.corner_normals, dtype=np.float64))
         return normalize(self._interpolate(n))
 
     @cached_property
@@ -186,16 +185,24 @@ class TexelData:
         transform is applied to the mesh (the default), else interpolated in object space and
         then transformed. The two differ only under non-uniform scale."""
         if self.mesh.transform_applied:
-            n = np.asarray(self.mesh.corner_normals, dtype=np.float64) @ self.mesh.normal_matrix.T
-            return normalize(self._interpolate(self._stored(normalize(n))))
+            return normalize(self._interpolate(self._stored_world_normals))
         n = self._interpolate(self._stored(np.asarray(self.mesh.corner_normals, np.float64)))
         return normalize(n @ self.mesh.normal_matrix.T)
 
     def _stored(self, unit_normals):
-        """Corner normals as the renderer stores them (octahedral 16-bit where it packs)."""
+        """Unit normals as the renderer stores them (octahedral 16-bit where it packs)."""
         if self.facts.packed_normals:
             return octahedral_unit_vectors(unit_normals)
         return unit_normals
+
+    @cached_property
+    def _stored_world_normals(self):
+        """Corner normals (T, 3, 3) as stored for a mesh with its transform applied: where the
+        line packs normals they are packed in object space, then decoded, transformed,
+        normalised and packed again (measured: 5e-5 degrees against 0.003-0.006 for one
+        packing)."""
+        n = self._stored(np.asarray(self.mesh.corner_normals, dtype=np.float64))
+        return self._stored(normalize(n @ self.mesh.normal_matrix.T))
 
     @cached_property
     def geometric_normal(self):

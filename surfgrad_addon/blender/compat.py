@@ -1,8 +1,20 @@
-"""Geometry Nodes modifier inputs by socket name, on every supported Blender line.
+"""Python API differences between the supported Blender lines (4.2 LTS to 5.2 LTS), in one
+place, decided by what the running Blender has rather than by its version number.
 
-Up to 5.0 a modifier keeps its inputs as ID properties (`mod[identifier]`). From 5.1 they live
-in `mod.properties.inputs.<identifier>.value` and item assignment raises TypeError
-(tests/test_displace.py pins both)."""
+- Geometry Nodes modifier inputs: ID properties (`mod[identifier]`) up to 5.0; from 5.1
+  `mod.properties.inputs.<identifier>.value`, and item assignment raises TypeError.
+- A new material has a node tree from 5.0; before, only after `use_nodes = True`.
+(tests/test_line_facts.py pins both on every line.)
+"""
+
+
+def new_material(name):
+    """A new material with a node tree (Principled BSDF into Material Output) on every line."""
+    import bpy
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    return mat
 
 
 def _identifier(mod, name):
