@@ -1,49 +1,110 @@
 #!/usr/bin/env bash
-# surfgrad's two commands. Each creates (once) and reuses the virtual environment .venv with
-# the pinned requirements, then:
-#   bash run.sh main [ARGS]   the main job: writes out/demo (maps, summary, overview picture)
-#   bash run.sh test [ARGS]   the test suite (pytest ARGS)
+# surfgrad's two commands (and two optional ones). Each creates the virtual environments it
+# needs once, installs the pinned requirements into them (pip's cache makes reinstalls quick)
+# and reuses them:
+#   bash run.sh main [ARGS]   the main job on Blender 5.2 LTS: writes out/demo
+#   bash run.sh test [ARGS]   the test suite on every supported line: 5.2 LTS (the main line,
+#                             Python 3.13, .venv), then 5.0, 4.5 LTS and 4.2 LTS (Python 3.11,
+#                             .venv-bpy50/45/42); a table of the lines in out/lines/summary.md.
+#                             LINES="5.2 4.2" bash run.sh test -k decal picks lines; ARGS go to
+#                             pytest on each line.
 #   bash run.sh bench [ARGS]  speed against accuracy of every method, stability: out/bench
 #   bash run.sh bench-reference  throughput of the numpy reference: out/bench_reference.json
-# Needs only Python 3.11 (python3.11, or python3 if that is 3.11; or set PYTHON).
+# Needs Python 3.13 (for 5.2) and, for the older lines' tests, Python 3.11: on PATH
+# (python3.13 / python3.11), under pyenv's versions, or given as PYTHON=... / PYTHON311=....
 set -euo pipefail
 cd "$(dirname "$0")"
 
-find_python() {
-  for cand in "${PYTHON:-}" python3.11 python3; do
+ALL_LINES="5.2 5.0 4.5 4.2"
+
+find_python() {   # $1 = 3.13 | 3.11; prints a matching interpreter
+  local want=$1 explicit cand
+  if [ "$want" = 3.13 ]; then explicit=${PYTHON:-}; else explicit=${PYTHON311:-}; fi
+  local roots=("${PYENV_ROOT:-$HOME/.pyenv}")
+  for cand in "$explicit" "python$want" python3 \
+              "${roots[0]}"/versions/"$want"*/bin/python"$want"; do
     [ -n "$cand" ] || continue
     if command -v "$cand" >/dev/null 2>&1 &&
-       "$cand" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 11))' 2>/dev/null; then
+       "$cand" -c "import sys, venv; sys.exit(sys.version_info[:2] != tuple(map(int, '$want'.split('.'))))" \
+         2>/dev/null; then
       echo "$cand"; return 0
     fi
   done
-  echo "surfgrad: Python 3.11 is required (bpy 5.0.1 wheels exist only for 3.11); set PYTHON" >&2
+  local var=PYTHON; [ "$want" = 3.13 ] || var=PYTHON311
+  echo "surfgrad: Python $want is needed (the bpy wheels of this line exist only for $want)." >&2
+  echo "  Install it with its venv module (e.g. 'pyenv install $want', or your system's" \
+       "python$want and python$want-venv packages), or point $var=/path/to/python$want at one." >&2
   return 1
 }
 
-VENV=.venv
-if [ ! -x "$VENV/bin/python" ]; then
-  py=$(find_python)
-  echo "surfgrad: creating $VENV with $py" >&2
-  "$py" -m venv "$VENV"
-fi
-stamp="$VENV/.requirements.sha256"
-want=$(sha256sum requirements.txt | cut -d' ' -f1)
-if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ]; then
-  echo "surfgrad: installing requirements into $VENV (bpy is large; pip's cache makes reruns quick)" >&2
-  "$VENV/bin/python" -m pip install --quiet --upgrade pip
-  "$VENV/bin/python" -m pip install --quiet -r requirements.txt
-  echo "$want" > "$stamp"
-fi
+line_venv() { case "$1" in 5.2) echo .venv ;; *) echo ".venv-bpy${1/./}" ;; esac; }
+line_reqs() { case "$1" in 5.2) echo requirements.txt ;; *) echo "requirements-$1.txt" ;; esac; }
+line_python() { case "$1" in 5.2) echo 3.13 ;; *) echo 3.11 ;; esac; }
+
+quiet_pip() {   # pip without the machine's notes about unreachable extra indexes
+  { "$@" 2>&1; } | { grep -v "is ignored: it is neither a file nor a directory" || true; } >&2
+}
+
+setup_line() {   # $1 = line; prints the venv's python once it has the pinned requirements
+  local line=$1 venv reqs py stamp want
+  venv=$(line_venv "$line"); reqs=$(line_reqs "$line")
+  if [ -x "$venv/bin/python" ] && ! "$venv/bin/python" -c \
+       "import sys; sys.exit(sys.version_info[:2] != tuple(map(int, '$(line_python "$line")'.split('.'))))"; then
+    echo "surfgrad: $venv has the wrong Python for Blender $line; making it anew" >&2
+    rm -rf "$venv"
+  fi
+  if [ ! -x "$venv/bin/python" ]; then
+    py=$(find_python "$(line_python "$line")")
+    echo "surfgrad: creating $venv with $py for Blender $line" >&2
+    "$py" -m venv "$venv"
+  fi
+  stamp="$venv/.requirements.sha256"
+  want=$(sha256sum "$reqs" | cut -d' ' -f1)
+  if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ]; then
+    echo "surfgrad: installing $reqs into $venv (bpy is large; pip's cache makes reruns quick)" >&2
+    quiet_pip "$venv/bin/python" -m pip install --quiet --upgrade pip
+    quiet_pip "$venv/bin/python" -m pip install --quiet -r "$reqs"
+    echo "$want" > "$stamp"
+  fi
+  echo "$venv/bin/python"
+}
+
+run_tests() {
+  local lines=${LINES:-$ALL_LINES} line py start status=0 rc
+  bash tools/install_eevee_deps.sh || true      # Mesa EGL for the EEVEE tests
+  mkdir -p out/lines
+  rm -f out/lines/*.json
+  for line in $lines; do
+    case " $ALL_LINES " in *" $line "*) ;; *)
+      echo "surfgrad: unknown line $line (supported: $ALL_LINES)" >&2; exit 2 ;; esac
+    start=$SECONDS
+    echo "surfgrad: ===== Blender $line =====" >&2
+    if ! py=$(setup_line "$line"); then
+      rc=1
+    else
+      rc=0
+      SURFGRAD_REPORT_DIR="$PWD/out/lines" "$py" -m pytest "$@" || rc=$?
+    fi
+    echo "{\"line\": \"$line\", \"exit\": $rc, \"seconds\": $((SECONDS - start))}" \
+      > "out/lines/run-$line.json"
+    echo "surfgrad: Blender $line: $([ "$rc" = 0 ] && echo passed || echo "FAILED (exit $rc)")" \
+         "in $((SECONDS - start)) s" >&2
+    [ "$rc" = 0 ] || status=1
+  done
+  "$(line_venv 5.2)/bin/python" tools/lines_summary.py out/lines $lines || status=1
+  return $status
+}
 
 cmd=${1:-}
 [ $# -gt 0 ] && shift
 case "$cmd" in
-  main) exec "$VENV/bin/python" -m surfgrad_addon demo --out out/demo --overwrite "$@" ;;
-  test) bash tools/install_eevee_deps.sh || true      # Mesa EGL for the EEVEE test
-        exec "$VENV/bin/python" -m pytest "$@" ;;
-  bench) exec "$VENV/bin/python" -m surfgrad_addon bench --out out/bench --overwrite "$@" ;;
-  bench-reference) exec "$VENV/bin/python" -m surfgrad_addon bench-reference \
-           --out out/bench_reference.json --overwrite "$@" ;;
+  main) py=$(setup_line 5.2)
+        exec "$py" -m surfgrad_addon demo --out out/demo --overwrite "$@" ;;
+  test) run_tests "$@" ;;
+  bench) py=$(setup_line 5.2)
+         exec "$py" -m surfgrad_addon bench --out out/bench --overwrite "$@" ;;
+  bench-reference) py=$(setup_line 5.2)
+         exec "$py" -m surfgrad_addon bench-reference --out out/bench_reference.json \
+              --overwrite "$@" ;;
   *) echo "usage: bash run.sh main|test|bench|bench-reference [ARGS]" >&2; exit 2 ;;
 esac

@@ -12,6 +12,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from conftest import write_report  # noqa: E402
 from surfgrad_addon.blender import bake, compare, test_scenes  # noqa: E402
 from surfgrad_addon.blender.compat import new_material  # noqa: E402
 
@@ -22,7 +23,15 @@ REPORTS = {}
 
 @pytest.fixture(scope="module")
 def scene():
-    return test_scenes.new_scene()
+    yield test_scenes.new_scene()
+    # Per-line figures for the lines' summary (bash run.sh test; tests/conftest.py).
+    rows = [{"method": m, "variant": v, "object": o,
+             **{k: r[k] for k in ("mean_deg", "p99_deg", "max_deg", "texels_compared",
+                                  "bake_seconds", "reference_seconds")}}
+            for (m, v, o), r in sorted(REPORTS.items())]
+    skipped = {m: compare.unavailable_reason(m) for m in compare.METHODS
+               if compare.unavailable_reason(m)}
+    write_report("bake-compare", {"resolution": RESOLUTION, "rows": rows, "skipped": skipped})
 
 
 CASES = [(m, "hq") for m in sorted(compare.METHODS) if m != "height-map"] + \

@@ -13,7 +13,7 @@ import bpy
 
 from .node_builder import ensure_group, running_line
 
-VERSION = 12
+VERSION = 13
 MENU_GROUPS = []          # (menu name, builder) in menu order, filled by @menu_group
 
 
@@ -27,6 +27,8 @@ class FeatureUnavailable(ValueError):
 # the version number.
 REQUIRES = {"SG Displace": ("GeometryNodeSetMeshNormal", "4.5", "it sets the analytic normals "
                             "with the Geometry Nodes Set Mesh Normal node")}
+# Hidden helpers that only a gated group builds (absent where the gate refuses it).
+GATED_HELPERS = {"SG Displace": (".SG Gradient Noise (Geometry)",)}
 
 
 def unavailable_reason(name):
@@ -210,20 +212,33 @@ def object_normal_group():
                         "Listing 5: surface gradient from an object- or world-space normal")
 
 
-def decode_tangent_normal(b, color):
-    """m = 2 c - 1 and Listing 2's derivative (abs z, 1/128 clamp), as two float sockets."""
+DIRECTX_TOOLTIP = ("The map is in DirectX convention (green points down, -Y: Unreal, 3ds Max, "
+                   "Substance's DirectX preset): its green channel is flipped. Off: OpenGL "
+                   "(+Y), Blender's own. Blender 5.2's Normal Map node calls this Convention")
+
+
+def directx_input(b):
+    """The DirectX/OpenGL switch of every group that decodes a tangent-space colour."""
+    return b.input("DirectX", "BOOLEAN", DIRECTX_TOOLTIP, default=False)
+
+
+def decode_tangent_normal(b, color, directx=None):
+    """m = 2 c - 1 (m.y negated for a DirectX map) and Listing 2's derivative (abs z, 1/128
+    clamp), as two float sockets."""
     m = b.vmath("SUBTRACT", b.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
     mx, my, mz = b.separate(m)
+    if directx is not None:
+        my = b.math("MULTIPLY", my, b.math("SUBTRACT", 1.0, b.math("MULTIPLY", directx, 2.0)))
     z_ma = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
         "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx), b.math("ABSOLUTE", my))))
     inv = b.math("DIVIDE", -1.0, b.math("MAXIMUM", z_ma, 1e-30))
     return b.math("MULTIPLY", mx, inv), b.math("MULTIPLY", my, inv)
 
 
-def tangent_normal_to_surfgrad(b, color, strength, t, bt):
+def tangent_normal_to_surfgrad(b, color, strength, t, bt, directx=None):
     """Listing 2 (abs z, 1/128 clamp) then Listing 3, scaled by strength."""
     with b.frame("Listing 2: derivative from a tangent-space normal"):
-        dx, dy = decode_tangent_normal(b, color)
+        dx, dy = decode_tangent_normal(b, color, directx)
     with b.frame("Listing 3: deriv.x t + deriv.y b"):
         return b.scale(b.add(b.scale(t, dx), b.scale(bt, dy)), strength)
 
@@ -253,13 +268,14 @@ def tangent_normal_group():
     def build(b):
         color = b.input("Color", "COLOR", "Tangent-space normal map colour (Non-Color image)",
                         default=(0.5, 0.5, 1.0, 1.0))
+        directx = directx_input(b)
         strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
                            max_value=10.0)
         t = b.input("Tangent", "VECTOR", "Tangent (e.g. from SG Procedural Basis)",
                     hide_value=True)
         bt = b.input("Bitangent", "VECTOR", "Bitangent (e.g. from SG Procedural Basis)",
                      hide_value=True)
-        sg = tangent_normal_to_surfgrad(b, color, strength, t, bt)
+        sg = tangent_normal_to_surfgrad(b, color, strength, t, bt, directx)
         b.output("Surface Gradient", "VECTOR", sg, "Surface gradient")
     return ensure_group("SG Tangent Normal", VERSION, build,
                         "Listings 2 and 3: tangent-space normal to surface gradient on a "
@@ -276,6 +292,8 @@ def mikktspace_frame_group(uv_map=""):
     """
     def probe(b, m):
         node = b.node("ShaderNodeNormalMap", space="TANGENT", uv_map=uv_map)
+        if hasattr(node, "convention"):       # 5.2: probe the frame itself, OpenGL
+            node.convention = "OPENGL"
         node.inputs["Color"].default_value = (0.5 * m[0] + 0.5, 0.5 * m[1] + 0.5,
                                               0.5 * m[2] + 0.5, 1.0)
         return node.outputs[0]
@@ -307,12 +325,14 @@ def normal_map_group(uv_map=""):
     def build(b):
         color = b.input("Color", "COLOR", "Tangent-space normal map colour (Non-Color image, "
                         "sampled on the same UV map)", default=(0.5, 0.5, 1.0, 1.0))
+        directx = directx_input(b)
         strength = b.input("Strength", "FLOAT", "Bump scale (1 reproduces the map)",
                            default=1.0, min_value=-10.0, max_value=10.0)
         n = normal_input(b, "Base normal the result is resolved against (leave unlinked: "
                             "the shading normal)")
         frame = sub_group(b, mikktspace_frame_group(uv_map), "MikkTSpace frame")
-        sg = tangent_normal_to_surfgrad(b, color, strength, frame.outputs[0], frame.outputs[1])
+        sg = tangent_normal_to_surfgrad(b, color, strength, frame.outputs[0], frame.outputs[1],
+                                        directx)
         with b.frame("+ (n - n_frame): resolve against n lands on the frame's normal"):
             sg = b.add(sg, b.sub(n, frame.outputs[2]))
         b.output("Surface Gradient", "VECTOR", sg, "Surface gradient: add to others, then "
@@ -329,7 +349,10 @@ menu_group("SG Normal Map")(normal_map_group)
 @menu_group("SG Blend Normals")
 def blend_normals_group():
     def build(b):
-        ca = b.input("Color A", "COLOR", "First (base) tangent-space normal colour",
+        # No DirectX switch: every blend commutes with flipping green on both inputs, so two
+        # DirectX maps blend into the DirectX map of the blend (set DirectX downstream).
+        ca = b.input("Color A", "COLOR", "First (base) tangent-space normal colour, OpenGL or "
+                     "DirectX like Color B (the result keeps the convention)",
                      default=(0.5, 0.5, 1.0, 1.0))
         cb = b.input("Color B", "COLOR", "Second (detail) tangent-space normal colour",
                      default=(0.5, 0.5, 1.0, 1.0))
@@ -553,13 +576,14 @@ def triplanar_group():
                      default=(0.5, 0.5, 1.0, 1.0))
         cz = b.input("Color Z", "COLOR", "Tangent-space normal map sampled at UV Z",
                      default=(0.5, 0.5, 1.0, 1.0))
+        directx = directx_input(b)
         k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
                     min_value=1.0, max_value=64.0)
         strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
                            max_value=10.0)
         weights = triplanar_weights(b, n, k)
         with b.frame("Listing 2 per plane"):
-            derivs = [decode_tangent_normal(b, c) for c in (cx, cy, cz)]
+            derivs = [decode_tangent_normal(b, c, directx) for c in (cx, cy, cz)]
         sg = triplanar_surface_gradient(b, n, weights, derivs)
         w = b.combine(*weights)
         b.output("Surface Gradient", "VECTOR", b.scale(sg, strength), "Surface gradient")
@@ -592,6 +616,7 @@ def decal_group():
                     "as its object; the decal covers [-1, 1] in x and y", hide_value=True)
         color = b.input("Color", "COLOR", "Tangent-space normal map sampled at the Decal UV "
                         "of SG Decal Coordinates", default=(0.5, 0.5, 1.0, 1.0))
+        directx = directx_input(b)
         axis_x = b.input("Axis X", "VECTOR", "The projector's X axis in world space (unit "
                          "length; the Add Decal Projector operator drives it)",
                          default=(1.0, 0.0, 0.0), subtype="DIRECTION")
@@ -611,7 +636,7 @@ def decal_group():
             fade = b.math("MINIMUM", b.math("MAXIMUM", fade, 0.0), 1.0)
             scale = b.math("MULTIPLY", b.math("MULTIPLY", inside, fade), strength)
         with b.frame("Listing 2"):
-            dx, dy = decode_tangent_normal(b, color)
+            dx, dy = decode_tangent_normal(b, color, directx)
         with b.frame("Listing 15: grad = deriv.x X + deriv.y Y, then Listing 8"):
             grad = b.add(b.scale(axis_x, dx), b.scale(axis_y, dy))
             sg = b.sub(grad, b.scale(n, b.dot(n, grad)))

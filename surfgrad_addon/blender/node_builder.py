@@ -338,3 +338,27 @@ class GroupBuilder(NodeOps):
             row = rows.get(col, 0)
             rows[col] = row + 1
             n.location = (col * 220.0, -row * 170.0)
+
+
+def interface_signature(tree):
+    """Everything an artist sees of a group's interface, as plain data that compares equal
+    across Blender lines: per socket its name, direction, type, subtype, default, range,
+    tooltip and whether its value is hidden (5.1 and later report a subtyped vector as e.g.
+    NodeSocketVectorDirection in bl_socket_idname; socket_type stays the base type)."""
+    def plain(value):
+        if hasattr(value, "__len__") and not isinstance(value, str):
+            return [round(float(x), 6) for x in value]
+        if isinstance(value, float):
+            return round(value, 6)
+        return value
+    out = []
+    for it in tree.interface.items_tree:
+        if it.item_type != "SOCKET":
+            continue
+        row = {"name": it.name, "in_out": it.in_out, "type": it.socket_type,
+               "description": it.description, "hide_value": it.hide_value}
+        for key in ("subtype", "default_value", "min_value", "max_value"):
+            if hasattr(it, key):
+                row[key] = plain(getattr(it, key))
+        out.append(row)
+    return {"description": tree.description, "sockets": out}

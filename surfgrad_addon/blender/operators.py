@@ -86,6 +86,8 @@ def convert_node(tree, node):
         sg = _group_node(tree, lambda: G.normal_map_group(node.uv_map), (x, y))
         _move_input(tree, node.inputs["Color"], sg.inputs["Color"])
         _move_input(tree, node.inputs["Strength"], sg.inputs["Strength"])
+        # 5.2's Normal Map node has a convention; SG Normal Map's DirectX switch matches it.
+        sg.inputs["DirectX"].default_value = getattr(node, "convention", "OPENGL") == "DIRECTX"
     else:
         # Same steps as the Bump node (its Filter Width, where the node has one): same look.
         fw = node.inputs["Filter Width"].default_value if "Filter Width" in node.inputs else None

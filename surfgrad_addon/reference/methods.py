@@ -58,18 +58,19 @@ def parallax_offset(td, height, view, bump_scale, steps=8, uv_map=None):
 
 
 def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Linear",
-                        st=None):
+                        st=None, directx=False):
     """SG Normal Map: MikkTSpace tangent-space map on a UV map with stored tangents (L2, L3,
     and Listing 9's 1/|n| renormalisation), in Blender's Normal Map node's frame.
 
     The frame's own normal n_f can differ from the shading normal n (under non-uniform scale
     Cycles normalises vertex normals in world space first): adding n - n_f makes the resolve
-    against n land exactly on the frame's result, so the map still matches its bake."""
+    against n land exactly on the frame's result, so the map still matches its bake.
+    directx: the map's green channel points down (DirectX convention; Listing 2's flip)."""
     n_f, t, b = mikktspace_frame(td, uv_map)
     n = unit_base_normal(td)
     m = decode_normal_map(sample_image(image, td.uv(uv_map) if st is None else st,
                                        interpolation))
-    sg = strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m), t, b)
+    sg = strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m, directx), t, b)
     return n, sg + (n - n_f)
 
 

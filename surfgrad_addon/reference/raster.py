@@ -264,8 +264,9 @@ class TexelData:
     def to_image(self, values, fill=np.nan):
         """Scatter per-texel values (N, ...) into an (H, W, ...) image, `fill` elsewhere."""
         values = np.asarray(values)
-        out = np.full((self.height, self.width) + values.shape[1:], fill, dtype=np.result_type(
-            values, np.asarray(fill)))
+        # The fill is a weak scalar: float32 values stay float32 under numpy 1 and 2 alike.
+        out = np.full((self.height, self.width) + values.shape[1:], fill,
+                      dtype=np.result_type(values, fill))
         out[self.pixel[:, 1], self.pixel[:, 0]] = values
         return out
 

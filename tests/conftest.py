@@ -1,0 +1,34 @@
+"""Shared test helpers: the report directory that `bash run.sh test` collects per Blender line.
+
+`bash run.sh test` runs this suite once per supported Blender line, each in its own venv, and
+sets SURFGRAD_REPORT_DIR; tests that produce figures for the lines' summary
+(tools/lines_summary.py) write them there as <name>-<line>.json. Without the variable nothing
+is written.
+"""
+
+import json
+import os
+from pathlib import Path
+
+
+def line_name():
+    """The running Blender's line ("5.2", "4.2", ...), or None without bpy."""
+    try:
+        import bpy
+    except ImportError:
+        return None
+    from surfgrad_addon.reference.blender_lines import facts_for
+    return facts_for(bpy.app.version).line
+
+
+def write_report(name, data):
+    """Write data as <SURFGRAD_REPORT_DIR>/<name>-<line>.json when the variable is set."""
+    folder = os.environ.get("SURFGRAD_REPORT_DIR")
+    if not folder:
+        return None
+    import bpy
+    path = Path(folder) / f"{name}-{line_name()}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({"blender": bpy.app.version_string, "line": line_name(),
+                                **data}, indent=1))
+    return path

@@ -1,0 +1,104 @@
+"""The supported Blender lines side by side, after `bash run.sh test` ran the suite on each:
+whether each line passed and how long it took, every method's worst p99 / max angular error
+against the reference over the four test objects, and whether the group interfaces are the
+same everywhere. Reads out/lines/*.json (written by run.sh and the tests through
+tests/conftest.py), writes out/lines/summary.md, prints it, and ends with a plain
+'lines: N passed, M failed' line. Exit status 1 if a line failed or a report is missing.
+
+    python tools/lines_summary.py out/lines 5.2 5.0 4.5 4.2
+"""
+
+import json
+import sys
+from pathlib import Path
+
+
+def _load(folder, name, line):
+    path = folder / f"{name}-{line}.json"
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def _interfaces_note(folder, lines):
+    """Differences between the lines' group interfaces beyond absent (gated) groups."""
+    dumps = {line: _load(folder, "interfaces", line) for line in lines}
+    dumps = {line: d["groups"] for line, d in dumps.items() if d}
+    if len(dumps) < 2:
+        return [], sorted(dumps)
+    problems = []
+    base_line = next(iter(dumps))
+    for line, groups in dumps.items():
+        for name in set(groups) & set(dumps[base_line]):
+            if groups[name] != dumps[base_line][name]:
+                problems.append(f"{name}: {line} differs from {base_line}")
+    return problems, sorted(dumps)
+
+
+def main(argv):
+    folder = Path(argv[0])
+    lines = argv[1:]
+    out, status, passed, failed = [], 0, 0, 0
+    out.append("# surfgrad on every supported Blender line\n")
+    out.append("| line | Blender | suite | seconds |")
+    out.append("|---|---|---|---|")
+    compares = {}
+    for line in lines:
+        run = _load(folder, "run", line) or {}
+        bake = _load(folder, "bake-compare", line)
+        compares[line] = bake
+        ok = run.get("exit") == 0
+        passed += ok
+        failed += not ok
+        out.append(f"| {line} | {bake['blender'] if bake else '?'} | "
+                   f"{'passed' if ok else 'FAILED' if run else 'did not run'} | "
+                   f"{run.get('seconds', '?')} |")
+        if not ok:
+            status = 1
+    out.append("")
+    have = [line for line in lines if compares.get(line)]
+    if have:
+        res = compares[have[0]]["resolution"]
+        out.append(f"## Bakes against the reference ({res} x {res}): worst p99 / max degrees "
+                   f"over Sphere, Torus, Plane, Transformed (bar 0.1 / 0.5)\n")
+        out.append("| method | " + " | ".join(have) + " |")
+        out.append("|---|" + "---|" * len(have))
+        cases = []
+        for line in have:
+            for row in compares[line]["rows"]:
+                case = row["method"] + ("" if row["method"] != "height-map"
+                                        else f" {row['variant']}")
+                if case not in cases:
+                    cases.append(case)
+        for case in cases:
+            cells = []
+            for line in have:
+                rows = [r for r in compares[line]["rows"]
+                        if r["method"] + ("" if r["method"] != "height-map"
+                                          else f" {r['variant']}") == case]
+                if rows:
+                    cells.append(f"{max(r['p99_deg'] for r in rows):.4f} / "
+                                 f"{max(r['max_deg'] for r in rows):.4f}")
+                elif case.split()[0] in compares[line].get("skipped", {}):
+                    cells.append("gated")
+                else:
+                    cells.append("-")
+            out.append(f"| {case} | " + " | ".join(cells) + " |")
+        for line in have:
+            for method, why in compares[line].get("skipped", {}).items():
+                out.append(f"\n- {line}, {method}: {why}")
+        out.append("")
+    problems, compared = _interfaces_note(folder, lines)
+    if len(compared) >= 2:
+        out.append(f"## Group interfaces: {'identical' if not problems else 'DIFFERENT'} "
+                   f"on {', '.join(compared)} (gated groups aside)\n")
+        out.extend(f"- {p}" for p in problems)
+        if problems:
+            status = 1
+    text = "\n".join(out) + "\n"
+    (folder / "summary.md").write_text(text)
+    print(text)
+    print(f"lines: {passed} passed, {failed} failed")
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
