@@ -19,8 +19,11 @@ Set-up that makes the two engines comparable (each measured; see TOLERANCES):
   filter of width 0.01 still lands up to ~0.03 px off it), no shadows, no ray tracing, no world;
   32-bit EXR output, so no view transform. EEVEE's film stores half floats: that alone leaves
   ~0.05 deg between the engines (the control exhibit).
-- anisotropic texture filtering off (Preferences > Viewport > Anisotropic Filtering, default
-  2x): on Mesa's llvmpipe it changes even magnified lookups by up to 0.13 in colour.
+- anisotropic texture filtering off (default 2x): on Mesa's llvmpipe it changes even magnified
+  lookups by up to 0.13 in colour. Up to 5.0 it is a preference (Preferences > Viewport >
+  Anisotropic Filtering); 5.2 adds a per-scene setting, RenderSettings.anisotropic_filter,
+  that alone decides for renders (the preference no longer changes them). configure_render
+  sets both.
 - smooth, low-resolution images, magnified on screen: EEVEE samples 'Linear' images through
   mipmaps (Cycles CPU never does), and images with sharp edges (the hemisphere tiles of the
   Cycles bakes) turn the ~0.03 px sample offset into degrees at their edges.
@@ -183,7 +186,6 @@ def _child(out_dir):
     from surfgrad_addon.reference.test_images import wave_height_image
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.context.preferences.system.anisotropic_filter = "FILTER_0"
     scene = bpy.context.scene
     images = {}
     for name, px in (("normal", _smooth_normal_image(IMAGE_SIZE, (2.0, 1.0), 0.09)),
@@ -404,7 +406,8 @@ def _table(results, tolerances):
 
 def configure_render(scene):
     """Render settings that make EEVEE and Cycles comparable: one sample at the pixel centre
-    (filter off), no motion blur, linear 32-bit EXR output, Standard view transform."""
+    (filter off), no motion blur, linear 32-bit EXR output, Standard view transform,
+    anisotropic texture filtering off."""
     rd = scene.render
     rd.resolution_percentage = 100
     rd.film_transparent = True
@@ -427,6 +430,17 @@ def configure_render(scene):
     ee.taa_render_samples = 1
     ee.use_shadows = False
     ee.use_raytracing = False
+    # Anisotropic filtering off. Up to 5.0 only the preference exists, and it is what renders
+    # use. 5.2 adds RenderSettings.anisotropic_filter (default FILTER_2), which alone decides
+    # in renders: with it at 2x, a 'Linear' lookup of a 16 px random image magnified 4x on a
+    # plane differed from the bilinear expectation by up to 0.097 (mean 0.016) in colour
+    # whatever the preference (0x, 2x or 16x; exactly 5.0's error with the preference at 2x),
+    # and by 0.0005 with it off; Cycles: 0.0002 either way. Left at 2x it put the 'image'
+    # exhibits at 0.15-0.69 deg mean, 0.65-3.1 p99.
+    import bpy
+    bpy.context.preferences.system.anisotropic_filter = "FILTER_0"
+    if hasattr(rd, "anisotropic_filter"):
+        rd.anisotropic_filter = "FILTER_0"
 
 
 def run_eevee_child(script, out_dir, what="render"):

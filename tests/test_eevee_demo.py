@@ -10,8 +10,9 @@ once with EEVEE. Each material's pixels (usual on the left, surface gradient on 
 compared. Where no OpenGL context can be made the test is skipped with the reason printed.
 
 Set-up, as in tests/test_eevee.py (each measured there): samples 1, no pixel filter, no
-shadows, no ray tracing, no world, 32-bit EXR, anisotropic filtering off. EEVEE's film stores
-half floats: ~0.05 deg between the engines on any normal.
+shadows, no ray tracing, no world, 32-bit EXR, anisotropic filtering off (the preference, and
+from 5.2 the scene's RenderSettings.anisotropic_filter, which alone decides there: both set by
+configure_render). EEVEE's film stores half floats: ~0.05 deg between the engines on any normal.
 
 Minification. The demo's images are 256 px (the detail tile on a UV map tiled twice, the
 triplanar tile 1.2 times per unit), and EEVEE samples 'Linear' images through mipmaps where
@@ -249,7 +250,6 @@ def _child(out_dir, only=None):
     t0 = time.perf_counter()
     cams = demo.build_demo(log=lambda *a: None)
     t_build = time.perf_counter() - t0
-    bpy.context.preferences.system.anisotropic_filter = "FILTER_0"
     scene = bpy.context.scene
     for obj in scene.objects:
         if obj.type == "FONT":

@@ -330,6 +330,10 @@ def save_demo(path, overwrite=False, log=print):
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass --overwrite to replace it")
+    reason = G.unavailable_reason("SG Displace")
+    if reason:                  # refuse before building anything (docs/versions.md)
+        raise G.FeatureUnavailable(f"demo.blend shows Gustavson's displacement, and {reason}; "
+                                   f"open the repository's demo.blend instead (saved with 4.5)")
     cams = build_demo(log)
     if path.exists():
         path.unlink()            # told to overwrite: replace it without a .blend1 backup
