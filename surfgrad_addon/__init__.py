@@ -3,7 +3,7 @@
 This package is both the Blender extension and a plain Python package:
 `surfgrad_addon.reference` is the numpy reference evaluator and must stay importable without
 bpy, so nothing here imports bpy at module level. Blender calls register()/unregister(); they
-import the user interface (and with it bpy) lazily. Blender 4.2-5.0.
+import the user interface (and with it bpy) lazily. Blender 4.2 LTS to 5.2 LTS.
 """
 
 
