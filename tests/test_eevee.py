@@ -99,6 +99,14 @@ BACK = ("back-",)             # exhibits on a back-facing plane instead of a sph
 #   0.75 / 3.3 / 6.2.
 # The tolerances leave about twice the measured mean and p99 for other Mesa/LLVM builds; the
 # max only has to catch what is wrong, not a pixel on an edge.
+# bpy 5.2.3 (anisotropic filtering off through RenderSettings, see configure_render): EEVEE's
+# pixels are identical to 5.0.1's, but Cycles' tangent-space Normal Map node moved: its
+# svm_node_normal_map now normalises the interpolated normal (kernel/geom/triangle.h,
+# triangle_smooth_normal_unnormalized_object_space) while the MikkTSpace tangent stays
+# unnormalised (5.0: both unnormalised, as EEVEE still does). A lone Normal Map node fed a
+# constant colour on the UV sphere: Cycles 5.2 vs 5.0 0.085 / - / 0.15; so every exhibit that
+# reads the MikkTSpace frame (normal-map, parallax, post-resolve, layered, blend-*) sits at
+# 0.083-0.094 / 0.23-0.25 / 0.25-0.63 on 5.2, inside the 'image' bounds, which stay as they are.
 TOLERANCES = {
     "exact": (0.1, 0.25, 8.0),
     "image": (0.15, 0.75, 8.0),
@@ -488,6 +496,9 @@ def test_every_menu_group_is_in_an_exhibit(renders):
     used = set().union(*map(set, meta["groups"].values()))
     missing = [name for name in meta["menu_groups"]
                if not any(u == name or u.startswith(name + " [") for u in used)]
+    if "displace-bump" in meta.get("skipped", {}):
+        # 4.2: SG Rest Position reads what SG Displace writes; its one exhibit is gated.
+        missing = [name for name in missing if name != "SG Rest Position"]
     assert not missing, f"menu groups no EEVEE exhibit uses: {missing}"
 
 
