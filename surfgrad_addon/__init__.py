@@ -8,12 +8,15 @@ import the user interface (and with it bpy) lazily. Blender 4.2 LTS to 5.2 LTS.
 
 
 def register():
-    """Add the "Surface Gradient" submenu to the Shader Editor's Add menu."""
-    from .blender import ui
+    """Add the "Surface Gradient" submenu to the Shader Editor's Add menu, the operators and
+    panel, and the `blender -c surfgrad` commands."""
+    from .addon import commands, ui
     ui.register()
+    commands.register()
 
 
 def unregister():
-    """Remove the submenu and its operator; node groups already in files stay (plain data)."""
-    from .blender import ui
+    """Remove all of it; node groups already in files stay (plain data)."""
+    from .addon import commands, ui
+    commands.unregister()
     ui.unregister()

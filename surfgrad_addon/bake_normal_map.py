@@ -5,7 +5,7 @@
         [--uv-map NAME] [--margin 16] [--overwrite]
 
 The same as `python -m surfgrad_addon bake-normal-map --blend scene.blend ...` with the bpy
-module. See surfgrad_addon/blender/normal_bake.py.
+module. See surfgrad_addon/addon/normal_bake.py.
 """
 
 import sys
@@ -13,7 +13,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from surfgrad_addon.__main__ import main  # noqa: E402
+from surfgrad_addon.harness.cli import main  # noqa: E402
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 code = main(["bake-normal-map", *argv], in_blender=True)

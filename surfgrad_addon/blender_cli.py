@@ -11,7 +11,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from surfgrad_addon.__main__ import main  # noqa: E402
+from surfgrad_addon.harness.cli import main  # noqa: E402
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 code = main(argv, in_blender=True)

@@ -11,7 +11,7 @@ RE_bake_pixels_populate) maps UVs to pixels as `uv * size - (0.5f + 0.001f)` in 
 """
 
 import numpy as np
-from surfgrad_addon.blender.compat import new_material  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 bpy = None
 

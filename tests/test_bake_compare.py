@@ -13,8 +13,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from conftest import write_report  # noqa: E402
-from surfgrad_addon.blender import bake, compare, test_scenes  # noqa: E402
-from surfgrad_addon.blender.compat import new_material  # noqa: E402
+from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RESOLUTION = 48
@@ -159,7 +159,7 @@ def test_compare_inside_blender_on_a_saved_file(tmp_path):
     module standing in for the blender binary: open the file, then run the script."""
     blend = tmp_path / "scene.blend"
     code = ("import bpy, sys, runpy\n"
-            "from surfgrad_addon.blender import test_scenes\n"
+            "from surfgrad_addon.harness import scenes as test_scenes\n"
             "test_scenes.new_scene(['Plane'])\n"
             f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})\n"
             "bpy.ops.wm.read_factory_settings(use_empty=True)\n"

@@ -4,7 +4,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.blender import demo, groups as G  # noqa: E402
+from surfgrad_addon.addon import groups as G
+from surfgrad_addon.harness import demo  # noqa: E402
 
 EXHIBITS = ("layered", "triplanar", "decal", "noise", "height", "displacement", "parallax")
 

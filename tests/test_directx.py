@@ -9,7 +9,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import reference as R  # noqa: E402
-from surfgrad_addon.blender import bake, compare as C, groups as G, test_scenes  # noqa: E402
+from surfgrad_addon.addon import groups as G
+from surfgrad_addon.harness import bake, compare as C, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.reference import methods as M  # noqa: E402
 
 RES = 48
@@ -103,7 +104,7 @@ def test_directx_map_with_switch_equals_opengl_map(inputs, graph):
 
 def test_reference_directx_flip(inputs):
     obj, inp = inputs
-    from surfgrad_addon.blender.mesh_data import mesh_arrays_from_object
+    from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object
     td = R.rasterize(mesh_arrays_from_object(obj), inp.uv_map, RES, RES,
                      facts=bake.running_line())
     _, a = M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map)

@@ -7,8 +7,9 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import reference as R  # noqa: E402
-from surfgrad_addon.blender import compare, groups as G, test_scenes  # noqa: E402
-from surfgrad_addon.blender.compat import new_material  # noqa: E402
+from surfgrad_addon.addon import groups as G
+from surfgrad_addon.harness import compare, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 
 # SG Displace is gated below 4.5 (groups.REQUIRES, docs/versions.md): its tests skip there with
@@ -74,7 +75,7 @@ def test_displace_group_is_documented_and_idempotent():
 
 @needs_displace
 def test_sg_displace_is_added_to_geometry_node_trees_only():
-    from surfgrad_addon.blender import ui
+    from surfgrad_addon.addon import ui
     bpy.ops.wm.read_factory_settings(use_empty=True)
     gn = bpy.data.node_groups.new("Modifier", "GeometryNodeTree")
     node = ui.add_group_node(gn, "SG Displace")
@@ -86,7 +87,7 @@ def test_sg_displace_is_added_to_geometry_node_trees_only():
 
 @needs_displace
 def test_recomputed_normals_converge_to_the_analytic_ones():
-    from surfgrad_addon.bench import displacement
+    from surfgrad_addon.harness.bench import displacement
     rows = displacement.convergence(levels=range(4), repeats=1, log=lambda *_: None)
     means = [r["mean_deg"] for r in rows]
     assert means[0] > 5 and all(a > b for a, b in zip(means, means[1:])), means
@@ -96,7 +97,7 @@ def test_recomputed_normals_converge_to_the_analytic_ones():
 def test_bump_departs_from_true_displacement_as_amplitude_grows():
     """Blinn's approximation on the unit sphere, float64: the angle between the bump-mapped
     and the exactly displaced normal grows with amplitude/radius, about quadratically."""
-    from surfgrad_addon.bench import displacement
+    from surfgrad_addon.harness.bench import displacement
     rows = displacement.bump_vs_exact(amplitudes=(0.01, 0.02, 0.1, 0.4), samples=5000)
     means = [r["mean_deg"] for r in rows]
     assert all(a < b for a, b in zip(means, means[1:])), means

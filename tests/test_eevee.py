@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from surfgrad_addon.blender.compat import new_material  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 CELL = 64                     # pixels per exhibit (each sphere is ~53 px across)
@@ -121,7 +121,7 @@ def _smooth_normal_image(size, freq, amount):
     """A tileable tangent-space normal map without sharp edges: the normal of height
     amount * wave_height(st, freq) over the unit square, as colour."""
     from surfgrad_addon.reference.image_sampling import texel_centres
-    from surfgrad_addon.reference.test_images import wave_height
+    from surfgrad_addon.reference.images import wave_height
     _, d = wave_height(texel_centres(size, size), freq)
     m = np.concatenate([-amount * d, np.ones(d.shape[:-1] + (1,))], axis=-1)
     m /= np.linalg.norm(m, axis=-1, keepdims=True)
@@ -142,8 +142,8 @@ def _group_names(tree, seen=None):
 
 def _uv_gradients_graph(inp, nodes, links):
     """.SG UV Gradients alone: resolve 2 (grad s + grad t) against the shading normal."""
-    from surfgrad_addon.blender import compare as C
-    from surfgrad_addon.blender import groups as G
+    from surfgrad_addon.harness import compare as C
+    from surfgrad_addon.addon import groups as G
     grads = C._group(nodes, G.uv_gradients_group())
     links.new(C._uv(nodes, inp.uv_map), grads.inputs["UV"])
     geo = nodes.new("ShaderNodeNewGeometry")
@@ -188,10 +188,10 @@ def _child(out_dir):
     print(f"{CONTEXT_OK} {renderer}", flush=True)
     t_probe = time.perf_counter() - t_start
 
-    from surfgrad_addon.blender import compare as C
-    from surfgrad_addon.blender import groups as G
-    from surfgrad_addon.blender import test_scenes
-    from surfgrad_addon.reference.test_images import wave_height_image
+    from surfgrad_addon.harness import compare as C
+    from surfgrad_addon.addon import groups as G
+    from surfgrad_addon.harness import scenes as test_scenes
+    from surfgrad_addon.reference.images import wave_height_image
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from surfgrad_addon.blender.compat import new_material  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_eevee import (BPY_OK, CONTEXT_OK, _angle_deg, configure_render,  # noqa: E402
@@ -246,7 +246,7 @@ def _child(out_dir, only=None):
     eevee_id, renderer = _probe(out_dir)
     t_probe = time.perf_counter() - t_start
 
-    from surfgrad_addon.blender import demo
+    from surfgrad_addon.harness import demo
     t0 = time.perf_counter()
     cams = demo.build_demo(log=lambda *a: None)
     t_build = time.perf_counter() - t0
@@ -415,7 +415,7 @@ def _table(results):
 @pytest.fixture(scope="module")
 def renders(tmp_path_factory):
     pytest.importorskip("bpy")
-    from surfgrad_addon.blender import groups as G
+    from surfgrad_addon.addon import groups as G
     if G.unavailable_reason("SG Displace"):        # 4.2: the demo is refused (docs/versions.md)
         pytest.skip(f"the demo needs SG Displace: {G.unavailable_reason('SG Displace')}")
     out_dir = tmp_path_factory.mktemp("eevee_demo")

@@ -228,7 +228,7 @@ def session_installed(zip_path, work):
     report["module_file"] = getattr(sys.modules.get(EXT_MODULE), "__file__", None)
     report["user_resources"] = os.environ["BLENDER_USER_RESOURCES"]
     report["state_enabled"] = _registration_state(bpy)
-    groups = sys.modules[EXT_MODULE + ".blender.groups"]
+    groups = sys.modules[EXT_MODULE + ".addon.groups"]
     report["menu_groups"] = [name for name, _ in groups.MENU_GROUPS]
 
     # The Add menu -> "Surface Gradient" submenu -> operator entries, drawn with a recorder.
@@ -350,6 +350,25 @@ def session_installed(zip_path, work):
     report["state_reenabled"] = _registration_state(bpy)
     bpy.ops.preferences.addon_disable(module=EXT_MODULE)
     report["state_disabled_again"] = _registration_state(bpy)
+    bpy.ops.preferences.addon_enable(module=EXT_MODULE)
+    # (Re-enabled for it.) The TD command of the installed extension (`blender -c surfgrad bake-normal-map ...`):
+    # registered with Blender's CLI machinery, run here through its handler (the bpy module
+    # has no -c), with the installed module's own imports.
+    commands = sys.modules[EXT_MODULE + ".addon.commands"]
+    report["cli_registered"] = commands.is_registered()
+    bake_obj = next(o.name for o in bpy.data.objects if o.type == "MESH" and o.active_material)
+    nrm = work / "cli_normal.png"
+    report["cli_ok"] = commands.execute(["bake-normal-map", "--blend", str(blend), "--object",
+                                         bake_obj, "--output", str(nrm), "--resolution", "32"])
+    report["cli_file"] = nrm.is_file() and nrm.stat().st_size > 100
+    report["cli_bad"] = commands.execute(["bake-normal-map", "--blend", str(blend), "--object",
+                                          "No Such Object", "--output", str(nrm)])
+    report["cli_exists"] = commands.execute(["bake-normal-map", "--blend", str(blend),
+                                             "--object", bake_obj, "--output", str(nrm)])
+    report["harness_loaded"] = sorted(m for m in sys.modules if ".harness" in m
+                                      or m.startswith("surfgrad_addon"))
+
+    bpy.ops.preferences.addon_disable(module=EXT_MODULE)
     (work / "installed_report.json").write_text(json.dumps(report, indent=1))
 
 
@@ -391,7 +410,7 @@ def run_session(mode, user_dir, *args, timeout=180):
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     out_dir = tmp_path_factory.mktemp("ext_build")
-    out = subprocess.run([sys.executable, "-m", "surfgrad_addon.blender.package",
+    out = subprocess.run([sys.executable, "-m", "surfgrad_addon.harness.package",
                           "--out", str(out_dir)], cwd=str(ROOT), capture_output=True,
                          text=True, timeout=120)
     assert out.returncode == 0, out.stderr
@@ -409,7 +428,7 @@ def installed(built, tmp_path_factory):
 
 
 def test_validator_and_builder_make_the_expected_zip(built):
-    from surfgrad_addon.blender import package
+    from surfgrad_addon.harness import package
     manifest = package.manifest()
     assert built.zip.name == package.zip_name() == f"surfgrad-{manifest['version']}.zip"
     assert manifest["id"] == "surfgrad"
@@ -421,10 +440,13 @@ def test_validator_and_builder_make_the_expected_zip(built):
         names = set(zf.namelist())
         manifest_bytes = zf.read("blender_manifest.toml")
     assert names == package.expected_files()
-    assert {"blender_manifest.toml", "__init__.py", "blender/ui.py", "blender/groups.py",
-            "reference/__init__.py"} <= names
+    assert {"blender_manifest.toml", "__init__.py", "addon/ui.py", "addon/groups.py",
+            "addon/normal_bake.py", "reference/__init__.py"} <= names
     for name in names:
         assert not name.startswith(("tests/", ".venv/", "out/", ".git/", ".ci/")), name
+        # The proving harness stays out of the zip (README, "The extension").
+        assert not name.startswith("harness/") and name not in (
+            "__main__.py", "bake_normal_map.py", "blender_cli.py"), name
         assert "__pycache__" not in name and not name.endswith((".pyc", ".zip")), name
     assert manifest_bytes == (ROOT / "blender_manifest.toml").read_bytes()
 
@@ -434,7 +456,7 @@ def test_validator_rejects_a_bad_manifest(tmp_path):
     fails it."""
     code = (
         "from pathlib import Path\n"
-        "from surfgrad_addon.blender import package as P\n"
+        "from surfgrad_addon.harness import package as P\n"
         "src = P.stage(Path(r'%s') / 'src')\n"
         "m = src / 'blender_manifest.toml'\n"
         "m.write_text(m.read_text().replace('layered detail\"', 'layered detail.\"'))\n"
@@ -455,7 +477,7 @@ def test_install_menu_operator_and_clean_disable(installed):
     assert r["module_file"].startswith(r["user_resources"]), r["module_file"]
     on = r["state_enabled"]
     assert on["enabled"] and on["menu_class"] and on["operator_class"] and on["operator_in_ops"]
-    assert on["hooks"] == [EXT_MODULE + ".blender.ui.draw_add_menu"]
+    assert on["hooks"] == [EXT_MODULE + ".addon.ui.draw_add_menu"]
     # The Add menu hook draws only the submenu, and only in shader trees.
     assert r["hook_calls_geometry"] == []
     assert r["submenus"] == [["NODE_MT_surfgrad_add", MENU_LABEL]]
@@ -479,6 +501,11 @@ def test_install_menu_operator_and_clean_disable(installed):
     assert "No active shader node tree" in r["poll_no_tree"], r["poll_no_tree"]
     assert "not a Shader Editor" in r["poll_geometry_editor"], r["poll_geometry_editor"]
     assert "unknown surface-gradient group" in r["unknown_group"]
+    # The installed extension's TD command works, refuses bad input with a code, and the
+    # whole session loaded no module of the proving harness (nor the checkout's package).
+    assert r["cli_registered"] and r["cli_ok"] == 0 and r["cli_file"]
+    assert r["cli_bad"] == 2 and r["cli_exists"] == 2
+    assert r["harness_loaded"] == []
     # Every group added at the cursor, selected and active.
     assert [a["group"] for a in r["added"]] == r["menu_groups"]
     for a in r["added"]:

@@ -7,9 +7,10 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import reference as R  # noqa: E402
-from surfgrad_addon.blender import bake, groups as G, test_scenes  # noqa: E402
-from surfgrad_addon.blender.mesh_data import mesh_arrays_from_object  # noqa: E402
-from surfgrad_addon.blender.compat import new_material  # noqa: E402
+from surfgrad_addon.addon import groups as G
+from surfgrad_addon.harness import bake, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 
 @pytest.fixture()
@@ -91,7 +92,7 @@ def test_sg_noise_value_and_gradient_equal_the_reference(fresh):
 
 
 def test_image_bound_groups_take_the_active_image_texture(fresh):
-    from surfgrad_addon.blender import ui
+    from surfgrad_addon.addon import ui
     mat = new_material("M")
     tree = mat.node_tree
     img = bpy.data.images.new("rock_height", 8, 4, float_buffer=True)
@@ -108,10 +109,10 @@ def test_image_bound_groups_take_the_active_image_texture(fresh):
 def test_triplanar_height_with_three_images_matches_the_reference(fresh):
     """SG Triplanar Height with a different height image per plane, baked, against the
     reference (the single-image case is in the bake comparison suite)."""
-    from surfgrad_addon.blender import compare
+    from surfgrad_addon.harness import compare
     from surfgrad_addon.reference import methods as M
     obj = test_scenes.build(["Sphere"])["Sphere"]
-    heights = [R.test_images.wave_height_image(size, freq) for size, freq in
+    heights = [R.images.wave_height_image(size, freq) for size, freq in
                ((32, (3.0, 2.0)), (16, (1.0, 2.0)), (24, (2.0, 1.0)))]
     imgs = [compare._bpy_float_image(f"h{i}", h) for i, h in enumerate(heights)]
 

@@ -13,8 +13,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from conftest import write_report  # noqa: E402
-from surfgrad_addon.blender import groups as G  # noqa: E402
-from surfgrad_addon.blender.node_builder import interface_signature  # noqa: E402
+from surfgrad_addon.addon import groups as G  # noqa: E402
+from surfgrad_addon.addon.node_builder import interface_signature  # noqa: E402
 
 GOLDEN = Path(__file__).with_name("interfaces.json")
 

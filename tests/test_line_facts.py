@@ -9,7 +9,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 import blender_facts_probe as fp  # noqa: E402
-from surfgrad_addon.blender import compat  # noqa: E402
+from surfgrad_addon.addon import compat  # noqa: E402
 from surfgrad_addon.reference.blender_lines import LINES, facts_for  # noqa: E402
 
 LINE = facts_for(bpy.app.version)

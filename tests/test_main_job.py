@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from surfgrad_addon import main_job
-from surfgrad_addon.png import write_png
+from surfgrad_addon.harness import main_job
+from surfgrad_addon.harness.png import write_png
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -11,9 +11,10 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.blender import compare, groups as G, normal_bake, test_scenes  # noqa: E402
-from surfgrad_addon.reference import test_images as T  # noqa: E402
-from surfgrad_addon.blender.compat import new_material  # noqa: E402
+from surfgrad_addon.addon import groups as G, normal_bake
+from surfgrad_addon.harness import compare, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.reference import images as T  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -6,9 +6,10 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.blender import bake, compare, operators as O, test_scenes  # noqa: E402
-from surfgrad_addon.reference import test_images as T  # noqa: E402
-from surfgrad_addon.blender.compat import new_material  # noqa: E402
+from surfgrad_addon.addon import operators as O
+from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.reference import images as T  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 
 @pytest.fixture()

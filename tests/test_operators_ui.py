@@ -167,7 +167,7 @@ def session(work):
     import numpy as np
 
     import surfgrad_addon
-    from surfgrad_addon.blender import operators as O
+    from surfgrad_addon.addon import operators as O
     from test_extension import _shader_editor
 
     work = Path(work)

@@ -5,7 +5,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from surfgrad_addon.bench import stability  # noqa: E402
+from surfgrad_addon.harness.bench import stability  # noqa: E402
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@
 import numpy as np
 
 import surfgrad_addon.reference as R
-from surfgrad_addon.reference import test_images as T
+from surfgrad_addon.reference import images as T
 
 
 def test_wave_height_derivative_matches_central_differences():

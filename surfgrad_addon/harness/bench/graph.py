@@ -1,7 +1,7 @@
 """A few helpers for building a bake material's node graph by code (the bench's methods)."""
 
-from ..blender import groups as G
-from ..blender.node_builder import NodeOps
+from ...addon import groups as G
+from ...addon.node_builder import NodeOps
 
 
 class Graph(NodeOps):

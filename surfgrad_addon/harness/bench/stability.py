@@ -11,11 +11,11 @@ from typing import Callable
 
 import numpy as np
 
-from .. import reference as R
-from ..blender import compare as C
-from ..blender import groups as G
-from ..reference import methods as M
-from ..reference import test_images as T
+from ... import reference as R
+from .. import compare as C
+from ...addon import groups as G
+from ...reference import methods as M
+from ...reference import images as T
 
 
 MIKKTSPACE_METHODS = ("normal-map", "blend-rnm", "layered", "parallax", "Blender Normal Map")
@@ -30,8 +30,8 @@ class Case:
 
 
 def _scene(names=("Sphere",)):
-    from ..blender import test_scenes
-    return test_scenes.new_scene(list(names))
+    from .. import scenes
+    return scenes.new_scene(list(names))
 
 
 def _zero_area_uv():

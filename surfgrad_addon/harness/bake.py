@@ -13,7 +13,8 @@ from contextlib import contextmanager
 import numpy as np
 
 from ..reference.blender_lines import facts_for
-from .compat import new_material
+from ..addon.compat import new_material
+from ..addon.scene_state import SCENE_SETTINGS, restored  # noqa: F401 (re-exported)
 
 
 def running_line():
@@ -24,39 +25,6 @@ def running_line():
 
 class BakeError(RuntimeError):
     """A bake could not run; the message names the object or setting and the fix."""
-
-
-def _get_attr(root, path):
-    for part in path.split("."):
-        root = getattr(root, part)
-    return root
-
-
-def _set_attr(root, path, value):
-    parts = path.split(".")
-    for part in parts[:-1]:
-        root = getattr(root, part)
-    setattr(root, parts[-1], value)
-
-
-@contextmanager
-def restored(root, paths):
-    """Remember the given attribute paths of `root` and put them back on exit."""
-    saved = [(p, _get_attr(root, p)) for p in paths]
-    try:
-        yield
-    finally:
-        for p, v in reversed(saved):
-            _set_attr(root, p, v)
-
-
-# Everything on the scene a bake touches.
-SCENE_SETTINGS = (
-    "render.engine", "cycles.device", "cycles.samples", "cycles.use_denoising",
-    "cycles.use_adaptive_sampling", "cycles.seed", "cycles.sample_clamp_direct",
-    "cycles.sample_clamp_indirect", "cycles.bake_type", "render.bake.margin",
-    "render.bake.use_clear", "render.bake.target", "render.bake.use_selected_to_active",
-)
 
 
 @contextmanager

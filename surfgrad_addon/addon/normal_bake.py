@@ -17,7 +17,7 @@ and nodes are removed; an existing file is only replaced with overwrite.
 import time
 from pathlib import Path
 
-from .bake import SCENE_SETTINGS, restored
+from .scene_state import SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 FORMATS = {".png": ("PNG", False), ".exr": ("OPEN_EXR", True)}

@@ -6,11 +6,11 @@ import time
 
 import numpy as np
 
-from .. import reference as R
-from ..blender import bake as B
-from ..blender.compare import angle_deg
-from ..blender.mesh_data import mesh_arrays_from_object
-from ..reference import methods as M
+from ... import reference as R
+from .. import bake as B
+from ..compare import angle_deg
+from ..mesh_data import mesh_arrays_from_object
+from ...reference import methods as M
 from .graph import Graph
 
 

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import reference as R
+from .. import reference as R
 from .png import write_png
-from .reference import methods as M
+from ..reference import methods as M
 
 NORMAL_IMAGE_SIZE = 256
 # World units of displacement for a height of 1 (the test height spans [0, 1]).
@@ -72,9 +72,9 @@ def method_table(normal_img, detail_img, height_img):
 def run(out_dir, resolution=256, overwrite=False, log=print):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    normal_img = R.test_images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)
-    detail_img = R.test_images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8, radius=0.6)
-    height_img = R.test_images.wave_height_image(NORMAL_IMAGE_SIZE)
+    normal_img = R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)
+    detail_img = R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8, radius=0.6)
+    height_img = R.images.wave_height_image(NORMAL_IMAGE_SIZE)
     table = method_table(normal_img, detail_img, height_img)
     all_scenes = scenes()
     if not overwrite:

@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
-from .. import reference as R
-from ..blender import compat
-from ..blender.compare import angle_deg
+from ... import reference as R
+from ...addon import compat
+from ..compare import angle_deg
 
 CONVERGENCE = {"Amount": 0.1, "Scale": 2.0, "Octaves": 3}
 BUMP_SCALE, BUMP_OCTAVES = 2.0, 1
@@ -33,7 +33,7 @@ def _stats(deg):
 
 def convergence(levels=range(7), repeats=3, log=print):
     import bpy
-    from ..blender import compare
+    from .. import compare
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8, radius=1.0)
     obj = bpy.context.active_object
@@ -106,7 +106,8 @@ def bump_vs_cycles_displacement(amplitudes=AMPLITUDES, resolution=128, subdivisi
     Cycles' true displacement (Displacement node, method Displacement only) of the same
     sphere subdivided `subdivision` times, texel by texel through the same UV map."""
     import bpy
-    from ..blender import bake as B, groups as G
+    from .. import bake as B
+    from ...addon import groups as G
     from .graph import Graph
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=1.0, calc_uvs=True)

@@ -10,11 +10,11 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from .. import reference as R
-from ..blender import groups as G
-from ..reference import listings as L
-from ..reference import methods as M
-from ..reference import test_images as T
+from ... import reference as R
+from ...addon import groups as G
+from ...reference import listings as L
+from ...reference import methods as M
+from ...reference import images as T
 
 
 @dataclass
@@ -52,7 +52,7 @@ class Scenario:
 
 def float_image(ctx, name, pixels):
     """A Non-Color float image Cycles reads exactly, and the same pixels for the reference."""
-    from ..blender.compare import _bpy_float_image
+    from ..compare import _bpy_float_image
     img = _bpy_float_image(name, pixels)
     ctx.cleanup.append(img)
     px = np.asarray(pixels, dtype=np.float32).astype(np.float64)
@@ -91,9 +91,9 @@ HEIGHT_SCALE = 0.1
 
 
 def _height_setup(quick):
-    from ..blender import test_scenes
-    from ..blender.mesh_data import mesh_arrays_from_object
-    objs = test_scenes.new_scene(["Sphere"])
+    from .. import scenes
+    from ..mesh_data import mesh_arrays_from_object
+    objs = scenes.new_scene(["Sphere"])
     ctx = Context(objects=objs)
     sizes = (32, 64) if quick else (32, 64, 128)
     ctx.params["sizes"] = sizes
@@ -168,8 +168,8 @@ def hemi_deriv(st, tiles=4, radius=0.85):
 
 
 def _sphere_context(quick):
-    from ..blender import test_scenes
-    return Context(objects=test_scenes.new_scene(["Sphere"]))
+    from .. import scenes
+    return Context(objects=scenes.new_scene(["Sphere"]))
 
 
 # Scenario 2: volume noise bump ----------------------------------------------------------------
@@ -320,9 +320,9 @@ DECAL_FALLOFF = 0.2
 def _decal_setup(quick):
     import bpy
     from mathutils import Euler, Matrix
-    from ..blender import test_scenes
+    from .. import scenes
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    ctx = Context(objects=test_scenes.decal_stage())
+    ctx = Context(objects=scenes.decal_stage())
     empty = bpy.data.objects.new("Projector", None)
     bpy.context.scene.collection.objects.link(empty)
     empty.matrix_world = (Matrix.Translation((0.1, 0.05, 0.1)) @ Euler((0.3, -0.2, 0.4))

@@ -3,7 +3,7 @@
     python -m surfgrad_addon compare --blend FILE --object NAME --method METHOD \\
         --resolution N --json OUT [--uv-map NAME] [--image PATH] [--variant V]
 
-Without --blend the procedural test scene (blender/test_scenes.py) is used. The bake and the
+Without --blend the procedural test scene (blender/scenes.py) is used. The bake and the
 reference see the same mesh (the evaluated object, Blender's MikkTSpace tangents), the same
 images (their pixels as Cycles reads them) and the same parameters. Angular error is measured
 over interior texels (whose 3 x 3 neighbourhood is covered): texels at UV-island borders and
@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference as R
-from ..png import write_png
+from .png import write_png
 from ..reference import methods as M
 from . import bake as B
-from . import groups as G
-from . import compat
+from ..addon import groups as G
+from ..addon import compat
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 
 DETAIL_UV = "Detail"
@@ -477,13 +477,13 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
         px, img = _load_image(image)
         inp.images["normal"] = (px, img)
     else:
-        px = R.test_images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)
+        px = R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)
         inp.images["normal"] = (px.astype(np.float32).astype(np.float64),
                                 _bpy_float_image("sg_normal", px))
-    px = R.test_images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8, radius=0.6)
+    px = R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8, radius=0.6)
     inp.images["detail"] = (px.astype(np.float32).astype(np.float64),
                             _bpy_float_image("sg_detail", px))
-    h = R.test_images.wave_height_image(HEIGHT_IMAGE_SIZE)
+    h = R.images.wave_height_image(HEIGHT_IMAGE_SIZE)
     inp.images["height"] = (h.astype(np.float32).astype(np.float64),
                             _bpy_float_image("sg_height", h))
     return inp
@@ -617,8 +617,8 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
             raise CompareError(f".blend file {blend!r} does not exist")
         bpy.ops.wm.open_mainfile(filepath=str(blend))
     elif not from_open_file:
-        from . import test_scenes
-        test_scenes.new_scene()
+        from . import scenes
+        scenes.new_scene()
     obj = bpy.data.objects.get(object_name)
     if obj is None:
         raise CompareError(f"no object named {object_name!r}; objects: "
@@ -645,14 +645,14 @@ def compare_cases():
 def run_all(out_dir, resolution=64, overwrite=False, log=print):
     """Every method on every object of the procedural test scene: JSON, a Markdown table and
     an error heat map per case."""
-    from . import test_scenes
+    from . import scenes
     out = Path(out_dir)
     table_md, table_json = out / "compare.md", out / "compare.json"
     for p in (table_md, table_json):
         if p.exists() and not overwrite:
             raise CompareError(f"{p} exists; pass --overwrite to replace it")
     (out / "heat").mkdir(parents=True, exist_ok=True)
-    objects = test_scenes.new_scene()
+    objects = scenes.new_scene()
     cases = compare_cases()
     for method in METHODS:
         if unavailable_reason(method) is not None:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import reference as R
+from .. import reference as R
 
 SIZES = (256, 512, 1024, 2048)
 
@@ -25,7 +25,7 @@ def _inputs(n, rng):
 
 def cases(n, rng):
     nrm, (a, b, c), (d, e, f), m, st = _inputs(n, rng)
-    height = R.test_images.wave_height_image(512)
+    height = R.images.wave_height_image(512)
     w = R.determine_triplanar_weights(nrm)
     inv = np.linalg.inv(np.diag([300.0, 300.0, 0.5, 1.0]) @ np.eye(4))
     return {

@@ -1,13 +1,14 @@
 """Build and validate the extension zip with Blender's own extension builder.
 
-    python -m surfgrad_addon.blender.package --out DIR      # prints the zip's path
+    python -m surfgrad_addon.harness.package --out DIR      # prints the zip's path
 
 No `blender` binary is needed: the bpy wheel ships the `bl_pkg` add-on, whose
 `bl_extension_cli.cli_extension_handler(args)` is what `blender --command extension ARGS` runs.
 The extension's root is the `surfgrad_addon` package itself (its `__init__.py` has
-register/unregister), so the build stages `blender_manifest.toml` next to the package's
-contents in a temporary folder (without `__pycache__`) and builds from there: tests, .venv, out/
-and the rest of the repository never reach the zip.
+register/unregister). The build stages `blender_manifest.toml` and the parts of the package
+that make the extension (SHIPPED: `__init__.py`, `api.py`, `addon/`, `reference/`) in a
+temporary folder (without `__pycache__`) and builds from there. The proving harness (`harness/`, the
+`python -m` entry and the checkout scripts), tests, venvs and out/ never reach the zip.
 """
 
 import argparse
@@ -24,6 +25,8 @@ PACKAGE_DIR = Path(__file__).resolve().parents[1]         # surfgrad_addon/
 ROOT = PACKAGE_DIR.parent                                 # the repository
 MANIFEST = ROOT / "blender_manifest.toml"
 IGNORE = shutil.ignore_patterns("__pycache__", "*.pyc", "*.pyo")
+# What the extension is made of: the add-on and the numpy reference it reads its facts from.
+SHIPPED = ("__init__.py", "api.py", "addon", "reference")
 
 
 class ExtensionToolError(RuntimeError):
@@ -41,21 +44,32 @@ def zip_name():
 
 
 def stage(dest):
-    """Copy the manifest and the package's contents (the extension's root) into `dest`."""
+    """Copy the manifest and the SHIPPED parts of the package into `dest`."""
     dest = Path(dest)
-    shutil.copytree(PACKAGE_DIR, dest, ignore=IGNORE, dirs_exist_ok=True)
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in SHIPPED:
+        src = PACKAGE_DIR / name
+        if src.is_dir():
+            shutil.copytree(src, dest / name, ignore=IGNORE, dirs_exist_ok=True)
+        else:
+            shutil.copy2(src, dest / name)
     shutil.copy2(MANIFEST, dest / "blender_manifest.toml")
     return dest
 
 
 def expected_files():
-    """The zip's file list: the manifest and every package file, paths relative to the root."""
+    """The zip's file list: the manifest and every SHIPPED file, paths relative to the root."""
     files = {"blender_manifest.toml"}
-    for dirpath, dirnames, filenames in os.walk(PACKAGE_DIR):
-        dirnames[:] = [d for d in dirnames if d != "__pycache__"]
-        rel = Path(dirpath).relative_to(PACKAGE_DIR)
-        files.update((rel / f).as_posix() for f in filenames
-                     if not f.endswith((".pyc", ".pyo")))
+    for name in SHIPPED:
+        src = PACKAGE_DIR / name
+        if src.is_file():
+            files.add(name)
+            continue
+        for dirpath, dirnames, filenames in os.walk(src):
+            dirnames[:] = [d for d in dirnames if d != "__pycache__"]
+            rel = Path(dirpath).relative_to(PACKAGE_DIR)
+            files.update((rel / f).as_posix() for f in filenames
+                         if not f.endswith((".pyc", ".pyo")))
     return files
 
 
@@ -107,7 +121,7 @@ def build(out_dir, log=None):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m surfgrad_addon.blender.package",
+    parser = argparse.ArgumentParser(prog="python -m surfgrad_addon.harness.package",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", required=True, help="folder for the zip")
     args = parser.parse_args(argv)

@@ -10,10 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..bench.graph import Graph
-from ..reference import test_images as T
-from . import groups as G
-from . import compat
+from .bench.graph import Graph
+from ..reference import images as T
+from ..addon import groups as G
+from ..addon import compat
 
 EXHIBIT_SPACING = 6.0
 HEIGHT_BUMP = 0.2
@@ -73,7 +73,7 @@ def _label(text, location, size=0.32):
 
 def _mesh(kind, location, name, **kw):
     import bpy
-    from . import test_scenes
+    from . import scenes
     ops = bpy.ops.mesh
     if kind == "sphere":
         ops.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.0, location=location)
@@ -85,7 +85,7 @@ def _mesh(kind, location, name, **kw):
         ops.primitive_torus_add(major_radius=0.8, minor_radius=0.3, location=location,
                                 rotation=(1.1, 0, 0), generate_uvs=True)
     obj = bpy.context.active_object
-    return test_scenes._finish(obj, name)
+    return scenes._finish(obj, name)
 
 
 def _pair(x, title, left, right, kind="sphere", left_label="usual", right_label="surface "
@@ -116,7 +116,7 @@ def build_demo(log=print):
     """Build the exhibits into a fresh file; returns the exhibit cameras {title: camera}."""
     import bpy
     from mathutils import Euler, Matrix
-    from ..bench import baseline_groups as BG
+    from .bench import baseline_groups as BG
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
@@ -268,7 +268,7 @@ def build_demo(log=print):
         _label(label, (x - 2.4 + 1.6 * i, 0, 0.05), 0.2)
     obj = _mesh("sphere", (x + 2.4, 0, 1.1), "Height map | normal map")
     obj.scale = (0.72, 0.72, 0.72)
-    from ..bench.scenarios import bake_normal_map_from_truth, exact_height_surfgrad
+    from .bench.scenarios import bake_normal_map_from_truth, exact_height_surfgrad
     from ..reference import methods as M
     from .mesh_data import mesh_arrays_from_object
     bpy.context.view_layer.update()

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..blender.compare import write_heat_map
+from ..compare import write_heat_map
 
 COLORS = {"sg": "#1b9e77", "blender": "#7570b3", "baseline": "#d95f02"}
 NAMES = {"sg": "surface gradient (ours)", "blender": "Blender built-in", "baseline": "baseline"}

@@ -1,8 +1,8 @@
 """The baselines the bench measures the framework against, as hidden node groups (".SGB ...";
 never in the Add menu). Each mirrors its function in reference/baselines.py."""
 
-from ..blender import groups as G
-from ..blender.node_builder import ensure_group
+from ...addon import groups as G
+from ...addon.node_builder import ensure_group
 
 VERSION = 1
 

@@ -1,0 +1,81 @@
+"""surfgrad's Python API for scripts and pipeline TDs (needs bpy).
+
+    from surfgrad_addon import api          # from a checkout
+    tree = api.node_group("SG Normal Map", uv_map="Detail")
+    nodes = api.add_layer_stack(bpy.data.materials["Rock"], uv_map="UVMap")
+    api.bake_normal_map(bpy.data.objects["Rock"], "rock_nrm.exr", space="tangent")
+    report = api.compare(bpy.data.objects["Rock"], "triplanar", resolution=128)
+
+From an installed extension the same module is `bl_ext.<repo>.surfgrad.api`; `compare` needs the
+proving harness, which only a checkout has. Every function raises ValueError (or a subclass)
+with a message that names the problem and the fix.
+"""
+
+from .addon import groups as _groups
+
+# Options of the groups that take them: name -> the builder's keyword arguments.
+_OPTIONS = {
+    "SG Normal Map": ("uv_map",),
+    "SG Height Map HQ": ("image", "variant", "extension"),
+    "SG Height Map Forward": ("filter_width",),
+    "SG Triplanar Height": ("image", "extension", "images"),
+    "SG Parallax": ("image", "extension"),
+}
+
+
+def group_names():
+    """Every group the Add menus offer, shader groups first, in menu order."""
+    return [name for name, _ in _groups.MENU_GROUPS] + \
+        [name for name, _ in _groups.GEOMETRY_MENU_GROUPS]
+
+
+def node_group(name, **options):
+    """The node tree of group `name`, built (or updated in place) if needed. Options:
+    SG Normal Map `uv_map`; SG Height Map HQ `image`, `variant` ('hq' or 'one-texel'),
+    `extension`; SG Height Map Forward `filter_width`; SG Triplanar Height `image` (or
+    `images`, three), `extension`; SG Parallax `image`, `extension`."""
+    builders = dict(_groups.MENU_GROUPS) | dict(_groups.GEOMETRY_MENU_GROUPS)
+    if name not in builders:
+        raise ValueError(f"no surfgrad group named {name!r}; the groups are "
+                         f"{', '.join(group_names())}")
+    allowed = _OPTIONS.get(name, ())
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise ValueError(f"{name} takes no option {', '.join(unknown)}"
+                         + (f"; it takes {', '.join(allowed)}" if allowed else ""))
+    reason = _groups.unavailable_reason(name)
+    if reason:
+        raise _groups.FeatureUnavailable(reason)
+    return builders[name](**options)
+
+
+def add_layer_stack(material, uv_map=""):
+    """SG Normal Map -> SG Combine -> SG Resolve wired into the material's BSDF Normal (as the
+    Add Surface-Gradient Layer Stack operator does). Returns the new nodes by role."""
+    from .addon import operators
+    if material is None or getattr(material, "node_tree", None) is None:
+        raise ValueError("give a material that uses nodes")
+    return operators.add_layer_stack(material.node_tree, uv_map)
+
+
+def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
+                    overwrite=False, log=print):
+    """Bake obj's own materials into a tangent- or object-space normal map (.png or .exr),
+    restoring every setting it touches. Returns the written path."""
+    from .addon.normal_bake import bake_normal_map as bake
+    return bake(obj, output, space, resolution, uv_map, margin, overwrite=overwrite, log=log)
+
+
+def compare(obj, method, resolution=64, variant="hq", uv_map=None, image=None):
+    """Bake `method`'s node groups on obj with Cycles and compare texel by texel with the numpy
+    reference; returns the report dict (mean / p99 / max angular error in degrees, texel
+    counts, timings). Needs the proving harness (a checkout, not the extension zip)."""
+    try:
+        from .harness import compare as harness_compare
+    except ImportError as err:
+        raise ValueError("compare needs surfgrad's proving harness: run it from a checkout "
+                         "of the repository (python -m surfgrad_addon compare ...)") from err
+    report, _ = harness_compare.compare_object(obj, method, resolution, uv_map=uv_map,
+                                               image=image, variant=variant,
+                                               log=lambda *_: None)
+    return report

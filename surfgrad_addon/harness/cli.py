@@ -1,0 +1,147 @@
+"""Command line: python -m surfgrad_addon <command> ...
+
+  demo             the main job: evaluate the reference on procedural scenes (maps and a
+                   summary), bake every method with Cycles and compare (compare-all),
+                   chart speed against accuracy (bench --quick), build demo.blend and render
+                   its exhibits
+  bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
+  compare-all      every method on every procedural test object: table, JSON, heat maps
+  bake-normal-map  bake an object's material into a tangent- or object-space normal map file
+  demo-blend       build demo.blend from code (exhibits, packed textures), render pictures
+  bench            speed against accuracy of every method (charts, table, JSON, heat maps)
+                   and the stability suite
+  compare          bake a method's node groups with Cycles and compare with the reference
+                   (needs bpy; also: blender -b FILE --python surfgrad_addon/blender_cli.py
+                   -- compare ...)
+"""
+
+import argparse
+import sys
+
+
+COMPARE_METHODS = ("normal-map", "procedural-basis", "object-normal", "height-map",
+                   "volume-noise", "triplanar", "decal", "parallax", "layered", "blend-udn",
+                   "blend-whiteout", "blend-rnm", "blend-pd")
+
+
+def main(argv=None, in_blender=False):
+    parser = argparse.ArgumentParser(prog="python -m surfgrad_addon", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True)
+    demo = sub.add_parser("demo", help="the main job (reference stage)")
+    demo.add_argument("--out", default="out/demo", help="output folder (default out/demo)")
+    demo.add_argument("--resolution", type=int, default=256, help="bake size in texels")
+    demo.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    bench = sub.add_parser("bench-reference", help="benchmark the reference evaluator")
+    bench.add_argument("--out", default="out/bench_reference.json", help="JSON output path")
+    bench.add_argument("--sizes", type=int, nargs="+", default=None,
+                       help="bake sizes (default 256 512 1024 2048)")
+    bench.add_argument("--overwrite", action="store_true", help="replace an existing JSON")
+    cmp = sub.add_parser("compare", help="bake a method and compare it with the reference")
+    cmp.add_argument("--blend", default=None,
+                     help=".blend file to open (default: the procedural test scene; inside "
+                          "Blender: the open file)")
+    cmp.add_argument("--object", required=True, help="name of the mesh object to bake")
+    cmp.add_argument("--method", required=True, help="one of: " + ", ".join(COMPARE_METHODS))
+    cmp.add_argument("--resolution", type=int, default=128, help="bake size in texels")
+    cmp.add_argument("--json", required=True, help="report path (an _error.png heat map is "
+                                                   "written beside it)")
+    cmp.add_argument("--uv-map", default=None, help="UV map to bake into (default: the active "
+                                                    "render UV map)")
+    cmp.add_argument("--image", default=None, help="normal map image to use instead of the "
+                                                   "procedural test image")
+    cmp.add_argument("--variant", default="hq", choices=("forward", "one-texel", "hq"),
+                     help="height-map derivative variant")
+    cmp.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    call = sub.add_parser("compare-all", help="every method on every test object (needs bpy)")
+    call.add_argument("--out", default="out/compare", help="output folder")
+    call.add_argument("--resolution", type=int, default=64, help="bake size in texels")
+    call.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    demo.add_argument("--compare-resolution", type=int, default=64,
+                      help="bake size of the bake-vs-reference stage")
+    demo.add_argument("--no-bake", action="store_true",
+                      help="skip the Cycles bake stage (reference only)")
+    bch = sub.add_parser("bench", help="speed against accuracy for every method, and the "
+                                       "stability suite (needs bpy)")
+    bch.add_argument("--out", default="out/bench", help="output folder")
+    bch.add_argument("--quick", action="store_true", help="small bakes, 2 repeats (minutes "
+                                                          "become seconds)")
+    bch.add_argument("--resolution", type=int, default=None, help="bake size (default 256, "
+                                                                  "quick 64)")
+    bch.add_argument("--repeats", type=int, default=None, help="timed repeats (default 5)")
+    bch.add_argument("--only", nargs="+", default=None, help="scenario names to run")
+    bch.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    nb = sub.add_parser("bake-normal-map", help="bake an object's material into a normal "
+                                                "map file (PNG or EXR)")
+    nb.add_argument("--blend", default=None, help=".blend file to open (inside Blender: the "
+                                                  "open file)")
+    nb.add_argument("--object", required=True, help="mesh object to bake")
+    nb.add_argument("--output", required=True, help="file to write: .png (8-bit) or .exr "
+                                                    "(float)")
+    nb.add_argument("--space", default="tangent", choices=("tangent", "object"))
+    nb.add_argument("--resolution", type=int, default=1024)
+    nb.add_argument("--uv-map", default=None, help="UV map (default: the active render one)")
+    nb.add_argument("--margin", type=int, default=16, help="texels to extend past UV borders")
+    nb.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    db = sub.add_parser("demo-blend", help="build demo.blend (exhibits, packed textures) and "
+                                           "optionally render its pictures")
+    db.add_argument("--out", default="demo.blend", help="the .blend to write")
+    db.add_argument("--pictures", default=None, help="folder for a Cycles render of each "
+                                                     "exhibit")
+    db.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "demo":
+            from . import main_job
+            main_job.run(args.out, args.resolution, args.overwrite)
+            if not args.no_bake:
+                from . import compare
+                compare.run_all(f"{args.out}/compare", args.compare_resolution,
+                                args.overwrite)
+                from .bench import run as bench_run
+                bench_run.run(f"{args.out}/bench", quick=True, overwrite=args.overwrite)
+                from . import demo
+                cams = demo.save_demo(f"{args.out}/demo.blend", overwrite=args.overwrite)
+                demo.render_pictures(cams, f"{args.out}/pictures")
+        elif args.command == "bench":
+            from .bench import run as bench_run
+            bench_run.run(args.out, args.quick, args.resolution, args.repeats, args.only,
+                          args.overwrite)
+        elif args.command == "bake-normal-map":
+            import bpy
+            from ..addon import normal_bake
+            if args.blend and not in_blender:
+                if not __import__("os").path.isfile(args.blend):
+                    raise ValueError(f".blend file {args.blend!r} does not exist")
+                bpy.ops.wm.open_mainfile(filepath=args.blend)
+            obj = bpy.data.objects.get(args.object)
+            if obj is None:
+                raise ValueError(f"no object named {args.object!r}; objects: "
+                                 f"{sorted(o.name for o in bpy.data.objects)}")
+            normal_bake.bake_normal_map(obj, args.output, args.space, args.resolution,
+                                        args.uv_map, args.margin, overwrite=args.overwrite)
+        elif args.command == "demo-blend":
+            from . import demo
+            cams = demo.save_demo(args.out, args.overwrite)
+            if args.pictures:
+                demo.render_pictures(cams, args.pictures)
+        elif args.command == "compare-all":
+            from . import compare
+            compare.run_all(args.out, args.resolution, args.overwrite)
+        elif args.command == "bench-reference":
+            from . import bench_reference
+            bench_reference.run(args.out, args.sizes or bench_reference.SIZES,
+                                overwrite=args.overwrite)
+        elif args.command == "compare":
+            from . import compare
+            compare.run(args.blend, args.object, args.method, args.resolution, args.json,
+                        args.uv_map, args.image, args.variant, args.overwrite,
+                        from_open_file=in_blender)
+    except (FileExistsError, ValueError, KeyError, RuntimeError) as err:
+        print(f"surfgrad: error: {err}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,54 @@
+"""The public API (surfgrad_addon.api) that scripts and TDs use: every group by name, with
+options; the layer stack; the normal-map bake; the comparison. Clear errors for bad names."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import groups as G  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.harness import scenes  # noqa: E402
+
+
+@pytest.fixture
+def fresh():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def test_node_group_builds_every_group_by_name(fresh):
+    for name in api.group_names():
+        if G.unavailable_reason(name):
+            with pytest.raises(G.FeatureUnavailable, match=name):
+                api.node_group(name)
+            continue
+        tree = api.node_group(name)
+        assert tree.name == name and tree.description
+    detail = api.node_group("SG Normal Map", uv_map="Detail")
+    assert detail.name == "SG Normal Map [Detail]"
+    probes = [n for n in bpy.data.node_groups[".SG MikkTSpace Frame [Detail]"].nodes
+              if n.bl_idname == "ShaderNodeNormalMap"]
+    assert probes and all(n.uv_map == "Detail" for n in probes)
+
+
+def test_node_group_refuses_unknown_names_and_options(fresh):
+    with pytest.raises(ValueError, match="no surfgrad group named 'SG Nope'.*SG Resolve"):
+        api.node_group("SG Nope")
+    with pytest.raises(ValueError, match="SG Resolve takes no option uv_map"):
+        api.node_group("SG Resolve", uv_map="UVMap")
+
+
+def test_layer_stack_bake_and_compare_through_the_api(fresh, tmp_path):
+    obj = scenes.new_scene(["Plane"])["Plane"]
+    mat = new_material("API")
+    obj.data.materials.append(mat)
+    nodes = api.add_layer_stack(mat)
+    assert nodes["resolve"].outputs[0].is_linked
+    out = api.bake_normal_map(obj, tmp_path / "n.exr", resolution=16, log=lambda *_: None)
+    assert out.is_file()
+    report = api.compare(obj, "normal-map", resolution=24)
+    assert report["max_deg"] <= 0.5 and report["texels_compared"] > 0.5 * 24 * 24
+    assert np.isfinite(report["mean_deg"])
+    with pytest.raises(ValueError, match="give a material"):
+        api.add_layer_stack(None)

@@ -1,0 +1,74 @@
+"""Two layers, one direction: the add-on (surfgrad_addon.addon: groups, node builder, menu,
+operators, the TD bake and commands) and the numpy reference never import the proving harness
+(surfgrad_addon.harness: bake, compare, bench, demo, main job, CLI); the reference never imports
+bpy or the add-on; and registering the add-on loads no harness module."""
+
+import ast
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "surfgrad_addon"
+
+
+def _imports(path):
+    """Absolute module names a file imports, relative imports resolved against its package."""
+    tree = ast.parse(path.read_text())
+    package = path.relative_to(ROOT).with_suffix("").parts[:-1]
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = list(package[:len(package) - node.level + 1]) if node.level else []
+            module = ".".join(base + ([node.module] if node.module else []))
+            out.add(module)
+            out.update(f"{module}.{alias.name}" for alias in node.names)
+    return out
+
+
+def _files(*parts):
+    return sorted(PACKAGE.joinpath(*parts).rglob("*.py"))
+
+
+def test_addon_and_reference_never_import_the_harness():
+    files = _files("addon") + _files("reference") + [PACKAGE / "__init__.py",
+                                                      PACKAGE / "api.py"]
+    assert len(files) > 20
+    offenders = {f.relative_to(ROOT).as_posix(): sorted(m for m in _imports(f)
+                                                        if m.startswith("surfgrad_addon.harness"))
+                 for f in files}
+    # api.compare alone reaches the harness, lazily, and says what to do where it is missing.
+    offenders["surfgrad_addon/api.py"] = [m for m in offenders["surfgrad_addon/api.py"]
+                                          if m not in ("surfgrad_addon.harness",
+                                                       "surfgrad_addon.harness.compare")]
+    assert not {f: m for f, m in offenders.items() if m}
+
+
+def test_reference_imports_neither_bpy_nor_the_addon():
+    for f in _files("reference"):
+        bad = [m for m in _imports(f) if m.split(".")[0] in ("bpy", "mathutils")
+               or m.startswith(("surfgrad_addon.addon", "surfgrad_addon.harness"))]
+        assert not bad, (f, bad)
+
+
+def test_registering_the_addon_loads_no_harness_module():
+    code = ("import sys, surfgrad_addon\n"
+            "surfgrad_addon.register()\n"
+            "loaded = sorted(m for m in sys.modules if m.startswith('surfgrad_addon'))\n"
+            "surfgrad_addon.unregister()\n"
+            "print('LOADED', ' '.join(loaded))\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, cwd=str(ROOT), timeout=120)
+    if "No module named 'bpy'" in out.stderr:
+        import pytest
+        pytest.skip("needs bpy")
+    assert out.returncode == 0, out.stderr
+    loaded = next(line for line in out.stdout.splitlines() if line.startswith("LOADED"))
+    modules = loaded.split()[1:]
+    assert "surfgrad_addon.addon.ui" in modules and "surfgrad_addon.addon.commands" in modules
+    assert not [m for m in modules if m.startswith("surfgrad_addon.harness")], modules
