@@ -96,7 +96,6 @@ class EmissionProbe:
     """A material on the probe plane: build a graph with `nodes`/`links`, then `bake(socket)`."""
 
     def __init__(self, obj, name="ProbeMat"):
-        b = _bpy()
         self.obj = obj
         mat = new_material(name)
         obj.data.materials.append(mat)

@@ -1,4 +1,5 @@
-"""Shared test helpers: the report directory that `bash run.sh test` collects per Blender line.
+"""Shared test helpers: the `fresh` file fixture, and the report directory that
+`bash run.sh test` collects per Blender line.
 
 `bash run.sh test` runs this suite once per supported Blender line, each in its own venv, and
 sets SURFGRAD_REPORT_DIR; tests that produce figures for the lines' summary
@@ -9,6 +10,8 @@ is written.
 import json
 import os
 from pathlib import Path
+
+import pytest
 
 
 def line_name():
@@ -32,3 +35,11 @@ def write_report(name, data):
     path.write_text(json.dumps({"blender": bpy.app.version_string, "line": line_name(),
                                 **data}, indent=1))
     return path
+
+
+@pytest.fixture
+def fresh():
+    """An empty Blender file (factory settings, no objects): the state a test starts from."""
+    bpy = pytest.importorskip("bpy")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy

@@ -12,10 +12,6 @@ from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.harness import scenes  # noqa: E402
 
 
-@pytest.fixture
-def fresh():
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-
 
 def test_node_group_builds_every_group_by_name(fresh):
     for name in api.group_names():

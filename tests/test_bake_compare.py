@@ -66,11 +66,11 @@ def test_sg_normal_map_matches_blenders_normal_map_node(scene):
         inp = compare.prepare_inputs(obj)
         try:
             def sg(nodes, links):
-                return compare._resolve(nodes, links, compare._normal_map_graph(inp, nodes, links))
+                return compare.resolve_sg(nodes, links, compare.normal_map_graph(inp, nodes, links))
 
             def blender(nodes, links):
-                color = compare._image_node(nodes, links, inp.bpy_image("normal"),
-                                            compare._uv(nodes, inp.uv_map))
+                color = compare.image_node(nodes, links, inp.bpy_image("normal"),
+                                            compare.uv_node(nodes, inp.uv_map))
                 nm = nodes.new("ShaderNodeNormalMap")
                 nm.uv_map = inp.uv_map
                 links.new(color, nm.inputs["Color"])

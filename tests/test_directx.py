@@ -23,7 +23,7 @@ def inputs():
     inp = C.prepare_inputs(obj)
     px = inp.pixels("normal").copy()
     px[..., 1] = 1.0 - px[..., 1]                      # the same map, DirectX convention
-    inp.images["normal_dx"] = (px, C._bpy_float_image("sg_normal_dx", px))
+    inp.images["normal_dx"] = (px, C.bpy_float_image("sg_normal_dx", px))
     yield obj, inp
     for _, img in inp.images.values():
         bpy.data.images.remove(img)
@@ -31,31 +31,31 @@ def inputs():
 
 def _normal_map(inp, image, directx):
     def build(nodes, links):
-        sg = C._normal_map_graph(inp, nodes, links, image=image)
+        sg = C.normal_map_graph(inp, nodes, links, image=image)
         sg.node.inputs["DirectX"].default_value = directx
-        return C._resolve(nodes, links, sg)
+        return C.resolve_sg(nodes, links, sg)
     return build
 
 
 def _tangent_normal(inp, image, directx):
     def build(nodes, links):
-        uv = C._uv(nodes, inp.uv_map)
-        basis = C._group(nodes, G.procedural_basis_group())
+        uv = C.uv_node(nodes, inp.uv_map)
+        basis = C.group_node(nodes, G.procedural_basis_group())
         links.new(uv, basis.inputs["UV"])
-        node = C._group(nodes, G.tangent_normal_group())
-        links.new(C._image_node(nodes, links, inp.bpy_image(image), uv), node.inputs["Color"])
+        node = C.group_node(nodes, G.tangent_normal_group())
+        links.new(C.image_node(nodes, links, inp.bpy_image(image), uv), node.inputs["Color"])
         links.new(basis.outputs["Tangent"], node.inputs["Tangent"])
         links.new(basis.outputs["Bitangent"], node.inputs["Bitangent"])
         node.inputs["DirectX"].default_value = directx
-        return C._resolve(nodes, links, node.outputs[0])
+        return C.resolve_sg(nodes, links, node.outputs[0])
     return build
 
 
 def _triplanar(inp, image, directx):
     def build(nodes, links):
-        sg = C._triplanar_graph(inp, nodes, links, image=image)
+        sg = C.triplanar_graph(inp, nodes, links, image=image)
         sg.node.inputs["DirectX"].default_value = directx
-        return C._resolve(nodes, links, sg)
+        return C.resolve_sg(nodes, links, sg)
     return build
 
 
@@ -64,11 +64,11 @@ def _decal(inp, image, directx):
         saved = inp.images["normal"]
         inp.images["normal"] = inp.images[image]
         try:
-            sg = C._decal_graph(inp, nodes, links)
+            sg = C.decal_graph(inp, nodes, links)
         finally:
             inp.images["normal"] = saved
         sg.node.inputs["DirectX"].default_value = directx
-        return C._resolve(nodes, links, sg)
+        return C.resolve_sg(nodes, links, sg)
     return build
 
 
@@ -81,7 +81,7 @@ def _bake(obj, inp, build):
 def test_directx_map_with_switch_equals_opengl_map(inputs, graph):
     obj, inp = inputs
     if graph is _decal:
-        inp.projector = C._decal_projector(obj)
+        inp.projector = C.decal_projector(obj)
     try:
         opengl = _bake(obj, inp, graph(inp, "normal", False))
         directx = _bake(obj, inp, graph(inp, "normal_dx", True))
@@ -119,7 +119,7 @@ def test_sg_directx_matches_blenders_directx_normal_map_node(inputs):
     obj, inp = inputs
 
     def blender(nodes, links):
-        color = C._image_node(nodes, links, inp.bpy_image("normal_dx"), C._uv(nodes, inp.uv_map))
+        color = C.image_node(nodes, links, inp.bpy_image("normal_dx"), C.uv_node(nodes, inp.uv_map))
         nm = nodes.new("ShaderNodeNormalMap")
         nm.uv_map = inp.uv_map
         nm.convention = "DIRECTX"

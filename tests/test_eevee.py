@@ -144,11 +144,11 @@ def _uv_gradients_graph(inp, nodes, links):
     """.SG UV Gradients alone: resolve 2 (grad s + grad t) against the shading normal."""
     from surfgrad_addon.harness import compare as C
     from surfgrad_addon.addon import groups as G
-    grads = C._group(nodes, G.uv_gradients_group())
-    links.new(C._uv(nodes, inp.uv_map), grads.inputs["UV"])
+    grads = C.group_node(nodes, G.uv_gradients_group())
+    links.new(C.uv_node(nodes, inp.uv_map), grads.inputs["UV"])
     geo = nodes.new("ShaderNodeNewGeometry")
     links.new(geo.outputs["Normal"], grads.inputs["Normal"])
-    total = C._add(nodes, links, grads.outputs[0], grads.outputs[1])
+    total = C.add_vectors(nodes, links, grads.outputs[0], grads.outputs[1])
     scaled = nodes.new("ShaderNodeVectorMath")
     scaled.operation = "SCALE"
     links.new(total, scaled.inputs[0])
@@ -199,7 +199,7 @@ def _child(out_dir):
     for name, px in (("normal", _smooth_normal_image(IMAGE_SIZE, (2.0, 1.0), 0.09)),
                      ("detail", _smooth_normal_image(IMAGE_SIZE, (1.0, 2.0), 0.09)),
                      ("height", wave_height_image(IMAGE_SIZE))):
-        img = C._bpy_float_image(f"sg_eevee_{name}", px)
+        img = C.bpy_float_image(f"sg_eevee_{name}", px)
         img.use_half_precision = False
         images[name] = (px.astype(np.float32).astype(np.float64), img)
     G.build_all()
@@ -237,7 +237,7 @@ def _child(out_dir):
             inp = C.Inputs(obj=obj, uv_map="UVMap", detail_uv="Detail", images=images,
                            variant=variant or "hq")
             if method == "decal":
-                inp.projector = C._decal_projector(obj)
+                inp.projector = C.decal_projector(obj)
             if method == "displace-bump":
                 C.add_displace_modifier(obj)
             graph = _uv_gradients_graph if method == "uv-gradients" else C.METHODS[method][0]
@@ -247,7 +247,7 @@ def _child(out_dir):
                 if tree is not None and tree.name.startswith(("SG Triplanar Coordinates",
                                                               "SG Triplanar Height")):
                     node.inputs["Scale"].default_value = TRIPLANAR_SCALE
-            normal = out if out.name == "Normal" else C._resolve(nodes, links, out)
+            normal = out if out.name == "Normal" else C.resolve_sg(nodes, links, out)
         colour = nodes.new("ShaderNodeVectorMath")
         colour.operation = "MULTIPLY_ADD"
         links.new(normal, colour.inputs[0])

@@ -13,10 +13,6 @@ from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E4
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 
-@pytest.fixture()
-def fresh():
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-
 
 def test_building_twice_gives_one_group_each(fresh):
     G.build_all()
@@ -114,13 +110,13 @@ def test_triplanar_height_with_three_images_matches_the_reference(fresh):
     obj = test_scenes.build(["Sphere"])["Sphere"]
     heights = [R.images.wave_height_image(size, freq) for size, freq in
                ((32, (3.0, 2.0)), (16, (1.0, 2.0)), (24, (2.0, 1.0)))]
-    imgs = [compare._bpy_float_image(f"h{i}", h) for i, h in enumerate(heights)]
+    imgs = [compare.bpy_float_image(f"h{i}", h) for i, h in enumerate(heights)]
 
     def build(nodes, links):
         node = nodes.new("ShaderNodeGroup")
         node.node_tree = G.triplanar_height_group(images=imgs)
         node.inputs["Bump Scale"].default_value = 0.05
-        return compare._resolve(nodes, links, node.outputs["Surface Gradient"])
+        return compare.resolve_sg(nodes, links, node.outputs["Surface Gradient"])
     px, cov, _ = bake.bake_vector(obj, build, 48, 48, "UVMap")
     td = R.rasterize(mesh_arrays_from_object(obj), "UVMap", 48, 48)
     ref = M.resolve(M.triplanar_height_surfgrad(

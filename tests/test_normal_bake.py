@@ -47,7 +47,7 @@ def test_tangent_bake_of_an_sg_material_reproduces_its_normal_map(tmp_path):
     the normal map fed to SG Normal Map (up to 8-bit and texel filtering)."""
     obj = test_scenes.new_scene(["Plane"])["Plane"]
     source = T.hemisphere_tile_image(64, tiles=2)
-    _sg_material(obj, compare._bpy_float_image("src", source))
+    _sg_material(obj, compare.bpy_float_image("src", source))
     settings_before = (bpy.context.scene.render.engine, bpy.context.scene.cycles.samples)
     out = normal_bake.bake_normal_map(obj, tmp_path / "n.exr", "tangent", 64, margin=0,
                                       log=lambda *_: None)
@@ -81,7 +81,7 @@ def test_bad_input_is_refused(tmp_path):
 def test_command_line_writes_a_png_with_progress(tmp_path):
     blend = tmp_path / "s.blend"
     obj = test_scenes.new_scene(["Sphere"])["Sphere"]
-    _sg_material(obj, compare._bpy_float_image("src", T.hemisphere_tile_image(32)))
+    _sg_material(obj, compare.bpy_float_image("src", T.hemisphere_tile_image(32)))
     bpy.data.images["src"].pack()
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}

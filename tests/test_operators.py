@@ -60,7 +60,7 @@ def _bake_converted(obj, make_node, convert):
 
 
 def test_normal_map_conversion_keeps_the_look(sphere):
-    img = compare._bpy_float_image("nm", T.hemisphere_tile_image(64))
+    img = compare.bpy_float_image("nm", T.hemisphere_tile_image(64))
 
     def make(nodes, links):
         uv = nodes.new("ShaderNodeUVMap")
@@ -82,7 +82,7 @@ def test_normal_map_conversion_keeps_the_look(sphere):
 def test_bump_conversion_keeps_the_look(sphere):
     """The converted group steps the Bump node's own Filter Width, so the inverted Bump and
     the resolve give back the same normal."""
-    img = compare._bpy_float_image("h", T.wave_height_image(64, (3.0, 2.0)))
+    img = compare.bpy_float_image("h", T.wave_height_image(64, (3.0, 2.0)))
 
     def make(nodes, links):
         uv = nodes.new("ShaderNodeUVMap")

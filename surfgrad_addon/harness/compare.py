@@ -54,7 +54,7 @@ class Inputs:
 
 # Node-graph helpers --------------------------------------------------------------------------
 
-def _group(nodes, tree):
+def group_node(nodes, tree):
     node = nodes.new("ShaderNodeGroup")
     node.node_tree = tree
     return node
@@ -65,7 +65,7 @@ def _link(links, source, target):
         links.new(source, target)
 
 
-def _image_node(nodes, links, image, vector, interpolation="Linear", extension="REPEAT"):
+def image_node(nodes, links, image, vector, interpolation="Linear", extension="REPEAT"):
     node = nodes.new("ShaderNodeTexImage")
     node.image = image
     node.interpolation = interpolation
@@ -74,19 +74,19 @@ def _image_node(nodes, links, image, vector, interpolation="Linear", extension="
     return node.outputs["Color"]
 
 
-def _uv(nodes, uv_map):
+def uv_node(nodes, uv_map):
     node = nodes.new("ShaderNodeUVMap")
     node.uv_map = uv_map
     return node.outputs["UV"]
 
 
-def _resolve(nodes, links, surface_gradient):
-    node = _group(nodes, G.resolve_group())
+def resolve_sg(nodes, links, surface_gradient):
+    node = group_node(nodes, G.resolve_group())
     links.new(surface_gradient, node.inputs["Surface Gradient"])
     return node.outputs["Normal"]
 
 
-def _add(nodes, links, a, b):
+def add_vectors(nodes, links, a, b):
     node = nodes.new("ShaderNodeVectorMath")
     node.operation = "ADD"
     links.new(a, node.inputs[0])
@@ -96,20 +96,20 @@ def _add(nodes, links, a, b):
 
 # Methods: (node graph, reference) pairs -------------------------------------------------------
 
-def _normal_map_graph(inp, nodes, links, image="normal", strength=1.0):
-    color = _image_node(nodes, links, inp.bpy_image(image), _uv(nodes, inp.uv_map))
-    node = _group(nodes, G.normal_map_group(inp.uv_map))
+def normal_map_graph(inp, nodes, links, image="normal", strength=1.0):
+    color = image_node(nodes, links, inp.bpy_image(image), uv_node(nodes, inp.uv_map))
+    node = group_node(nodes, G.normal_map_group(inp.uv_map))
     links.new(color, node.inputs["Color"])
     node.inputs["Strength"].default_value = strength
     return node.outputs["Surface Gradient"]
 
 
 def _procedural_basis_graph(inp, nodes, links, image="detail", strength=1.0):
-    uv = _uv(nodes, inp.detail_uv)
-    basis = _group(nodes, G.procedural_basis_group())
+    uv = uv_node(nodes, inp.detail_uv)
+    basis = group_node(nodes, G.procedural_basis_group())
     links.new(uv, basis.inputs["UV"])
-    color = _image_node(nodes, links, inp.bpy_image(image), uv)
-    tn = _group(nodes, G.tangent_normal_group())
+    color = image_node(nodes, links, inp.bpy_image(image), uv)
+    tn = group_node(nodes, G.tangent_normal_group())
     links.new(color, tn.inputs["Color"])
     links.new(basis.outputs["Tangent"], tn.inputs["Tangent"])
     links.new(basis.outputs["Bitangent"], tn.inputs["Bitangent"])
@@ -119,7 +119,7 @@ def _procedural_basis_graph(inp, nodes, links, image="detail", strength=1.0):
 
 def _object_normal_vector_graph(inp, nodes, links):
     """v = (2 c - 1) + 2 N: an arbitrary front-facing world-space normal from an image."""
-    color = _image_node(nodes, links, inp.bpy_image("normal"), _uv(nodes, inp.uv_map))
+    color = image_node(nodes, links, inp.bpy_image("normal"), uv_node(nodes, inp.uv_map))
     m = nodes.new("ShaderNodeVectorMath")
     m.operation = "MULTIPLY"
     links.new(color, m.inputs[0])
@@ -133,11 +133,11 @@ def _object_normal_vector_graph(inp, nodes, links):
     n2.operation = "SCALE"
     links.new(geo.outputs["Normal"], n2.inputs[0])
     n2.inputs["Scale"].default_value = 2.0
-    return _add(nodes, links, s.outputs[0], n2.outputs[0])
+    return add_vectors(nodes, links, s.outputs[0], n2.outputs[0])
 
 
 def _object_normal_graph(inp, nodes, links):
-    node = _group(nodes, G.object_normal_group())
+    node = group_node(nodes, G.object_normal_group())
     links.new(_object_normal_vector_graph(inp, nodes, links), node.inputs["Perturbed Normal"])
     return node.outputs["Surface Gradient"]
 
@@ -152,7 +152,7 @@ NOISE_SCALE, NOISE_AMOUNT = 4.0, 0.05
 
 
 def _noise_gradient_graph(nodes, links, turbulence=False):
-    noise = _group(nodes, G.noise_group())
+    noise = group_node(nodes, G.noise_group())
     noise.inputs["Scale"].default_value = NOISE_SCALE
     noise.inputs["Octaves"].default_value = 4
     noise.inputs["Turbulence"].default_value = turbulence
@@ -160,23 +160,23 @@ def _noise_gradient_graph(nodes, links, turbulence=False):
 
 
 def _volume_noise_graph(inp, nodes, links, amount=NOISE_AMOUNT):
-    vg = _group(nodes, G.volume_gradient_group())
+    vg = group_node(nodes, G.volume_gradient_group())
     links.new(_noise_gradient_graph(nodes, links), vg.inputs["Gradient"])
     vg.inputs["Strength"].default_value = amount
     return vg.outputs["Surface Gradient"]
 
 
-def _triplanar_graph(inp, nodes, links, image="normal"):
-    coords = _group(nodes, G.triplanar_coordinates_group())
-    tri = _group(nodes, G.triplanar_group())
+def triplanar_graph(inp, nodes, links, image="normal"):
+    coords = group_node(nodes, G.triplanar_coordinates_group())
+    tri = group_node(nodes, G.triplanar_group())
     for axis in "XYZ":
-        color = _image_node(nodes, links, inp.bpy_image(image), coords.outputs[f"UV {axis}"])
+        color = image_node(nodes, links, inp.bpy_image(image), coords.outputs[f"UV {axis}"])
         links.new(color, tri.inputs[f"Color {axis}"])
     return tri.outputs["Surface Gradient"]
 
 
 def _triplanar_height_graph(inp, nodes, links):
-    node = _group(nodes, G.triplanar_height_group(inp.bpy_image("height")))
+    node = group_node(nodes, G.triplanar_height_group(inp.bpy_image("height")))
     node.inputs["Bump Scale"].default_value = HEIGHT_BUMP_SCALE
     return node.outputs["Surface Gradient"]
 
@@ -184,7 +184,7 @@ def _triplanar_height_graph(inp, nodes, links):
 DECAL_FALLOFF = 0.2
 
 
-def _decal_projector(obj):
+def decal_projector(obj):
     """A temporary empty projecting onto obj: centred on it, tilted, smaller than it."""
     import bpy
     from mathutils import Euler, Matrix, Vector
@@ -198,14 +198,14 @@ def _decal_projector(obj):
     return empty
 
 
-def _decal_graph(inp, nodes, links):
+def decal_graph(inp, nodes, links):
     tc = nodes.new("ShaderNodeTexCoord")
     tc.object = inp.projector
-    decal = _group(nodes, G.decal_group())
-    coords = _group(nodes, G.decal_coordinates_group())
+    decal = group_node(nodes, G.decal_group())
+    coords = group_node(nodes, G.decal_coordinates_group())
     links.new(tc.outputs["Object"], decal.inputs["Decal Coordinates"])
     links.new(tc.outputs["Object"], coords.inputs["Decal Coordinates"])
-    color = _image_node(nodes, links, inp.bpy_image("normal"), coords.outputs["Decal UV"])
+    color = image_node(nodes, links, inp.bpy_image("normal"), coords.outputs["Decal UV"])
     links.new(color, decal.inputs["Color"])
     ax, ay, _, _ = M.decal_frame(np.array(inp.projector.matrix_world))
     decal.inputs["Axis X"].default_value = ax
@@ -223,11 +223,11 @@ LAYER_DETAIL, LAYER_NOISE = 0.5, 0.02
 
 
 def _layered_graph(inp, nodes, links):
-    combine = _group(nodes, G.combine_group())
-    links.new(_normal_map_graph(inp, nodes, links), combine.inputs["A"])
+    combine = group_node(nodes, G.combine_group())
+    links.new(normal_map_graph(inp, nodes, links), combine.inputs["A"])
     links.new(_procedural_basis_graph(inp, nodes, links, strength=LAYER_DETAIL),
               combine.inputs["B"])
-    return _add(nodes, links, combine.outputs[0],
+    return add_vectors(nodes, links, combine.outputs[0],
                 _volume_noise_graph(inp, nodes, links, amount=LAYER_NOISE))
 
 
@@ -243,14 +243,14 @@ HEIGHT_BUMP_SCALE = 0.05
 
 
 def _height_map_graph(inp, nodes, links):
-    uv = _uv(nodes, inp.uv_map)
+    uv = uv_node(nodes, inp.uv_map)
     if inp.variant == "forward":
         height = nodes.new("ShaderNodeSeparateXYZ")
-        links.new(_image_node(nodes, links, inp.bpy_image("height"), uv), height.inputs[0])
-        node = _group(nodes, G.height_map_forward_group())
+        links.new(image_node(nodes, links, inp.bpy_image("height"), uv), height.inputs[0])
+        node = group_node(nodes, G.height_map_forward_group())
         links.new(height.outputs[0], node.inputs["Height"])
     else:
-        node = _group(nodes, G.height_map_group(inp.bpy_image("height"), inp.variant))
+        node = group_node(nodes, G.height_map_group(inp.bpy_image("height"), inp.variant))
         links.new(uv, node.inputs["UV"])
     node.inputs["Bump Scale"].default_value = HEIGHT_BUMP_SCALE
     return node.outputs["Surface Gradient"]
@@ -274,12 +274,12 @@ def _parallax_graph(inp, nodes, links):
     unit = nodes.new("ShaderNodeVectorMath")
     unit.operation = "NORMALIZE"
     links.new(view.outputs[0], unit.inputs[0])
-    par = _group(nodes, G.parallax_group(inp.bpy_image("height")))
-    links.new(_uv(nodes, inp.uv_map), par.inputs["UV"])
+    par = group_node(nodes, G.parallax_group(inp.bpy_image("height")))
+    links.new(uv_node(nodes, inp.uv_map), par.inputs["UV"])
     links.new(unit.outputs[0], par.inputs["View"])
     par.inputs["Bump Scale"].default_value = PARALLAX_SCALE
-    color = _image_node(nodes, links, inp.bpy_image("normal"), par.outputs["UV"])
-    nm = _group(nodes, G.normal_map_group(inp.uv_map))
+    color = image_node(nodes, links, inp.bpy_image("normal"), par.outputs["UV"])
+    nm = group_node(nodes, G.normal_map_group(inp.uv_map))
     links.new(color, nm.inputs["Color"])
     return nm.outputs["Surface Gradient"]
 
@@ -296,12 +296,12 @@ def _parallax_reference(inp, td):
 def _post_resolve_graph(inp, nodes, links):
     """Figure 7(b): a baked normal map resolved first, then triplanar detail on top with the
     resolved normal as the new base normal (weights, projection and second resolve)."""
-    first = _resolve(nodes, links, _normal_map_graph(inp, nodes, links))
-    tri_sg = _triplanar_graph(inp, nodes, links, image="detail")
+    first = resolve_sg(nodes, links, normal_map_graph(inp, nodes, links))
+    tri_sg = triplanar_graph(inp, nodes, links, image="detail")
     tri = tri_sg.node
     links.new(first, tri.inputs["Normal"])
     tri.inputs["Strength"].default_value = 0.5
-    final = _group(nodes, G.resolve_group())
+    final = group_node(nodes, G.resolve_group())
     links.new(first, final.inputs["Normal"])
     links.new(tri_sg, final.inputs["Surface Gradient"])
     return final.outputs["Normal"]
@@ -333,12 +333,12 @@ def _displace_bump_graph(inp, nodes, links):
     """Gustavson's fragment shader: finer SG Noise at the undisplaced object coordinates,
     through SG Volume Gradient and SG Resolve, on the analytically displaced surface."""
     scale, amount, octaves = BUMP_ON_TOP
-    rest = _group(nodes, G.rest_position_group())
-    noise = _group(nodes, G.noise_group())
+    rest = group_node(nodes, G.rest_position_group())
+    noise = group_node(nodes, G.noise_group())
     links.new(rest.outputs[0], noise.inputs["Vector"])
     noise.inputs["Scale"].default_value = scale
     noise.inputs["Octaves"].default_value = octaves
-    vg = _group(nodes, G.volume_gradient_group())
+    vg = group_node(nodes, G.volume_gradient_group())
     links.new(noise.outputs["Gradient"], vg.inputs["Gradient"])
     vg.inputs["Strength"].default_value = amount
     return vg.outputs["Surface Gradient"]
@@ -355,14 +355,14 @@ BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 
 
 def _blend_graph(mode):
     def graph(inp, nodes, links):
-        uv = _uv(nodes, inp.uv_map)
-        a = _image_node(nodes, links, inp.bpy_image("normal"), uv)
-        b = _image_node(nodes, links, inp.bpy_image("detail"), uv)
-        blend = _group(nodes, G.blend_normals_group())
+        uv = uv_node(nodes, inp.uv_map)
+        a = image_node(nodes, links, inp.bpy_image("normal"), uv)
+        b = image_node(nodes, links, inp.bpy_image("detail"), uv)
+        blend = group_node(nodes, G.blend_normals_group())
         links.new(a, blend.inputs["Color A"])
         links.new(b, blend.inputs["Color B"])
         blend.inputs["Method"].default_value = BLEND_MODES[mode]
-        nm = _group(nodes, G.normal_map_group(inp.uv_map))
+        nm = group_node(nodes, G.normal_map_group(inp.uv_map))
         links.new(blend.outputs["Color"], nm.inputs["Color"])
         return nm.outputs["Surface Gradient"]
     return graph
@@ -383,7 +383,7 @@ def _blend_reference(mode):
 
 
 METHODS = {
-    "normal-map": (lambda inp, nodes, links: _normal_map_graph(inp, nodes, links),
+    "normal-map": (lambda inp, nodes, links: normal_map_graph(inp, nodes, links),
                    lambda inp, td: M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map)),
     "procedural-basis": (lambda inp, nodes, links: _procedural_basis_graph(inp, nodes, links),
                          lambda inp, td: M.procedural_basis_surfgrad(td, inp.pixels("detail"),
@@ -392,12 +392,12 @@ METHODS = {
     "volume-noise": (_volume_noise_graph,
                      lambda inp, td: M.volume_noise_surfgrad(td, NOISE_SCALE, NOISE_AMOUNT, 4)),
     "height-map": (_height_map_graph, _height_map_reference),
-    "triplanar": (_triplanar_graph,
+    "triplanar": (triplanar_graph,
                   lambda inp, td: M.triplanar_surfgrad(td, inp.pixels("normal"))),
     "triplanar-height": (_triplanar_height_graph,
                          lambda inp, td: M.triplanar_height_surfgrad(
                              td, inp.pixels("height"), bump_scale=HEIGHT_BUMP_SCALE)),
-    "decal": (_decal_graph, _decal_reference),
+    "decal": (decal_graph, _decal_reference),
     "parallax": (_parallax_graph, _parallax_reference),
     "post-resolve": (_post_resolve_graph, _post_resolve_reference),
     "displace-bump": (_displace_bump_graph, _displace_bump_reference),
@@ -417,7 +417,7 @@ def unavailable_reason(method):
 
 # Inputs -----------------------------------------------------------------------------------------
 
-def _bpy_float_image(name, pixels):
+def bpy_float_image(name, pixels):
     import bpy
     px = np.asarray(pixels, dtype=np.float32)
     if px.ndim == 2:
@@ -472,20 +472,20 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
     inp = Inputs(obj=obj, uv_map=uv_map, detail_uv=detail, variant=variant)
     if isinstance(image, np.ndarray):       # pixels given directly (the stability suite)
         inp.images["normal"] = (image[..., :3].astype(np.float32).astype(np.float64),
-                                _bpy_float_image("sg_normal", image))
+                                bpy_float_image("sg_normal", image))
     elif image is not None:
         px, img = _load_image(image)
         inp.images["normal"] = (px, img)
     else:
         px = R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)
         inp.images["normal"] = (px.astype(np.float32).astype(np.float64),
-                                _bpy_float_image("sg_normal", px))
+                                bpy_float_image("sg_normal", px))
     px = R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8, radius=0.6)
     inp.images["detail"] = (px.astype(np.float32).astype(np.float64),
-                            _bpy_float_image("sg_detail", px))
+                            bpy_float_image("sg_detail", px))
     h = R.images.wave_height_image(HEIGHT_IMAGE_SIZE)
     inp.images["height"] = (h.astype(np.float32).astype(np.float64),
-                            _bpy_float_image("sg_height", h))
+                            bpy_float_image("sg_height", h))
     return inp
 
 
@@ -516,7 +516,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     import bpy
     try:
         if method == "decal":
-            inp.projector = _decal_projector(obj)
+            inp.projector = decal_projector(obj)
         if method == "displace-bump":
             inp.modifier = add_displace_modifier(obj)
         graph, reference = METHODS[method]
@@ -542,7 +542,7 @@ def compare_graph(inp, obj, graph, reference, resolution):
         out = graph(inp, nodes, links)
         # Graphs return a surface gradient to resolve against the shading normal, or (post-
         # resolve) an already resolved normal.
-        return out if out.name == "Normal" else _resolve(nodes, links, out)
+        return out if out.name == "Normal" else resolve_sg(nodes, links, out)
     pixels, covered, bake_seconds = B.bake_vector(obj, build, resolution, resolution,
                                                   uv_map=inp.uv_map)
     try:

@@ -52,8 +52,8 @@ class Scenario:
 
 def float_image(ctx, name, pixels):
     """A Non-Color float image Cycles reads exactly, and the same pixels for the reference."""
-    from ..compare import _bpy_float_image
-    img = _bpy_float_image(name, pixels)
+    from ..compare import bpy_float_image
+    img = bpy_float_image(name, pixels)
     ctx.cleanup.append(img)
     px = np.asarray(pixels, dtype=np.float32).astype(np.float64)
     ctx.images[name] = (px, img)

@@ -131,7 +131,7 @@ HUGE = 200.0
 
 
 def _blender_normal_map(inp, nodes, links):
-    color = C._image_node(nodes, links, inp.bpy_image("normal"), C._uv(nodes, inp.uv_map))
+    color = C.image_node(nodes, links, inp.bpy_image("normal"), C.uv_node(nodes, inp.uv_map))
     nm = nodes.new("ShaderNodeNormalMap")
     nm.uv_map = inp.uv_map
     links.new(color, nm.inputs["Color"])
@@ -157,7 +157,7 @@ def _methods(overrides):
             graph = lambda inp, n, l: C._volume_noise_graph(inp, n, l, amount=HUGE)  # noqa: E731
             ref = lambda inp, td: M.volume_noise_surfgrad(td, C.NOISE_SCALE, HUGE, 4)  # noqa: E731
         if overrides.get("huge") and name == "normal-map":
-            graph = lambda inp, n, l: C._normal_map_graph(inp, n, l, strength=10.0)  # noqa: E731
+            graph = lambda inp, n, l: C.normal_map_graph(inp, n, l, strength=10.0)  # noqa: E731
             ref = lambda inp, td: M.normal_map_surfgrad(  # noqa: E731
                 td, inp.pixels("normal"), inp.uv_map, strength=10.0)
         out.append((name, "sg", graph, ref))
@@ -214,7 +214,7 @@ def _group_input_cases(resolution):
                     links.new(node.outputs[0], tn.inputs["Tangent"])
                     links.new(node.outputs[1], tn.inputs["Bitangent"])
                     out = tn.outputs[0]
-                return C._resolve(nodes, links, out)
+                return C.resolve_sg(nodes, links, out)
             inp = C.prepare_inputs(obj)
             try:
                 report, _ = C.compare_graph(
@@ -248,7 +248,7 @@ def run(quick=False, log=print, resolution=None):
             inp = C.prepare_inputs(obj, image=pixels)
             try:
                 if label == "decal":
-                    inp.projector = C._decal_projector(obj)
+                    inp.projector = C.decal_projector(obj)
                 # NaN pixels make the reference's own output NaN: expected, not a warning.
                 with np.errstate(invalid="ignore", divide="ignore"):
                     report, _ = C.compare_graph(inp, obj, graph, ref, resolution)
