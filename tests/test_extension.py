@@ -440,7 +440,7 @@ def test_validator_and_builder_make_the_expected_zip(built):
         names = set(zf.namelist())
         manifest_bytes = zf.read("blender_manifest.toml")
     assert names == package.expected_files()
-    assert {"blender_manifest.toml", "__init__.py", "addon/ui.py", "addon/groups.py",
+    assert {"blender_manifest.toml", "__init__.py", "addon/ui.py", "addon/groups/__init__.py",
             "addon/normal_bake.py", "reference/__init__.py"} <= names
     for name in names:
         assert not name.startswith(("tests/", ".venv/", "out/", ".git/", ".ci/")), name

@@ -38,10 +38,10 @@ def test_a_newer_version_rebuilds_in_place_and_keeps_links(fresh, monkeypatch):
     links.new(geo.outputs["Normal"], group.inputs["Surface Gradient"])
     ptr = tree.as_pointer()
     nodes_before = len(tree.nodes)
-    monkeypatch.setattr(G, "VERSION", G.VERSION + 1)
+    monkeypatch.setattr(G.common, "VERSION", G.VERSION + 1)   # every builder reads it there
     tree.nodes.new("ShaderNodeMath")            # a stray edit the rebuild must clear
     rebuilt = G.resolve_group()
-    assert rebuilt.as_pointer() == ptr and rebuilt["surfgrad_version"] == G.VERSION
+    assert rebuilt.as_pointer() == ptr and rebuilt["surfgrad_version"] == G.common.VERSION
     assert len(rebuilt.nodes) == nodes_before
     assert bsdf.inputs["Normal"].is_linked and group.inputs["Surface Gradient"].is_linked
     assert all(link.is_valid for link in links)

@@ -51,9 +51,8 @@ def _uses_tree(group, tree, seen=None):
 
 
 def image_bound(name):
-    """True for menu groups built per image (their builder takes an `image`)."""
-    import inspect
-    return "image" in inspect.signature(dict(groups.MENU_GROUPS)[name]).parameters
+    """True for menu groups built per image (groups.GROUPS says which)."""
+    return groups.BY_NAME[name].image_bound
 
 
 def active_image(tree):

@@ -1,0 +1,191 @@
+"""Pieces every group shares: the version stamp and feature gates, the Normal input with its
+shading-normal fallback (.SG Safe Normal), the Bump-node surface gradient (.SG Surface Gradient,
+.SG UV Gradients), and Listing 2's tangent-space decode with its DirectX switch."""
+
+import bpy
+
+from ..node_builder import ensure_group, running_line
+
+
+VERSION = 13
+
+
+class FeatureUnavailable(ValueError):
+    """A group needs a node this Blender does not have; the message names the node and the
+    Blender version that has it (docs/versions.md)."""
+
+
+# Groups that need a node newer than blender_version_min: name -> (node type, the first LTS
+# line checked to have it, what the group does with it). Tested by the node's presence, not by
+# the version number.
+REQUIRES = {"SG Displace": ("GeometryNodeSetMeshNormal", "4.5", "it sets the analytic normals "
+                            "with the Geometry Nodes Set Mesh Normal node")}
+
+
+# Hidden helpers that only a gated group builds (absent where the gate refuses it).
+GATED_HELPERS = {"SG Displace": (".SG Gradient Noise (Geometry)",)}
+
+
+def unavailable_reason(name):
+    """None when group `name` can be built in the running Blender, else why not."""
+    need = REQUIRES.get(name)
+    if need is None or hasattr(bpy.types, need[0]):
+        return None
+    node_type, line, use = need
+    return (f"{name} needs Blender {line} or newer: {use} ({node_type}), which Blender "
+            f"{bpy.app.version_string} does not have")
+
+
+def normal_input(b, description="Base normal to perturb (world space). Leave unlinked for "
+                                "the shading normal; link a resolved normal for post-resolve "
+                                "bump mapping"):
+    """The group's Normal input, normalised; unlinked (zero), NaN or Inf it is the shading
+    normal (through .SG Safe Normal)."""
+    raw = b.input("Normal", "VECTOR", description, hide_value=True)
+    node = b.node("ShaderNodeGroup", label="Base normal", node_tree=safe_normal_group())
+    b.link(raw, node.inputs[0])
+    return node.outputs[0]
+
+
+def sub_group(b, tree, label, **inputs):
+    kind = "GeometryNodeGroup" if b.tree.bl_idname == "GeometryNodeTree" else "ShaderNodeGroup"
+    node = b.node(kind, label=label, node_tree=tree)
+    for name, value in inputs.items():
+        b.link(value, node.inputs[name.replace("_", " ")])
+    return node
+
+
+def sign_nonneg(b, x):
+    """The listings' `x < 0 ? -1 : 1`."""
+    return b.math("SUBTRACT", 1.0, b.math("MULTIPLY", 2.0, b.math("LESS_THAN", x, 0.0)))
+
+
+def zero_unless_finite(b, v):
+    """v where every component is finite, else (0, 0, 0): Maximum/Minimum drop a NaN
+    (fmaxf) and clamp an Inf, and x - x < 0.5 is false exactly for NaN and Inf."""
+    comps = b.separate(v)
+    finite = [b.math("LESS_THAN", b.math("SUBTRACT", c, c), 0.5) for c in comps]
+    clamped = [b.math("MINIMUM", b.math("MAXIMUM", c, -1e30), 1e30) for c in comps]
+    every = b.math("MULTIPLY", b.math("MULTIPLY", finite[0], finite[1]), finite[2])
+    return b.scale(b.combine(*clamped), every)
+
+
+def safe_normal_group():
+    def build(b):
+        v = b.input("Vector", "VECTOR", "A direction of any length, or nothing", hide_value=True)
+        if not running_line().normal_map_replaces_non_finite:
+            with b.frame("Blender 4.2/4.5: NaN or Inf to zero (their Normal Map node lets "
+                         "non-finite values through)"):
+                v = zero_unless_finite(b, v)
+        with b.frame("normalize(v), or the shading normal where v is zero, NaN or Inf"):
+            # A World-space Normal Map node normalises (c - 0.5) * 2. Cycles' replaces a zero
+            # or non-finite result by the shading normal (arithmetic cannot remove a NaN,
+            # this node can) and negates its result on back faces; EEVEE's does neither. So:
+            # zero becomes the shading normal before the node (for EEVEE), and the input is
+            # multiplied by the node's own sign on this face, measured on the shading normal.
+            geo = b.node("ShaderNodeNewGeometry").outputs["Normal"]
+            probe = b.node("ShaderNodeNormalMap", space="WORLD", label="sign probe")
+            b.link(b.vmath("ADD", b.vmath("MULTIPLY", geo, (0.5, 0.5, 0.5)), (0.5, 0.5, 0.5)),
+                   probe.inputs["Color"])
+            sign = b.dot(probe.outputs[0], geo)
+            zero = b.math("COMPARE", b.length(v), 0.0, 0.0)
+            v = b.add(v, b.scale(geo, zero))
+            color = b.vmath("ADD", b.vmath("MULTIPLY", b.scale(v, sign), (0.5, 0.5, 0.5)),
+                            (0.5, 0.5, 0.5))
+            nm = b.node("ShaderNodeNormalMap", space="WORLD")
+            nm.inputs["Strength"].default_value = 1.0
+            b.link(color, nm.inputs["Color"])
+        b.output("Normal", "VECTOR", nm.outputs[0], "Unit normal, always finite")
+    return ensure_group(".SG Safe Normal", VERSION, build,
+                        "normalize(v) with the shading normal as fallback")
+
+
+def surface_gradient_group():
+    def build(b):
+        value = b.input("Value", "FLOAT", "Scalar whose surface gradient is wanted (linear on "
+                        "each triangle for an exact result, e.g. a UV coordinate)")
+        n = b.input("Normal", "VECTOR", "Unit base normal", hide_value=True)
+        with b.frame("Bump node inverted: g = N - n / (n . N)"):
+            bump = b.node("ShaderNodeBump")
+            bump.inputs["Strength"].default_value = 1.0
+            bump.inputs["Distance"].default_value = 1.0
+            if "Filter Width" in bump.inputs:
+                bump.inputs["Filter Width"].default_value = BUMP_FILTER_WIDTH
+            b.link(value, bump.inputs["Height"])
+            b.link(n, bump.inputs["Normal"])
+            nb = bump.outputs[0]
+            g = b.sub(n, b.scale(nb, b.math("DIVIDE", 1.0, b.dot(nb, n))))
+        b.output("Gradient", "VECTOR", g, "Surface gradient of Value")
+    return ensure_group(".SG Surface Gradient", VERSION, build,
+                        "Surface gradient of a scalar through the Bump node")
+
+
+# Shifted copies see UV + fw * dUV: for linear attributes any step is exact, and a large one
+# keeps float32 cancellation in the forward differences small.
+BUMP_FILTER_WIDTH = 10.0
+
+
+FORWARD_FILTER_WIDTH = 2.0      # = reference.methods.FORWARD_FILTER_WIDTH
+
+
+def uv_gradients_group():
+    def build(b):
+        uv = b.input("UV", "VECTOR", "Texture coordinate (link a UV Map node for any UV map)",
+                     hide_value=True)
+        n = b.input("Normal", "VECTOR", "Unit base normal", hide_value=True)
+        s, t, _ = b.separate(uv)
+        sg = surface_gradient_group()
+        with b.frame("Surface gradients of s and t (Eq. 7 with H = s, H = t)"):
+            gs = sub_group(b, sg, "grad s", Value=s, Normal=n).outputs[0]
+            gt = sub_group(b, sg, "grad t", Value=t, Normal=n).outputs[0]
+        b.output("Gradient S", "VECTOR", gs, "Surface gradient of s")
+        b.output("Gradient T", "VECTOR", gt, "Surface gradient of t")
+    return ensure_group(".SG UV Gradients", VERSION, build, "Surface gradients of a UV map")
+
+
+DIRECTX_TOOLTIP = ("The map is in DirectX convention (green points down, -Y: Unreal, 3ds Max, "
+                   "Substance's DirectX preset): its green channel is flipped. Off: OpenGL "
+                   "(+Y), Blender's own. Blender 5.2's Normal Map node calls this Convention")
+
+
+def directx_input(b):
+    """The DirectX/OpenGL switch of every group that decodes a tangent-space colour."""
+    return b.input("DirectX", "BOOLEAN", DIRECTX_TOOLTIP, default=False)
+
+
+def decode_tangent_normal(b, color, directx=None):
+    """m = 2 c - 1 (m.y negated for a DirectX map) and Listing 2's derivative (abs z, 1/128
+    clamp), as two float sockets."""
+    m = b.vmath("SUBTRACT", b.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
+    mx, my, mz = b.separate(m)
+    if directx is not None:
+        my = b.math("MULTIPLY", my, b.math("SUBTRACT", 1.0, b.math("MULTIPLY", directx, 2.0)))
+    z_ma = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
+        "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx), b.math("ABSOLUTE", my))))
+    inv = b.math("DIVIDE", -1.0, b.math("MAXIMUM", z_ma, 1e-30))
+    return b.math("MULTIPLY", mx, inv), b.math("MULTIPLY", my, inv)
+
+
+def tangent_normal_to_surfgrad(b, color, strength, t, bt, directx=None):
+    """Listing 2 (abs z, 1/128 clamp) then Listing 3, scaled by strength."""
+    with b.frame("Listing 2: derivative from a tangent-space normal"):
+        dx, dy = decode_tangent_normal(b, color, directx)
+    with b.frame("Listing 3: deriv.x t + deriv.y b"):
+        return b.scale(b.add(b.scale(t, dx), b.scale(bt, dy)), strength)
+
+
+def position_input(b, description):
+    """A Position input; unlinked (zero) it is the world position of the shading point."""
+    raw = b.input("Position", "VECTOR", description, hide_value=True)
+    world = b.node("ShaderNodeNewGeometry").outputs["Position"]
+    unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
+    return b.mix_vector(unlinked, raw, world)
+
+
+def images_stale(expected):
+    """A `stale` test for image-bound groups: rebuild when their Image Texture nodes no longer
+    hold `expected` (in node order), e.g. an image was replaced or removed."""
+    def stale(tree):
+        taps = [nd.image for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
+        return taps != list(expected(len(taps)))
+    return stale

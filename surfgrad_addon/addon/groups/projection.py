@@ -1,0 +1,122 @@
+"""Section 4.1-4.2: triplanar projection (Listings 13 and 14, Eq. 19) and decal projectors
+(Listing 15) as volume bump maps."""
+
+from ..node_builder import ensure_group
+from . import common
+from .common import decode_tangent_normal, directx_input, normal_input, position_input
+
+
+def triplanar_weights(b, n, k):
+    """Listing 14: w = max(|n| - 0.2, 0)^k, normalised; returns the three weight sockets."""
+    with b.frame("Listing 14: w = max(|n| - 0.2, 0)^k, normalised"):
+        base = b.separate(b.vmath("MAXIMUM", b.vmath("SUBTRACT", b.vmath("ABSOLUTE", n),
+                                                      (0.2, 0.2, 0.2)), (0.0, 0.0, 0.0)))
+        wx, wy, wz = (b.math("POWER", c, k) for c in base)
+        total = b.math("MAXIMUM", b.math("ADD", b.math("ADD", wx, wy), wz), 1e-30)
+        return tuple(b.math("DIVIDE", c, total) for c in (wx, wy, wz))
+
+
+def triplanar_surface_gradient(b, n, weights, derivs):
+    """Listing 13: the volume gradient of Eq. 19 from the planes' derivatives (sampled at
+    (z, y), (x, z), (x, y)), projected by Listing 8."""
+    w0, w1, w2 = weights
+    (dxx, dxy), (dyx, dyy), (dzx, dzy) = derivs
+    with b.frame("Listing 13: volume gradient of Eq. 19, then Listing 8"):
+        grad = b.combine(
+            b.math("ADD", b.math("MULTIPLY", w2, dzx), b.math("MULTIPLY", w1, dyx)),
+            b.math("ADD", b.math("MULTIPLY", w2, dzy), b.math("MULTIPLY", w0, dxy)),
+            b.math("ADD", b.math("MULTIPLY", w0, dxx), b.math("MULTIPLY", w1, dyy)))
+        return b.sub(grad, b.scale(n, b.dot(n, grad)))
+
+
+def triplanar_coordinates_group():
+    def build(b):
+        p = position_input(b, "Where to project from (unlinked: world position)")
+        scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
+                        min_value=0.0, max_value=1e4)
+        with b.frame("Eq. 19 planes: X samples (z, y), Y (x, z), Z (x, y)"):
+            x, y, z = b.separate(b.scale(p, scale))
+            uvx, uvy, uvz = b.combine(z, y), b.combine(x, z), b.combine(x, y)
+        b.output("UV X", "VECTOR", uvx, "Coordinates for the image projected along X")
+        b.output("UV Y", "VECTOR", uvy, "Coordinates for the image projected along Y")
+        b.output("UV Z", "VECTOR", uvz, "Coordinates for the image projected along Z")
+    return ensure_group("SG Triplanar Coordinates", common.VERSION, build,
+                        "The three planar projections of triplanar mapping (Eq. 19): feed "
+                        "three Image Texture nodes, then SG Triplanar")
+
+
+def triplanar_group():
+    def build(b):
+        n = normal_input(b)
+        cx = b.input("Color X", "COLOR", "Tangent-space normal map sampled at UV X",
+                     default=(0.5, 0.5, 1.0, 1.0))
+        cy = b.input("Color Y", "COLOR", "Tangent-space normal map sampled at UV Y",
+                     default=(0.5, 0.5, 1.0, 1.0))
+        cz = b.input("Color Z", "COLOR", "Tangent-space normal map sampled at UV Z",
+                     default=(0.5, 0.5, 1.0, 1.0))
+        directx = directx_input(b)
+        k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
+                    min_value=1.0, max_value=64.0)
+        strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
+                           max_value=10.0)
+        weights = triplanar_weights(b, n, k)
+        with b.frame("Listing 2 per plane"):
+            derivs = [decode_tangent_normal(b, c, directx) for c in (cx, cy, cz)]
+        sg = triplanar_surface_gradient(b, n, weights, derivs)
+        w = b.combine(*weights)
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, strength), "Surface gradient")
+        b.output("Weights", "VECTOR", w, "The blend weights (x, y, z)")
+    return ensure_group("SG Triplanar", common.VERSION, build,
+                        "Listings 13 and 14: triplanar normal mapping as a volume bump map")
+
+
+def decal_coordinates_group():
+    def build(b):
+        q = b.input("Decal Coordinates", "VECTOR", "Position in the projector's space (a "
+                    "Texture Coordinate node's Object output, the projector as its object)",
+                    hide_value=True)
+        with b.frame("[-1, 1]^2 of the projector to [0, 1]^2"):
+            uv = b.vmath("ADD", b.vmath("MULTIPLY", q, (0.5, 0.5, 0.0)), (0.5, 0.5, 0.0))
+        b.output("Decal UV", "VECTOR", uv, "Where to sample the decal image (its Image "
+                 "Texture's Vector)")
+    return ensure_group("SG Decal Coordinates", common.VERSION, build,
+                        "Image coordinates of a decal projector: feed the decal's Image "
+                        "Texture, then SG Decal")
+
+
+def decal_group():
+    def build(b):
+        n = normal_input(b)
+        q = b.input("Decal Coordinates", "VECTOR", "Position in the projector's space: a "
+                    "Texture Coordinate node's Object output with the projector (an empty) "
+                    "as its object; the decal covers [-1, 1] in x and y", hide_value=True)
+        color = b.input("Color", "COLOR", "Tangent-space normal map sampled at the Decal UV "
+                        "of SG Decal Coordinates", default=(0.5, 0.5, 1.0, 1.0))
+        directx = directx_input(b)
+        axis_x = b.input("Axis X", "VECTOR", "The projector's X axis in world space (unit "
+                         "length; the Add Decal Projector operator drives it)",
+                         default=(1.0, 0.0, 0.0), subtype="DIRECTION")
+        axis_y = b.input("Axis Y", "VECTOR", "The projector's Y axis in world space (unit "
+                         "length)", default=(0.0, 1.0, 0.0), subtype="DIRECTION")
+        strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
+                           max_value=10.0)
+        falloff = b.input("Falloff", "FLOAT", "Depth over which the decal fades out toward the "
+                          "projector box's near and far faces (fraction of its depth)",
+                          default=0.2, min_value=0.0, max_value=1.0)
+        qx, qy, qz = b.separate(q)
+        with b.frame("Falloff as a bump scale: box mask times depth fade"):
+            inside = b.math("MULTIPLY", b.math("LESS_THAN", b.math("ABSOLUTE", qx), 1.000001),
+                            b.math("LESS_THAN", b.math("ABSOLUTE", qy), 1.000001))
+            fade = b.math("DIVIDE", b.math("SUBTRACT", 1.0, b.math("ABSOLUTE", qz)),
+                          b.math("MAXIMUM", falloff, 1e-6))
+            fade = b.math("MINIMUM", b.math("MAXIMUM", fade, 0.0), 1.0)
+            scale = b.math("MULTIPLY", b.math("MULTIPLY", inside, fade), strength)
+        with b.frame("Listing 2"):
+            dx, dy = decode_tangent_normal(b, color, directx)
+        with b.frame("Listing 15: grad = deriv.x X + deriv.y Y, then Listing 8"):
+            grad = b.add(b.scale(axis_x, dx), b.scale(axis_y, dy))
+            sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, scale), "Surface gradient")
+    return ensure_group("SG Decal", common.VERSION, build,
+                        "Listing 15: a decal projector as a volume bump map, faded by its "
+                        "falloff")
