@@ -19,17 +19,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from support_blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
+
 ROOT = Path(__file__).resolve().parents[1]
 
-
-def new_material(name):
-    """A material with a node tree on every line (before 5.0 it needs use_nodes). Local: this
-    file also runs as a script where surfgrad_addon is not importable."""
-    import bpy
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    return mat
 EXT_MODULE = "bl_ext.user_default.surfgrad"
 MENU_LABEL = "Surface Gradient"
 BAKE_SIZE = 48

@@ -71,18 +71,8 @@ def main(argv=None, in_blender=False):
     bch.add_argument("--repeats", type=int, default=None, help="timed repeats (default 5)")
     bch.add_argument("--only", nargs="+", default=None, help="scenario names to run")
     bch.add_argument("--overwrite", action="store_true", help="replace existing outputs")
-    nb = sub.add_parser("bake-normal-map", help="bake an object's material into a normal "
-                                                "map file (PNG or EXR)")
-    nb.add_argument("--blend", default=None, help=".blend file to open (inside Blender: the "
-                                                  "open file)")
-    nb.add_argument("--object", required=True, help="mesh object to bake")
-    nb.add_argument("--output", required=True, help="file to write: .png (8-bit) or .exr "
-                                                    "(float)")
-    nb.add_argument("--space", default="tangent", choices=("tangent", "object"))
-    nb.add_argument("--resolution", type=int, default=1024)
-    nb.add_argument("--uv-map", default=None, help="UV map (default: the active render one)")
-    nb.add_argument("--margin", type=int, default=16, help="texels to extend past UV borders")
-    nb.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    from ..addon.commands import add_bake_normal_map
+    add_bake_normal_map(sub)
     db = sub.add_parser("demo-blend", help="build demo.blend (exhibits, packed textures) and "
                                            "optionally render its pictures")
     db.add_argument("--out", default="demo.blend", help="the .blend to write")
@@ -108,18 +98,10 @@ def main(argv=None, in_blender=False):
             bench_run.run(args.out, args.quick, args.resolution, args.repeats, args.only,
                           args.overwrite)
         elif args.command == "bake-normal-map":
-            import bpy
-            from ..addon import normal_bake
-            if args.blend and not in_blender:
-                if not __import__("os").path.isfile(args.blend):
-                    raise ValueError(f".blend file {args.blend!r} does not exist")
-                bpy.ops.wm.open_mainfile(filepath=args.blend)
-            obj = bpy.data.objects.get(args.object)
-            if obj is None:
-                raise ValueError(f"no object named {args.object!r}; objects: "
-                                 f"{sorted(o.name for o in bpy.data.objects)}")
-            normal_bake.bake_normal_map(obj, args.output, args.space, args.resolution,
-                                        args.uv_map, args.margin, overwrite=args.overwrite)
+            from ..addon.commands import run_bake_normal_map
+            if in_blender:             # inside Blender: the file it opened
+                args.blend = None
+            run_bake_normal_map(args)
         elif args.command == "demo-blend":
             from . import demo
             cams = demo.save_demo(args.out, args.overwrite)
