@@ -14,6 +14,7 @@ bpy = pytest.importorskip("bpy")
 
 from conftest import write_report  # noqa: E402
 from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.harness import methods  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,8 +35,9 @@ def scene():
     write_report("bake-compare", {"resolution": RESOLUTION, "rows": rows, "skipped": skipped})
 
 
-CASES = [(m, "hq") for m in sorted(compare.METHODS) if m != "height-map"] + \
-    [("height-map", v) for v in ("forward", "one-texel", "hq")]
+# Every method of the registry, each variant separately (gated ones skip in the test).
+CASES = [(m.name, v) for m in compare.METHODS.values() for v in m.variants]
+
 
 
 @pytest.mark.parametrize("method,variant", CASES)
@@ -66,11 +68,11 @@ def test_sg_normal_map_matches_blenders_normal_map_node(scene):
         inp = compare.prepare_inputs(obj)
         try:
             def sg(nodes, links):
-                return compare.resolve_sg(nodes, links, compare.normal_map_graph(inp, nodes, links))
+                return compare.resolve_sg(nodes, links, methods.normal_map_graph(inp, nodes, links))
 
             def blender(nodes, links):
-                color = compare.image_node(nodes, links, inp.bpy_image("normal"),
-                                            compare.uv_node(nodes, inp.uv_map))
+                color = methods.image_node(nodes, links, inp.bpy_image("normal"),
+                                            methods.uv_node(nodes, inp.uv_map))
                 nm = nodes.new("ShaderNodeNormalMap")
                 nm.uv_map = inp.uv_map
                 links.new(color, nm.inputs["Color"])
@@ -132,6 +134,16 @@ def _run_cli(args, cwd):
     env["PYTHONPATH"] = str(ROOT)
     return subprocess.run([sys.executable, "-m", "surfgrad_addon", *args], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=300)
+
+
+def test_the_command_line_offers_every_registered_method(tmp_path):
+    out = _run_cli(["compare", "--help"], tmp_path)
+    assert out.returncode == 0, out.stderr
+    help_text = " ".join(out.stdout.split())
+    assert all(name in help_text for name in compare.METHODS), help_text
+    assert len(compare.METHODS) == 16
+    bad = _run_cli(["compare", "--object", "Torus", "--method", "warp-drive"], tmp_path)
+    assert bad.returncode != 0 and "invalid choice: 'warp-drive'" in bad.stderr
 
 
 def test_compare_command_line(tmp_path):

@@ -11,6 +11,7 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon import reference as R  # noqa: E402
 from surfgrad_addon.addon import groups as G
 from surfgrad_addon.harness import bake, compare as C, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.harness import methods  # noqa: E402
 from surfgrad_addon.reference import methods as M  # noqa: E402
 
 RES = 48
@@ -31,7 +32,7 @@ def inputs():
 
 def _normal_map(inp, image, directx):
     def build(nodes, links):
-        sg = C.normal_map_graph(inp, nodes, links, image=image)
+        sg = methods.normal_map_graph(inp, nodes, links, image=image)
         sg.node.inputs["DirectX"].default_value = directx
         return C.resolve_sg(nodes, links, sg)
     return build
@@ -39,11 +40,11 @@ def _normal_map(inp, image, directx):
 
 def _tangent_normal(inp, image, directx):
     def build(nodes, links):
-        uv = C.uv_node(nodes, inp.uv_map)
-        basis = C.group_node(nodes, G.procedural_basis_group())
+        uv = methods.uv_node(nodes, inp.uv_map)
+        basis = methods.group_node(nodes, G.procedural_basis_group())
         links.new(uv, basis.inputs["UV"])
-        node = C.group_node(nodes, G.tangent_normal_group())
-        links.new(C.image_node(nodes, links, inp.bpy_image(image), uv), node.inputs["Color"])
+        node = methods.group_node(nodes, G.tangent_normal_group())
+        links.new(methods.image_node(nodes, links, inp.bpy_image(image), uv), node.inputs["Color"])
         links.new(basis.outputs["Tangent"], node.inputs["Tangent"])
         links.new(basis.outputs["Bitangent"], node.inputs["Bitangent"])
         node.inputs["DirectX"].default_value = directx
@@ -53,7 +54,7 @@ def _tangent_normal(inp, image, directx):
 
 def _triplanar(inp, image, directx):
     def build(nodes, links):
-        sg = C.triplanar_graph(inp, nodes, links, image=image)
+        sg = methods.triplanar_graph(inp, nodes, links, image=image)
         sg.node.inputs["DirectX"].default_value = directx
         return C.resolve_sg(nodes, links, sg)
     return build
@@ -64,7 +65,7 @@ def _decal(inp, image, directx):
         saved = inp.images["normal"]
         inp.images["normal"] = inp.images[image]
         try:
-            sg = C.decal_graph(inp, nodes, links)
+            sg = methods.decal_graph(inp, nodes, links)
         finally:
             inp.images["normal"] = saved
         sg.node.inputs["DirectX"].default_value = directx
@@ -81,7 +82,7 @@ def _bake(obj, inp, build):
 def test_directx_map_with_switch_equals_opengl_map(inputs, graph):
     obj, inp = inputs
     if graph is _decal:
-        inp.projector = C.decal_projector(obj)
+        inp.projector = methods.decal_projector(obj)
     try:
         opengl = _bake(obj, inp, graph(inp, "normal", False))
         directx = _bake(obj, inp, graph(inp, "normal_dx", True))
@@ -119,7 +120,7 @@ def test_sg_directx_matches_blenders_directx_normal_map_node(inputs):
     obj, inp = inputs
 
     def blender(nodes, links):
-        color = C.image_node(nodes, links, inp.bpy_image("normal_dx"), C.uv_node(nodes, inp.uv_map))
+        color = methods.image_node(nodes, links, inp.bpy_image("normal_dx"), methods.uv_node(nodes, inp.uv_map))
         nm = nodes.new("ShaderNodeNormalMap")
         nm.uv_map = inp.uv_map
         nm.convention = "DIRECTX"

@@ -143,12 +143,13 @@ def _group_names(tree, seen=None):
 def _uv_gradients_graph(inp, nodes, links):
     """.SG UV Gradients alone: resolve 2 (grad s + grad t) against the shading normal."""
     from surfgrad_addon.harness import compare as C
+    from surfgrad_addon.harness import methods
     from surfgrad_addon.addon import groups as G
-    grads = C.group_node(nodes, G.uv_gradients_group())
-    links.new(C.uv_node(nodes, inp.uv_map), grads.inputs["UV"])
+    grads = methods.group_node(nodes, G.uv_gradients_group())
+    links.new(methods.uv_node(nodes, inp.uv_map), grads.inputs["UV"])
     geo = nodes.new("ShaderNodeNewGeometry")
     links.new(geo.outputs["Normal"], grads.inputs["Normal"])
-    total = C.add_vectors(nodes, links, grads.outputs[0], grads.outputs[1])
+    total = methods.add_vectors(nodes, links, grads.outputs[0], grads.outputs[1])
     scaled = nodes.new("ShaderNodeVectorMath")
     scaled.operation = "SCALE"
     links.new(total, scaled.inputs[0])
@@ -189,6 +190,7 @@ def _child(out_dir):
     t_probe = time.perf_counter() - t_start
 
     from surfgrad_addon.harness import compare as C
+    from surfgrad_addon.harness import methods
     from surfgrad_addon.addon import groups as G
     from surfgrad_addon.harness import scenes as test_scenes
     from surfgrad_addon.reference.images import wave_height_image
@@ -237,10 +239,10 @@ def _child(out_dir):
             inp = C.Inputs(obj=obj, uv_map="UVMap", detail_uv="Detail", images=images,
                            variant=variant or "hq")
             if method == "decal":
-                inp.projector = C.decal_projector(obj)
+                inp.projector = methods.decal_projector(obj)
             if method == "displace-bump":
-                C.add_displace_modifier(obj)
-            graph = _uv_gradients_graph if method == "uv-gradients" else C.METHODS[method][0]
+                methods.add_displace_modifier(obj)
+            graph = _uv_gradients_graph if method == "uv-gradients" else C.METHODS[method].graph
             out = graph(inp, nodes, links)
             for node in nodes:                    # magnify the triplanar projections
                 tree = getattr(node, "node_tree", None)

@@ -19,9 +19,15 @@ import argparse
 import sys
 
 
-COMPARE_METHODS = ("normal-map", "procedural-basis", "object-normal", "height-map",
-                   "volume-noise", "triplanar", "decal", "parallax", "layered", "blend-udn",
-                   "blend-whiteout", "blend-rnm", "blend-pd")
+
+
+def _method_names():
+    """The registry's method names (harness/methods.py; it needs bpy, which compare does)."""
+    try:
+        from .methods import METHODS
+    except ImportError:
+        return None
+    return sorted(METHODS)
 
 
 def main(argv=None, in_blender=False):
@@ -42,7 +48,8 @@ def main(argv=None, in_blender=False):
                      help=".blend file to open (default: the procedural test scene; inside "
                           "Blender: the open file)")
     cmp.add_argument("--object", required=True, help="name of the mesh object to bake")
-    cmp.add_argument("--method", required=True, help="one of: " + ", ".join(COMPARE_METHODS))
+    cmp.add_argument("--method", required=True, choices=_method_names(),
+                     help="the method (harness/methods.py)")
     cmp.add_argument("--resolution", type=int, default=128, help="bake size in texels")
     cmp.add_argument("--json", required=True, help="report path (an _error.png heat map is "
                                                    "written beside it)")

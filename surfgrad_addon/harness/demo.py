@@ -201,7 +201,7 @@ def build_demo(log=print):
                                       tri_post_resolve))
     _label("post-resolve (7b)", (x + 3.75, 0, -0.25), 0.2)
     for obj in (a, b, c):
-        from .compare import add_displace_modifier
+        from .methods import add_displace_modifier
         add_displace_modifier(obj, {"Amount": 0.18, "Scale": 1.6, "Octaves": 3})
     cams["triplanar"] = _camera("Camera triplanar", x + 1.25, distance=9.0)
 
@@ -293,7 +293,7 @@ def build_demo(log=print):
         return g.resolve(vg.outputs[0])
     a, b = _pair(x, "Displacement with bump on top", lambda g: None, bump_on_top,
                  left_label="displaced, normals recomputed", right_label="analytic + bump")
-    from .compare import add_displace_modifier
+    from .methods import add_displace_modifier
     for obj, analytic in ((a, False), (b, True)):
         mod = add_displace_modifier(obj, {"Amount": 0.15, "Scale": 1.8, "Octaves": 2})
         compat.set_input(mod, "Analytic Normals", analytic)

@@ -20,6 +20,7 @@ import numpy as np
 from ... import reference as R
 from ...addon import compat
 from ..compare import angle_deg
+from .. import methods
 
 CONVERGENCE = {"Amount": 0.1, "Scale": 2.0, "Octaves": 3}
 BUMP_SCALE, BUMP_OCTAVES = 2.0, 1
@@ -39,7 +40,7 @@ def convergence(levels=range(7), repeats=3, log=print):
     obj = bpy.context.active_object
     obj.data.polygons.foreach_set("use_smooth", np.ones(len(obj.data.polygons), dtype=bool))
     sub = obj.modifiers.new("Subdivision", "SUBSURF")
-    mod = compare.add_displace_modifier(obj, CONVERGENCE)
+    mod = methods.add_displace_modifier(obj, CONVERGENCE)
 
     def evaluate(analytic):
         compat.set_input(mod, "Analytic Normals", analytic)

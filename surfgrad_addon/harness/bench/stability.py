@@ -13,6 +13,7 @@ import numpy as np
 
 from ... import reference as R
 from .. import compare as C
+from .. import methods
 from ...addon import groups as G
 from ...reference import methods as M
 from ...reference import images as T
@@ -125,13 +126,12 @@ CASES = [
     Case("extreme non-uniform and negative scale", _extreme_scale),
 ]
 
-SG_METHODS = ["normal-map", "procedural-basis", "object-normal", "height-map", "volume-noise",
-              "triplanar", "decal", "parallax", "blend-rnm", "layered"]
+SG_METHODS = [m.name for m in methods.METHODS.values() if m.stability]
 HUGE = 200.0
 
 
 def _blender_normal_map(inp, nodes, links):
-    color = C.image_node(nodes, links, inp.bpy_image("normal"), C.uv_node(nodes, inp.uv_map))
+    color = methods.image_node(nodes, links, inp.bpy_image("normal"), methods.uv_node(nodes, inp.uv_map))
     nm = nodes.new("ShaderNodeNormalMap")
     nm.uv_map = inp.uv_map
     links.new(color, nm.inputs["Color"])
@@ -142,28 +142,29 @@ def _perlin(amount):
     def graph(inp, nodes, links):
         from .graph import Graph
         g = Graph(nodes, links)
-        noise = g.group(G.noise_group(), Scale=C.NOISE_SCALE)
+        noise = g.group(G.noise_group(), Scale=methods.NOISE_SCALE)
         return g.perlin(g.geometry("Normal"), g.scale(noise.outputs["Gradient"], amount))
     return graph
 
 
 def _methods(overrides):
     """(label, family, graph, reference) for a case."""
-    amount = HUGE if overrides.get("huge") else C.NOISE_AMOUNT
+    amount = HUGE if overrides.get("huge") else methods.NOISE_AMOUNT
     out = []
     for name in SG_METHODS:
-        graph, ref = C.METHODS[name]
+        graph, ref = C.METHODS[name].graph, C.METHODS[name].reference
         if overrides.get("huge") and name == "volume-noise":
-            graph = lambda inp, n, l: C._volume_noise_graph(inp, n, l, amount=HUGE)  # noqa: E731
-            ref = lambda inp, td: M.volume_noise_surfgrad(td, C.NOISE_SCALE, HUGE, 4)  # noqa: E731
+            graph = lambda inp, n, l: methods._volume_noise_graph(inp, n, l, amount=HUGE)  # noqa: E731
+            ref = lambda inp, td: M.volume_noise_surfgrad(td, methods.NOISE_SCALE, HUGE, 4)  # noqa: E731
         if overrides.get("huge") and name == "normal-map":
-            graph = lambda inp, n, l: C.normal_map_graph(inp, n, l, strength=10.0)  # noqa: E731
+            graph = lambda inp, n, l: methods.normal_map_graph(inp, n, l, strength=10.0)  # noqa: E731
             ref = lambda inp, td: M.normal_map_surfgrad(  # noqa: E731
                 td, inp.pixels("normal"), inp.uv_map, strength=10.0)
         out.append((name, "sg", graph, ref))
-    out.append(("Blender Normal Map", "blender", _blender_normal_map, C.METHODS["normal-map"][1]))
+    out.append(("Blender Normal Map", "blender", _blender_normal_map,
+                C.METHODS["normal-map"].reference))
     out.append(("Perlin 1985 noise", "baseline", _perlin(amount),
-                lambda inp, td: M.volume_noise_surfgrad(td, C.NOISE_SCALE, amount, 4)))
+                lambda inp, td: M.volume_noise_surfgrad(td, methods.NOISE_SCALE, amount, 4)))
     return out
 
 
@@ -248,7 +249,7 @@ def run(quick=False, log=print, resolution=None):
             inp = C.prepare_inputs(obj, image=pixels)
             try:
                 if label == "decal":
-                    inp.projector = C.decal_projector(obj)
+                    inp.projector = methods.decal_projector(obj)
                 # NaN pixels make the reference's own output NaN: expected, not a warning.
                 with np.errstate(invalid="ignore", divide="ignore"):
                     report, _ = C.compare_graph(inp, obj, graph, ref, resolution)
