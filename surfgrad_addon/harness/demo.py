@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bench.graph import Graph
+from .graph import Graph
 from ..reference import images as T
 from ..addon import groups as G
 from ..addon import compat

@@ -19,48 +19,30 @@ from .. import reference as R
 from ..addon import compat
 from ..addon import groups as G
 from ..reference import methods as M
+from .graph import Graph
 
 
-# Node-graph helpers --------------------------------------------------------------------------
+# Node-graph helpers: the harness's one vocabulary (graph.Graph, on the builder's NodeOps) in
+# the (nodes, links) form the method graphs take -------------------------------------------------
 
 def group_node(nodes, tree):
-    node = nodes.new("ShaderNodeGroup")
-    node.node_tree = tree
-    return node
-
-
-def _link(links, source, target):
-    if source is not None:
-        links.new(source, target)
+    return Graph(nodes, None).group(tree)
 
 
 def image_node(nodes, links, image, vector, interpolation="Linear", extension="REPEAT"):
-    node = nodes.new("ShaderNodeTexImage")
-    node.image = image
-    node.interpolation = interpolation
-    node.extension = extension
-    _link(links, vector, node.inputs["Vector"])
-    return node.outputs["Color"]
+    return Graph(nodes, links).image(image, vector, interpolation, extension)
 
 
 def uv_node(nodes, uv_map):
-    node = nodes.new("ShaderNodeUVMap")
-    node.uv_map = uv_map
-    return node.outputs["UV"]
+    return Graph(nodes, None).uv(uv_map)
 
 
 def resolve_sg(nodes, links, surface_gradient):
-    node = group_node(nodes, G.resolve_group())
-    links.new(surface_gradient, node.inputs["Surface Gradient"])
-    return node.outputs["Normal"]
+    return Graph(nodes, links).resolve(surface_gradient)
 
 
 def add_vectors(nodes, links, a, b):
-    node = nodes.new("ShaderNodeVectorMath")
-    node.operation = "ADD"
-    links.new(a, node.inputs[0])
-    links.new(b, node.inputs[1])
-    return node.outputs[0]
+    return Graph(nodes, links).add(a, b)
 
 
 # Methods: (node graph, reference) pairs -------------------------------------------------------

@@ -11,6 +11,9 @@ import numpy as np
 FLT_EPSILON = 1.192092896e-07
 # The paper's tiny determinant guard in Listings 6, 11 and 12.
 DET_EPSILON = 1.192093e-15
+# A denominator floor that keeps 0/0 finite where the numerator is then 0 too (the node
+# groups' max(x, DIVIDE_FLOOR); float32 nodes, so far above float32's denormals).
+DIVIDE_FLOOR = 1e-30
 
 
 def float_type(*arrays):

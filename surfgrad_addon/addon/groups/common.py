@@ -5,6 +5,7 @@ shading-normal fallback (.SG Safe Normal), the Bump-node surface gradient (.SG S
 import bpy
 
 from ..node_builder import ensure_group, running_line
+from ...reference.vecmath import DIVIDE_FLOOR
 
 
 VERSION = 13
@@ -162,7 +163,7 @@ def decode_tangent_normal(b, color, directx=None):
         my = b.math("MULTIPLY", my, b.math("SUBTRACT", 1.0, b.math("MULTIPLY", directx, 2.0)))
     z_ma = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
         "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx), b.math("ABSOLUTE", my))))
-    inv = b.math("DIVIDE", -1.0, b.math("MAXIMUM", z_ma, 1e-30))
+    inv = b.math("DIVIDE", -1.0, b.math("MAXIMUM", z_ma, DIVIDE_FLOOR))
     return b.math("MULTIPLY", mx, inv), b.math("MULTIPLY", my, inv)
 
 

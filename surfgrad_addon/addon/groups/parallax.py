@@ -2,6 +2,7 @@
 offset limiting and parallax occlusion."""
 
 from ..node_builder import ensure_group
+from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
 from . import common
 from .common import images_stale, normal_input, sub_group, uv_gradients_group
 from .height import height_image_node
@@ -33,7 +34,7 @@ def parallax_group(image=None, extension="REPEAT"):
             dir_tex = b.combine(b.dot(gs, view), b.dot(gt, view), 0.0)
             limited_v = b.scale(dir_tex, scale)
             proj = b.math("DIVIDE", scale, b.math("MAXIMUM", b.math("ABSOLUTE", b.dot(n, view)),
-                                                  1.192092896e-07))
+                                                  FLT_EPSILON))
             v = b.scale(dir_tex, proj)
         with b.frame("Welsh: offset limiting, H(st) v"):
             h0 = height_image_node(b, image, uv, "Linear", extension)
@@ -46,7 +47,7 @@ def parallax_group(image=None, extension="REPEAT"):
                 hk = height_image_node(b, image, b.add(uv, b.scale(v, level)), "Linear",
                                         extension)
                 gap = b.math("SUBTRACT", level, hk)
-                below = b.math("LESS_THAN", gap, 1e-30)          # gap <= 0
+                below = b.math("LESS_THAN", gap, DIVIDE_FLOOR)          # gap <= 0
                 cross = b.math("MULTIPLY", below, b.math("SUBTRACT", 1.0, found))
                 if prev_gap is None:
                     refined = level

@@ -2,6 +2,7 @@
 (Listing 15) as volume bump maps."""
 
 from ..node_builder import ensure_group
+from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
 from .common import decode_tangent_normal, directx_input, normal_input, position_input
 
@@ -12,7 +13,7 @@ def triplanar_weights(b, n, k):
         base = b.separate(b.vmath("MAXIMUM", b.vmath("SUBTRACT", b.vmath("ABSOLUTE", n),
                                                       (0.2, 0.2, 0.2)), (0.0, 0.0, 0.0)))
         wx, wy, wz = (b.math("POWER", c, k) for c in base)
-        total = b.math("MAXIMUM", b.math("ADD", b.math("ADD", wx, wy), wz), 1e-30)
+        total = b.math("MAXIMUM", b.math("ADD", b.math("ADD", wx, wy), wz), DIVIDE_FLOOR)
         return tuple(b.math("DIVIDE", c, total) for c in (wx, wy, wz))
 
 

@@ -3,6 +3,7 @@ MikkTSpace frame (Listing 9, SG Normal Map) or on a generated one (Listing 4, SG
 Basis, SG Tangent Normal), and the classic blends of two tangent-space normals (Eq. 18)."""
 
 from ..node_builder import ensure_group
+from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
 from .common import directx_input, normal_input, sign_nonneg, sub_group, tangent_normal_to_surfgrad, uv_gradients_group
 
@@ -64,7 +65,7 @@ def mikktspace_frame_group(uv_map=""):
         # v = normalize(A + N) with A = |A| a: A/|N| = lam v - n, lam from cross(a, .) = 0.
         c1 = b.cross(axis_dir, n)
         c2 = b.cross(axis_dir, sum_dir)
-        lam = b.math("DIVIDE", b.dot(c1, c2), b.math("MAXIMUM", b.dot(c2, c2), 1e-30))
+        lam = b.math("DIVIDE", b.dot(c1, c2), b.math("MAXIMUM", b.dot(c2, c2), DIVIDE_FLOOR))
         return b.sub(b.scale(sum_dir, lam), n)
 
     def build(b):

@@ -2,6 +2,7 @@
 the gradient noise whose exact gradient feeds them."""
 
 from ..node_builder import ensure_group
+from ...reference.vecmath import FLT_EPSILON
 from . import common
 from .common import normal_input, sign_nonneg, sub_group
 
@@ -31,7 +32,7 @@ def object_normal_group():
                            min_value=-100.0, max_value=100.0)
         with b.frame("Listing 5: (k n - v) / max(eps, |k|), k = n . v"):
             k = b.dot(n, v)
-            denom = b.math("MAXIMUM", b.math("ABSOLUTE", k), 1.192092896e-07)
+            denom = b.math("MAXIMUM", b.math("ABSOLUTE", k), FLT_EPSILON)
             sg = b.scale(b.sub(b.scale(n, k), v), b.math("DIVIDE", 1.0, denom))
         b.output("Surface Gradient", "VECTOR", b.scale(sg, strength), "Surface gradient")
     return ensure_group("SG Object Normal", common.VERSION, build,

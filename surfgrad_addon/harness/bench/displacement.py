@@ -109,7 +109,7 @@ def bump_vs_cycles_displacement(amplitudes=AMPLITUDES, resolution=128, subdivisi
     import bpy
     from .. import bake as B
     from ...addon import groups as G
-    from .graph import Graph
+    from ..graph import Graph
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=1.0, calc_uvs=True)
     obj = bpy.context.active_object

@@ -11,7 +11,7 @@ from .. import bake as B
 from ..compare import angle_deg
 from ..mesh_data import mesh_arrays_from_object
 from ...reference import methods as M
-from .graph import Graph
+from ..graph import Graph
 
 
 def error_stats(err):

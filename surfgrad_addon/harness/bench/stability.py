@@ -140,7 +140,7 @@ def _blender_normal_map(inp, nodes, links):
 
 def _perlin(amount):
     def graph(inp, nodes, links):
-        from .graph import Graph
+        from ..graph import Graph
         g = Graph(nodes, links)
         noise = g.group(G.noise_group(), Scale=methods.NOISE_SCALE)
         return g.perlin(g.geometry("Normal"), g.scale(noise.outputs["Gradient"], amount))

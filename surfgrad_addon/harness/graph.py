@@ -1,7 +1,8 @@
-"""A few helpers for building a bake material's node graph by code (the bench's methods)."""
+"""The harness's node vocabulary for bake materials: NodeOps (the group builder's arithmetic) plus
+the material helpers every method, bench scenario and demo exhibit uses."""
 
-from ...addon import groups as G
-from ...addon.node_builder import NodeOps
+from ..addon import groups as G
+from ..addon.node_builder import NodeOps
 
 
 class Graph(NodeOps):
