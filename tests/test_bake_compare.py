@@ -2,9 +2,6 @@
 reference of the same method: p99 <= 0.1 deg and max <= 0.5 deg over interior texels."""
 
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +10,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from conftest import write_report  # noqa: E402
+from support.child import run_python  # noqa: E402
 from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.harness import methods  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
@@ -130,10 +128,7 @@ def test_clear_errors_for_bad_input(scene, tmp_path):
 
 
 def _run_cli(args, cwd):
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(ROOT)
-    return subprocess.run([sys.executable, "-m", "surfgrad_addon", *args], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=300)
+    return run_python(["-m", "surfgrad_addon", *args], cwd=cwd)
 
 
 def test_the_command_line_offers_every_registered_method(tmp_path):
@@ -180,10 +175,7 @@ def test_compare_inside_blender_on_a_saved_file(tmp_path):
             f" '--object', 'Plane', '--method', 'normal-map', '--resolution', '24',"
             f" '--json', {str(tmp_path / 'b.json')!r}]\n"
             f"runpy.run_path({str(ROOT / 'surfgrad_addon' / 'blender_cli.py')!r})\n")
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(ROOT)
-    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
-                         capture_output=True, text=True, timeout=300)
+    out = run_python(["-c", code], cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     report = json.loads((tmp_path / "b.json").read_text())
     assert report["object"] == "Plane" and report["max_deg"] <= 0.5

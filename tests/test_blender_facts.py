@@ -1,6 +1,6 @@
 """Facts about Blender 5.0.1's Cycles that surfgrad's shader node groups rely on, pinned by
 Cycles CPU bakes (EMIT, 1 sample, float image) on small triangle meshes against numpy models
-written independently from the mesh arrays (helpers and models: tests/blender_facts_probe.py).
+written independently from the mesh arrays (helpers and models: tests/support/facts_probe.py).
 
 Meshes: a 16 x 8 lat-long sphere of triangles ("sphere"), the same under a rotated,
 non-uniformly scaled, translated object matrix (scale (1.7, 0.6, 1.1), "xform"), a 4 x 4
@@ -68,8 +68,8 @@ import pytest
 
 pytest.importorskip("bpy")
 
-import blender_bake_probe as base  # noqa: E402
-import blender_facts_probe as fp  # noqa: E402
+from support import bake_probe as base  # noqa: E402
+from support import facts_probe as fp  # noqa: E402
 from surfgrad_addon.reference.blender_lines import LINES  # noqa: E402
 from surfgrad_addon.reference.height_map import deriv_from_height_map  # noqa: E402
 from surfgrad_addon.reference.methods import height_map_surfgrad  # noqa: E402

@@ -13,7 +13,7 @@ Cycles CPU bakes).
 
 Every probe bakes EMIT (Emission strength 1) into a float Non-Color image, 1 sample, margin 0.
 Note the bake sample points are texel centres plus (0.001, 0.002) texels (see
-blender_bake_probe); the expected values below use those points.
+support/bake_probe); the expected values below use those points.
 """
 
 import numpy as np
@@ -21,7 +21,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-import blender_bake_probe as probe  # noqa: E402
+from support import bake_probe as probe  # noqa: E402
 from surfgrad_addon.reference.image_sampling import bake_sample_points, sample_image  # noqa: E402
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
 from surfgrad_addon.reference.noise import white_noise_color  # noqa: E402

@@ -31,9 +31,7 @@ Set-up that makes the two engines comparable (each measured; see TOLERANCES):
 
 import json
 import math
-import os
 import re
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -142,7 +140,6 @@ def _group_names(tree, seen=None):
 
 def _uv_gradients_graph(inp, nodes, links):
     """.SG UV Gradients alone: resolve 2 (grad s + grad t) against the shading normal."""
-    from surfgrad_addon.harness import compare as C
     from surfgrad_addon.harness import methods
     from surfgrad_addon.addon import groups as G
     grads = methods.group_node(nodes, G.uv_gradients_group())
@@ -457,11 +454,9 @@ def run_eevee_child(script, out_dir, what="render"):
     """Run `script` (a test file run as a script) in a fresh interpreter that renders into
     out_dir: skip with the reason when no OpenGL context can be made, fail on anything else.
     Returns (wall seconds, shader errors found in the output)."""
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(ROOT)
+    from support.child import run_python
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, str(Path(script).resolve()), str(out_dir)],
-                         cwd=out_dir, env=env, capture_output=True, text=True, timeout=TIMEOUT)
+    out = run_python([Path(script).resolve(), out_dir], cwd=out_dir, timeout=TIMEOUT)
     wall = time.perf_counter() - t0
     if BPY_OK not in out.stdout:
         pytest.fail(f"the EEVEE child could not import bpy (exit {out.returncode}):\n"

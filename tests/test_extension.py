@@ -9,7 +9,6 @@ before `import bpy`, so nothing touches the real user folder or this process.
 
 import json
 import os
-import subprocess
 import sys
 import time
 import zipfile
@@ -19,7 +18,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from support_blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
+from support.blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -389,12 +388,11 @@ def session_reopen(blend, work):
 # ---------------------------------------------------------------------------------------------
 
 def run_session(mode, user_dir, *args, timeout=180):
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["BLENDER_USER_RESOURCES"] = str(user_dir)
+    # No checkout on the path: the session must use the installed extension alone.
+    from support.child import run_python
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), mode, *map(str, args)],
-                         env=env, cwd=str(user_dir), capture_output=True, text=True,
-                         timeout=timeout)
+    out = run_python([Path(__file__).resolve(), mode, *args], cwd=user_dir, timeout=timeout,
+                     env={"BLENDER_USER_RESOURCES": str(user_dir)}, checkout=False)
     assert out.returncode == 0, \
         f"{mode} session failed:\n{out.stdout[-3000:]}\n{out.stderr[-5000:]}"
     return out, time.perf_counter() - t0
@@ -403,9 +401,8 @@ def run_session(mode, user_dir, *args, timeout=180):
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     out_dir = tmp_path_factory.mktemp("ext_build")
-    out = subprocess.run([sys.executable, "-m", "surfgrad_addon.harness.package",
-                          "--out", str(out_dir)], cwd=str(ROOT), capture_output=True,
-                         text=True, timeout=120)
+    from support.child import run_python
+    out = run_python(["-m", "surfgrad_addon.harness.package", "--out", out_dir], timeout=120)
     assert out.returncode == 0, out.stderr
     zip_path = Path(out.stdout.strip().splitlines()[-1])
     return SimpleNamespace(zip=zip_path, log=out.stderr, out_dir=out_dir)
@@ -457,8 +454,8 @@ def test_validator_rejects_a_bad_manifest(tmp_path):
         "    P.validate(src)\n"
         "except P.ExtensionToolError as ex:\n"
         "    print('REJECTED', ex)\n" % tmp_path)
-    out = subprocess.run([sys.executable, "-c", code], cwd=str(ROOT), capture_output=True,
-                         text=True, timeout=120)
+    from support.child import run_python
+    out = run_python(["-c", code], timeout=120)
     assert out.returncode == 0, out.stderr
     assert "REJECTED" in out.stdout and "tagline" in out.stdout, out.stdout
 

@@ -1,9 +1,6 @@
 """float32 in gives float32 out, within float32 tolerance of float64; and the reference imports
 with numpy alone."""
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -73,10 +70,8 @@ def test_reference_imports_without_bpy():
         "assert 'bpy' not in sys.modules\n"
         "print(R.resolve_normal_from_surface_gradient([0, 0, 1.0], [0.5, 0, 0]).round(6).tolist())\n"
         "print(numpy.__version__)\n")
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(ROOT)
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                         cwd=str(ROOT), timeout=120)
+    from support.child import run_python
+    out = run_python(["-c", code], timeout=120)
     assert out.returncode == 0, out.stderr
     first, version = out.stdout.split("\n")[:2]
     assert first == "[-0.447214, 0.0, 0.894427]"  # (-0.5, 0, 1)/|.|

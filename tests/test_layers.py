@@ -4,9 +4,6 @@ operators, the TD bake and commands) and the numpy reference never import the pr
 bpy or the add-on; and registering the add-on loads no harness module."""
 
 import ast
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,10 +57,8 @@ def test_registering_the_addon_loads_no_harness_module():
             "loaded = sorted(m for m in sys.modules if m.startswith('surfgrad_addon'))\n"
             "surfgrad_addon.unregister()\n"
             "print('LOADED', ' '.join(loaded))\n")
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(ROOT)
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         env=env, cwd=str(ROOT), timeout=120)
+    from support.child import run_python
+    out = run_python(["-c", code], timeout=120)
     if "No module named 'bpy'" in out.stderr:
         import pytest
         pytest.skip("needs bpy")

@@ -3,12 +3,11 @@ read from the line's table agrees with what this Blender has or does (the detail
 test_blender_facts.py, test_blender_pins.py and test_render_facts.py; this file ties the table
 to them and holds the facts they do not cover)."""
 
-import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
-import blender_facts_probe as fp  # noqa: E402
+from support import facts_probe as fp  # noqa: E402
 from surfgrad_addon.addon import compat  # noqa: E402
 from surfgrad_addon.reference.blender_lines import LINES, facts_for  # noqa: E402
 

@@ -21,8 +21,6 @@ How the session sees what an operator did:
 """
 
 import json
-import os
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -30,7 +28,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from support_blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
+from support.blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -453,12 +451,10 @@ def session_report(tmp_path_factory):
     pytest.importorskip("bpy")
     user = tmp_path_factory.mktemp("user_operators")
     work = tmp_path_factory.mktemp("operators")
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), str(ROOT / "tests")])
-    env["BLENDER_USER_RESOURCES"] = str(user)
+    from support.child import run_python
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), str(work)],
-                         env=env, cwd=str(work), capture_output=True, text=True, timeout=300)
+    out = run_python([Path(__file__).resolve(), work], cwd=work, timeout=300,
+                     env={"BLENDER_USER_RESOURCES": str(user)})
     assert out.returncode == 0 and "SG_OPERATORS_DONE" in out.stdout, \
         f"operator session failed:\n{out.stdout[-3000:]}\n{out.stderr[-5000:]}"
     report = json.loads((work / "report.json").read_text())

@@ -41,8 +41,8 @@ import pytest
 
 pytest.importorskip("bpy")
 
-import blender_bake_probe as base  # noqa: E402
-import blender_facts_probe as fp  # noqa: E402
+from support import bake_probe as base  # noqa: E402
+from support import facts_probe as fp  # noqa: E402
 from surfgrad_addon.reference.cycles_bake import make_orthonormals  # noqa: E402
 
 bpy = base._bpy()

@@ -1,7 +1,7 @@
 """Helpers for tests/test_blender_facts.py: small triangle meshes in bpy, their arrays for the
 numpy reference, shader-graph builders, and numpy models of what Cycles computes in a bake.
 
-Builds on blender_bake_probe (scene set-up for exact EMIT bakes, float images, EmissionProbe).
+Builds on support/bake_probe (scene set-up for exact EMIT bakes, float images, EmissionProbe).
 Everything numpy here is float64 and independent of bpy except `mesh_arrays`, which reads a
 bpy mesh into a `surfgrad_addon.reference.MeshArrays`.
 
@@ -35,7 +35,7 @@ from surfgrad_addon.reference.cycles_bake import bump_differentials, make_orthon
 
 import bpy
 
-import blender_bake_probe as base
+from support import bake_probe as base
 from surfgrad_addon.reference import MeshArrays
 from surfgrad_addon.reference import rasterize as _rasterize
 from surfgrad_addon.reference.blender_lines import facts_for, octahedral_unit_vectors
