@@ -154,27 +154,24 @@ def _uv_gradients_graph(inp, nodes, links):
     return scaled.outputs[0]
 
 
-def _child(out_dir):
-    out_dir = Path(out_dir)
-    t_start = time.perf_counter()
+def probe_gpu_context(out_dir):
+    """An 8 x 8 EEVEE render of an empty scene: makes the GPU context (or aborts the process
+    where none can be made, exit code != 0 without CONTEXT_OK). Returns EEVEE's engine id and
+    the renderer string. Shared with tests/test_eevee_demo.py."""
     import bpy
-    print(BPY_OK, flush=True)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     rd = scene.render
     rd.resolution_x = rd.resolution_y = 8
     rd.resolution_percentage = 100
-    try:
-        rd.engine = "BLENDER_EEVEE"               # 5.0 (4.2 to 4.5: BLENDER_EEVEE_NEXT)
-    except TypeError:
-        rd.engine = "BLENDER_EEVEE_NEXT"
+    from surfgrad_addon.reference.blender_lines import facts_for
+    rd.engine = facts_for(bpy.app.version).eevee_engine
     eevee_id = rd.engine
-    rd.filepath = str(out_dir / "probe.exr")
+    rd.filepath = str(Path(out_dir) / "probe.exr")
     rd.image_settings.file_format = "OPEN_EXR"
     cam = bpy.data.objects.new("probe camera", bpy.data.cameras.new("probe camera"))
     scene.collection.objects.link(cam)
     scene.camera = cam
-    # Makes the GPU context (EGL without a display): aborts the process where none can be made.
     try:
         bpy.ops.render.render(write_still=True)
     except RuntimeError as err:
@@ -184,6 +181,15 @@ def _child(out_dir):
     renderer = (f"{gpu.platform.vendor_get()} | {gpu.platform.renderer_get()} | "
                 f"{gpu.platform.version_get()} | {gpu.platform.backend_type_get()}")
     print(f"{CONTEXT_OK} {renderer}", flush=True)
+    return eevee_id, renderer
+
+
+def _child(out_dir):
+    out_dir = Path(out_dir)
+    t_start = time.perf_counter()
+    import bpy
+    print(BPY_OK, flush=True)
+    eevee_id, renderer = probe_gpu_context(out_dir)
     t_probe = time.perf_counter() - t_start
 
     from surfgrad_addon.harness import compare as C
@@ -425,12 +431,10 @@ def configure_render(scene):
     settings.color_depth = "32"
     settings.color_mode = "RGBA"
     scene.view_settings.view_transform = "Standard"
-    cy = scene.cycles
-    cy.device = "CPU"
-    cy.samples = 1
-    cy.use_denoising = False
-    cy.use_adaptive_sampling = False
-    cy.seed = 0
+    from surfgrad_addon.harness.bake import exact_cycles
+    engine = scene.render.engine
+    cy = exact_cycles(scene)
+    scene.render.engine = engine                 # the caller picks the engine per render
     cy.pixel_filter_type = "BOX"
     cy.filter_width = 0.01
     ee = scene.eevee

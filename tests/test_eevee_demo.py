@@ -41,7 +41,7 @@ import pytest
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_eevee import (BPY_OK, CONTEXT_OK, _angle_deg, configure_render,  # noqa: E402
+from test_eevee import (BPY_OK, _angle_deg, configure_render, probe_gpu_context,  # noqa: E402
                         run_eevee_child)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -143,38 +143,6 @@ def render_size(name, cam_distance, fov):
 
 # The child: build, convert to emission of the normal, render, save ------------------------------
 
-def _probe(out_dir):
-    """An 8 x 8 EEVEE render of an empty scene: makes the GPU context (or aborts the process
-    where none can be made, exit code != 0 without CONTEXT_OK). Returns EEVEE's engine id and
-    the renderer string."""
-    import bpy
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    rd = scene.render
-    rd.resolution_x = rd.resolution_y = 8
-    rd.resolution_percentage = 100
-    try:
-        rd.engine = "BLENDER_EEVEE"               # 5.0 (4.2 to 4.5: BLENDER_EEVEE_NEXT)
-    except TypeError:
-        rd.engine = "BLENDER_EEVEE_NEXT"
-    eevee_id = rd.engine
-    rd.filepath = str(Path(out_dir) / "probe.exr")
-    rd.image_settings.file_format = "OPEN_EXR"
-    cam = bpy.data.objects.new("probe camera", bpy.data.cameras.new("probe camera"))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    try:
-        bpy.ops.render.render(write_still=True)
-    except RuntimeError as err:
-        print(f"SG_EEVEE_PROBE_FAILED: {err}", flush=True)
-        sys.exit(3)
-    import gpu
-    renderer = (f"{gpu.platform.vendor_get()} | {gpu.platform.renderer_get()} | "
-                f"{gpu.platform.version_get()} | {gpu.platform.backend_type_get()}")
-    print(f"{CONTEXT_OK} {renderer}", flush=True)
-    return eevee_id, renderer
-
-
 def emit_normals(bpy):
     """Every material with a Principled BSDF on its output: Emission of the normal that fed
     the BSDF's Normal (the Geometry normal where nothing was linked), as n * 0.5 + 0.5.
@@ -243,7 +211,7 @@ def _child(out_dir, only=None):
     t_start = time.perf_counter()
     import bpy
     print(BPY_OK, flush=True)
-    eevee_id, renderer = _probe(out_dir)
+    eevee_id, renderer = probe_gpu_context(out_dir)
     t_probe = time.perf_counter() - t_start
 
     from surfgrad_addon.harness import demo

@@ -23,6 +23,19 @@ def running_line():
     return facts_for(bpy.app.version)
 
 
+def exact_cycles(scene):
+    """Cycles on the CPU, one sample, no denoising or adaptivity, a fixed seed: every bake and
+    render of the suite is exact and repeatable. Returns scene.cycles."""
+    scene.render.engine = "CYCLES"
+    cy = scene.cycles
+    cy.device = "CPU"
+    cy.samples = 1
+    cy.use_denoising = False
+    cy.use_adaptive_sampling = False
+    cy.seed = 0
+    return cy
+
+
 class BakeError(RuntimeError):
     """A bake could not run; the message names the object or setting and the fix."""
 
@@ -107,13 +120,7 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
         nodes.active = target
         with restored(scene, SCENE_SETTINGS), _selection_kept(context), \
                 _temporary_material(obj, material):
-            scene.render.engine = "CYCLES"
-            cy = scene.cycles
-            cy.device = "CPU"
-            cy.samples = 1
-            cy.use_denoising = False
-            cy.use_adaptive_sampling = False
-            cy.seed = 0
+            cy = exact_cycles(scene)
             cy.sample_clamp_direct = 0.0
             cy.sample_clamp_indirect = 0.0
             cy.bake_type = "EMIT"

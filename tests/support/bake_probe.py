@@ -29,13 +29,8 @@ def new_scene():
     b = _bpy()
     b.ops.wm.read_factory_settings(use_empty=True)
     scene = b.context.scene
-    scene.render.engine = "CYCLES"
-    cy = scene.cycles
-    cy.device = "CPU"
-    cy.samples = 1
-    cy.use_denoising = False
-    cy.use_adaptive_sampling = False
-    cy.seed = 0
+    from surfgrad_addon.harness.bake import exact_cycles
+    cy = exact_cycles(scene)
     # None of these touch bake output (the bake writes raw pass values), but make it explicit
     # that no display transform, exposure or clamping is in play.
     scene.view_settings.view_transform = "Standard"
