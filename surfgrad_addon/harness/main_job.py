@@ -1,5 +1,6 @@
-"""The main job (reference stage): evaluate every method of the reference on procedural scenes
-and write normal maps (PNG and NPY), an overview picture and a summary (JSON and Markdown).
+"""The main job (reference stage): evaluate every method of the registry (harness/methods.py,
+with its references and parameters) and the baselines on procedural scenes, and write normal
+maps (PNG and NPY), an overview picture and a summary (JSON and Markdown).
 
 Later stages add the Cycles bakes and their comparison; this stage needs numpy only
 (matplotlib for the overview picture, skipped with a note if it is missing).
@@ -12,12 +13,25 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference as R
-from .png import write_png
 from ..reference import methods as M
+from .methods import HEIGHT_BUMP_SCALE, METHODS
+from .png import write_png
 
-NORMAL_IMAGE_SIZE = 256
-# World units of displacement for a height of 1 (the test height spans [0, 1]).
-HEIGHT_BUMP_SCALE = 0.2
+# The main job's own images: finer than the bake comparison's (its maps are looked at).
+REFERENCE_IMAGE_SIZE = 256
+
+
+class ReferenceInputs:
+    """What a method's reference reads (harness/methods.py), without Blender: the images'
+    pixels, the UV maps, the height-map variant and a decal projector's matrix."""
+
+    def __init__(self, images, variant="hq", projector_matrix=None):
+        self.images, self.variant = images, variant
+        self.uv_map, self.detail_uv = "UVMap", "Detail"
+        self.projector = type("Projector", (), {"matrix_world": projector_matrix})()
+
+    def pixels(self, name):
+        return self.images[name]
 
 
 def _angles_deg(a, b):
@@ -43,38 +57,37 @@ def scenes():
 
 
 def method_table(normal_img, detail_img, height_img):
-    """name -> (function of TexelData giving unit normals (N, 3), the SG method it is a
-    baseline for, or None)."""
+    """name -> (function of TexelData giving unit normals (N, 3), the method it is a baseline
+    for, or None): every registry method whose reference needs no Blender scene, each variant
+    on its own, then the baselines."""
     projector = np.diag([0.6, 0.6, 2.0, 1.0])
     projector[:3, 3] = [0.0, 0.0, 0.5]
-    return {
-        "normal-map": (lambda td: M.resolve(M.normal_map_surfgrad(td, normal_img)), None),
-        "procedural-basis": (lambda td: M.resolve(M.procedural_basis_surfgrad(
-            td, detail_img, "Detail")), None),
-        "height-map-forward": (lambda td: M.resolve(M.height_map_surfgrad(
-            td, height_img, "forward", HEIGHT_BUMP_SCALE)), None),
-        "height-map-one-texel": (lambda td: M.resolve(M.height_map_surfgrad(
-            td, height_img, "one-texel", HEIGHT_BUMP_SCALE)), None),
-        "height-map-hq": (lambda td: M.resolve(M.height_map_surfgrad(
-            td, height_img, "hq", HEIGHT_BUMP_SCALE)), None),
-        "volume-noise": (lambda td: M.resolve(M.volume_noise_surfgrad(td)), None),
-        "triplanar": (lambda td: M.resolve(M.triplanar_surfgrad(td, normal_img)), None),
-        "decal": (lambda td: M.resolve(M.decal_surfgrad(td, normal_img, projector)), None),
-        "layered": (lambda td: M.layered_normal(td, normal_img, detail_img), None),
+    images = {"normal": normal_img, "detail": detail_img, "height": height_img}
+    table = {}
+    for m in METHODS.values():
+        if m.scene_only:
+            continue
+        for variant in m.variants:
+            name = m.name if len(m.variants) == 1 else f"{m.name}-{variant}"
+            inp = ReferenceInputs(images, variant, projector)
+            table[name] = (lambda td, m=m, inp=inp: M.resolve(m.reference(inp, td)), None)
+    table.update({
         "baseline-perlin1985-noise": (lambda td: M.volume_noise_perlin1985(td), "volume-noise"),
         "baseline-geiss-triplanar": (lambda td: M.triplanar_geiss_normal(td, normal_img),
                                      "triplanar"),
-        "baseline-lxengine-height": (lambda td: M.height_map_lxengine(td, height_img, HEIGHT_BUMP_SCALE),
+        "baseline-lxengine-height": (lambda td: M.height_map_lxengine(td, height_img,
+                                                                      HEIGHT_BUMP_SCALE),
                                      "height-map-forward"),
-    }
+    })
+    return table
 
 
 def run(out_dir, resolution=256, overwrite=False, log=print):
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    normal_img = R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)
-    detail_img = R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8, radius=0.6)
-    height_img = R.images.wave_height_image(NORMAL_IMAGE_SIZE)
+    normal_img = R.images.hemisphere_tile_image(REFERENCE_IMAGE_SIZE)
+    detail_img = R.images.hemisphere_tile_image(REFERENCE_IMAGE_SIZE, tiles=8, radius=0.6)
+    height_img = R.images.wave_height_image(REFERENCE_IMAGE_SIZE)
     table = method_table(normal_img, detail_img, height_img)
     all_scenes = scenes()
     if not overwrite:

@@ -9,6 +9,7 @@ normal) or an already resolved "Normal" socket; a reference is reference(inputs,
 (base normal, surface gradient) on the texels of td.
 """
 
+import importlib
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Callable, Optional
@@ -16,10 +17,29 @@ from typing import Callable, Optional
 import numpy as np
 
 from .. import reference as R
-from ..addon import compat
-from ..addon import groups as G
 from ..reference import methods as M
-from .graph import Graph
+
+
+class _OnFirstUse:
+    """A module imported when first used: the registry's names and references need no bpy
+    (the main job's reference stage runs without Blender); graphs and gates import it."""
+
+    def __init__(self, name):
+        self._name, self._module = name, None
+
+    def __getattr__(self, attr):
+        if self._module is None:
+            self._module = importlib.import_module(self._name, __package__)
+        return getattr(self._module, attr)
+
+
+G = _OnFirstUse("..addon.groups")
+compat = _OnFirstUse("..addon.compat")
+_graph = _OnFirstUse(".graph")
+
+
+def Graph(nodes, links):  # noqa: N802 (the class, imported on first use)
+    return _graph.Graph(nodes, links)
 
 
 # Node-graph helpers: the harness's one vocabulary (graph.Graph, on the builder's NodeOps) in
@@ -342,6 +362,8 @@ class Method:
     group: Optional[str] = None        # a group behind a feature gate (groups.REQUIRES)
     setup: Optional[Callable] = None   # setup(obj) -> what to add to Inputs, removed after
     stability: bool = True             # run by the stability suite (bench/stability.py)
+    scene_only: bool = False           # its reference needs Blender's evaluated scene
+    mikktspace: bool = False           # it reads the MikkTSpace frame (SG Normal Map)
 
     def unavailable_reason(self):
         """None when this Blender can run the method, else why not (docs/versions.md)."""
@@ -367,7 +389,8 @@ class Method:
 
 _REGISTRY = (
     Method("normal-map", lambda inp, nodes, links: normal_map_graph(inp, nodes, links),
-           lambda inp, td: M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map)),
+           lambda inp, td: M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map),
+           mikktspace=True),
     Method("procedural-basis",
            lambda inp, nodes, links: _procedural_basis_graph(inp, nodes, links),
            lambda inp, td: M.procedural_basis_surfgrad(td, inp.pixels("detail"),
@@ -385,16 +408,16 @@ _REGISTRY = (
            stability=False),          # the triplanar Listings, covered by "triplanar"
     Method("decal", decal_graph, _decal_reference,
            setup=lambda obj: {"projector": decal_projector(obj)}),
-    Method("parallax", _parallax_graph, _parallax_reference),
+    Method("parallax", _parallax_graph, _parallax_reference, mikktspace=True),
     Method("post-resolve", _post_resolve_graph, _post_resolve_reference,
-           stability=False),          # two resolves of the methods the suite already runs
+           stability=False, mikktspace=True),          # two resolves of the methods the suite already runs
     Method("displace-bump", _displace_bump_graph, _displace_bump_reference,
            group="SG Displace", setup=lambda obj: {"modifier": add_displace_modifier(obj)},
-           stability=False),          # its hostile cases are the mesh's, not a texture's
-    Method("layered", _layered_graph, _layered_reference),
+           stability=False, scene_only=True),   # the displaced mesh's rest positions          # its hostile cases are the mesh's, not a texture's
+    Method("layered", _layered_graph, _layered_reference, mikktspace=True),
     # RNM stands for the four blends in the stability suite (same decode, same SG Normal Map).
-    *(Method(mode, _blend_graph(mode), _blend_reference(mode), stability=mode == "blend-rnm")
-      for mode in BLEND_MODES),
+    *(Method(mode, _blend_graph(mode), _blend_reference(mode), stability=mode == "blend-rnm",
+             mikktspace=True) for mode in BLEND_MODES),
 )
 METHODS = {m.name: m for m in _REGISTRY}
 

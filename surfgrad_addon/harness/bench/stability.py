@@ -19,7 +19,8 @@ from ...reference import methods as M
 from ...reference import images as T
 
 
-MIKKTSPACE_METHODS = ("normal-map", "blend-rnm", "layered", "parallax", "Blender Normal Map")
+MIKKTSPACE_METHODS = tuple(m.name for m in methods.METHODS.values() if m.mikktspace) + \
+    ("Blender Normal Map",)
 
 
 @dataclass
