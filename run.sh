@@ -10,6 +10,7 @@
 #                             pytest on each line.
 #   bash run.sh bench [ARGS]  speed against accuracy of every method, stability: out/bench
 #   bash run.sh bench-reference  throughput of the numpy reference: out/bench_reference.json
+#   bash run.sh bench-render [--quick]  render cost against Blender's own nodes: out/bench_render
 # Needs Python 3.13 (for 5.2) and, for the older lines' tests, Python 3.11: on PATH
 # (python3.13 / python3.11), under pyenv's versions, or given as PYTHON=... / PYTHON311=....
 set -euo pipefail
@@ -103,8 +104,10 @@ case "$cmd" in
   test) run_tests "$@" ;;
   bench) py=$(setup_line 5.2)
          exec "$py" -m surfgrad_addon bench --out out/bench --overwrite "$@" ;;
+  bench-render) py=$(setup_line 5.2)
+         exec "$py" -m surfgrad_addon bench-render --out out/bench_render --overwrite "$@" ;;
   bench-reference) py=$(setup_line 5.2)
          exec "$py" -m surfgrad_addon bench-reference --out out/bench_reference.json \
               --overwrite "$@" ;;
-  *) echo "usage: bash run.sh main|test|bench|bench-reference [ARGS]" >&2; exit 2 ;;
+  *) echo "usage: bash run.sh main|test|bench|bench-render|bench-reference [ARGS]" >&2; exit 2 ;;
 esac

@@ -78,6 +78,11 @@ def main(argv=None, in_blender=False):
     bch.add_argument("--repeats", type=int, default=None, help="timed repeats (default 5)")
     bch.add_argument("--only", nargs="+", default=None, help="scenario names to run")
     bch.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    rc = sub.add_parser("bench-render", help="render cost of the surface-gradient groups "
+                                             "against Blender's own nodes (needs bpy)")
+    rc.add_argument("--out", default="out/bench_render", help="output folder")
+    rc.add_argument("--quick", action="store_true", help="small, few samples, no EEVEE")
+    rc.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     from ..addon.commands import add_bake_normal_map
     add_bake_normal_map(sub)
     db = sub.add_parser("demo-blend", help="build demo.blend (exhibits, packed textures) and "
@@ -117,6 +122,9 @@ def main(argv=None, in_blender=False):
         elif args.command == "compare-all":
             from . import compare
             compare.run_all(args.out, args.resolution, args.overwrite)
+        elif args.command == "bench-render":
+            from .bench import render_cost
+            render_cost.run(args.out, args.quick, args.overwrite)
         elif args.command == "bench-reference":
             from . import bench_reference
             bench_reference.run(args.out, args.sizes or bench_reference.SIZES,
