@@ -23,9 +23,8 @@ def test_node_group_builds_every_group_by_name(fresh):
         assert tree.name == name and tree.description
     detail = api.node_group("SG Normal Map", uv_map="Detail")
     assert detail.name == "SG Normal Map [Detail]"
-    probes = [n for n in bpy.data.node_groups[".SG MikkTSpace Frame [Detail]"].nodes
-              if n.bl_idname == "ShaderNodeNormalMap"]
-    assert probes and all(n.uv_map == "Detail" for n in probes)
+    frame = [n for n in detail.nodes if n.bl_idname == "ShaderNodeNormalMap"]
+    assert len(frame) == 1 and frame[0].uv_map == "Detail"
 
 
 def test_node_group_refuses_unknown_names_and_options(fresh):

@@ -15,7 +15,7 @@ from .height_map import deriv_from_height_map, deriv_three_tap
 from .image_sampling import sample_image
 from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .noise import fractal_sum
-from .vecmath import normalize
+from .vecmath import FLT_EPSILON, normalize
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 # Filter Width of the Forward variant's Bump node. Camera differentials in a render and a
@@ -59,19 +59,22 @@ def parallax_offset(td, height, view, bump_scale, steps=8, uv_map=None):
 
 def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Linear",
                         st=None, directx=False):
-    """SG Normal Map: MikkTSpace tangent-space map on a UV map with stored tangents (L2, L3,
-    and Listing 9's 1/|n| renormalisation), in Blender's Normal Map node's frame.
-
-    The frame's own normal n_f can differ from the shading normal n (under non-uniform scale
-    Cycles normalises vertex normals in world space first): adding n - n_f makes the resolve
-    against n land exactly on the frame's result, so the map still matches its bake.
+    """SG Normal Map: MikkTSpace tangent-space map on a UV map with stored tangents. Listing 2's
+    derivative (strength applied) resolved on the frame of Blender's Normal Map node
+    (Listings 3 and 9: normalize(n_f - (d.x t + d.y b)) with t, b scaled by 1/|n|), then
+    Listing 5 against the shading normal n: resolved against n it lands exactly on the map's
+    normal, and it adds to other surface gradients.
     directx: the map's green channel points down (DirectX convention; Listing 2's flip)."""
     n_f, t, b = mikktspace_frame(td, uv_map)
     n = unit_base_normal(td)
     m = decode_normal_map(sample_image(image, td.uv(uv_map) if st is None else st,
                                        interpolation))
-    sg = strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m, directx), t, b)
-    return n, sg + (n - n_f)
+    v = normalize(n_f - strength * L.surfgrad_from_tbn(
+        L.tspace_normal_to_derivative(m, directx), t, b))
+    # Where v faces away from n (strong non-uniform scale) no tangent surface gradient
+    # reaches it; n - v still resolves to it.
+    away = np.sum(n * v, axis=-1, keepdims=True) < FLT_EPSILON
+    return n, np.where(away, n - v, L.surfgrad_from_perturbed_normal(n, v))
 
 
 def procedural_basis_surfgrad(td, image, uv_map, strength=1.0, interpolation="Linear"):

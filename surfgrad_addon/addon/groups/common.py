@@ -8,7 +8,7 @@ from ..node_builder import ensure_group, running_line
 from ...reference.vecmath import DIVIDE_FLOOR
 
 
-VERSION = 13
+VERSION = 14
 
 
 class FeatureUnavailable(ValueError):
@@ -40,12 +40,14 @@ def unavailable_reason(name):
 def normal_input(b, description="Base normal to perturb (world space). Leave unlinked for "
                                 "the shading normal; link a resolved normal for post-resolve "
                                 "bump mapping"):
-    """The group's Normal input, normalised; unlinked (zero), NaN or Inf it is the shading
-    normal (through .SG Safe Normal)."""
+    """The group's Normal input: unlinked (zero) it is the shading normal; normalised. A NaN or
+    Inf is not caught here but once, by SG Resolve's final guard (.SG Safe Normal): one guard
+    per stack, not one per socket."""
     raw = b.input("Normal", "VECTOR", description, hide_value=True)
-    node = b.node("ShaderNodeGroup", label="Base normal", node_tree=safe_normal_group())
-    b.link(raw, node.inputs[0])
-    return node.outputs[0]
+    with b.frame("Base normal: the shading normal where unlinked (zero), normalised"):
+        geo = b.node("ShaderNodeNewGeometry").outputs["Normal"]
+        unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
+        return b.normalize(b.add(raw, b.scale(geo, unlinked)))
 
 
 def sub_group(b, tree, label, **inputs):

@@ -3,7 +3,7 @@ MikkTSpace frame (Listing 9, SG Normal Map) or on a generated one (Listing 4, SG
 Basis, SG Tangent Normal), and the classic blends of two tangent-space normals (Eq. 18)."""
 
 from ..node_builder import ensure_group
-from ...reference.vecmath import DIVIDE_FLOOR
+from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
 from . import common
 from .common import directx_input, normal_input, sign_nonneg, sub_group, tangent_normal_to_surfgrad, uv_gradients_group
 
@@ -84,7 +84,13 @@ def mikktspace_frame_group(uv_map=""):
 
 
 def normal_map_group(uv_map=""):
-    """SG Normal Map for a UV map ("" = the active render UV map, the menu's group)."""
+    """SG Normal Map for a UV map ("" = the active render UV map, the menu's group).
+
+    One Normal Map node does Listings 3 and 9 (the MikkTSpace frame, exactly as Blender
+    combines it) on the colour that Listing 2 makes of the map: the node's normal is the
+    resolved normal of Listing 2's derivative. Listing 5 turns it back into a surface gradient
+    against the shading normal, so it adds to other layers; resolved alone against the shading
+    normal it is Blender's Normal Map node's result (to float rounding)."""
     def build(b):
         color = b.input("Color", "COLOR", "Tangent-space normal map colour (Non-Color image, "
                         "sampled on the same UV map)", default=(0.5, 0.5, 1.0, 1.0))
@@ -93,17 +99,40 @@ def normal_map_group(uv_map=""):
                            default=1.0, min_value=-10.0, max_value=10.0)
         n = normal_input(b, "Base normal the result is resolved against (leave unlinked: "
                             "the shading normal)")
-        frame = sub_group(b, mikktspace_frame_group(uv_map), "MikkTSpace frame")
-        sg = tangent_normal_to_surfgrad(b, color, strength, frame.outputs[0], frame.outputs[1],
-                                        directx)
-        with b.frame("+ (n - n_frame): resolve against n lands on the frame's normal"):
-            sg = b.add(sg, b.sub(n, frame.outputs[2]))
+        with b.frame("Listing 2: m = 2c - 1 (DirectX: green flipped), "
+                     "z = max(|m.z|, max(|m.x|, |m.y|) / 128), Strength on m.xy"):
+            m = b.vmath("SUBTRACT", b.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)),
+                        (1.0, 1.0, 1.0))
+            mx, my, mz = b.separate(m)
+            my = b.math("MULTIPLY", my, b.math("SUBTRACT", 1.0, b.math("MULTIPLY", directx, 2.0)))
+            z = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
+                "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx),
+                                                 b.math("ABSOLUTE", my))))
+            processed = b.combine(b.math("MULTIPLY", mx, strength),
+                                  b.math("MULTIPLY", my, strength), z)
+        with b.frame("Listings 3 and 9: Blender's Normal Map node in the MikkTSpace frame"):
+            node = b.node("ShaderNodeNormalMap", space="TANGENT", uv_map=uv_map)
+            if hasattr(node, "convention"):      # 5.2: the colour is already OpenGL
+                node.convention = "OPENGL"
+            node.inputs["Strength"].default_value = 1.0
+            b.link(b.vmath("ADD", b.vmath("MULTIPLY", processed, (0.5, 0.5, 0.5)),
+                           (0.5, 0.5, 0.5)), node.inputs["Color"])
+            v = node.outputs["Normal"]
+        with b.frame("Listing 5 against the shading normal, + (n - shading normal); where "
+                     "the map's normal faces away from it (strong non-uniform scale), n - v"):
+            ns = b.node("ShaderNodeNewGeometry").outputs["Normal"]
+            k = b.dot(ns, v)
+            denom = b.math("MAXIMUM", k, FLT_EPSILON)
+            l5 = b.scale(b.sub(b.scale(ns, k), v), b.math("DIVIDE", 1.0, denom))
+            away = b.math("LESS_THAN", k, FLT_EPSILON)
+            sg = b.add(b.mix_vector(away, l5, b.sub(ns, v)), b.sub(n, ns))
         b.output("Surface Gradient", "VECTOR", sg, "Surface gradient: add to others, then "
                  "SG Resolve")
     name = "SG Normal Map" + (f" [{uv_map}]" if uv_map else "")
     return ensure_group(name, common.VERSION, build,
                         "Tangent-space normal map to surface gradient, MikkTSpace compliant "
-                        f"(Listings 2, 3, 9) on UV map {uv_map or '(active render map)'}")
+                        f"(Listings 2, 3, 9 through the Normal Map node, then 5) on UV map "
+                        f"{uv_map or '(active render map)'}")
 
 
 def blend_normals_group():
