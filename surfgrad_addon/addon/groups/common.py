@@ -84,21 +84,19 @@ def safe_normal_group():
             # A World-space Normal Map node normalises (c - 0.5) * 2. Cycles' replaces a zero
             # or non-finite result by the shading normal (arithmetic cannot remove a NaN,
             # this node can) and negates its result on back faces; EEVEE's does neither. So:
-            # zero becomes the shading normal before the node (for EEVEE), and the input is
-            # multiplied by the node's own sign on this face, measured on the shading normal.
+            # zero becomes the shading normal before the node (for EEVEE), and the node's
+            # result u is turned back where it points against v (a back face in Cycles); a
+            # NaN v compares false and keeps u, the shading normal.
             geo = b.node("ShaderNodeNewGeometry").outputs["Normal"]
-            probe = b.node("ShaderNodeNormalMap", space="WORLD", label="sign probe")
-            b.link(b.vmath("ADD", b.vmath("MULTIPLY", geo, (0.5, 0.5, 0.5)), (0.5, 0.5, 0.5)),
-                   probe.inputs["Color"])
-            sign = b.dot(probe.outputs[0], geo)
             zero = b.math("COMPARE", b.length(v), 0.0, 0.0)
             v = b.add(v, b.scale(geo, zero))
-            color = b.vmath("ADD", b.vmath("MULTIPLY", b.scale(v, sign), (0.5, 0.5, 0.5)),
-                            (0.5, 0.5, 0.5))
             nm = b.node("ShaderNodeNormalMap", space="WORLD")
             nm.inputs["Strength"].default_value = 1.0
-            b.link(color, nm.inputs["Color"])
-        b.output("Normal", "VECTOR", nm.outputs[0], "Unit normal, always finite")
+            b.link(b.vmath("MULTIPLY_ADD", v, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5)),
+                   nm.inputs["Color"])
+            u = nm.outputs[0]
+            turn = b.math("MULTIPLY_ADD", b.math("LESS_THAN", b.dot(u, v), 0.0), -2.0, 1.0)
+        b.output("Normal", "VECTOR", b.scale(u, turn), "Unit normal, always finite")
     return ensure_group(".SG Safe Normal", VERSION, build,
                         "normalize(v) with the shading normal as fallback")
 

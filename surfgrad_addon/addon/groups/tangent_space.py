@@ -99,33 +99,30 @@ def normal_map_group(uv_map=""):
                            default=1.0, min_value=-10.0, max_value=10.0)
         n = normal_input(b, "Base normal the result is resolved against (leave unlinked: "
                             "the shading normal)")
-        with b.frame("Listing 2: m = 2c - 1 (DirectX: green flipped), "
-                     "z = max(|m.z|, max(|m.x|, |m.y|) / 128), Strength on m.xy"):
-            m = b.vmath("SUBTRACT", b.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)),
-                        (1.0, 1.0, 1.0))
-            mx, my, mz = b.separate(m)
-            my = b.math("MULTIPLY", my, b.math("SUBTRACT", 1.0, b.math("MULTIPLY", directx, 2.0)))
-            z = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
-                "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx),
-                                                 b.math("ABSOLUTE", my))))
-            processed = b.combine(b.math("MULTIPLY", mx, strength),
-                                  b.math("MULTIPLY", my, strength), z)
+        with b.frame("Listing 2 as a colour: c - 0.5 with Strength on x, y (and the DirectX "
+                     "flip on y), z = max(|z|, max(|x|, |y|) / 128)"):
+            dx, dy, dz = b.separate(b.vmath("SUBTRACT", color, (0.5, 0.5, 0.5)))
+            flip = b.math("MULTIPLY_ADD", directx, -2.0, 1.0)
+            z = b.math("MAXIMUM", b.math("ABSOLUTE", dz), b.math(
+                "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", dx),
+                                                 b.math("ABSOLUTE", dy))))
+            processed = b.combine(b.math("MULTIPLY", dx, strength),
+                                  b.math("MULTIPLY", dy, b.math("MULTIPLY", strength, flip)), z)
         with b.frame("Listings 3 and 9: Blender's Normal Map node in the MikkTSpace frame"):
             node = b.node("ShaderNodeNormalMap", space="TANGENT", uv_map=uv_map)
             if hasattr(node, "convention"):      # 5.2: the colour is already OpenGL
                 node.convention = "OPENGL"
             node.inputs["Strength"].default_value = 1.0
-            b.link(b.vmath("ADD", b.vmath("MULTIPLY", processed, (0.5, 0.5, 0.5)),
-                           (0.5, 0.5, 0.5)), node.inputs["Color"])
+            b.link(b.vmath("ADD", processed, (0.5, 0.5, 0.5)), node.inputs["Color"])
             v = node.outputs["Normal"]
-        with b.frame("Listing 5 against the shading normal, + (n - shading normal); where "
-                     "the map's normal faces away from it (strong non-uniform scale), n - v"):
+        with b.frame("Listing 5 against the shading normal ns, + (n - ns): n - v / (ns . v); "
+                     "n - v where v faces away from ns (strong non-uniform scale)"):
             ns = b.node("ShaderNodeNewGeometry").outputs["Normal"]
             k = b.dot(ns, v)
-            denom = b.math("MAXIMUM", k, FLT_EPSILON)
-            l5 = b.scale(b.sub(b.scale(ns, k), v), b.math("DIVIDE", 1.0, denom))
+            inv = b.math("DIVIDE", 1.0, b.math("MAXIMUM", k, FLT_EPSILON))
             away = b.math("LESS_THAN", k, FLT_EPSILON)
-            sg = b.add(b.mix_vector(away, l5, b.sub(ns, v)), b.sub(n, ns))
+            w = b.math("MULTIPLY_ADD", away, b.math("SUBTRACT", 1.0, inv), inv)
+            sg = b.sub(n, b.scale(v, w))
         b.output("Surface Gradient", "VECTOR", sg, "Surface gradient: add to others, then "
                  "SG Resolve")
     name = "SG Normal Map" + (f" [{uv_map}]" if uv_map else "")

@@ -1,0 +1,35 @@
+"""The render-cost bench in its quick form: every SG material and its twin render, the table and
+chart are written, the look checks hold (SG against its twin where both mean the same thing,
+against the reference otherwise), and the node counts trace the cost. Timings are printed and
+written by the bench (bash run.sh bench-render), never asserted here."""
+
+import json
+
+import pytest
+
+pytest.importorskip("bpy")
+
+from surfgrad_addon.harness.bench import render_cost  # noqa: E402
+
+
+def test_quick_render_cost_bench(tmp_path):
+    result = render_cost.run(tmp_path, quick=True, log=lambda *_: None)
+    assert {p.name for p in tmp_path.iterdir()} >= {"render_cost.json", "render_cost.md",
+                                                    "render_cost.png"}
+    rows = {r["key"]: r for r in json.loads((tmp_path / "render_cost.json").read_text())["rows"]}
+    assert set(rows) == {key for key, *_ in render_cost.CASES}
+    for key, row in rows.items():
+        assert row["seconds"] > 0, key
+        if "twin" in row:
+            assert 0.2 < row["ratio"] < 20, (key, row["ratio"])
+    # Same look: SG Normal Map resolves to Blender's node, SG Height Map Forward to the Bump
+    # node at the same Filter Width; triplanar and the procedural basis match the reference.
+    for key in ("nm-sg", "bump-sg"):
+        assert rows[key]["look"]["against"] == "twin" and rows[key]["look"]["max_deg"] < 0.05
+    for key in ("tri-sg", "uv2-sg"):
+        assert rows[key]["look"]["max_deg"] < 0.5
+    # Where the cost comes from: one Normal Map node per SG Normal Map layer (Listings 3 and 9
+    # through Blender's own node) plus the one of SG Resolve's final guard.
+    assert rows["nm-sg"]["normal_map_nodes"] == 2
+    assert rows["layers3-sg"]["normal_map_nodes"] == 4
+    assert result["marginal_layer"].keys() == {"sg_s", "builtin_s"}
