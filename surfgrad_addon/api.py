@@ -66,16 +66,18 @@ def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, 
     return bake(obj, output, space, resolution, uv_map, margin, overwrite=overwrite, log=log)
 
 
-def compare(obj, method, resolution=64, variant="hq", uv_map=None, image=None):
+def compare(obj, method, resolution=64, variant="hq", uv_map=None, image=None,
+            with_heat_map=False):
     """Bake `method`'s node groups on obj with Cycles and compare texel by texel with the numpy
     reference; returns the report dict (mean / p99 / max angular error in degrees, texel
-    counts, timings). Needs the proving harness (a checkout, not the extension zip)."""
+    counts, timings), and with with_heat_map the per-texel error image too. Needs the proving
+    harness (a checkout, not the extension zip)."""
     try:
         from .harness import compare as harness_compare
     except ImportError as err:
         raise ValueError("compare needs surfgrad's proving harness: run it from a checkout "
                          "of the repository (python -m surfgrad_addon compare ...)") from err
-    report, _ = harness_compare.compare_object(obj, method, resolution, uv_map=uv_map,
-                                               image=image, variant=variant,
-                                               log=lambda *_: None)
-    return report
+    report, heat = harness_compare.compare_object(obj, method, resolution, uv_map=uv_map,
+                                                  image=image, variant=variant,
+                                                  log=lambda *_: None)
+    return (report, heat) if with_heat_map else report

@@ -256,7 +256,9 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     if obj is None:
         raise CompareError(f"no object named {object_name!r}; objects: "
                            f"{sorted(o.name for o in bpy.data.objects)}")
-    report, heat = compare_object(obj, method, resolution, uv_map, image, variant, log)
+    from .. import api                  # the command goes through the public API
+    report, heat = api.compare(obj, method, resolution, variant, uv_map, image,
+                               with_heat_map=True)
     json_out.parent.mkdir(parents=True, exist_ok=True)
     json_out.write_text(json.dumps(report, indent=2))
     write_heat_map(heat_path, heat, overwrite)
