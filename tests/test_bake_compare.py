@@ -179,3 +179,12 @@ def test_compare_inside_blender_on_a_saved_file(tmp_path):
     assert out.returncode == 0, out.stderr
     report = json.loads((tmp_path / "b.json").read_text())
     assert report["object"] == "Plane" and report["max_deg"] <= 0.5
+
+
+@pytest.mark.parametrize("resolution", [0, -5, 1, 7, 100000])
+def test_impossible_compare_resolutions_are_refused(scene, resolution):
+    images = len(bpy.data.images)
+    with pytest.raises(compare.CompareError, match=f"resolution {resolution}: use a whole "
+                                                   f"number of texels from 8 to 8192"):
+        compare.compare_object(bpy.data.objects["Plane"], "normal-map", resolution)
+    assert len(bpy.data.images) == images

@@ -126,3 +126,17 @@ def test_triplanar_height_with_three_images_matches_the_reference(fresh):
     tilt = compare.angle_deg(ref[inner], M.unit_base_normal(td)[inner])
     assert tilt.mean() > 1 and err.max() < 0.05, (tilt.mean(), err.max())
     assert G.triplanar_height_group(images=imgs).name == "SG Triplanar Height [h0 | h1 | h2]"
+
+
+def test_a_users_group_with_our_name_is_never_rebuilt_over(fresh):
+    """A node group the user made and happened to call "SG Combine" is refused, not cleared:
+    ours are recognised by their version stamp."""
+    mine = bpy.data.node_groups.new("SG Combine", "ShaderNodeTree")
+    mine.nodes.new("ShaderNodeMath")
+    with pytest.raises(ValueError, match="'SG Combine' already exists and is not a "
+                                         "surface-gradient group; rename it"):
+        G.combine_group()
+    assert len(mine.nodes) == 1 and "surfgrad_version" not in mine
+    mine.name = "My Combine"
+    ours = G.combine_group()
+    assert ours.name == "SG Combine" and ours != mine and len(mine.nodes) == 1

@@ -93,3 +93,26 @@ def test_command_line_writes_a_png_with_progress(tmp_path):
     assert out.returncode == 0, out.stderr
     assert "[1/3]" in out.stdout and "[3/3] wrote" in out.stdout
     assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("resolution,output,message", [
+    (0, "n.png", "resolution 0: use a whole number of texels from 4 to 16384"),
+    (-5, "n.png", "resolution -5"),
+    (100000, "n.png", "resolution 100000"),
+    (1.5, "n.png", "resolution 1.5"),
+    (64, "", "is a folder: give a file name in it"),
+    (64, "maps.png/", "is a folder"),
+    (64, "nope/n.png", "does not exist: create it first"),
+])
+def test_bad_resolution_and_output_are_refused_before_baking(tmp_path, resolution, output,
+                                                              message):
+    obj = test_scenes.new_scene(["Plane"])["Plane"]
+    mat = new_material("SG")
+    obj.data.materials.append(mat)
+    target = tmp_path / output if output else tmp_path
+    if output.endswith("/"):
+        target.mkdir()
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    with pytest.raises(normal_bake.NormalBakeError, match=message):
+        normal_bake.bake_normal_map(obj, target, resolution=resolution, log=lambda *_: None)
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before     # nothing written

@@ -44,6 +44,10 @@ def ensure_group(name, version, build, description, stale=None, tree_type="Shade
     if tree is not None and tree.bl_idname != tree_type:
         raise ValueError(f"a {tree.bl_idname} named {name!r} already exists; rename it so the "
                          f"surface-gradient group can be created")
+    if tree is not None and VERSION_KEY not in tree:
+        # Ours carry the version stamp; a group without it is the user's: never rebuilt over.
+        raise ValueError(f"a node group named {name!r} already exists and is not a "
+                         f"surface-gradient group; rename it so surfgrad can add its own")
     line = running_line().line
     if (tree is not None and tree.get(VERSION_KEY) == version and tree.get(LINE_KEY) == line
             and not (stale and stale(tree))):

@@ -20,6 +20,7 @@ from pathlib import Path
 from .scene_state import SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
+RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
 FORMATS = {".png": ("PNG", False), ".exr": ("OPEN_EXR", True)}
 
 
@@ -33,8 +34,17 @@ def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, 
     import bpy
 
     output = Path(output)
+    if output.is_dir():
+        raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     if output.suffix.lower() not in FORMATS:
         raise NormalBakeError(f"output {str(output)!r}: use a .png or .exr file name")
+    if not output.parent.is_dir():
+        raise NormalBakeError(f"output folder {str(output.parent)!r} does not exist: create it "
+                              f"first")
+    lo, hi = RESOLUTION_RANGE
+    if not isinstance(resolution, int) or not lo <= resolution <= hi:
+        raise NormalBakeError(f"resolution {resolution!r}: use a whole number of texels from "
+                              f"{lo} to {hi}")
     if output.exists() and not overwrite:
         raise NormalBakeError(f"{output} exists; pass --overwrite to replace it")
     if space not in SPACES:

@@ -30,6 +30,9 @@ NORMAL_IMAGE_SIZE = 128
 HEIGHT_IMAGE_SIZE = 32       # small: bakes magnify it, where the variants differ
 
 
+RESOLUTION_RANGE = (8, 8192)
+
+
 class CompareError(ValueError):
     """Bad input for a comparison: the message names the thing and the fix."""
 
@@ -146,6 +149,10 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
+    lo, hi = RESOLUTION_RANGE
+    if not isinstance(resolution, int) or not lo <= resolution <= hi:
+        raise CompareError(f"resolution {resolution!r}: use a whole number of texels from {lo} "
+                           f"to {hi} (interior texels need a 3 x 3 neighbourhood)")
     reason = unavailable_reason(method)
     if reason is not None:
         raise CompareError(f"method {method!r} is not available in this Blender: {reason}")
