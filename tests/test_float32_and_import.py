@@ -59,13 +59,8 @@ def test_float32_in_float32_out(name):
 def test_reference_imports_without_bpy():
     """In a fresh interpreter that refuses to import bpy (or mathutils), the reference loads
     and evaluates."""
-    code = (
-        "import sys\n"
-        "class Block:\n"
-        "    def find_spec(self, name, path=None, target=None):\n"
-        "        if name.split('.')[0] in ('bpy', 'mathutils', 'bmesh'):\n"
-        "            raise ImportError('blocked: ' + name)\n"
-        "sys.meta_path.insert(0, Block())\n"
+    from support.child import NO_BPY
+    code = (NO_BPY +
         "import numpy, surfgrad_addon.reference as R\n"
         "assert 'bpy' not in sys.modules\n"
         "print(R.resolve_normal_from_surface_gradient([0, 0, 1.0], [0.5, 0, 0]).round(6).tolist())\n"

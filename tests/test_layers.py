@@ -73,12 +73,8 @@ def test_the_method_registry_and_the_main_jobs_reference_stage_need_no_bpy():
     """The registry's names and references, and the main job's table built from it, import in
     an interpreter that refuses bpy (its graphs and gates import the add-on when used)."""
     from support.child import run_python
-    code = ("import sys\n"
-            "class Block:\n"
-            "    def find_spec(self, name, path=None, target=None):\n"
-            "        if name.split('.')[0] in ('bpy', 'mathutils'):\n"
-            "            raise ImportError('blocked: ' + name)\n"
-            "sys.meta_path.insert(0, Block())\n"
+    from support.child import NO_BPY
+    code = (NO_BPY +
             "import numpy as np\n"
             "from surfgrad_addon.harness import main_job, methods\n"
             "table = main_job.method_table(np.zeros((8, 8, 3)) + 0.5, np.zeros((8, 8, 3)) + 0.5,"

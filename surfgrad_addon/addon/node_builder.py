@@ -24,6 +24,7 @@ LINE_KEY = "surfgrad_line"
 
 
 def running_line():
+    """The facts of the running Blender's line (reference/blender_lines.py)."""
     from ..reference.blender_lines import facts_for
     return facts_for(bpy.app.version)
 

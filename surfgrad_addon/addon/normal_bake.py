@@ -21,6 +21,14 @@ from .scene_state import SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
+
+
+def resolution_problem(resolution, lo, hi):
+    """None for a whole number of texels in [lo, hi], else what is wrong with it."""
+    if isinstance(resolution, bool) or not isinstance(resolution, int) or \
+            not lo <= resolution <= hi:
+        return f"resolution {resolution!r}: use a whole number of texels from {lo} to {hi}"
+    return None
 FORMATS = {".png": ("PNG", False), ".exr": ("OPEN_EXR", True)}
 
 
@@ -41,10 +49,9 @@ def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, 
     if not output.parent.is_dir():
         raise NormalBakeError(f"output folder {str(output.parent)!r} does not exist: create it "
                               f"first")
-    lo, hi = RESOLUTION_RANGE
-    if not isinstance(resolution, int) or not lo <= resolution <= hi:
-        raise NormalBakeError(f"resolution {resolution!r}: use a whole number of texels from "
-                              f"{lo} to {hi}")
+    problem = resolution_problem(resolution, *RESOLUTION_RANGE)
+    if problem:
+        raise NormalBakeError(problem)
     if output.exists() and not overwrite:
         raise NormalBakeError(f"{output} exists; pass --overwrite to replace it")
     if space not in SPACES:

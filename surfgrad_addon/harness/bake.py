@@ -12,15 +12,9 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from ..reference.blender_lines import facts_for
 from ..addon.compat import new_material
-from ..addon.scene_state import SCENE_SETTINGS, restored  # noqa: F401 (re-exported)
-
-
-def running_line():
-    """The facts of the running Blender's line (the reference reads them to model its bakes)."""
-    import bpy
-    return facts_for(bpy.app.version)
+from ..addon.node_builder import running_line  # noqa: F401 (the line whose bakes we model)
+from ..addon.scene_state import SCENE_SETTINGS, restored
 
 
 def exact_cycles(scene):

@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import reference as R
 from ..addon import groups as G
+from ..addon.normal_bake import resolution_problem
 from ..reference import methods as M
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
@@ -149,10 +150,9 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
-    lo, hi = RESOLUTION_RANGE
-    if not isinstance(resolution, int) or not lo <= resolution <= hi:
-        raise CompareError(f"resolution {resolution!r}: use a whole number of texels from {lo} "
-                           f"to {hi} (interior texels need a 3 x 3 neighbourhood)")
+    problem = resolution_problem(resolution, *RESOLUTION_RANGE)
+    if problem:     # interior texels need a 3 x 3 neighbourhood: 8 at least
+        raise CompareError(problem)
     reason = unavailable_reason(method)
     if reason is not None:
         raise CompareError(f"method {method!r} is not available in this Blender: {reason}")
