@@ -34,7 +34,8 @@ class BuildError(RuntimeError):
     names the group and the part, so nothing is lost silently on any Blender line."""
 SOCKET_TYPES = {"VECTOR": "NodeSocketVector", "FLOAT": "NodeSocketFloat",
                 "COLOR": "NodeSocketColor", "BOOLEAN": "NodeSocketBool",
-                "INT": "NodeSocketInt", "GEOMETRY": "NodeSocketGeometry"}
+                "INT": "NodeSocketInt", "GEOMETRY": "NodeSocketGeometry",
+                "CLOSURE": "NodeSocketClosure"}       # Closure: Blender 5.0 and later
 
 
 def ensure_group(name, version, build, description, stale=None, tree_type="ShaderNodeTree"):

@@ -264,6 +264,69 @@ def _parallax_reference(inp, td):
                                  st=td.uv(inp.uv_map) + offs)
 
 
+# Sampler groups (Blender 5.0+): the same references, the image as a closure -------------------
+
+def sampler_socket(nodes, links, image, interpolation="Linear", extension="REPEAT"):
+    """A Closure Zone around an Image Texture of `image`: the Sampler a group evaluates."""
+    from ..addon.sampler_zone import sampler_zone
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.image, tex.interpolation, tex.extension = image, interpolation, extension
+    zone, _, _ = sampler_zone(nodes, links, tex)
+    return zone.outputs[0]
+
+
+def _sized(node, image):
+    node.inputs["Width"].default_value, node.inputs["Height"].default_value = image.size[:2]
+    return node
+
+
+def _height_map_sampler_graph(inp, nodes, links):
+    image = inp.bpy_image("height")
+    node = _sized(group_node(nodes, G.height_map_sampler_group(inp.variant)), image)
+    links.new(sampler_socket(nodes, links, image), node.inputs["Sampler"])
+    links.new(uv_node(nodes, inp.uv_map), node.inputs["UV"])
+    node.inputs["Bump Scale"].default_value = HEIGHT_BUMP_SCALE
+    return node.outputs["Surface Gradient"]
+
+
+def _triplanar_sampler_graph(inp, nodes, links):
+    node = group_node(nodes, G.triplanar_sampler_group())
+    links.new(sampler_socket(nodes, links, inp.bpy_image("normal")), node.inputs["Sampler"])
+    return node.outputs["Surface Gradient"]
+
+
+def _triplanar_height_sampler_graph(inp, nodes, links):
+    image = inp.bpy_image("height")
+    node = _sized(group_node(nodes, G.triplanar_height_sampler_group()), image)
+    links.new(sampler_socket(nodes, links, image), node.inputs["Sampler"])
+    node.inputs["Bump Scale"].default_value = HEIGHT_BUMP_SCALE
+    return node.outputs["Surface Gradient"]
+
+
+def _parallax_view(nodes, links):
+    geo = nodes.new("ShaderNodeNewGeometry")
+    view = nodes.new("ShaderNodeVectorMath")
+    view.operation = "ADD"
+    links.new(geo.outputs["Normal"], view.inputs[0])
+    view.inputs[1].default_value = VIEW_TILT
+    unit = nodes.new("ShaderNodeVectorMath")
+    unit.operation = "NORMALIZE"
+    links.new(view.outputs[0], unit.inputs[0])
+    return unit.outputs[0]
+
+
+def _parallax_sampler_graph(inp, nodes, links):
+    par = group_node(nodes, G.parallax_sampler_group())
+    links.new(sampler_socket(nodes, links, inp.bpy_image("height")), par.inputs["Sampler"])
+    links.new(uv_node(nodes, inp.uv_map), par.inputs["UV"])
+    links.new(_parallax_view(nodes, links), par.inputs["View"])
+    par.inputs["Bump Scale"].default_value = PARALLAX_SCALE
+    color = image_node(nodes, links, inp.bpy_image("normal"), par.outputs["UV"])
+    nm = group_node(nodes, G.normal_map_group(inp.uv_map))
+    links.new(color, nm.inputs["Color"])
+    return nm.outputs["Surface Gradient"]
+
+
 def _post_resolve_graph(inp, nodes, links):
     """Figure 7(b): a baked normal map resolved first, then triplanar detail on top with the
     resolved normal as the new base normal (weights, projection and second resolve)."""
@@ -415,6 +478,18 @@ _REGISTRY = (
            group="SG Displace", setup=lambda obj: {"modifier": add_displace_modifier(obj)},
            stability=False, scene_only=True),   # the displaced mesh's rest positions          # its hostile cases are the mesh's, not a texture's
     Method("layered", _layered_graph, _layered_reference, mikktspace=True),
+    # The Sampler groups (5.0+): the per-image methods' references, the image as a closure.
+    Method("height-map-sampler", _height_map_sampler_graph, _height_map_reference,
+           variants=("one-texel", "hq"), group="SG Height Map HQ (Sampler)", stability=False),
+    Method("triplanar-sampler", _triplanar_sampler_graph,
+           lambda inp, td: M.triplanar_surfgrad(td, inp.pixels("normal")),
+           group="SG Triplanar (Sampler)", stability=False),
+    Method("triplanar-height-sampler", _triplanar_height_sampler_graph,
+           lambda inp, td: M.triplanar_height_surfgrad(td, inp.pixels("height"),
+                                                       bump_scale=HEIGHT_BUMP_SCALE),
+           group="SG Triplanar Height (Sampler)", stability=False),
+    Method("parallax-sampler", _parallax_sampler_graph, _parallax_reference,
+           group="SG Parallax (Sampler)", stability=False, mikktspace=True),
     # RNM stands for the four blends in the stability suite (same decode, same SG Normal Map).
     *(Method(mode, _blend_graph(mode), _blend_reference(mode), stability=mode == "blend-rnm",
              mikktspace=True) for mode in BLEND_MODES),

@@ -21,6 +21,16 @@ class FeatureUnavailable(ValueError):
 # the version number.
 REQUIRES = {"SG Displace": ("GeometryNodeSetMeshNormal", "4.5", "it sets the analytic normals "
                             "with the Geometry Nodes Set Mesh Normal node")}
+CLOSURE_NODE = "NodeEvaluateClosure"
+SAMPLER_USE = ("it takes your Image Texture as a Sampler closure (Closure Zone, Evaluate "
+               "Closure); on older lines use the per-image group")
+# The sampler groups (one per method, any image): name -> what the per-image group is.
+SAMPLER_GROUPS = {"SG Height Map HQ (Sampler)": "SG Height Map HQ",
+                  "SG Height Map One-Texel (Sampler)": "SG Height Map HQ",
+                  "SG Triplanar (Sampler)": "SG Triplanar",
+                  "SG Triplanar Height (Sampler)": "SG Triplanar Height",
+                  "SG Parallax (Sampler)": "SG Parallax"}
+REQUIRES.update({name: (CLOSURE_NODE, "5.0", SAMPLER_USE) for name in SAMPLER_GROUPS})
 
 
 # Hidden helpers that only a gated group builds (absent where the gate refuses it).
@@ -35,6 +45,14 @@ def unavailable_reason(name):
     node_type, line, use = need
     return (f"{name} needs Blender {line} or newer: {use} ({node_type}), which Blender "
             f"{bpy.app.version_string} does not have")
+
+
+def require(name):
+    """Raise FeatureUnavailable (naming the node and the line that has it) unless group
+    `name` can be built here."""
+    reason = unavailable_reason(name)
+    if reason:
+        raise FeatureUnavailable(reason)
 
 
 def normal_input(b, description="Base normal to perturb (world space). Leave unlinked for "
@@ -181,6 +199,56 @@ def position_input(b, description):
     world = b.node("ShaderNodeNewGeometry").outputs["Position"]
     unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
     return b.mix_vector(unlinked, raw, world)
+
+
+SAMPLER_TOOLTIP = ("Your image as a closure: an Image Texture inside a Closure Zone (Vector in, "
+                   "Color out), its Closure linked here. Linear or Closest interpolation; the "
+                   "group evaluates it at the coordinates it needs")
+
+
+class ImageTaps:
+    """Image lookups of a per-image group: an Image Texture node per tap, bound to `image`."""
+
+    def __init__(self, b, image, extension):
+        self.b, self.image, self.extension = b, image, extension
+
+    def color(self, vector, interpolation="Linear"):
+        node = self.b.node("ShaderNodeTexImage", interpolation=interpolation,
+                           extension=self.extension)
+        node.image = self.image
+        self.b.link(vector, node.inputs["Vector"])
+        return node.outputs["Color"]
+
+    def height(self, vector, interpolation="Linear"):
+        return self.b.separate(self.color(vector, interpolation))[0]
+
+
+class SamplerTaps(ImageTaps):
+    """Image lookups of a sampler group (Blender 5.0+): the Sampler closure input evaluated
+    per tap. The artist's Image Texture sets interpolation and extension; taps that want
+    Closest sample texel centres, where Linear gives the texel's own value."""
+
+    def __init__(self, b):
+        super().__init__(b, None, None)
+        self.sampler = b.input("Sampler", "CLOSURE", SAMPLER_TOOLTIP)
+
+    def color(self, vector, interpolation=None):
+        ev = self.b.node(CLOSURE_NODE, label="Sampler")
+        ev.input_items.new("VECTOR", "Vector")
+        ev.output_items.new("RGBA", "Color")
+        self.b.link(self.sampler, ev.inputs[0])
+        self.b.link(vector, ev.inputs["Vector"])
+        return ev.outputs["Color"]
+
+
+def texel_count_inputs(b):
+    """Width and Height of a sampler group's image (the Add menu fills them from the image)."""
+    w = b.input("Width", "INT", "Width of the sampled image in pixels (the Add menu sets it "
+                "from the active Image Texture's image)", default=1024, min_value=1,
+                max_value=65536)
+    h = b.input("Height", "INT", "Height of the sampled image in pixels", default=1024,
+                min_value=1, max_value=65536)
+    return w, h
 
 
 def images_stale(expected):

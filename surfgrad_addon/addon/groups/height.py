@@ -4,81 +4,114 @@ triplanar projection of a height image."""
 
 from ..node_builder import ensure_group
 from . import common
-from .common import FORWARD_FILTER_WIDTH, images_stale, normal_input, position_input, sub_group, uv_gradients_group
+from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, images_stale, normal_input,
+                     position_input, sub_group, texel_count_inputs, uv_gradients_group)
 from .projection import triplanar_surface_gradient, triplanar_weights
 
 
 def height_image_node(b, image, vector, interpolation, extension):
-    node = b.node("ShaderNodeTexImage", interpolation=interpolation, extension=extension)
-    node.image = image
-    b.link(vector, node.inputs["Vector"])
-    return b.separate(node.outputs["Color"])[0]
+    return ImageTaps(b, image, extension).height(vector, interpolation)
+
+
+def _texel_offset(b, uv, du, dv):
+    """uv + (du, dv): constants fold into one Vector Math node, sockets into a Combine XYZ."""
+    if isinstance(du, float) and isinstance(dv, float):
+        return b.vmath("ADD", uv, (du, dv, 0.0))
+    return b.add(uv, b.combine(du, dv))
+
+
+def _per_texel(b, x, size):
+    return b.math("MULTIPLY", x, size)
+
+
+def _height_derivatives(b, taps, uv, w, h, variant):
+    """dH/du and dH/dv (per texel) of Listing 16 at level 0; w, h floats (per-image groups)
+    or sockets (sampler groups)."""
+    const = isinstance(w, float)
+    inv_w = 1.0 / w if const else b.math("DIVIDE", 1.0, w)
+    inv_h = 1.0 / h if const else b.math("DIVIDE", 1.0, h)
+    if variant == "one-texel":
+        with b.frame("Listing 16 (level 0): forward differences one texel apart"):
+            hc = taps.height(uv, "Linear")
+            hr = taps.height(_texel_offset(b, uv, inv_w, 0.0), "Linear")
+            hu = taps.height(_texel_offset(b, uv, 0.0, inv_h), "Linear")
+            return b.math("SUBTRACT", hr, hc), b.math("SUBTRACT", hu, hc)
+    with b.frame("Eq. 20/21: Sobel derivatives of the 4x4 block, bilinearly blended"):
+        size = (w, h, 0.0) if const else b.combine(w, h, 0.0)
+        f = b.vmath("SUBTRACT", b.vmath("MULTIPLY", uv, size), (0.5, 0.5, 0.0))
+        fl = b.vmath("FLOOR", f)
+        tx, ty, _ = b.separate(b.sub(f, fl))
+        ax, ay = b.math("SUBTRACT", 1.0, tx), tx
+        bx, by = b.math("SUBTRACT", 1.0, ty), ty
+
+        def weights(p, q):
+            smooth = [b.math("MULTIPLY", p, 0.25),
+                      b.math("MULTIPLY", b.math("ADD", b.math("MULTIPLY", p, 2.0), q), 0.25),
+                      b.math("MULTIPLY", b.math("ADD", p, b.math("MULTIPLY", q, 2.0)), 0.25),
+                      b.math("MULTIPLY", q, 0.25)]
+            diff = [b.math("MULTIPLY", p, -0.5), b.math("MULTIPLY", q, -0.5),
+                    b.math("MULTIPLY", p, 0.5), b.math("MULTIPLY", q, 0.5)]
+            return smooth, diff
+        smooth_u, diff_u = weights(ax, ay)
+        smooth_v, diff_v = weights(bx, by)
+        inv = (1.0 / w, 1.0 / h, 1.0) if const else b.combine(inv_w, inv_h, 1.0)
+        du, dv = 0.0, 0.0
+        for i in range(4):          # rows (v)
+            for j in range(4):      # columns (u)
+                # Texel centres: Closest taps of a per-image group; a sampler's Linear
+                # interpolation returns the texel's own value there.
+                centre = b.vmath("MULTIPLY", b.vmath("ADD", fl, (j - 0.5, i - 0.5, 0.0)), inv)
+                q = taps.height(centre, "Closest")
+                du = b.math("ADD", du, b.math("MULTIPLY", b.math(
+                    "MULTIPLY", smooth_v[i], diff_u[j]), q))
+                dv = b.math("ADD", dv, b.math("MULTIPLY", b.math(
+                    "MULTIPLY", diff_v[i], smooth_u[j]), q))
+        return du, dv
+
+
+def _height_map_body(b, taps_for, variant, size):
+    """The interface and interior shared by the per-image and the sampler height maps."""
+    n = normal_input(b)
+    uv = b.input("UV", "VECTOR", "Texture coordinate of the height image (link a UV Map "
+                 "node)", hide_value=True)
+    scale = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
+                    default=0.05, min_value=-1000.0, max_value=1000.0)
+    taps = taps_for(b)
+    w, h = size(b)
+    grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
+    du, dv = _height_derivatives(b, taps, uv, w, h, variant)
+    with b.frame("Listing 6 in surface gradients: W dH/du grad s + H dH/dv grad t"):
+        sg = b.add(b.scale(grads.outputs[0], _per_texel(b, du, w)),
+                   b.scale(grads.outputs[1], _per_texel(b, dv, h)))
+    b.output("Surface Gradient", "VECTOR", b.scale(sg, scale), "Surface gradient")
+
+
+def _check_variant(variant):
+    if variant not in ("one-texel", "hq"):
+        raise ValueError(f"height map variant {variant!r}: use 'one-texel' or 'hq' (the "
+                         f"forward variant is SG Height Map Forward)")
+
+
+HEIGHT_LABELS = {"hq": "HQ", "one-texel": "One-Texel"}
 
 
 def height_map_group(image=None, variant="hq", extension="REPEAT"):
     """SG Height Map for one height image: Listing 16 at level 0 ('one-texel': three Linear
     taps one texel apart; 'hq': the 4x4 Closest block of Eq. 20/21), through Listing 6 in
     surface gradients: grad_S H = W dH/du grad s + H dH/dv grad t."""
-    if variant not in ("one-texel", "hq"):
-        raise ValueError(f"height map variant {variant!r}: use 'one-texel' or 'hq' (the "
-                         f"forward variant is SG Height Map Forward)")
+    _check_variant(variant)
     w, h = (image.size[0], image.size[1]) if image is not None else (1024, 1024)
 
     def build(b):
-        n = normal_input(b)
-        uv = b.input("UV", "VECTOR", "Texture coordinate of the height image (link a UV Map "
-                     "node)", hide_value=True)
-        scale = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
-                        default=0.05, min_value=-1000.0, max_value=1000.0)
-        grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
-        if variant == "one-texel":
-            with b.frame("Listing 16 (level 0): forward differences one texel apart"):
-                hc = height_image_node(b, image, uv, "Linear", extension)
-                hr = height_image_node(b, image, b.vmath("ADD", uv, (1.0 / w, 0.0, 0.0)),
-                                        "Linear", extension)
-                hu = height_image_node(b, image, b.vmath("ADD", uv, (0.0, 1.0 / h, 0.0)),
-                                        "Linear", extension)
-                du, dv = b.math("SUBTRACT", hr, hc), b.math("SUBTRACT", hu, hc)
-        else:
-            with b.frame("Eq. 20/21: Sobel derivatives of the 4x4 block, bilinearly blended"):
-                f = b.vmath("SUBTRACT", b.vmath("MULTIPLY", uv, (float(w), float(h), 0.0)),
-                            (0.5, 0.5, 0.0))
-                fl = b.vmath("FLOOR", f)
-                tx, ty, _ = b.separate(b.sub(f, fl))
-                ax, ay = b.math("SUBTRACT", 1.0, tx), tx
-                bx, by = b.math("SUBTRACT", 1.0, ty), ty
-
-                def weights(p, q):
-                    smooth = [b.math("MULTIPLY", p, 0.25),
-                              b.math("MULTIPLY", b.math("ADD", b.math("MULTIPLY", p, 2.0), q), 0.25),
-                              b.math("MULTIPLY", b.math("ADD", p, b.math("MULTIPLY", q, 2.0)), 0.25),
-                              b.math("MULTIPLY", q, 0.25)]
-                    diff = [b.math("MULTIPLY", p, -0.5), b.math("MULTIPLY", q, -0.5),
-                            b.math("MULTIPLY", p, 0.5), b.math("MULTIPLY", q, 0.5)]
-                    return smooth, diff
-                smooth_u, diff_u = weights(ax, ay)
-                smooth_v, diff_v = weights(bx, by)
-                du, dv = 0.0, 0.0
-                for i in range(4):          # rows (v)
-                    for j in range(4):      # columns (u)
-                        centre = b.vmath("DIVIDE", b.vmath("ADD", fl, (j - 0.5, i - 0.5, 0.0)),
-                                         (float(w), float(h), 1.0))
-                        q = height_image_node(b, image, centre, "Closest", extension)
-                        du = b.math("ADD", du, b.math("MULTIPLY", b.math(
-                            "MULTIPLY", smooth_v[i], diff_u[j]), q))
-                        dv = b.math("ADD", dv, b.math("MULTIPLY", b.math(
-                            "MULTIPLY", diff_v[i], smooth_u[j]), q))
-        with b.frame("Listing 6 in surface gradients: W dH/du grad s + H dH/dv grad t"):
-            sg = b.add(b.scale(grads.outputs[0], b.math("MULTIPLY", du, float(w))),
-                       b.scale(grads.outputs[1], b.math("MULTIPLY", dv, float(h))))
-        b.output("Surface Gradient", "VECTOR", b.scale(sg, scale), "Surface gradient")
+        _height_map_body(b, lambda b: ImageTaps(b, image, extension), variant,
+                         lambda b: (float(w), float(h)))
     same_image = images_stale(lambda count: [image] * count)
 
     def stale(tree):
         # Rebuild when the image it samples was replaced or removed, or changed size.
         return same_image(tree) or tree.get("surfgrad_size") != [w, h]
 
-    label = {"hq": "HQ", "one-texel": "One-Texel"}[variant]
+    label = HEIGHT_LABELS[variant]
     name = f"SG Height Map {label}" + (f" [{image.name}]" if image is not None else "")
     tree = ensure_group(name, common.VERSION, build,
                         f"Scale-dependent bump from a height image ({label}, Listing 16 and "
@@ -86,6 +119,19 @@ def height_map_group(image=None, variant="hq", extension="REPEAT"):
                         stale=stale)
     tree["surfgrad_size"] = [w, h]
     return tree
+
+
+def height_map_sampler_group(variant="hq"):
+    """SG Height Map HQ / One-Texel (Sampler), Blender 5.0+: the same derivatives as
+    height_map_group from any image, given as a Sampler closure with its Width and Height."""
+    _check_variant(variant)
+    label = HEIGHT_LABELS[variant]
+    name = f"SG Height Map {label} (Sampler)"
+    common.require(name)
+    return ensure_group(name, common.VERSION,
+                        lambda b: _height_map_body(b, SamplerTaps, variant, texel_count_inputs),
+                        f"Scale-dependent bump from a height image ({label}, Listing 16 and "
+                        f"Listing 6), the image given as a Sampler closure")
 
 
 def height_map_forward_group(filter_width=None):
@@ -117,6 +163,31 @@ def height_map_forward_group(filter_width=None):
                         "(Listing 7, Listing 6)")
 
 
+def _triplanar_height_body(b, taps_for, sizes):
+    n = normal_input(b)
+    p = position_input(b, "Where to project from (unlinked: world position)")
+    scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
+                    min_value=0.0, max_value=1e4)
+    k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
+                min_value=1.0, max_value=64.0)
+    bump = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
+                   default=0.05, min_value=-1000.0, max_value=1000.0)
+    plane_taps = taps_for(b)
+    plane_sizes = sizes(b)
+    weights = triplanar_weights(b, n, k)
+    x, y, z = b.separate(b.scale(p, scale))
+    derivs = []
+    planes = (("X: (z, y)", (z, y)), ("Y: (x, z)", (x, z)), ("Z: (x, y)", (x, y)))
+    for (label, (u, v)), taps, (w, h) in zip(planes, plane_taps, plane_sizes):
+        with b.frame(f"Plane {label}: Listing 16 one-texel derivative, per world unit"):
+            uv = b.combine(u, v)
+            du, dv = _height_derivatives(b, taps, uv, w, h, "one-texel")
+            derivs.append((b.math("MULTIPLY", du, b.math("MULTIPLY", scale, w)),
+                           b.math("MULTIPLY", dv, b.math("MULTIPLY", scale, h))))
+    sg = triplanar_surface_gradient(b, n, weights, derivs)
+    b.output("Surface Gradient", "VECTOR", b.scale(sg, bump), "Surface gradient")
+
+
 def triplanar_height_group(image=None, extension="REPEAT", images=None):
     """SG Triplanar Height for height images: `image` on all three planes, or `images`, one
     per plane (X, Y, Z). Per plane the one-texel derivative of Listing 16 (three Linear taps),
@@ -125,34 +196,13 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
     plane_images = list(images) if images is not None else [image] * 3
     if len(plane_images) != 3:
         raise ValueError("triplanar height needs one image or three (for X, Y and Z)")
-    sizes = [(im.size[0], im.size[1]) if im is not None else (1024, 1024)
+    sizes = [(float(im.size[0]), float(im.size[1])) if im is not None else (1024.0, 1024.0)
              for im in plane_images]
 
     def build(b):
-        n = normal_input(b)
-        p = position_input(b, "Where to project from (unlinked: world position)")
-        scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
-                        min_value=0.0, max_value=1e4)
-        k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
-                    min_value=1.0, max_value=64.0)
-        bump = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
-                       default=0.05, min_value=-1000.0, max_value=1000.0)
-        weights = triplanar_weights(b, n, k)
-        x, y, z = b.separate(b.scale(p, scale))
-        derivs = []
-        planes = (("X: (z, y)", (z, y)), ("Y: (x, z)", (x, z)), ("Z: (x, y)", (x, y)))
-        for (label, (u, v)), img, (w, h) in zip(planes, plane_images, sizes):
-            with b.frame(f"Plane {label}: Listing 16 one-texel derivative, per world unit"):
-                uv = b.combine(u, v)
-                hc = height_image_node(b, img, uv, "Linear", extension)
-                hr = height_image_node(b, img, b.vmath("ADD", uv, (1.0 / w, 0.0, 0.0)),
-                                        "Linear", extension)
-                hu = height_image_node(b, img, b.vmath("ADD", uv, (0.0, 1.0 / h, 0.0)),
-                                        "Linear", extension)
-                derivs.append((b.math("MULTIPLY", b.math("SUBTRACT", hr, hc), b.math("MULTIPLY", scale, float(w))),
-                               b.math("MULTIPLY", b.math("SUBTRACT", hu, hc), b.math("MULTIPLY", scale, float(h)))))
-        sg = triplanar_surface_gradient(b, n, weights, derivs)
-        b.output("Surface Gradient", "VECTOR", b.scale(sg, bump), "Surface gradient")
+        _triplanar_height_body(
+            b, lambda b: [ImageTaps(b, im, extension) for im in plane_images],
+            lambda b: sizes)
 
     stale = images_stale(lambda count: [im for im in plane_images for _ in range(3)])
 
@@ -162,3 +212,17 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
     return ensure_group(name, common.VERSION, build,
                         "Listings 13 and 14 from a height image on all three planes",
                         stale=stale)
+
+
+def triplanar_height_sampler_group():
+    """SG Triplanar Height (Sampler), Blender 5.0+: one height image, given as a Sampler
+    closure with its Width and Height, on all three planes."""
+    name = "SG Triplanar Height (Sampler)"
+    common.require(name)
+
+    def build(b):
+        _triplanar_height_body(b, lambda b: [SamplerTaps(b)] * 3,
+                               lambda b: [texel_count_inputs(b)] * 3)
+    return ensure_group(name, common.VERSION, build,
+                        "Listings 13 and 14 from a height image on all three planes, the "
+                        "image given as a Sampler closure")

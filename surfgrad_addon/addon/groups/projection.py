@@ -4,7 +4,8 @@
 from ..node_builder import ensure_group
 from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
-from .common import decode_tangent_normal, directx_input, normal_input, position_input
+from .common import (SamplerTaps, decode_tangent_normal, directx_input, normal_input,
+                     position_input, require)
 
 
 def triplanar_weights(b, n, k):
@@ -69,6 +70,36 @@ def triplanar_group():
         b.output("Weights", "VECTOR", w, "The blend weights (x, y, z)")
     return ensure_group("SG Triplanar", common.VERSION, build,
                         "Listings 13 and 14: triplanar normal mapping as a volume bump map")
+
+
+def triplanar_sampler_group():
+    """SG Triplanar (Sampler), Blender 5.0+: SG Triplanar Coordinates and SG Triplanar in one,
+    the tangent-space normal map given as a Sampler closure evaluated on the three planes."""
+    name = "SG Triplanar (Sampler)"
+    require(name)
+
+    def build(b):
+        n = normal_input(b)
+        p = position_input(b, "Where to project from (unlinked: world position)")
+        scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
+                        min_value=0.0, max_value=1e4)
+        taps = SamplerTaps(b)
+        directx = directx_input(b)
+        k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
+                    min_value=1.0, max_value=64.0)
+        strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
+                           max_value=10.0)
+        weights = triplanar_weights(b, n, k)
+        with b.frame("Eq. 19 planes: X samples (z, y), Y (x, z), Z (x, y); Listing 2 each"):
+            x, y, z = b.separate(b.scale(p, scale))
+            colors = [taps.color(b.combine(u, v)) for u, v in ((z, y), (x, z), (x, y))]
+            derivs = [decode_tangent_normal(b, c, directx) for c in colors]
+        sg = triplanar_surface_gradient(b, n, weights, derivs)
+        b.output("Surface Gradient", "VECTOR", b.scale(sg, strength), "Surface gradient")
+        b.output("Weights", "VECTOR", b.combine(*weights), "The blend weights (x, y, z)")
+    return ensure_group(name, common.VERSION, build,
+                        "Listings 13 and 14: triplanar normal mapping as a volume bump map, "
+                        "the normal map given as a Sampler closure")
 
 
 def decal_coordinates_group():
