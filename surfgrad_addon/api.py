@@ -66,7 +66,7 @@ def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, 
     return bake(obj, output, space, resolution, uv_map, margin, overwrite=overwrite, log=log)
 
 
-def compare(obj, method, resolution=64, variant="hq", uv_map=None, image=None,
+def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
             with_heat_map=False):
     """Bake `method`'s node groups on obj with Cycles and compare texel by texel with the numpy
     reference; returns the report dict (mean / p99 / max angular error in degrees, texel

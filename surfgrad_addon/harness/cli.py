@@ -57,8 +57,10 @@ def main(argv=None, in_blender=False):
                                                     "render UV map)")
     cmp.add_argument("--image", default=None, help="normal map image to use instead of the "
                                                    "procedural test image")
-    cmp.add_argument("--variant", default="hq", choices=("forward", "one-texel", "hq"),
-                     help="height-map derivative variant")
+    cmp.add_argument("--variant", default=None,
+                     choices=("forward", "one-texel", "hq", "box", "sphere", "cylinder", "cone"),
+                     help="height-map derivative variant (default hq) or decal shape "
+                          "(default box)")
     cmp.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     call = sub.add_parser("compare-all", help="every method on every test object (needs bpy)")
     call.add_argument("--out", default="out/compare", help="output folder")

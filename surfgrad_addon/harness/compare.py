@@ -144,9 +144,10 @@ def angle_deg(a, b):
     return np.where(valid, ang, 180.0)
 
 
-def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq", log=print):
-    """Bake `method` on obj and compare with the reference. Returns (report dict, per-texel
-    error image (H, W) with NaN where not compared)."""
+def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print):
+    """Bake `method` on obj and compare with the reference (variant None: "hq" for the
+    height maps, the method's first otherwise, e.g. the box decal). Returns (report dict,
+    per-texel error image (H, W) with NaN where not compared)."""
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
@@ -157,6 +158,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     if reason is not None:
         raise CompareError(f"method {method!r} is not available in this Blender: {reason}")
     m = METHODS[method]
+    if variant is None:
+        variant = "hq" if "hq" in m.variants else m.variants[0]
     if variant not in m.variants and len(m.variants) > 1:
         raise CompareError(f"method {method!r} has no variant {variant!r}; use one of "
                            f"{list(m.variants)}")
@@ -244,7 +247,7 @@ def write_heat_map(path, heat, overwrite):
 
 
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
-        variant="hq", overwrite=False, log=print, from_open_file=False):
+        variant=None, overwrite=False, log=print, from_open_file=False):
     """The command: load, bake, compare, write the JSON and the heat map, print a summary."""
     import bpy
     json_out = Path(json_out)
@@ -303,7 +306,7 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print):
             report, heat = compare_object(obj, method, resolution, variant=variant,
                                           log=lambda *_: None)
             reports.append(report)
-            label = method + (f"-{variant}" if method == "height-map" else "")
+            label = method + (f"-{variant}" if len(METHODS[method].variants) > 1 else "")
             write_heat_map(out / "heat" / f"{label}_{name}.png", heat, overwrite=True)
             log(f"[{len(reports)}/{total}] {label:22s} {name:12s} p99 "
                 f"{report['p99_deg']:.4f} max {report['max_deg']:.4f} deg, bake "

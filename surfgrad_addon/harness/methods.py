@@ -156,7 +156,8 @@ DECAL_FALLOFF = 0.2
 
 
 def decal_projector(obj):
-    """A temporary empty projecting onto obj: centred on it, tilted, smaller than it."""
+    """A temporary empty projecting onto obj: centred on it, tilted, about its size (the
+    round shapes reach well into it: the cone is half as wide at its centre)."""
     import bpy
     from mathutils import Euler, Matrix, Vector
     empty = bpy.data.objects.new("SG Decal Projector (temporary)", None)
@@ -164,12 +165,15 @@ def decal_projector(obj):
     centre = obj.matrix_world @ Vector(np.mean(np.array(obj.bound_box), axis=0))
     size = max(obj.dimensions) * 0.5
     empty.matrix_world = (Matrix.Translation(centre) @ Euler((0.5, 0.3, 0.2)).to_matrix()
-                          .to_4x4() @ Matrix.Diagonal((0.55 * size, 0.4 * size, 1.2 * size, 1)))
+                          .to_4x4() @ Matrix.Diagonal((1.1 * size, 0.95 * size, 1.2 * size, 1)))
     bpy.context.view_layer.update()
     return empty
 
 
-def decal_graph(inp, nodes, links):
+def decal_graph(inp, nodes, links, shape=None, base=None, overwrite=False, opacity=1.0):
+    """SG Decal with its chain; `shape` (default: the method's variant, box for plain
+    "decal"), `base` a surface-gradient socket underneath, overwrite mode and opacity."""
+    shape = shape or (inp.variant if inp.variant in R.decals.DECAL_SHAPES else "box")
     tc = nodes.new("ShaderNodeTexCoord")
     tc.object = inp.projector
     decal = group_node(nodes, G.decal_group())
@@ -182,12 +186,35 @@ def decal_graph(inp, nodes, links):
     decal.inputs["Axis X"].default_value = ax
     decal.inputs["Axis Y"].default_value = ay
     decal.inputs["Falloff"].default_value = DECAL_FALLOFF
+    decal.inputs["Shape"].default_value = R.decals.DECAL_SHAPES.index(shape)
+    decal.inputs["Overwrite"].default_value = overwrite
+    decal.inputs["Opacity"].default_value = opacity
+    if base is not None:
+        links.new(base, decal.inputs["Base Gradient"])
     return decal.outputs["Surface Gradient"]
 
 
 def _decal_reference(inp, td):
+    shape = inp.variant if inp.variant in R.decals.DECAL_SHAPES else "box"
     return M.decal_surfgrad(td, inp.pixels("normal"), np.array(inp.projector.matrix_world),
-                            falloff=DECAL_FALLOFF)
+                            falloff=DECAL_FALLOFF, shape=shape)
+
+
+# Overwrite mode: a cylinder decal replacing (at 70 %) the detail map underneath.
+OVERWRITE_OPACITY = 0.7
+
+
+def _decal_overwrite_graph(inp, nodes, links):
+    base = _procedural_basis_graph(inp, nodes, links)
+    return decal_graph(inp, nodes, links, shape="cylinder", base=base, overwrite=True,
+                       opacity=OVERWRITE_OPACITY)
+
+
+def _decal_overwrite_reference(inp, td):
+    n, base = M.procedural_basis_surfgrad(td, inp.pixels("detail"), inp.detail_uv)
+    return M.decal_surfgrad(td, inp.pixels("normal"), np.array(inp.projector.matrix_world),
+                            falloff=DECAL_FALLOFF, shape="cylinder", overwrite=True,
+                            opacity=OVERWRITE_OPACITY, base_sg=base)
 
 
 LAYER_DETAIL, LAYER_NOISE = 0.5, 0.02
@@ -469,8 +496,10 @@ _REGISTRY = (
            lambda inp, td: M.triplanar_height_surfgrad(td, inp.pixels("height"),
                                                        bump_scale=HEIGHT_BUMP_SCALE),
            stability=False),          # the triplanar Listings, covered by "triplanar"
-    Method("decal", decal_graph, _decal_reference,
+    Method("decal", decal_graph, _decal_reference, variants=R.decals.DECAL_SHAPES,
            setup=lambda obj: {"projector": decal_projector(obj)}),
+    Method("decal-overwrite", _decal_overwrite_graph, _decal_overwrite_reference,
+           setup=lambda obj: {"projector": decal_projector(obj)}, stability=False),
     Method("parallax", _parallax_graph, _parallax_reference, mikktspace=True),
     Method("post-resolve", _post_resolve_graph, _post_resolve_reference,
            stability=False, mikktspace=True),          # two resolves of the methods the suite already runs

@@ -26,4 +26,8 @@ from .displacement import displace_along_normal, displaced_normal
 from .baselines import (bump_screen_derivative_lxengine, decal_projector_normal,
                         perturb_normal_perlin1985, triplanar_derivative_perlin, triplanar_geiss)
 from .raster import MeshArrays, TexelData, rasterize
+from .decals import (DECAL_SHAPES, decal_weight_box, decal_weight_cone,  # noqa: F401
+                     decal_weight_cylinder, decal_weight_sphere, surfgrad_from_decal_box,
+                     surfgrad_from_decal_cone, surfgrad_from_decal_cylinder,
+                     surfgrad_from_decal_sphere)
 from . import images, meshes, methods

@@ -9,6 +9,7 @@ and y one along t (TexelData.texel_steps). Colour images are normal maps in [0, 
 import numpy as np
 
 from . import listings as L
+from . import decals as D
 from .cycles_bake import bump_differentials, uv_step
 from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin1985, triplanar_geiss
 from .height_map import deriv_from_height_map, deriv_three_tap
@@ -171,21 +172,23 @@ def decal_frame(projector):
     return axes[:, 0], axes[:, 1], axes[:, 2], np.linalg.inv(m)
 
 
-def decal_surfgrad(td, image, projector, strength=1.0, falloff=0.2):
+def decal_surfgrad(td, image, projector, strength=1.0, falloff=0.2, shape="box",
+                   overwrite=False, opacity=1.0, base_sg=None):
     """SG Decal (L15): the map projected along the projector's -z over [-1, 1]^2 of its local
-    x, y, faded to zero over `falloff` of its depth toward the box's near and far faces
-    (the falloff is a bump scale, footnote 2 of the paper); outside the box nothing."""
+    x, y, weighted by the projector shape's falloff (reference/decals.py; a bump scale,
+    footnote 2 of the paper) and by `opacity`; added to `base_sg` (the surface gradient
+    underneath) or, with `overwrite`, replacing it by that weight."""
     n = unit_base_normal(td)
     ax, ay, _, to_local = decal_frame(projector)
     local = td.position @ to_local[:3, :3].T + to_local[:3, 3]
-    inside = np.all(np.abs(local[:, :2]) <= 1.0, axis=-1)
-    fade = np.clip((1.0 - np.abs(local[:, 2])) / max(falloff, 1e-6), 0.0, 1.0)
     st = local[:, :2] * 0.5 + 0.5
     # A tangent-space normal map is TBN-style (slopes in its own unit frame), so its
     # derivative goes straight onto the unit projector axes, independent of the box size.
     deriv = L.tspace_normal_to_derivative(decode_normal_map(sample_image(image, st)))
-    sg = L.surfgrad_from_decal(n, deriv, ax, ay)
-    return n, (strength * inside * fade)[:, None] * sg
+    weight = opacity * D.WEIGHTS[shape](local, falloff)
+    sg = strength * opacity * D.SURFGRAD_FROM_DECAL[shape](n, deriv, ax, ay, local, falloff)
+    base = np.zeros_like(sg) if base_sg is None else base_sg
+    return n, D.decal_layer(base, sg, weight, overwrite)
 
 
 def resolve(n_sg):

@@ -116,6 +116,47 @@ def decal_coordinates_group():
                         "Texture, then SG Decal")
 
 
+DECAL_SHAPES = ("box", "sphere", "cylinder", "cone")      # the Shape input's 0, 1, 2, 3
+SHAPE_TOOLTIP = ("Projector volume, in the projector's [-1, 1] cube: 0 box (fades toward its "
+                 "near and far faces), 1 sphere (fades toward its surface), 2 cylinder along "
+                 "the projection axis (fades toward its side and ends), 3 cone with its apex "
+                 "at the projector (+z) and radius 1 at the far end (fades toward its side "
+                 "and ends)")
+
+
+def _ramp(b, distance, falloff):
+    """clamp(distance / falloff, 0, 1): 1 inside, 0 at the shape's boundary."""
+    fade = b.math("DIVIDE", distance, b.math("MAXIMUM", falloff, 1e-6))
+    return b.math("MINIMUM", b.math("MAXIMUM", fade, 0.0), 1.0)
+
+
+def decal_weight(b, q, shape, falloff):
+    """Each shape's weight in [0, 1] (reference/decals.py has the same four), selected by
+    `shape`; every one is a bump scale (the paper's footnote 2), so the result stays a
+    surface gradient."""
+    qx, qy, qz = b.separate(q)
+    depth = _ramp(b, b.math("SUBTRACT", 1.0, b.math("ABSOLUTE", qz)), falloff)
+    rho = b.length(b.combine(qx, qy))
+    with b.frame("Box: inside |x|, |y| <= 1, faded along depth"):
+        inside = b.math("MULTIPLY", b.math("LESS_THAN", b.math("ABSOLUTE", qx), 1.000001),
+                        b.math("LESS_THAN", b.math("ABSOLUTE", qy), 1.000001))
+        box = b.math("MULTIPLY", inside, depth)
+    with b.frame("Sphere: faded toward |q| = 1"):
+        sphere = _ramp(b, b.math("SUBTRACT", 1.0, b.length(q)), falloff)
+    with b.frame("Cylinder: faded toward rho = 1 and the ends"):
+        cylinder = b.math("MULTIPLY", _ramp(b, b.math("SUBTRACT", 1.0, rho), falloff), depth)
+    with b.frame("Cone: radius (1 - z) / 2, faded toward its side and the ends"):
+        radius = b.math("MAXIMUM", b.math("MULTIPLY", b.math("SUBTRACT", 1.0, qz), 0.5), 1e-6)
+        cone = b.math("MULTIPLY", _ramp(b, b.math("SUBTRACT", 1.0, b.math(
+            "DIVIDE", rho, radius)), falloff), depth)
+    with b.frame("The chosen shape"):
+        total = 0.0
+        for index, weight in enumerate((box, sphere, cylinder, cone)):
+            pick = b.math("COMPARE", shape, float(index), 0.5)
+            total = b.math("ADD", total, b.math("MULTIPLY", pick, weight))
+        return total
+
+
 def decal_group():
     def build(b):
         n = normal_input(b)
@@ -132,23 +173,31 @@ def decal_group():
                          "length)", default=(0.0, 1.0, 0.0), subtype="DIRECTION")
         strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
                            max_value=10.0)
-        falloff = b.input("Falloff", "FLOAT", "Depth over which the decal fades out toward the "
-                          "projector box's near and far faces (fraction of its depth)",
+        falloff = b.input("Falloff", "FLOAT", "Distance over which the decal fades out toward "
+                          "its shape's boundary (fraction of the projector's half-size)",
                           default=0.2, min_value=0.0, max_value=1.0)
-        qx, qy, qz = b.separate(q)
-        with b.frame("Falloff as a bump scale: box mask times depth fade"):
-            inside = b.math("MULTIPLY", b.math("LESS_THAN", b.math("ABSOLUTE", qx), 1.000001),
-                            b.math("LESS_THAN", b.math("ABSOLUTE", qy), 1.000001))
-            fade = b.math("DIVIDE", b.math("SUBTRACT", 1.0, b.math("ABSOLUTE", qz)),
-                          b.math("MAXIMUM", falloff, 1e-6))
-            fade = b.math("MINIMUM", b.math("MAXIMUM", fade, 0.0), 1.0)
-            scale = b.math("MULTIPLY", b.math("MULTIPLY", inside, fade), strength)
+        shape = b.input("Shape", "INT", SHAPE_TOOLTIP, default=0, min_value=0, max_value=3)
+        base = b.input("Base Gradient", "VECTOR", "The surface gradient underneath (the sum "
+                       "of the layers below). Add mode adds the decal to it; Overwrite "
+                       "replaces it where the decal is, faded by Opacity and the falloff",
+                       hide_value=True)
+        overwrite = b.input("Overwrite", "BOOLEAN", "Off: add (the surface gradients sum). "
+                            "On: the decal's gradient replaces the Base Gradient", default=False)
+        opacity = b.input("Opacity", "FLOAT", "How much of the decal: scales it in Add mode, "
+                          "blends from the Base Gradient to it in Overwrite mode",
+                          default=1.0, min_value=0.0, max_value=1.0)
+        with b.frame("Falloff as a bump scale: the shape's weight"):
+            weight = b.math("MULTIPLY", decal_weight(b, q, shape, falloff), opacity)
         with b.frame("Listing 2"):
             dx, dy = decode_tangent_normal(b, color, directx)
         with b.frame("Listing 15: grad = deriv.x X + deriv.y Y, then Listing 8"):
             grad = b.add(b.scale(axis_x, dx), b.scale(axis_y, dy))
-            sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
-        b.output("Surface Gradient", "VECTOR", b.scale(sg, scale), "Surface gradient")
+            sg = b.scale(b.sub(grad, b.scale(n, b.dot(n, grad))), strength)
+        with b.frame("Add: base + a sg; Overwrite: base + a (sg - base) = lerp(base, sg, a)"):
+            out = b.add(base, b.scale(b.sub(sg, b.scale(base, overwrite)), weight))
+        b.output("Surface Gradient", "VECTOR", out, "Surface gradient (with the Base "
+                 "Gradient, added or overwritten)")
     return ensure_group("SG Decal", common.VERSION, build,
-                        "Listing 15: a decal projector as a volume bump map, faded by its "
-                        "falloff")
+                        "Listing 15: a decal projector (box, sphere, cylinder or cone) as a "
+                        "volume bump map, faded by its falloff, added to or overwriting the "
+                        "surface gradient underneath")
