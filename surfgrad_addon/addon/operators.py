@@ -4,8 +4,10 @@ undoable and reports what it did or why it could not. The work is in plain funct
 from scripts and tests); the operators wrap them.
 """
 
+import math
+
 import bpy
-from bpy.props import StringProperty
+from bpy.props import EnumProperty, StringProperty
 
 from . import groups as G
 
@@ -119,14 +121,38 @@ def _move_input(tree, old, new):
             pass
 
 
-def add_decal_projector(context, tree, image=None, name="SG Decal Projector"):
-    """An empty (a cube display, the projection box) at the 3D cursor, and in `tree` the decal
-    chain: Texture Coordinate (object = the empty) -> SG Decal Coordinates -> Image Texture ->
-    SG Decal, whose Axis X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
+DECAL_SHAPES = ("box", "sphere", "cylinder", "cone")     # SG Decal's Shape input: 0 .. 3
+# The projector's own display, and outline empties parented to it where Blender has no such
+# display: its empties draw a circle in their XZ plane and a cone along +Y (apex at y = 2), so
+# rotated +90 degrees about X they outline the cylinder's ends and the cone (apex at z = +1,
+# radius 1 at z = -1) of SG Decal's volume.
+DECAL_DISPLAY = {"box": ("CUBE", ()), "sphere": ("SPHERE", ()),
+                 "cylinder": ("SINGLE_ARROW", (("CIRCLE", (0.0, 0.0, 1.0)),
+                                               ("CIRCLE", (0.0, 0.0, -1.0)))),
+                 "cone": ("SINGLE_ARROW", (("CONE", (0.0, 0.0, -1.0)),))}
+
+
+def add_decal_projector(context, tree, image=None, name="SG Decal Projector", shape="box"):
+    """An empty at the 3D cursor whose display shows the projector's volume (`shape`: box,
+    sphere, cylinder or cone), and in `tree` the decal chain: Texture Coordinate (object = the
+    empty) -> SG Decal Coordinates -> Image Texture -> SG Decal (its Shape set), whose Axis
+    X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
+    if shape not in DECAL_SHAPES:
+        raise SurfgradError(f"decal shape {shape!r}: use one of {', '.join(DECAL_SHAPES)}")
     empty = bpy.data.objects.new(name, None)
-    empty.empty_display_type = "CUBE"
+    display, outlines = DECAL_DISPLAY[shape]
+    empty.empty_display_type = display
     empty.location = context.scene.cursor.location
     context.scene.collection.objects.link(empty)
+    for kind, offset in outlines:
+        outline = bpy.data.objects.new(f"{name} ({shape} outline)", None)
+        outline.empty_display_type = kind
+        outline.parent = empty
+        outline.location = offset
+        outline.rotation_euler = (math.radians(90.0), 0.0, 0.0)
+        outline.hide_select = True          # select and scale the projector, not its outline
+        outline.hide_render = True
+        context.scene.collection.objects.link(outline)
     tc = tree.nodes.new("ShaderNodeTexCoord")
     tc.object = empty
     coords = _group_node(tree, G.decal_coordinates_group, (tc.location.x + 200, tc.location.y))
@@ -135,6 +161,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector"):
     tex.extension = "CLIP"
     tex.location = (coords.location.x + 220, coords.location.y)
     decal = _group_node(tree, G.decal_group, (tex.location.x + 300, tex.location.y))
+    decal.inputs["Shape"].default_value = DECAL_SHAPES.index(shape)
     links = tree.links
     links.new(tc.outputs["Object"], coords.inputs[0])
     links.new(tc.outputs["Object"], decal.inputs["Decal Coordinates"])
@@ -229,6 +256,15 @@ material; the decal's axes follow the empty"""
 
     image: StringProperty(name="Image", description="Decal normal map (an image in this file)",
                           default="")
+    shape: EnumProperty(
+        name="Shape", description="The projector's volume (SG Decal's Shape)", default="box",
+        items=(("box", "Box", "Projects the whole image square; fades toward the near and "
+                "far faces"),
+               ("sphere", "Sphere", "A round decal fading toward the ball's surface"),
+               ("cylinder", "Cylinder", "A round decal along the projection axis, fading "
+                "toward its side and ends"),
+               ("cone", "Cone", "Narrows toward the projector (apex at +Z), fading toward its "
+                "side and ends")))
 
     def execute(self, context):
         try:
@@ -237,12 +273,13 @@ material; the decal's axes follow the empty"""
             if self.image and image is None:
                 raise SurfgradError(f"No image named {self.image!r} in this file: open it "
                                     f"first (Image > Open)")
-            empty, _ = add_decal_projector(context, tree, image)
+            empty, _ = add_decal_projector(context, tree, image, shape=self.shape)
         except SurfgradError as err:
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
-        self.report({'INFO'}, f"Added {empty.name!r}: scale it to size the decal; add its SG "
-                              f"Decal output to your surface gradients")
+        self.report({'INFO'}, f"Added {empty.name!r} ({self.shape}): scale it to size the "
+                              f"decal; link your surface gradients into SG Decal's Base "
+                              f"Gradient (add or overwrite)")
         return {'FINISHED'}
 
 

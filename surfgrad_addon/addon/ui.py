@@ -18,7 +18,9 @@ ADD_MENU = "NODE_MT_shader_node_add_all"
 
 
 def menu_group_names():
-    return [name for name, _ in groups.MENU_GROUPS]
+    """The shader groups the menu offers on this Blender (the Sampler groups from 5.0, the
+    per-image ones they supersede before)."""
+    return [name for name, _ in groups.MENU_GROUPS if groups.offered(name)]
 
 
 def shader_tree_problem(context):
@@ -104,6 +106,11 @@ def add_group_node(tree, name, location=(0.0, 0.0)):
         raise KeyError(f"unknown surface-gradient group {name!r}; the menu has "
                        + ", ".join(builders))
     builder = builders[name]
+    reason = groups.unavailable_reason(name)
+    if reason:
+        raise ValueError(reason)
+    if name in groups.SAMPLER_GROUPS:
+        return _add_sampler_group(tree, name, builder(), location)
     if image_bound(name):
         # Shader groups cannot take images as inputs: an image-bound group (height map,
         # parallax, triplanar height) is built for the image of the active Image Texture node.
@@ -117,6 +124,31 @@ def add_group_node(tree, name, location=(0.0, 0.0)):
     node = tree.nodes.new("ShaderNodeGroup")
     node.node_tree = group
     node.location = location
+    node.select = True
+    tree.nodes.active = node
+    return node
+
+
+def _add_sampler_group(tree, name, group, location):
+    """A Sampler group (Blender 5.0+) with its Sampler zone: around the active Image Texture
+    (its image's size into Width/Height, whatever fed its Vector into the group's UV), or an
+    empty zone to put an Image Texture in."""
+    from .sampler_zone import sampler_zone
+    tex = tree.nodes.active
+    tex = tex if tex is not None and tex.bl_idname == "ShaderNodeTexImage" else None
+    for node in tree.nodes:
+        node.select = False
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    node.location = location
+    zone, _, vector = sampler_zone(tree.nodes, tree.links, tex,
+                                   (location[0] - 220, location[1] - 80))
+    tree.links.new(zone.outputs[0], node.inputs["Sampler"])
+    if vector is not None and "UV" in node.inputs:
+        tree.links.new(vector, node.inputs["UV"])
+    if tex is not None and tex.image is not None and "Width" in node.inputs:
+        node.inputs["Width"].default_value = tex.image.size[0] or 1
+        node.inputs["Height"].default_value = tex.image.size[1] or 1
     node.select = True
     tree.nodes.active = node
     return node
@@ -186,11 +218,17 @@ in this file first if needed"""
         tree = space.edit_tree
         unbound = not is_geometry and self.group in dict(groups.MENU_GROUPS) and image_bound(self.group) \
             and active_image(tree) is None
+        empty_zone = self.group in groups.SAMPLER_GROUPS and (
+            tree.nodes.active is None or tree.nodes.active.bl_idname != "ShaderNodeTexImage")
         try:
             add_group_node(tree, self.group, space.cursor_location)
         except (KeyError, ValueError) as ex:
             self.report({'ERROR'}, str(ex.args[0]))
             return {'CANCELLED'}
+        if empty_zone:
+            self.report({'INFO'}, f"{self.group} added with an empty Sampler zone: put an "
+                        f"Image Texture in it (Vector from the zone, Color to its output) and "
+                        f"set Width and Height to the image's size")
         if unbound:
             self.report({'WARNING'}, f"{self.group} samples its height image itself: make an "
                         f"Image Texture node holding the image active, then add it again")

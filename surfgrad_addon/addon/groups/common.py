@@ -8,7 +8,7 @@ from ..node_builder import ensure_group, running_line
 from ...reference.vecmath import DIVIDE_FLOOR
 
 
-VERSION = 14
+VERSION = 15
 
 
 class FeatureUnavailable(ValueError):
