@@ -72,6 +72,17 @@ EXHIBITS = [
     ("blend-rnm", "blend-rnm", None, "image"),
     # Back faces (a plane turned away from the camera): Cycles and EEVEE flip the shading
     # normal there, and nodes differ in how they treat it.
+    # Sampler groups (5.0+; skipped before): the image as a closure, 'Linear' taps.
+    ("height-map-hq-sampler", "height-map-sampler", "hq", "image"),
+    ("height-map-one-texel-sampler", "height-map-sampler", "one-texel", "image"),
+    ("triplanar-sampler", "triplanar-sampler", None, "image"),
+    ("triplanar-height-sampler", "triplanar-height-sampler", None, "image"),
+    ("parallax-sampler", "parallax-sampler", None, "image"),
+    # Decal shapes and the overwrite mode.
+    ("decal-sphere", "decal", "sphere", "image"),
+    ("decal-cylinder", "decal", "cylinder", "image"),
+    ("decal-cone", "decal", "cone", "image"),
+    ("decal-overwrite", "decal-overwrite", None, "image"),
     ("back-normal-map", "normal-map", None, "image"),
     ("back-triplanar", "triplanar", None, "image"),
     ("back-volume-noise", "volume-noise", None, "exact"),
@@ -105,6 +116,12 @@ BACK = ("back-",)             # exhibits on a back-facing plane instead of a sph
 # constant colour on the UV sphere: Cycles 5.2 vs 5.0 0.085 / - / 0.15; so every exhibit that
 # reads the MikkTSpace frame (normal-map, parallax, post-resolve, layered, blend-*) sits at
 # 0.083-0.094 / 0.23-0.25 / 0.25-0.63 on 5.2, inside the 'image' bounds, which stay as they are.
+# Sampler groups (the image as a closure, evaluated per tap) and the decal shapes and overwrite
+# mode, bpy 5.0.1 and 5.2.3 on the same Mesa, worst of each (mean / p99 / max): sampler groups
+# 0.050 / 0.135 / 0.21 (5.2.3's parallax-sampler 0.084 / 0.23 / 0.25: it reads the MikkTSpace
+# frame, see above), the HQ sampler's 'Linear' taps at texel centres included; decal shapes
+# 0.049 / 0.117 / 0.19; decal-overwrite 0.049 / 0.111 / 1.25 (its max on a triangle edge of
+# the detail map's UV basis underneath). All inside the 'image' bounds, unchanged.
 TOLERANCES = {
     "exact": (0.1, 0.25, 8.0),
     "image": (0.15, 0.75, 8.0),
@@ -241,7 +258,7 @@ def _child(out_dir):
         else:
             inp = C.Inputs(obj=obj, uv_map="UVMap", detail_uv="Detail", images=images,
                            variant=variant or "hq")
-            if method == "decal":
+            if method.startswith("decal"):
                 inp.projector = methods.decal_projector(obj)
             if method == "displace-bump":
                 methods.add_displace_modifier(obj)
@@ -250,7 +267,8 @@ def _child(out_dir):
             for node in nodes:                    # magnify the triplanar projections
                 tree = getattr(node, "node_tree", None)
                 if tree is not None and tree.name.startswith(("SG Triplanar Coordinates",
-                                                              "SG Triplanar Height")):
+                                                              "SG Triplanar Height",
+                                                              "SG Triplanar (Sampler)")):
                     node.inputs["Scale"].default_value = TRIPLANAR_SCALE
             normal = out if out.name == "Normal" else C.resolve_sg(nodes, links, out)
         colour = nodes.new("ShaderNodeVectorMath")
@@ -298,7 +316,8 @@ def _child(out_dir):
     np.savez(out_dir / "renders.npz", **pixels)
     (out_dir / "renders.json").write_text(json.dumps({
         "ncol": ncol, "nrow": nrow, "cell": CELL, "exhibits": [e[0] for e in EXHIBITS],
-        "groups": used, "skipped": skipped, "menu_groups": [name for name, _ in G.MENU_GROUPS],
+        "groups": used, "skipped": skipped, "menu_groups": [name for name, _ in G.MENU_GROUPS
+                                                   if G.unavailable_reason(name) is None],
         "seconds": seconds, "renderer": renderer}, indent=1))
     print("SG_EEVEE_DONE", flush=True)
 
