@@ -124,6 +124,59 @@ def _layers_sg(count):
     return build
 
 
+# Sampler groups (5.0+) against the per-image groups they stand for: same taps, the image a
+# closure evaluated per tap instead of an Image Texture node bound inside the group.
+HEIGHT_BUMP = 0.05
+
+
+def _sampler(g, image):
+    from ..methods import sampler_socket
+    return sampler_socket(g.nodes, g.links, image)
+
+
+def _hq_image(g, ctx):
+    node = g.group(G.height_map_group(ctx["height"], "hq"), UV=g.uv("UVMap"),
+                   Bump_Scale=HEIGHT_BUMP)
+    return g.resolve(node.outputs[0])
+
+
+def _hq_sampler(g, ctx):
+    w, h = ctx["height"].size[:2]
+    node = g.group(G.height_map_sampler_group("hq"), UV=g.uv("UVMap"), Bump_Scale=HEIGHT_BUMP,
+                   Sampler=_sampler(g, ctx["height"]), Width=w, Height=h)
+    return g.resolve(node.outputs[0])
+
+
+def _tri_sampler(g, ctx):
+    node = g.group(G.triplanar_sampler_group(), Sampler=_sampler(g, ctx["normal"]))
+    return g.resolve(node.outputs["Surface Gradient"])
+
+
+def _tri_height_image(g, ctx):
+    node = g.group(G.triplanar_height_group(ctx["height"]), Bump_Scale=HEIGHT_BUMP)
+    return g.resolve(node.outputs[0])
+
+
+def _tri_height_sampler(g, ctx):
+    w, h = ctx["height"].size[:2]
+    node = g.group(G.triplanar_height_sampler_group(), Bump_Scale=HEIGHT_BUMP,
+                   Sampler=_sampler(g, ctx["height"]), Width=w, Height=h)
+    return g.resolve(node.outputs[0])
+
+
+def _parallax(sampler):
+    def build(g, ctx):
+        if sampler:
+            par = g.group(G.parallax_sampler_group(), UV=g.uv("UVMap"), Bump_Scale=0.1,
+                          Sampler=_sampler(g, ctx["height"]))
+        else:
+            par = g.group(G.parallax_group(ctx["height"]), UV=g.uv("UVMap"), Bump_Scale=0.1)
+        nm = g.group(G.normal_map_group("UVMap"), Color=g.image(ctx["normal"],
+                                                                 par.outputs["UV"]))
+        return g.resolve(nm.outputs[0])
+    return build
+
+
 # (key, label, build, twin key, target key, look: "twin" | method name for the reference)
 CASES = [
     ("none", "no perturbation", lambda g, ctx: None, None, None, None),
@@ -147,6 +200,26 @@ CASES = [
     ("layers3-sg", "3 SG Normal Map -> 2 SG Combine -> SG Resolve", _layers_sg(3),
      "layers3-builtin", None, None),
 ]
+# Blender 5.0+: each Sampler group against its per-image group (the twin).
+SAMPLER_CASES = [
+    ("hq-image", "SG Height Map HQ [image] (per-image)", _hq_image, None, None, None),
+    ("hq-sampler", "SG Height Map HQ (Sampler)", _hq_sampler, "hq-image", None, "twin"),
+    ("tri-sampler", "SG Triplanar (Sampler), one zone", _tri_sampler, "tri-sg", None, "twin"),
+    ("triheight-image", "SG Triplanar Height [image] (per-image)", _tri_height_image, None,
+     None, None),
+    ("triheight-sampler", "SG Triplanar Height (Sampler)", _tri_height_sampler,
+     "triheight-image", None, "twin"),
+    ("parallax-image", "SG Parallax [image] (per-image) + SG Normal Map", _parallax(False),
+     None, None, None),
+    ("parallax-sampler", "SG Parallax (Sampler) + SG Normal Map", _parallax(True),
+     "parallax-image", None, "twin"),
+]
+
+
+def cases():
+    """The cases this Blender can render: the Sampler ones from 5.0."""
+    from ...addon.sampler_zone import has_closures
+    return CASES + (SAMPLER_CASES if has_closures() else [])
 
 
 # Scene ------------------------------------------------------------------------------------------
@@ -180,7 +253,8 @@ def build_scene(size, samples):
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     sun.rotation_euler = Euler((0.7, 0.3, 0.4))
     scene.collection.objects.link(sun)
-    ctx = {"normal": _float_image("rc_normal", R.images.hemisphere_tile_image(256))}
+    ctx = {"normal": _float_image("rc_normal", R.images.hemisphere_tile_image(256)),
+           "height": _float_image("rc_height", R.images.wave_height_image(64, (4.0, 2.0)))}
     return scene, obj, ctx
 
 
@@ -231,10 +305,10 @@ def _look(obj, mats, key, look, ctx, log):
     bake-vs-reference figures of the method it uses."""
     from .. import bake, compare
     if look == "twin":
-        twin = next(c for c in CASES if c[0] == key)[3]
+        twin = next(c for c in cases() if c[0] == key)[3]
         px = {}
         for k in (key, twin):
-            build = next(c for c in CASES if c[0] == k)[2]
+            build = next(c for c in cases() if c[0] == k)[2]
             px[k], cov, _ = bake.bake_vector(obj, lambda nodes, links, b=build:
                                              b(Graph(nodes, links), ctx), 128, 128, "UVMap")
         both = cov
@@ -256,7 +330,7 @@ def run(out_dir, quick=False, overwrite=False, log=print):
     size, samples, repeats = (QUICK["size"], QUICK["samples"], QUICK["repeats"]) if quick \
         else (SIZE, SAMPLES, REPEATS)
     scene, obj, ctx = build_scene(size, samples)
-    mats = {key: material(f"RC {key}", build, ctx) for key, _, build, *_ in CASES}
+    mats = {key: material(f"RC {key}", build, ctx) for key, _, build, *_ in cases()}
     counts = {key: node_counts(m.node_tree) for key, m in mats.items()}
     frame = out / "frame.png"
     times = {key: [] for key in mats}
@@ -284,7 +358,7 @@ def run(out_dir, quick=False, overwrite=False, log=print):
             log(f"  EEVEE {key}: first {first:.2f} s, later {later:.2f} s")
         scene.render.engine = "CYCLES"
     rows = []
-    for key, label, _, twin, target, look in CASES:
+    for key, label, _, twin, target, look in cases():
         row = {"key": key, "label": label, "seconds": med[key], **counts[key]}
         if twin:
             row["twin"] = twin
