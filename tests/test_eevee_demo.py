@@ -59,12 +59,17 @@ FRONT_HALF_TEXEL = 2.0        # pixel <= half a texel at the front: magnified up
 #   height image: 28; SG Height Map's taps are 'Closest' or at texel centres).
 # - parallax: 256 px images on a 2.2-unit plane: 116.
 # - noise, displacement: procedural, no image.
+# - decal-shapes: the 128 px decal over a 2 x 0.62-unit projector: 128 / 1.24 = 103 (the
+#   256 px detail tile on spheres of radius 0.8: 256 / (0.8 pi) = 102).
+# - sampler (5.0+): 32 px height images on unit spheres: 32 / pi = 10.2.
 TEXELS_PER_UNIT = {"layered": 163.0, "triplanar": 307.0, "decal": 197.0, "noise": 0.0,
-                   "height": 57.0, "displacement": 0.0, "parallax": 116.0}
+                   "height": 57.0, "displacement": 0.0, "parallax": 116.0,
+                   "decal-shapes": 103.0, "sampler": 10.2}
 OBJECT_RADIUS = 1.0           # the exhibits' objects reach ~1 unit towards the camera
 MIN_WIDTH = 480
 BAND = 0.6                    # half-height (units, at the objects) of the rendered band
-BAND_OVERRIDE = {"decal": 0.9}   # the whole decal
+BAND_OVERRIDE = {"decal": 0.9,    # the whole decal
+                 "decal-shapes": 2.3}   # both rows
 
 
 # Angular difference EEVEE vs Cycles in degrees per material over the compared pixels: bounds
@@ -124,6 +129,8 @@ def family(exhibit, label):
         return "pom-contour"
     if exhibit == "height" and label == "forward":
         return "screen-derivative"
+    if exhibit == "sampler" and label == "usual":
+        return "screen-derivative"            # Blender's Bump node: forward differences
     return "floor"
 
 

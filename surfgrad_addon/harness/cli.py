@@ -93,6 +93,8 @@ def main(argv=None, in_blender=False):
     db.add_argument("--pictures", default=None, help="folder for a Cycles render of each "
                                                      "exhibit")
     db.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    db.add_argument("--closures", action="store_true", help="the Sampler exhibit alone "
+                    "(Blender 5.0+; the repository's demo_closures.blend)")
     args = parser.parse_args(argv)
     try:
         if args.command == "demo":
@@ -118,7 +120,7 @@ def main(argv=None, in_blender=False):
             run_bake_normal_map(args)
         elif args.command == "demo-blend":
             from . import demo
-            cams = demo.save_demo(args.out, args.overwrite)
+            cams = demo.save_demo(args.out, args.overwrite, closures=args.closures)
             if args.pictures:
                 demo.render_pictures(cams, args.pictures)
         elif args.command == "compare-all":

@@ -5,6 +5,7 @@ every exhibit (before/after pictures for the README).
     python -m surfgrad_addon demo-blend --out demo.blend [--pictures DIR]
 """
 
+import json
 import math
 from pathlib import Path
 
@@ -14,9 +15,11 @@ from .graph import Graph
 from ..reference import images as T
 from ..addon import groups as G
 from ..addon import compat
+from ..addon.sampler_zone import has_closures
 
-EXHIBIT_SPACING = 6.0
-HEIGHT_BUMP = 0.2
+EXHIBIT_SPACING = 8.0          # wider than any exhibit camera sees of its neighbours
+HEIGHT_BUMP = 0.35
+NOISE_AMOUNT = 0.16          # strong enough that Perlin's unprojected addition shows
 
 
 def _image(name, pixels):
@@ -65,10 +68,22 @@ def _label(text, location, size=0.32):
     obj.location = location
     obj.rotation_euler = (math.radians(90), 0, 0)
     bpy.context.scene.collection.objects.link(obj)
-    mat = bpy.data.materials.new("Label")
-    mat.diffuse_color = (0.05, 0.05, 0.05, 1)
-    curve.materials.append(mat)
+    curve.materials.append(_label_material())
     return obj
+
+
+def _label_material():
+    """Near-black matte text on the grey sky, in the renders (its node tree's Principled BSDF:
+    every line makes one from 5.0) and in the viewport (diffuse_color)."""
+    import bpy
+    mat = bpy.data.materials.get("Label")
+    if mat is None:
+        mat = compat.new_material("Label")
+        bsdf = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+        bsdf.inputs["Base Color"].default_value = (0.012, 0.012, 0.014, 1.0)
+        bsdf.inputs["Roughness"].default_value = 1.0
+        mat.diffuse_color = (0.05, 0.05, 0.05, 1)
+    return mat
 
 
 def _mesh(kind, location, name, **kw):
@@ -101,7 +116,13 @@ def _pair(x, title, left, right, kind="sphere", left_label="usual", right_label=
     return a, b
 
 
-def _camera(name, x, z=1.15, distance=7.2):
+PAIR_DISTANCE = 8.4          # a pair with its title and labels in a 16:9 frame
+
+
+def _camera(name, x, z=1.2, distance=PAIR_DISTANCE, crops=()):
+    """An exhibit camera looking along +Y. crops: (label, object, world offset from its centre)
+    spots that render_pictures enlarges side by side (kept on the camera as JSON, so the saved
+    file has them too)."""
     import bpy
     cam = bpy.data.cameras.new(name)
     cam.lens = 50
@@ -109,14 +130,153 @@ def _camera(name, x, z=1.15, distance=7.2):
     obj.location = (x, -distance, z)
     obj.rotation_euler = (math.radians(90), 0, 0)
     bpy.context.scene.collection.objects.link(obj)
+    if crops:
+        obj[CROPS_KEY] = json.dumps([{"label": label, "object": o.name, "offset": list(off)}
+                                     for label, o, off in crops])
     return obj
 
 
-def build_demo(log=print):
-    """Build the exhibits into a fresh file; returns the exhibit cameras {title: camera}."""
+CROPS_KEY = "surfgrad_crops"
+# A spot on the front of a unit sphere (camera at -Y), up and to the left, where the sun rakes.
+FRONT_SPOT = (-0.38, -0.8, 0.42)
+
+
+def _pair_crops(a, b, offset, labels=("usual", "surface gradient")):
+    return [(labels[0], a, offset), (labels[1], b, offset)]
+
+
+def _decal_projector(name, location, rotation, scale):
     import bpy
     from mathutils import Euler, Matrix
+    empty = bpy.data.objects.new(name, None)
+    bpy.context.scene.collection.objects.link(empty)
+    empty.matrix_world = (Matrix.Translation(location) @ Euler(rotation).to_matrix().to_4x4()
+                          @ Matrix.Diagonal((*scale, 1.0)))
+    return empty
+
+
+# Decal shapes: (shape, SG mode label, overwrite, centre distance in front of the sphere's centre,
+# projector size), per column. The cone's apex is at the projector, so it sits further out.
+DECAL_SHAPE_COLUMNS = (("box", "add", False, 0.5, 0.62), ("sphere", "add", False, 0.5, 0.62),
+                       ("cylinder", "overwrite", True, 0.5, 0.62),
+                       ("cone", "overwrite", True, 1.0, 0.75))
+SHAPE_RADIUS = 0.8
+DECAL_SHAPES_IMAGE = 128     # px: 2 x 2 domes across the decal
+
+
+def _decal_shapes(x, hemi_small, detail):
+    """Four spheres with the fine detail map, a decal of each shape across each: the engines'
+    way on top (the projector's normal blended over), surface gradients below (add mode for box
+    and sphere: the detail continues through the decal; overwrite for cylinder and cone: the
+    decal replaces it)."""
+    import numpy as np
     from .bench import baseline_groups as BG
+    from ..reference.decals import DECAL_SHAPES
+    rows = (("usual", 2.3), ("surface gradient", 0.15))
+    crops = []
+    for i, (shape, mode, overwrite, ahead, size) in enumerate(DECAL_SHAPE_COLUMNS):
+        cx = x + (i - 1.5) * 2.2
+        for row, z in rows:
+            # Projection axis toward the camera (-Y), tilted: a decal across the curved front.
+            proj = _decal_projector(f"Decal {shape} ({row})",
+                                    (cx - 0.12 * ahead, -ahead, z + 0.1 * ahead),
+                                    (math.radians(105), math.radians(12), math.radians(8)),
+                                    (size, size, size))
+            m = np.array(proj.matrix_world)[:3, :3]
+            ax, ay, az = (tuple(m[:, k] / np.linalg.norm(m[:, k])) for k in range(3))
+
+            def build(g, proj=proj, row=row, ax=ax, ay=ay, az=az, shape=shape,
+                      overwrite=overwrite):
+                tc = g.node("ShaderNodeTexCoord", object=proj)
+                coords = g.group(G.decal_coordinates_group())
+                g.link(tc.outputs["Object"], coords.inputs[0])
+                color = g.image(hemi_small, coords.outputs[0], extension="CLIP")
+                uv = g.uv("UVMap")
+                if row == "usual":
+                    under = g.node("ShaderNodeNormalMap", uv_map="UVMap")
+                    under.inputs["Strength"].default_value = 0.6
+                    g.link(g.image(detail, uv), under.inputs["Color"])
+                    return g.group(BG.decal_engine_group(), Normal=under.outputs[0],
+                                   Decal_Coordinates=tc.outputs["Object"], Color=color,
+                                   Axis_X=ax, Axis_Y=ay, Axis_Z=az, Falloff=0.15,
+                                   Shape=DECAL_SHAPES.index(shape)).outputs[0]
+                under = g.group(G.normal_map_group("UVMap"), Color=g.image(detail, uv),
+                                Strength=0.6)
+                node = g.group(G.decal_group(), Decal_Coordinates=tc.outputs["Object"],
+                               Color=color, Axis_X=ax, Axis_Y=ay, Falloff=0.15,
+                               Shape=DECAL_SHAPES.index(shape), Overwrite=overwrite,
+                               Base_Gradient=under.outputs[0])
+                return g.resolve(node.outputs[0])
+            obj = _mesh("sphere", (cx, 0, z), f"Decal shapes | {shape} | {row}")
+            obj.scale = (SHAPE_RADIUS,) * 3
+            obj.data.materials.append(_material(f"Decal shapes: {shape} {row}", build))
+            label = "usual" if row == "usual" else f"SG, {mode}"
+            _label(label, (cx, 0, z - SHAPE_RADIUS - 0.3), 0.22)
+            crops.append((f"{shape}: {label}", obj, (0.0, -SHAPE_RADIUS, 0.12)))
+        _label(shape, (cx, 0, 3.22), 0.28)
+    _label("Decal shapes: usual (top) against surface gradients (bottom)", (x, 0, 3.8), 0.26)
+    # Crops: each shape's usual against its surface-gradient sphere.
+    order = [crops[k] for i in range(4) for k in (2 * i, 2 * i + 1)]
+    return _camera("Camera decal-shapes", x, z=1.55, distance=13.0, crops=order)
+
+
+SAMPLER_IMAGES = (("waves", lambda: T.wave_height_image(32, (4.0, 2.0))),
+                  ("domes", lambda: T.hemisphere_tile_height_image(32, 4, 0.85)))
+SAMPLER_BUMP = 0.3           # world units per unit of height
+
+
+def _sampler_exhibit(x):
+    """Blender 5.0+: one SG Height Map HQ (Sampler) group for two height images (each in its
+    own Sampler zone), against Blender's Bump node on the same images."""
+    from ..addon.sampler_zone import sampler_zone
+    crops = []
+    bump_scale = SAMPLER_BUMP
+    for i, (name, pixels) in enumerate(SAMPLER_IMAGES):
+        _label(f"{name}, 32 x 32 px", (x + (2 * i - 1) * 2.5, 0, 2.35), 0.26)
+        image = _image(f"Height {name} 32", pixels())
+        for j, side in enumerate(("usual", "surface gradient")):
+            cx = x + (2 * i + j - 1.5) * 2.5
+
+            def build(g, image=image, side=side):
+                uv = g.uv("UVMap")
+                if side == "usual":
+                    bump = g.node("ShaderNodeBump")
+                    bump.inputs["Distance"].default_value = bump_scale
+                    g.link(g.first(g.image(image, uv)), bump.inputs["Height"])
+                    return bump.outputs["Normal"]
+                tex = g.node("ShaderNodeTexImage", interpolation="Linear")
+                tex.image = image
+                zone, _, _ = sampler_zone(g.nodes, g.links, tex)
+                node = g.group(G.height_map_sampler_group("hq"), UV=uv, Bump_Scale=bump_scale,
+                               Sampler=zone.outputs[0], Width=image.size[0],
+                               Height=image.size[1])
+                return g.resolve(node.outputs[0])
+            obj = _mesh("sphere", (cx, 0, 1.1), f"Sampler | {name} | {side}")
+            obj.data.materials.append(_material(f"Sampler {name}: {side}", build))
+            label = "usual: Bump node" if side == "usual" else "SG Height Map HQ\n(Sampler)"
+            _label(label, (cx, 0, -0.22), 0.22)
+            crops.append((f"{name}: {label.replace(chr(10), ' ')}", obj, FRONT_SPOT))
+    _label("One Sampler group for both images (Blender 5.0+)", (x, 0, 3.0))
+    return _camera("Camera sampler", x, distance=14.5, crops=crops)
+
+
+def build_closure_demo(log=print):
+    """demo_closures.blend's content: the sampler exhibit alone (Blender 5.0+)."""
+    import bpy
+    if not has_closures():
+        raise G.FeatureUnavailable(
+            f"the Sampler exhibit needs Blender 5.0 or newer (Closure zones), and Blender "
+            f"{bpy.app.version_string} has none; open demo.blend for the other exhibits")
+    _new_file()
+    cams = {"sampler": _sampler_exhibit(0.0)}
+    bpy.context.scene.camera = cams["sampler"]
+    log("built the sampler exhibit")
+    return cams
+
+
+def _new_file():
+    """A fresh file: Cycles on the CPU, a grey sky and a raking sun."""
+    import bpy
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
@@ -135,6 +295,16 @@ def build_demo(log=print):
     # Light from the camera's side, high and to the left: it rakes across the bumps.
     sun.rotation_euler = (math.radians(52), 0.0, math.radians(-48))
     scene.collection.objects.link(sun)
+    return scene
+
+
+def build_demo(log=print):
+    """Build the exhibits into a fresh file; returns the exhibit cameras {title: camera}. The
+    sampler exhibit needs Blender 5.0 (closures) and is built only there."""
+    import bpy
+    from mathutils import Euler, Matrix
+    from .bench import baseline_groups as BG
+    scene = _new_file()
     hemi = _image("Hemispheres", T.hemisphere_tile_image(256))
     detail = _image("Detail tile", T.hemisphere_tile_image(256, 8, 0.6))
     height = _image("Height 64", T.wave_height_image(64, (4.0, 2.0)))
@@ -162,8 +332,9 @@ def build_demo(log=print):
                      Tangent=basis.outputs[0], Bitangent=basis.outputs[1])
         comb = g.group(G.combine_group(), A=nm(g, hemi), B=tn.outputs[0], Scale_B=1.0)
         return g.resolve(comb.outputs[0])
-    _pair(x, "Detail on a second, rotated UV map", layered_usual, layered_sg)
-    cams["layered"] = _camera("Camera layered", x, distance=6.4)
+    a, b = _pair(x, "Detail on a second, rotated UV map", layered_usual, layered_sg)
+    cams["layered"] = _camera("Camera layered", x,
+                              crops=_pair_crops(a, b, FRONT_SPOT))
 
     # 2. Triplanar on a rock (Figure 5), and post-resolve triplanar on a normal map (7b).
     x += EXHIBIT_SPACING
@@ -203,7 +374,9 @@ def build_demo(log=print):
     for obj in (a, b, c):
         from .methods import add_displace_modifier
         add_displace_modifier(obj, {"Amount": 0.18, "Scale": 1.6, "Octaves": 3})
-    cams["triplanar"] = _camera("Camera triplanar", x + 1.25, distance=9.0)
+    cams["triplanar"] = _camera("Camera triplanar", x + 1.25, distance=10.6, crops=[
+        ("usual", a, (0.0, -1.0, 0.1)), ("surface gradient", b, (0.0, -1.0, 0.1)),
+        ("post-resolve (7b)", c, (0.0, -1.0, 0.1))])
 
     # 3. Decal across a torus and a plane (Figure 6).
     x += EXHIBIT_SPACING + 3.0          # room for the triplanar exhibit's third rock
@@ -236,22 +409,24 @@ def build_demo(log=print):
     for obj, proj, side in ((a, projectors[0], "usual"), (b, projectors[1], "surface gradient")):
         plane = _mesh("plane", obj.location, f"Decal plane ({side})")
         plane.data.materials.append(obj.data.materials[0])
-    cams["decal"] = _camera("Camera decal", x)
+    cams["decal"] = _camera("Camera decal", x, crops=_pair_crops(a, b, (0.0, -0.3, 0.0)))
 
     # 4. Volume noise bump (Figure 4).
     x += EXHIBIT_SPACING
 
     def noise_usual(g):
         noise = g.group(G.noise_group(), Scale=3.0)
-        return g.perlin(g.geometry("Normal"), g.scale(noise.outputs["Gradient"], 0.08))
+        return g.perlin(g.geometry("Normal"), g.scale(noise.outputs["Gradient"], NOISE_AMOUNT))
 
     def noise_sg(g):
         noise = g.group(G.noise_group(), Scale=3.0)
         vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                     Strength=0.08)
+                     Strength=NOISE_AMOUNT)
         return g.resolve(vg.outputs[0])
-    _pair(x, "Volume noise bump", noise_usual, noise_sg, left_label="Perlin 1985")
-    cams["noise"] = _camera("Camera noise", x)
+    a, b = _pair(x, "Volume noise bump", noise_usual, noise_sg, left_label="Perlin 1985")
+    cams["noise"] = _camera("Camera noise", x, crops=_pair_crops(a, b, FRONT_SPOT,
+                                                                 ("Perlin 1985",
+                                                                  "surface gradient")))
 
     # 5. Height-map derivatives (Figure 8): forward, one-texel, HQ, a real normal map.
     x += EXHIBIT_SPACING
@@ -261,8 +436,10 @@ def build_demo(log=print):
     for v in ("one-texel", "hq"):
         variants.append((v, lambda g, v=v: g.resolve(g.group(
             G.height_map_group(height, v), UV=uv(g), Bump_Scale=HEIGHT_BUMP).outputs[0])))
+    height_objs = []
     for i, (label, build) in enumerate(variants):
         obj = _mesh("sphere", (x - 2.4 + 1.6 * i, 0, 1.1), f"Height map | {label}")
+        height_objs.append((label, obj))
         obj.scale = (0.72, 0.72, 0.72)
         obj.data.materials.append(_material(f"Height map: {label}", build))
         _label(label, (x - 2.4 + 1.6 * i, 0, 0.05), 0.2)
@@ -280,7 +457,9 @@ def build_demo(log=print):
         g.group(G.normal_map_group("UVMap"), Color=g.image(nmap, uv(g))).outputs[0])))
     _label("normal map", (x + 2.4, 0, 0.05), 0.2)
     _label("Height-map derivatives", (x, 0, 2.65))
-    cams["height"] = _camera("Camera height", x, distance=8.5)
+    spot = tuple(0.72 * c for c in FRONT_SPOT)
+    cams["height"] = _camera("Camera height", x, distance=9.8,
+                             crops=[(label, o, spot) for label, o in height_objs])
 
     # 6. Gustavson's displacement with bump on top.
     x += EXHIBIT_SPACING
@@ -297,7 +476,8 @@ def build_demo(log=print):
     for obj, analytic in ((a, False), (b, True)):
         mod = add_displace_modifier(obj, {"Amount": 0.15, "Scale": 1.8, "Octaves": 2})
         compat.set_input(mod, "Analytic Normals", analytic)
-    cams["displacement"] = _camera("Camera displacement", x)
+    cams["displacement"] = _camera("Camera displacement", x, crops=_pair_crops(
+        a, b, FRONT_SPOT, ("normals recomputed", "analytic + bump")))
 
     # 7. Parallax with post-resolve detail (Figure 7c).
     x += EXHIBIT_SPACING
@@ -317,7 +497,21 @@ def build_demo(log=print):
         return build
     a, b = _pair(x, "Parallax with post-resolve detail", parallax(False), parallax(True),
                  kind="plane", left_label="parallax occlusion", right_label="+ detail on top")
-    cams["parallax"] = _camera("Camera parallax", x)
+    cams["parallax"] = _camera("Camera parallax", x, crops=_pair_crops(
+        a, b, (-0.3, -0.1, 0.3), ("parallax occlusion", "+ detail on top")))
+
+    # 8. Decal shapes and modes on curved surfaces.
+    x += EXHIBIT_SPACING + 4.0         # a wide exhibit: out of its neighbours' views
+    cams["decal-shapes"] = _decal_shapes(x, hemi_small=_image(
+        "Domes 128", T.hemisphere_tile_image(DECAL_SHAPES_IMAGE, 2, 0.9)), detail=detail)
+
+    # 9. Sampler closures (Blender 5.0+): one group, any image.
+    if has_closures():
+        x += EXHIBIT_SPACING + 4.0
+        cams["sampler"] = _sampler_exhibit(x)
+    else:
+        log("Blender < 5.0: no closures, the sampler exhibit is left out (demo_closures.blend "
+            "has it)")
 
     overview = _camera("Camera overview", x / 2, z=3.0, distance=40.0)
     scene.camera = overview
@@ -325,16 +519,18 @@ def build_demo(log=print):
     return cams
 
 
-def save_demo(path, overwrite=False, log=print):
+def save_demo(path, overwrite=False, log=print, closures=False):
+    """Build and save demo.blend (every exhibit; the sampler exhibit only where Blender has
+    closures), or with `closures` demo_closures.blend: the sampler exhibit alone, 5.0+."""
     import bpy
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass --overwrite to replace it")
     reason = G.unavailable_reason("SG Displace")
-    if reason:                  # refuse before building anything (docs/versions.md)
+    if reason and not closures:     # refuse before building anything (docs/versions.md)
         raise G.FeatureUnavailable(f"demo.blend shows Gustavson's displacement, and {reason}; "
                                    f"open the repository's demo.blend instead (saved with 4.5)")
-    cams = build_demo(log)
+    cams = build_closure_demo(log) if closures else build_demo(log)
     if path.exists():
         path.unlink()            # told to overwrite: replace it without a .blend1 backup
     bpy.ops.wm.save_as_mainfile(filepath=str(path.resolve()), compress=True)
@@ -342,8 +538,16 @@ def save_demo(path, overwrite=False, log=print):
     return cams
 
 
-def render_pictures(cams, out_dir, width=360, height=200, samples=24, log=print):
-    """A small Cycles CPU render of every exhibit, PNG, into out_dir."""
+PICTURE_SIZE = (1280, 720)
+PICTURE_SAMPLES = 16         # with the denoiser: clean enough, and 2 shared cores can afford it
+CROP_PIXELS = 150            # the square cut around each spot, shown about twice as large
+
+
+def render_pictures(cams, out_dir, width=PICTURE_SIZE[0], height=PICTURE_SIZE[1],
+                    samples=PICTURE_SAMPLES, log=print):
+    """A Cycles CPU render of every exhibit (PNG, 1280 x 720 by default: the labels are
+    readable at that size) into out_dir, and beside it <name>_crop.png: the camera's crop spots
+    enlarged side by side, labelled (needs matplotlib; skipped with a note without it)."""
     import bpy
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -351,13 +555,73 @@ def render_pictures(cams, out_dir, width=360, height=200, samples=24, log=print)
     scene.render.resolution_x, scene.render.resolution_y = width, height
     scene.render.resolution_percentage = 100
     scene.cycles.samples = samples
-    scene.cycles.use_denoising = False
+    scene.cycles.use_adaptive_sampling = False
+    # The denoiser (guided by the albedo and normal passes, so bumps stay) where this Cycles
+    # build has one; otherwise plain samples.
+    scene.cycles.use_denoising = bool(getattr(bpy.app.build_options, "openimagedenoise", False))
     scene.render.image_settings.file_format = "PNG"
     paths = []
     for i, (name, cam) in enumerate(cams.items()):
         scene.camera = cam
-        scene.render.filepath = str((out / f"{name}.png").resolve())
+        path = out / f"{name}.png"
+        scene.render.filepath = str(path.resolve())
         bpy.ops.render.render(write_still=True)
-        paths.append(out / f"{name}.png")
-        log(f"  rendered {i + 1}/{len(cams)}: {paths[-1]}")
+        paths.append(path)
+        crop = _crop_picture(scene, cam, path, out / f"{name}_crop.png", log)
+        if crop:
+            paths.append(crop)
+        log(f"  rendered {i + 1}/{len(cams)}: {path}" + (f" and {crop.name}" if crop else ""))
     return paths
+
+
+def crop_boxes(scene, cam, width, height, size=CROP_PIXELS):
+    """[(label, (x0, y0)) ...]: each crop spot's square in pixels (x from the left, y from the
+    bottom, Blender's pixel order), kept inside the picture."""
+    from bpy_extras.object_utils import world_to_camera_view
+    import bpy
+    from mathutils import Vector
+    spots = json.loads(cam.get(CROPS_KEY, "[]"))
+    boxes = []
+    for spot in spots:
+        obj = bpy.data.objects[spot["object"]]
+        p = world_to_camera_view(scene, cam, obj.location + Vector(spot["offset"]))
+        x0 = int(round(p.x * width - size / 2))
+        y0 = int(round(p.y * height - size / 2))
+        boxes.append((spot["label"], (min(max(x0, 0), width - size),
+                                      min(max(y0, 0), height - size))))
+    return boxes
+
+
+def _crop_picture(scene, cam, picture, path, log, size=CROP_PIXELS):
+    if CROPS_KEY not in cam:
+        return None
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        log("  matplotlib is not installed: no enlarged crops")
+        return None
+    import bpy
+    img = bpy.data.images.load(str(picture), check_existing=False)
+    w, h = img.size
+    px = np.empty(w * h * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    px = px.reshape(h, w, 4)[..., :3]
+    boxes = crop_boxes(scene, cam, w, h, size)
+    cols = min(len(boxes), 4)
+    rows = math.ceil(len(boxes) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.5 * rows), dpi=100,
+                             squeeze=False)
+    for ax in axes.ravel():
+        ax.axis("off")
+    for ax, (label, (x0, y0)) in zip(axes.ravel(), boxes):
+        ax.imshow(np.clip(px[y0:y0 + size, x0:x0 + size], 0, 1), origin="lower",
+                  interpolation="nearest")
+        ax.set_title(label, fontsize=13)
+    fig.suptitle(f"{cam.name.replace('Camera ', '')}: enlarged crops", fontsize=14)
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.94))
+    fig.savefig(path)
+    plt.close(fig)
+    return path

@@ -3,8 +3,9 @@ never in the Add menu). Each mirrors its function in reference/baselines.py."""
 
 from ...addon import groups as G
 from ...addon.node_builder import ensure_group
+from ...addon.groups.projection import decal_weight
 
-VERSION = 1
+VERSION = 2
 
 
 def _normal(b):
@@ -66,12 +67,9 @@ def decal_engine_group():
         az = b.input("Axis Z", "VECTOR", "Projector Z axis (world): the negated projection "
                      "direction", default=(0.0, 0.0, 1.0))
         falloff = b.input("Falloff", "FLOAT", "Fade depth", default=0.2)
-        qx, qy, qz = b.separate(q)
-        inside = b.math("MULTIPLY", b.math("LESS_THAN", b.math("ABSOLUTE", qx), 1.000001),
-                        b.math("LESS_THAN", b.math("ABSOLUTE", qy), 1.000001))
-        fade = b.math("MINIMUM", b.math("MAXIMUM", b.math("DIVIDE", b.math(
-            "SUBTRACT", 1.0, b.math("ABSOLUTE", qz)), b.math("MAXIMUM", falloff, 1e-6)), 0.0), 1.0)
-        alpha = b.math("MULTIPLY", inside, fade)
+        shape = b.input("Shape", "INT", "0 box, 1 sphere, 2 cylinder, 3 cone (as SG Decal)",
+                        default=0, min_value=0, max_value=3)
+        alpha = decal_weight(b, q, shape, falloff)
         dx, dy = G.decode_tangent_normal(b, color)
         decal_n = b.normalize(b.sub(b.sub(az, b.scale(ax, dx)), b.scale(ay, dy)))
         b.output("Normal", "VECTOR", b.normalize(b.mix_vector(alpha, n, decal_n)),
