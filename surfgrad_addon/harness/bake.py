@@ -15,6 +15,7 @@ import numpy as np
 from ..addon.compat import new_material
 from ..addon.node_builder import running_line  # noqa: F401 (the line whose bakes we model)
 from ..addon.scene_state import SCENE_SETTINGS, restored
+from ..addon.bake_target import bake_target_problem, visible_for_bake
 
 
 def exact_cycles(scene):
@@ -82,8 +83,9 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
 
     context = bpy.context
     scene = context.scene
-    if obj.type != "MESH":
-        raise BakeError(f"object {obj.name!r} is not a mesh")
+    problem = bake_target_problem(obj, context.view_layer)
+    if problem:
+        raise BakeError(problem)
     uv_names = [uv.name for uv in obj.data.uv_layers]
     if not uv_names:
         raise BakeError(f"object {obj.name!r} has no UV map; add one (UV > Unwrap) to bake")
@@ -113,7 +115,7 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
         target.image = image
         nodes.active = target
         with restored(scene, SCENE_SETTINGS), _selection_kept(context), \
-                _temporary_material(obj, material):
+                visible_for_bake(obj, context.view_layer), _temporary_material(obj, material):
             cy = exact_cycles(scene)
             cy.sample_clamp_direct = 0.0
             cy.sample_clamp_indirect = 0.0

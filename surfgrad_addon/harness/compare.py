@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import reference as R
 from ..addon import groups as G
+from ..addon.bake_target import bake_target_problem
 from ..addon.normal_bake import resolution_problem
 from ..reference import methods as M
 from . import bake as B
@@ -87,19 +88,24 @@ def _load_image(path):
     img.colorspace_settings.name = "Non-Color"
     w, h = img.size
     if w == 0 or h == 0:
-        raise CompareError(f"image {str(path)!r} is empty")
+        bpy.data.images.remove(img)
+        raise CompareError(f"image {str(path)!r} is empty or unreadable; give an image file "
+                           f"Blender can open (PNG, EXR, ...)")
     px = np.empty(w * h * img.channels, dtype=np.float32)
     img.pixels.foreach_get(px)
     px = px.reshape(h, w, img.channels).astype(np.float64)
     if not np.all(np.isfinite(px)):
+        bpy.data.images.remove(img)
         raise CompareError(f"image {str(path)!r} has non-finite pixels (NaN or Inf); fix "
                            f"or clamp them before using it as a bump map")
     return px[..., :3] if img.channels >= 3 else px[..., 0], img
 
 
 def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
-    if obj.type != "MESH":
-        raise CompareError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh")
+    import bpy
+    problem = bake_target_problem(obj, bpy.context.view_layer)
+    if problem:
+        raise CompareError(problem)
     names = [uv.name for uv in obj.data.uv_layers]
     if not names:
         raise CompareError(f"object {obj.name!r} has no UV map; add one (UV > Unwrap)")

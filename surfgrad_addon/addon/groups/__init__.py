@@ -22,8 +22,9 @@ from .common import (SAMPLER_GROUPS, BUMP_FILTER_WIDTH, FORWARD_FILTER_WIDTH, GA
                      normal_input, safe_normal_group, sub_group, surface_gradient_group,
                      unavailable_reason, uv_gradients_group, zero_unless_finite)
 from .displacement import REST_ATTRIBUTE, displace_group, rest_position_group  # noqa: F401
-from .height import (height_map_forward_group, height_map_group, height_map_sampler_group,
-                     triplanar_height_group, triplanar_height_sampler_group)
+from .height import (bump_strength_group, height_map_forward_group, height_map_group,  # noqa: F401
+                     height_map_sampler_group, triplanar_height_group,
+                     triplanar_height_sampler_group)
 from .parallax import POM_STEPS, parallax_group, parallax_sampler_group  # noqa: F401
 from .projection import (decal_coordinates_group, decal_group, triplanar_coordinates_group,
                          triplanar_group, triplanar_sampler_group,  # noqa: F401

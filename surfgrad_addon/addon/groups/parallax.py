@@ -5,7 +5,7 @@ from ..node_builder import ensure_group
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
 from . import common
 from .common import (ImageTaps, SamplerTaps, images_stale, normal_input, require, sub_group,
-                     uv_gradients_group)
+                     uv_gradients_group, uv_input)
 
 
 POM_STEPS = 8
@@ -37,8 +37,7 @@ def parallax_sampler_group():
 def _parallax_body(b, taps_for):
     """The interface and interior shared by the per-image and the sampler parallax."""
     n = normal_input(b)
-    uv = b.input("UV", "VECTOR", "Texture coordinate of the height image (link a UV Map "
-                 "node)", hide_value=True)
+    uv = uv_input(b, "Texture coordinate of the height image (link a UV Map node for another map)")
     view = b.input("View", "VECTOR", "Unit direction toward the viewer, world space "
                    "(unlinked: the Geometry node's Incoming)", hide_value=True)
     scale = b.input("Bump Scale", "FLOAT", "World distance of height 1 above the surface",
