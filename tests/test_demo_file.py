@@ -12,7 +12,10 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 DEMO = Path(__file__).resolve().parents[1] / "demo.blend"
-EXHIBITS = ("layered", "triplanar", "decal", "noise", "height", "displacement", "parallax")
+EXHIBITS = ("layered", "triplanar", "decal", "noise", "height", "displacement", "parallax",
+            "decal-shapes")
+# The Sampler exhibit needs closures (5.0+): its own file, saved with 5.0.
+CLOSURES = Path(__file__).resolve().parents[1] / "demo_closures.blend"
 
 
 @pytest.fixture(scope="module")
@@ -38,7 +41,7 @@ def test_demo_blend_is_saved_by_the_oldest_line_with_every_feature(demo_file):
     assert all(img.packed_file is not None for img in bpy.data.images)
 
 
-@pytest.mark.parametrize("exhibit", ["decal", "triplanar"])
+@pytest.mark.parametrize("exhibit", ["decal", "triplanar", "decal-shapes"])
 def test_demo_exhibit_renders(demo_file, exhibit, tmp_path):
     """A small Cycles render of an exhibit: finite, not blank, and the surface-gradient side
     (right half) is shaded."""
@@ -68,3 +71,21 @@ def test_demo_exhibit_renders(demo_file, exhibit, tmp_path):
     assert np.isfinite(px).all()
     right = px[:, px.shape[1] // 2:]
     assert right.mean() > 0.02 and right.std() > 0.01          # lit and shaded, not blank
+
+
+@pytest.mark.skipif(not hasattr(bpy.types, "NodeEvaluateClosure"),
+                    reason="demo_closures.blend shows Sampler closures, which exist from "
+                           "Blender 5.0 (docs/versions.md)")
+def test_closure_demo_opens_whole_from_5_0():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(CLOSURES))
+        assert tuple(bpy.data.version[:2]) == (5, 0)
+        assert "Camera sampler" in bpy.data.objects
+        nodes = [n for m in bpy.data.materials if m.node_tree for n in m.node_tree.nodes]
+        nodes += [n for g in bpy.data.node_groups for n in g.nodes]
+        assert not [n.name for n in nodes if n.bl_idname == "NodeUndefined"]
+        assert sum(n.bl_idname == "NodeClosureOutput" for n in nodes) == 2
+        assert all(img.packed_file is not None for img in bpy.data.images)
+    finally:
+        bpy.ops.wm.read_factory_settings(use_empty=True)

@@ -252,7 +252,7 @@ def _sampler_exhibit(x):
                                Height=image.size[1])
                 return g.resolve(node.outputs[0])
             obj = _mesh("sphere", (cx, 0, 1.1), f"Sampler | {name} | {side}")
-            obj.data.materials.append(_material(f"Sampler {name}: {side}", build))
+            obj.data.materials.append(_material(f"Sampler: {name}, {side}", build))
             label = "usual: Bump node" if side == "usual" else "SG Height Map HQ\n(Sampler)"
             _label(label, (cx, 0, -0.22), 0.22)
             crops.append((f"{name}: {label.replace(chr(10), ' ')}", obj, FRONT_SPOT))
