@@ -95,7 +95,11 @@ TOLERANCES = {
     # (EEVEE's tangents) on the quads, which displacement makes non-planar. Without the
     # modifier the same material is at the floor (0.054 / 0.048 / 0.14 / 0.40 / 0), and SG
     # Triplanar on the same displaced rock, which needs no tangent, is at the floor too.
-    "tangent-frame": {"mean": 0.25, "p99": 1.5, "max": 8.0, "over_1deg": 0.01},
+    # bpy 5.2.3 (its Normal Map node normalises the frame's normal, test_eevee.py): 0.171 /
+    # 0.102 / 0.995 / 3.1 / 0.0098 with the camera 9 units away, 0.186 / 0.106 / 1.10 / 4.5 /
+    # 0.0142 at the 10.6 units that frame the three rocks with their labels (issue 15): the
+    # share over 1 degree grows with the rock's rim in view. Bound: twice that.
+    "tangent-frame": {"mean": 0.25, "p99": 1.5, "max": 8.0, "over_1deg": 0.03},
     # The usual triplanar: Blender's Box projection of Texture Coordinate > Object into a
     # Normal Map node. 2.2 / 0.088 / 54 / 84 / 0.063: EEVEE draws a one-pixel line along every
     # triangle edge where the image comes back as its coarsest mip (its mean colour, a flat
