@@ -22,8 +22,7 @@ class FeatureUnavailable(ValueError):
 REQUIRES = {"SG Displace": ("GeometryNodeSetMeshNormal", "4.5", "it sets the analytic normals "
                             "with the Geometry Nodes Set Mesh Normal node")}
 CLOSURE_NODE = "NodeEvaluateClosure"
-SAMPLER_USE = ("it takes your Image Texture as a Sampler closure (Closure Zone, Evaluate "
-               "Closure); on older lines use the per-image group")
+SAMPLER_USE = "it evaluates your Image Texture through a Sampler closure (a Closure Zone)"
 # The sampler groups (one per method, any image): name -> what the per-image group is.
 SAMPLER_GROUPS = {"SG Height Map HQ (Sampler)": "SG Height Map HQ",
                   "SG Height Map One-Texel (Sampler)": "SG Height Map HQ",
@@ -43,8 +42,10 @@ def unavailable_reason(name):
     if need is None or hasattr(bpy.types, need[0]):
         return None
     node_type, line, use = need
+    instead = (f"; on this line use {SAMPLER_GROUPS[name]}, built per image"
+               if name in SAMPLER_GROUPS else "")
     return (f"{name} needs Blender {line} or newer: {use} ({node_type}), which Blender "
-            f"{bpy.app.version_string} does not have")
+            f"{bpy.app.version_string} does not have{instead}")
 
 
 def require(name):
