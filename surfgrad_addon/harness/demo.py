@@ -612,7 +612,7 @@ def _crop_picture(scene, cam, picture, path, log, size=CROP_PIXELS):
     boxes = crop_boxes(scene, cam, w, h, size)
     cols = min(len(boxes), 4)
     rows = math.ceil(len(boxes) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.5 * rows), dpi=100,
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.75 * rows), dpi=100,
                              squeeze=False)
     for ax in axes.ravel():
         ax.axis("off")
