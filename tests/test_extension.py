@@ -221,7 +221,7 @@ def session_installed(zip_path, work):
     report["user_resources"] = os.environ["BLENDER_USER_RESOURCES"]
     report["state_enabled"] = _registration_state(bpy)
     groups = sys.modules[EXT_MODULE + ".addon.groups"]
-    report["menu_groups"] = [name for name, _ in groups.MENU_GROUPS]
+    report["menu_groups"] = [name for name, _ in groups.MENU_GROUPS if groups.offered(name)]
 
     # The Add menu -> "Surface Gradient" submenu -> operator entries, drawn with a recorder.
     add_menu = bpy.types.NODE_MT_shader_node_add_all

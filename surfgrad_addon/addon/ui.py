@@ -149,6 +149,8 @@ def _add_sampler_group(tree, name, group, location):
     if tex is not None and tex.image is not None and "Width" in node.inputs:
         node.inputs["Width"].default_value = tex.image.size[0] or 1
         node.inputs["Height"].default_value = tex.image.size[1] or 1
+    for other in tree.nodes:
+        other.select = False                 # the new group alone is selected, as Add does
     node.select = True
     tree.nodes.active = node
     return node
