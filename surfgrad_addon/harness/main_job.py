@@ -65,7 +65,7 @@ def method_table(normal_img, detail_img, height_img):
     images = {"normal": normal_img, "detail": detail_img, "height": height_img}
     table = {}
     for m in METHODS.values():
-        if m.scene_only:
+        if m.scene_only or m.same_reference_as:     # a Sampler method: its twin's maps
             continue
         for variant in m.variants:
             name = m.name if len(m.variants) == 1 else f"{m.name}-{variant}"

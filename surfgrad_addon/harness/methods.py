@@ -454,6 +454,7 @@ class Method:
     stability: bool = True             # run by the stability suite (bench/stability.py)
     scene_only: bool = False           # its reference needs Blender's evaluated scene
     mikktspace: bool = False           # it reads the MikkTSpace frame (SG Normal Map)
+    same_reference_as: Optional[str] = None   # another method's reference (a Sampler group's)
 
     def unavailable_reason(self):
         """None when this Blender can run the method, else why not (docs/versions.md)."""
@@ -509,16 +510,19 @@ _REGISTRY = (
     Method("layered", _layered_graph, _layered_reference, mikktspace=True),
     # The Sampler groups (5.0+): the per-image methods' references, the image as a closure.
     Method("height-map-sampler", _height_map_sampler_graph, _height_map_reference,
-           variants=("one-texel", "hq"), group="SG Height Map HQ (Sampler)", stability=False),
+           variants=("one-texel", "hq"), group="SG Height Map HQ (Sampler)", stability=False,
+           same_reference_as="height-map"),
     Method("triplanar-sampler", _triplanar_sampler_graph,
            lambda inp, td: M.triplanar_surfgrad(td, inp.pixels("normal")),
-           group="SG Triplanar (Sampler)", stability=False),
+           group="SG Triplanar (Sampler)", stability=False, same_reference_as="triplanar"),
     Method("triplanar-height-sampler", _triplanar_height_sampler_graph,
            lambda inp, td: M.triplanar_height_surfgrad(td, inp.pixels("height"),
                                                        bump_scale=HEIGHT_BUMP_SCALE),
-           group="SG Triplanar Height (Sampler)", stability=False),
+           group="SG Triplanar Height (Sampler)", stability=False,
+           same_reference_as="triplanar-height"),
     Method("parallax-sampler", _parallax_sampler_graph, _parallax_reference,
-           group="SG Parallax (Sampler)", stability=False, mikktspace=True),
+           group="SG Parallax (Sampler)", stability=False, mikktspace=True,
+           same_reference_as="parallax"),
     # RNM stands for the four blends in the stability suite (same decode, same SG Normal Map).
     *(Method(mode, _blend_graph(mode), _blend_reference(mode), stability=mode == "blend-rnm",
              mikktspace=True) for mode in BLEND_MODES),
