@@ -121,14 +121,15 @@ def _move_input(tree, old, new):
 
 def add_decal_projector(context, tree, image=None, name="SG Decal Projector"):
     """An empty (a cube display, the projection box) at the 3D cursor, and in `tree` the decal
-    chain: Texture Coordinate (object = the empty) -> SG Decal Coordinates -> Image Texture ->
-    SG Decal, whose Axis X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
+    chain: SG Projector Coordinates (driven by the empty) -> SG Decal Coordinates -> Image
+    Texture -> SG Decal, whose Axis X/Y are driven by the empty's rotation. Returns (empty,
+    decal node)."""
     empty = bpy.data.objects.new(name, None)
     empty.empty_display_type = "CUBE"
     empty.location = context.scene.cursor.location
     context.scene.collection.objects.link(empty)
-    tc = tree.nodes.new("ShaderNodeTexCoord")
-    tc.object = empty
+    tc = _group_node(tree, G.projector_coordinates_group, (0.0, 0.0))
+    drive_projector(tc, empty)
     coords = _group_node(tree, G.decal_coordinates_group, (tc.location.x + 200, tc.location.y))
     tex = tree.nodes.new("ShaderNodeTexImage")
     tex.image = image
@@ -136,13 +137,44 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector"):
     tex.location = (coords.location.x + 220, coords.location.y)
     decal = _group_node(tree, G.decal_group, (tex.location.x + 300, tex.location.y))
     links = tree.links
-    links.new(tc.outputs["Object"], coords.inputs[0])
-    links.new(tc.outputs["Object"], decal.inputs["Decal Coordinates"])
+    links.new(tc.outputs["Decal Coordinates"], coords.inputs[0])
+    links.new(tc.outputs["Decal Coordinates"], decal.inputs["Decal Coordinates"])
     links.new(coords.outputs[0], tex.inputs["Vector"])
     links.new(tex.outputs["Color"], decal.inputs["Color"])
     for axis, column in (("Axis X", 0), ("Axis Y", 1)):
         drive_axis(decal.inputs[axis], empty, column)
     return empty, decal
+
+
+# Rows of the inverse of a 3 x 3 matrix (a b c / d e f / g h i) by cofactors over the
+# determinant: simple expressions, which drivers run without auto-run Python scripts.
+_DET = "(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g))"
+_INVERSE_ROWS = (("e * i - f * h", "c * h - b * i", "b * f - c * e"),
+                 ("f * g - d * i", "a * i - c * g", "c * d - a * f"),
+                 ("d * h - e * g", "b * g - a * h", "a * e - b * d"))
+
+
+def drive_projector(node, obj):
+    """Drive SG Projector Coordinates' inputs with obj's world location and the rows of its
+    world-to-local 3 x 3 matrix (RNA indexes matrices column first: [column][row])."""
+    for i in range(3):
+        drv = node.inputs["Projector Location"].driver_add("default_value", i).driver
+        drv.type = "SCRIPTED"
+        var = drv.variables.new()
+        var.name, var.type = "t", "SINGLE_PROP"
+        var.targets[0].id = obj
+        var.targets[0].data_path = f"matrix_world[3][{i}]"
+        drv.expression = "t"
+    for axis, row in zip("XYZ", _INVERSE_ROWS):
+        for i, cofactor in enumerate(row):
+            drv = node.inputs[f"To Projector {axis}"].driver_add("default_value", i).driver
+            drv.type = "SCRIPTED"
+            for k, name in enumerate("abcdefghi"):
+                var = drv.variables.new()
+                var.name, var.type = name, "SINGLE_PROP"
+                var.targets[0].id = obj
+                var.targets[0].data_path = f"matrix_world[{k % 3}][{k // 3}]"
+            drv.expression = f"({cofactor}) / {_DET}"
 
 
 def drive_axis(socket, obj, column):

@@ -10,6 +10,8 @@
   demo-blend       build demo.blend from code (exhibits, packed textures), render pictures
   bench            speed against accuracy of every method (charts, table, JSON, heat maps)
                    and the stability suite
+  bench-far        every method 0, 1 km and 10 km from the origin against the reference,
+                   beside Blender's built-in node for the same job (JSON and Markdown)
   compare          bake a method's node groups with Cycles and compare with the reference
                    (needs bpy; also: blender -b FILE --python surfgrad_addon/blender_cli.py
                    -- compare ...)
@@ -83,6 +85,16 @@ def main(argv=None, in_blender=False):
     rc.add_argument("--out", default="out/bench_render", help="output folder")
     rc.add_argument("--quick", action="store_true", help="small, few samples, no EEVEE")
     rc.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    far = sub.add_parser("bench-far", help="every method far from the origin, beside "
+                                           "Blender's built-in node (needs bpy)")
+    far.add_argument("--out", default="out/far", help="output folder (far.json, far.md)")
+    far.add_argument("--resolution", type=int, default=64, help="bake size in texels")
+    far.add_argument("--distances", type=float, nargs="+", default=None,
+                     help="distances from the origin in metres (default 0 1000 10000)")
+    far.add_argument("--objects", nargs="+", default=None,
+                     help="test objects (default Sphere Transformed)")
+    far.add_argument("--methods", nargs="+", default=None, help="methods (default: all)")
+    far.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     from ..addon.commands import add_bake_normal_map
     add_bake_normal_map(sub)
     db = sub.add_parser("demo-blend", help="build demo.blend (exhibits, packed textures) and "
@@ -125,6 +137,10 @@ def main(argv=None, in_blender=False):
         elif args.command == "bench-render":
             from .bench import render_cost
             render_cost.run(args.out, args.quick, args.overwrite)
+        elif args.command == "bench-far":
+            from . import far
+            far.run(args.out, args.resolution, tuple(args.distances or far.DISTANCES),
+                    tuple(args.objects or far.FAR_OBJECTS), args.methods, args.overwrite)
         elif args.command == "bench-reference":
             from . import bench_reference
             bench_reference.run(args.out, args.sizes or bench_reference.SIZES,

@@ -169,13 +169,23 @@ def decal_projector(obj):
     return empty
 
 
+def projector_coordinates(nodes, projector):
+    """SG Projector Coordinates set to the projector's matrix (as the operator's drivers do):
+    its Decal Coordinates output."""
+    node = group_node(nodes, G.projector_coordinates_group())
+    m = np.array(projector.matrix_world, dtype=np.float64)
+    node.inputs["Projector Location"].default_value = m[:3, 3]
+    for axis, row in zip("XYZ", np.linalg.inv(m[:3, :3])):
+        node.inputs[f"To Projector {axis}"].default_value = row
+    return node.outputs["Decal Coordinates"]
+
+
 def decal_graph(inp, nodes, links):
-    tc = nodes.new("ShaderNodeTexCoord")
-    tc.object = inp.projector
+    q = projector_coordinates(nodes, inp.projector)
     decal = group_node(nodes, G.decal_group())
     coords = group_node(nodes, G.decal_coordinates_group())
-    links.new(tc.outputs["Object"], decal.inputs["Decal Coordinates"])
-    links.new(tc.outputs["Object"], coords.inputs["Decal Coordinates"])
+    links.new(q, decal.inputs["Decal Coordinates"])
+    links.new(q, coords.inputs["Decal Coordinates"])
     color = image_node(nodes, links, inp.bpy_image("normal"), coords.outputs["Decal UV"])
     links.new(color, decal.inputs["Color"])
     ax, ay, _, _ = M.decal_frame(np.array(inp.projector.matrix_world))

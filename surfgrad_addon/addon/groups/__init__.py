@@ -24,7 +24,8 @@ from .common import (BUMP_FILTER_WIDTH, FORWARD_FILTER_WIDTH, GATED_HELPERS, REQ
 from .displacement import REST_ATTRIBUTE, displace_group, rest_position_group  # noqa: F401
 from .height import height_map_forward_group, height_map_group, triplanar_height_group
 from .parallax import POM_STEPS, parallax_group  # noqa: F401
-from .projection import (decal_coordinates_group, decal_group, triplanar_coordinates_group,
+from .projection import (decal_coordinates_group, decal_group, projector_coordinates_group,
+                         triplanar_coordinates_group,
                          triplanar_group, triplanar_surface_gradient,  # noqa: F401
                          triplanar_weights)
 from .resolve import combine_group, resolve_group
@@ -54,6 +55,7 @@ GROUPS = (
     GroupEntry("SG Noise", noise_group),
     GroupEntry("SG Triplanar Coordinates", triplanar_coordinates_group),
     GroupEntry("SG Triplanar", triplanar_group),
+    GroupEntry("SG Projector Coordinates", projector_coordinates_group),
     GroupEntry("SG Decal Coordinates", decal_coordinates_group),
     GroupEntry("SG Decal", decal_group),
     GroupEntry("SG Combine", combine_group),

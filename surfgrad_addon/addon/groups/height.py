@@ -4,7 +4,7 @@ triplanar projection of a height image."""
 
 from ..node_builder import ensure_group
 from . import common
-from .common import FORWARD_FILTER_WIDTH, images_stale, normal_input, position_input, sub_group, uv_gradients_group
+from .common import FORWARD_FILTER_WIDTH, images_stale, normal_input, scaled_position_inputs, sub_group, uv_gradients_group
 from .projection import triplanar_surface_gradient, triplanar_weights
 
 
@@ -130,15 +130,14 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
 
     def build(b):
         n = normal_input(b)
-        p = position_input(b, "Where to project from (unlinked: world position)")
-        scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
-                        min_value=0.0, max_value=1e4)
+        p, scale = scaled_position_inputs(b, "Where to project from (unlinked: world "
+                                          "position)")
         k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
                     min_value=1.0, max_value=64.0)
         bump = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
                        default=0.05, min_value=-1000.0, max_value=1000.0)
         weights = triplanar_weights(b, n, k)
-        x, y, z = b.separate(b.scale(p, scale))
+        x, y, z = b.separate(p)
         derivs = []
         planes = (("X: (z, y)", (z, y)), ("Y: (x, z)", (x, z)), ("Z: (x, y)", (x, y)))
         for (label, (u, v)), img, (w, h) in zip(planes, plane_images, sizes):
