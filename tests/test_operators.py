@@ -138,5 +138,6 @@ def test_decal_projector_axes_follow_the_empty(sphere):
     for axis, row in zip("XYZ", inverse):
         np.testing.assert_allclose(np.array(pc.inputs[f"To Projector {axis}"].default_value),
                                    row, rtol=1e-5, atol=1e-6)
+    assert pc.inputs["Decal Coordinates"].links[0].from_node.object == empty
     assert pc.outputs["Decal Coordinates"].links[0].to_node.node_tree.name in (
         "SG Decal Coordinates", "SG Decal")

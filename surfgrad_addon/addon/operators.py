@@ -121,14 +121,19 @@ def _move_input(tree, old, new):
 
 def add_decal_projector(context, tree, image=None, name="SG Decal Projector"):
     """An empty (a cube display, the projection box) at the 3D cursor, and in `tree` the decal
-    chain: SG Projector Coordinates (driven by the empty) -> SG Decal Coordinates -> Image
+    chain: Texture Coordinate (object = the empty) -> SG Projector Coordinates (driven by the
+    empty: precise far from the origin) -> SG Decal Coordinates -> Image
     Texture -> SG Decal, whose Axis X/Y are driven by the empty's rotation. Returns (empty,
     decal node)."""
     empty = bpy.data.objects.new(name, None)
     empty.empty_display_type = "CUBE"
     empty.location = context.scene.cursor.location
     context.scene.collection.objects.link(empty)
-    tc = _group_node(tree, G.projector_coordinates_group, (0.0, 0.0))
+    texco = tree.nodes.new("ShaderNodeTexCoord")
+    texco.object = empty
+    tc = _group_node(tree, G.projector_coordinates_group, (texco.location.x + 200,
+                                                           texco.location.y))
+    tree.links.new(texco.outputs["Object"], tc.inputs["Decal Coordinates"])
     drive_projector(tc, empty)
     coords = _group_node(tree, G.decal_coordinates_group, (tc.location.x + 200, tc.location.y))
     tex = tree.nodes.new("ShaderNodeTexImage")

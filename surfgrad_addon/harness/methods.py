@@ -170,9 +170,12 @@ def decal_projector(obj):
 
 
 def projector_coordinates(nodes, projector):
-    """SG Projector Coordinates set to the projector's matrix (as the operator's drivers do):
-    its Decal Coordinates output."""
+    """SG Projector Coordinates fed by a Texture Coordinate node of the projector and set to
+    its matrix (as the operator's drivers do): its Decal Coordinates output."""
     node = group_node(nodes, G.projector_coordinates_group())
+    tc = nodes.new("ShaderNodeTexCoord")
+    tc.object = projector
+    node.id_data.links.new(tc.outputs["Object"], node.inputs["Decal Coordinates"])
     m = np.array(projector.matrix_world, dtype=np.float64)
     node.inputs["Projector Location"].default_value = m[:3, 3]
     for axis, row in zip("XYZ", np.linalg.inv(m[:3, :3])):

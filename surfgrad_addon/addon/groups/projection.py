@@ -72,6 +72,9 @@ def triplanar_group():
 
 def projector_coordinates_group():
     def build(b):
+        near_q = b.input("Decal Coordinates", "VECTOR", "A Texture Coordinate node's Object "
+                         "output with the projector as its object: used near the origin "
+                         "(unlinked: the precise route everywhere)", hide_value=True)
         location = b.input("Projector Location", "VECTOR", "The projector's world location "
                            "(the Add Decal Projector operator drives it)", default=(0.0, 0.0, 0.0))
         rows = [b.input(f"To Projector {a}", "VECTOR", f"Row {a} of the projector's "
@@ -86,13 +89,20 @@ def projector_coordinates_group():
             b.link(object_position(b), turn.inputs[0])
             offset = b.add(b.sub(origin, location), turn.outputs[0])
         with b.frame("To the projector's space: one row per axis"):
-            q = b.combine(*(b.dot(row, offset) for row in rows))
+            precise = b.combine(*(b.dot(row, offset) for row in rows))
+        with b.frame(f"Near the origin (< {common.FAR_METRES:g} m) the linked Texture "
+                     "Coordinate, as it always was; far out or unlinked, the precise route"):
+            ox, oy, oz = b.separate(b.vmath("ABSOLUTE", origin))
+            reach = b.math("MAXIMUM", b.math("MAXIMUM", ox, oy), oz)
+            unlinked = b.math("COMPARE", b.length(near_q), 0.0, 0.0)
+            use = b.math("MAXIMUM", b.math("GREATER_THAN", reach, common.FAR_METRES), unlinked)
+            q = common.select(b, use, near_q, precise)
         b.output("Decal Coordinates", "VECTOR", q, "Position in the projector's space, for SG "
                  "Decal Coordinates and SG Decal")
     return ensure_group("SG Projector Coordinates", common.VERSION, build,
                         "A decal projector's coordinates, precise kilometres from the origin "
-                        "(a Texture Coordinate node's Object output is not, beyond ~100 m): "
-                        "feed SG Decal Coordinates and SG Decal")
+                        "(a Texture Coordinate node's Object output alone is not): feed SG "
+                        "Decal Coordinates and SG Decal")
 
 
 def decal_coordinates_group():
