@@ -53,6 +53,8 @@ class MeshArrays:
     # then go to world space and are normalised before interpolation (see shading_normal).
     transform_applied: bool = True
     point_attributes: dict = field(default_factory=dict)   # {name: (V, C)} per vertex
+    # (T,) the mesh face (polygon) each triangle comes from, when known: for messages.
+    triangle_faces: np.ndarray = None
 
     def validate(self):
         """Raise ValueError naming the problem and the fix; return self when usable."""
