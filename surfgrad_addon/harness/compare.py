@@ -7,11 +7,12 @@ Without --blend the procedural test scene (blender/scenes.py) is used. The bake 
 reference see the same mesh (the evaluated object with the normals Cycles shades with,
 MikkTSpace tangents on its triangles), the same images (their pixels as Cycles reads them) and
 the same parameters, and the same texels: the reference gives each texel the triangle the bake
-gives it (the last one covering it). Angular error is measured over every texel both cover; a
-texel is excluded only for a stated reason (EXCLUSION_REASONS: contested by overlapping UV
-islands, on a shared edge within float32 rounding, covered by one side only), counted per
-reason in the report and drawn in its own colour in the heat map. A UV layout on UDIM tiles is
-baked into a tiled image and compared tile by tile.
+gives it (the last one covering it), so contested texels of overlapping UV islands are compared
+too, counted and named in a warning. Angular error is measured over every texel both cover; a
+texel is excluded only for a stated reason (EXCLUSION_REASONS: within float32 rounding of a
+triangle edge, covered by one side only), counted per reason in the report and drawn in its own
+colour in the heat map. A UV layout on UDIM tiles is baked into a tiled image and compared
+tile by tile.
 """
 
 import json
@@ -177,12 +178,15 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
             bpy.data.images.remove(img)
 
 
-# Why a covered texel is not compared (codes in ErrorImage.reasons, keys in the report).
+# Why a covered texel is not compared (codes in ErrorImage.reasons, keys in the report's
+# "excluded"). Code 1 marks contested texels (overlapping UV islands): they ARE compared,
+# since the reference gives each to the triangle the bake gives it (the last in mesh order),
+# and are counted in "texels_contested", with their own error in "contested_max_deg".
+CONTESTED = 1
 EXCLUSION_REASONS = {
-    1: ("contested", "claimed by two or more triangles (overlapping UV islands); the bake "
-                     "gives it to the last triangle in mesh order, as the reference does"),
-    2: ("edge", "on an edge two triangles share, within float32 rounding: Blender's float32 "
-                "scan conversion decides the side"),
+    2: ("edge", "within float32 rounding of a triangle edge: Blender's float32 scan "
+                "conversion decides the side, and on an island border Cycles moves a sample it "
+                "finds outside its triangle by a hashed jitter (bake_jitter_barycentric)"),
     3: ("outside", "covered by the bake or by the reference but not by both"),
 }
 HEAT_COLOURS = {0: (0.05, 0.05, 0.2), 1: (0.9, 0.1, 0.8), 2: (1.0, 0.55, 0.0),
@@ -191,7 +195,8 @@ HEAT_COLOURS = {0: (0.05, 0.05, 0.2), 1: (0.9, 0.1, 0.8), 2: (1.0, 0.55, 0.0),
 
 class ErrorImage(np.ndarray):
     """The per-texel error (H, W) in degrees, NaN where not compared, with `reasons` (H, W):
-    0 compared or uncovered, else the EXCLUSION_REASONS code of an excluded texel."""
+    the EXCLUSION_REASONS code of an excluded texel, CONTESTED for a compared contested one,
+    else 0."""
 
     def __new__(cls, error, reasons):
         obj = np.asarray(error, dtype=np.float64).view(cls)
@@ -235,8 +240,8 @@ def overlap_warning(mesh, uv_map, td_list):
     more = f" and {len(pairs) - 6} more" if len(pairs) > 6 else ""
     return (f"UV map {uv_map!r} of {mesh.name!r}: {texels} texels are claimed by more than one "
             f"face (overlapping UV islands, e.g. mirrored halves stacked on each other); a bake "
-            f"keeps only the face last in mesh order there. Overlapping faces "
-            f"({len(pairs)} pairs): {shown}{more}. Those texels are not compared.")
+            f"keeps only the face last in mesh order there (so does the reference). "
+            f"Overlapping faces ({len(pairs)} pairs): {shown}{more}.")
 
 
 def compare_graph(inp, obj, graph, reference, resolution, log=None):
@@ -307,11 +312,12 @@ def _compare_tile(td, ref, pixels, covered):
     in_bake = covered[td.pixel[:, 1], td.pixel[:, 0]]
     contested = td.contested[td.pixel[:, 1], td.pixel[:, 0]]
     edge = td.on_edge[td.pixel[:, 1], td.pixel[:, 0]] & ~contested
-    compared = in_bake & ~contested & ~edge
+    compared = in_bake & ~edge
     reasons = np.zeros((h, w), dtype=np.int8)
     reasons[covered ^ td.covered] = 3
     reasons[td.pixel[edge & in_bake, 1], td.pixel[edge & in_bake, 0]] = 2
-    reasons[td.pixel[contested & in_bake, 1], td.pixel[contested & in_bake, 0]] = 1
+    marked = contested & compared
+    reasons[td.pixel[marked, 1], td.pixel[marked, 0]] = CONTESTED
     err = angle_deg(baked[compared], ref[compared])
     base = M.unit_base_normal(td)[compared] if compared.any() else np.zeros((0, 3))
     both = in_bake
@@ -319,14 +325,14 @@ def _compare_tile(td, ref, pixels, covered):
     b_all, r_all = baked[both], ref[both]
     away = np.sum(b_all * ng, axis=-1) < -1e-3
     truth_away = np.sum(r_all * ng, axis=-1) < 1e-3
-    contested_err = angle_deg(baked[contested & in_bake], ref[contested & in_bake])
+    contested_err = angle_deg(baked[marked], ref[marked])
     excluded = {name: int((reasons == code).sum())
                 for code, (name, _) in EXCLUSION_REASONS.items()}
     r = {
         "texels_covered": int((covered | td.covered).sum()),
         "texels_compared": int(compared.sum()),
+        "texels_contested": int(marked.sum()),
         "excluded": excluded,
-        # Contested texels follow the bake's rule too: their error, though not counted above.
         "contested_max_deg": float(contested_err.max()) if len(contested_err) else None,
         "_err": err, "_tilt_bake": angle_deg(baked[compared], base),
         "_tilt_ref": angle_deg(ref[compared], base),
@@ -355,6 +361,7 @@ def _merge(tile_reports):
            for k in tile_reports[0] if k.startswith("_")}
     covered = sum(t["texels_covered"] for t in tile_reports)
     compared = sum(t["texels_compared"] for t in tile_reports)
+    contested = sum(t["texels_contested"] for t in tile_reports)
     excluded = {k: sum(t["excluded"][k] for t in tile_reports)
                 for k in tile_reports[0]["excluded"]}
     cmax = [t["contested_max_deg"] for t in tile_reports if t["contested_max_deg"] is not None]
@@ -369,6 +376,7 @@ def _merge(tile_reports):
         "tilt_mean_deg": float(cat["_tilt_ref"].mean()) if compared else None,
         "bake_tilt_mean_deg": float(cat["_tilt_bake"].mean()) if compared else None,
         "texels_covered": covered, "texels_compared": compared,
+        "texels_contested": contested,
         "texels_excluded": n_excl, "excluded": excluded,
         "excluded_fraction": n_excl / max(1, covered),
         **_stats(cat["_err"]),
@@ -384,8 +392,8 @@ def _merge(tile_reports):
 
 def write_heat_map(path, heat, overwrite):
     """Error in degrees as a picture: black 0, white at the max (or 0.5 deg, whichever is
-    larger), uncovered texels dark blue; excluded texels in their reason's colour (contested
-    magenta, edge orange, outside cyan: HEAT_COLOURS)."""
+    larger), uncovered texels dark blue; contested texels magenta (their error is in the
+    report), excluded ones in their reason's colour (edge orange, outside cyan: HEAT_COLOURS)."""
     finite = np.isfinite(heat)
     top = max(0.5, float(np.nanmax(heat)) if finite.any() else 0.5)
     v = np.clip(np.nan_to_num(np.asarray(heat, dtype=np.float64), nan=0.0) / top, 0, 1)
@@ -427,8 +435,8 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     write_heat_map(heat_path, heat, overwrite)
     log(f"{method} on {obj.name} at {resolution}^2: {report['texels_compared']} texels, "
         f"mean {report['mean_deg']:.4f} p99 {report['p99_deg']:.4f} max "
-        f"{report['max_deg']:.4f} deg; excluded {report['texels_excluded']} "
-        f"({_excluded_text(report)}); bake "
+        f"{report['max_deg']:.4f} deg ({report['texels_contested']} contested); excluded "
+        f"{report['texels_excluded']} ({_excluded_text(report)}); bake "
         f"{report['bake_seconds']:.2f} s, reference {report['reference_seconds']:.2f} s")
     for t in report["tiles"] or []:
         log(f"  tile {t['tile']}: {t['texels_compared']} texels, p99 {t['p99_deg']} max "
@@ -477,16 +485,17 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print):
     table_json.write_text(json.dumps(reports, indent=2))
     lines = [f"# Bakes against the reference at {resolution}^2",
              "", "Angular error (degrees) between the Cycles bake of each method's node groups "
-             "and the numpy reference, over every texel both cover; excluded texels counted "
-             "by reason (contested: overlapping UVs; edge: on a shared edge within float32 "
-             "rounding; outside: covered by one side only).", "",
-             "| method | scene | texels | excluded | contested | edge | outside | mean | p99 | "
+             "and the numpy reference, over every texel both cover (contested texels of "
+             "overlapping UVs included: the reference follows the bake's rule); excluded "
+             "texels counted by reason (edge: within float32 rounding of a triangle edge; "
+             "outside: covered by one side only).", "",
+             "| method | scene | texels | contested | excluded | edge | outside | mean | p99 | "
              "max | bake s | reference s |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in reports:
         label = r["method"] + (f" ({r['variant']})" if r["variant"] else "")
         lines.append(f"| {label} | {r['object']} | {r['texels_compared']} | "
-                     f"{100 * r['excluded_fraction']:.1f}% | {r['excluded']['contested']} | "
+                     f"{r['texels_contested']} | {100 * r['excluded_fraction']:.2f}% | "
                      f"{r['excluded']['edge']} | {r['excluded']['outside']} | "
                      f"{r['mean_deg']:.5f} | "
                      f"{r['p99_deg']:.4f} | {r['max_deg']:.4f} | {r['bake_seconds']:.3f} | "

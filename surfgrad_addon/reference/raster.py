@@ -11,8 +11,10 @@ triangles are scan-converted in loop-triangle order and each writes every texel 
 triangle index (pinned on every line: tests/test_raster_rules.py). Texels are clipped to the
 image: UVs outside 0..1 bake nothing (no wrap); a UDIM tile is the image of its own UV square
 (uv_offset, see tiles.py). TexelData flags texels claimed by two triangles' interiors
-(`contested`: overlapping UV islands) and texels within float32 rounding of an edge another
-triangle shares (`on_edge`: Blender's float32 scan conversion decides the side).
+(`contested`: overlapping UV islands) and texels within float32 rounding of an edge
+(`on_edge`): there Blender's float32 scan conversion decides the side, and on an island border
+Cycles' bake finds the sample outside its triangle and moves it by a hashed jitter
+(integrator_init_from_bake, bake_jitter_barycentric).
 
 Everything is vectorised over candidate texels: triangles are expanded to the texels of their
 bounding boxes in chunks, and only a loop over chunks remains.
@@ -377,7 +379,17 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
         best_tri[fi[last]] = ti[last]
         best_bary[fi[last]] = bi[last]
     covered_flat = np.nonzero(best_tri >= 0)[0]
+    # Within rounding of an edge: another triangle may take the texel, or (an island border)
+    # Cycles finds the sample outside its triangle and moves it (bake_jitter_barycentric).
+    on_edge = np.zeros(npx, dtype=bool)
+    on_edge[covered_flat] = best_bary[covered_flat].min(axis=1) <= tol[best_tri[covered_flat]]
+    on_edge |= (near_claims >= 2) & (strict_claims < 2) & (best_tri >= 0)
     covered_flat = np.nonzero(best_tri >= 0)[0]
+    # Within rounding of an edge: another triangle may take the texel, or (an island border)
+    # Cycles finds the sample outside its triangle and moves it (bake_jitter_barycentric).
+    on_edge = np.zeros(npx, dtype=bool)
+    on_edge[covered_flat] = best_bary[covered_flat].min(axis=1) <= tol[best_tri[covered_flat]]
+    on_edge |= (near_claims >= 2) & (strict_claims < 2) & (best_tri >= 0)
     pixel = np.stack([covered_flat % width, covered_flat // width], axis=1)
     bary = np.clip(best_bary[covered_flat], 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
@@ -386,8 +398,7 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
                      facts=facts, uv_offset=tuple(float(o) for o in uv_offset),
                      contested=(strict_claims >= 2).reshape(height, width),
                      other_triangle=np.where(best_tri >= 0, other_tri, -1).reshape(height, width),
-                     on_edge=((near_claims >= 2) & (strict_claims < 2)
-                              & (best_tri >= 0)).reshape(height, width))
+                     on_edge=on_edge.reshape(height, width))
 
 
 def _barycentric_coefficients(a, b, c, area):
