@@ -36,18 +36,22 @@ def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
     nl, nv, nt = len(mesh.loops), len(mesh.vertices), len(tri_loops)
     corner = _get(mesh.corner_normals, "vector", nl, 3)[tri_loops]
     domain = mesh.normals_domain
-    if domain == "POINT" or (domain == "CORNER" and facts.sharp_faces_give_corner_normals):
+    if domain == "CORNER":
+        sharp_edge = mesh.attributes.get("sharp_edge")
+        has_sharp_edges = sharp_edge is not None and sharp_edge.domain == "EDGE" and bool(
+            _get(sharp_edge.data, "value", len(mesh.edges), 1, bool).any())
+        if (facts.sharp_faces_give_corner_normals or mesh.has_custom_normals
+                or has_sharp_edges):
+            return corner
+    flat = flat_triangles(mesh, nt)
+    if not flat.any():
         return corner
-    sharp_edge = mesh.attributes.get("sharp_edge")
-    has_sharp_edges = sharp_edge is not None and sharp_edge.domain == "EDGE" and bool(
-        _get(sharp_edge.data, "value", len(mesh.edges), 1, bool).any())
-    if domain == "CORNER" and (mesh.has_custom_normals or has_sharp_edges):
-        return corner
-    smooth = ~flat_triangles(mesh, nt)
     p = positions[tri_verts]
     tri_normal = normalize(cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
-    vertex = _get(mesh.vertex_normals, "vector", nv, 3)[tri_verts]
-    return np.where(smooth[:, None, None], vertex, tri_normal[:, None, :])
+    # Per-vertex normals (custom ones included) are the corner normals of a POINT domain.
+    vertex = corner if domain == "POINT" else \
+        _get(mesh.vertex_normals, "vector", nv, 3)[tri_verts]
+    return np.where(flat[:, None, None], tri_normal[:, None, :], vertex)
 
 
 def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None):
