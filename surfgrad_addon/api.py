@@ -77,7 +77,14 @@ def compare(obj, method, resolution=64, variant="hq", uv_map=None, image=None,
     except ImportError as err:
         raise ValueError("compare needs surfgrad's proving harness: run it from a checkout "
                          "of the repository (python -m surfgrad_addon compare ...)") from err
-    report, heat = harness_compare.compare_object(obj, method, resolution, uv_map=uv_map,
-                                                  image=image, variant=variant,
-                                                  log=lambda *_: None)
+    import bpy
+    before = set(bpy.data.node_groups)
+    try:
+        report, heat = harness_compare.compare_object(obj, method, resolution, uv_map=uv_map,
+                                                      image=image, variant=variant,
+                                                      log=lambda *_: None)
+    finally:
+        # The file is the user's: the groups the bake needed go again (users first).
+        for tree in [t for t in bpy.data.node_groups if t not in before][::-1]:
+            bpy.data.node_groups.remove(tree)
     return (report, heat) if with_heat_map else report

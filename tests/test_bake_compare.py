@@ -1,5 +1,6 @@
 """Every method's node groups, baked by Cycles on the procedural test scenes, against the
-reference of the same method: p99 <= 0.1 deg and max <= 0.5 deg over interior texels."""
+reference of the same method: p99 <= 0.1 deg and max <= 0.5 deg over every texel both cover
+(bar the few excluded for a stated reason, harness/compare.EXCLUSION_REASONS)."""
 
 import json
 from pathlib import Path
@@ -14,6 +15,7 @@ from support.child import run_python  # noqa: E402
 from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.harness import methods  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.reference import methods as M  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RESOLUTION = 48
@@ -171,14 +173,21 @@ def test_compare_inside_blender_on_a_saved_file(tmp_path):
             f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})\n"
             "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
             f"bpy.ops.wm.open_mainfile(filepath={str(blend)!r})\n"
+            "print('GROUPS', len(bpy.data.node_groups), len(bpy.data.images), "
+            "len(bpy.data.materials))\n"
             f"sys.argv = ['blender', '-b', {str(blend)!r}, '--python', 'x', '--', 'compare',"
             f" '--object', 'Plane', '--method', 'normal-map', '--resolution', '24',"
             f" '--json', {str(tmp_path / 'b.json')!r}]\n"
             f"runpy.run_path({str(ROOT / 'surfgrad_addon' / 'blender_cli.py')!r})\n")
+    code += ("print('GROUPS', len(bpy.data.node_groups), len(bpy.data.images), "
+             "len(bpy.data.materials))\n")
     out = run_python(["-c", code], cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     report = json.loads((tmp_path / "b.json").read_text())
     assert report["object"] == "Plane" and report["max_deg"] <= 0.5
+    # The open file is the user's: no SG groups, images or materials are left in it.
+    counts = [ln for ln in out.stdout.splitlines() if ln.startswith("GROUPS")]
+    assert len(counts) == 2 and counts[0] == counts[1], out.stdout[-2000:]
 
 
 @pytest.mark.parametrize("resolution", [0, -5, 1, 7, 100000])
@@ -188,3 +197,26 @@ def test_impossible_compare_resolutions_are_refused(scene, resolution):
                                                    f"number of texels from 8 to 8192"):
         compare.compare_object(bpy.data.objects["Plane"], "normal-map", resolution)
     assert len(bpy.data.images) == images
+
+
+@pytest.mark.parametrize("strength", [0.0, 0.3, 2.0])
+def test_normal_map_strength_matches_the_reference(scene, strength):
+    """SG Normal Map's Strength is the Normal Map node's (x, y scaled, z blended toward 1 by
+    saturate(Strength)); the reference's normal_map_strength models it independently."""
+    obj = bpy.data.objects["Sphere"]
+    inp = compare.prepare_inputs(obj)
+    try:
+        report, _ = compare.compare_graph(
+            inp, obj,
+            lambda i, n, l: methods.normal_map_graph(i, n, l, strength=strength),
+            lambda i, td: M.normal_map_surfgrad(td, i.pixels("normal"), i.uv_map,
+                                                strength=strength),
+            RESOLUTION)
+    finally:
+        for _, img in inp.images.values():
+            bpy.data.images.remove(img)
+    assert report["p99_deg"] <= 0.05 and report["max_deg"] <= 0.2, report
+    if strength > 0:
+        assert report["tilt_mean_deg"] > 2.0
+    else:
+        assert report["tilt_mean_deg"] < 0.01

@@ -59,9 +59,7 @@ def _bake_converted(obj, make_node, convert):
     return px[cov]
 
 
-def test_normal_map_conversion_keeps_the_look(sphere):
-    img = compare.bpy_float_image("nm", T.hemisphere_tile_image(64))
-
+def _normal_map_node(img, strength):
     def make(nodes, links):
         uv = nodes.new("ShaderNodeUVMap")
         uv.uv_map = "UVMap"
@@ -70,20 +68,28 @@ def test_normal_map_conversion_keeps_the_look(sphere):
         links.new(uv.outputs[0], tex.inputs["Vector"])
         nm = nodes.new("ShaderNodeNormalMap")
         nm.uv_map = "UVMap"
+        nm.inputs["Strength"].default_value = strength
         links.new(tex.outputs["Color"], nm.inputs["Color"])
         return nm
+    return make
+
+
+@pytest.mark.parametrize("strength", [0.0, 0.25, 0.5, 1.0, 1.5, 2.0])
+def test_normal_map_conversion_keeps_the_look(sphere, strength):
+    """Cycles' Normal Map node scales x, y by Strength and blends z toward 1; SG Normal Map hands
+    its Strength to the same node, so the look is kept over the whole range."""
+    img = compare.bpy_float_image("nm", T.hemisphere_tile_image(64))
+    make = _normal_map_node(img, strength)
     before = _bake_converted(sphere, make, False)
     after = _bake_converted(sphere, make, True)
     err = compare.angle_deg(before, after)
     assert err.max() <= 0.05, err.max()
-    assert compare.angle_deg(before, before * 0 + [0, 0, 1.0]).std() > 10   # really bumpy
+    # The map really bends the normals (and more with Strength): not two flat results.
+    spread = compare.angle_deg(before, before * 0 + [0, 0, 1.0]).std()
+    assert spread > (10 if strength >= 0.5 else 1 if strength > 0 else 0), spread
 
 
-def test_bump_conversion_keeps_the_look(sphere):
-    """The converted group steps the Bump node's own Filter Width, so the inverted Bump and
-    the resolve give back the same normal."""
-    img = compare.bpy_float_image("h", T.wave_height_image(64, (3.0, 2.0)))
-
+def _bump_node(img, strength, distance, invert=False):
     def make(nodes, links):
         uv = nodes.new("ShaderNodeUVMap")
         uv.uv_map = "UVMap"
@@ -93,15 +99,44 @@ def test_bump_conversion_keeps_the_look(sphere):
         sep = nodes.new("ShaderNodeSeparateXYZ")
         links.new(tex.outputs["Color"], sep.inputs[0])
         bump = nodes.new("ShaderNodeBump")
-        bump.inputs["Distance"].default_value = 0.1
+        bump.inputs["Distance"].default_value = distance
+        bump.inputs["Strength"].default_value = strength
+        bump.invert = invert
         links.new(sep.outputs[0], bump.inputs["Height"])
         return bump
+    return make
+
+
+@pytest.mark.parametrize("strength,distance,invert", [
+    (1.0, 0.1, False), (0.0, 0.1, False), (0.2, 0.1, False), (0.5, 1.0, False),
+    (1.0, 1.0, True), (0.7, 0.05, True), (2.0, 0.1, False)])
+def test_bump_conversion_keeps_the_look(sphere, strength, distance, invert):
+    """The converted group steps the Bump node's own Filter Width (the inverted Bump and the
+    resolve give back the same normal); Strength != 1 is the node's blend of normals, kept by
+    .SG Bump Strength."""
+    img = compare.bpy_float_image("h", T.wave_height_image(64, (3.0, 2.0)))
+    make = _bump_node(img, strength, distance, invert)
     before = _bake_converted(sphere, make, False)
     after = _bake_converted(sphere, make, True)
     err = compare.angle_deg(before, after)
-    tilt = compare.angle_deg(before, after * 0 + [0, 0, 1.0])
     assert err.max() <= 0.05, err.max()
-    assert tilt.std() > 10
+    if strength > 0:
+        tilt = compare.angle_deg(before, after * 0 + [0, 0, 1.0])
+        assert tilt.std() > 10
+
+
+def test_converted_bump_with_strength_uses_the_blend_helper(sphere):
+    _, tree, bsdf = _material(sphere)
+    img = compare.bpy_float_image("h", T.wave_height_image(16, (3.0, 2.0)))
+    bump = _bump_node(img, 0.4, 0.2)(tree.nodes, tree.links)
+    tree.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    resolve = O.convert_node(tree, bump)
+    blend = resolve.inputs["Surface Gradient"].links[0].from_node
+    assert blend.node_tree.name == ".SG Bump Strength"
+    assert blend.inputs["Strength"].default_value == pytest.approx(0.4)
+    forward = blend.inputs["Surface Gradient"].links[0].from_node
+    assert forward.inputs["Bump Scale"].default_value == pytest.approx(0.2)
+    assert bsdf.inputs["Normal"].links[0].from_node == resolve
 
 
 def test_convert_refuses_other_nodes(sphere):

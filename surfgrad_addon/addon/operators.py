@@ -94,11 +94,28 @@ def convert_node(tree, node):
         sg = _group_node(tree, lambda: G.height_map_forward_group(fw), (x, y))
         _move_input(tree, node.inputs["Height"], sg.inputs["Height"])
         _move_input(tree, node.inputs["Normal"], sg.inputs["Normal"])
-        distance = node.inputs["Distance"].default_value
-        strength = node.inputs["Strength"].default_value
-        # Bump's Strength blends toward the unperturbed normal; as a bump scale it is close to
-        # scaling the height for the usual small tilts.
-        sg.inputs["Bump Scale"].default_value = distance * strength * (-1 if node.invert else 1)
+        distance = node.inputs["Distance"]
+        if distance.is_linked and node.invert:
+            flip = tree.nodes.new("ShaderNodeMath")
+            flip.operation = "MULTIPLY"
+            flip.location = (x - 180, y - 200)
+            tree.links.new(distance.links[0].from_socket, flip.inputs[0])
+            flip.inputs[1].default_value = -1.0
+            tree.links.new(flip.outputs[0], sg.inputs["Bump Scale"])
+        elif distance.is_linked:
+            tree.links.new(distance.links[0].from_socket, sg.inputs["Bump Scale"])
+        else:
+            sg.inputs["Bump Scale"].default_value = (distance.default_value *
+                                                     (-1 if node.invert else 1))
+        strength = node.inputs["Strength"]
+        if strength.is_linked or strength.default_value != 1.0:
+            # The Bump node's Strength blends normals, not gradients: its own helper keeps it.
+            blend = _group_node(tree, G.bump_strength_group, (x + 180, y - 160))
+            tree.links.new(sg.outputs[0], blend.inputs["Surface Gradient"])
+            _move_input(tree, strength, blend.inputs["Strength"])
+            if sg.inputs["Normal"].is_linked:
+                tree.links.new(sg.inputs["Normal"].links[0].from_socket, blend.inputs["Normal"])
+            sg = blend
     resolve = _group_node(tree, G.resolve_group, (x + 220, y))
     links.new(sg.outputs[0], resolve.inputs["Surface Gradient"])
     if "Normal" in sg.inputs and sg.inputs["Normal"].is_linked:

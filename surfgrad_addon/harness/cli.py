@@ -123,9 +123,7 @@ def main(argv=None, in_blender=False):
                           args.overwrite)
         elif args.command == "bake-normal-map":
             from ..addon.commands import run_bake_normal_map
-            if in_blender:             # inside Blender: the file it opened
-                args.blend = None
-            run_bake_normal_map(args)
+            run_bake_normal_map(args)      # --blend opens that file, inside Blender too
         elif args.command == "demo-blend":
             from . import demo
             cams = demo.save_demo(args.out, args.overwrite)

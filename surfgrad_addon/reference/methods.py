@@ -57,20 +57,41 @@ def parallax_offset(td, height, view, bump_scale, steps=8, uv_map=None):
     return parallax_occlusion_march(lambda q: sample_image(height, q), td.uv(uv_map), v, steps)
 
 
+def normal_map_strength(m, strength):
+    """The Normal Map node's Strength on a tangent-space normal (Cycles' svm_node_normal_map,
+    every supported line): x and y scaled, z blended toward 1 by saturate(strength). Applied
+    after Listing 2's z clamp, so 1 is the map, 0 is flat, and from 1 up it scales the
+    derivative of Eq. 15 linearly."""
+    m = np.array(m, dtype=np.float64 if np.asarray(m).dtype != np.float32 else np.float32)
+    ma = np.abs(m)
+    z = np.maximum(np.maximum(ma[..., 2], np.maximum(ma[..., 0], ma[..., 1]) / 128.0),
+                   np.finfo(m.dtype).tiny)
+    k = np.clip(strength, 0.0, 1.0)
+    m[..., 0] *= strength
+    m[..., 1] *= strength
+    m[..., 2] = 1.0 + k * (z - 1.0)
+    return m
+
+
 def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Linear",
                         st=None, directx=False):
     """SG Normal Map: MikkTSpace tangent-space map on a UV map with stored tangents. Listing 2's
     derivative (strength applied) resolved on the frame of Blender's Normal Map node
     (Listings 3 and 9: normalize(n_f - (d.x t + d.y b)) with t, b scaled by 1/|n|), then
     Listing 5 against the shading normal n: resolved against n it lands exactly on the map's
-    normal, and it adds to other surface gradients.
+    normal, and it adds to other surface gradients. strength: the Normal Map node's
+    (normal_map_strength), so converting the node keeps its look at every Strength.
     directx: the map's green channel points down (DirectX convention; Listing 2's flip)."""
     n_f, t, b = mikktspace_frame(td, uv_map)
     n = unit_base_normal(td)
     m = decode_normal_map(sample_image(image, td.uv(uv_map) if st is None else st,
                                        interpolation))
-    v = normalize(n_f - strength * L.surfgrad_from_tbn(
-        L.tspace_normal_to_derivative(m, directx), t, b))
+    ms = normal_map_strength(m, strength)
+    # Eq. 15 on the node's colour: its z is already Listing 2's clamp (and > 0).
+    deriv = -ms[..., :2] / ms[..., 2:3]
+    if directx:
+        deriv[..., 1] *= -1.0
+    v = normalize(n_f - L.surfgrad_from_tbn(deriv, t, b))
     # Where v faces away from n (strong non-uniform scale) no tangent surface gradient
     # reaches it; n - v still resolves to it.
     away = np.sum(n * v, axis=-1, keepdims=True) < FLT_EPSILON

@@ -22,7 +22,7 @@ from .common import (BUMP_FILTER_WIDTH, FORWARD_FILTER_WIDTH, GATED_HELPERS, REQ
                      normal_input, safe_normal_group, sub_group, surface_gradient_group,
                      unavailable_reason, uv_gradients_group, zero_unless_finite)
 from .displacement import REST_ATTRIBUTE, displace_group, rest_position_group  # noqa: F401
-from .height import height_map_forward_group, height_map_group, triplanar_height_group
+from .height import bump_strength_group, height_map_forward_group, height_map_group, triplanar_height_group
 from .parallax import POM_STEPS, parallax_group  # noqa: F401
 from .projection import (decal_coordinates_group, decal_group, projector_coordinates_group,
                          triplanar_coordinates_group,

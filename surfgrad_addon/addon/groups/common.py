@@ -8,7 +8,7 @@ from ..node_builder import ensure_group, running_line
 from ...reference.vecmath import DIVIDE_FLOOR
 
 
-VERSION = 15
+VERSION = 16
 
 
 class FeatureUnavailable(ValueError):
@@ -258,6 +258,17 @@ def scaled_position_inputs(b, description):
         far = b.math("GREATER_THAN", reach, FAR_REPEATS)
         world = select(b, far, world, precise)
     return select(b, unlinked, b.scale(raw, scale), world), scale
+
+
+def uv_input(b, description):
+    """A UV input; unlinked (zero) it is the active render UV map, as Blender's own texture
+    nodes take it."""
+    raw = b.input("UV", "VECTOR", description + " (unlinked: the active render UV map)",
+                  hide_value=True)
+    with b.frame("UV: the active render UV map where unlinked (zero)"):
+        active = b.node("ShaderNodeUVMap", uv_map="").outputs["UV"]
+        unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
+        return b.mix_vector(unlinked, raw, active)
 
 
 def images_stale(expected):

@@ -3,8 +3,10 @@ image (Listing 16, Eq. 20-21: HQ and one-texel) or forward differences (Listing 
 triplanar projection of a height image."""
 
 from ..node_builder import ensure_group
+from ...reference.vecmath import FLT_EPSILON
 from . import common
-from .common import FORWARD_FILTER_WIDTH, images_stale, normal_input, scaled_position_inputs, sub_group, uv_gradients_group
+from .common import (FORWARD_FILTER_WIDTH, images_stale, normal_input, scaled_position_inputs,
+                     sub_group, uv_gradients_group, uv_input)
 from .projection import triplanar_surface_gradient, triplanar_weights
 
 
@@ -26,8 +28,7 @@ def height_map_group(image=None, variant="hq", extension="REPEAT"):
 
     def build(b):
         n = normal_input(b)
-        uv = b.input("UV", "VECTOR", "Texture coordinate of the height image (link a UV Map "
-                     "node)", hide_value=True)
+        uv = uv_input(b, "Texture coordinate of the height image (link a UV Map node for another map)")
         scale = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
                         default=0.05, min_value=-1000.0, max_value=1000.0)
         grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
@@ -115,6 +116,35 @@ def height_map_forward_group(filter_width=None):
     return ensure_group(name, common.VERSION, build,
                         "Scale-dependent bump from any height by forward differences "
                         "(Listing 7, Listing 6)")
+
+
+def bump_strength_group():
+    """The Bump node's Strength on a surface gradient (for a converted Bump node, whose look must
+    not change): Cycles and EEVEE blend the bumped normal toward the base, normalize(s nb + (1 -
+    s) N) with nb = normalize(N - g), which is no linear scale of g. Listing 5 turns the blend
+    back into a surface gradient; N - v where it faces away from N (s > 1 can tip it over)."""
+    def build(b):
+        n = normal_input(b, "Base normal, as the converted Bump node's Normal (leave unlinked: "
+                            "the shading normal)")
+        g = b.input("Surface Gradient", "VECTOR", "Surface gradient at Strength 1 (SG Height "
+                    "Map Forward)", hide_value=True)
+        s = b.input("Strength", "FLOAT", "As the Bump node's Strength: 1 keeps the gradient, "
+                    "0 is flat, between them the bumped normal is blended toward the base",
+                    default=1.0, min_value=0.0, max_value=10.0)
+        with b.frame("The Bump node's blend: v = normalize(s normalize(N - g) + (1 - s) N)"):
+            s = b.math("MAXIMUM", s, 0.0)
+            nb = b.normalize(b.sub(n, g))
+            v = b.normalize(b.add(b.scale(nb, s), b.scale(n, b.math("SUBTRACT", 1.0, s))))
+        with b.frame("Listing 5: N - v / (N . v); N - v where v faces away from N"):
+            k = b.dot(n, v)
+            inv = b.math("DIVIDE", 1.0, b.math("MAXIMUM", k, FLT_EPSILON))
+            away = b.math("LESS_THAN", k, FLT_EPSILON)
+            w = b.math("MULTIPLY_ADD", away, b.math("SUBTRACT", 1.0, inv), inv)
+            sg = b.sub(n, b.scale(v, w))
+        b.output("Surface Gradient", "VECTOR", sg, "Surface gradient with the Bump node's "
+                 "Strength applied")
+    return ensure_group(".SG Bump Strength", common.VERSION, build,
+                        "The Bump node's Strength (a blend of normals) on a surface gradient")
 
 
 def triplanar_height_group(image=None, extension="REPEAT", images=None):

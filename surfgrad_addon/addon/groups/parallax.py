@@ -4,7 +4,7 @@ offset limiting and parallax occlusion."""
 from ..node_builder import ensure_group
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
 from . import common
-from .common import images_stale, normal_input, sub_group, uv_gradients_group
+from .common import (images_stale, normal_input, sub_group, uv_gradients_group, uv_input)
 from .height import height_image_node
 
 
@@ -18,8 +18,7 @@ def parallax_group(image=None, extension="REPEAT"):
     linear refinement (reference/parallax.py), and Listing 12 for the surface offset."""
     def build(b):
         n = normal_input(b)
-        uv = b.input("UV", "VECTOR", "Texture coordinate of the height image (link a UV Map "
-                     "node)", hide_value=True)
+        uv = uv_input(b, "Texture coordinate of the height image (link a UV Map node for another map)")
         view = b.input("View", "VECTOR", "Unit direction toward the viewer, world space "
                        "(unlinked: the Geometry node's Incoming)", hide_value=True)
         scale = b.input("Bump Scale", "FLOAT", "World distance of height 1 above the surface",

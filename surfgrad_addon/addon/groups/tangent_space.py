@@ -5,14 +5,14 @@ Basis, SG Tangent Normal), and the classic blends of two tangent-space normals (
 from ..node_builder import ensure_group
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
 from . import common
-from .common import directx_input, normal_input, sign_nonneg, sub_group, tangent_normal_to_surfgrad, uv_gradients_group
+from .common import (directx_input, normal_input, sign_nonneg, sub_group,
+                     tangent_normal_to_surfgrad, uv_gradients_group, uv_input)
 
 
 def procedural_basis_group():
     def build(b):
         n = normal_input(b)
-        uv = b.input("UV", "VECTOR", "Texture coordinate of a UV map without stored tangents "
-                     "(link a UV Map node)", hide_value=True)
+        uv = uv_input(b, "Texture coordinate of a UV map without stored tangents (link a UV Map node for another map)")
         grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
         gs, gt = grads.outputs[0], grads.outputs[1]
         with b.frame("Listing 4 in surface gradients: t = normalize(sgn (grad t x n))"):
@@ -95,24 +95,27 @@ def normal_map_group(uv_map=""):
         color = b.input("Color", "COLOR", "Tangent-space normal map colour (Non-Color image, "
                         "sampled on the same UV map)", default=(0.5, 0.5, 1.0, 1.0))
         directx = directx_input(b)
-        strength = b.input("Strength", "FLOAT", "Bump scale (1 reproduces the map)",
-                           default=1.0, min_value=-10.0, max_value=10.0)
+        strength = b.input("Strength", "FLOAT", "As the Normal Map node's Strength: 1 "
+                           "reproduces the map, 0 is flat, above 1 steeper (so a converted "
+                           "Normal Map node keeps its look)", default=1.0, min_value=0.0,
+                           max_value=10.0)
         n = normal_input(b, "Base normal the result is resolved against (leave unlinked: "
                             "the shading normal)")
-        with b.frame("Listing 2 as a colour: c - 0.5 with Strength on x, y (and the DirectX "
-                     "flip on y), z = max(|z|, max(|x|, |y|) / 128)"):
+        with b.frame("Listing 2 as a colour: c - 0.5 with the DirectX flip on y, "
+                     "z = max(|z|, max(|x|, |y|) / 128)"):
             dx, dy, dz = b.separate(b.vmath("SUBTRACT", color, (0.5, 0.5, 0.5)))
             flip = b.math("MULTIPLY_ADD", directx, -2.0, 1.0)
             z = b.math("MAXIMUM", b.math("ABSOLUTE", dz), b.math(
                 "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", dx),
                                                  b.math("ABSOLUTE", dy))))
-            processed = b.combine(b.math("MULTIPLY", dx, strength),
-                                  b.math("MULTIPLY", dy, b.math("MULTIPLY", strength, flip)), z)
-        with b.frame("Listings 3 and 9: Blender's Normal Map node in the MikkTSpace frame"):
+            processed = b.combine(dx, b.math("MULTIPLY", dy, flip), z)
+        with b.frame("Listings 3 and 9: Blender's Normal Map node in the MikkTSpace frame, "
+                     "with its own Strength"):
             node = b.node("ShaderNodeNormalMap", space="TANGENT", uv_map=uv_map)
             if hasattr(node, "convention"):      # 5.2: the colour is already OpenGL
                 node.convention = "OPENGL"
-            node.inputs["Strength"].default_value = 1.0
+            # The node applies Strength itself (x, y scaled, z blended toward 1).
+            b.link(strength, node.inputs["Strength"])
             b.link(b.vmath("ADD", processed, (0.5, 0.5, 0.5)), node.inputs["Color"])
             v = node.outputs["Normal"]
         with b.frame("Listing 5 against the shading normal ns, + (n - ns): n - v / (ns . v); "
