@@ -148,8 +148,8 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
         empty = [t for t in tiles if t not in with_uvs]
         if empty and empty_tiles != "skip":
             raise NormalBakeError(f"tile(s) {_tiles_text(empty)} hold no UVs of {where} "
-                                  f"(its UVs are in {_tiles_text(with_uvs)}): bake those tiles "
-                                  f"or fix the UV layout")
+                                  f"(its UVs are in {_tiles_text(with_uvs)}): ask for tiles "
+                                  f"that hold UVs, or fix the UV layout")
         tiles = [t for t in tiles if t in with_uvs]
         if not udim and tiles not in ([], [UDIM_FIRST]):
             raise NormalBakeError(f"output {Path(output).name!r} has no {UDIM_TOKEN}: only tile "
