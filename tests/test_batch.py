@@ -65,6 +65,12 @@ def test_udim_tiles_match_the_single_image_bake_and_the_source(asset, tmp_path):
         err = _angle(_pixels(tmp_path / f"rock.{t}.exr", 64), src)
         assert np.median(err) < 0.05 and np.percentile(err, 99) < 0.5, (t, np.median(err))
     assert _angle(src, src * 0 + [0, 0, 1]).max() > 30          # the map is not flat
+    # One tile alone (a farm task): the same texels as in the bake of every tile.
+    alone = NB.bake_normal_tiles(rock, tmp_path / "alone.<UDIM>.exr", resolution=64, margin=0,
+                                 tiles=[1003], **QUIET)
+    assert list(alone["paths"]) == [1003] and not (tmp_path / "alone.1001.exr").exists()
+    assert np.abs(_pixels(alone["paths"][1003], 64)
+                  - _pixels(tmp_path / "rock.1003.exr", 64)).max() < 1e-6
 
 
 def test_bit_depths_are_what_the_files_hold(asset, tmp_path):

@@ -176,7 +176,9 @@ def scan_open_file(objects=None, collections=None):
     mesh_objects = [o for o in bpy.data.objects if o.type == "MESH"]
     if objects:
         for pattern in objects:
-            hits = [o for o in bpy.data.objects if fnmatch.fnmatchcase(o.name, pattern)]
+            exact = bpy.data.objects.get(pattern)       # a name with * or [ in it is a name
+            hits = [exact] if exact else \
+                [o for o in bpy.data.objects if fnmatch.fnmatchcase(o.name, pattern)]
             if not hits:
                 errors.append({"object": pattern, "error": f"no object named {pattern!r} in "
                                f"{Path(bpy.data.filepath).name}"})

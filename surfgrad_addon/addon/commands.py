@@ -38,7 +38,7 @@ def add_bake_normal_map(sub):
     nb.add_argument("--samples", type=int, default=1,
                     help="Cycles samples per texel: more anti-alias detail finer than a texel "
                          "(default 1)")
-    nb.add_argument("--depth", default=None, choices=("8", "16", "half", "float"),
+    nb.add_argument("--depth", default=None, choices=("auto", "8", "16", "half", "float"),
                     help="bit depth: 8 or 16 for .png (default 8), half or float for .exr "
                          "(default float)")
     nb.add_argument("--tiles", default=None,
@@ -76,7 +76,7 @@ def add_bake_batch(sub):
     bb.add_argument("--uv-map", default=None, help="UV map (default: the active render one)")
     bb.add_argument("--margin", type=int, default=None, help="texels past UV borders (16)")
     bb.add_argument("--samples", type=int, default=None, help="samples per texel (default 1)")
-    bb.add_argument("--depth", default=None, choices=("8", "16", "half", "float"),
+    bb.add_argument("--depth", default=None, choices=("auto", "8", "16", "half", "float"),
                     help="8/16 for .png, half/float for .exr")
     bb.add_argument("--tiles", default=None, help="only these UDIM tiles, e.g. 1001-1002")
     bb.add_argument("--if-tile-empty", default="error", choices=("error", "skip"),

@@ -109,7 +109,7 @@ def depth_for(output, depth):
     """The bit depth for `output`'s format ('8'/'16' for PNG, 'half'/'float' for EXR)."""
     suffix = Path(output).suffix.lower()
     _, allowed, default = FORMATS[suffix]
-    depth = default if depth in (None, "") else str(depth)
+    depth = default if depth in (None, "", "auto") else str(depth)
     if depth not in allowed:
         raise NormalBakeError(f"bit depth {depth!r} does not go with {suffix}: use one of "
                               f"{', '.join(allowed)}")
@@ -281,11 +281,13 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
 
 
 def _make_tiles(bpy, image, tiles, resolution, is_float):
-    """Give the tiled image exactly `tiles`, each with a buffer Cycles can bake into."""
+    """Give the tiled image exactly `tiles`, each with a buffer Cycles can bake into (a
+    renumbered first tile loses its buffer, so every tile is filled)."""
     image.tiles[0].number = tiles[0]
     for number in tiles[1:]:
-        tile = image.tiles.new(tile_number=number)
-        image.tiles.active = tile
+        image.tiles.new(tile_number=number)
+    for index in range(len(image.tiles)):
+        image.tiles.active_index = index
         with bpy.context.temp_override(edit_image=image):
             bpy.ops.image.tile_fill(color=(0.5, 0.5, 1.0, 1.0), width=resolution,
                                     height=resolution, float=is_float, alpha=False)
