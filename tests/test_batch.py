@@ -5,7 +5,6 @@ failing its own asset while the rest go on."""
 import json
 import os
 import struct
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -220,15 +220,20 @@ def dependencies_of_open_file():
     return sorted({str(Path(p).resolve()) for p in paths if p and "<UDIM>" not in p})
 
 
+_OPENED = [None]        # the file this session opened last (a bake leaves it as it was)
+
+
 def open_blend(path):
-    """Open `path` unless it is the open file already; returns the seconds it took."""
+    """Open `path` unless this session opened it last and it is still the open file (every
+    bake puts back what it touched); returns the seconds it took."""
     import bpy
     path = str(Path(path).resolve())
-    if bpy.data.filepath and Path(bpy.data.filepath).resolve() == Path(path) \
-            and not bpy.data.is_dirty:
+    if _OPENED[0] == path and bpy.data.filepath and \
+            str(Path(bpy.data.filepath).resolve()) == path:
         return 0.0
     t0 = time.perf_counter()
     bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
+    _OPENED[0] = path
     return time.perf_counter() - t0
 
 
@@ -255,7 +260,8 @@ def run_request(request, log=lambda *_: None):
                 obj, request["output"], s["space"], s["resolution"], s["uv_map"], s["margin"],
                 s["samples"], s["depth"], request.get("tiles"), request.get("empty_tiles",
                                                                            "error"),
-                overwrite=request.get("overwrite", False), log=log)
+                overwrite=request.get("overwrite", False), log=log,
+                threads=request.get("threads"))
             reply.update({"paths": {str(t): str(p) for t, p in res["paths"].items()},
                           "tiles": res["tiles"], "uv_map": res["uv_map"], "depth": res["depth"],
                           "warnings": res["warnings"], "bake_s": res["bake_s"],
@@ -359,56 +365,79 @@ class Pool:
         self.process_starts = []                  # seconds from spawn to ready, per process
 
     def map(self, requests, on_reply):
-        todo = queue.Queue()
+        """Run `requests`; on_reply(request, reply, retry) may return follow-up requests: the
+        same thread runs the first next (its worker has that file open), the rest go first in
+        line for any worker."""
+        todo, urgent = queue.Queue(), queue.Queue()
         for r in requests:
             todo.put(dict(r, attempt=1))
         lock = threading.Lock()
+        busy = [0]
+
+        def take(local):
+            if local:
+                return local.pop(0)
+            for q in (urgent, todo):
+                try:
+                    return q.get_nowait()
+                except queue.Empty:
+                    pass
+            return None
 
         def run(slot):
+            local = []
             while True:
-                try:
-                    req = todo.get_nowait()
-                except queue.Empty:
-                    return
-                worker = self.procs[slot]
-                if worker is None or worker.proc.poll() is not None:
-                    worker = self.procs[slot] = Worker(self.command or worker_command(),
-                                                       self.env)
-                reply = worker.call(dict(req, in_worker=True))
-                if worker.ready_s is not None and worker not in [w for w, _ in
-                                                                 self.process_starts]:
-                    with lock:
-                        self.process_starts.append((worker, worker.ready_s))
-                if reply is None:
-                    code = worker.exit_code()
-                    self.procs[slot] = None
-                    tail = "\n    ".join(worker.tail[-5:])
-                    reply = {"op": req["op"], "id": req.get("id"), "status": "error",
-                             "kind": "crash",
-                             "error": f"the worker process died (exit code {code})"
-                                      + (f"; its last output:\n    {tail}" if tail else "")}
-                retry = reply["status"] == "error" and reply.get("kind") == "crash" \
-                    and req["attempt"] <= self.retries
-                reply["attempt"] = req["attempt"]
                 with lock:
-                    on_reply(req, reply, retry)
-                if retry:
-                    todo.put(dict(req, attempt=req["attempt"] + 1))
+                    req = take(local)
+                    if req is None:
+                        if busy[0] == 0:
+                            return
+                    else:
+                        busy[0] += 1
+                if req is None:               # others may still queue retries or follow-ups
+                    time.sleep(0.02)
+                    continue
+                try:
+                    reply = self._call(slot, req, lock)
+                    retry = reply["status"] == "error" and reply.get("kind") == "crash" \
+                        and req["attempt"] <= self.retries
+                    reply["attempt"] = req["attempt"]
+                    with lock:
+                        more = on_reply(req, reply, retry) or []
+                        if retry:
+                            urgent.put(dict(req, attempt=req["attempt"] + 1))
+                        more = [dict(m, attempt=1) for m in more]
+                        local.extend(more[:1])
+                        for m in more[1:]:
+                            urgent.put(m)
+                finally:
+                    with lock:
+                        busy[0] -= 1
 
         threads = [threading.Thread(target=run, args=(i,), daemon=True)
                    for i in range(self.workers)]
         for t in threads:
             t.start()
-        # A retried request may be queued after a thread found the queue empty: loop until done.
         for t in threads:
             t.join()
-        while not todo.empty():
-            threads = [threading.Thread(target=run, args=(i,), daemon=True)
-                       for i in range(self.workers)]
-            for t in threads:
-                t.start()
-            for t in threads:
-                t.join()
+
+    def _call(self, slot, req, lock):
+        worker = self.procs[slot]
+        if worker is None or worker.proc.poll() is not None:
+            worker = self.procs[slot] = Worker(self.command or worker_command(), self.env)
+        reply = worker.call(dict(req, in_worker=True))
+        if worker.ready_s is not None and not getattr(worker, "counted", False):
+            worker.counted = True
+            with lock:
+                self.process_starts.append((worker, worker.ready_s))
+        if reply is None:
+            code = worker.exit_code()
+            self.procs[slot] = None
+            tail = "\n    ".join(worker.tail[-5:])
+            reply = {"op": req["op"], "id": req.get("id"), "status": "error", "kind": "crash",
+                     "error": f"the worker process died (exit code {code})"
+                              + (f"; its last output:\n    {tail}" if tail else "")}
+        return reply
 
     def start_times(self):
         return [s for _, s in self.process_starts]
@@ -428,17 +457,20 @@ class InProcess:
         self.log, self.retries = log, retries
 
     def map(self, requests, on_reply):
-        for req in requests:
-            attempt = 1
-            while True:
-                reply = run_request(dict(req, attempt=attempt))
-                reply["attempt"] = attempt
-                retry = reply["status"] == "error" and reply.get("kind") == "crash" \
-                    and attempt <= self.retries
-                on_reply(req, reply, retry)
-                if not retry:
-                    break
-                attempt += 1
+        todo = [dict(r, attempt=1) for r in requests]
+        while todo:
+            req = todo.pop(0)
+            reply = run_request(req)
+            reply["attempt"] = req["attempt"]
+            retry = reply["status"] == "error" and reply.get("kind") == "crash" \
+                and req["attempt"] <= self.retries
+            more = on_reply(req, reply, retry) or []
+            if retry:
+                more = [dict(req, attempt=req["attempt"] + 1)] + \
+                    [dict(m, attempt=1) for m in more]
+            else:
+                more = [dict(m, attempt=1) for m in more]
+            todo[:0] = more
 
     def start_times(self):
         return []
@@ -450,23 +482,31 @@ class InProcess:
 # The batch ------------------------------------------------------------------------------------
 
 class Progress:
-    """done/total with elapsed time and an ETA from the assets baked so far."""
+    """done/total with elapsed time and an ETA from the assets baked so far. Until every file
+    is scanned the total counts each unscanned file as the mean of the scanned ones."""
 
-    def __init__(self, total, log):
-        self.total, self.log, self.done = total, log, 0
+    def __init__(self, log):
+        self.log, self.done, self.known, self.unscanned = log, 0, 0, 0
+        self.scanned_files, self.scanned_assets = 0, 0
         self.counts = {"baked": 0, "skipped": 0, "failed": 0}
         self.t0 = time.perf_counter()
-        self.baked_time = 0.0
+
+    @property
+    def total(self):
+        per_file = self.scanned_assets / self.scanned_files if self.scanned_files else 1
+        return self.known + round(self.unscanned * max(per_file, 1))
 
     def step(self, status, what, detail=""):
         self.done += 1
         self.counts[status] += 1
         elapsed = time.perf_counter() - self.t0
         worked = self.counts["baked"] + self.counts["failed"]
-        left = self.total - self.done
-        eta = f"ETA {elapsed / worked * left:.0f} s" if worked and left else \
-            ("done" if not left else "ETA ?")
-        self.log(f"[{self.done}/{self.total}] {status} {what}{detail} | "
+        total = max(self.total, self.done)
+        left = total - self.done
+        eta = "done" if not left else \
+            (f"ETA {elapsed / worked * left:.0f} s" if worked else "ETA ?")
+        approx = "~" if self.unscanned else ""
+        self.log(f"[{self.done}/{approx}{total}] {status} {what}{detail} | "
                  f"{self.counts['baked']} baked, {self.counts['skipped']} skipped, "
                  f"{self.counts['failed']} failed | {elapsed:.1f} s elapsed, {eta}")
 
@@ -543,9 +583,10 @@ def read_asset_list(path):
 def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, collections=None,
                defaults=None, settings_file=None, workers=1, force=False, overwrite=False,
                manifest=None, tiles=None, empty_tiles="error", open_file=False, worker_env=None,
-               worker_command_override=None, log=print):
+               worker_command_override=None, log=print, threads=None):
     """Bake every asset of `blends` (paths; or the open file with open_file) selected by
-    `objects` / `collections` into files named by `output`. Returns the run's report (also
+    `objects` / `collections` into files named by `output`. threads: Cycles threads per bake
+    (default: all cores in this process or one worker, their share with several). Returns the run's report (also
     written, merged with earlier runs, to the manifest): per asset its status (baked, skipped,
     failed), settings, hashes, timings, warnings, files. Raises BatchError for bad input of
     the whole run; a bad asset only fails that asset."""
@@ -608,130 +649,149 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         ihash = input_hash(blend, deps)
         files[blend] = {"input_hash": ihash, "dependencies": deps, "selection": selection}
         if prev and prev.get("input_hash") == ihash and prev.get("selection") == selection \
-                and "scan" in prev and not force:
+                and "scan" in prev:
             files[blend]["scan"] = prev["scan"]
             files[blend]["scan_reused"] = True
         else:
             to_scan.append(blend)
     pool = InProcess(log) if workers == 0 else \
         Pool(workers, worker_command_override, worker_env)
-    try:
-        if to_scan:
-            log(f"[batch] scanning {len(to_scan)} file(s) with "
-                f"{'this process' if workers == 0 else f'{workers} worker(s)'}")
+    progress = Progress(log)
+    progress.known = len(report["assets"])          # the files refused already
+    progress.unscanned = len(to_scan)
+    outputs_seen = {}
+    how = "this process" if workers == 0 else f"{workers} worker process(es)"
+    # Cycles takes every core by default: several worker processes share them out.
+    if threads is None:
+        threads = None if workers <= 1 else max(1, (os.cpu_count() or 1) // workers)
 
-            def scanned(req, reply, retry):
-                if retry:
-                    return
-                f = files[req["file"]]
-                f["scan_load_s"] = reply.get("load_s")
-                if reply["status"] == "ok":
-                    f["scan"] = {"assets": reply["assets"], "errors": reply["errors"]}
-                    if reply["dependencies"] != f["dependencies"]:
-                        f["dependencies"] = reply["dependencies"]
-                        f["input_hash"] = input_hash(req["file"], f["dependencies"])
-                else:
-                    f["scan_error"] = reply["error"]
+    def step_entry(entry):
+        what = f"{Path(entry['file']).name}:{entry.get('object') or '*'}"
+        progress.step(entry["status"], what,
+                      f": {entry['error']}" if entry["status"] == "failed" else "")
 
-            pool.map([{"op": "scan", "file": b, "blend": None if open_file else b,
-                       **files[b]["selection"]} for b in to_scan], scanned)
-
-        # 2. The assets: settings, outputs, skip or bake.
-        jobs, outputs_seen = [], {}
-        for blend, f in files.items():
-            name = Path(blend).name
-            if "scan_error" in f:
-                report["assets"][_asset_key(blend, "*")] = {
-                    "file": blend, "object": None, "status": "failed", "kind": "input",
-                    "error": f"could not read {name}: {f['scan_error']}"}
-                continue
+    def plan_file(blend):
+        """The bake requests of one scanned file; its failed and skipped assets reported."""
+        f, name = files[blend], Path(blend).name
+        entries, jobs = [], []
+        if "scan_error" in f:
+            entries.append({"file": blend, "object": None, "status": "failed",
+                            "kind": "input", "error": f"could not read {name}: "
+                                                      f"{f['scan_error']}"})
+        else:
             for err in f["scan"]["errors"]:
-                report["assets"][_asset_key(blend, err["object"])] = {
-                    "file": blend, "object": err["object"], "status": "failed",
-                    "kind": "input", "error": err["error"]}
+                entries.append({"file": blend, "object": err["object"], "status": "failed",
+                                "kind": "input", "error": err["error"]})
             if not f["scan"]["assets"] and not f["scan"]["errors"]:
-                report["assets"][_asset_key(blend, "*")] = {
-                    "file": blend, "object": None, "status": "failed", "kind": "input",
-                    "error": f"{name} has no mesh object with a material to bake"}
-            for a in f["scan"]["assets"]:
-                key = _asset_key(blend, a["object"])
-                s = asset_settings(base, overrides, name, a["object"])
-                entry = {"file": blend, "object": a["object"], "settings": s}
-                report["assets"][key] = entry
-                problem = _asset_problem(a, s)
-                if problem:
-                    entry.update(status="failed", kind="input", error=problem)
-                    continue
-                uv = s["uv_map"] or a["active_uv"] or next(iter(a["uv_maps"]))
-                s = dict(s, uv_map=uv)
-                entry["settings"] = s
-                out = expand(output, name, a["object"], uv)
-                entry["output"] = out
-                if out in outputs_seen:
-                    entry.update(status="failed", kind="input",
-                                 error=f"output {out} is also {outputs_seen[out]}'s: put "
-                                       f"{{object}} (or {{file}}) in the output pattern")
-                    continue
-                outputs_seen[out] = f"{name}:{a['object']}"
-                entry["input_hash"] = f["input_hash"]
-                entry["settings_hash"] = settings_hash(s, out, blender_version, VERSION)
-                prev = previous["assets"].get(key, {})
-                ours = _unchanged_outputs(prev)
-                if not force and prev.get("status") in ("baked", "skipped") and ours and \
-                        prev.get("input_hash") == entry["input_hash"] and \
-                        prev.get("settings_hash") == entry["settings_hash"] and \
-                        (tiles is None or set(map(str, tiles)) <= set(prev["files"])):
-                    entry.update(status="skipped", files=prev["files"], tiles=prev.get("tiles"),
-                                 warnings=prev.get("warnings", []),
-                                 note="inputs, settings and outputs unchanged (--force bakes "
-                                      "again)")
-                    continue
-                Path(out).parent.mkdir(parents=True, exist_ok=True)
-                jobs.append({"op": "bake", "id": key, "file": blend,
-                             "blend": None if open_file else blend, "object": a["object"],
-                             "output": str(Path(out).resolve()), "settings": s, "tiles": tiles,
-                             "empty_tiles": empty_tiles,
-                             # our own earlier, unmodified outputs may be replaced
-                             "overwrite": overwrite or bool(ours)})
-        progress = Progress(len(report["assets"]), log)
-        for key, entry in report["assets"].items():
+                entries.append({"file": blend, "object": None, "status": "failed",
+                                "kind": "input",
+                                "error": f"{name} has no mesh object with a material to bake"})
+        for a in f.get("scan", {}).get("assets", []):
+            key = _asset_key(blend, a["object"])
+            s = asset_settings(base, overrides, name, a["object"])
+            entry = {"file": blend, "object": a["object"], "settings": s}
+            entries.append(entry)
+            problem = _asset_problem(a, s)
+            if problem:
+                entry.update(status="failed", kind="input", error=problem)
+                continue
+            uv = s["uv_map"] or a["active_uv"] or next(iter(a["uv_maps"]))
+            s = dict(s, uv_map=uv)
+            entry["settings"] = s
+            out = expand(output, name, a["object"], uv)
+            entry["output"] = out
+            if out in outputs_seen:
+                entry.update(status="failed", kind="input",
+                             error=f"output {out} is also {outputs_seen[out]}'s: put "
+                                   f"{{object}} (or {{file}}) in the output pattern")
+                continue
+            outputs_seen[out] = f"{name}:{a['object']}"
+            entry["input_hash"] = f["input_hash"]
+            entry["settings_hash"] = settings_hash(s, out, blender_version, VERSION)
+            prev = previous["assets"].get(key, {})
+            ours = _unchanged_outputs(prev)
+            if not force and prev.get("status") in ("baked", "skipped") and ours and \
+                    prev.get("input_hash") == entry["input_hash"] and \
+                    prev.get("settings_hash") == entry["settings_hash"] and \
+                    (tiles is None or set(map(str, tiles)) <= set(prev["files"])):
+                entry.update(status="skipped", files=prev["files"], tiles=prev.get("tiles"),
+                             warnings=prev.get("warnings", []),
+                             note="inputs, settings and outputs unchanged (--force bakes "
+                                  "again)")
+                continue
+            Path(out).parent.mkdir(parents=True, exist_ok=True)
+            jobs.append({"op": "bake", "id": key, "file": blend,
+                         "blend": None if open_file else blend, "object": a["object"],
+                         "output": str(Path(out).resolve()), "settings": s, "tiles": tiles,
+                         "empty_tiles": empty_tiles, "threads": threads,
+                         # our own earlier, unmodified outputs may be replaced
+                         "overwrite": overwrite or bool(ours)})
+        for entry in entries:
+            report["assets"][_asset_key(blend, entry.get("object") or "*")] = entry
+        progress.known += len(entries)
+        for entry in entries:
             if entry.get("status") in ("failed", "skipped"):
-                what = f"{Path(entry['file']).name}:{entry.get('object') or '*'}"
-                progress.step(entry["status"], what,
-                              f": {entry['error']}" if entry["status"] == "failed" else "")
-        if jobs:
-            log(f"[batch] baking {len(jobs)} asset(s) with "
-                f"{'this process' if workers == 0 else f'{workers} worker(s)'}")
+                step_entry(entry)
+        return jobs
 
-        def baked(req, reply, retry):
-            entry = report["assets"][req["id"]]
-            what = f"{Path(req['file']).name}:{req['object']}"
-            entry.setdefault("attempts", []).append(
-                {k: reply.get(k) for k in ("status", "kind", "error", "load_s", "bake_s",
-                                           "save_s", "total_s") if k in reply})
+    def on_reply(req, reply, retry):
+        if req["op"] == "scan":
             if retry:
-                log(f"[batch] {what}: {reply['error']} - retrying once in a fresh process")
-                return
+                return []
+            f = files[req["file"]]
+            f["scan_load_s"] = reply.get("load_s")
             if reply["status"] == "ok":
-                entry.update(status="baked", tiles=reply["tiles"], uv_map=reply["uv_map"],
-                             depth=reply["depth"], warnings=reply["warnings"],
-                             timings={k: reply.get(k) for k in ("load_s", "bake_s", "save_s",
-                                                                "total_s")},
-                             files={t: {"path": p, "sha256": sha256_file(p)}
-                                    for t, p in reply["paths"].items()})
-                f = files[req["file"]]
+                f["scan"] = {"assets": reply["assets"], "errors": reply["errors"]}
                 if reply["dependencies"] != f["dependencies"]:
                     f["dependencies"] = reply["dependencies"]
                     f["input_hash"] = input_hash(req["file"], f["dependencies"])
-                    entry["input_hash"] = f["input_hash"]
-                progress.step("baked", what, f": tile(s) {NB._tiles_text(reply['tiles'])}"
-                                             f" in {reply['total_s']:.1f} s")
             else:
-                entry.update(status="failed", kind=reply.get("kind"), error=reply["error"])
-                progress.step("failed", what, f": {reply['error']}")
+                f["scan_error"] = reply["error"]
+            progress.unscanned -= 1
+            progress.scanned_files += 1
+            progress.scanned_assets += len(f.get("scan", {}).get("assets", [])) or 1
+            jobs = plan_file(req["file"])
             write_json_atomic(manifest_path, _merged(previous, report, files))
+            return jobs
+        entry = report["assets"][req["id"]]
+        what = f"{Path(req['file']).name}:{req['object']}"
+        entry.setdefault("attempts", []).append(
+            {k: reply.get(k) for k in ("status", "kind", "error", "load_s", "bake_s",
+                                       "save_s", "total_s") if k in reply})
+        if retry:
+            log(f"[batch] {what}: {reply['error']} - retrying once in a fresh process")
+            return []
+        if reply["status"] == "ok":
+            entry.update(status="baked", tiles=reply["tiles"], uv_map=reply["uv_map"],
+                         depth=reply["depth"], warnings=reply["warnings"],
+                         timings={k: reply.get(k) for k in ("load_s", "bake_s", "save_s",
+                                                            "total_s")},
+                         files={t: {"path": p, "sha256": sha256_file(p)}
+                                for t, p in reply["paths"].items()})
+            f = files[req["file"]]
+            if reply["dependencies"] != f["dependencies"]:
+                f["dependencies"] = reply["dependencies"]
+                f["input_hash"] = input_hash(req["file"], f["dependencies"])
+                entry["input_hash"] = f["input_hash"]
+            progress.step("baked", what, f": tile(s) {NB._tiles_text(reply['tiles'])}"
+                                         f" in {reply['total_s']:.1f} s")
+        else:
+            entry.update(status="failed", kind=reply.get("kind"), error=reply["error"])
+            progress.step("failed", what, f": {reply['error']}")
+        write_json_atomic(manifest_path, _merged(previous, report, files))
+        return []
 
-        pool.map(jobs, baked)
+    try:
+        for entry in list(report["assets"].values()):
+            step_entry(entry)
+        requests = []
+        for blend in files:
+            if blend not in to_scan:
+                requests += plan_file(blend)
+        requests += [{"op": "scan", "file": b, "blend": None if open_file else b,
+                      **files[b]["selection"]} for b in to_scan]
+        log(f"[batch] {len(files)} file(s), {len(to_scan)} to scan; baking with {how}")
+        pool.map(requests, on_reply)
         report["process_start_s"] = pool.start_times()
     finally:
         pool.close()
@@ -781,5 +841,6 @@ def _merged(previous, report, files):
     for blend, f in files.items():
         out["files"][blend] = {"input_hash": f["input_hash"],
                                "dependencies": f["dependencies"], "selection": f["selection"],
+                               "load_s": f.get("scan_load_s"),
                                **({"scan": f["scan"]} if "scan" in f else {})}
     return out

@@ -84,6 +84,9 @@ def add_bake_batch(sub):
                          "(farm tasks over asset x tile)")
     bb.add_argument("--workers", type=int, default=1,
                     help="separate Blender processes baking at once (0: this process)")
+    bb.add_argument("--threads", type=int, default=None,
+                    help="Cycles threads per bake (default: every core, shared out between "
+                         "workers)")
     bb.add_argument("--force", action="store_true", help="bake assets whose inputs and "
                                                          "settings are unchanged too")
     bb.add_argument("--overwrite", action="store_true",
@@ -123,7 +126,7 @@ def run_bake_batch(args, log=print):
     report = batch.bake_batch(blends, args.output, args.objects, args.collections, defaults,
                               args.settings, args.workers, args.force, args.overwrite,
                               args.manifest, args.tiles, args.if_tile_empty, args.open_file,
-                              log=log)
+                              log=log, threads=args.threads)
     failed = [a for a in report["assets"].values() if a.get("status") == "failed"]
     for a in failed:
         print(f"surfgrad: error: {Path(a['file']).name}:{a.get('object') or '*'}: "

@@ -20,7 +20,6 @@ under a temporary name and renamed when complete; an existing file is only repla
 overwrite.
 """
 
-import math
 import os
 import time
 from pathlib import Path
@@ -174,9 +173,11 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
 
 def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
                       samples=1, depth=None, tiles=None, empty_tiles="error", overwrite=False,
-                      log=print):
+                      log=print, threads=None):
     """Bake obj's materials into normal map file(s) at `output` (with <UDIM>: one file per
-    tile). Returns a dict: paths {tile: Path}, tiles, uv_map, depth, warnings, bake_s, save_s."""
+    tile). threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch
+    of several processes gives each its share). Returns a dict: paths {tile: Path}, tiles,
+    uv_map, depth, warnings, bake_s, save_s."""
     import bpy
 
     output = check_output(output)
@@ -215,7 +216,8 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
                                 float_buffer=is_float, tiled=udim)
     image.colorspace_settings.name = "Non-Color"
     added, temps = [], {}
-    settings = SCENE_SETTINGS + ("render.bake.normal_space",)
+    settings = SCENE_SETTINGS + ("render.bake.normal_space", "render.threads_mode",
+                                 "render.threads")
     try:
         if udim:
             _make_tiles(bpy, image, tiles, resolution, is_float)
@@ -231,6 +233,9 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
             scene.cycles.device = "CPU"
             scene.cycles.samples = samples
             scene.cycles.use_denoising = False
+            if threads:
+                scene.render.threads_mode = "FIXED"
+                scene.render.threads = threads
             scene.render.bake.target = "IMAGE_TEXTURES"
             scene.render.bake.use_selected_to_active = False
             mesh.uv_layers.active = mesh.uv_layers[uv_map]
