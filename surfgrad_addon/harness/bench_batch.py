@@ -45,9 +45,10 @@ def _fresh_task(blend, out_dir, resolution):
     wall = time.perf_counter() - t0
     if res.returncode:
         raise RuntimeError(f"the farm-like task failed: {res.stderr[-2000:]}")
-    (entry,) = json.loads(manifest.read_text())["assets"].values()
-    timings = entry["attempts"][-1]
-    return wall, timings["bake_s"], timings.get("load_s") or 0.0
+    data = json.loads(manifest.read_text())
+    (entry,) = data["assets"].values()
+    (f,) = data["files"].values()
+    return wall, entry["attempts"][-1]["bake_s"], f.get("load_s") or 0.0
 
 
 def run(out="out/bench_batch", assets=50, resolution=512, workers=(1, 2), overwrite=False,
