@@ -293,3 +293,21 @@ def test_collections_and_the_api(tmp_path):
     assert r["counts"]["baked"] == 1 and (tmp_path / "o2" / "c-C.png").is_file()
     with pytest.raises(ValueError, match="takes no setting colour"):
         api.bake_batch([str(blend)], "x.png", colour=1)
+
+
+def test_the_readme_example_bakes_the_procedural_assets(tmp_path):
+    """README: batch-assets, then bake-batch over them with 2 workers (as a fresh clone)."""
+    res = run_python(["-m", "surfgrad_addon", "batch-assets", "--out", tmp_path / "assets",
+                      "--count", "3"])
+    assert res.returncode == 0, res.stderr[-2000:]
+    blends = sorted((tmp_path / "assets").glob("*.blend"))
+    assert len(blends) == 3
+    res = run_python(["-m", "surfgrad_addon", "bake-batch", *blends, "--output",
+                      tmp_path / "maps" / "{file}_{object}.<UDIM>.png", "--resolution", "32",
+                      "--workers", "2"])
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert sorted(p.name for p in (tmp_path / "maps").glob("*.png")) == [
+        f"asset_{i:03d}_Asset{i:03d}.{t}.png" for i in range(3) for t in (1001, 1002)]
+    again = run_python(["-m", "surfgrad_addon", "batch-assets", "--out", tmp_path / "assets",
+                        "--count", "3"])
+    assert again.returncode == 2 and "--overwrite" in again.stderr

@@ -241,7 +241,7 @@ def run_request(request, log=lambda *_: None):
     """Do one request in this session: {"op": "scan", blend, objects, collections} or
     {"op": "bake", blend, object, output, settings, tiles, empty_tiles, overwrite}. Returns the
     reply dict (status "ok", or "error" with kind "input" / "crash" and the message)."""
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     reply = {"op": request["op"], "id": request.get("id")}
     try:
         load_s = open_blend(request["blend"]) if request.get("blend") else 0.0
@@ -272,6 +272,7 @@ def run_request(request, log=lambda *_: None):
     except Exception as err:                    # noqa: BLE001 - reported, retried once
         reply.update(status="error", kind="crash", error=f"{type(err).__name__}: {err}")
     reply["total_s"] = time.perf_counter() - t0
+    reply["cpu_s"] = time.process_time() - cpu0      # every thread of this process (Cycles')
     return reply
 
 
@@ -765,7 +766,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry.update(status="baked", tiles=reply["tiles"], uv_map=reply["uv_map"],
                          depth=reply["depth"], warnings=reply["warnings"],
                          timings={k: reply.get(k) for k in ("load_s", "bake_s", "save_s",
-                                                            "total_s")},
+                                                            "total_s", "cpu_s")},
                          files={t: {"path": p, "sha256": sha256_file(p)}
                                 for t, p in reply["paths"].items()})
             f = files[req["file"]]

@@ -105,3 +105,16 @@ def source_normals(image_size=64, kind="tiles", seed=0):
         m = rng.normal(size=(image_size, image_size, 3)) * [0.6, 0.6, 0.0] + [0, 0, 1]
         return m / np.linalg.norm(m, axis=-1, keepdims=True)
     return T.hemisphere_tile_image(image_size, tiles=4) * 2 - 1
+
+
+def write_assets(folder, count=4, overwrite=False):
+    """`count` assets asset_000.blend ... in `folder` (one object Asset000 ... each, tiles 1001
+    and 1002); refuses to replace files unless overwrite. Returns the paths."""
+    if count < 1:
+        raise ValueError(f"count {count}: give 1 or more assets")
+    paths = [Path(folder) / f"asset_{i:03d}.blend" for i in range(count)]
+    existing = [str(p) for p in paths if p.exists()]
+    if existing and not overwrite:
+        raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
+    return [write_asset(p, (f"Asset{i:03d}",), tiles=(1001, 1002), image_size=128, seed=i)
+            for i, p in enumerate(paths)]

@@ -67,9 +67,7 @@ def run(out="out/bench_batch", assets=50, resolution=512, workers=(1, 2), overwr
     log(f"[1/4] writing {assets} procedural assets (2 UDIM tiles each)")
     asset_dir = out / "assets"
     shutil.rmtree(asset_dir, ignore_errors=True)
-    blends = [batch_assets.write_asset(asset_dir / f"asset_{i:03d}.blend", (f"Asset{i:03d}",),
-                                       tiles=(1001, 1002), image_size=128, seed=i)
-              for i in range(assets)]
+    blends = batch_assets.write_assets(asset_dir, assets)
 
     # "shared": Cycles' threads are every core, shared out between the workers (the default);
     # "one": one thread per worker, so the workers' scaling shows apart from Cycles' own.
@@ -105,7 +103,11 @@ def run(out="out/bench_batch", assets=50, resolution=512, workers=(1, 2), overwr
                 "median_save_s": _median([x["save_s"] for x in t]),
                 "median_asset_total_s": _median([x["total_s"] for x in t]),
                 "sum_bake_s": sum(x["bake_s"] for x in t),
-                "sum_asset_total_s": sum(x["total_s"] for x in t)}
+                "sum_asset_total_s": sum(x["total_s"] for x in t),
+                "median_asset_cpu_s": _median([x["cpu_s"] for x in t]),
+                # CPU cores this run had, on average, while it baked (other work on a shared
+                # machine takes the rest)
+                "cores_used": sum(x["cpu_s"] for x in t) / wall}
             log(f"      {wall:.1f} s: {assets / wall:.2f} assets/s")
         base = runs[f"{mode}_w{workers[0]}"]
         for w in workers:
@@ -169,7 +171,8 @@ def run(out="out/bench_batch", assets=50, resolution=512, workers=(1, 2), overwr
     for name, r in runs.items():
         log(f"{name}: {r['wall_s']:.1f} s, {r['assets_per_s']:.2f} assets/s, "
             f"x{r['speedup_vs_first']:.2f}; per asset: load {r['median_file_load_s']:.2f} s, "
-            f"bake {r['median_bake_s']:.2f} s, save {r['median_save_s']:.2f} s")
+            f"bake {r['median_bake_s']:.2f} s, save {r['median_save_s']:.2f} s, "
+            f"CPU {r['median_asset_cpu_s']:.2f} s; {r['cores_used']:.2f} cores used")
     log(f"farm-like task: {task['median_wall_s']:.2f} s of which bake "
         f"{task['median_bake_s']:.2f} s (overhead {task['overhead_s']:.2f} s)")
     log(f"16-worker farm, 500 assets x 2 tiles at 4096^2: {farm['farm_hours']['1']:.2f} h at 1 "

@@ -9,6 +9,7 @@
   bake-normal-map  bake an object's material into a tangent- or object-space normal map file
   bake-batch       bake many objects / collections / .blend files: UDIM tiles, per-asset
                    settings, skip unchanged, several worker processes, a JSON manifest
+  batch-assets     small procedural assets to try bake-batch on
   bench-batch      scale figures of bake-batch (assets per second with 1 and 2 workers)
   demo-blend       build demo.blend from code (exhibits, packed textures), render pictures
   bench            speed against accuracy of every method (charts, table, JSON, heat maps)
@@ -89,6 +90,12 @@ def main(argv=None, in_blender=False):
     from ..addon.commands import add_bake_batch, add_bake_normal_map
     add_bake_normal_map(sub)
     add_bake_batch(sub)
+    ba = sub.add_parser("batch-assets", help="write small procedural assets (.blend files, "
+                                             "UVs in 2 UDIM tiles, an SG material) to try "
+                                             "bake-batch on")
+    ba.add_argument("--out", default="out/batch_assets", help="folder for the .blend files")
+    ba.add_argument("--count", type=int, default=4, help="number of assets (default 4)")
+    ba.add_argument("--overwrite", action="store_true", help="replace existing files")
     bb = sub.add_parser("bench-batch", help="scale figures of bake-batch: procedural assets "
                                             "baked with 1 and 2 worker processes (JSON)")
     bb.add_argument("--out", default="out/bench_batch", help="output folder")
@@ -131,6 +138,10 @@ def main(argv=None, in_blender=False):
             if in_blender and not args.blends and not args.asset_list:
                 args.open_file = True
             return run_bake_batch(args)
+        elif args.command == "batch-assets":
+            from . import batch_assets
+            for path in batch_assets.write_assets(args.out, args.count, args.overwrite):
+                print(path)
         elif args.command == "bench-batch":
             from . import bench_batch
             bench_batch.run(args.out, args.assets, args.resolution, args.workers,
