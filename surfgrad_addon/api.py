@@ -4,6 +4,9 @@
     tree = api.node_group("SG Normal Map", uv_map="Detail")
     nodes = api.add_layer_stack(bpy.data.materials["Rock"], uv_map="UVMap")
     api.bake_normal_map(bpy.data.objects["Rock"], "rock_nrm.exr", space="tangent")
+    api.bake_normal_map(rock, "rock_nrm.<UDIM>.png", samples=16, depth="16")   # UDIM tiles
+    report = api.bake_batch(["a.blend", "b.blend"], "maps/{file}/{object}.<UDIM>.png",
+                            resolution=2048, samples=16, workers=2)
     report = api.compare(bpy.data.objects["Rock"], "triplanar", resolution=128)
 
 From an installed extension the same module is `bl_ext.<repo>.surfgrad.api`; `compare` needs the
@@ -59,11 +62,38 @@ def add_layer_stack(material, uv_map=""):
 
 
 def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
-                    overwrite=False, log=print):
+                    overwrite=False, log=print, samples=1, depth=None, tiles=None):
     """Bake obj's own materials into a tangent- or object-space normal map (.png or .exr),
-    restoring every setting it touches. Returns the written path."""
+    restoring every setting it touches. With <UDIM> in the output name: one file per tile that
+    holds UVs (or per tile of `tiles`). samples: per texel (anti-aliasing); depth: '8'/'16'
+    (PNG), 'half'/'float' (EXR). Returns the written path (the name with <UDIM> for tiles)."""
     from .addon.normal_bake import bake_normal_map as bake
-    return bake(obj, output, space, resolution, uv_map, margin, overwrite=overwrite, log=log)
+    return bake(obj, output, space, resolution, uv_map, margin, samples, overwrite=overwrite,
+                log=log, depth=depth, tiles=tiles)
+
+
+def bake_batch(blends=None, output="{file}_{object}.<UDIM>.png", objects=None,
+               collections=None, settings_file=None, workers=1, force=False, overwrite=False,
+               manifest=None, tiles=None, log=print, **settings):
+    """Bake many assets into normal maps named by the `output` pattern ({file}, {object},
+    {uv}, <UDIM>). blends: .blend paths (each may end in ':Object'), baked in `workers`
+    separate Blender processes (the open file is not touched); None bakes the open, saved
+    file in this session. objects / collections: names (or the objects / collections
+    themselves) to pick in every file (default: every mesh object with a material).
+    settings: uv_map, space, resolution, samples, margin, depth (defaults for every asset;
+    settings_file adds per-asset ones). Unchanged assets are skipped unless force. Returns
+    the report (also written to the manifest): per asset status baked / skipped / failed,
+    settings, timings, warnings, files. Raises ValueError for bad input of the whole call."""
+    from .addon import batch
+    unknown = sorted(set(settings) - set(batch.SETTING_KEYS))
+    if unknown:
+        raise ValueError(f"bake_batch takes no setting {', '.join(unknown)}; the settings are "
+                         f"{', '.join(batch.SETTING_KEYS)}")
+    names = [o if isinstance(o, str) else o.name for o in objects or ()] or None
+    colls = [c if isinstance(c, str) else c.name for c in collections or ()] or None
+    return batch.bake_batch(blends or (), output, names, colls, settings, settings_file,
+                            workers, force, overwrite, manifest, tiles,
+                            open_file=blends is None, log=log)
 
 
 def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,

@@ -81,3 +81,32 @@ def test_bake_normal_map_inside_blender_honours_blend(plane, tmp_path, capsys):
                      "Plane", "--output", str(out), "--resolution", "16"], in_blender=True)
     assert code == 2 and not out.exists()
     assert "nope.blend' does not exist" in capsys.readouterr().err
+
+
+def _with_material(obj):
+    from surfgrad_addon.addon.compat import new_material
+    mat = new_material("Plain")
+    obj.data.materials.append(mat)
+    return mat
+
+
+def test_bake_normal_map_bakes_a_hidden_object_and_hides_it_again(plane, tmp_path):
+    from surfgrad_addon.addon.normal_bake import bake_normal_map
+    _with_material(plane)
+    plane.hide_set(True)
+    plane.hide_render = True
+    out = bake_normal_map(plane, tmp_path / "n.png", resolution=16, log=lambda *a: None)
+    assert out.is_file()
+    img = bpy.data.images.load(str(out))
+    px = np.array(img.pixels[:]).reshape(16, 16, 4)
+    # A flat plane in tangent space is (0.5, 0.5, 1) everywhere: a real bake, not a blank.
+    assert np.abs(px[..., :3] - [0.5, 0.5, 1.0]).max() < 0.01
+    assert plane.hide_get() and plane.hide_render
+
+
+def test_bake_normal_map_refuses_a_linked_object(fresh, tmp_path):
+    from surfgrad_addon.addon.normal_bake import NormalBakeError, bake_normal_map
+    obj = _linked_object(tmp_path)
+    with pytest.raises(NormalBakeError, match="linked from library .*Make Local"):
+        bake_normal_map(obj, tmp_path / "n.png", resolution=16, log=lambda *a: None)
+    assert not (tmp_path / "n.png").exists()

@@ -357,6 +357,14 @@ def session_installed(zip_path, work):
                                           "No Such Object", "--output", str(nrm)])
     report["cli_exists"] = commands.execute(["bake-normal-map", "--blend", str(blend),
                                              "--object", bake_obj, "--output", str(nrm)])
+    # bake-batch with a worker process started from the installed extension's own folder.
+    maps = work / "batch_maps"
+    report["batch_rc"] = commands.execute(["bake-batch", str(blend), "--objects", bake_obj,
+                                           "--output", str(maps / "{file}_{object}.<UDIM>.png"),
+                                           "--resolution", "16", "--workers", "1"])
+    report["batch_files"] = sorted(p.name for p in maps.glob("*.png"))
+    report["batch_manifest"] = (maps / "surfgrad-bake-manifest.json").is_file()
+    report["batch_object"] = bake_obj
     report["harness_loaded"] = sorted(m for m in sys.modules if ".harness" in m
                                       or m.startswith("surfgrad_addon"))
 
@@ -495,6 +503,9 @@ def test_install_menu_operator_and_clean_disable(installed):
     # whole session loaded no module of the proving harness (nor the checkout's package).
     assert r["cli_registered"] and r["cli_ok"] == 0 and r["cli_file"]
     assert r["cli_bad"] == 2 and r["cli_exists"] == 2
+    assert r["batch_rc"] == 0 and r["batch_manifest"]
+    assert r["batch_files"] and all(n.startswith(f"surfgrad_scene_{r['batch_object']}.10")
+                                    for n in r["batch_files"]), r["batch_files"]
     assert r["harness_loaded"] == []
     # Every group added at the cursor, selected and active.
     assert [a["group"] for a in r["added"]] == r["menu_groups"]

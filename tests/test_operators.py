@@ -160,5 +160,19 @@ def test_decal_projector_axes_follow_the_empty(sphere):
     for socket, column in (("Axis X", 0), ("Axis Y", 1)):
         got = np.array(decal.inputs[socket].default_value)
         np.testing.assert_allclose(got, m[:, column] / np.linalg.norm(m[:, column]), atol=1e-5)
-    tc = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeTexCoord")
-    assert tc.object == empty
+    # SG Projector Coordinates: the empty's location and world-to-local rows, driven.
+    empty.location = (9000.25, -4000.5, 120.0)
+    bpy.context.view_layer.update()
+    bpy.context.scene.frame_set(bpy.context.scene.frame_current)
+    pc = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeGroup"
+              and n.node_tree.name == "SG Projector Coordinates")
+    full = np.array(empty.matrix_world)
+    np.testing.assert_array_equal(np.array(pc.inputs["Projector Location"].default_value),
+                                  np.float32(full[:3, 3]))
+    inverse = np.linalg.inv(full[:3, :3])
+    for axis, row in zip("XYZ", inverse):
+        np.testing.assert_allclose(np.array(pc.inputs[f"To Projector {axis}"].default_value),
+                                   row, rtol=1e-5, atol=1e-6)
+    assert pc.inputs["Decal Coordinates"].links[0].from_node.object == empty
+    assert pc.outputs["Decal Coordinates"].links[0].to_node.node_tree.name in (
+        "SG Decal Coordinates", "SG Decal")

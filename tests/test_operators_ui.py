@@ -370,8 +370,13 @@ def session(work):
         for node in decals:
             entry = {"name": node.name}
             cd = node.inputs["Decal Coordinates"]
-            tc = cd.links[0].from_node if cd.is_linked else None
-            entry["coords_from"] = [tc.bl_idname, cd.links[0].from_socket.name,
+            # Through SG Projector Coordinates (precise far away) to its Texture Coordinate.
+            pc = cd.links[0].from_node if cd.is_linked else None
+            entry["projector_group"] = pc.node_tree.name if pc is not None and getattr(
+                pc, "node_tree", None) else None
+            tcin = pc.inputs["Decal Coordinates"] if entry["projector_group"] else None
+            tc = tcin.links[0].from_node if tcin is not None and tcin.is_linked else None
+            entry["coords_from"] = [tc.bl_idname, tcin.links[0].from_socket.name,
                                     tc.object.name if tc.object else None] if tc else None
             col = node.inputs["Color"]
             texn = col.links[0].from_node if col.is_linked else None
@@ -383,7 +388,7 @@ def session(work):
             g_in = grp.inputs[0] if grp is not None else None
             entry["coords_group_input_from"] = (g_in.links[0].from_node.name
                                                 if g_in is not None and g_in.is_linked else None)
-            entry["coords_node"] = tc.name if tc else None
+            entry["coords_node"] = pc.name if pc else None
             entry["drivers"] = {}
             for axis in ("Axis X", "Axis Y"):
                 path = node.inputs[axis].path_from_id("default_value")
@@ -396,6 +401,15 @@ def session(work):
                     "valid": d.driver.is_valid,
                     "targets": sorted({v.targets[0].id.name for v in d.driver.variables
                                        if v.targets[0].id is not None})} for d in fcs]
+            entry["projector_drivers"] = []
+            if entry["projector_group"]:
+                paths = {pc.inputs[k].path_from_id("default_value") for k in (
+                    "Projector Location", "To Projector X", "To Projector Y", "To Projector Z")}
+                entry["projector_drivers"] = [{
+                    "simple": d.driver.is_simple_expression, "valid": d.driver.is_valid,
+                    "targets": sorted({v.targets[0].id.name for v in d.driver.variables
+                                       if v.targets[0].id is not None})}
+                    for d in drivers if d.data_path in paths]
             state["decals"].append(entry)
         for name in empties:
             o = bpy.data.objects[name]
@@ -419,8 +433,8 @@ def session(work):
     followed = {}
     for node in [n for n in tree.nodes if n.bl_idname == "ShaderNodeGroup"
                  and n.node_tree.name == "SG Decal"]:
-        tc = node.inputs["Decal Coordinates"].links[0].from_node
-        empty = tc.object
+        pc = node.inputs["Decal Coordinates"].links[0].from_node
+        empty = pc.inputs["Decal Coordinates"].links[0].from_node.object
         empty.rotation_euler = (0.3, -0.5, 1.2)
         empty.scale = (2.0, 0.5, 1.0)
         bpy.context.view_layer.update()
@@ -549,6 +563,7 @@ def test_decal_projector_adds_a_driven_chain_and_undoes(session_report):
         # Texture Coordinate (Object of the empty) -> SG Decal Coordinates -> Image Texture
         # (the image, CLIP) -> SG Decal; the Object coordinates also into SG Decal.
         coords_from = entry["coords_from"]
+        assert entry["projector_group"] == "SG Projector Coordinates"
         assert coords_from[:2] == ["ShaderNodeTexCoord", "Object"]
         assert coords_from[2] in s["second"]["empties"]
         assert entry["color_from"] == ["ShaderNodeTexImage", "SG Normal Image", "CLIP"]
@@ -561,6 +576,10 @@ def test_decal_projector_adds_a_driven_chain_and_undoes(session_report):
             for d in drivers:
                 assert d["type"] == "SCRIPTED" and d["simple"] and d["valid"], d
                 assert d["targets"] == [coords_from[2]], d
+        # SG Projector Coordinates: location and three inverse rows, 12 simple valid drivers.
+        assert len(entry["projector_drivers"]) == 12, entry["projector_drivers"]
+        for d in entry["projector_drivers"]:
+            assert d["simple"] and d["valid"] and d["targets"] == [coords_from[2]], d
     # Each decal is driven by its own empty.
     assert len({e["coords_from"][2] for e in s["second"]["decals"]}) == 2
     _check_undo(s)

@@ -3,7 +3,10 @@ Blender's own `bpy.utils.register_cli_command` (4.2 and later).
 
     blender -c surfgrad bake-normal-map --blend scene.blend --object Rock \\
         --output rock_normal.exr [--space tangent|object] [--resolution 2048] [--uv-map NAME] \\
-        [--margin 16] [--overwrite]
+        [--margin 16] [--samples 16] [--depth 8|16|half|float] [--tiles 1001-1004] [--overwrite]
+    blender -c surfgrad bake-batch assets/*.blend --output "maps/{file}/{object}.<UDIM>.png" \\
+        [--objects NAME ...] [--collections NAME ...] [--settings per_asset.json] \\
+        [--workers 4] [--force] [--manifest FILE] [the bake settings above]
 
 Bad input prints one line naming the thing and the fix and returns a non-zero exit code, no
 traceback. The proving harness's commands (compare, bench, demo) run from a checkout:
@@ -12,6 +15,7 @@ traceback. The proving harness's commands (compare, bench, demo) run from a chec
 
 import argparse
 import sys
+from pathlib import Path
 
 COMMAND = "surfgrad"
 _handle = None
@@ -31,14 +35,103 @@ def add_bake_normal_map(sub):
     nb.add_argument("--uv-map", default=None, help="UV map (default: the active render one)")
     nb.add_argument("--margin", type=int, default=16, help="texels to extend past UV borders")
     nb.add_argument("--overwrite", action="store_true", help="replace an existing file")
+    nb.add_argument("--samples", type=int, default=1,
+                    help="Cycles samples per texel: more anti-alias detail finer than a texel "
+                         "(default 1)")
+    nb.add_argument("--depth", default=None, choices=("auto", "8", "16", "half", "float"),
+                    help="bit depth: 8 or 16 for .png (default 8), half or float for .exr "
+                         "(default float)")
+    nb.add_argument("--tiles", default=None,
+                    help="UDIM tiles to bake, e.g. 1001,1002 or 1001-1010 (default: every tile "
+                         "the UV map has faces in; needs <UDIM> in --output for more than 1001)")
     return nb
+
+
+def add_bake_batch(sub):
+    """The bake-batch subcommand (also python -m surfgrad_addon's)."""
+    bb = sub.add_parser("bake-batch", help="bake many objects, collections or .blend files "
+                                           "into normal maps (UDIM tiles, several processes)")
+    bb.add_argument("blends", nargs="*", metavar="FILE.blend[:OBJECT]",
+                    help=".blend files to bake, optionally naming one object each")
+    bb.add_argument("--asset-list", default=None,
+                    help="text file of FILE.blend[:OBJECT] lines (relative to the list)")
+    bb.add_argument("--asset-index", type=int, default=None,
+                    help="bake only this line of --asset-list (0-based; a farm task)")
+    bb.add_argument("--open-file", action="store_true",
+                    help="bake the file Blender opened (a farm task started with the file)")
+    bb.add_argument("--output", required=True,
+                    help="output pattern: {file}, {object}, {uv} and <UDIM> tokens, ending in "
+                         ".png or .exr, e.g. maps/{file}/{object}_normal.<UDIM>.png")
+    bb.add_argument("--objects", nargs="+", default=None,
+                    help="object names (shell wildcards) to bake in every file (default: every "
+                         "mesh object with a material)")
+    bb.add_argument("--collections", nargs="+", default=None,
+                    help="collections whose mesh objects to bake")
+    bb.add_argument("--settings", default=None,
+                    help='JSON of per-asset settings: {"defaults": {...}, "assets": {"file.blend'
+                         ':Object" or "Object" (wildcards): {"resolution": 4096, ...}}}')
+    bb.add_argument("--space", default=None, choices=("tangent", "object"))
+    bb.add_argument("--resolution", type=int, default=None, help="texels per side (default "
+                                                                 "1024)")
+    bb.add_argument("--uv-map", default=None, help="UV map (default: the active render one)")
+    bb.add_argument("--margin", type=int, default=None, help="texels past UV borders (16)")
+    bb.add_argument("--samples", type=int, default=None, help="samples per texel (default 1)")
+    bb.add_argument("--depth", default=None, choices=("auto", "8", "16", "half", "float"),
+                    help="8/16 for .png, half/float for .exr")
+    bb.add_argument("--tiles", default=None, help="only these UDIM tiles, e.g. 1001-1002")
+    bb.add_argument("--if-tile-empty", default="error", choices=("error", "skip"),
+                    help="a tile asked for with no UVs of an asset: refuse (default) or skip "
+                         "(farm tasks over asset x tile)")
+    bb.add_argument("--workers", type=int, default=1,
+                    help="separate Blender processes baking at once (0: this process)")
+    bb.add_argument("--threads", type=int, default=None,
+                    help="Cycles threads per bake (default: every core, shared out between "
+                         "workers)")
+    bb.add_argument("--force", action="store_true", help="bake assets whose inputs and "
+                                                         "settings are unchanged too")
+    bb.add_argument("--overwrite", action="store_true",
+                    help="replace existing files the manifest does not record as ours")
+    bb.add_argument("--manifest", default=None,
+                    help="manifest JSON (default: surfgrad-bake-manifest.json in the output "
+                         "pattern's fixed folder)")
+    return bb
 
 
 def parser():
     p = argparse.ArgumentParser(prog=f"blender -c {COMMAND}",
                                 description="surfgrad commands for pipelines")
-    add_bake_normal_map(p.add_subparsers(dest="command", required=True))
+    sub = p.add_subparsers(dest="command", required=True)
+    add_bake_normal_map(sub)
+    add_bake_batch(sub)
     return p
+
+
+def run_bake_batch(args, log=print):
+    """bake-batch with parsed options; returns the exit code: 0 when every asset was baked or
+    skipped, 1 when any failed (each named in the log and the manifest)."""
+    from . import batch
+    blends = list(args.blends)
+    if args.asset_list:
+        listed = batch.read_asset_list(args.asset_list)
+        if args.asset_index is not None:
+            if not 0 <= args.asset_index < len(listed):
+                raise ValueError(f"asset index {args.asset_index}: the list "
+                                 f"{args.asset_list} has {len(listed)} entries (0 to "
+                                 f"{len(listed) - 1})")
+            listed = [listed[args.asset_index]]
+        blends += listed
+    elif args.asset_index is not None:
+        raise ValueError("--asset-index needs --asset-list")
+    defaults = {k: getattr(args, k) for k in batch.SETTING_KEYS}
+    report = batch.bake_batch(blends, args.output, args.objects, args.collections, defaults,
+                              args.settings, args.workers, args.force, args.overwrite,
+                              args.manifest, args.tiles, args.if_tile_empty, args.open_file,
+                              log=log, threads=args.threads)
+    failed = [a for a in report["assets"].values() if a.get("status") == "failed"]
+    for a in failed:
+        print(f"surfgrad: error: {Path(a['file']).name}:{a.get('object') or '*'}: "
+              f"{a['error']}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def run_bake_normal_map(args):
@@ -47,7 +140,6 @@ def run_bake_normal_map(args):
     import bpy
     from .normal_bake import bake_normal_map
     if args.blend:
-        from pathlib import Path
         if not Path(args.blend).is_file():
             raise ValueError(f".blend file {args.blend!r} does not exist")
         bpy.ops.wm.open_mainfile(filepath=args.blend)
@@ -55,8 +147,10 @@ def run_bake_normal_map(args):
     if obj is None:
         raise ValueError(f"no object named {args.object!r}; objects: "
                          f"{sorted(o.name for o in bpy.data.objects)}")
+    from .batch import _tile_list
     return bake_normal_map(obj, args.output, args.space, args.resolution, args.uv_map,
-                           args.margin, overwrite=args.overwrite)
+                           args.margin, args.samples, overwrite=args.overwrite,
+                           depth=args.depth, tiles=_tile_list(args.tiles))
 
 
 def execute(argv):
@@ -66,6 +160,8 @@ def execute(argv):
     except SystemExit as ex:                    # argparse printed the usage line
         return ex.code if isinstance(ex.code, int) else 2
     try:
+        if args.command == "bake-batch":
+            return run_bake_batch(args)
         run_bake_normal_map(args)
     except (ValueError, KeyError, RuntimeError, FileExistsError) as err:
         print(f"surfgrad: error: {err}", file=sys.stderr)

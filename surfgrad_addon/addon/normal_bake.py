@@ -1,26 +1,39 @@
-"""Bake an object's material (surface-gradient groups or anything else) into a normal map file.
+"""Bake an object's material (surface-gradient groups or anything else) into normal map files.
 
 For pipeline TDs, headless:
 
     blender -b scene.blend --python surfgrad_addon/bake_normal_map.py -- \\
         --object Rock --output rock_normal.png --space tangent --resolution 2048
     python -m surfgrad_addon bake-normal-map --blend scene.blend --object Rock \\
-        --output rock_normal.exr --space object
+        --output "rock_normal.<UDIM>.exr" --space object --samples 16 --depth half
 
-Cycles (CPU) bakes type NORMAL through the object's own materials into a new image, saved as
-PNG (8-bit) or OpenEXR (float) by the output's extension. Tangent space uses the chosen UV map's
-MikkTSpace tangents (it is made the active UV map for the bake, then restored). Everything the
-bake touches (render settings, active UV map, active nodes) is put back; the temporary image
-and nodes are removed; an existing file is only replaced with overwrite.
+Cycles (CPU) bakes type NORMAL through the object's own materials, saved as PNG (8- or 16-bit)
+or OpenEXR (half or float) by the output's extension. An output name with `<UDIM>` bakes a
+tiled image, one file per tile, holding only the tiles the UV map has faces in (or the tiles
+asked for); without it the 0-1 UV square (tile 1001) is baked into one image, and a UV layout
+with nothing there, or faces in other tiles too, is refused with the fix. More than one sample
+per texel anti-aliases detail finer than a texel (Cycles jitters the sample in the texel).
+Tangent space uses the chosen UV map's MikkTSpace tangents (it is made the active UV map for
+the bake, then restored). Everything the bake touches (render and image-output settings, active
+UV map, active nodes) is put back; the temporary image and nodes are removed; files are written
+under a temporary name and renamed when complete; an existing file is only replaced with
+overwrite.
 """
 
+import os
 import time
 from pathlib import Path
 
+from .bake_target import bake_target_problem, visible_for_bake
 from .scene_state import SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
+UDIM_TOKEN = "<UDIM>"
+# extension -> (Blender file format, bit depths it takes, the default depth)
+FORMATS = {".png": ("PNG", ("8", "16"), "8"), ".exr": ("OPEN_EXR", ("half", "float"), "float")}
+# UDIM numbering: tile 1001 + u + 10 v for u in 0..9 (Blender's tiled images).
+UDIM_FIRST, UDIM_COLUMNS, UDIM_LAST = 1001, 10, 2000
 
 
 def resolution_problem(resolution, lo, hi):
@@ -29,35 +42,90 @@ def resolution_problem(resolution, lo, hi):
             not lo <= resolution <= hi:
         return f"resolution {resolution!r}: use a whole number of texels from {lo} to {hi}"
     return None
-FORMATS = {".png": ("PNG", False), ".exr": ("OPEN_EXR", True)}
 
 
 class NormalBakeError(ValueError):
     """Bad input: the message names the thing and the fix."""
 
 
-def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
-                    samples=1, overwrite=False, log=print):
-    """Bake obj's materials to a normal map file at `output`. Returns the written path."""
-    import bpy
+def tile_path(output, tile):
+    """The file of UDIM tile `tile` for an output name with <UDIM> (or the name itself)."""
+    return Path(str(output).replace(UDIM_TOKEN, str(tile)))
 
+
+def uv_tiles(mesh, uv_map):
+    """The UDIM tiles the faces of `uv_map` touch, sorted, and how many faces lie outside the
+    UDIM range (u in 0..10, v >= 0). A face counts in every tile its UV bounding box reaches
+    into (a face ending exactly on a tile border does not reach the next tile)."""
+    import numpy as np
+    layer = mesh.uv_layers[uv_map]
+    n_loops, n_faces = len(mesh.loops), len(mesh.polygons)
+    if n_faces == 0:
+        return [], 0
+    uv = np.empty(n_loops * 2, dtype=np.float64)
+    layer.data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    starts = np.empty(n_faces, dtype=np.int64)
+    mesh.polygons.foreach_get("loop_start", starts)
+    lo = np.minimum.reduceat(uv, starts, axis=0)
+    hi = np.maximum.reduceat(uv, starts, axis=0)
+    eps = 1e-6
+    t_lo = np.floor(lo + eps).astype(np.int64)
+    t_hi = np.floor(hi - eps).astype(np.int64)
+    t_hi = np.maximum(t_hi, t_lo)               # degenerate faces on a border
+    outside = (t_lo[:, 0] < 0) | (t_hi[:, 0] >= UDIM_COLUMNS) | (t_lo[:, 1] < 0) | \
+        (UDIM_FIRST + t_hi[:, 1] * UDIM_COLUMNS > UDIM_LAST)
+    tiles = set()
+    span = t_hi - t_lo
+    inside = ~outside
+    if inside.any():
+        simple = inside & (span[:, 0] == 0) & (span[:, 1] == 0)
+        tiles.update((UDIM_FIRST + t_lo[simple, 0] + UDIM_COLUMNS * t_lo[simple, 1]).tolist())
+        for i in np.flatnonzero(inside & ~simple):      # faces across tile borders (few)
+            for v in range(t_lo[i, 1], t_hi[i, 1] + 1):
+                for u in range(t_lo[i, 0], t_hi[i, 0] + 1):
+                    tiles.add(UDIM_FIRST + u + UDIM_COLUMNS * v)
+    return sorted(int(t) for t in tiles), int(outside.sum())
+
+
+def _tiles_text(tiles):
+    return ", ".join(map(str, tiles)) if tiles else "none"
+
+
+def check_output(output, overwrite_check=True):
+    """The output name's format and its folder: raises NormalBakeError naming the fix."""
     output = Path(output)
-    if output.is_dir():
+    if output.is_dir() or str(output).endswith(("/", os.sep)):
         raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     if output.suffix.lower() not in FORMATS:
         raise NormalBakeError(f"output {str(output)!r}: use a .png or .exr file name")
     if not output.parent.is_dir():
         raise NormalBakeError(f"output folder {str(output.parent)!r} does not exist: create it "
                               f"first")
-    problem = resolution_problem(resolution, *RESOLUTION_RANGE)
-    if problem:
-        raise NormalBakeError(problem)
-    if output.exists() and not overwrite:
-        raise NormalBakeError(f"{output} exists; pass --overwrite to replace it")
-    if space not in SPACES:
-        raise NormalBakeError(f"space {space!r}: use one of {sorted(SPACES)}")
+    return output
+
+
+def depth_for(output, depth):
+    """The bit depth for `output`'s format ('8'/'16' for PNG, 'half'/'float' for EXR)."""
+    suffix = Path(output).suffix.lower()
+    _, allowed, default = FORMATS[suffix]
+    depth = default if depth in (None, "", "auto") else str(depth)
+    if depth not in allowed:
+        raise NormalBakeError(f"bit depth {depth!r} does not go with {suffix}: use one of "
+                              f"{', '.join(allowed)}")
+    return depth
+
+
+def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
+    """(uv_map, tiles to bake, tiles with UVs, warnings) for obj and the output name, or a
+    NormalBakeError naming what is wrong. empty_tiles='skip' drops asked-for tiles that hold
+    no UVs (a farm's asset x tile task) instead of refusing them."""
+    import bpy
     if obj is None or obj.type != "MESH":
         raise NormalBakeError("pick a mesh object to bake (--object NAME)")
+    problem = bake_target_problem(obj, bpy.context.view_layer)
+    if problem:
+        raise NormalBakeError(problem)
     mesh = obj.data
     names = [uv.name for uv in mesh.uv_layers]
     if not names:
@@ -65,19 +133,99 @@ def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, 
     uv_map = uv_map or next((uv.name for uv in mesh.uv_layers if uv.active_render), names[0])
     if uv_map not in names:
         raise NormalBakeError(f"object {obj.name!r} has no UV map {uv_map!r}; it has {names}")
+    with_uvs, outside = uv_tiles(mesh, uv_map)
+    warnings = []
+    if outside:
+        warnings.append(f"{outside} face(s) of UV map {uv_map!r} lie outside the UDIM range "
+                        f"(u 0..10, v >= 0) and are not baked")
+    where = f"UV map {uv_map!r} of object {obj.name!r}"
+    if not with_uvs:
+        raise NormalBakeError(f"{where} has no faces in any UDIM tile: unwrap it into the "
+                              f"0-1 square (tile 1001) or UDIM tiles")
+    udim = UDIM_TOKEN in Path(output).name
+    if tiles:
+        tiles = sorted({int(t) for t in tiles})
+        bad = [t for t in tiles if not UDIM_FIRST <= t <= UDIM_LAST]
+        if bad:
+            raise NormalBakeError(f"tile {bad[0]}: UDIM tiles are numbered {UDIM_FIRST} to "
+                                  f"{UDIM_LAST}")
+        empty = [t for t in tiles if t not in with_uvs]
+        if empty and empty_tiles != "skip":
+            raise NormalBakeError(f"tile(s) {_tiles_text(empty)} hold no UVs of {where} "
+                                  f"(its UVs are in {_tiles_text(with_uvs)}): ask for tiles "
+                                  f"that hold UVs, or fix the UV layout")
+        tiles = [t for t in tiles if t in with_uvs]
+        if not udim and tiles not in ([], [UDIM_FIRST]):
+            raise NormalBakeError(f"output {Path(output).name!r} has no {UDIM_TOKEN}: only tile "
+                                  f"1001 goes into a single image; put {UDIM_TOKEN} in the "
+                                  f"name for tiles {_tiles_text(tiles)}")
+    elif udim:
+        tiles = with_uvs
+    else:
+        if UDIM_FIRST not in with_uvs:
+            raise NormalBakeError(f"{where} puts nothing inside the 0-1 UV square (tile 1001) "
+                                  f"that a single image covers; its UVs are in tiles "
+                                  f"{_tiles_text(with_uvs)}: put {UDIM_TOKEN} in the output "
+                                  f"name to bake those tiles, or fix the UV layout")
+        if len(with_uvs) > 1:
+            raise NormalBakeError(f"{where} spans UDIM tiles {_tiles_text(with_uvs)} but the "
+                                  f"output {Path(output).name!r} has no {UDIM_TOKEN}: put "
+                                  f"{UDIM_TOKEN} in the name (one file per tile), or ask for "
+                                  f"tile 1001 alone")
+        tiles = [UDIM_FIRST]
+    return uv_map, tiles, with_uvs, warnings
+
+
+def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
+                      samples=1, depth=None, tiles=None, empty_tiles="error", overwrite=False,
+                      log=print, threads=None):
+    """Bake obj's materials into normal map file(s) at `output` (with <UDIM>: one file per
+    tile). threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch
+    of several processes gives each its share). Returns a dict: paths {tile: Path}, tiles,
+    uv_map, depth, warnings, bake_s, save_s."""
+    import bpy
+
+    output = check_output(output)
+    problem = resolution_problem(resolution, *RESOLUTION_RANGE)
+    if problem:
+        raise NormalBakeError(problem)
+    if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 65536:
+        raise NormalBakeError(f"samples {samples!r}: use a whole number from 1 to 65536")
+    if isinstance(margin, bool) or not isinstance(margin, int) or not 0 <= margin <= 1024:
+        raise NormalBakeError(f"margin {margin!r}: use a whole number of texels from 0 to 1024")
+    if space not in SPACES:
+        raise NormalBakeError(f"space {space!r}: use one of {sorted(SPACES)}")
+    depth = depth_for(output, depth)
+    uv_map, tiles, with_uvs, warnings = plan_tiles(obj, output, uv_map, tiles, empty_tiles)
+    result = {"paths": {}, "tiles": tiles, "tiles_with_uvs": with_uvs, "uv_map": uv_map,
+              "depth": depth, "warnings": warnings, "bake_s": 0.0, "save_s": 0.0}
+    if not tiles:
+        log(f"      {obj.name}: no UVs in the asked-for tile(s); nothing to bake")
+        return result
+    udim = UDIM_TOKEN in output.name
+    finals = {t: tile_path(output, t) for t in tiles}
+    existing = [str(p) for p in finals.values() if p.exists()]
+    if existing and not overwrite:
+        raise NormalBakeError(f"{existing[0]} exists; pass --overwrite to replace it")
+    mesh = obj.data
     materials = [s.material for s in obj.material_slots if s.material is not None]
     if not materials:
         raise NormalBakeError(f"object {obj.name!r} has no material to bake")
-    fmt, is_float = FORMATS[output.suffix.lower()]
+    fmt, _, _ = FORMATS[output.suffix.lower()]
+    is_float = depth != "8"
     scene = bpy.context.scene
     log(f"[1/3] preparing {obj.name}: {space} space, {resolution}x{resolution}, UV map "
-        f"{uv_map!r}, {len(materials)} material(s)")
+        f"{uv_map!r}, tile(s) {_tiles_text(tiles)}, {samples} sample(s), {len(materials)} "
+        f"material(s)")
     image = bpy.data.images.new(f"{obj.name}_normal", resolution, resolution, alpha=False,
-                                float_buffer=is_float)
+                                float_buffer=is_float, tiled=udim)
     image.colorspace_settings.name = "Non-Color"
-    added = []
-    settings = SCENE_SETTINGS + ("render.bake.normal_space",)
+    added, temps = [], {}
+    settings = SCENE_SETTINGS + ("render.bake.normal_space", "render.threads_mode",
+                                 "render.threads")
     try:
+        if udim:
+            _make_tiles(bpy, image, tiles, resolution, is_float)
         for mat in materials:
             tree = mat.node_tree
             node = tree.nodes.new("ShaderNodeTexImage")
@@ -85,11 +233,14 @@ def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, 
             added.append((tree, node, tree.nodes.active))
             tree.nodes.active = node
         active_uv = mesh.uv_layers.active.name
-        with restored(scene, settings):
+        with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer):
             scene.render.engine = "CYCLES"
             scene.cycles.device = "CPU"
             scene.cycles.samples = samples
             scene.cycles.use_denoising = False
+            if threads:
+                scene.render.threads_mode = "FIXED"
+                scene.render.threads = threads
             scene.render.bake.target = "IMAGE_TEXTURES"
             scene.render.bake.use_selected_to_active = False
             mesh.uv_layers.active = mesh.uv_layers[uv_map]
@@ -101,24 +252,100 @@ def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, 
                 bpy.context.view_layer.objects.active = obj
                 log("[2/3] baking with Cycles (CPU) ...")
                 t0 = time.perf_counter()
-                result = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
-                                             uv_layer=uv_map, margin=margin, use_clear=True)
-                log(f"      baked in {time.perf_counter() - t0:.2f} s")
+                outcome = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
+                                              uv_layer=uv_map, margin=margin, use_clear=True)
+                result["bake_s"] = time.perf_counter() - t0
+                log(f"      baked in {result['bake_s']:.2f} s")
             finally:
                 mesh.uv_layers.active = mesh.uv_layers[active_uv]
                 for o in bpy.context.view_layer.objects:
                     o.select_set(o in selection)
                 bpy.context.view_layer.objects.active = active_obj
-        if result != {"FINISHED"}:
-            raise NormalBakeError(f"the bake of {obj.name!r} did not finish ({result})")
-        output.parent.mkdir(parents=True, exist_ok=True)
-        image.filepath_raw = str(output.resolve())
+        if outcome != {"FINISHED"}:
+            raise NormalBakeError(f"the bake of {obj.name!r} did not finish ({outcome})")
+        t0 = time.perf_counter()
+        temp = output.parent / f".{output.stem}.part{os.getpid()}{output.suffix}"
+        temps = {t: tile_path(temp, t) for t in tiles}
+        image.filepath_raw = str(temp.resolve())
         image.file_format = fmt
         image.save()
-        log(f"[3/3] wrote {output}")
-        return output
+        missing = [str(p) for p in temps.values() if not p.is_file()]
+        if missing:
+            raise NormalBakeError(f"Blender wrote no file {missing[0]}")
+        if depth == "half":
+            _to_half_exr(bpy, scene, temps.values())
+        for t in tiles:
+            _publish(temps[t], finals[t], overwrite)
+            result["paths"][t] = finals[t]
+        result["save_s"] = time.perf_counter() - t0
+        log(f"[3/3] wrote {', '.join(str(p) for p in finals.values())}")
+        return result
     finally:
         for tree, node, previous in added:
             tree.nodes.remove(node)
             tree.nodes.active = previous
         bpy.data.images.remove(image)
+        for p in temps.values():              # a failed save leaves nothing half-written
+            if p.exists():
+                p.unlink()
+
+
+def _make_tiles(bpy, image, tiles, resolution, is_float):
+    """Give the tiled image exactly `tiles`, each with a buffer Cycles can bake into (a
+    renumbered first tile loses its buffer, so every tile is filled)."""
+    image.tiles[0].number = tiles[0]
+    for number in tiles[1:]:
+        image.tiles.new(tile_number=number)
+    for index in range(len(image.tiles)):
+        image.tiles.active_index = index
+        with bpy.context.temp_override(edit_image=image):
+            bpy.ops.image.tile_fill(color=(0.5, 0.5, 1.0, 1.0), width=resolution,
+                                    height=resolution, float=is_float, alpha=False)
+
+
+def _to_half_exr(bpy, scene, paths):
+    """Rewrite float EXR files as half EXR (Image.save keeps a float buffer at 32 bits; the
+    scene's output settings choose 16, and are put back)."""
+    # Put back last to first: the format first, then the depth and mode it allows.
+    keep = ("render.image_settings.exr_codec", "render.image_settings.color_depth",
+            "render.image_settings.color_mode", "render.image_settings.file_format")
+    with restored(scene, keep):
+        scene.render.image_settings.file_format = "OPEN_EXR"
+        scene.render.image_settings.color_mode = "RGB"
+        scene.render.image_settings.color_depth = "16"
+        scene.render.image_settings.exr_codec = "ZIP"
+        for path in paths:
+            img = bpy.data.images.load(str(path))
+            try:
+                img.colorspace_settings.name = "Non-Color"     # data: no colour conversion
+                half = path.with_name(path.stem + ".half" + path.suffix)
+                img.save_render(str(half), scene=scene)
+                os.replace(half, path)
+            finally:
+                bpy.data.images.remove(img)
+
+
+def _publish(temp, final, overwrite):
+    """Move a complete file to its name; without overwrite never replace one that appeared."""
+    if overwrite:
+        os.replace(temp, final)
+        return
+    try:
+        os.link(temp, final)                  # fails if final exists: nothing replaced
+    except FileExistsError:
+        raise NormalBakeError(f"{final} exists; pass --overwrite to replace it") from None
+    except OSError:                           # no hard links here (some network shares)
+        if final.exists():
+            raise NormalBakeError(f"{final} exists; pass --overwrite to replace it") from None
+        os.replace(temp, final)
+        return
+    temp.unlink()
+
+
+def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
+                    samples=1, overwrite=False, log=print, depth=None, tiles=None):
+    """Bake obj's materials to a normal map file at `output` (with <UDIM> in the name: one
+    file per tile that holds UVs). Returns the written path (the name with <UDIM> for tiles)."""
+    bake_normal_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, tiles,
+                      overwrite=overwrite, log=log)
+    return Path(output)

@@ -152,8 +152,9 @@ DECAL_DISPLAY = {"box": ("CUBE", ()), "sphere": ("SPHERE", ()),
 def add_decal_projector(context, tree, image=None, name="SG Decal Projector", shape="box"):
     """An empty at the 3D cursor whose display shows the projector's volume (`shape`: box,
     sphere, cylinder or cone), and in `tree` the decal chain: Texture Coordinate (object = the
-    empty) -> SG Decal Coordinates -> Image Texture -> SG Decal (its Shape set), whose Axis
-    X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
+    empty) -> SG Projector Coordinates (driven by the empty: precise far from the origin) -> SG
+    Decal Coordinates -> Image Texture -> SG Decal (its Shape set), whose Axis X/Y are driven by
+    the empty's rotation. Returns (empty, decal node)."""
     if shape not in DECAL_SHAPES:
         raise SurfgradError(f"decal shape {shape!r}: use one of {', '.join(DECAL_SHAPES)}")
     empty = bpy.data.objects.new(name, None)
@@ -170,8 +171,12 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
         outline.hide_select = True          # select and scale the projector, not its outline
         outline.hide_render = True
         context.scene.collection.objects.link(outline)
-    tc = tree.nodes.new("ShaderNodeTexCoord")
-    tc.object = empty
+    texco = tree.nodes.new("ShaderNodeTexCoord")
+    texco.object = empty
+    tc = _group_node(tree, G.projector_coordinates_group, (texco.location.x + 200,
+                                                           texco.location.y))
+    tree.links.new(texco.outputs["Object"], tc.inputs["Decal Coordinates"])
+    drive_projector(tc, empty)
     coords = _group_node(tree, G.decal_coordinates_group, (tc.location.x + 200, tc.location.y))
     tex = tree.nodes.new("ShaderNodeTexImage")
     tex.image = image
@@ -180,13 +185,44 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     decal = _group_node(tree, G.decal_group, (tex.location.x + 300, tex.location.y))
     decal.inputs["Shape"].default_value = DECAL_SHAPES.index(shape)
     links = tree.links
-    links.new(tc.outputs["Object"], coords.inputs[0])
-    links.new(tc.outputs["Object"], decal.inputs["Decal Coordinates"])
+    links.new(tc.outputs["Decal Coordinates"], coords.inputs[0])
+    links.new(tc.outputs["Decal Coordinates"], decal.inputs["Decal Coordinates"])
     links.new(coords.outputs[0], tex.inputs["Vector"])
     links.new(tex.outputs["Color"], decal.inputs["Color"])
     for axis, column in (("Axis X", 0), ("Axis Y", 1)):
         drive_axis(decal.inputs[axis], empty, column)
     return empty, decal
+
+
+# Rows of the inverse of a 3 x 3 matrix (a b c / d e f / g h i) by cofactors over the
+# determinant: simple expressions, which drivers run without auto-run Python scripts.
+_DET = "(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g))"
+_INVERSE_ROWS = (("e * i - f * h", "c * h - b * i", "b * f - c * e"),
+                 ("f * g - d * i", "a * i - c * g", "c * d - a * f"),
+                 ("d * h - e * g", "b * g - a * h", "a * e - b * d"))
+
+
+def drive_projector(node, obj):
+    """Drive SG Projector Coordinates' inputs with obj's world location and the rows of its
+    world-to-local 3 x 3 matrix (RNA indexes matrices column first: [column][row])."""
+    for i in range(3):
+        drv = node.inputs["Projector Location"].driver_add("default_value", i).driver
+        drv.type = "SCRIPTED"
+        var = drv.variables.new()
+        var.name, var.type = "t", "SINGLE_PROP"
+        var.targets[0].id = obj
+        var.targets[0].data_path = f"matrix_world[3][{i}]"
+        drv.expression = "t"
+    for axis, row in zip("XYZ", _INVERSE_ROWS):
+        for i, cofactor in enumerate(row):
+            drv = node.inputs[f"To Projector {axis}"].driver_add("default_value", i).driver
+            drv.type = "SCRIPTED"
+            for k, name in enumerate("abcdefghi"):
+                var = drv.variables.new()
+                var.name, var.type = name, "SINGLE_PROP"
+                var.targets[0].id = obj
+                var.targets[0].data_path = f"matrix_world[{k % 3}][{k // 3}]"
+            drv.expression = f"({cofactor}) / {_DET}"
 
 
 def drive_axis(socket, obj, column):

@@ -7,9 +7,15 @@
   bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
   bake-normal-map  bake an object's material into a tangent- or object-space normal map file
+  bake-batch       bake many objects / collections / .blend files: UDIM tiles, per-asset
+                   settings, skip unchanged, several worker processes, a JSON manifest
+  batch-assets     small procedural assets to try bake-batch on
+  bench-batch      scale figures of bake-batch (assets per second with 1 and 2 workers)
   demo-blend       build demo.blend from code (exhibits, packed textures), render pictures
   bench            speed against accuracy of every method (charts, table, JSON, heat maps)
                    and the stability suite
+  bench-far        every method 0, 1 km and 10 km from the origin against the reference,
+                   beside Blender's built-in node for the same job (JSON and Markdown)
   compare          bake a method's node groups with Cycles and compare with the reference
                    (needs bpy; also: blender -b FILE --python surfgrad_addon/blender_cli.py
                    -- compare ...)
@@ -85,8 +91,33 @@ def main(argv=None, in_blender=False):
     rc.add_argument("--out", default="out/bench_render", help="output folder")
     rc.add_argument("--quick", action="store_true", help="small, few samples, no EEVEE")
     rc.add_argument("--overwrite", action="store_true", help="replace existing outputs")
-    from ..addon.commands import add_bake_normal_map
+    far = sub.add_parser("bench-far", help="every method far from the origin, beside "
+                                           "Blender's built-in node (needs bpy)")
+    far.add_argument("--out", default="out/far", help="output folder (far.json, far.md)")
+    far.add_argument("--resolution", type=int, default=64, help="bake size in texels")
+    far.add_argument("--distances", type=float, nargs="+", default=None,
+                     help="distances from the origin in metres (default 0 1000 10000)")
+    far.add_argument("--objects", nargs="+", default=None,
+                     help="test objects (default Sphere Transformed)")
+    far.add_argument("--methods", nargs="+", default=None, help="methods (default: all)")
+    far.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    from ..addon.commands import add_bake_batch, add_bake_normal_map
     add_bake_normal_map(sub)
+    add_bake_batch(sub)
+    ba = sub.add_parser("batch-assets", help="write small procedural assets (.blend files, "
+                                             "UVs in 2 UDIM tiles, an SG material) to try "
+                                             "bake-batch on")
+    ba.add_argument("--out", default="out/batch_assets", help="folder for the .blend files")
+    ba.add_argument("--count", type=int, default=4, help="number of assets (default 4)")
+    ba.add_argument("--overwrite", action="store_true", help="replace existing files")
+    bb = sub.add_parser("bench-batch", help="scale figures of bake-batch: procedural assets "
+                                            "baked with 1 and 2 worker processes (JSON)")
+    bb.add_argument("--out", default="out/bench_batch", help="output folder")
+    bb.add_argument("--assets", type=int, default=50, help="number of assets (default 50)")
+    bb.add_argument("--resolution", type=int, default=512, help="texels per side (512)")
+    bb.add_argument("--workers", type=int, nargs="+", default=[1, 2],
+                    help="worker counts to measure (default 1 2)")
+    bb.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     db = sub.add_parser("demo-blend", help="build demo.blend (exhibits, packed textures) and "
                                            "optionally render its pictures")
     db.add_argument("--out", default="demo.blend", help="the .blend to write")
@@ -116,6 +147,19 @@ def main(argv=None, in_blender=False):
         elif args.command == "bake-normal-map":
             from ..addon.commands import run_bake_normal_map
             run_bake_normal_map(args)      # --blend opens that file, inside Blender too
+        elif args.command == "bake-batch":
+            from ..addon.commands import run_bake_batch
+            if in_blender and not args.blends and not args.asset_list:
+                args.open_file = True
+            return run_bake_batch(args)
+        elif args.command == "batch-assets":
+            from . import batch_assets
+            for path in batch_assets.write_assets(args.out, args.count, args.overwrite):
+                print(path)
+        elif args.command == "bench-batch":
+            from . import bench_batch
+            bench_batch.run(args.out, args.assets, args.resolution, args.workers,
+                            overwrite=args.overwrite)
         elif args.command == "demo-blend":
             from . import demo
             cams = demo.save_demo(args.out, args.overwrite, closures=args.closures)
@@ -127,6 +171,10 @@ def main(argv=None, in_blender=False):
         elif args.command == "bench-render":
             from .bench import render_cost
             render_cost.run(args.out, args.quick, args.overwrite)
+        elif args.command == "bench-far":
+            from . import far
+            far.run(args.out, args.resolution, tuple(args.distances or far.DISTANCES),
+                    tuple(args.objects or far.FAR_OBJECTS), args.methods, args.overwrite)
         elif args.command == "bench-reference":
             from . import bench_reference
             bench_reference.run(args.out, args.sizes or bench_reference.SIZES,

@@ -170,16 +170,29 @@ def decal_projector(obj):
     return empty
 
 
+def projector_coordinates(nodes, projector):
+    """SG Projector Coordinates fed by a Texture Coordinate node of the projector and set to
+    its matrix (as the operator's drivers do): its Decal Coordinates output."""
+    node = group_node(nodes, G.projector_coordinates_group())
+    tc = nodes.new("ShaderNodeTexCoord")
+    tc.object = projector
+    node.id_data.links.new(tc.outputs["Object"], node.inputs["Decal Coordinates"])
+    m = np.array(projector.matrix_world, dtype=np.float64)
+    node.inputs["Projector Location"].default_value = m[:3, 3]
+    for axis, row in zip("XYZ", np.linalg.inv(m[:3, :3])):
+        node.inputs[f"To Projector {axis}"].default_value = row
+    return node.outputs["Decal Coordinates"]
+
+
 def decal_graph(inp, nodes, links, shape=None, base=None, overwrite=False, opacity=1.0):
     """SG Decal with its chain; `shape` (default: the method's variant, box for plain
     "decal"), `base` a surface-gradient socket underneath, overwrite mode and opacity."""
     shape = shape or (inp.variant if inp.variant in R.decals.DECAL_SHAPES else "box")
-    tc = nodes.new("ShaderNodeTexCoord")
-    tc.object = inp.projector
+    q = projector_coordinates(nodes, inp.projector)
     decal = group_node(nodes, G.decal_group())
     coords = group_node(nodes, G.decal_coordinates_group())
-    links.new(tc.outputs["Object"], decal.inputs["Decal Coordinates"])
-    links.new(tc.outputs["Object"], coords.inputs["Decal Coordinates"])
+    links.new(q, decal.inputs["Decal Coordinates"])
+    links.new(q, coords.inputs["Decal Coordinates"])
     color = image_node(nodes, links, inp.bpy_image("normal"), coords.outputs["Decal UV"])
     links.new(color, decal.inputs["Color"])
     ax, ay, _, _ = M.decal_frame(np.array(inp.projector.matrix_world))

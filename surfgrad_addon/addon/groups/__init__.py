@@ -26,9 +26,10 @@ from .height import (bump_strength_group, height_map_forward_group, height_map_g
                      height_map_sampler_group, triplanar_height_group,
                      triplanar_height_sampler_group)
 from .parallax import POM_STEPS, parallax_group, parallax_sampler_group  # noqa: F401
-from .projection import (decal_coordinates_group, decal_group, triplanar_coordinates_group,
-                         triplanar_group, triplanar_sampler_group,  # noqa: F401
-                         triplanar_surface_gradient, triplanar_weights)
+from .projection import (decal_coordinates_group, decal_group, projector_coordinates_group,
+                         triplanar_coordinates_group, triplanar_group,
+                         triplanar_sampler_group, triplanar_surface_gradient,  # noqa: F401
+                         triplanar_weights)
 from .resolve import combine_group, resolve_group
 from .tangent_space import (blend_normals_group, mikktspace_frame_group,  # noqa: F401
                             normal_map_group, procedural_basis_group, tangent_normal_group)
@@ -60,6 +61,7 @@ GROUPS = (
     GroupEntry("SG Triplanar Coordinates", triplanar_coordinates_group),
     GroupEntry("SG Triplanar", triplanar_group),
     GroupEntry("SG Triplanar (Sampler)", triplanar_sampler_group, min_line="5.0"),
+    GroupEntry("SG Projector Coordinates", projector_coordinates_group),
     GroupEntry("SG Decal Coordinates", decal_coordinates_group),
     GroupEntry("SG Decal", decal_group),
     GroupEntry("SG Combine", combine_group),

@@ -8,7 +8,7 @@ from ..node_builder import ensure_group, running_line
 from ...reference.vecmath import DIVIDE_FLOOR
 
 
-VERSION = 16
+VERSION = 17
 
 
 class FeatureUnavailable(ValueError):
@@ -250,6 +250,83 @@ def texel_count_inputs(b):
     h = b.input("Height", "INT", "Height of the sampled image in pixels", default=1024,
                 min_value=1, max_value=65536)
     return w, h
+
+
+def select(b, pick, a, v):
+    """a where pick is 0, v where it is 1, exactly: a (1 - pick) + v pick as separate products
+    (an interpolation a + pick (v - a) would round v to a's precision)."""
+    return b.add(b.scale(a, b.math("SUBTRACT", 1.0, pick)), b.scale(v, pick))
+
+
+POSITION_ATTRIBUTE = "position"
+
+
+def object_position(b):
+    """Object-space position, precise far from the origin: the mesh's own 'position' attribute,
+    interpolated like a UV map (Cycles' Texture Coordinate Object output is the float32 world
+    position transformed back, off by ~1e-3 at 10 km; tests/test_far.py pins both). Where a
+    renderer has no such attribute (it reads zero), the Texture Coordinate node's Object."""
+    with b.frame("Object position: the 'position' attribute (precise far away), else Object"):
+        attr = b.node("ShaderNodeAttribute", attribute_type="GEOMETRY",
+                      attribute_name=POSITION_ATTRIBUTE).outputs["Vector"]
+        coords = b.node("ShaderNodeTexCoord").outputs["Object"]
+        missing = b.math("COMPARE", b.length(attr), 0.0, 0.0)
+        return select(b, missing, attr, coords)
+
+
+# Beyond this distance from the origin (metres) float32 world positions step by 7.6e-6 m or
+# more: projector coordinates switch to their precise route there. Near the origin the Texture
+# Coordinate node itself is used (EEVEE picks its image mip levels the same way as before).
+FAR_METRES = 64.0
+
+
+# Beyond this many texture repeats from the texture's origin the object's origin is far: its
+# world coordinate is taken modulo one repeat (float32 steps there exceed 1e-5 of a repeat).
+FAR_REPEATS = 64.0
+
+
+def _fraction_of_product(b, t, s):
+    """frac(t s) for a float32 vector t (|t| < 2^24) and scale s, without the float32 rounding
+    of t s: t = i_hi + i_lo + f (integers of 12 bits each times 4096 and 1, and f in [0, 1)),
+    s = s_hi + s_lo (Veltkamp's split into 12-bit halves), so every integer product is exact and
+    its fraction too; only f s rounds, relative to s, not to t s."""
+    c = b.math("MULTIPLY", s, 4097.0)
+    s_hi = b.math("SUBTRACT", c, b.math("SUBTRACT", c, s))
+    s_lo = b.math("SUBTRACT", s, s_hi)
+    i = b.vmath("FLOOR", t)
+    f = b.sub(t, i)
+    i_hi = b.vmath("MULTIPLY", b.vmath("FLOOR", b.vmath("MULTIPLY", i, (1 / 4096,) * 3)),
+                   (4096.0,) * 3)
+    i_lo = b.sub(i, i_hi)
+    total = b.vmath("FRACTION", b.scale(f, s))
+    for part, half in ((i_hi, s_hi), (i_hi, s_lo), (i_lo, s_hi), (i_lo, s_lo)):
+        total = b.add(total, b.vmath("FRACTION", b.scale(part, half)))
+    return b.vmath("FRACTION", total)
+
+
+def scaled_position_inputs(b, description):
+    """The Position and Scale inputs of a projection: returns (Position x Scale, Scale).
+    Linked, the Position as given. Unlinked, the world position; where the object's origin is
+    more than FAR_REPEATS repeats out, rebuilt from precise parts: frac(origin x Scale) (exact,
+    _fraction_of_product) plus the object-space position turned to world axes (a small offset,
+    precise) x Scale. The same modulo one repeat, which a Repeat image cannot tell apart."""
+    raw = b.input("Position", "VECTOR", description, hide_value=True)
+    scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
+                    min_value=0.0, max_value=1e4)
+    unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
+    with b.frame("Unlinked: world position x Scale; far out, modulo one repeat from precise "
+                 "parts (object origin, object-space offset)"):
+        world = b.scale(b.node("ShaderNodeNewGeometry").outputs["Position"], scale)
+        origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
+        turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
+                      convert_from="OBJECT", convert_to="WORLD")
+        b.link(object_position(b), turn.inputs[0])
+        precise = b.add(_fraction_of_product(b, origin, scale), b.scale(turn.outputs[0], scale))
+        ox, oy, oz = b.separate(b.vmath("ABSOLUTE", origin))
+        reach = b.math("MULTIPLY", b.math("MAXIMUM", b.math("MAXIMUM", ox, oy), oz), scale)
+        far = b.math("GREATER_THAN", reach, FAR_REPEATS)
+        world = select(b, far, world, precise)
+    return select(b, unlinked, b.scale(raw, scale), world), scale
 
 
 def uv_input(b, description):

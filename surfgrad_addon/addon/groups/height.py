@@ -6,7 +6,8 @@ from ..node_builder import ensure_group
 from ...reference.vecmath import FLT_EPSILON
 from . import common
 from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, images_stale, normal_input,
-                     position_input, sub_group, texel_count_inputs, uv_gradients_group, uv_input)
+                     scaled_position_inputs, sub_group, texel_count_inputs, uv_gradients_group,
+                     uv_input)
 from .projection import triplanar_surface_gradient, triplanar_weights
 
 
@@ -194,9 +195,7 @@ def bump_strength_group():
 
 def _triplanar_height_body(b, taps_for, sizes):
     n = normal_input(b)
-    p = position_input(b, "Where to project from (unlinked: world position)")
-    scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
-                    min_value=0.0, max_value=1e4)
+    p, scale = scaled_position_inputs(b, "Where to project from (unlinked: world position)")
     k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
                 min_value=1.0, max_value=64.0)
     bump = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
@@ -204,7 +203,7 @@ def _triplanar_height_body(b, taps_for, sizes):
     plane_taps = taps_for(b)
     plane_sizes = sizes(b)
     weights = triplanar_weights(b, n, k)
-    x, y, z = b.separate(b.scale(p, scale))
+    x, y, z = b.separate(p)
     derivs = []
     planes = (("X: (z, y)", (z, y)), ("Y: (x, z)", (x, z)), ("Z: (x, y)", (x, y)))
     for (label, (u, v)), taps, (w, h) in zip(planes, plane_taps, plane_sizes):

@@ -5,7 +5,7 @@ from ..node_builder import ensure_group
 from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
 from .common import (SamplerTaps, decode_tangent_normal, directx_input, normal_input,
-                     position_input, require)
+                     object_position, require, scaled_position_inputs)
 
 
 def triplanar_weights(b, n, k):
@@ -33,11 +33,9 @@ def triplanar_surface_gradient(b, n, weights, derivs):
 
 def triplanar_coordinates_group():
     def build(b):
-        p = position_input(b, "Where to project from (unlinked: world position)")
-        scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
-                        min_value=0.0, max_value=1e4)
+        p, _ = scaled_position_inputs(b, "Where to project from (unlinked: world position)")
         with b.frame("Eq. 19 planes: X samples (z, y), Y (x, z), Z (x, y)"):
-            x, y, z = b.separate(b.scale(p, scale))
+            x, y, z = b.separate(p)
             uvx, uvy, uvz = b.combine(z, y), b.combine(x, z), b.combine(x, y)
         b.output("UV X", "VECTOR", uvx, "Coordinates for the image projected along X")
         b.output("UV Y", "VECTOR", uvy, "Coordinates for the image projected along Y")
@@ -80,9 +78,7 @@ def triplanar_sampler_group():
 
     def build(b):
         n = normal_input(b)
-        p = position_input(b, "Where to project from (unlinked: world position)")
-        scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
-                        min_value=0.0, max_value=1e4)
+        p, _ = scaled_position_inputs(b, "Where to project from (unlinked: world position)")
         taps = SamplerTaps(b)
         directx = directx_input(b)
         k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
@@ -91,7 +87,7 @@ def triplanar_sampler_group():
                            max_value=10.0)
         weights = triplanar_weights(b, n, k)
         with b.frame("Eq. 19 planes: X samples (z, y), Y (x, z), Z (x, y); Listing 2 each"):
-            x, y, z = b.separate(b.scale(p, scale))
+            x, y, z = b.separate(p)
             colors = [taps.color(b.combine(u, v)) for u, v in ((z, y), (x, z), (x, y))]
             derivs = [decode_tangent_normal(b, c, directx) for c in colors]
         sg = triplanar_surface_gradient(b, n, weights, derivs)
@@ -100,6 +96,41 @@ def triplanar_sampler_group():
     return ensure_group(name, common.VERSION, build,
                         "Listings 13 and 14: triplanar normal mapping as a volume bump map, "
                         "the normal map given as a Sampler closure")
+
+
+def projector_coordinates_group():
+    def build(b):
+        near_q = b.input("Decal Coordinates", "VECTOR", "A Texture Coordinate node's Object "
+                         "output with the projector as its object: used near the origin "
+                         "(unlinked: the precise route everywhere)", hide_value=True)
+        location = b.input("Projector Location", "VECTOR", "The projector's world location "
+                           "(the Add Decal Projector operator drives it)", default=(0.0, 0.0, 0.0))
+        rows = [b.input(f"To Projector {a}", "VECTOR", f"Row {a} of the projector's "
+                        "world-to-local 3 x 3 matrix, the inverse of its rotation and scale "
+                        "(driven by the operator)", default=e)
+                for a, e in zip("XYZ", ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))]
+        with b.frame("Offset from the projector in world axes, from precise parts: "
+                     "(object origin - projector) + object-space position turned to world"):
+            origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
+            turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
+                          convert_from="OBJECT", convert_to="WORLD")
+            b.link(object_position(b), turn.inputs[0])
+            offset = b.add(b.sub(origin, location), turn.outputs[0])
+        with b.frame("To the projector's space: one row per axis"):
+            precise = b.combine(*(b.dot(row, offset) for row in rows))
+        with b.frame(f"Near the origin (< {common.FAR_METRES:g} m) the linked Texture "
+                     "Coordinate, as it always was; far out or unlinked, the precise route"):
+            ox, oy, oz = b.separate(b.vmath("ABSOLUTE", origin))
+            reach = b.math("MAXIMUM", b.math("MAXIMUM", ox, oy), oz)
+            unlinked = b.math("COMPARE", b.length(near_q), 0.0, 0.0)
+            use = b.math("MAXIMUM", b.math("GREATER_THAN", reach, common.FAR_METRES), unlinked)
+            q = common.select(b, use, near_q, precise)
+        b.output("Decal Coordinates", "VECTOR", q, "Position in the projector's space, for SG "
+                 "Decal Coordinates and SG Decal")
+    return ensure_group("SG Projector Coordinates", common.VERSION, build,
+                        "A decal projector's coordinates, precise kilometres from the origin "
+                        "(a Texture Coordinate node's Object output alone is not): feed SG "
+                        "Decal Coordinates and SG Decal")
 
 
 def decal_coordinates_group():

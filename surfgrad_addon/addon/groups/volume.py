@@ -4,7 +4,7 @@ the gradient noise whose exact gradient feeds them."""
 from ..node_builder import ensure_group
 from ...reference.vecmath import FLT_EPSILON
 from . import common
-from .common import normal_input, sign_nonneg, sub_group
+from .common import normal_input, object_position, sign_nonneg, sub_group
 
 
 def volume_gradient_group():
@@ -113,7 +113,7 @@ def noise_group():
         obj_space = b.input("Object Space", "BOOLEAN", "Vector is in object space: return the "
                             "gradient in world space (for SG Volume Gradient)", default=True)
         with b.frame("Unlinked Vector: object coordinates"):
-            coords = b.node("ShaderNodeTexCoord").outputs["Object"]
+            coords = object_position(b)
             unlinked = b.math("COMPARE", b.length(vec), 0.0, 0.0)
             p = b.scale(b.mix_vector(unlinked, vec, coords), scale)
         value, grad = 0.0, (0.0, 0.0, 0.0)

@@ -1,0 +1,847 @@
+"""Batch normal-map bakes for pipelines: many objects, collections or .blend files in one call.
+
+    blender -c surfgrad bake-batch assets/*.blend --output "maps/{file}/{object}.<UDIM>.png" \\
+        --resolution 2048 --samples 16 --workers 4
+    python -m surfgrad_addon bake-batch ...              (the same, from a checkout)
+    api.bake_batch(["a.blend", "b.blend"], "maps/{file}_{object}.<UDIM>.exr", workers=2)
+
+Each asset (a mesh object with a material) is baked by normal_bake.bake_normal_tiles into files
+named by the output pattern ({file}: the .blend's name without extension, {object}, {uv}: the UV
+map, <UDIM>: the tile). Settings (uv_map, space, resolution, samples, margin, depth) have
+defaults and per-asset overrides from a JSON settings file. A manifest (JSON, beside the
+outputs) records for every asset its settings, a hash of its inputs (the .blend and the files it
+uses) and settings, timings, warnings and the files written (with their hashes); an asset whose
+inputs, settings and outputs are unchanged is skipped unless force. With workers >= 1 the bakes
+run in that many separate Blender processes (batch_worker.py); a worker that dies or a bake
+that fails unexpectedly is retried once in a fresh process; bad input fails that asset alone.
+Files are written under a temporary name and renamed when complete (normal_bake).
+"""
+
+import fnmatch
+import hashlib
+import json
+import os
+import queue
+import re
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from . import normal_bake as NB
+
+SETTING_KEYS = ("uv_map", "space", "resolution", "samples", "margin", "depth")
+DEFAULTS = {"uv_map": None, "space": "tangent", "resolution": 1024, "samples": 1, "margin": 16,
+            "depth": None}
+TOKENS = ("{file}", "{object}", "{uv}")
+MANIFEST_NAME = "surfgrad-bake-manifest.json"
+RESULT_MARK = "@@surfgrad-batch "          # a worker's reply line (other output is its log)
+BLEND_MAGIC = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")   # plain, gzip, zstd
+FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT" or "die-once:OBJECT"
+
+
+class BatchError(ValueError):
+    """Bad input for the whole batch (not one asset's): names the thing and the fix."""
+
+
+# Inputs ------------------------------------------------------------------------------------------
+
+def blend_problem(path):
+    """None if `path` is a readable .blend file, else what is wrong with it."""
+    path = Path(path)
+    if not path.exists():
+        return f"{path}: no such file"
+    if path.is_dir():
+        return f"{path} is a folder: give .blend files"
+    if path.suffix.lower() != ".blend":
+        return f"{path} is not a .blend file (give Blender files)"
+    with open(path, "rb") as fh:
+        head = fh.read(8)
+    if not head.startswith(BLEND_MAGIC):
+        return f"{path} is named .blend but is not a Blender file (damaged, or another format)"
+    return None
+
+
+def sha256_file(path, chunk=1 << 20):
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(chunk), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def load_settings_file(path):
+    """{"defaults": {...}, "assets": {PATTERN: {...}}}: PATTERN matches "file.blend:Object",
+    "file.blend" or "Object" (shell wildcards); later matches override earlier ones."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise BatchError(f"settings file {path}: no such file") from None
+    except json.JSONDecodeError as err:
+        raise BatchError(f"settings file {path} is not valid JSON ({err})") from None
+    if not isinstance(data, dict) or set(data) - {"defaults", "assets"}:
+        raise BatchError(f"settings file {path}: use an object with 'defaults' and/or 'assets'")
+    for where, block in [("defaults", data.get("defaults", {}))] + \
+            [(f"assets[{k!r}]", v) for k, v in data.get("assets", {}).items()]:
+        if not isinstance(block, dict):
+            raise BatchError(f"settings file {path}: {where} must be an object")
+        unknown = sorted(set(block) - set(SETTING_KEYS))
+        if unknown:
+            raise BatchError(f"settings file {path}: {where} has unknown setting(s) "
+                             f"{', '.join(unknown)}; the settings are {', '.join(SETTING_KEYS)}")
+    return data
+
+
+def asset_settings(defaults, overrides, blend_name, object_name):
+    """The settings of one asset: defaults, then every matching override in order."""
+    out = dict(DEFAULTS)
+    out.update({k: v for k, v in (defaults or {}).items() if v is not None})
+    keys = (f"{blend_name}:{object_name}", blend_name, object_name)
+    for pattern, block in (overrides or {}).items():
+        if any(fnmatch.fnmatchcase(k, pattern) for k in keys):
+            out.update(block)
+    return out
+
+
+_UNSAFE = re.compile(r'[\\/:*?"<>|\x00-\x1f]')
+
+
+def _safe(name):
+    """A name as a file-name part (no folder separators or characters Windows refuses)."""
+    return _UNSAFE.sub("_", name).strip() or "_"
+
+
+def check_pattern(pattern):
+    """The output pattern's problems, before anything runs."""
+    pattern = str(pattern)
+    name = Path(pattern).name
+    if not name:
+        raise BatchError(f"output pattern {pattern!r} ends in a folder: give a file name")
+    if Path(name).suffix.lower() not in NB.FORMATS:
+        raise BatchError(f"output pattern {pattern!r}: end it in .png or .exr")
+    left = re.findall(r"\{[^}]*\}", pattern.replace("{file}", "").replace("{object}", "")
+                      .replace("{uv}", ""))
+    if left:
+        raise BatchError(f"output pattern {pattern!r}: unknown token {left[0]}; the tokens are "
+                         f"{', '.join(TOKENS)} and {NB.UDIM_TOKEN}")
+    if NB.UDIM_TOKEN in str(Path(pattern).parent):
+        raise BatchError(f"output pattern {pattern!r}: put {NB.UDIM_TOKEN} in the file name, "
+                         f"not a folder")
+    return pattern
+
+
+def expand(pattern, blend_name, object_name, uv_map):
+    """The output name of one asset (keeps <UDIM>)."""
+    stem = Path(blend_name).stem if blend_name else "untitled"
+    return (str(pattern).replace("{file}", _safe(stem)).replace("{object}", _safe(object_name))
+            .replace("{uv}", _safe(uv_map)))
+
+
+def default_manifest(pattern):
+    """The manifest beside the outputs: in the pattern's folder before its first token."""
+    parts = Path(pattern).parent.parts
+    fixed = []
+    for part in parts:
+        if "{" in part or NB.UDIM_TOKEN in part:
+            break
+        fixed.append(part)
+    return Path(*fixed) / MANIFEST_NAME if fixed else Path(MANIFEST_NAME)
+
+
+def settings_hash(settings, output, blender_version, version):
+    blob = json.dumps({"settings": settings, "output": str(output), "blender": blender_version,
+                       "surfgrad": version}, sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def input_hash(blend, dependencies=()):
+    """sha256 over the .blend and the external files it uses (images, libraries)."""
+    h = hashlib.sha256(sha256_file(blend).encode())
+    for dep in sorted(dependencies):
+        h.update(dep.encode())
+        h.update(sha256_file(dep).encode() if Path(dep).is_file() else b"missing")
+    return h.hexdigest()
+
+
+# In a Blender session: scan and bake -----------------------------------------------------------
+
+def scan_open_file(objects=None, collections=None):
+    """The assets of the open file: with `objects` (names or wildcards) and/or `collections`
+    (names, their objects and child collections), those; with neither, every mesh object with
+    a material. Returns {"assets": [...], "errors": [...]}: per asset its name, UV maps with
+    the tiles each holds, the active render UV map, and its material count."""
+    import bpy
+    chosen, errors = [], []
+    mesh_objects = [o for o in bpy.data.objects if o.type == "MESH"]
+    if objects:
+        for pattern in objects:
+            exact = bpy.data.objects.get(pattern)       # a name with * or [ in it is a name
+            hits = [exact] if exact else \
+                [o for o in bpy.data.objects if fnmatch.fnmatchcase(o.name, pattern)]
+            if not hits:
+                errors.append({"object": pattern, "error": f"no object named {pattern!r} in "
+                               f"{Path(bpy.data.filepath).name}"})
+            chosen += hits
+    for name in collections or ():
+        coll = bpy.data.collections.get(name)
+        if coll is None:
+            errors.append({"object": f"collection:{name}", "error": f"no collection named "
+                           f"{name!r} in {Path(bpy.data.filepath).name}; collections: "
+                           f"{sorted(c.name for c in bpy.data.collections)}"})
+            continue
+        chosen += [o for o in coll.all_objects if o.type == "MESH"]
+    if not objects and not collections:
+        chosen = [o for o in mesh_objects if any(s.material for s in o.material_slots)]
+    seen, assets = set(), []
+    for obj in chosen:
+        if obj.name in seen:
+            continue
+        seen.add(obj.name)
+        entry = {"object": obj.name, "type": obj.type, "uv_maps": {}, "active_uv": None,
+                 "materials": 0}
+        if obj.type == "MESH":
+            entry["materials"] = sum(1 for s in obj.material_slots if s.material)
+            for uv in obj.data.uv_layers:
+                entry["uv_maps"][uv.name] = NB.uv_tiles(obj.data, uv.name)[0]
+                if uv.active_render:
+                    entry["active_uv"] = uv.name
+        assets.append(entry)
+    return {"assets": assets, "errors": errors}
+
+
+def dependencies_of_open_file():
+    """Absolute paths of the external files the open file uses (not packed)."""
+    import bpy
+    try:
+        paths = bpy.utils.blend_paths(absolute=True, packed=False, local=False)
+    except TypeError:
+        paths = bpy.utils.blend_paths(absolute=True)
+    return sorted({str(Path(p).resolve()) for p in paths if p and "<UDIM>" not in p})
+
+
+_OPENED = [None]        # the file this session opened last (a bake leaves it as it was)
+
+
+def open_blend(path):
+    """Open `path` unless this session opened it last and it is still the open file (every
+    bake puts back what it touched); returns the seconds it took."""
+    import bpy
+    path = str(Path(path).resolve())
+    if _OPENED[0] == path and bpy.data.filepath and \
+            str(Path(bpy.data.filepath).resolve()) == path:
+        return 0.0
+    t0 = time.perf_counter()
+    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
+    _OPENED[0] = path
+    return time.perf_counter() - t0
+
+
+def run_request(request, log=lambda *_: None):
+    """Do one request in this session: {"op": "scan", blend, objects, collections} or
+    {"op": "bake", blend, object, output, settings, tiles, empty_tiles, overwrite}. Returns the
+    reply dict (status "ok", or "error" with kind "input" / "crash" and the message)."""
+    t0, cpu0 = time.perf_counter(), time.process_time()
+    reply = {"op": request["op"], "id": request.get("id")}
+    try:
+        load_s = open_blend(request["blend"]) if request.get("blend") else 0.0
+        reply["load_s"] = load_s
+        if request["op"] == "scan":
+            reply.update(scan_open_file(request.get("objects"), request.get("collections")))
+            reply["dependencies"] = dependencies_of_open_file()
+        else:
+            import bpy
+            _fault(request)
+            obj = bpy.data.objects.get(request["object"])
+            if obj is None:
+                raise NB.NormalBakeError(f"no object named {request['object']!r}")
+            s = request["settings"]
+            res = NB.bake_normal_tiles(
+                obj, request["output"], s["space"], s["resolution"], s["uv_map"], s["margin"],
+                s["samples"], s["depth"], request.get("tiles"), request.get("empty_tiles",
+                                                                           "error"),
+                overwrite=request.get("overwrite", False), log=log,
+                threads=request.get("threads"))
+            reply.update({"paths": {str(t): str(p) for t, p in res["paths"].items()},
+                          "tiles": res["tiles"], "uv_map": res["uv_map"], "depth": res["depth"],
+                          "warnings": res["warnings"], "bake_s": res["bake_s"],
+                          "save_s": res["save_s"], "dependencies": dependencies_of_open_file()})
+        reply["status"] = "ok"
+    except NB.NormalBakeError as err:
+        reply.update(status="error", kind="input", error=str(err))
+    except Exception as err:                    # noqa: BLE001 - reported, retried once
+        reply.update(status="error", kind="crash", error=f"{type(err).__name__}: {err}")
+    reply["total_s"] = time.perf_counter() - t0
+    reply["cpu_s"] = time.process_time() - cpu0      # every thread of this process (Cycles')
+    return reply
+
+
+def _fault(request):
+    """Test hook (SURFGRAD_BATCH_FAULT): make this worker process die on an asset."""
+    fault = os.environ.get(FAULT_ENV, "")
+    if ":" in fault and request.get("in_worker"):
+        kind, name = fault.split(":", 1)
+        if name == request["object"] and (kind == "die" or
+                                          (kind == "die-once" and request.get("attempt") == 1)):
+            os._exit(70)
+
+
+# Worker processes --------------------------------------------------------------------------------
+
+_BOOT = ("import importlib.util, sys\n"
+         "root = {root!r}\n"
+         "spec = importlib.util.spec_from_file_location('_surfgrad_batch', root + '/__init__.py',"
+         " submodule_search_locations=[root])\n"
+         "pkg = importlib.util.module_from_spec(spec)\n"
+         "sys.modules['_surfgrad_batch'] = pkg\n"
+         "spec.loader.exec_module(pkg)\n"
+         "from _surfgrad_batch.addon import batch_worker\n"
+         "sys.exit(batch_worker.main())\n")
+
+
+def worker_command():
+    """The command that starts one worker: Blender itself (-b --factory-startup
+    --python-expr) when this is a Blender binary, else this Python (the bpy module). The
+    worker loads this package from its folder, so a checkout and an installed extension both
+    work."""
+    import bpy
+    code = _BOOT.format(root=str(Path(__file__).resolve().parents[1]))
+    binary = getattr(bpy.app, "binary_path", "") or ""
+    if binary and Path(binary).name.lower().startswith("blender") and Path(binary).is_file():
+        return [binary, "-b", "--factory-startup", "--python-expr", code]
+    return [sys.executable, "-c", code]
+
+
+class Worker:
+    """One worker process: requests in on stdin, replies out on stdout (marked lines)."""
+
+    def __init__(self, command, env=None):
+        self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, text=True, bufsize=1, env=env)
+        self.tail = []
+        self.started = time.perf_counter()
+        self.ready_s = None
+
+    def call(self, request):
+        """Send a request and wait for its reply; None if the process died first."""
+        try:
+            self.proc.stdin.write(json.dumps(request) + "\n")
+            self.proc.stdin.flush()
+        except (BrokenPipeError, OSError):
+            return None
+        for line in self.proc.stdout:
+            if line.startswith(RESULT_MARK):
+                reply = json.loads(line[len(RESULT_MARK):])
+                if reply.get("op") == "ready":
+                    self.ready_s = time.perf_counter() - self.started
+                    continue
+                return reply
+            self.tail = (self.tail + [line.rstrip()])[-15:]
+        return None
+
+    def exit_code(self):
+        try:
+            return self.proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            return self.proc.wait()
+
+    def close(self):
+        if self.proc.poll() is None:
+            try:
+                self.proc.stdin.close()
+            except OSError:
+                pass
+            self.exit_code()
+
+
+class Pool:
+    """`workers` worker threads, each driving one worker process (started when first needed,
+    started anew after one dies). map() runs requests; a request whose worker died or which
+    failed unexpectedly (kind "crash") is retried once in a fresh process."""
+
+    def __init__(self, workers, command=None, env=None, retries=1):
+        self.workers, self.command, self.env, self.retries = workers, command, env, retries
+        self.procs = [None] * workers
+        self.process_starts = []                  # seconds from spawn to ready, per process
+
+    def map(self, requests, on_reply):
+        """Run `requests`; on_reply(request, reply, retry) may return follow-up requests: the
+        same thread runs the first next (its worker has that file open), the rest go first in
+        line for any worker."""
+        todo, urgent = queue.Queue(), queue.Queue()
+        for r in requests:
+            todo.put(dict(r, attempt=1))
+        lock = threading.Lock()
+        busy = [0]
+
+        def take(local):
+            if local:
+                return local.pop(0)
+            for q in (urgent, todo):
+                try:
+                    return q.get_nowait()
+                except queue.Empty:
+                    pass
+            return None
+
+        def run(slot):
+            local = []
+            while True:
+                with lock:
+                    req = take(local)
+                    if req is None:
+                        if busy[0] == 0:
+                            return
+                    else:
+                        busy[0] += 1
+                if req is None:               # others may still queue retries or follow-ups
+                    time.sleep(0.02)
+                    continue
+                try:
+                    reply = self._call(slot, req, lock)
+                    retry = reply["status"] == "error" and reply.get("kind") == "crash" \
+                        and req["attempt"] <= self.retries
+                    reply["attempt"] = req["attempt"]
+                    with lock:
+                        more = on_reply(req, reply, retry) or []
+                        if retry:
+                            urgent.put(dict(req, attempt=req["attempt"] + 1))
+                        more = [dict(m, attempt=1) for m in more]
+                        local.extend(more[:1])
+                        for m in more[1:]:
+                            urgent.put(m)
+                finally:
+                    with lock:
+                        busy[0] -= 1
+
+        threads = [threading.Thread(target=run, args=(i,), daemon=True)
+                   for i in range(self.workers)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+
+    def _call(self, slot, req, lock):
+        worker = self.procs[slot]
+        if worker is None or worker.proc.poll() is not None:
+            worker = self.procs[slot] = Worker(self.command or worker_command(), self.env)
+        reply = worker.call(dict(req, in_worker=True))
+        if worker.ready_s is not None and not getattr(worker, "counted", False):
+            worker.counted = True
+            with lock:
+                self.process_starts.append((worker, worker.ready_s))
+        if reply is None:
+            code = worker.exit_code()
+            self.procs[slot] = None
+            tail = "\n    ".join(worker.tail[-5:])
+            reply = {"op": req["op"], "id": req.get("id"), "status": "error", "kind": "crash",
+                     "error": f"the worker process died (exit code {code})"
+                              + (f"; its last output:\n    {tail}" if tail else "")}
+        return reply
+
+    def start_times(self):
+        return [s for _, s in self.process_starts]
+
+    def close(self):
+        for w in self.procs:
+            if w is not None:
+                w.close()
+        self.procs = [None] * self.workers
+
+
+class InProcess:
+    """The same interface in this session (workers = 0): requests run here, one by one, with
+    one retry for unexpected failures."""
+
+    def __init__(self, log, retries=1):
+        self.log, self.retries = log, retries
+
+    def map(self, requests, on_reply):
+        todo = [dict(r, attempt=1) for r in requests]
+        while todo:
+            req = todo.pop(0)
+            reply = run_request(req)
+            reply["attempt"] = req["attempt"]
+            retry = reply["status"] == "error" and reply.get("kind") == "crash" \
+                and req["attempt"] <= self.retries
+            more = on_reply(req, reply, retry) or []
+            if retry:
+                more = [dict(req, attempt=req["attempt"] + 1)] + \
+                    [dict(m, attempt=1) for m in more]
+            else:
+                more = [dict(m, attempt=1) for m in more]
+            todo[:0] = more
+
+    def start_times(self):
+        return []
+
+    def close(self):
+        pass
+
+
+# The batch ------------------------------------------------------------------------------------
+
+class Progress:
+    """done/total with elapsed time and an ETA from the assets baked so far. Until every file
+    is scanned the total counts each unscanned file as the mean of the scanned ones."""
+
+    def __init__(self, log):
+        self.log, self.done, self.known, self.unscanned = log, 0, 0, 0
+        self.scanned_files, self.scanned_assets = 0, 0
+        self.counts = {"baked": 0, "skipped": 0, "failed": 0}
+        self.t0 = time.perf_counter()
+
+    @property
+    def total(self):
+        per_file = self.scanned_assets / self.scanned_files if self.scanned_files else 1
+        return self.known + round(self.unscanned * max(per_file, 1))
+
+    def step(self, status, what, detail=""):
+        self.done += 1
+        self.counts[status] += 1
+        elapsed = time.perf_counter() - self.t0
+        worked = self.counts["baked"] + self.counts["failed"]
+        total = max(self.total, self.done)
+        left = total - self.done
+        eta = "done" if not left else \
+            (f"ETA {elapsed / worked * left:.0f} s" if worked else "ETA ?")
+        approx = "~" if self.unscanned else ""
+        self.log(f"[{self.done}/{approx}{total}] {status} {what}{detail} | "
+                 f"{self.counts['baked']} baked, {self.counts['skipped']} skipped, "
+                 f"{self.counts['failed']} failed | {elapsed:.1f} s elapsed, {eta}")
+
+
+def _read_manifest(path):
+    try:
+        data = json.loads(Path(path).read_text())
+        return data if isinstance(data, dict) and isinstance(data.get("assets"), dict) else None
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
+
+
+def write_json_atomic(path, data):
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temp = path.with_name(f".{path.name}.part{os.getpid()}")
+    temp.write_text(json.dumps(data, indent=1, sort_keys=False))
+    os.replace(temp, path)
+
+
+def _asset_key(blend, obj):
+    return f"{blend}:{obj}"
+
+
+def _tile_list(value):
+    """'1001-1003,1005' / [1001, 1002] / None -> sorted tiles (None stays None)."""
+    if value in (None, "", []):
+        return None
+    if isinstance(value, (list, tuple)):
+        return sorted({int(v) for v in value})
+    tiles = set()
+    for part in str(value).replace(" ", "").split(","):
+        if not part:
+            continue
+        try:
+            if "-" in part:
+                a, b = part.split("-", 1)
+                tiles.update(range(int(a), int(b) + 1))
+            else:
+                tiles.add(int(part))
+        except ValueError:
+            raise BatchError(f"tiles {value!r}: give UDIM numbers like 1001,1002 or "
+                             f"1001-1010") from None
+    return sorted(tiles)
+
+
+def split_entry(entry):
+    """'file.blend' or 'file.blend:Object' -> (file, object or None)."""
+    text = str(entry)
+    head, sep, tail = text.rpartition(".blend:")
+    if sep and tail:
+        return head + ".blend", tail
+    return text, None
+
+
+def read_asset_list(path):
+    """An asset list: one `file.blend` or `file.blend:Object` a line (# comments); relative
+    paths are taken from the list's folder. Returns the entries with absolute paths."""
+    path = Path(path)
+    if not path.is_file():
+        raise BatchError(f"asset list {path}: no such file")
+    entries = []
+    for raw in path.read_text().splitlines():
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        blend, obj = split_entry(line)
+        p = Path(blend)
+        p = p if p.is_absolute() else path.parent / p
+        entries.append(f"{p}:{obj}" if obj else str(p))
+    return entries
+
+
+def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, collections=None,
+               defaults=None, settings_file=None, workers=1, force=False, overwrite=False,
+               manifest=None, tiles=None, empty_tiles="error", open_file=False, worker_env=None,
+               worker_command_override=None, log=print, threads=None):
+    """Bake every asset of `blends` (paths; or the open file with open_file) selected by
+    `objects` / `collections` into files named by `output`. threads: Cycles threads per bake
+    (default: all cores in this process or one worker, their share with several). Returns the run's report (also
+    written, merged with earlier runs, to the manifest): per asset its status (baked, skipped,
+    failed), settings, hashes, timings, warnings, files. Raises BatchError for bad input of
+    the whole run; a bad asset only fails that asset."""
+    import bpy
+    from .groups.common import VERSION
+
+    check_pattern(output)
+    if workers is None or isinstance(workers, bool) or not isinstance(workers, int) \
+            or workers < 0:
+        raise BatchError(f"workers {workers!r}: give 0 (this process) or more processes")
+    if empty_tiles not in ("error", "skip"):
+        raise BatchError("empty tiles: use 'error' or 'skip'")
+    tiles = _tile_list(tiles)
+    overrides_data = load_settings_file(settings_file) if settings_file else {}
+    base = dict(overrides_data.get("defaults", {}))
+    base.update({k: v for k, v in (defaults or {}).items() if v is not None})
+    bad = sorted(set(base) - set(SETTING_KEYS))
+    if bad:
+        raise BatchError(f"unknown setting(s) {', '.join(bad)}; the settings are "
+                         f"{', '.join(SETTING_KEYS)}")
+    overrides = overrides_data.get("assets", {})
+    if open_file:
+        if not bpy.data.filepath:
+            raise BatchError("the open file has never been saved: save it, or give .blend files")
+        blends = [bpy.data.filepath]
+        workers = 0                               # the open session is the one to bake
+        force = force or bpy.data.is_dirty        # unsaved changes: the file's hash says nothing
+    if not blends:
+        raise BatchError("give .blend files to bake (or bake the open file)")
+    per_file = {}                                # file -> objects named with it (or [])
+    for entry in blends:
+        blend, obj = split_entry(entry)
+        blend = str(Path(blend).resolve())
+        per_file.setdefault(blend, [])
+        if obj:
+            per_file[blend].append(obj)
+    blends = list(per_file)
+    manifest_path = Path(manifest) if manifest else default_manifest(output)
+    previous = _read_manifest(manifest_path) or {"assets": {}}
+    blender_version = bpy.app.version_string
+    t_start = time.perf_counter()
+    report = {"surfgrad": VERSION, "blender": blender_version,
+              "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "output": str(output),
+              "workers": workers, "force": force, "assets": {}, "files": {}}
+
+    # 1. The files: bad ones fail here; unchanged ones reuse their earlier scan.
+    files, to_scan = {}, []
+    prev_files = previous.get("files", {})
+    for blend in blends:
+        selection = {"objects": (objects or []) + per_file[blend],
+                     "collections": collections or []}
+        problem = blend_problem(blend)
+        if problem:
+            report["assets"][_asset_key(blend, "*")] = {
+                "file": blend, "object": None, "status": "failed", "kind": "input",
+                "error": problem}
+            continue
+        prev = prev_files.get(blend)
+        deps = prev.get("dependencies", []) if prev else []
+        ihash = input_hash(blend, deps)
+        files[blend] = {"input_hash": ihash, "dependencies": deps, "selection": selection}
+        if prev and prev.get("input_hash") == ihash and prev.get("selection") == selection \
+                and "scan" in prev:
+            files[blend]["scan"] = prev["scan"]
+            files[blend]["scan_reused"] = True
+        else:
+            to_scan.append(blend)
+    pool = InProcess(log) if workers == 0 else \
+        Pool(workers, worker_command_override, worker_env)
+    progress = Progress(log)
+    progress.known = len(report["assets"])          # the files refused already
+    progress.unscanned = len(to_scan)
+    outputs_seen = {}
+    how = "this process" if workers == 0 else f"{workers} worker process(es)"
+    # Cycles takes every core by default: several worker processes share them out.
+    if threads is None:
+        threads = None if workers <= 1 else max(1, (os.cpu_count() or 1) // workers)
+
+    def step_entry(entry):
+        what = f"{Path(entry['file']).name}:{entry.get('object') or '*'}"
+        progress.step(entry["status"], what,
+                      f": {entry['error']}" if entry["status"] == "failed" else "")
+
+    def plan_file(blend):
+        """The bake requests of one scanned file; its failed and skipped assets reported."""
+        f, name = files[blend], Path(blend).name
+        entries, jobs = [], []
+        if "scan_error" in f:
+            entries.append({"file": blend, "object": None, "status": "failed",
+                            "kind": "input", "error": f"could not read {name}: "
+                                                      f"{f['scan_error']}"})
+        else:
+            for err in f["scan"]["errors"]:
+                entries.append({"file": blend, "object": err["object"], "status": "failed",
+                                "kind": "input", "error": err["error"]})
+            if not f["scan"]["assets"] and not f["scan"]["errors"]:
+                entries.append({"file": blend, "object": None, "status": "failed",
+                                "kind": "input",
+                                "error": f"{name} has no mesh object with a material to bake"})
+        for a in f.get("scan", {}).get("assets", []):
+            key = _asset_key(blend, a["object"])
+            s = asset_settings(base, overrides, name, a["object"])
+            entry = {"file": blend, "object": a["object"], "settings": s}
+            entries.append(entry)
+            problem = _asset_problem(a, s)
+            if problem:
+                entry.update(status="failed", kind="input", error=problem)
+                continue
+            uv = s["uv_map"] or a["active_uv"] or next(iter(a["uv_maps"]))
+            s = dict(s, uv_map=uv)
+            entry["settings"] = s
+            out = expand(output, name, a["object"], uv)
+            entry["output"] = out
+            if out in outputs_seen:
+                entry.update(status="failed", kind="input",
+                             error=f"output {out} is also {outputs_seen[out]}'s: put "
+                                   f"{{object}} (or {{file}}) in the output pattern")
+                continue
+            outputs_seen[out] = f"{name}:{a['object']}"
+            entry["input_hash"] = f["input_hash"]
+            entry["settings_hash"] = settings_hash(s, out, blender_version, VERSION)
+            prev = previous["assets"].get(key, {})
+            ours = _unchanged_outputs(prev)
+            if not force and prev.get("status") in ("baked", "skipped") and ours and \
+                    prev.get("input_hash") == entry["input_hash"] and \
+                    prev.get("settings_hash") == entry["settings_hash"] and \
+                    (tiles is None or set(map(str, tiles)) <= set(prev["files"])):
+                entry.update(status="skipped", files=prev["files"], tiles=prev.get("tiles"),
+                             warnings=prev.get("warnings", []),
+                             note="inputs, settings and outputs unchanged (--force bakes "
+                                  "again)")
+                continue
+            Path(out).parent.mkdir(parents=True, exist_ok=True)
+            jobs.append({"op": "bake", "id": key, "file": blend,
+                         "blend": None if open_file else blend, "object": a["object"],
+                         "output": str(Path(out).resolve()), "settings": s, "tiles": tiles,
+                         "empty_tiles": empty_tiles, "threads": threads,
+                         # our own earlier, unmodified outputs may be replaced
+                         "overwrite": overwrite or bool(ours)})
+        for entry in entries:
+            report["assets"][_asset_key(blend, entry.get("object") or "*")] = entry
+        progress.known += len(entries)
+        for entry in entries:
+            if entry.get("status") in ("failed", "skipped"):
+                step_entry(entry)
+        return jobs
+
+    def on_reply(req, reply, retry):
+        if req["op"] == "scan":
+            if retry:
+                return []
+            f = files[req["file"]]
+            f["scan_load_s"] = reply.get("load_s")
+            if reply["status"] == "ok":
+                f["scan"] = {"assets": reply["assets"], "errors": reply["errors"]}
+                if reply["dependencies"] != f["dependencies"]:
+                    f["dependencies"] = reply["dependencies"]
+                    f["input_hash"] = input_hash(req["file"], f["dependencies"])
+            else:
+                f["scan_error"] = reply["error"]
+            progress.unscanned -= 1
+            progress.scanned_files += 1
+            progress.scanned_assets += len(f.get("scan", {}).get("assets", [])) or 1
+            jobs = plan_file(req["file"])
+            write_json_atomic(manifest_path, _merged(previous, report, files))
+            return jobs
+        entry = report["assets"][req["id"]]
+        what = f"{Path(req['file']).name}:{req['object']}"
+        entry.setdefault("attempts", []).append(
+            {k: reply.get(k) for k in ("status", "kind", "error", "load_s", "bake_s",
+                                       "save_s", "total_s") if k in reply})
+        if retry:
+            log(f"[batch] {what}: {reply['error']} - retrying once in a fresh process")
+            return []
+        if reply["status"] == "ok":
+            entry.update(status="baked", tiles=reply["tiles"], uv_map=reply["uv_map"],
+                         depth=reply["depth"], warnings=reply["warnings"],
+                         timings={k: reply.get(k) for k in ("load_s", "bake_s", "save_s",
+                                                            "total_s", "cpu_s")},
+                         files={t: {"path": p, "sha256": sha256_file(p)}
+                                for t, p in reply["paths"].items()})
+            f = files[req["file"]]
+            if reply["dependencies"] != f["dependencies"]:
+                f["dependencies"] = reply["dependencies"]
+                f["input_hash"] = input_hash(req["file"], f["dependencies"])
+                entry["input_hash"] = f["input_hash"]
+            progress.step("baked", what, f": tile(s) {NB._tiles_text(reply['tiles'])}"
+                                         f" in {reply['total_s']:.1f} s")
+        else:
+            entry.update(status="failed", kind=reply.get("kind"), error=reply["error"])
+            progress.step("failed", what, f": {reply['error']}")
+        write_json_atomic(manifest_path, _merged(previous, report, files))
+        return []
+
+    try:
+        for entry in list(report["assets"].values()):
+            step_entry(entry)
+        requests = []
+        for blend in files:
+            if blend not in to_scan:
+                requests += plan_file(blend)
+        requests += [{"op": "scan", "file": b, "blend": None if open_file else b,
+                      **files[b]["selection"]} for b in to_scan]
+        log(f"[batch] {len(files)} file(s), {len(to_scan)} to scan; baking with {how}")
+        pool.map(requests, on_reply)
+        report["process_start_s"] = pool.start_times()
+    finally:
+        pool.close()
+    report["total_s"] = time.perf_counter() - t_start
+    report["counts"] = dict(progress.counts)
+    report["manifest"] = str(manifest_path)
+    write_json_atomic(manifest_path, _merged(previous, report, files))
+    c = progress.counts
+    log(f"[batch] {c['baked']} baked, {c['skipped']} skipped, {c['failed']} failed in "
+        f"{report['total_s']:.1f} s; manifest {manifest_path}")
+    return report
+
+
+def _asset_problem(scan, s):
+    """What stops this asset from baking, known from the scan (None if nothing)."""
+    name = scan["object"]
+    if scan["type"] != "MESH":
+        return f"object {name!r} is a {scan['type'].lower()}, not a mesh: pick mesh objects"
+    if not scan["uv_maps"]:
+        return f"object {name!r} has no UV map; unwrap it first"
+    if s["uv_map"] and s["uv_map"] not in scan["uv_maps"]:
+        return (f"object {name!r} has no UV map {s['uv_map']!r}; it has "
+                f"{sorted(scan['uv_maps'])}")
+    if not scan["materials"]:
+        return f"object {name!r} has no material to bake"
+    return None
+
+
+def _unchanged_outputs(prev):
+    """True if every file an earlier run recorded still holds what it wrote."""
+    files = prev.get("files") or {}
+    if not files:
+        return False
+    for rec in files.values():
+        p = Path(rec["path"])
+        if not p.is_file() or sha256_file(p) != rec["sha256"]:
+            return False
+    return True
+
+
+def _merged(previous, report, files):
+    """The manifest: this run's report, with earlier runs' assets and files kept."""
+    out = dict(report)
+    out["assets"] = dict(previous.get("assets", {}))
+    out["assets"].update(report["assets"])
+    out["files"] = dict(previous.get("files", {}))
+    for blend, f in files.items():
+        out["files"][blend] = {"input_hash": f["input_hash"],
+                               "dependencies": f["dependencies"], "selection": f["selection"],
+                               "load_s": f.get("scan_load_s"),
+                               **({"scan": f["scan"]} if "scan" in f else {})}
+    return out

@@ -1,0 +1,152 @@
+"""The farm files (tools/farm): the Open Job Description template runs with openjd-cli on a few
+small assets (one task per asset x tile), and the Flamenco job type compiles with node against
+a stand-in for Flamenco's compiler globals into the tasks and commands expected, whose command
+line bakes when run."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
+from support.child import ROOT, run_python  # noqa: E402
+
+TEMPLATE = ROOT / "tools" / "farm" / "openjd" / "surfgrad-bake.yaml"
+JOB_TYPE = ROOT / "tools" / "farm" / "flamenco" / "surfgrad-bake.js"
+
+
+def _openjd():
+    for cand in (os.environ.get("SURFGRAD_OPENJD"), Path(sys.executable).parent / "openjd",
+                 shutil.which("openjd")):
+        if cand and Path(cand).is_file():
+            return str(cand)
+    pytest.skip("openjd-cli is not installed here (requirements.txt pins it for the 5.2 line; "
+                "or set SURFGRAD_OPENJD)")
+
+
+def _pixels(path):
+    img = bpy.data.images.load(str(path))
+    img.colorspace_settings.name = "Non-Color"
+    px = np.empty(img.size[0] * img.size[1] * 4, dtype=np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px
+
+
+@pytest.fixture
+def farm_assets(tmp_path):
+    BA.write_asset(tmp_path / "in" / "a.blend", ("Rock",), tiles=(1001, 1002), image_size=16)
+    BA.write_asset(tmp_path / "in" / "b.blend", ("Tree", "Bush"), tiles=(1001,), image_size=16,
+                   seed=5)
+    (tmp_path / "in" / "c.blend").write_text("not a blend")
+    lst = tmp_path / "assets.txt"
+    lst.write_text("# asset list\nin/a.blend\nin/b.blend:Tree\nin/c.blend\n")
+    return lst
+
+
+def _openjd_run(openjd, tmp_path, lst, indices, out):
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    params = {"AssetList": str(lst), "AssetIndices": indices, "Tiles": "1001-1002",
+              "OutputPattern": str(out / "{file}_{object}.<UDIM>.png"),
+              "ManifestDir": str(out / "manifests"), "Resolution": 16, "Samples": 2,
+              "Launcher": f"{sys.executable} -m surfgrad_addon"}
+    args = [openjd, "run", str(TEMPLATE)]
+    for k, v in params.items():
+        args += ["-p", f"{k}={v}"]
+    return subprocess.run(args, cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=600)
+
+
+def test_openjd_template_runs_one_task_per_asset_and_tile(farm_assets, tmp_path):
+    openjd = _openjd()
+    check = subprocess.run([openjd, "check", str(TEMPLATE)], capture_output=True, text=True)
+    assert check.returncode == 0 and "passes validation" in check.stdout, check.stdout
+    out = tmp_path / "out"
+    res = _openjd_run(openjd, tmp_path, farm_assets, "0-1", out)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
+    assert sorted(p.name for p in out.glob("*.png")) == ["a_Rock.1001.png", "a_Rock.1002.png",
+                                                         "b_Tree.1001.png"]
+    assert sorted(p.name for p in (out / "manifests").glob("*.json")) == [
+        f"asset-{a}-tile-{t}.json" for a in (0, 1) for t in (1001, 1002)]
+    m = json.loads((out / "manifests" / "asset-1-tile-1002.json").read_text())
+    (entry,) = m["assets"].values()
+    assert entry["object"] == "Tree" and entry["status"] == "baked" and entry["files"] == {}
+    # The farm's tiles are the local batch's tiles.
+    local = tmp_path / "local"
+    r = run_python(["-m", "surfgrad_addon", "bake-batch", str(tmp_path / "in" / "a.blend"),
+                    "--output", str(local / "{file}_{object}.<UDIM>.png"), "--resolution",
+                    "16", "--samples", "2", "--workers", "0"])
+    assert r.returncode == 0, r.stderr[-2000:]
+    for t in (1001, 1002):
+        assert np.abs(_pixels(out / f"a_Rock.{t}.png")
+                      - _pixels(local / f"a_Rock.{t}.png")).max() < 1e-6
+    # A rerun skips unchanged tasks; a bad asset fails its own tasks with the reason.
+    res = _openjd_run(openjd, tmp_path, farm_assets, "0", out)
+    assert res.returncode == 0, res.stdout[-3000:]
+    assert res.stdout.count("[batch] 0 baked, 1 skipped, 0 failed") == 2, res.stdout[-3000:]
+    res = _openjd_run(openjd, tmp_path, farm_assets, "2", out)
+    assert res.returncode != 0
+    assert "c.blend is named .blend but is not a Blender file" in res.stdout + res.stderr
+
+
+def _compile(settings):
+    node = shutil.which("node")
+    if not node:
+        pytest.skip("node is not installed (the Flamenco job type is JavaScript)")
+    res = subprocess.run([node, str(ROOT / "tests" / "support" / "flamenco_compile.js"),
+                          str(JOB_TYPE), json.dumps(settings)], capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 0, res.stderr
+    return json.loads(res.stdout)
+
+
+def test_flamenco_job_type_compiles_to_one_blender_task_per_object_and_tile(farm_assets,
+                                                                           tmp_path):
+    blend = str(tmp_path / "in" / "b.blend")
+    job = _compile({"objects": "Tree, Bush", "tiles": "1001-1002", "blendfile": blend,
+                    "resolution": 16, "samples": 2})
+    keys = [s["key"] for s in job["job_type"]["settings"]]
+    assert {"objects", "tiles", "output_pattern", "resolution", "samples", "blendfile"} <= \
+        set(keys)
+    assert [t["name"] for t in job["tasks"]] == ["bake Tree 1001", "bake Tree 1002",
+                                                 "bake Bush 1001", "bake Bush 1002"]
+    for task in job["tasks"]:
+        assert task["type"] == "blender" and len(task["commands"]) == 1
+        cmd = task["commands"][0]
+        assert cmd["name"] == "blender-render"
+        p = cmd["parameters"]
+        assert p["exe"] == "{blender}" and p["exeArgs"] == "{blenderArgs}"
+        assert p["blendfile"] == blend and p["args"][0] == "--python-expr"
+        args = p["args"][p["args"].index("--") + 1:]
+        assert args[:3] == ["bake-batch", "--open-file", f"--objects={task['name'].split()[1]}"]
+        assert args[args.index("--tiles") + 1] == task["name"].split()[2]
+        assert args[args.index("--output") + 1] == \
+            str(tmp_path / "in" / "maps" / "{file}_{object}.<UDIM>.png")   # '//' resolved
+        assert args[args.index("--resolution") + 1] == "16"
+    bad = _compile({"objects": "Tree", "tiles": "1001-99", "blendfile": blend})
+    assert "tiles '1001-99'" in bad["error"]
+    assert "objects" in _compile({"objects": " , ", "blendfile": blend})["error"]
+
+    # Run two of the commands as a worker's Blender would (the file opened, the extension's
+    # commands module loaded, the arguments on sys.argv), with the bpy module.
+    for task in job["tasks"][:2]:
+        p = task["commands"][0]["parameters"]
+        code = ("import sys, bpy\n"
+                f"bpy.ops.wm.open_mainfile(filepath={p['blendfile']!r})\n"
+                "import surfgrad_addon.addon.commands\n"
+                f"sys.argv = ['blender', '-b', '-y', {p['blendfile']!r}] + {p['args']!r}\n"
+                f"exec({p['args'][1]!r})\n")
+        res = run_python(["-c", code])
+        assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    maps = tmp_path / "in" / "maps"
+    assert sorted(p.name for p in maps.glob("*.png")) == ["b_Tree.1001.png"]
+    assert sorted(p.name for p in (maps / "manifests").glob("*.json")) == ["Tree-1001.json",
+                                                                            "Tree-1002.json"]

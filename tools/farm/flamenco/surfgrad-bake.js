@@ -1,0 +1,97 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Flamenco 3 job type: surfgrad normal-map bakes, one task per object x UDIM tile.
+// Install: put this file in the `scripts` folder next to the flamenco-manager executable and
+// restart the Manager; workers need Blender 4.2+ with the surfgrad extension enabled (their
+// Blender runs `--python-expr`, which calls the extension's `bake-batch` command on the file
+// Flamenco opened). See README.md, "Bake on a farm".
+
+const JOB_TYPE = {
+  label: "surfgrad Normal-Map Bake",
+  description: "Bake materials into normal maps, one task per object and UDIM tile",
+  settings: [
+    { key: "objects", type: "string", required: true,
+      eval: "','.join(o.name for o in C.selected_objects if o.type == 'MESH')",
+      evalInfo: { showLinkButton: true, description: "The selected mesh objects" },
+      description: "Mesh objects to bake, separated by commas" },
+    { key: "tiles", type: "string", default: "1001",
+      description: "UDIM tiles, e.g. '1001-1004' or '1001,1003'; tiles an object has no UVs " +
+                   "in are skipped" },
+    { key: "output_pattern", type: "string", subtype: "file_path", required: true,
+      default: "//maps/{file}_{object}.<UDIM>.png",
+      description: "Output files: {file}, {object}, {uv}, <UDIM>; '//' is the blend file's folder" },
+    { key: "manifest_dir", type: "string", subtype: "dir_path", default: "//maps/manifests",
+      description: "Folder for the per-task manifests (JSON)" },
+    { key: "resolution", type: "int32", default: 2048, description: "Texels per side" },
+    { key: "samples", type: "int32", default: 16, description: "Cycles samples per texel" },
+    { key: "margin", type: "int32", default: 16, description: "Texels past UV borders" },
+    { key: "space", type: "string", choices: ["tangent", "object"], default: "tangent" },
+    { key: "depth", type: "string", choices: ["auto", "8", "16", "half", "float"],
+      default: "auto", description: "8/16-bit PNG, half/float EXR (auto: 8-bit PNG, float EXR)" },
+    { key: "blendfile", type: "string", required: true, visible: "web",
+      description: "The blend file to bake" },
+  ],
+};
+
+// Runs the installed extension's command handler (`blender -c surfgrad ...` without -c, which
+// would not load the file) on the arguments after `--`, and exits with its code.
+const PYTHON_EXPR =
+  "import sys; " +
+  "m = next((v for k, v in list(sys.modules.items()) " +
+  "if k.endswith('.addon.commands') and hasattr(v, 'run_bake_batch')), None); " +
+  "sys.exit(m.execute(sys.argv[sys.argv.index('--') + 1:]) if m else " +
+  "(print('surfgrad: error: enable the surfgrad extension on this worker') or 3))";
+
+function parseTiles(text) {
+  const tiles = [];
+  for (const part of String(text).split(",")) {
+    const item = part.trim();
+    if (!item) continue;
+    const range = item.split("-");
+    const lo = parseInt(range[0], 10);
+    const hi = range.length > 1 ? parseInt(range[1], 10) : lo;
+    if (!Number.isInteger(lo) || !Number.isInteger(hi) || lo < 1001 || hi > 2000 || hi < lo) {
+      throw `tiles '${text}': give UDIM numbers from 1001 to 2000, like 1001-1004 or 1001,1003`;
+    }
+    for (let t = lo; t <= hi; t++) if (!tiles.includes(t)) tiles.push(t);
+  }
+  if (!tiles.length) throw "tiles: give at least one UDIM tile, like 1001";
+  return tiles.sort((a, b) => a - b);
+}
+
+function relativeToBlend(p, blendfile) {
+  // Blender's '//' prefix: the blend file's folder.
+  if (!p.startsWith("//")) return p;
+  const cut = Math.max(blendfile.lastIndexOf("/"), blendfile.lastIndexOf("\\"));
+  return (cut >= 0 ? blendfile.slice(0, cut + 1) : "") + p.slice(2);
+}
+
+function compileJob(job) {
+  const s = job.settings;
+  const objects = String(s.objects).split(",").map((n) => n.trim()).filter((n) => n);
+  if (!objects.length) throw "objects: name at least one mesh object to bake";
+  const tiles = parseTiles(s.tiles);
+  const output = relativeToBlend(String(s.output_pattern), s.blendfile);
+  const manifests = relativeToBlend(String(s.manifest_dir), s.blendfile);
+  for (const name of objects) {
+    for (const tile of tiles) {
+      const task = author.Task(`bake ${name} ${tile}`, "blender");
+      task.addCommand(author.Command("blender-render", {
+        exe: "{blender}",
+        exeArgs: "{blenderArgs}",
+        argsBefore: [],
+        blendfile: s.blendfile,
+        args: [
+          "--python-expr", PYTHON_EXPR, "--",
+          "bake-batch", "--open-file", `--objects=${name}`,
+          "--tiles", String(tile), "--if-tile-empty", "skip",
+          "--output", output,
+          "--manifest", `${manifests}/${name}-${tile}.json`,
+          "--resolution", String(s.resolution), "--samples", String(s.samples),
+          "--margin", String(s.margin), "--space", String(s.space),
+          "--depth", String(s.depth), "--workers", "0",
+        ],
+      }));
+      job.addTask(task);
+    }
+  }
+}
