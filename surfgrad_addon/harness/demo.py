@@ -531,6 +531,7 @@ def save_demo(path, overwrite=False, log=print, closures=False):
         raise G.FeatureUnavailable(f"demo.blend shows Gustavson's displacement, and {reason}; "
                                    f"open the repository's demo.blend instead (saved with 4.5)")
     cams = build_closure_demo(log) if closures else build_demo(log)
+    path.parent.mkdir(parents=True, exist_ok=True)      # the folder the file was asked into
     if path.exists():
         path.unlink()            # told to overwrite: replace it without a .blend1 backup
     bpy.ops.wm.save_as_mainfile(filepath=str(path.resolve()), compress=True)
