@@ -191,45 +191,65 @@ def compare_graph(inp, obj, graph, reference, resolution):
         raise CompareError(str(err)) from err
     t0 = time.perf_counter()
     td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=B.running_line())
-    ref = M.resolve(reference(inp, td))
     reference_seconds = time.perf_counter() - t0
-    baked = pixels[td.pixel[:, 1], td.pixel[:, 0]].astype(np.float64)
-    in_bake = covered[td.pixel[:, 1], td.pixel[:, 0]]
-    interior = td.interior() & in_bake
-    err = angle_deg(baked[interior], ref[interior])
-    excluded = int(len(td.pixel) - interior.sum() + (covered & ~td.covered).sum())
-    base = M.unit_base_normal(td)[interior]
-    tilt_bake = angle_deg(baked[interior], base)
-    tilt_ref = angle_deg(ref[interior], base)
-    # Over every texel both cover (borders included): the stability figures.
-    both = in_bake
-    ng = td.geometric_normal[both]
-    b_all, r_all = baked[both], ref[both]
-    norms = np.linalg.norm(b_all, axis=-1)
-    finite_unit = np.isfinite(b_all).all(-1) & (np.abs(norms - 1) < 1e-3)
-    away = np.sum(b_all * ng, axis=-1) < -1e-3
-    truth_away = np.sum(r_all * ng, axis=-1) < 1e-3
+    # Block by block (reference/raster.py): the reference's working memory is one block's,
+    # and so is the comparison's; only the per-texel errors and the heat map are whole.
+    errors, sums = [], dict.fromkeys(("tilt_bake", "tilt_ref", "finite_interior", "both",
+                                      "finite_unit", "away", "truth_away_strict",
+                                      "away_not_truth"), 0.0)
+    heat = np.full((resolution, resolution), np.nan, dtype=np.float32)
+    interior_count = 0
+    for _, _, block in td.blocks():
+        t0 = time.perf_counter()
+        ref = M.resolve(reference(inp, block))
+        reference_seconds += time.perf_counter() - t0
+        px, py = block.pixel[:, 0], block.pixel[:, 1]
+        baked = pixels[py, px].astype(np.float64)
+        in_bake = covered[py, px]
+        interior = block.interior() & in_bake
+        err = angle_deg(baked[interior], ref[interior])
+        errors.append(err)
+        heat[py[interior], px[interior]] = err
+        interior_count += int(interior.sum())
+        base = M.unit_base_normal(block)[interior]
+        sums["tilt_bake"] += float(angle_deg(baked[interior], base).sum())
+        sums["tilt_ref"] += float(angle_deg(ref[interior], base).sum())
+        sums["finite_interior"] += int(np.sum(np.isfinite(baked[interior]).all(-1) & (
+            np.abs(np.linalg.norm(baked[interior], axis=-1) - 1) < 1e-4)))
+        # Over every texel both cover (borders included): the stability figures.
+        ng = block.geometric_normal[in_bake]
+        b_all, r_all = baked[in_bake], ref[in_bake]
+        norms = np.linalg.norm(b_all, axis=-1)
+        away = np.sum(b_all * ng, axis=-1) < -1e-3
+        truth_dot = np.sum(r_all * ng, axis=-1)
+        sums["both"] += len(b_all)
+        sums["finite_unit"] += int(np.sum(np.isfinite(b_all).all(-1) & (np.abs(norms - 1) < 1e-3)))
+        sums["away"] += int(away.sum())
+        sums["truth_away_strict"] += int(np.sum(truth_dot < 0))
+        sums["away_not_truth"] += int(np.sum(away & ~(truth_dot < 1e-3)))
+    err = np.concatenate(errors) if errors else np.zeros(0)
+    excluded = int(len(td.pixel) - interior_count + (covered & ~td.covered).sum())
+    both = max(sums["both"], 1)
     report_all = {
-        "finite_unit_fraction_all": float(finite_unit.mean()),
-        "facing_away_fraction": float(away.mean()),
-        "truth_facing_away_fraction": float((np.sum(r_all * ng, axis=-1) < 0).mean()),
-        "faces_away_where_truth_does_not": int(np.sum(away & ~truth_away)),
+        "finite_unit_fraction_all": sums["finite_unit"] / both if sums["both"] else float("nan"),
+        "facing_away_fraction": sums["away"] / both if sums["both"] else float("nan"),
+        "truth_facing_away_fraction": (sums["truth_away_strict"] / both if sums["both"]
+                                       else float("nan")),
+        "faces_away_where_truth_does_not": int(sums["away_not_truth"]),
     }
+    n = max(interior_count, 1)
     report = {
         **report_all,
         "method": method, "object": obj.name, "uv_map": inp.uv_map,
-        "tilt_mean_deg": float(tilt_ref.mean()), "bake_tilt_mean_deg": float(tilt_bake.mean()),
-        "resolution": resolution, "texels_compared": int(interior.sum()),
+        "tilt_mean_deg": sums["tilt_ref"] / n, "bake_tilt_mean_deg": sums["tilt_bake"] / n,
+        "resolution": resolution, "texels_compared": interior_count,
         "texels_excluded": excluded,
-        "excluded_fraction": excluded / max(1, int(interior.sum()) + excluded),
+        "excluded_fraction": excluded / max(1, interior_count + excluded),
         "mean_deg": float(err.mean()), "p99_deg": float(np.percentile(err, 99)),
         "max_deg": float(err.max()), "bake_seconds": bake_seconds,
         "reference_seconds": reference_seconds,
-        "finite_unit_fraction": float(np.mean(np.isfinite(baked[interior]).all(-1) & (
-            np.abs(np.linalg.norm(baked[interior], axis=-1) - 1) < 1e-4))),
+        "finite_unit_fraction": sums["finite_interior"] / n,
     }
-    heat = np.full((resolution, resolution), np.nan)
-    heat[td.pixel[interior, 1], td.pixel[interior, 0]] = err
     return report, heat
 
 

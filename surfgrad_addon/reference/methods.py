@@ -24,6 +24,21 @@ HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 FORWARD_FILTER_WIDTH = 2.0
 
 
+def evaluate_in_blocks(fn, td, texels=None):
+    """fn(block) -> (n, ...) array on every block of td's texels (TexelData.blocks), gathered
+    into one (N, ...) array: the whole bake's result with working memory of one block."""
+    out = None
+    for start, stop, block in td.blocks(texels):
+        value = np.asarray(fn(block))
+        if out is None:
+            out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype)
+        out[start:stop] = value
+    if out is None:                             # nothing covered: an empty result
+        value = np.asarray(fn(td))
+        out = value
+    return out
+
+
 def unit_base_normal(td):
     """The base normal of every method: the renderer's unit shading normal."""
     return td.shading_normal
