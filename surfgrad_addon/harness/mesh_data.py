@@ -1,13 +1,16 @@
 """A Blender mesh object as the reference's MeshArrays: what Cycles sees, as plain arrays.
 
 The evaluated mesh (modifiers applied) is triangulated with Blender's own loop triangles;
-per-corner normals are Blender's corner normals (smooth, flat and custom split normals alike);
-tangents and signs are MikkTSpace for every UV map, computed on the triangles as Cycles does.
+per-corner normals are the normals Cycles shades with (cycles_normals: corner, vertex or
+per-triangle normals by the line's rule); tangents and signs are MikkTSpace for every UV map,
+computed on the triangles with those normals as Cycles does.
 """
 
 import numpy as np
 
+from ..addon.node_builder import running_line
 from ..reference.raster import MeshArrays
+from ..reference.vecmath import cross, normalize
 
 
 class MeshDataError(ValueError):
@@ -20,9 +23,31 @@ def _get(collection, attr, count, width, dtype=np.float64):
     return out.reshape(count, width) if width > 1 else out
 
 
-def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True):
-    """MeshArrays of `obj` (evaluated, world matrix included). Raises MeshDataError for an
-    object without mesh data, faces or UV maps."""
+def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
+    """(T, 3, 3) the normals Cycles shades each triangle corner with
+    (LineFacts.sharp_faces_give_corner_normals): corner normals, vertex normals for smooth
+    faces, or the triangle's own geometric normal for flat ones."""
+    nl, nv, nt = len(mesh.loops), len(mesh.vertices), len(tri_loops)
+    corner = _get(mesh.corner_normals, "vector", nl, 3)[tri_loops]
+    domain = mesh.normals_domain
+    if domain == "POINT" or (domain == "CORNER" and facts.sharp_faces_give_corner_normals):
+        return corner
+    sharp_edge = mesh.attributes.get("sharp_edge")
+    has_sharp_edges = sharp_edge is not None and sharp_edge.domain == "EDGE" and bool(
+        _get(sharp_edge.data, "value", len(mesh.edges), 1, bool).any())
+    if domain == "CORNER" and (mesh.has_custom_normals or has_sharp_edges):
+        return corner
+    smooth = _get(mesh.loop_triangles, "use_smooth", nt, 1, bool)
+    p = positions[tri_verts]
+    tri_normal = normalize(cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
+    vertex = _get(mesh.vertex_normals, "vector", nv, 3)[tri_verts]
+    return np.where(smooth[:, None, None], vertex, tri_normal[:, None, :])
+
+
+def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None):
+    """MeshArrays of `obj` (evaluated, world matrix included), as the running line's Cycles
+    (or `facts`' line) sees it. Raises MeshDataError for an object without mesh data, faces or
+    UV maps."""
     import bpy
 
     if obj is None:
@@ -44,7 +69,9 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True):
         positions = _get(mesh.vertices, "co", nv, 3)
         tri_loops = _get(mesh.loop_triangles, "loops", nt, 3, np.int64)
         tri_verts = _get(mesh.loop_triangles, "vertices", nt, 3, np.int64)
-        corner_normals = _get(mesh.corner_normals, "vector", nl, 3)[tri_loops]
+        corner_normals = cycles_normals(mesh, positions, tri_loops, tri_verts,
+                                        facts or running_line())
+        triangle_faces = _get(mesh.loop_triangles, "polygon_index", nt, 1, np.int64)
         names = [layer.name for layer in mesh.uv_layers]
         uv_maps = {name: _get(mesh.uv_layers[name].uv, "vector", nl, 2)[tri_loops]
                    for name in names}
@@ -60,7 +87,8 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True):
                             corner_normals=corner_normals, uv_maps=uv_maps,
                             matrix_world=matrix, name=obj.name,
                             transform_applied=obj.data.users == 1,
-                            point_attributes=point_attributes).validate()
+                            point_attributes=point_attributes,
+                            triangle_faces=triangle_faces).validate()
     finally:
         eval_obj.to_mesh_clear()
     if need_tangents:

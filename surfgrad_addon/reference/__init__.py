@@ -26,4 +26,5 @@ from .displacement import displace_along_normal, displaced_normal
 from .baselines import (bump_screen_derivative_lxengine, decal_projector_normal,
                         perturb_normal_perlin1985, triplanar_derivative_perlin, triplanar_geiss)
 from .raster import MeshArrays, TexelData, rasterize
+from . import tiles
 from . import images, meshes, methods

@@ -45,6 +45,13 @@ class LineFacts:
     bake_applies_target_colorspace: bool
     # EEVEE's render engine id.
     eevee_engine: str
+    # Which normals Cycles shades with (measured, tests/test_raster_rules.py). Every line: a
+    # mesh whose faces are all flat shades each triangle with its own geometric normal (not the
+    # polygon's, which differs on a non-planar quad). 5.2: otherwise the mesh's corner normals
+    # whenever Blender's normals are per corner, mixed smooth and flat faces included. Up to
+    # 5.0 only sharp edges or custom normals give corner normals; otherwise smooth faces shade
+    # with vertex normals and flat faces with their triangle's normal.
+    sharp_faces_give_corner_normals: bool = True
     # Where a bake shades texel (i, j): ((i + x) / W, (j + y) / H). Same on every line.
     bake_texel_offset: tuple = (0.501, 0.502)
     # MikkTSpace tangents come from Cycles' own triangles (not the quads Blender's
@@ -59,7 +66,8 @@ class LineFacts:
 _UP_TO_5_0 = dict(bake_differential_scale=0.25, bump_filter_width=True, packed_normals=False,
                  normal_map_unit_normal=False, normal_map_replaces_non_finite=True,
                  normal_map_convention=False,
-                 modifier_properties=False, bake_applies_target_colorspace=False)
+                 modifier_properties=False, bake_applies_target_colorspace=False,
+                 sharp_faces_give_corner_normals=False)
 LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,

@@ -2,10 +2,17 @@
 
 Conventions follow Blender's bake: texel (i, j) is shaded at its centre nudged by Blender's
 bake offset, ((i + 0.501) / W, (j + 0.502) / H) (image_sampling.BAKE_TEXEL_OFFSET), row j = 0
-at v = 0 (bottom, as in Image.pixels). A sample point exactly on an edge shared by two
-triangles goes to the triangle it is deepest inside (ties to the lower triangle index), so a
-UV square is covered exactly once. Texels no triangle covers are marked (triangle index -1),
-never filled in.
+at v = 0 (bottom, as in Image.pixels). Texels no triangle covers are marked (triangle index
+-1), never filled in.
+
+Contested texels follow Blender's bake (render/intern/bake.cc, RE_bake_pixels_populate):
+triangles are scan-converted in loop-triangle order and each writes every texel it covers
+(store_bake_pixel), so a texel several triangles claim goes to the LAST of them, the highest
+triangle index (pinned on every line: tests/test_raster_rules.py). Texels are clipped to the
+image: UVs outside 0..1 bake nothing (no wrap); a UDIM tile is the image of its own UV square
+(uv_offset, see tiles.py). TexelData flags texels claimed by two triangles' interiors
+(`contested`: overlapping UV islands) and texels within float32 rounding of an edge another
+triangle shares (`on_edge`: Blender's float32 scan conversion decides the side).
 
 Everything is vectorised over candidate texels: triangles are expanded to the texels of their
 bounding boxes in chunks, and only a loop over chunks remains.
@@ -29,6 +36,8 @@ _CHUNK = 1 << 22
 # Texels per evaluation block: a block's (n, 3) float64 arrays (0.4 MB) stay in a 2 MB L2.
 # Measured on the 2-core machine (bench-reference): 8K-32K are within 10%; 1M is 2-3x slower.
 BLOCK_TEXELS = 1 << 14
+# Float32 rounding of Blender's scan conversion, in texels at 256^2 (scaled with the size).
+_EDGE_TEXELS = 1e-4
 
 
 @dataclass
@@ -52,6 +61,8 @@ class MeshArrays:
     # then go to world space and are normalised before interpolation (see shading_normal).
     transform_applied: bool = True
     point_attributes: dict = field(default_factory=dict)   # {name: (V, C)} per vertex
+    # (T,) the mesh face (polygon) each triangle comes from, when known: for messages.
+    triangle_faces: np.ndarray = None
 
     def validate(self):
         """Raise ValueError naming the problem and the fix; return self when usable."""
@@ -141,6 +152,12 @@ class TexelData:
     barycentric: np.ndarray
     # The Blender line whose bake this models (blender_lines): differentials, normal storage.
     facts: LineFacts = MAIN_LINE
+    # (H, W): texels inside two or more triangles (overlapping UVs); the triangle (other than
+    # the winner) that also claims each such texel, -1 elsewhere; texels on a shared edge.
+    contested: np.ndarray = None
+    other_triangle: np.ndarray = None
+    on_edge: np.ndarray = None
+    uv_offset: tuple = (0.0, 0.0)
     # Per-triangle arrays computed once and shared by the whole bake and all of its blocks.
     _shared: dict = field(default_factory=dict, repr=False, compare=False)
 
@@ -159,7 +176,9 @@ class TexelData:
         return TexelData(mesh=self.mesh, uv_map=self.uv_map, width=self.width,
                          height=self.height, triangle=self.triangle,
                          pixel=self.pixel[start:stop], barycentric=self.barycentric[start:stop],
-                         facts=self.facts, _shared=self._shared)
+                         facts=self.facts, contested=self.contested,
+                         other_triangle=self.other_triangle, on_edge=self.on_edge,
+                         uv_offset=self.uv_offset, _shared=self._shared)
 
     def blocks(self, texels=None):
         """(start, stop, block) over all covered texels, `texels` (BLOCK_TEXELS) at a time."""
@@ -339,10 +358,12 @@ class TexelData:
         return ok[self.pixel[:, 1] * self.width + self.pixel[:, 0]]
 
 
-def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE):
+def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
+              uv_offset=(0.0, 0.0)):
     """Rasterise `mesh` into a width x height texture of UV map `uv_map` (see module doc).
     sample_offset: where in its texel each texel is sampled (default: where the bake of
-    `facts`' line shades; (0.5, 0.5) for exact centres). facts: the Blender line modelled."""
+    `facts`' line shades; (0.5, 0.5) for exact centres). facts: the Blender line modelled.
+    uv_offset: the UV corner of the image (a UDIM tile's, tiles.tile_uv_offset)."""
     if sample_offset is None:
         sample_offset = facts.bake_texel_offset
     mesh.validate()
@@ -350,7 +371,8 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE):
         raise ValueError(f"bake resolution must be positive, got {width} x {height}")
     uv = mesh.uv(uv_map)
     # Sample space: texel (i, j) is sampled at (i, j).
-    q = uv * np.array([width, height], dtype=np.float64) - np.asarray(sample_offset)
+    q = ((uv - np.asarray(uv_offset, dtype=np.float64)) * np.array([width, height], dtype=np.float64)
+         - np.asarray(sample_offset))
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
     lo = np.ceil(q.min(axis=1) - 1e-9).astype(np.int64)
@@ -361,11 +383,19 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE):
     counts = span[:, 0] * span[:, 1]
     counts[area == 0] = 0  # zero-area UV triangles cover nothing
     coef = _barycentric_coefficients(a, b, c, area)
-    best_score = np.full(width * height, -np.inf)
-    best_tri = np.full(width * height, -1, dtype=np.int64)
-    best_bary = np.zeros((width * height, 3))
+    # Near an edge (within float32 rounding of Blender's scan conversion, in barycentric units
+    # of each triangle) a texel's side is not decided by exact arithmetic.
+    edge_len = np.stack([np.hypot(*(b - c).T), np.hypot(*(c - a).T), np.hypot(*(a - b).T)], 1)
+    altitude = np.abs(area) / np.maximum(edge_len.max(axis=1), 1e-300)
+    tol = _EDGE_TEXELS * max(width, height) / 256 / np.maximum(altitude, 1e-300)
+    npx = width * height
+    best_tri = np.full(npx, -1, dtype=np.int64)
+    best_bary = np.zeros((npx, 3))
+    other_tri = np.full(npx, -1, dtype=np.int64)
+    strict_claims = np.zeros(npx, dtype=np.int64)
+    near_claims = np.zeros(npx, dtype=np.int64)
     tri_ids = np.nonzero(counts)[0]
-    # Chunks of whole triangles, each with at most about _CHUNK candidates.
+    # Chunks of whole triangles in index order, each with at most about _CHUNK candidates.
     cum = np.cumsum(counts[tri_ids])
     starts = np.searchsorted(cum, np.arange(0, cum[-1] if len(cum) else 0, _CHUNK), side="right")
     bounds = list(starts) + [len(tri_ids)]
@@ -382,30 +412,39 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE):
         # Barycentric k is affine in the texel position: coef[t, k] . (x, y, 1).
         bary = (coef[t, :, 0] * px[:, None] + coef[t, :, 1] * py[:, None]) + coef[t, :, 2]
         score = bary.min(axis=1)
+        near = score >= -tol[t]
+        flat, score, t, bary = (py * width + px)[near], score[near], t[near], bary[near]
+        near_claims += np.bincount(flat, minlength=npx)
+        strict = score > tol[t]
+        strict_claims += np.bincount(flat[strict], minlength=npx)
+        # The bake's rule: the last triangle (highest index) containing the sample point wins.
+        # Candidates are in ascending triangle order, so the last one per texel is the winner;
+        # a stable sort by texel keeps that order, and the one before it is the other claimant.
         inside = score >= -1e-12
-        flat = (py * width + px)[inside]
-        score, t, bary = score[inside], t[inside], bary[inside]
-        # Best candidate per texel within the chunk, then against earlier chunks. Only the
-        # few texels claimed twice (centres on shared edges) need sorting.
-        shared = np.bincount(flat, minlength=width * height)[flat] > 1
-        if shared.any():
-            order = np.lexsort((-score[shared], flat[shared]))
-            keep = np.nonzero(shared)[0][order]
-            first = np.ones(len(keep), dtype=bool)
-            first[1:] = flat[keep[1:]] != flat[keep[:-1]]
-            keep = np.concatenate([np.nonzero(~shared)[0], keep[first]])
-            flat, score, t, bary = flat[keep], score[keep], t[keep], bary[keep]
-        better = score > best_score[flat]
-        best_score[flat[better]] = score[better]
-        best_tri[flat[better]] = t[better]
-        best_bary[flat[better]] = bary[better]
+        fi, ti, bi, si = flat[inside], t[inside], bary[inside], strict[inside]
+        order = np.argsort(fi, kind="stable")
+        fi, ti, bi, si = fi[order], ti[order], bi[order], si[order]
+        last = np.ones(len(fi), dtype=bool)
+        last[:-1] = fi[1:] != fi[:-1]
+        prev = np.nonzero(last[1:] & ~last[:-1])[0]     # the claimant just before a winner
+        earlier = best_tri[fi[last]]
+        other_tri[fi[prev + 1]] = ti[prev]
+        replaced = earlier >= 0
+        other_tri[fi[last][replaced]] = earlier[replaced]
+        best_tri[fi[last]] = ti[last]
+        best_bary[fi[last]] = bi[last]
+    covered_flat = np.nonzero(best_tri >= 0)[0]
     covered_flat = np.nonzero(best_tri >= 0)[0]
     pixel = np.stack([covered_flat % width, covered_flat // width], axis=1)
     bary = np.clip(best_bary[covered_flat], 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
     return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
                      triangle=best_tri.reshape(height, width), pixel=pixel, barycentric=bary,
-                     facts=facts)
+                     facts=facts, uv_offset=tuple(float(o) for o in uv_offset),
+                     contested=(strict_claims >= 2).reshape(height, width),
+                     other_triangle=np.where(best_tri >= 0, other_tri, -1).reshape(height, width),
+                     on_edge=((near_claims >= 2) & (strict_claims < 2)
+                              & (best_tri >= 0)).reshape(height, width))
 
 
 def _barycentric_coefficients(a, b, c, area):
