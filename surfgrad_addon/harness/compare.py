@@ -199,6 +199,8 @@ def compare_graph(inp, obj, graph, reference, resolution):
                                       "away_not_truth"), 0.0)
     heat = np.full((resolution, resolution), np.nan, dtype=np.float32)
     interior_count = 0
+    sampling = R.image_sampling.images_unchanged()
+    sampling.__enter__()            # the inputs' images are laid out once for all blocks
     for _, _, block in td.blocks():
         t0 = time.perf_counter()
         ref = M.resolve(reference(inp, block))
@@ -227,6 +229,7 @@ def compare_graph(inp, obj, graph, reference, resolution):
         sums["away"] += int(away.sum())
         sums["truth_away_strict"] += int(np.sum(truth_dot < 0))
         sums["away_not_truth"] += int(np.sum(away & ~(truth_dot < 1e-3)))
+    sampling.__exit__(None, None, None)
     err = np.concatenate(errors) if errors else np.zeros(0)
     excluded = int(len(td.pixel) - interior_count + (covered & ~td.covered).sum())
     both = max(sums["both"], 1)

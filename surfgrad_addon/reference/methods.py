@@ -12,10 +12,10 @@ from . import listings as L
 from .cycles_bake import bump_differentials, uv_step
 from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin1985, triplanar_geiss
 from .height_map import deriv_from_height_map, deriv_three_tap
-from .image_sampling import sample_image
+from .image_sampling import images_unchanged, sample_image
 from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .noise import fractal_sum
-from .vecmath import FLT_EPSILON, normalize
+from .vecmath import FLT_EPSILON, cross, dot, length, normalize, stack_last, transform
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 # Filter Width of the Forward variant's Bump node. Camera differentials in a render and a
@@ -28,11 +28,12 @@ def evaluate_in_blocks(fn, td, texels=None):
     """fn(block) -> (n, ...) array on every block of td's texels (TexelData.blocks), gathered
     into one (N, ...) array: the whole bake's result with working memory of one block."""
     out = None
-    for start, stop, block in td.blocks(texels):
-        value = np.asarray(fn(block))
-        if out is None:
-            out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype)
-        out[start:stop] = value
+    with images_unchanged():
+        for start, stop, block in td.blocks(texels):
+            value = np.asarray(fn(block))
+            if out is None:
+                out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype)
+            out[start:stop] = value
     if out is None:                             # nothing covered: an empty result
         value = np.asarray(fn(td))
         out = value
@@ -56,10 +57,10 @@ def mikktspace_frame(td, uv_map=None):
     (Cycles combines in object space and transforms the result as a normal)."""
     t_obj, sign = td.tangent_object(uv_map)
     n_obj = td.normal_map_normal_object
-    b_obj = np.asarray(sign)[:, None] * np.cross(n_obj, t_obj)
+    b_obj = np.asarray(sign)[:, None] * cross(n_obj, t_obj)
     nm = td.mesh.normal_matrix.T
-    n_w, t_w, b_w = n_obj @ nm, t_obj @ nm, b_obj @ nm
-    renorm = 1.0 / np.linalg.norm(n_w, axis=-1, keepdims=True)
+    n_w, t_w, b_w = transform(n_obj, nm), transform(t_obj, nm), transform(b_obj, nm)
+    renorm = 1.0 / length(n_w)
     return n_w * renorm, t_w * renorm, b_w * renorm
 
 
@@ -88,7 +89,7 @@ def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Lin
         L.tspace_normal_to_derivative(m, directx), t, b))
     # Where v faces away from n (strong non-uniform scale) no tangent surface gradient
     # reaches it; n - v still resolves to it.
-    away = np.sum(n * v, axis=-1, keepdims=True) < FLT_EPSILON
+    away = dot(n, v) < FLT_EPSILON
     return n, np.where(away, n - v, L.surfgrad_from_perturbed_normal(n, v))
 
 
@@ -119,7 +120,7 @@ def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
         h_c = sample_image(height, st, interpolation)
         h_x = sample_image(height, st + uv_step(td, dpdx, uv_map), interpolation)
         h_y = sample_image(height, st + uv_step(td, dpdy, uv_map), interpolation)
-        d = np.stack([h_x - h_c, h_y - h_c], axis=-1)
+        d = stack_last([h_x - h_c, h_y - h_c])
         sg = L.surfgrad_scale_dependent(n, dpdx, dpdy, d, None, None, None,
                                         is_deriv_screen_space=True)
     else:
@@ -135,7 +136,8 @@ def noise_gradient_world(td, scale=4.0, octaves=4, coords=None):
     space (object gradient times the scale, through the inverse transpose)."""
     p = td.position_object if coords is None else coords
     h, g = fractal_sum(p * scale, octaves=octaves)
-    return h, (scale * g) @ td.mesh.normal_matrix.T
+    g *= scale
+    return h, transform(g, td.mesh.normal_matrix.T)
 
 
 def volume_noise_surfgrad(td, scale=4.0, amount=0.05, octaves=4, coords=None):
@@ -192,7 +194,7 @@ def decal_surfgrad(td, image, projector, strength=1.0, falloff=0.2):
     (the falloff is a bump scale, footnote 2 of the paper); outside the box nothing."""
     n = unit_base_normal(td)
     ax, ay, _, to_local = decal_frame(projector)
-    local = td.position @ to_local[:3, :3].T + to_local[:3, 3]
+    local = transform(td.position, to_local[:3, :3].T) + to_local[:3, 3]
     inside = np.all(np.abs(local[:, :2]) <= 1.0, axis=-1)
     fade = np.clip((1.0 - np.abs(local[:, 2])) / max(falloff, 1e-6), 0.0, 1.0)
     st = local[:, :2] * 0.5 + 0.5

@@ -29,7 +29,7 @@ from functools import cached_property
 import numpy as np
 
 from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
-from .vecmath import cross, normalize
+from .vecmath import cross, normalize, transform
 
 # Texels per band of rows in rasterize: bounds its working memory at about 100 bytes x this.
 _BAND_TEXELS = 1 << 16
@@ -195,15 +195,27 @@ class TexelData:
             value = self._shared[key] = make()
         return value
 
+    @cached_property
+    def _bary_rows(self):
+        return np.ascontiguousarray(self.barycentric.T)
+
     def _interpolate(self, corner_values):
-        v = np.asarray(corner_values, dtype=np.float64)[self.tri]
-        b = self.barycentric
-        if v.ndim == 2:
-            return v[:, 0] * b[:, 0] + v[:, 1] * b[:, 1] + v[:, 2] * b[:, 2]
-        out = v[:, 0] * b[:, 0:1]
-        out += v[:, 1] * b[:, 1:2]
-        out += v[:, 2] * b[:, 2:3]
-        return out
+        """Corner values (T, 3, ...) interpolated at the texels: (N, ...), each component
+        contiguous (vecmath's layout); summed over the corners in order 0, 1, 2."""
+        v = np.asarray(corner_values, dtype=np.float64)
+        key = ("corner_rows", id(corner_values))
+        held = self._shared.get(key)
+        if held is None or held[0] is not corner_values:
+            # (3 * C, T): each corner's components as rows, gathered per texel below.
+            held = self._shared[key] = (corner_values, np.ascontiguousarray(
+                v.reshape(len(v), 3, -1).transpose(1, 2, 0).reshape(-1, len(v))))
+        rows = np.take(held[1], self.tri, axis=1)
+        b = self._bary_rows
+        c = rows.shape[0] // 3
+        out = rows[:c] * b[0]
+        out += rows[c:2 * c] * b[1]
+        out += rows[2 * c:] * b[2]
+        return out[0] if v.ndim == 2 else out.reshape(v.shape[2:] + (-1,)).T
 
     @cached_property
     def position(self):
@@ -236,7 +248,7 @@ class TexelData:
 
     @cached_property
     def normal(self):
-        return self.normal_object @ self.mesh.normal_matrix.T
+        return transform(self.normal_object, self.mesh.normal_matrix.T)
 
     @cached_property
     def shading_normal(self):
@@ -247,7 +259,7 @@ class TexelData:
         if self.mesh.transform_applied:
             return normalize(self._interpolate(self._stored_world_normals))
         n = self._interpolate(self._stored_object_normals)
-        return normalize(n @ self.mesh.normal_matrix.T)
+        return normalize(transform(n, self.mesh.normal_matrix.T))
 
     def _stored(self, unit_normals):
         """Unit normals as the renderer stores them (octahedral 16-bit where it packs)."""
@@ -299,7 +311,7 @@ class TexelData:
         object matrix), with its sign."""
         t, sign = self.tangent_object(name)
         m3 = np.asarray(self.mesh.matrix_world, dtype=np.float64)[:3, :3]
-        return t @ m3.T, sign
+        return transform(t, m3.T), sign
 
     def derivatives(self, name=None):
         """Exact per-triangle world dP/ds, dP/dt (N, 3) for a UV map, and the degenerate mask."""
