@@ -44,7 +44,7 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     image, (..., C) otherwise, in the image's float type (float64 for integer images)."""
     image = np.asarray(image)
     if image.dtype != np.float32:
-        image = image.astype(np.float64)
+        image = image.astype(np.float64, copy=False)
     if image.ndim not in (2, 3):
         raise ValueError(f"image must have shape (height, width) or (height, width, C), "
                          f"got {image.shape}")
@@ -114,6 +114,8 @@ def _channel_rows(image):
     h, w = image.shape[:2]
     rows = np.ascontiguousarray(np.moveaxis(image.reshape((h * w,) + image.shape[2:]), 0, -1))
     if _ROWS_ACTIVE[0]:
+        if len(_ROWS) >= 16:               # converted copies each call: keep a few only
+            _ROWS.pop(next(iter(_ROWS)))
         _ROWS[id(image)] = (image, rows)
     return rows
 

@@ -154,7 +154,7 @@ def triplanar_samples(td, image, scale=1.0, interpolation="Linear"):
     (x, z) and (x, y) times `scale` (Eq. 19's planes)."""
     p = td.position * scale
     return [L.tspace_normal_to_derivative(decode_normal_map(
-        sample_image(image, p[:, list(ax)], interpolation))) for ax in ((2, 1), (0, 2), (0, 1))]
+        sample_image(image, stack_last([p[:, ax[0]], p[:, ax[1]]]), interpolation))) for ax in ((2, 1), (0, 2), (0, 1))]
 
 
 def triplanar_surfgrad(td, image, scale=1.0, k=3.0, strength=1.0, base_normal=None):
@@ -174,7 +174,7 @@ def triplanar_height_surfgrad(td, height, scale=1.0, k=3.0, bump_scale=1.0):
     w = L.determine_triplanar_weights(n, k)
     heights = list(height) if isinstance(height, (list, tuple)) else [height] * 3
     p = td.position * scale
-    d = [deriv_from_height_map(hgt, p[:, list(ax)])
+    d = [deriv_from_height_map(hgt, stack_last([p[:, ax[0]], p[:, ax[1]]]))
          * np.array([np.shape(hgt)[1] * scale, np.shape(hgt)[0] * scale])
          for hgt, ax in zip(heights, ((2, 1), (0, 2), (0, 1)))]
     return n, bump_scale * L.surfgrad_from_triplanar_projection(n, w, *d)
@@ -229,7 +229,7 @@ def volume_noise_perlin1985(td, scale=4.0, amount=0.05, octaves=4):
 def triplanar_geiss_normal(td, image, scale=1.0, k=3.0):
     n = unit_base_normal(td)
     p = td.position * scale
-    ms = [decode_normal_map(sample_image(image, p[:, list(ax)])) for ax in ((2, 1), (0, 2), (0, 1))]
+    ms = [decode_normal_map(sample_image(image, stack_last([p[:, ax[0]], p[:, ax[1]]]))) for ax in ((2, 1), (0, 2), (0, 1))]
     return triplanar_geiss(n, L.determine_triplanar_weights(n, k), *ms)
 
 
