@@ -159,3 +159,66 @@ def test_bad_meshes_get_clear_errors():
     bad.positions[0, 0] = np.nan
     with pytest.raises(ValueError, match="non-finite"):
         R.rasterize(bad, "UVMap", 8, 8)
+
+
+def test_overlapping_triangles_go_to_the_last_one_and_are_flagged():
+    # Three triangles over one another in UV: every texel goes to the highest index covering
+    # it (Blender's bake writes triangles in order: tests/test_raster_rules.py pins it).
+    rng = np.random.default_rng(7)
+    uvs = rng.uniform(0.05, 0.95, (12, 3, 2))
+    mesh = one_mesh(rng.normal(size=(36, 3)), np.arange(36).reshape(12, 3), uvs)
+    td = R.rasterize(mesh, "UVMap", 40, 40)
+    centres = R.bake_sample_points(40, 40)
+    expect = np.full((40, 40), -1)
+    count = np.zeros((40, 40), int)
+    for i, (a, b, c) in enumerate(uvs):
+        s = [(q[0] - p[0]) * (centres[..., 1] - p[1]) - (q[1] - p[1]) * (centres[..., 0] - p[0])
+             for p, q in ((a, b), (b, c), (c, a))]
+        inside = np.all(np.stack(s) >= 0, 0) | np.all(np.stack(s) <= 0, 0)
+        expect[inside] = i
+        count += inside
+    np.testing.assert_array_equal(td.triangle, expect)
+    np.testing.assert_array_equal(td.contested, count >= 2)
+    assert td.contested.sum() > 300
+    other = td.other_triangle[td.contested]
+    assert (other >= 0).all() and (other < td.triangle[td.contested]).all()
+    assert (td.other_triangle[~td.contested] == -1).all()
+
+
+def test_texels_within_rounding_of_an_edge_are_flagged():
+    # Texel (1, 1) of a 4 x 4 image samples (1.501, 1.502): put an edge 1e-6 texels from it.
+    x = 1.501 + 1e-6
+    mesh = one_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]],
+                    [[[x / 4, 0.0], [4 / 4, 0.0], [x / 4, 4 / 4]]])
+    td = R.rasterize(mesh, "UVMap", 4, 4)
+    assert td.triangle[1, 1] == -1 and td.triangle[1, 2] == 0
+    edge = R.meshes.plane(size=2.0, subdivisions=1)
+    tde = R.rasterize(edge, "UVMap", 4, 4)
+    assert not tde.on_edge.any()          # a quad's diagonal passes no sample point
+    mesh2 = one_mesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]],
+                     [[[(1.501 - 1e-6) / 4, 0.0], [1.0, 0.0], [(1.501 - 1e-6) / 4, 1.0]]])
+    td2 = R.rasterize(mesh2, "UVMap", 4, 4)
+    assert td2.triangle[1, 1] == 0 and td2.on_edge[1, 1] and not td2.on_edge[1, 2]
+
+
+def test_udim_tile_math_and_offsets():
+    T = R.tiles
+    assert T.tile_uv_offset(1001) == (0.0, 0.0) and T.tile_uv_offset(1012) == (1.0, 1.0)
+    assert T.tile_uv_offset(1010) == (9.0, 0.0)
+    np.testing.assert_array_equal(T.tile_number([0.5, 1.5, 9.99, 10.0, -0.1], [0.5, 1.2, 0, 0, 0]),
+                                  [1001, 1012, 1010, -1, -1])
+    with pytest.raises(ValueError, match="UDIM tile 1000 is out of range"):
+        T.tile_uv_offset(1000)
+    tri = np.array([[[0.1, 0.1], [1.5, 0.2], [0.2, 0.9]], [[-1, -1], [-0.5, -1], [-1, -0.5]],
+                    [[2.2, 3.1], [2.8, 3.1], [2.5, 3.9]]])
+    assert T.tiles_touched(tri) == [1001, 1002, 1033]
+    assert T.tiles_touched(tri[1:2]) == []
+    # A tile is its own UV square: the same island moved by a tile covers the same texels.
+    mesh = R.meshes.plane(size=2.0, subdivisions=3)
+    home = R.rasterize(mesh, "UVMap", 16, 16)
+    moved = one_mesh(mesh.positions, mesh.triangles, mesh.uv_maps["UVMap"] + [2, 3])
+    away = R.rasterize(moved, "UVMap", 16, 16)
+    assert not away.covered.any()                       # a plain image: nothing, no wrap
+    tile = R.rasterize(moved, "UVMap", 16, 16, uv_offset=T.tile_uv_offset(1033))
+    np.testing.assert_array_equal(tile.triangle, home.triangle)
+    np.testing.assert_allclose(tile.barycentric, home.barycentric, atol=1e-9)

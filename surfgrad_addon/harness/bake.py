@@ -69,19 +69,7 @@ def _temporary_material(obj, material):
                 slot.material = mat
 
 
-def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=None):
-    """Bake the vector returned by `build(nodes, links)` (an output socket of a node created in
-    the given temporary material's tree) over obj's UV map `uv_map` (default: the active one).
-
-    Returns (pixels (height, width, 3) float32, coverage (height, width) bool, seconds), row 0
-    at the bottom. `displacement(nodes, links)`, if given, returns a displacement vector for
-    Cycles' true displacement of the surface during the bake. Texels the bake did not write are marked uncovered: the image is cleared to
-    alpha 0 and the bake writes alpha 1.
-    """
-    import bpy
-
-    context = bpy.context
-    scene = context.scene
+def _check_target(obj, uv_map):
     if obj.type != "MESH":
         raise BakeError(f"object {obj.name!r} is not a mesh")
     uv_names = [uv.name for uv in obj.data.uv_layers]
@@ -90,8 +78,167 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
     if uv_map is not None and uv_map not in uv_names:
         raise BakeError(f"object {obj.name!r} has no UV map named {uv_map!r}; it has "
                         f"{uv_names}")
-    image = bpy.data.images.new("surfgrad_bake", width, height, alpha=True, float_buffer=True)
+
+
+def _tiled_float_image(name, width, height, tiles):
+    """A UDIM image with the given tiles, every tile float, cleared to (0, 0, 0, 0)."""
+    import bpy
+    image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, tiled=True)
     image.colorspace_settings.name = "Non-Color"
+    image.generated_color = (0.0, 0.0, 0.0, 0.0)
+    image.tiles[0].number = tiles[0]
+    for number in tiles[1:]:
+        with bpy.context.temp_override(edit_image=image):
+            bpy.ops.image.tile_add(number=number, count=1, fill=True, color=(0, 0, 0, 0),
+                                   generated_type="BLANK", width=width, height=height,
+                                   float=True, alpha=True)
+    return image
+
+
+def _tile_pixels(image, tiles, width, height):
+    """{tile: (pixels (H, W, 4) float32)} of a baked UDIM image. Python reads one tile's pixels
+    only, so the tiles go through 32-bit OpenEXR files in a temporary folder."""
+    import tempfile
+    from pathlib import Path
+
+    import bpy
+    out = {}
+    with tempfile.TemporaryDirectory(prefix="surfgrad_tiles_") as folder:
+        image.filepath_raw = str(Path(folder) / "bake.<UDIM>.exr")
+        image.file_format = "OPEN_EXR"
+        if hasattr(image, "use_half_precision"):
+            image.use_half_precision = False
+        image.save()
+        for number in tiles:
+            tile = bpy.data.images.load(str(Path(folder) / f"bake.{number}.exr"),
+                                        check_existing=False)
+            try:
+                tile.colorspace_settings.name = "Non-Color"
+                px = np.empty(width * height * 4, dtype=np.float32)
+                tile.pixels.foreach_get(px)
+                out[number] = px.reshape(height, width, 4)
+            finally:
+                bpy.data.images.remove(tile)
+    return out
+
+
+def bake_vector_tiles(obj, build, width, height, tiles, uv_map=None, log=None):
+    """bake_vector into a UDIM image with the given tiles (numbers, 1001 + u + 10 v): returns
+    ({tile: (pixels (H, W, 3), coverage (H, W))}, seconds). Blender bakes each tile at its
+    own UV offset (reference.tiles)."""
+    import bpy
+    _check_target(obj, uv_map)
+    tiles = [int(t) for t in tiles]
+    image = _tiled_float_image("surfgrad_bake_tiles", width, height, tiles)
+    try:
+        seconds = _bake_into(obj, build, image, uv_map, None, log)
+        px = _tile_pixels(image, tiles, width, height)
+        return {k: (v[..., :3].copy(), v[..., 3] > 0.5) for k, v in px.items()}, seconds
+    finally:
+        bpy.data.images.remove(image)
+
+
+# Largest bake made in one piece: Cycles' bake buffers take about 190 bytes per texel (3.25 GB
+# for a 4096^2 bake), so larger images are baked in pieces of this size (bake_vector_in_pieces).
+PIECE_TEXELS = 2048
+PIECE_UV_MAP = "surfgrad_bake_piece"      # the temporary UV map of a piece
+
+
+def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
+                          piece=PIECE_TEXELS):
+    """bake_vector, with Cycles' memory bounded by a piece: an image larger than piece x piece
+    is baked as a grid of pieces, each through a temporary UV map that scales the UV map by
+    the (power-of-two) grid size and shifts the piece onto 0..1. The sample points and the
+    bake differentials are the whole image's (the scale and shift are exact in float32 inside
+    the piece), and a bake ignores UVs outside 0..1. Objects with modifiers (which may move
+    UVs) and sizes that do not split into powers of two are baked whole. Returns what
+    bake_vector returns, the seconds summed over the pieces."""
+    import bpy
+    _check_target(obj, uv_map)
+    nx, ny = _grid(width, piece), _grid(height, piece)
+    if (nx == 1 and ny == 1) or len(obj.modifiers) or nx is None or ny is None:
+        return bake_vector(obj, build, width, height, uv_map, log)
+    mesh = obj.data
+    name = uv_map or next(layer.name for layer in mesh.uv_layers if layer.active_render)
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers[name].uv.foreach_get("vector", uv)
+    uv = uv.reshape(-1, 2)
+    active = mesh.uv_layers.active_index
+    render = next((layer.name for layer in mesh.uv_layers if layer.active_render), None)
+    tmp = mesh.uv_layers.new(name=PIECE_UV_MAP, do_init=False)
+    if tmp is None:                     # the mesh has the most UV maps Blender allows
+        return bake_vector(obj, build, width, height, uv_map, log)
+    pw, ph = width // nx, height // ny
+    pixels = np.empty((height, width, 3), dtype=np.float32)
+    covered = np.empty((height, width), dtype=bool)
+    seconds = 0.0
+    try:
+        mesh.uv_layers.active_index = active
+        for j in range(ny):
+            for i in range(nx):
+                shifted = uv * np.array([nx, ny], dtype=np.float32) - np.array(
+                    [i, j], dtype=np.float32)
+                tmp.uv.foreach_set("vector", shifted.ravel())
+                mesh.update()
+                px, cov, s = bake_vector(obj, build, pw, ph, tmp.name)
+                pixels[j * ph:(j + 1) * ph, i * pw:(i + 1) * pw] = px
+                covered[j * ph:(j + 1) * ph, i * pw:(i + 1) * pw] = cov
+                seconds += s
+                if log:
+                    log(f"baked piece {j * nx + i + 1}/{nx * ny} of {obj.name}")
+    finally:
+        mesh.uv_layers.remove(mesh.uv_layers[PIECE_UV_MAP])
+        mesh.uv_layers.active_index = active
+        if render is not None:
+            mesh.uv_layers[render].active_render = True
+        mesh.update()
+    return pixels, covered, seconds
+
+
+def _grid(size, piece):
+    """Pieces along one side: the smallest power of two n with size / n <= piece that
+    divides size, or None."""
+    n = 1
+    while size // n > piece or size % n:
+        n *= 2
+        if n > size:
+            return None
+    return n
+
+
+def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=None):
+    """Bake the vector returned by `build(nodes, links)` (an output socket of a node created in
+    the given temporary material's tree) over obj's UV map `uv_map` (default: the active one).
+
+    Returns (pixels (height, width, 3) float32, coverage (height, width) bool, seconds), row 0
+    at the bottom. `displacement(nodes, links)`, if given, returns a displacement vector for
+    Cycles' true displacement of the surface during the bake. Texels the bake did not write
+    are marked uncovered: the image is cleared to alpha 0 and the bake writes alpha 1.
+    """
+    import bpy
+
+    _check_target(obj, uv_map)
+    image = bpy.data.images.new("surfgrad_bake", width, height, alpha=True, float_buffer=True)
+    # Before the pixels are written: a colour-space change reloads the buffer.
+    image.colorspace_settings.name = "Non-Color"
+    try:
+        # A cleared float image is (0, 0, 0, 0); baked texels get alpha 1.
+        image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
+        seconds = _bake_into(obj, build, image, uv_map, displacement, log)
+        px = np.empty(width * height * 4, dtype=np.float32)
+        image.pixels.foreach_get(px)
+        px = px.reshape(height, width, 4)
+        return px[..., :3].copy(), px[..., 3] > 0.5, seconds
+    finally:
+        bpy.data.images.remove(image)
+
+
+def _bake_into(obj, build, image, uv_map, displacement, log):
+    """Bake the vector of `build` on obj into `image` (plain or UDIM); returns the seconds."""
+    import bpy
+
+    context = bpy.context
+    scene = context.scene
     material = new_material("surfgrad_bake")
     try:
         tree = material.node_tree
@@ -127,8 +274,6 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
                 o.select_set(False)
             obj.select_set(True)
             context.view_layer.objects.active = obj
-            # A cleared float image is (0, 0, 0, 0); baked texels get alpha 1.
-            image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
             t0 = time.perf_counter()
             kwargs = {"type": "EMIT", "margin": 0, "use_clear": False}
             if uv_map is not None:
@@ -137,12 +282,8 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
             seconds = time.perf_counter() - t0
             if result != {"FINISHED"}:
                 raise BakeError(f"Cycles bake of {obj.name!r} did not finish ({result})")
-        px = np.empty(width * height * 4, dtype=np.float32)
-        image.pixels.foreach_get(px)
-        px = px.reshape(height, width, 4)
         if log:
-            log(f"baked {obj.name} {width}x{height} in {seconds:.2f} s")
-        return px[..., :3].copy(), px[..., 3] > 0.5, seconds
+            log(f"baked {obj.name} {image.size[0]}x{image.size[1]} in {seconds:.2f} s")
+        return seconds
     finally:
         bpy.data.materials.remove(material)
-        bpy.data.images.remove(image)

@@ -4,10 +4,15 @@
         --resolution N --json OUT [--uv-map NAME] [--image PATH] [--variant V]
 
 Without --blend the procedural test scene (blender/scenes.py) is used. The bake and the
-reference see the same mesh (the evaluated object, Blender's MikkTSpace tangents), the same
-images (their pixels as Cycles reads them) and the same parameters. Angular error is measured
-over interior texels (whose 3 x 3 neighbourhood is covered): texels at UV-island borders and
-texels only one side covered are excluded and counted.
+reference see the same mesh (the evaluated object with the normals Cycles shades with,
+MikkTSpace tangents on its triangles), the same images (their pixels as Cycles reads them) and
+the same parameters, and the same texels: the reference gives each texel the triangle the bake
+gives it (the last one covering it), so contested texels of overlapping UV islands are compared
+too, counted and named in a warning. Angular error is measured over every texel both cover; a
+texel is excluded only for a stated reason (EXCLUSION_REASONS: within float32 rounding of a
+triangle edge, covered by one side only), counted per reason in the report and drawn in its own
+colour in the heat map. A UV layout on UDIM tiles is baked into a tiled image and compared
+tile by tile.
 """
 
 import json
@@ -151,7 +156,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
     problem = resolution_problem(resolution, *RESOLUTION_RANGE)
-    if problem:     # interior texels need a 3 x 3 neighbourhood: 8 at least
+    if problem:
         raise CompareError(problem)
     reason = unavailable_reason(method)
     if reason is not None:
@@ -164,7 +169,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
     import bpy
     try:
         with m.scene(obj, inp):
-            report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution)
+            report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log)
         report["method"] = method
         report["variant"] = inp.variant if len(m.variants) > 1 else None
         return report, heat
@@ -173,97 +178,249 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant="hq
             bpy.data.images.remove(img)
 
 
-def compare_graph(inp, obj, graph, reference, resolution):
+# Why a covered texel is not compared (codes in ErrorImage.reasons, keys in the report's
+# "excluded"). Code 1 marks contested texels (overlapping UV islands): they ARE compared,
+# since the reference gives each to the triangle the bake gives it (the last in mesh order),
+# and are counted in "texels_contested", with their own error in "contested_max_deg".
+CONTESTED = 1
+EXCLUSION_REASONS = {
+    2: ("edge", "within float32 rounding of a triangle edge: Blender's float32 scan "
+                "conversion decides the side, and on an island border Cycles moves a sample it "
+                "finds outside its triangle by a hashed jitter (bake_jitter_barycentric)"),
+    3: ("outside", "covered by the bake or by the reference but not by both"),
+}
+HEAT_COLOURS = {0: (0.05, 0.05, 0.2), 1: (0.9, 0.1, 0.8), 2: (1.0, 0.55, 0.0),
+                3: (0.0, 0.8, 0.8)}
+
+
+class ErrorImage(np.ndarray):
+    """The per-texel error (H, W) in degrees, NaN where not compared, with `reasons` (H, W):
+    the EXCLUSION_REASONS code of an excluded texel, CONTESTED for a compared contested one,
+    else 0."""
+
+    def __new__(cls, error, reasons):
+        obj = np.asarray(error, dtype=np.float64).view(cls)
+        obj.reasons = np.asarray(reasons, dtype=np.int8)
+        return obj
+
+    def __array_finalize__(self, obj):
+        self.reasons = getattr(obj, "reasons", None)
+
+
+def target_tiles(mesh, uv_map, name):
+    """The images a bake of `uv_map` fills: [1001] (the plain 0..1 image) when the layout
+    stays inside it, else every UDIM tile it touches. Raises CompareError when it touches
+    none (every UV below 0, or beyond tile 2000)."""
+    uv = mesh.uv(uv_map)
+    touched = R.tiles.tiles_touched(uv)
+    if not touched:
+        lo, hi = uv.reshape(-1, 2).min(0), uv.reshape(-1, 2).max(0)
+        raise CompareError(
+            f"UV map {uv_map!r} of {name!r} puts nothing inside the bake target: its UVs span "
+            f"u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}, outside 0..1 and every "
+            f"UDIM tile (a bake ignores what lies outside, it does not wrap); move the islands "
+            f"into the UV square (UV > Pack Islands) or onto UDIM tiles")
+    return touched
+
+
+def overlap_warning(mesh, uv_map, td_list):
+    """A warning naming the faces of overlapping UV islands (a few, with the count), or None."""
+    pairs = set()
+    texels = 0
+    for td in td_list:
+        c = td.contested & (td.other_triangle >= 0)
+        texels += int(td.contested.sum())
+        faces = mesh.triangle_faces if mesh.triangle_faces is not None else \
+            np.arange(len(mesh.triangles))
+        a, b = faces[td.triangle[c]], faces[td.other_triangle[c]]
+        pairs |= {(int(min(x, y)), int(max(x, y))) for x, y in zip(a, b) if x != y}
+    if not texels:
+        return None
+    shown = ", ".join(f"{x}/{y}" for x, y in sorted(pairs)[:6])
+    more = f" and {len(pairs) - 6} more" if len(pairs) > 6 else ""
+    return (f"UV map {uv_map!r} of {mesh.name!r}: {texels} texels are claimed by more than one "
+            f"face (overlapping UV islands, e.g. mirrored halves stacked on each other); a bake "
+            f"keeps only the face last in mesh order there (so does the reference). "
+            f"Overlapping faces ({len(pairs)} pairs): {shown}{more}.")
+
+
+def compare_graph(inp, obj, graph, reference, resolution, log=None):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
-    and the per-texel error image."""
+    and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""
     method = getattr(graph, "__name__", "graph")
+    try:
+        mesh = mesh_arrays_from_object(obj)
+    except MeshDataError as err:
+        raise CompareError(str(err)) from err
+    tiles = target_tiles(mesh, inp.uv_map, obj.name)
     G.build_all()
     def build(nodes, links):
         out = graph(inp, nodes, links)
         # Graphs return a surface gradient to resolve against the shading normal, or (post-
         # resolve) an already resolved normal.
         return out if out.name == "Normal" else resolve_sg(nodes, links, out)
-    pixels, covered, bake_seconds = B.bake_vector(obj, build, resolution, resolution,
-                                                  uv_map=inp.uv_map)
-    try:
-        mesh = mesh_arrays_from_object(obj)
-    except MeshDataError as err:
-        raise CompareError(str(err)) from err
-    t0 = time.perf_counter()
-    td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=B.running_line())
-    reference_seconds = time.perf_counter() - t0
-    # Block by block (reference/raster.py): the reference's working memory is one block's,
-    # and so is the comparison's; only the per-texel errors and the heat map are whole.
-    errors, sums = [], dict.fromkeys(("tilt_bake", "tilt_ref", "finite_interior", "both",
-                                      "finite_unit", "away", "truth_away_strict",
-                                      "away_not_truth"), 0.0)
-    heat = np.full((resolution, resolution), np.nan, dtype=np.float32)
-    interior_count = 0
-    sampling = R.image_sampling.images_unchanged()
-    sampling.__enter__()            # the inputs' images are laid out once for all blocks
-    for _, _, block in td.blocks():
+    if tiles == [R.tiles.UDIM_FIRST]:
+        pixels, covered, bake_seconds = B.bake_vector_in_pieces(obj, build, resolution,
+                                                                resolution, uv_map=inp.uv_map)
+        baked_tiles = {tiles[0]: (pixels, covered)}
+    else:
+        baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
+                                                        tiles, uv_map=inp.uv_map)
+    reference_seconds = 0.0
+    tile_reports, heats, tds = [], [], []
+    for number in tiles:
         t0 = time.perf_counter()
-        ref = M.resolve(reference(inp, block))
+        td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=B.running_line(),
+                         uv_offset=R.tiles.tile_uv_offset(number))
         reference_seconds += time.perf_counter() - t0
-        px, py = block.pixel[:, 0], block.pixel[:, 1]
-        baked = pixels[py, px].astype(np.float64)
-        in_bake = covered[py, px]
-        interior = block.interior() & in_bake
-        err = angle_deg(baked[interior], ref[interior])
-        errors.append(err)
-        heat[py[interior], px[interior]] = err
-        interior_count += int(interior.sum())
-        base = M.unit_base_normal(block)[interior]
-        sums["tilt_bake"] += float(angle_deg(baked[interior], base).sum())
-        sums["tilt_ref"] += float(angle_deg(ref[interior], base).sum())
-        sums["finite_interior"] += int(np.sum(np.isfinite(baked[interior]).all(-1) & (
-            np.abs(np.linalg.norm(baked[interior], axis=-1) - 1) < 1e-4)))
-        # Over every texel both cover (borders included): the stability figures.
-        ng = block.geometric_normal[in_bake]
-        b_all, r_all = baked[in_bake], ref[in_bake]
-        norms = np.linalg.norm(b_all, axis=-1)
-        away = np.sum(b_all * ng, axis=-1) < -1e-3
-        truth_dot = np.sum(r_all * ng, axis=-1)
-        sums["both"] += len(b_all)
-        sums["finite_unit"] += int(np.sum(np.isfinite(b_all).all(-1) & (np.abs(norms - 1) < 1e-3)))
-        sums["away"] += int(away.sum())
-        sums["truth_away_strict"] += int(np.sum(truth_dot < 0))
-        sums["away_not_truth"] += int(np.sum(away & ~(truth_dot < 1e-3)))
-    sampling.__exit__(None, None, None)
-    err = np.concatenate(errors) if errors else np.zeros(0)
-    excluded = int(len(td.pixel) - interior_count + (covered & ~td.covered).sum())
-    both = max(sums["both"], 1)
-    report_all = {
-        "finite_unit_fraction_all": sums["finite_unit"] / both if sums["both"] else float("nan"),
-        "facing_away_fraction": sums["away"] / both if sums["both"] else float("nan"),
-        "truth_facing_away_fraction": (sums["truth_away_strict"] / both if sums["both"]
-                                       else float("nan")),
-        "faces_away_where_truth_does_not": int(sums["away_not_truth"]),
+        pixels, covered = baked_tiles.pop(number)
+        if not td.covered.any() and not covered.any():
+            continue            # the tile only touches a triangle's bounding box
+        tds.append(td)
+        r, heat, seconds = _compare_tile(td, lambda block: M.resolve(reference(inp, block)),
+                                         pixels, covered)
+        reference_seconds += seconds
+        r["tile"] = number
+        tile_reports.append(r)
+        heats.append(heat)
+    if not tile_reports:
+        raise CompareError(f"UV map {inp.uv_map!r} of {obj.name!r} covers no texel centre at "
+                           f"{resolution}^2 (its islands are thinner than a texel or outside "
+                           f"the UV square); raise --resolution or unwrap again")
+    report = _merge(tile_reports)
+    if report["texels_compared"] == 0:
+        raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
+                           f"(excluded: {report['excluded']}); raise --resolution")
+    warnings = [w for w in [overlap_warning(mesh, inp.uv_map, tds)] if w]
+    for w in warnings:
+        if log:
+            log(f"warning: {w}")
+    report.update({"method": method, "object": obj.name, "uv_map": inp.uv_map,
+                   "resolution": resolution, "bake_seconds": bake_seconds,
+                   "reference_seconds": reference_seconds, "warnings": warnings,
+                   "tiles": tile_reports if len(tile_reports) > 1 or tiles != [1001] else None})
+    error = np.concatenate([h for h in heats], axis=1)
+    reasons = np.concatenate([h.reasons for h in heats], axis=1)
+    return report, ErrorImage(error, reasons)
+
+
+def _compare_tile(td, reference, pixels, covered):
+    """One image's comparison, block by block (reference/raster.py: the reference's working
+    memory and the comparison's are one block's; the errors and the error image are whole):
+    the report fields, its ErrorImage and the seconds reference(block) took."""
+    h, w = covered.shape
+    reasons = np.zeros((h, w), dtype=np.int8)
+    reasons[covered ^ td.covered] = 3
+    heat = np.full((h, w), np.nan)
+    errs, contested_errs = [], []
+    sums = dict.fromkeys(("compared", "contested", "tilt_bake", "tilt_ref", "finite_unit",
+                          "both", "finite_unit_all", "away", "truth_away", "away_wrong"), 0)
+    seconds = 0.0
+    with R.image_sampling.images_unchanged():       # images laid out once for all blocks
+        for _, _, block in td.blocks():
+            t0 = time.perf_counter()
+            ref = reference(block)
+            seconds += time.perf_counter() - t0
+            px, py = block.pixel[:, 0], block.pixel[:, 1]
+            baked = pixels[py, px].astype(np.float64)
+            in_bake = covered[py, px]
+            contested = td.contested[py, px]
+            edge = td.on_edge[py, px] & ~contested
+            compared = in_bake & ~edge
+            reasons[py[edge & in_bake], px[edge & in_bake]] = 2
+            marked = contested & compared
+            reasons[py[marked], px[marked]] = CONTESTED
+            err = angle_deg(baked[compared], ref[compared])
+            errs.append(err)
+            heat[py[compared], px[compared]] = err
+            contested_errs.append(angle_deg(baked[marked], ref[marked]))
+            base = M.unit_base_normal(block)[compared]
+            ng = block.geometric_normal[in_bake]
+            b_all, r_all = baked[in_bake], ref[in_bake]
+            away = np.sum(b_all * ng, axis=-1) < -1e-3
+            truth_dot = np.sum(r_all * ng, axis=-1)
+            b_cmp = baked[compared]
+            sums["compared"] += int(compared.sum())
+            sums["contested"] += int(marked.sum())
+            sums["tilt_bake"] += float(angle_deg(b_cmp, base).sum())
+            sums["tilt_ref"] += float(angle_deg(ref[compared], base).sum())
+            sums["finite_unit"] += int(np.sum(np.isfinite(b_cmp).all(-1) & (
+                np.abs(np.linalg.norm(b_cmp, axis=-1) - 1) < 1e-4)))
+            sums["both"] += len(b_all)
+            sums["finite_unit_all"] += int(np.sum(np.isfinite(b_all).all(-1) & (
+                np.abs(np.linalg.norm(b_all, axis=-1) - 1) < 1e-3)))
+            sums["away"] += int(away.sum())
+            sums["truth_away"] += int(np.sum(truth_dot < 0))
+            sums["away_wrong"] += int(np.sum(away & ~(truth_dot < 1e-3)))
+    contested_err = np.concatenate(contested_errs) if contested_errs else np.zeros(0)
+    excluded = {name: int((reasons == code).sum())
+                for code, (name, _) in EXCLUSION_REASONS.items()}
+    r = {
+        "texels_covered": int((covered | td.covered).sum()),
+        "texels_compared": sums["compared"],
+        "texels_contested": sums["contested"],
+        "excluded": excluded,
+        "contested_max_deg": float(contested_err.max()) if len(contested_err) else None,
+        "_err": np.concatenate(errs) if errs else np.zeros(0), "_sums": sums,
     }
-    n = max(interior_count, 1)
+    return r, ErrorImage(heat, reasons), seconds
+
+
+def _stats(err):
+    if len(err) == 0:
+        return {"mean_deg": None, "p99_deg": None, "max_deg": None}
+    return {"mean_deg": float(err.mean()), "p99_deg": float(np.percentile(err, 99)),
+            "max_deg": float(err.max())}
+
+
+def _merge(tile_reports):
+    """The report over every tile (per-tile figures stay in each tile's dict)."""
+    err = np.concatenate([t["_err"] for t in tile_reports])
+    sums = {k: sum(t["_sums"][k] for t in tile_reports) for k in tile_reports[0]["_sums"]}
+    covered = sum(t["texels_covered"] for t in tile_reports)
+    compared = sums["compared"]
+    contested = sum(t["texels_contested"] for t in tile_reports)
+    excluded = {k: sum(t["excluded"][k] for t in tile_reports)
+                for k in tile_reports[0]["excluded"]}
+    cmax = [t["contested_max_deg"] for t in tile_reports if t["contested_max_deg"] is not None]
+    n_excl = sum(excluded.values())
+    both = sums["both"]
     report = {
-        **report_all,
-        "method": method, "object": obj.name, "uv_map": inp.uv_map,
-        "tilt_mean_deg": sums["tilt_ref"] / n, "bake_tilt_mean_deg": sums["tilt_bake"] / n,
-        "resolution": resolution, "texels_compared": interior_count,
-        "texels_excluded": excluded,
-        "excluded_fraction": excluded / max(1, interior_count + excluded),
-        "mean_deg": float(err.mean()), "p99_deg": float(np.percentile(err, 99)),
-        "max_deg": float(err.max()), "bake_seconds": bake_seconds,
-        "reference_seconds": reference_seconds,
-        "finite_unit_fraction": sums["finite_interior"] / n,
+        "finite_unit_fraction_all": sums["finite_unit_all"] / both if both else 0.0,
+        "facing_away_fraction": sums["away"] / both if both else 0.0,
+        "truth_facing_away_fraction": sums["truth_away"] / both if both else 0.0,
+        "faces_away_where_truth_does_not": int(sums["away_wrong"]),
+        "tilt_mean_deg": sums["tilt_ref"] / compared if compared else None,
+        "bake_tilt_mean_deg": sums["tilt_bake"] / compared if compared else None,
+        "texels_covered": covered, "texels_compared": compared,
+        "texels_contested": contested,
+        "texels_excluded": n_excl, "excluded": excluded,
+        "excluded_fraction": n_excl / max(1, covered),
+        **_stats(err),
+        "contested_max_deg": max(cmax) if cmax else None,
+        "finite_unit_fraction": sums["finite_unit"] / compared if compared else 0.0,
     }
-    return report, heat
+    for t in tile_reports:
+        t.update(_stats(t.pop("_err")))
+        del t["_sums"]
+    return report
 
 
 def write_heat_map(path, heat, overwrite):
     """Error in degrees as a picture: black 0, white at the max (or 0.5 deg, whichever is
-    larger), uncompared texels dark blue."""
-    top = max(0.5, float(np.nanmax(heat)) if np.isfinite(heat).any() else 0.5)
-    v = np.clip(np.nan_to_num(heat, nan=0.0) / top, 0, 1)
+    larger), uncovered texels dark blue; contested texels magenta (their error is in the
+    report), excluded ones in their reason's colour (edge orange, outside cyan: HEAT_COLOURS)."""
+    finite = np.isfinite(heat)
+    top = max(0.5, float(np.nanmax(heat)) if finite.any() else 0.5)
+    v = np.clip(np.nan_to_num(np.asarray(heat, dtype=np.float64), nan=0.0) / top, 0, 1)
     rgb = np.stack([v, v ** 0.5 * 0.8, v ** 2], axis=-1)
-    rgb[np.isnan(heat)] = (0.05, 0.05, 0.2)
-    return write_png(path, rgb, overwrite=overwrite)
+    rgb[~finite] = HEAT_COLOURS[0]
+    reasons = getattr(heat, "reasons", None)
+    if reasons is not None:
+        for code, colour in HEAT_COLOURS.items():
+            if code:
+                rgb[reasons == code] = colour
+    return write_png(path, np.asarray(rgb), overwrite=overwrite)
 
 
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
@@ -294,9 +451,19 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     write_heat_map(heat_path, heat, overwrite)
     log(f"{method} on {obj.name} at {resolution}^2: {report['texels_compared']} texels, "
         f"mean {report['mean_deg']:.4f} p99 {report['p99_deg']:.4f} max "
-        f"{report['max_deg']:.4f} deg; excluded {report['texels_excluded']}; bake "
+        f"{report['max_deg']:.4f} deg ({report['texels_contested']} contested); excluded "
+        f"{report['texels_excluded']} ({_excluded_text(report)}); bake "
         f"{report['bake_seconds']:.2f} s, reference {report['reference_seconds']:.2f} s")
+    for t in report["tiles"] or []:
+        log(f"  tile {t['tile']}: {t['texels_compared']} texels, p99 {t['p99_deg']} max "
+            f"{t['max_deg']} deg; excluded {t['excluded']}")
+    for w in report["warnings"]:
+        log(f"warning: {w}")
     return report
+
+
+def _excluded_text(report):
+    return ", ".join(f"{k} {v}" for k, v in report["excluded"].items())
 
 
 def compare_cases():
@@ -334,13 +501,19 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print):
     table_json.write_text(json.dumps(reports, indent=2))
     lines = [f"# Bakes against the reference at {resolution}^2",
              "", "Angular error (degrees) between the Cycles bake of each method's node groups "
-             "and the numpy reference, over interior texels.", "",
-             "| method | scene | texels | excluded | mean | p99 | max | bake s | reference s |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "and the numpy reference, over every texel both cover (contested texels of "
+             "overlapping UVs included: the reference follows the bake's rule); excluded "
+             "texels counted by reason (edge: within float32 rounding of a triangle edge; "
+             "outside: covered by one side only).", "",
+             "| method | scene | texels | contested | excluded | edge | outside | mean | p99 | "
+             "max | bake s | reference s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in reports:
         label = r["method"] + (f" ({r['variant']})" if r["variant"] else "")
         lines.append(f"| {label} | {r['object']} | {r['texels_compared']} | "
-                     f"{100 * r['excluded_fraction']:.1f}% | {r['mean_deg']:.5f} | "
+                     f"{r['texels_contested']} | {100 * r['excluded_fraction']:.2f}% | "
+                     f"{r['excluded']['edge']} | {r['excluded']['outside']} | "
+                     f"{r['mean_deg']:.5f} | "
                      f"{r['p99_deg']:.4f} | {r['max_deg']:.4f} | {r['bake_seconds']:.3f} | "
                      f"{r['reference_seconds']:.3f} |")
     worst = max(reports, key=lambda r: r["max_deg"])

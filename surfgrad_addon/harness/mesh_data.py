@@ -23,6 +23,12 @@ def _get(collection, attr, count, width, dtype=np.float64):
     return out.reshape(count, width) if width > 1 else out
 
 
+def flat_triangles(mesh, nt=None):
+    """(T,) True where a loop triangle's face is shaded flat."""
+    nt = len(mesh.loop_triangles) if nt is None else nt
+    return ~_get(mesh.loop_triangles, "use_smooth", nt, 1, bool)
+
+
 def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
     """(T, 3, 3) the normals Cycles shades each triangle corner with
     (LineFacts.sharp_faces_give_corner_normals): corner normals, vertex normals for smooth
@@ -30,18 +36,22 @@ def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
     nl, nv, nt = len(mesh.loops), len(mesh.vertices), len(tri_loops)
     corner = _get(mesh.corner_normals, "vector", nl, 3)[tri_loops]
     domain = mesh.normals_domain
-    if domain == "POINT" or (domain == "CORNER" and facts.sharp_faces_give_corner_normals):
+    if domain == "CORNER":
+        sharp_edge = mesh.attributes.get("sharp_edge")
+        has_sharp_edges = sharp_edge is not None and sharp_edge.domain == "EDGE" and bool(
+            _get(sharp_edge.data, "value", len(mesh.edges), 1, bool).any())
+        if (facts.sharp_faces_give_corner_normals or mesh.has_custom_normals
+                or has_sharp_edges):
+            return corner
+    flat = flat_triangles(mesh, nt)
+    if not flat.any():
         return corner
-    sharp_edge = mesh.attributes.get("sharp_edge")
-    has_sharp_edges = sharp_edge is not None and sharp_edge.domain == "EDGE" and bool(
-        _get(sharp_edge.data, "value", len(mesh.edges), 1, bool).any())
-    if domain == "CORNER" and (mesh.has_custom_normals or has_sharp_edges):
-        return corner
-    smooth = _get(mesh.loop_triangles, "use_smooth", nt, 1, bool)
     p = positions[tri_verts]
     tri_normal = normalize(cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
-    vertex = _get(mesh.vertex_normals, "vector", nv, 3)[tri_verts]
-    return np.where(smooth[:, None, None], vertex, tri_normal[:, None, :])
+    # Per-vertex normals (custom ones included) are the corner normals of a POINT domain.
+    vertex = corner if domain == "POINT" else \
+        _get(mesh.vertex_normals, "vector", nv, 3)[tri_verts]
+    return np.where(flat[:, None, None], tri_normal[:, None, :], vertex)
 
 
 def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None):
@@ -72,6 +82,7 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
         corner_normals = cycles_normals(mesh, positions, tri_loops, tri_verts,
                                         facts or running_line())
         triangle_faces = _get(mesh.loop_triangles, "polygon_index", nt, 1, np.int64)
+        flat = flat_triangles(mesh, nt)
         names = [layer.name for layer in mesh.uv_layers]
         uv_maps = {name: _get(mesh.uv_layers[name].uv, "vector", nl, 2)[tri_loops]
                    for name in names}
@@ -92,21 +103,25 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
     finally:
         eval_obj.to_mesh_clear()
     if need_tangents:
-        arrays.tangents, arrays.tangent_signs = triangle_mikktspace(arrays)
+        arrays.tangents, arrays.tangent_signs = triangle_mikktspace(arrays, flat)
     return arrays
 
 
-def triangle_mikktspace(arrays):
+def triangle_mikktspace(arrays, flat=None):
     """MikkTSpace tangents and signs per triangle corner for every UV map, computed as Cycles
     does: on the triangulated mesh (Cycles' own triangles) with the corner normals. Blender's
     calc_tangents on the original quads splits some quads differently (their UV diagonals tie)
-    and can differ by degrees. Works on a temporary mesh that is removed afterwards."""
+    and can differ by degrees. Triangles in `flat` (T,) are flat faces of the temporary mesh,
+    so MikkTSpace sees each one's own float32 normal as Cycles' does (as custom normals they
+    would be quantised, and nearly coplanar neighbours would weld: up to 1.1 degrees). Works on
+    a temporary mesh that is removed afterwards."""
     import bpy
 
     tmp = bpy.data.meshes.new(".surfgrad_tangents")
     try:
         tmp.from_pydata(arrays.positions.tolist(), [], arrays.triangles.tolist())
-        tmp.polygons.foreach_set("use_smooth", np.ones(len(tmp.polygons), dtype=bool))
+        smooth = np.ones(len(tmp.polygons), dtype=bool) if flat is None else ~np.asarray(flat)
+        tmp.polygons.foreach_set("use_smooth", smooth)
         tmp.normals_split_custom_set(arrays.corner_normals.reshape(-1, 3).tolist())
         for name, uv in arrays.uv_maps.items():
             tmp.uv_layers.new(name=name)

@@ -46,11 +46,11 @@ class LineFacts:
     # EEVEE's render engine id.
     eevee_engine: str
     # Which normals Cycles shades with (measured, tests/test_raster_rules.py). Every line: a
-    # mesh whose faces are all flat shades each triangle with its own geometric normal (not the
-    # polygon's, which differs on a non-planar quad). 5.2: otherwise the mesh's corner normals
-    # whenever Blender's normals are per corner, mixed smooth and flat faces included. Up to
-    # 5.0 only sharp edges or custom normals give corner normals; otherwise smooth faces shade
-    # with vertex normals and flat faces with their triangle's normal.
+    # flat face shades each of its triangles with the triangle's own geometric normal (not the
+    # polygon's, which differs on a non-planar quad), unless Blender's normals are per corner:
+    # then 5.2 shades with the corner normals, mixed smooth and flat faces included, while up
+    # to 5.0 only sharp edges or custom normals give corner normals (otherwise smooth faces
+    # shade with vertex normals and flat faces with their triangle's normal).
     sharp_faces_give_corner_normals: bool = True
     # Where a bake shades texel (i, j): ((i + x) / W, (j + y) / H). Same on every line.
     bake_texel_offset: tuple = (0.501, 0.502)

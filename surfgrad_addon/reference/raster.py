@@ -11,8 +11,10 @@ triangles are scan-converted in loop-triangle order and each writes every texel 
 triangle index (pinned on every line: tests/test_raster_rules.py). Texels are clipped to the
 image: UVs outside 0..1 bake nothing (no wrap); a UDIM tile is the image of its own UV square
 (uv_offset, see tiles.py). TexelData flags texels claimed by two triangles' interiors
-(`contested`: overlapping UV islands) and texels within float32 rounding of an edge another
-triangle shares (`on_edge`: Blender's float32 scan conversion decides the side).
+(`contested`: overlapping UV islands) and texels within float32 rounding of an edge
+(`on_edge`): there Blender's float32 scan conversion decides the side, and on an island border
+Cycles' bake finds the sample outside its triangle and moves it by a hashed jitter
+(integrator_init_from_bake, bake_jitter_barycentric).
 
 Everything is vectorised over candidate texels: each triangle is cut into one span of texels
 per row, and spans are expanded band by band of rows; only a loop over bands remains.
@@ -472,10 +474,12 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
         tc = best[cov]
         # The winner's barycentrics, clamped and renormalised (summed in order 0, 1, 2).
         bb = bary_out[n_out:n_out + k]
+        lowest = None
         for j in range(3):
             col = cx[j][tc] * x
             col += cy[j][tc] * y
             col += cc[j][tc]
+            lowest = col.copy() if lowest is None else np.minimum(lowest, col, out=lowest)
             bb[:, j] = np.maximum(col, 0.0)
         bb /= ((bb[:, 0] + bb[:, 1]) + bb[:, 2])[:, None]
         pixel[n_out:n_out + k, 0] = x
@@ -485,7 +489,12 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
         triangle[sl] = best
         other_tri[sl] = other
         contested[sl] = strict_claims >= 2
-        on_edge[sl] = (near_claims >= 2) & (strict_claims < 2) & (best >= 0)
+        # Within rounding of an edge: another triangle may take the texel, or (an island
+        # border) Cycles finds the sample outside its triangle and moves it
+        # (bake_jitter_barycentric).
+        edge = (near_claims >= 2) & (strict_claims < 2) & (best >= 0)
+        edge[cov] |= lowest <= tol[tc]
+        on_edge[sl] = edge
     return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
                      triangle=triangle.reshape(height, width), pixel=pixel[:n_out],
                      barycentric=bary_out[:n_out],
