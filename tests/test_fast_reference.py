@@ -88,3 +88,60 @@ def test_blocks_cover_every_texel_once_and_share_per_triangle_arrays():
     np.testing.assert_array_equal(np.concatenate([b.tri for b in blocks]), td.tri)
     pos = M.evaluate_in_blocks(lambda b: b.position, td, texels=100)
     np.testing.assert_array_equal(pos, td.position)
+
+
+def _brute_force_raster(mesh, w, h):
+    """Every triangle tested at every texel, in triangle order (Blender's last-wins rule):
+    the winner, the claimant before it, barycentrics, and how many triangles strictly hold it."""
+    from surfgrad_addon.reference import raster
+    uv = mesh.uv("UVMap")
+    q = uv * np.array([w, h], dtype=np.float64) - np.asarray(R.BAKE_TEXEL_OFFSET)
+    a, b, c = q[:, 0], q[:, 1], q[:, 2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    coef = raster._barycentric_coefficients(a, b, c, area)
+    edge_len = np.stack([np.hypot(*(b - c).T), np.hypot(*(c - a).T), np.hypot(*(a - b).T)], 1)
+    tol = raster._EDGE_TEXELS * max(w, h) / 256 / (np.abs(area) / edge_len.max(axis=1))
+    y, x = np.mgrid[0:h, 0:w]
+    win = np.full((h, w), -1)
+    other = np.full((h, w), -1)
+    strict = np.zeros((h, w), dtype=int)
+    bary = np.zeros((h, w, 3))
+    lo, hi = np.ceil(q.min(1) - 1e-9), np.floor(q.max(1) + 1e-9)
+    for t in range(len(area)):
+        if area[t] == 0:
+            continue
+        box = (x >= lo[t, 0]) & (x <= hi[t, 0]) & (y >= lo[t, 1]) & (y <= hi[t, 1])
+        bt = np.stack([(coef[t, k, 0] * x + coef[t, k, 1] * y) + coef[t, k, 2]
+                       for k in range(3)], -1)
+        s = bt.min(-1)
+        strict += box & (s >= -tol[t]) & (s > tol[t])
+        inside = box & (s >= -1e-12)
+        other[inside] = win[inside]
+        win[inside] = t
+        bary[inside] = bt[inside]
+    return win, other, strict, bary
+
+
+@pytest.mark.parametrize("mesh_name,w,h", [("sphere", 37, 23), ("overlap", 160, 100),
+                                            ("torus", 50, 50)])
+def test_span_rasteriser_matches_a_brute_force_scan(mesh_name, w, h):
+    if mesh_name == "sphere":
+        mesh = R.meshes.uv_sphere()
+    elif mesh_name == "torus":
+        mesh = R.meshes.torus(matrix_world=FX.transformed())
+    else:   # islands squeezed onto each other and shifted: contested texels
+        mesh = R.meshes.torus()
+        mesh.uv_maps["UVMap"] = mesh.uv_maps["UVMap"] * [0.5, 1.0] + [0.25, 0.0]
+        mesh.uv_maps["UVMap"][::3] += [0.2, 0.0]
+    td = R.rasterize(mesh, "UVMap", w, h)
+    win, other, strict, bary = _brute_force_raster(mesh, w, h)
+    np.testing.assert_array_equal(td.triangle, win)
+    np.testing.assert_array_equal(td.other_triangle, np.where(win >= 0, other, -1))
+    np.testing.assert_array_equal(td.contested, strict >= 2)
+    if mesh_name == "overlap":
+        assert td.contested.sum() > 50
+    ys, xs = np.nonzero(win >= 0)
+    np.testing.assert_array_equal(td.pixel, np.stack([xs, ys], -1))
+    want = np.clip(bary[ys, xs], 0, None)
+    want /= want.sum(-1, keepdims=True)
+    np.testing.assert_allclose(td.barycentric, want, rtol=0, atol=1e-15)
