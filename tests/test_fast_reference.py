@@ -145,3 +145,17 @@ def test_span_rasteriser_matches_a_brute_force_scan(mesh_name, w, h):
     want = np.clip(bary[ys, xs], 0, None)
     want /= want.sum(-1, keepdims=True)
     np.testing.assert_allclose(td.barycentric, want, rtol=0, atol=1e-15)
+
+
+def test_threaded_blocks_give_the_same_values(monkeypatch):
+    td = saved_texels("torus")
+    fn = FX.H.METHODS["layered"].reference
+    one = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(), b)), td, texels=50, threads=1)
+    monkeypatch.setenv("SURFGRAD_REFERENCE_THREADS", "3")
+    assert M.reference_threads() == 3
+    three = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(), b)), td, texels=50)
+    np.testing.assert_array_equal(one, three)
+    seconds = [0.0]
+    seen = [v for *_, v in M.evaluated_blocks(lambda b: b.position, td, 50, 2, seconds)]
+    np.testing.assert_array_equal(np.concatenate(seen), td.position)
+    assert seconds[0] > 0

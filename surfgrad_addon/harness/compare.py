@@ -315,12 +315,8 @@ def _compare_tile(td, reference, pixels, covered):
     errs, contested_errs = [], []
     sums = dict.fromkeys(("compared", "contested", "tilt_bake", "tilt_ref", "finite_unit",
                           "both", "finite_unit_all", "away", "truth_away", "away_wrong"), 0)
-    seconds = 0.0
-    with R.image_sampling.images_unchanged():       # images laid out once for all blocks
-        for _, _, block in td.blocks():
-            t0 = time.perf_counter()
-            ref = reference(block)
-            seconds += time.perf_counter() - t0
+    seconds = [0.0]
+    for _, _, block, ref in M.evaluated_blocks(reference, td, seconds=seconds):
             px, py = block.pixel[:, 0], block.pixel[:, 1]
             baked = pixels[py, px].astype(np.float64)
             in_bake = covered[py, px]
@@ -363,7 +359,7 @@ def _compare_tile(td, reference, pixels, covered):
         "contested_max_deg": float(contested_err.max()) if len(contested_err) else None,
         "_err": np.concatenate(errs) if errs else np.zeros(0), "_sums": sums,
     }
-    return r, ErrorImage(heat, reasons), seconds
+    return r, ErrorImage(heat, reasons), seconds[0]
 
 
 def _stats(err):

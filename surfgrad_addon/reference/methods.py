@@ -6,6 +6,11 @@ plain names resolve. Bake differentials stand in for ddx/ddy: x steps one bake t
 and y one along t (TexelData.texel_steps). Colour images are normal maps in [0, 1].
 """
 
+import itertools
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from . import listings as L
@@ -24,19 +29,63 @@ HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 FORWARD_FILTER_WIDTH = 2.0
 
 
-def evaluate_in_blocks(fn, td, texels=None):
-    """fn(block) -> (n, ...) array on every block of td's texels (TexelData.blocks), gathered
-    into one (N, ...) array: the whole bake's result with working memory of one block."""
-    out = None
+def reference_threads():
+    """Threads that evaluate blocks at once: SURFGRAD_REFERENCE_THREADS, default 1. numpy
+    releases the GIL inside its loops, so blocks can run in parallel; on the shared 2-core
+    development machine 2 threads measured no faster than 1 (README, Performance)."""
+    value = os.environ.get("SURFGRAD_REFERENCE_THREADS", "1")
+    try:
+        return max(1, int(value))
+    except ValueError:
+        raise ValueError(f"SURFGRAD_REFERENCE_THREADS must be a whole number, got {value!r}")
+
+
+def evaluated_blocks(fn, td, texels=None, threads=None, seconds=None):
+    """(start, stop, block, fn(block)) for every block of td's texels, in order; fn runs on
+    up to `threads` blocks at once (default reference_threads()). The first block runs alone
+    (it fills the per-triangle arrays the others share). seconds: a one-item list the wall
+    time spent in fn is added to."""
+    threads = threads or reference_threads()
+    blocks = td.blocks(texels)
+    first = next(blocks, None)
+    if first is None:
+        return
+    timer = seconds if seconds is not None else [0.0]
     with images_unchanged():
-        for start, stop, block in td.blocks(texels):
-            value = np.asarray(fn(block))
-            if out is None:
-                out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype)
-            out[start:stop] = value
+        t0 = time.perf_counter()
+        value = fn(first[2])
+        timer[0] += time.perf_counter() - t0
+        yield (*first, value)
+        if threads == 1:
+            for start, stop, block in blocks:
+                t0 = time.perf_counter()
+                value = fn(block)
+                timer[0] += time.perf_counter() - t0
+                yield start, stop, block, value
+            return
+        with ThreadPoolExecutor(threads) as pool:
+            while True:
+                window = list(itertools.islice(blocks, threads))
+                if not window:
+                    return
+                t0 = time.perf_counter()
+                values = list(pool.map(fn, [b for _, _, b in window]))
+                timer[0] += time.perf_counter() - t0
+                for (start, stop, block), value in zip(window, values):
+                    yield start, stop, block, value
+
+
+def evaluate_in_blocks(fn, td, texels=None, threads=None):
+    """fn(block) -> (n, ...) array on every block of td's texels (TexelData.blocks), gathered
+    into one (N, ...) array: the whole bake's result with working memory of a few blocks."""
+    out = None
+    for start, stop, block, value in evaluated_blocks(fn, td, texels, threads):
+        value = np.asarray(value)
+        if out is None:
+            out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype)
+        out[start:stop] = value
     if out is None:                             # nothing covered: an empty result
-        value = np.asarray(fn(td))
-        out = value
+        out = np.asarray(fn(td))
     return out
 
 
