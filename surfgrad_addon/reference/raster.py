@@ -434,16 +434,17 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
         n = span_x1[s0:s1] - span_x0[s0:s1] + 1
         t = np.repeat(st, n)
         px = np.repeat(span_x0[s0:s1] - np.cumsum(n) + n, n) + np.arange(n.sum())
-        score = None
+        bary = []
         for k in range(3):      # per span: the row's term; per texel: the rest
             bk = np.repeat(cx[k][st], n) * px
             bk += np.repeat(cy[k][st] * sy, n)
             bk += np.repeat(cc[k][st], n)
-            score = bk if score is None else np.minimum(score, bk, out=score)
+            bary.append(bk)
+        score = np.minimum(np.minimum(bary[0], bary[1]), bary[2])
         tol_t = np.repeat(tol[st], n)
-        near = score >= -tol_t
-        flat = (np.repeat(sy - y0, n) * width + px)[near]
-        score, t, tol_t = score[near], t[near], tol_t[near]
+        cand = np.nonzero(score >= -tol_t)[0]       # near an edge or inside
+        flat = (np.repeat(sy - y0, n) * width + px)[cand]
+        score, t, tol_t = score[cand], t[cand], tol_t[cand]
         band_px = (y1 - y0) * width
         near_claims = np.bincount(flat, minlength=band_px)
         strict_claims = np.bincount(flat[score > tol_t], minlength=band_px)
@@ -452,13 +453,15 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
         # is the winner and the one before it the other claimant; only texels claimed more
         # than once need sorting.
         inside = score >= -1e-12
-        fi, ti = flat[inside], t[inside]
+        fi, ti, ci = flat[inside], t[inside], cand[inside]
         best = np.full(band_px, -1, dtype=np.int32)
         other = np.full(band_px, -1, dtype=np.int32)
+        winner = np.zeros(band_px, dtype=np.int64)     # the winning candidate of a texel
         claims = np.bincount(fi, minlength=band_px)
         multi = claims[fi] > 1
         one = ~multi
         best[fi[one]] = ti[one]
+        winner[fi[one]] = ci[one]
         if multi.any():
             m = np.nonzero(multi)[0]
             m = m[np.argsort(fi[m], kind="stable")]
@@ -468,19 +471,18 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
             prev = np.nonzero(last[1:] & ~last[:-1])[0]
             other[fm[prev + 1]] = tm[prev]
             best[fm[last]] = tm[last]
+            winner[fm[last]] = ci[m[last]]
         cov = np.nonzero(best >= 0)[0]
         k = len(cov)
         x, y = cov % width, cov // width + y0
         tc = best[cov]
         # The winner's barycentrics, clamped and renormalised (summed in order 0, 1, 2).
+        wc = winner[cov]
         bb = bary_out[n_out:n_out + k]
-        lowest = None
+        cols = [b[wc] for b in bary]
+        lowest = np.minimum(np.minimum(cols[0], cols[1]), cols[2])
         for j in range(3):
-            col = cx[j][tc] * x
-            col += cy[j][tc] * y
-            col += cc[j][tc]
-            lowest = col.copy() if lowest is None else np.minimum(lowest, col, out=lowest)
-            bb[:, j] = np.maximum(col, 0.0)
+            np.maximum(cols[j], 0.0, out=bb[:, j])
         bb /= ((bb[:, 0] + bb[:, 1]) + bb[:, 2])[:, None]
         pixel[n_out:n_out + k, 0] = x
         pixel[n_out:n_out + k, 1] = y
