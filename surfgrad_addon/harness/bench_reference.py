@@ -253,9 +253,11 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
     chosen = methods or [m for m, _ in cases()]
     variants = {m: v for m, v in cases()}
     sphere = test_sphere()
-    log(f"-- whole methods (rasterize + reference + resolve), M texels/s")
-    log("   " + f"{'method':24s}" + "".join(f"{s:>10d}" for s in method_sizes))
-    for method in dict.fromkeys(chosen):
+    if method_sizes:
+        log("-- whole methods (rasterize + reference + resolve), M texels/s")
+    if method_sizes:
+        log("   " + f"{'method':24s}" + "".join(f"{s:>10d}" for s in method_sizes))
+    for method in (dict.fromkeys(chosen) if method_sizes else ()):
         row = {}
         for size in method_sizes:
             reps = repeats if size <= 1024 else 1

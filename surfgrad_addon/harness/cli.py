@@ -41,10 +41,12 @@ def main(argv=None, in_blender=False):
     demo.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     bench = sub.add_parser("bench-reference", help="benchmark the reference evaluator")
     bench.add_argument("--out", default="out/bench_reference.json", help="JSON output path")
-    bench.add_argument("--sizes", type=int, nargs="+", default=None,
-                       help="sizes of the listing table (default 256 512 1024 2048)")
-    bench.add_argument("--method-sizes", type=int, nargs="+", default=None,
-                       help="sizes of the whole-method table (default 256 1024 2048 4096)")
+    bench.add_argument("--sizes", type=int, nargs="*", default=None,
+                       help="sizes of the listing table (default 256 512 1024 2048; none: "
+                            "skip)")
+    bench.add_argument("--method-sizes", type=int, nargs="*", default=None,
+                       help="sizes of the whole-method table (default 256 1024 2048 4096; "
+                            "none: skip)")
     bench.add_argument("--compare-sizes", type=int, nargs="*", default=None,
                        help="sizes of the compare runs against Cycles (default 1024 2048; "
                             "none: skip)")
