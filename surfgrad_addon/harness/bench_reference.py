@@ -6,7 +6,8 @@
    texel attributes, the method, the resolve), in process, 256^2 .. 4096^2;
 3. compare: `python -m surfgrad_addon compare` in a child process per method and size (needs
    bpy): the Cycles bake's and the reference's seconds in the same run, their ratio, and the
-   child's peak memory (the whole compare, Cycles' bake buffers included);
+   child's peak resident memory (the whole compare, Cycles' bake buffers included; read from
+   /proc while it runs, Linux);
 4. the bandwidth floor: a plain numpy copy's GB/s on this machine and the time 64 bytes per
    texel (position, normal, tangent and sign, UV in; the result out) take at that speed.
 
@@ -159,23 +160,39 @@ def method_seconds(method, variant, size, mesh=None):
 
 # 3. Compare in a child process --------------------------------------------------------------------
 
+def _peak_rss_gb(pid):
+    """The high-water resident memory of a process's current image (VmHWM), GB, or 0."""
+    try:
+        with open(f"/proc/{pid}/status") as status:
+            for line in status:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 2 ** 20        # kB
+    except OSError:
+        pass
+    return 0.0
+
+
 def compare_child(method, size, python=None, root=ROOT, variant="hq"):
     """Run the compare command in a child; its report's bake and reference seconds and its
-    peak resident memory (GB) from the kernel's accounting (os.wait4)."""
+    peak resident memory (GB): the child's VmHWM, read while it runs (the kernel's
+    ru_maxrss would include this process's memory, which a forked child starts with)."""
     with tempfile.TemporaryDirectory() as tmp:
         report = Path(tmp) / "report.json"
         cmd = [python or sys.executable, "-m", "surfgrad_addon", "compare", "--object",
                "Sphere", "--method", method, "--resolution", str(size), "--json", str(report),
                "--variant", variant]
-        proc = subprocess.Popen(cmd, cwd=root, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(proc.pid, 0)
-        err = proc.stderr.read().decode(errors="replace")
-        proc.stderr.close()
-        if status != 0 or not report.exists():
-            return {"error": err.strip().splitlines()[-1] if err.strip() else f"exit {status}"}
+        with tempfile.TemporaryFile() as errors:
+            proc = subprocess.Popen(cmd, cwd=root, stdout=subprocess.DEVNULL, stderr=errors)
+            peak_gb = 0.0
+            while proc.poll() is None:
+                peak_gb = max(peak_gb, _peak_rss_gb(proc.pid))
+                time.sleep(0.05)
+            errors.seek(0)
+            err = errors.read().decode(errors="replace")
+        if proc.returncode != 0 or not report.exists():
+            return {"error": err.strip().splitlines()[-1] if err.strip()
+                    else f"exit {proc.returncode}"}
         r = json.loads(report.read_text())
-    peak_gb = usage.ru_maxrss / 2 ** 20            # ru_maxrss is in KiB on Linux
     return {"bake_seconds": r["bake_seconds"], "reference_seconds": r["reference_seconds"],
             "ratio": r["reference_seconds"] / r["bake_seconds"], "peak_gb": peak_gb,
             "max_deg": r["max_deg"], "texels": r["texels_compared"]}
