@@ -141,7 +141,11 @@ def surfgrad_from_triplanar_projection(n, weights, deriv_x, deriv_y, deriv_z):
 def surfgrad_from_decal(n, deriv, axis_x, axis_y):
     """Listing 15: a decal projector's derivative as a volume gradient, projected (Eq. 6)."""
     deriv, axis_x, axis_y = as_float(deriv, axis_x, axis_y)
-    grad = deriv[..., 0:1] * axis_x + deriv[..., 1:2] * axis_y
+    if axis_x.ndim == axis_y.ndim == 1:         # one projector: component by component
+        grad = stack_last([deriv[..., 0] * axis_x[j] + deriv[..., 1] * axis_y[j]
+                           for j in range(3)])
+    else:
+        grad = deriv[..., 0:1] * axis_x + deriv[..., 1:2] * axis_y
     return surfgrad_from_volume_gradient(n, grad)
 
 
