@@ -58,10 +58,15 @@ def stack_last(arrays):
     return np.moveaxis(np.stack(arrays), 0, -1)
 
 
+_IDENTITY3 = np.eye(3)
+
+
 def transform(v, m):
     """v @ m for vectors v (..., 3) and a 3 x 3 matrix m, component by component (keeps the
     layout; sums in order 0, 1, 2)."""
     m = np.asarray(m)
+    if m.shape == (3, 3) and np.array_equal(m, _IDENTITY3):
+        return np.array(v, order="K")    # x 1 + y 0 + z 0 is x (up to the sign of a zero)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
     return stack_last([x * m[0, j] + y * m[1, j] + z * m[2, j] for j in range(3)])
 
