@@ -148,14 +148,16 @@ def test_sphere():
 
 def method_seconds(method, variant, size, mesh=None):
     """Wall seconds of rasterize + the method's reference + resolve, block by block, as
-    compare does it; and the number of texels."""
+    compare does it; the seconds without the rasteriser; and the number of texels."""
     from .methods import METHODS
     mesh = mesh or test_sphere()
     inp = ReferenceInputs(variant)
     t0 = time.perf_counter()
     td = R.rasterize(mesh, "UVMap", size, size)
+    t1 = time.perf_counter()
     M.evaluate_in_blocks(lambda b: M.resolve(METHODS[method].reference(inp, b)), td)
-    return time.perf_counter() - t0, len(td.pixel)
+    t2 = time.perf_counter()
+    return t2 - t0, t2 - t1, len(td.pixel)
 
 
 # 3. Compare in a child process --------------------------------------------------------------------
@@ -273,15 +275,21 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
     if method_sizes:
         log("-- whole methods (rasterize + reference + resolve), M texels/s")
     if method_sizes:
-        log("   " + f"{'method':24s}" + "".join(f"{s:>10d}" for s in method_sizes))
+        log("   " + f"{'method':24s}" + "".join(f"{s:>14d}" for s in method_sizes)
+            + "   (with the rasteriser / without)")
+    results["methods_without_rasterizer"] = {}
     for method in (dict.fromkeys(chosen) if method_sizes else ()):
-        row = {}
+        row, bare = {}, {}
         for size in method_sizes:
             reps = repeats if size <= 1024 else 1
             times = [method_seconds(method, variants[method], size, sphere) for _ in range(reps)]
-            row[str(size)] = times[0][1] / float(np.median([t for t, _ in times])) / 1e6
+            n = times[0][2]
+            row[str(size)] = n / float(np.median([t[0] for t in times])) / 1e6
+            bare[str(size)] = n / float(np.median([t[1] for t in times])) / 1e6
         results["methods"][method] = row
-        log(f"   {method:24s}" + "".join(f"{row[str(s)]:10.2f}" for s in method_sizes))
+        results["methods_without_rasterizer"][method] = bare
+        log(f"   {method:24s}" + "".join(f"{row[str(s)]:7.2f}/{bare[str(s)]:6.2f}"
+                                         for s in method_sizes))
     if not _has_bpy():
         log("no bpy here: the compare ratios and memory need Blender (run with the 5.2 venv)")
     else:
