@@ -122,7 +122,7 @@ class ReferenceInputs:
     uv_map, detail_uv = "UVMap", "Detail"
 
     def __init__(self, variant="hq"):
-        from .compare import HEIGHT_IMAGE_SIZE, NORMAL_IMAGE_SIZE
+        from .methods import HEIGHT_IMAGE_SIZE, NORMAL_IMAGE_SIZE
         r32 = lambda a: a.astype(np.float32).astype(np.float64)
         self.variant = variant
         self.images = {"normal": r32(R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)),
@@ -269,8 +269,17 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
         log(f"-- listings at {size} x {size} ({n} texels), M texels/s")
         for name, rate in row.items():
             log(f"   {name:48s} {rate:9.2f}")
-    chosen = methods or [m for m, _ in cases()]
-    variants = {m: v for m, v in cases()}
+    has_bpy = _has_bpy()
+    # Without bpy no feature gate can be asked (groups need Blender): every method counts.
+    all_cases = cases() if has_bpy else [(m.name, v) for m in sorted(
+        METHODS.values(), key=lambda m: m.name) for v in m.variants]
+    chosen = methods or [m for m, _ in all_cases]
+    variants = {m: v for m, v in all_cases}
+    if not has_bpy:         # a scene-only reference reads what Blender's scene evaluates
+        skipped = [m for m in chosen if METHODS[m].scene_only]
+        chosen = [m for m in chosen if not METHODS[m].scene_only]
+        if skipped:
+            log(f"no bpy here: skipping {', '.join(dict.fromkeys(skipped))} (needs Blender)")
     sphere = test_sphere()
     if method_sizes:
         log("-- whole methods (rasterize + reference + resolve), M texels/s")
@@ -290,7 +299,7 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
         results["methods_without_rasterizer"][method] = bare
         log(f"   {method:24s}" + "".join(f"{row[str(s)]:7.2f}/{bare[str(s)]:6.2f}"
                                          for s in method_sizes))
-    if not _has_bpy():
+    if not has_bpy:
         log("no bpy here: the compare ratios and memory need Blender (run with the 5.2 venv)")
     else:
         log("-- compare (child process per run): reference / bake seconds, peak memory")

@@ -28,12 +28,11 @@ from ..addon.normal_bake import resolution_problem
 from ..reference import methods as M
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
-from .methods import METHODS, cases, resolve_sg, unavailable_reason
+from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, cases, resolve_sg,
+                      unavailable_reason)
 from .png import write_png
 
 DETAIL_UV = "Detail"
-NORMAL_IMAGE_SIZE = 128
-HEIGHT_IMAGE_SIZE = 32       # small: bakes magnify it, where the variants differ
 
 
 RESOLUTION_RANGE = (8, 8192)
