@@ -141,6 +141,74 @@ def bake_vector_tiles(obj, build, width, height, tiles, uv_map=None, log=None):
         bpy.data.images.remove(image)
 
 
+# Largest bake made in one piece: Cycles' bake buffers take about 190 bytes per texel (3.25 GB
+# for a 4096^2 bake), so larger images are baked in pieces of this size (bake_vector_in_pieces).
+PIECE_TEXELS = 2048
+PIECE_UV_MAP = "surfgrad_bake_piece"      # the temporary UV map of a piece
+
+
+def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
+                          piece=PIECE_TEXELS):
+    """bake_vector, with Cycles' memory bounded by a piece: an image larger than piece x piece
+    is baked as a grid of pieces, each through a temporary UV map that scales the UV map by
+    the (power-of-two) grid size and shifts the piece onto 0..1. The sample points and the
+    bake differentials are the whole image's (the scale and shift are exact in float32 inside
+    the piece), and a bake ignores UVs outside 0..1. Objects with modifiers (which may move
+    UVs) and sizes that do not split into powers of two are baked whole. Returns what
+    bake_vector returns, the seconds summed over the pieces."""
+    import bpy
+    _check_target(obj, uv_map)
+    nx, ny = _grid(width, piece), _grid(height, piece)
+    if (nx == 1 and ny == 1) or len(obj.modifiers) or nx is None or ny is None:
+        return bake_vector(obj, build, width, height, uv_map, log)
+    mesh = obj.data
+    name = uv_map or next(layer.name for layer in mesh.uv_layers if layer.active_render)
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers[name].uv.foreach_get("vector", uv)
+    uv = uv.reshape(-1, 2)
+    active = mesh.uv_layers.active_index
+    render = next((layer.name for layer in mesh.uv_layers if layer.active_render), None)
+    tmp = mesh.uv_layers.new(name=PIECE_UV_MAP, do_init=False)
+    if tmp is None:                     # the mesh has the most UV maps Blender allows
+        return bake_vector(obj, build, width, height, uv_map, log)
+    pw, ph = width // nx, height // ny
+    pixels = np.empty((height, width, 3), dtype=np.float32)
+    covered = np.empty((height, width), dtype=bool)
+    seconds = 0.0
+    try:
+        mesh.uv_layers.active_index = active
+        for j in range(ny):
+            for i in range(nx):
+                shifted = uv * np.array([nx, ny], dtype=np.float32) - np.array(
+                    [i, j], dtype=np.float32)
+                tmp.uv.foreach_set("vector", shifted.ravel())
+                mesh.update()
+                px, cov, s = bake_vector(obj, build, pw, ph, tmp.name)
+                pixels[j * ph:(j + 1) * ph, i * pw:(i + 1) * pw] = px
+                covered[j * ph:(j + 1) * ph, i * pw:(i + 1) * pw] = cov
+                seconds += s
+                if log:
+                    log(f"baked piece {j * nx + i + 1}/{nx * ny} of {obj.name}")
+    finally:
+        mesh.uv_layers.remove(mesh.uv_layers[PIECE_UV_MAP])
+        mesh.uv_layers.active_index = active
+        if render is not None:
+            mesh.uv_layers[render].active_render = True
+        mesh.update()
+    return pixels, covered, seconds
+
+
+def _grid(size, piece):
+    """Pieces along one side: the smallest power of two n with size / n <= piece that
+    divides size, or None."""
+    n = 1
+    while size // n > piece or size % n:
+        n *= 2
+        if n > size:
+            return None
+    return n
+
+
 def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=None):
     """Bake the vector returned by `build(nodes, links)` (an output socket of a node created in
     the given temporary material's tree) over obj's UV map `uv_map` (default: the active one).

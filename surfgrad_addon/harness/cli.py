@@ -4,7 +4,8 @@
                    summary), bake every method with Cycles and compare (compare-all),
                    chart speed against accuracy (bench --quick), build demo.blend and render
                    its exhibits
-  bench-reference  throughput of the reference evaluator at 256^2 .. 2048^2 (JSON)
+  bench-reference  throughput of the reference evaluator (listings, whole methods), its time
+                   against Cycles' bake and its peak memory per size (JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
   bake-normal-map  bake an object's material into a tangent- or object-space normal map file
   bake-batch       bake many objects / collections / .blend files: UDIM tiles, per-asset
@@ -46,8 +47,21 @@ def main(argv=None, in_blender=False):
     demo.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     bench = sub.add_parser("bench-reference", help="benchmark the reference evaluator")
     bench.add_argument("--out", default="out/bench_reference.json", help="JSON output path")
-    bench.add_argument("--sizes", type=int, nargs="+", default=None,
-                       help="bake sizes (default 256 512 1024 2048)")
+    bench.add_argument("--sizes", type=int, nargs="*", default=None,
+                       help="sizes of the listing table (default 256 512 1024 2048; none: "
+                            "skip)")
+    bench.add_argument("--method-sizes", type=int, nargs="*", default=None,
+                       help="sizes of the whole-method table (default 256 1024 2048 4096; "
+                            "none: skip)")
+    bench.add_argument("--compare-sizes", type=int, nargs="*", default=None,
+                       help="sizes of the compare runs against Cycles (default 1024 2048; "
+                            "none: skip)")
+    bench.add_argument("--memory-sizes", type=int, nargs="*", default=None,
+                       help="sizes of the peak-memory compare runs (default 1024 2048 4096; "
+                            "8192 needs about 8 GB)")
+    bench.add_argument("--methods", nargs="+", default=None,
+                       help="compare methods to run (default: all)")
+    bench.add_argument("--repeats", type=int, default=3, help="runs per figure (median)")
     bench.add_argument("--overwrite", action="store_true", help="replace an existing JSON")
     cmp = sub.add_parser("compare", help="bake a method and compare it with the reference")
     cmp.add_argument("--blend", default=None,
@@ -177,8 +191,13 @@ def main(argv=None, in_blender=False):
                     tuple(args.objects or far.FAR_OBJECTS), args.methods, args.overwrite)
         elif args.command == "bench-reference":
             from . import bench_reference
-            bench_reference.run(args.out, args.sizes or bench_reference.SIZES,
-                                overwrite=args.overwrite)
+            br = bench_reference
+            pick = lambda given, default: default if given is None else tuple(given)
+            br.run(args.out, pick(args.sizes, br.SIZES), overwrite=args.overwrite,
+                   method_sizes=pick(args.method_sizes, br.METHOD_SIZES),
+                   compare_sizes=pick(args.compare_sizes, br.COMPARE_SIZES),
+                   memory_sizes=pick(args.memory_sizes, br.MEMORY_SIZES),
+                   methods=args.methods, repeats=args.repeats)
         elif args.command == "compare":
             from . import compare
             compare.run(args.blend, args.object, args.method, args.resolution, args.json,

@@ -29,12 +29,11 @@ from ..addon.normal_bake import resolution_problem
 from ..reference import methods as M
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
-from .methods import METHODS, cases, resolve_sg, unavailable_reason
+from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, cases, resolve_sg,
+                      unavailable_reason)
 from .png import write_png
 
 DETAIL_UV = "Detail"
-NORMAL_IMAGE_SIZE = 128
-HEIGHT_IMAGE_SIZE = 32       # small: bakes magnify it, where the variants differ
 
 
 RESOLUTION_RANGE = (8, 8192)
@@ -269,34 +268,33 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None):
         # resolve) an already resolved normal.
         return out if out.name == "Normal" else resolve_sg(nodes, links, out)
     if tiles == [R.tiles.UDIM_FIRST]:
-        pixels, covered, bake_seconds = B.bake_vector(obj, build, resolution, resolution,
-                                                      uv_map=inp.uv_map)
+        pixels, covered, bake_seconds = B.bake_vector_in_pieces(obj, build, resolution,
+                                                                resolution, uv_map=inp.uv_map)
         baked_tiles = {tiles[0]: (pixels, covered)}
     else:
         baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
                                                         tiles, uv_map=inp.uv_map)
-    t0 = time.perf_counter()
-    parts, tds = [], []
+    reference_seconds = 0.0
+    tile_reports, heats, tds = [], [], []
     for number in tiles:
+        t0 = time.perf_counter()
         td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=B.running_line(),
                          uv_offset=R.tiles.tile_uv_offset(number))
-        pixels, covered = baked_tiles[number]
+        reference_seconds += time.perf_counter() - t0
+        pixels, covered = baked_tiles.pop(number)
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
         tds.append(td)
-        ref = M.resolve(reference(inp, td)) if len(td.pixel) else np.zeros((0, 3))
-        parts.append((number, td, ref, pixels, covered))
-    reference_seconds = time.perf_counter() - t0
-    if not parts:
-        raise CompareError(f"UV map {inp.uv_map!r} of {obj.name!r} covers no texel centre at "
-                           f"{resolution}^2 (its islands are thinner than a texel or outside "
-                           f"the UV square); raise --resolution or unwrap again")
-    tile_reports, heats = [], []
-    for number, td, ref, pixels, covered in parts:
-        r, heat = _compare_tile(td, ref, pixels, covered)
+        r, heat, seconds = _compare_tile(td, lambda block: M.resolve(reference(inp, block)),
+                                         pixels, covered)
+        reference_seconds += seconds
         r["tile"] = number
         tile_reports.append(r)
         heats.append(heat)
+    if not tile_reports:
+        raise CompareError(f"UV map {inp.uv_map!r} of {obj.name!r} covers no texel centre at "
+                           f"{resolution}^2 (its islands are thinner than a texel or outside "
+                           f"the UV square); raise --resolution or unwrap again")
     report = _merge(tile_reports)
     if report["texels_compared"] == 0:
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
@@ -314,47 +312,62 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None):
     return report, ErrorImage(error, reasons)
 
 
-def _compare_tile(td, ref, pixels, covered):
-    """One image's comparison: the report fields and its ErrorImage."""
+def _compare_tile(td, reference, pixels, covered):
+    """One image's comparison, block by block (reference/raster.py: the reference's working
+    memory and the comparison's are one block's; the errors and the error image are whole):
+    the report fields, its ErrorImage and the seconds reference(block) took."""
     h, w = covered.shape
-    baked = pixels[td.pixel[:, 1], td.pixel[:, 0]].astype(np.float64)
-    in_bake = covered[td.pixel[:, 1], td.pixel[:, 0]]
-    contested = td.contested[td.pixel[:, 1], td.pixel[:, 0]]
-    edge = td.on_edge[td.pixel[:, 1], td.pixel[:, 0]] & ~contested
-    compared = in_bake & ~edge
     reasons = np.zeros((h, w), dtype=np.int8)
     reasons[covered ^ td.covered] = 3
-    reasons[td.pixel[edge & in_bake, 1], td.pixel[edge & in_bake, 0]] = 2
-    marked = contested & compared
-    reasons[td.pixel[marked, 1], td.pixel[marked, 0]] = CONTESTED
-    err = angle_deg(baked[compared], ref[compared])
-    base = M.unit_base_normal(td)[compared] if compared.any() else np.zeros((0, 3))
-    both = in_bake
-    ng = td.geometric_normal[both]
-    b_all, r_all = baked[both], ref[both]
-    away = np.sum(b_all * ng, axis=-1) < -1e-3
-    truth_away = np.sum(r_all * ng, axis=-1) < 1e-3
-    contested_err = angle_deg(baked[marked], ref[marked])
+    heat = np.full((h, w), np.nan)
+    errs, contested_errs = [], []
+    sums = dict.fromkeys(("compared", "contested", "tilt_bake", "tilt_ref", "finite_unit",
+                          "both", "finite_unit_all", "away", "truth_away", "away_wrong"), 0)
+    seconds = [0.0]
+    for _, _, block, ref in M.evaluated_blocks(reference, td, seconds=seconds):
+            px, py = block.pixel[:, 0], block.pixel[:, 1]
+            baked = pixels[py, px].astype(np.float64)
+            in_bake = covered[py, px]
+            contested = td.contested[py, px]
+            edge = td.on_edge[py, px] & ~contested
+            compared = in_bake & ~edge
+            reasons[py[edge & in_bake], px[edge & in_bake]] = 2
+            marked = contested & compared
+            reasons[py[marked], px[marked]] = CONTESTED
+            err = angle_deg(baked[compared], ref[compared])
+            errs.append(err)
+            heat[py[compared], px[compared]] = err
+            contested_errs.append(angle_deg(baked[marked], ref[marked]))
+            base = M.unit_base_normal(block)[compared]
+            ng = block.geometric_normal[in_bake]
+            b_all, r_all = baked[in_bake], ref[in_bake]
+            away = np.sum(b_all * ng, axis=-1) < -1e-3
+            truth_dot = np.sum(r_all * ng, axis=-1)
+            b_cmp = baked[compared]
+            sums["compared"] += int(compared.sum())
+            sums["contested"] += int(marked.sum())
+            sums["tilt_bake"] += float(angle_deg(b_cmp, base).sum())
+            sums["tilt_ref"] += float(angle_deg(ref[compared], base).sum())
+            sums["finite_unit"] += int(np.sum(np.isfinite(b_cmp).all(-1) & (
+                np.abs(np.linalg.norm(b_cmp, axis=-1) - 1) < 1e-4)))
+            sums["both"] += len(b_all)
+            sums["finite_unit_all"] += int(np.sum(np.isfinite(b_all).all(-1) & (
+                np.abs(np.linalg.norm(b_all, axis=-1) - 1) < 1e-3)))
+            sums["away"] += int(away.sum())
+            sums["truth_away"] += int(np.sum(truth_dot < 0))
+            sums["away_wrong"] += int(np.sum(away & ~(truth_dot < 1e-3)))
+    contested_err = np.concatenate(contested_errs) if contested_errs else np.zeros(0)
     excluded = {name: int((reasons == code).sum())
                 for code, (name, _) in EXCLUSION_REASONS.items()}
     r = {
         "texels_covered": int((covered | td.covered).sum()),
-        "texels_compared": int(compared.sum()),
-        "texels_contested": int(marked.sum()),
+        "texels_compared": sums["compared"],
+        "texels_contested": sums["contested"],
         "excluded": excluded,
         "contested_max_deg": float(contested_err.max()) if len(contested_err) else None,
-        "_err": err, "_tilt_bake": angle_deg(baked[compared], base),
-        "_tilt_ref": angle_deg(ref[compared], base),
-        "_finite_unit_all": np.isfinite(b_all).all(-1) & (
-            np.abs(np.linalg.norm(b_all, axis=-1) - 1) < 1e-3),
-        "_away": away, "_truth_away": np.sum(r_all * ng, axis=-1) < 0,
-        "_away_wrong": away & ~truth_away,
-        "_finite_unit": np.isfinite(baked[compared]).all(-1) & (
-            np.abs(np.linalg.norm(baked[compared], axis=-1) - 1) < 1e-4),
+        "_err": np.concatenate(errs) if errs else np.zeros(0), "_sums": sums,
     }
-    heat = np.full((h, w), np.nan)
-    heat[td.pixel[compared, 1], td.pixel[compared, 0]] = err
-    return r, ErrorImage(heat, reasons)
+    return r, ErrorImage(heat, reasons), seconds[0]
 
 
 def _stats(err):
@@ -366,36 +379,34 @@ def _stats(err):
 
 def _merge(tile_reports):
     """The report over every tile (per-tile figures stay in each tile's dict)."""
-    cat = {k: np.concatenate([t[k] for t in tile_reports])
-           for k in tile_reports[0] if k.startswith("_")}
+    err = np.concatenate([t["_err"] for t in tile_reports])
+    sums = {k: sum(t["_sums"][k] for t in tile_reports) for k in tile_reports[0]["_sums"]}
     covered = sum(t["texels_covered"] for t in tile_reports)
-    compared = sum(t["texels_compared"] for t in tile_reports)
+    compared = sums["compared"]
     contested = sum(t["texels_contested"] for t in tile_reports)
     excluded = {k: sum(t["excluded"][k] for t in tile_reports)
                 for k in tile_reports[0]["excluded"]}
     cmax = [t["contested_max_deg"] for t in tile_reports if t["contested_max_deg"] is not None]
     n_excl = sum(excluded.values())
+    both = sums["both"]
     report = {
-        "finite_unit_fraction_all": float(cat["_finite_unit_all"].mean())
-        if len(cat["_finite_unit_all"]) else 0.0,
-        "facing_away_fraction": float(cat["_away"].mean()) if len(cat["_away"]) else 0.0,
-        "truth_facing_away_fraction": float(cat["_truth_away"].mean())
-        if len(cat["_truth_away"]) else 0.0,
-        "faces_away_where_truth_does_not": int(cat["_away_wrong"].sum()),
-        "tilt_mean_deg": float(cat["_tilt_ref"].mean()) if compared else None,
-        "bake_tilt_mean_deg": float(cat["_tilt_bake"].mean()) if compared else None,
+        "finite_unit_fraction_all": sums["finite_unit_all"] / both if both else 0.0,
+        "facing_away_fraction": sums["away"] / both if both else 0.0,
+        "truth_facing_away_fraction": sums["truth_away"] / both if both else 0.0,
+        "faces_away_where_truth_does_not": int(sums["away_wrong"]),
+        "tilt_mean_deg": sums["tilt_ref"] / compared if compared else None,
+        "bake_tilt_mean_deg": sums["tilt_bake"] / compared if compared else None,
         "texels_covered": covered, "texels_compared": compared,
         "texels_contested": contested,
         "texels_excluded": n_excl, "excluded": excluded,
         "excluded_fraction": n_excl / max(1, covered),
-        **_stats(cat["_err"]),
+        **_stats(err),
         "contested_max_deg": max(cmax) if cmax else None,
-        "finite_unit_fraction": float(cat["_finite_unit"].mean()) if compared else 0.0,
+        "finite_unit_fraction": sums["finite_unit"] / compared if compared else 0.0,
     }
     for t in tile_reports:
         t.update(_stats(t.pop("_err")))
-        for k in [k for k in t if k.startswith("_")]:
-            del t[k]
+        del t["_sums"]
     return report
 
 

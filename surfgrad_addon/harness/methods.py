@@ -33,6 +33,10 @@ class _OnFirstUse:
         return getattr(self._module, attr)
 
 
+# The test images every method's graph and reference share (compare.prepare_inputs).
+NORMAL_IMAGE_SIZE = 128
+HEIGHT_IMAGE_SIZE = 32       # small: bakes magnify it, where the variants differ
+
 G = _OnFirstUse("..addon.groups")
 compat = _OnFirstUse("..addon.compat")
 _graph = _OnFirstUse(".graph")

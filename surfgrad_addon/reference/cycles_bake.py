@@ -6,7 +6,7 @@ paper's Listing 7 with Cycles' differentials) in the reference.
 
 import numpy as np
 
-from .vecmath import cross, dot, normalize
+from .vecmath import cross, dot, length, normalize
 
 
 def make_orthonormals(n):
@@ -28,8 +28,8 @@ def bump_differentials(td):
     than the texel axes. k is the line's fact: 1/4 up to 5.0 (half-texel differentials), 1/2
     in 5.2 (blender_lines.LineFacts.bake_differential_scale)."""
     dp_ds, dp_dt, _ = td.derivatives(td.uv_map)
-    r = td.facts.bake_differential_scale * (np.linalg.norm(dp_ds, axis=-1) / td.width
-                                            + np.linalg.norm(dp_dt, axis=-1) / td.height)
+    r = td.facts.bake_differential_scale * (length(dp_ds)[:, 0] / td.width
+                                            + length(dp_dt)[:, 0] / td.height)
     a, b = make_orthonormals(td.geometric_normal)
     return r[:, None] * a, r[:, None] * b
 

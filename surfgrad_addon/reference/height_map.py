@@ -8,7 +8,7 @@ and the HQ fade of Listing 16, as CalculateLevelOfDetail() would.
 import numpy as np
 
 from .image_sampling import sample_image, wrap_texel_index
-from .vecmath import as_float, saturate
+from .vecmath import as_float, saturate, stack_last
 
 
 def deriv_three_tap(height, st, dst_dx, dst_dy, interpolation="Linear", extension="REPEAT"):
@@ -20,7 +20,7 @@ def deriv_three_tap(height, st, dst_dx, dst_dy, interpolation="Linear", extensio
     h_ll = sample_image(height, st, interpolation, extension)
     h_lr = sample_image(height, st + dst_dx, interpolation, extension)
     h_ul = sample_image(height, st + dst_dy, interpolation, extension)
-    return np.stack([h_lr - h_ll, h_ul - h_ll], axis=-1)
+    return stack_last([h_lr - h_ll, h_ul - h_ll])
 
 
 def _hq_derivative(height, st, extension):
@@ -41,13 +41,33 @@ def _hq_derivative(height, st, extension):
     y0 = fl[..., 1].astype(np.int64) - 1
     du = np.zeros(st.shape[:-1], dtype=st.dtype)
     dv = np.zeros(st.shape[:-1], dtype=st.dtype)
+    flat = height.ravel()
+    cols = [wrap_texel_index(x0 + j, w, extension) for j in range(4)]
     for i in range(4):  # rows of the 4x4 block (a fixed 16-tap loop, vectorised over pixels)
-        rows = wrap_texel_index(y0 + i, h, extension)
+        rows = wrap_texel_index(y0 + i, h, extension) * w
         for j in range(4):
-            q = height[rows, wrap_texel_index(x0 + j, w, extension)]
+            q = np.take(flat, rows + cols[j])
             du += smooth_v[i] * diff_u[j] * q
             dv += diff_v[i] * smooth_u[j] * q
-    return np.stack([du, dv], axis=-1)
+    return stack_last([du, dv])
+
+
+_CONVERTED = {}
+
+
+def _converted(image, dtype):
+    """image.astype(dtype), the same array for the same image while images_unchanged() is
+    active (blocks of one evaluation sample it again and again)."""
+    from .image_sampling import _ROWS_ACTIVE
+    if not _ROWS_ACTIVE[0]:
+        _CONVERTED.clear()
+        return image.astype(dtype)
+    held = _CONVERTED.get((id(image), dtype))
+    if held is None or held[0] is not image:
+        if len(_CONVERTED) >= 8:
+            _CONVERTED.pop(next(iter(_CONVERTED)))
+        held = _CONVERTED[id(image), dtype] = (image, image.astype(dtype))
+    return held[1]
 
 
 def deriv_from_height_map(height, st, hq=False, lod=0.0, interpolation="Linear",
@@ -64,7 +84,7 @@ def deriv_from_height_map(height, st, hq=False, lod=0.0, interpolation="Linear",
                          f"got {height.shape}")
     (st,) = as_float(st)
     if height.dtype != st.dtype:
-        height = height.astype(st.dtype)
+        height = _converted(height, st.dtype)
     h, w = height.shape
     eoffs = 2.0 ** lod
     offs_u = np.asarray([eoffs / w, 0.0], dtype=st.dtype)
@@ -72,7 +92,7 @@ def deriv_from_height_map(height, st, hq=False, lod=0.0, interpolation="Linear",
     h_c = sample_image(height, st, interpolation, extension)
     h_r = sample_image(height, st + offs_u, interpolation, extension)
     h_u = sample_image(height, st + offs_v, interpolation, extension)
-    deriv = np.stack([h_r - h_c, h_u - h_c], axis=-1) / eoffs
+    deriv = stack_last([h_r - h_c, h_u - h_c]) / eoffs
     mix = min(max((lod - 0.5) / (0.05 - 0.5), 0.0), 1.0)
     if hq and mix > 0.0:
         deriv = deriv + (_hq_derivative(height, st, extension) - deriv) * mix

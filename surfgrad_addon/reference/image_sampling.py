@@ -13,6 +13,8 @@ Both rules are pinned against Cycles bakes in tests/test_blender_pins.py.
 Extension: 'REPEAT' wraps periodically; 'EXTEND' clamps to the edge texel.
 """
 
+from contextlib import contextmanager
+
 import numpy as np
 
 from .blender_lines import MAIN_LINE
@@ -29,6 +31,8 @@ def cycles_int_part(x):
 
 def wrap_texel_index(i, size, extension):
     if extension == "REPEAT":
+        if size & (size - 1) == 0:
+            return i & (size - 1)       # np.mod for a power of two, in two's complement
         return np.mod(i, size)
     if extension == "EXTEND":
         return np.clip(i, 0, size - 1)
@@ -40,25 +44,29 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     image, (..., C) otherwise, in the image's float type (float64 for integer images)."""
     image = np.asarray(image)
     if image.dtype != np.float32:
-        image = image.astype(np.float64)
+        image = image.astype(np.float64, copy=False)
     if image.ndim not in (2, 3):
         raise ValueError(f"image must have shape (height, width) or (height, width, C), "
                          f"got {image.shape}")
     height, width = image.shape[:2]
     st = np.asarray(st, dtype=image.dtype)
-    # Cycles computes this in float32; in the image's type it is exact at the texel centres of
-    # power-of-two images and within rounding elsewhere.
+    # Texels by flat index (y * width + x), channels as rows: each lookup gathers one
+    # contiguous row per channel (np.take; fancy indexing of (N, 3) rows is several times
+    # slower), and results come out in vecmath's component layout.
+    rows = _channel_rows(image)
     u = st[..., 0] * width
     v = st[..., 1] * height
     if interpolation == "Closest":
         ix = wrap_texel_index(cycles_int_part(u), width, extension)
         iy = wrap_texel_index(cycles_int_part(v), height, extension)
-        return image[iy, ix]
+        return _last_axis(np.take(rows, iy * width + ix, axis=-1), image)
     if interpolation != "Linear":
         raise ValueError(f"unsupported interpolation {interpolation!r}; "
                          f"use one of {INTERPOLATIONS}")
-    u = u - 0.5
-    v = v - 0.5
+    # Cycles computes this in float32; in the image's type it is exact at the texel centres of
+    # power-of-two images and within rounding elsewhere.
+    u -= 0.5
+    v -= 0.5
     x0 = cycles_int_part(u)
     y0 = cycles_int_part(v)
     tx = u - x0.astype(u.dtype)
@@ -67,11 +75,54 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     y1 = wrap_texel_index(y0 + 1, height, extension)
     x0 = wrap_texel_index(x0, width, extension)
     y0 = wrap_texel_index(y0, height, extension)
-    if image.ndim == 3:
-        tx = tx[..., None]
-        ty = ty[..., None]
-    return ((1 - ty) * ((1 - tx) * image[y0, x0] + tx * image[y0, x1])
-            + ty * ((1 - tx) * image[y1, x0] + tx * image[y1, x1]))
+    y0 *= width
+    y1 *= width
+    sx = 1 - tx
+    # ((1 - ty) ((1 - tx) c00 + tx c01) + ty ((1 - tx) c10 + tx c11)), in this order.
+    row0 = np.take(rows, y0 + x0, axis=-1) * sx
+    row0 += np.take(rows, y0 + x1, axis=-1) * tx
+    row1 = np.take(rows, y1 + x0, axis=-1) * sx
+    row1 += np.take(rows, y1 + x1, axis=-1) * tx
+    row0 *= 1 - ty
+    row1 *= ty
+    row0 += row1
+    return _last_axis(row0, image)
+
+
+_ROWS = {}      # id(image) -> (image, its channel rows), while images_unchanged() is active
+_ROWS_ACTIVE = [0]
+
+
+@contextmanager
+def images_unchanged():
+    """Within this block the caller promises not to modify sampled images in place: each
+    image is laid out for sampling once and reused by every block (evaluate_in_blocks)."""
+    _ROWS_ACTIVE[0] += 1
+    try:
+        yield
+    finally:
+        _ROWS_ACTIVE[0] -= 1
+        if not _ROWS_ACTIVE[0]:
+            _ROWS.clear()
+
+
+def _channel_rows(image):
+    """(C, H * W) for an (H, W, C) image, (H * W,) for (H, W)."""
+    held = _ROWS.get(id(image))
+    if held is not None and held[0] is image:
+        return held[1]
+    h, w = image.shape[:2]
+    rows = np.ascontiguousarray(np.moveaxis(image.reshape((h * w,) + image.shape[2:]), 0, -1))
+    if _ROWS_ACTIVE[0]:
+        if len(_ROWS) >= 16:               # converted copies each call: keep a few only
+            _ROWS.pop(next(iter(_ROWS)))
+        _ROWS[id(image)] = (image, rows)
+    return rows
+
+
+def _last_axis(values, image):
+    """Channels from the first axis to the last (a view) for multi-channel images."""
+    return np.moveaxis(values, 0, -1) if image.ndim == 3 else values
 
 
 # Blender's bake rasteriser shades texel (i, j) at ((i + 0.5 + 0.001) / W, (j + 0.5 + 0.002) / H)

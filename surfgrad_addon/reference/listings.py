@@ -8,7 +8,7 @@ first. Vectors are arrays of shape (..., 3); derivatives and texture coordinates
 import numpy as np
 
 from .vecmath import (DET_EPSILON, FLT_EPSILON, as_float, cross, dot, safe_normalize,
-                      sign_nonneg, normalize)
+                      sign_nonneg, normalize, stack_last)
 
 
 def resolve_normal_from_surface_gradient(n, surf_grad):
@@ -34,7 +34,7 @@ def tspace_normal_to_derivative(m, flip_vertical=False):
     z_ma = np.maximum(ma[..., 2], scale * np.maximum(ma[..., 0], ma[..., 1]))
     z_ma = np.maximum(z_ma, np.finfo(m.dtype).tiny)
     s = -1.0 if flip_vertical else 1.0
-    return -np.stack([m[..., 0], s * m[..., 1]], axis=-1) / z_ma[..., None]
+    return stack_last([-m[..., 0] / z_ma, -(s * m[..., 1]) / z_ma])
 
 
 def surfgrad_from_tbn(deriv, t, b):
@@ -113,8 +113,11 @@ def surfgrad_from_volume_gradient(n, grad):
 def determine_triplanar_weights(n, k=3.0):
     """Listing 14: blend weights from |n| - 0.2, sharpened by the power k, summing to one."""
     (n,) = as_float(n)
-    w = np.maximum(np.abs(n) - 0.2, 0) ** k
-    total = np.sum(w, axis=-1, keepdims=True)
+    w = np.maximum(np.abs(n) - 0.2, 0)
+    # A whole power multiplies out (pow() is several times slower; within an ulp).
+    w = w * w * w if k == 3 else (w * w if k == 2 else w ** k)
+    total = (w[..., 0:1] + w[..., 1:2]) + w[..., 2:3] if w.shape[-1] == 3 else \
+        np.sum(w, axis=-1, keepdims=True)
     # A unit n always has a component above 0.2; the guard only keeps zero vectors finite.
     return w / np.maximum(total, np.finfo(n.dtype).tiny)
 
@@ -126,9 +129,9 @@ def triplanar_volume_gradient(weights, deriv_x, deriv_y, deriv_z):
     """
     weights, deriv_x, deriv_y, deriv_z = as_float(weights, deriv_x, deriv_y, deriv_z)
     w0, w1, w2 = weights[..., 0], weights[..., 1], weights[..., 2]
-    return np.stack([w2 * deriv_z[..., 0] + w1 * deriv_y[..., 0],
-                     w2 * deriv_z[..., 1] + w0 * deriv_x[..., 1],
-                     w0 * deriv_x[..., 0] + w1 * deriv_y[..., 1]], axis=-1)
+    return stack_last([w2 * deriv_z[..., 0] + w1 * deriv_y[..., 0],
+                       w2 * deriv_z[..., 1] + w0 * deriv_x[..., 1],
+                       w0 * deriv_x[..., 0] + w1 * deriv_y[..., 1]])
 
 
 def surfgrad_from_triplanar_projection(n, weights, deriv_x, deriv_y, deriv_z):
@@ -140,7 +143,11 @@ def surfgrad_from_triplanar_projection(n, weights, deriv_x, deriv_y, deriv_z):
 def surfgrad_from_decal(n, deriv, axis_x, axis_y):
     """Listing 15: a decal projector's derivative as a volume gradient, projected (Eq. 6)."""
     deriv, axis_x, axis_y = as_float(deriv, axis_x, axis_y)
-    grad = deriv[..., 0:1] * axis_x + deriv[..., 1:2] * axis_y
+    if axis_x.ndim == axis_y.ndim == 1:         # one projector: component by component
+        grad = stack_last([deriv[..., 0] * axis_x[j] + deriv[..., 1] * axis_y[j]
+                           for j in range(3)])
+    else:
+        grad = deriv[..., 0:1] * axis_x + deriv[..., 1:2] * axis_y
     return surfgrad_from_volume_gradient(n, grad)
 
 

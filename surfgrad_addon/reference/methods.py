@@ -6,6 +6,11 @@ plain names resolve. Bake differentials stand in for ddx/ddy: x steps one bake t
 and y one along t (TexelData.texel_steps). Colour images are normal maps in [0, 1].
 """
 
+import itertools
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from . import listings as L
@@ -13,16 +18,76 @@ from . import decals as D
 from .cycles_bake import bump_differentials, uv_step
 from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin1985, triplanar_geiss
 from .height_map import deriv_from_height_map, deriv_three_tap
-from .image_sampling import sample_image
+from .image_sampling import images_unchanged, sample_image
 from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .noise import fractal_sum
-from .vecmath import FLT_EPSILON, normalize
+from .vecmath import FLT_EPSILON, cross, dot, length, normalize, stack_last, transform
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 # Filter Width of the Forward variant's Bump node. Camera differentials in a render and a
 # bake's differentials up to 5.0 are half a pixel / texel, so 2 steps about one, like the
 # paper's one-pixel screen differences (a 5.2 bake steps two texels: blender_lines).
 FORWARD_FILTER_WIDTH = 2.0
+
+
+def reference_threads():
+    """Threads that evaluate blocks at once: SURFGRAD_REFERENCE_THREADS, default 1. numpy
+    releases the GIL inside its loops, so blocks can run in parallel; on the shared 2-core
+    development machine 2 threads measured no faster than 1 (README, Performance)."""
+    value = os.environ.get("SURFGRAD_REFERENCE_THREADS", "1")
+    try:
+        return max(1, int(value))
+    except ValueError:
+        raise ValueError(f"SURFGRAD_REFERENCE_THREADS must be a whole number, got {value!r}")
+
+
+def evaluated_blocks(fn, td, texels=None, threads=None, seconds=None):
+    """(start, stop, block, fn(block)) for every block of td's texels, in order; fn runs on
+    up to `threads` blocks at once (default reference_threads()). The first block runs alone
+    (it fills the per-triangle arrays the others share). seconds: a one-item list the wall
+    time spent in fn is added to."""
+    threads = threads or reference_threads()
+    blocks = td.blocks(texels)
+    first = next(blocks, None)
+    if first is None:
+        return
+    timer = seconds if seconds is not None else [0.0]
+    with images_unchanged():
+        t0 = time.perf_counter()
+        value = fn(first[2])
+        timer[0] += time.perf_counter() - t0
+        yield (*first, value)
+        if threads == 1:
+            for start, stop, block in blocks:
+                t0 = time.perf_counter()
+                value = fn(block)
+                timer[0] += time.perf_counter() - t0
+                yield start, stop, block, value
+            return
+        with ThreadPoolExecutor(threads) as pool:
+            while True:
+                window = list(itertools.islice(blocks, threads))
+                if not window:
+                    return
+                t0 = time.perf_counter()
+                values = list(pool.map(fn, [b for _, _, b in window]))
+                timer[0] += time.perf_counter() - t0
+                for (start, stop, block), value in zip(window, values):
+                    yield start, stop, block, value
+
+
+def evaluate_in_blocks(fn, td, texels=None, threads=None):
+    """fn(block) -> (n, ...) array on every block of td's texels (TexelData.blocks), gathered
+    into one (N, ...) array: the whole bake's result with working memory of a few blocks."""
+    out = None
+    for start, stop, block, value in evaluated_blocks(fn, td, texels, threads):
+        value = np.asarray(value)
+        if out is None:
+            out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype)
+        out[start:stop] = value
+    if out is None:                             # nothing covered: an empty result
+        out = np.asarray(fn(td))
+    return out
 
 
 def unit_base_normal(td):
@@ -42,10 +107,10 @@ def mikktspace_frame(td, uv_map=None):
     (Cycles combines in object space and transforms the result as a normal)."""
     t_obj, sign = td.tangent_object(uv_map)
     n_obj = td.normal_map_normal_object
-    b_obj = np.asarray(sign)[:, None] * np.cross(n_obj, t_obj)
+    b_obj = np.asarray(sign)[:, None] * cross(n_obj, t_obj)
     nm = td.mesh.normal_matrix.T
-    n_w, t_w, b_w = n_obj @ nm, t_obj @ nm, b_obj @ nm
-    renorm = 1.0 / np.linalg.norm(n_w, axis=-1, keepdims=True)
+    n_w, t_w, b_w = transform(n_obj, nm), transform(t_obj, nm), transform(b_obj, nm)
+    renorm = 1.0 / length(n_w)
     return n_w * renorm, t_w * renorm, b_w * renorm
 
 
@@ -95,7 +160,7 @@ def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Lin
     v = normalize(n_f - L.surfgrad_from_tbn(deriv, t, b))
     # Where v faces away from n (strong non-uniform scale) no tangent surface gradient
     # reaches it; n - v still resolves to it.
-    away = np.sum(n * v, axis=-1, keepdims=True) < FLT_EPSILON
+    away = dot(n, v) < FLT_EPSILON
     return n, np.where(away, n - v, L.surfgrad_from_perturbed_normal(n, v))
 
 
@@ -126,7 +191,7 @@ def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
         h_c = sample_image(height, st, interpolation)
         h_x = sample_image(height, st + uv_step(td, dpdx, uv_map), interpolation)
         h_y = sample_image(height, st + uv_step(td, dpdy, uv_map), interpolation)
-        d = np.stack([h_x - h_c, h_y - h_c], axis=-1)
+        d = stack_last([h_x - h_c, h_y - h_c])
         sg = L.surfgrad_scale_dependent(n, dpdx, dpdy, d, None, None, None,
                                         is_deriv_screen_space=True)
     else:
@@ -142,7 +207,8 @@ def noise_gradient_world(td, scale=4.0, octaves=4, coords=None):
     space (object gradient times the scale, through the inverse transpose)."""
     p = td.position_object if coords is None else coords
     h, g = fractal_sum(p * scale, octaves=octaves)
-    return h, (scale * g) @ td.mesh.normal_matrix.T
+    g *= scale
+    return h, transform(g, td.mesh.normal_matrix.T)
 
 
 def volume_noise_surfgrad(td, scale=4.0, amount=0.05, octaves=4, coords=None):
@@ -159,7 +225,7 @@ def triplanar_samples(td, image, scale=1.0, interpolation="Linear"):
     (x, z) and (x, y) times `scale` (Eq. 19's planes)."""
     p = td.position * scale
     return [L.tspace_normal_to_derivative(decode_normal_map(
-        sample_image(image, p[:, list(ax)], interpolation))) for ax in ((2, 1), (0, 2), (0, 1))]
+        sample_image(image, stack_last([p[:, ax[0]], p[:, ax[1]]]), interpolation))) for ax in ((2, 1), (0, 2), (0, 1))]
 
 
 def triplanar_surfgrad(td, image, scale=1.0, k=3.0, strength=1.0, base_normal=None):
@@ -179,7 +245,7 @@ def triplanar_height_surfgrad(td, height, scale=1.0, k=3.0, bump_scale=1.0):
     w = L.determine_triplanar_weights(n, k)
     heights = list(height) if isinstance(height, (list, tuple)) else [height] * 3
     p = td.position * scale
-    d = [deriv_from_height_map(hgt, p[:, list(ax)])
+    d = [deriv_from_height_map(hgt, stack_last([p[:, ax[0]], p[:, ax[1]]]))
          * np.array([np.shape(hgt)[1] * scale, np.shape(hgt)[0] * scale])
          for hgt, ax in zip(heights, ((2, 1), (0, 2), (0, 1)))]
     return n, bump_scale * L.surfgrad_from_triplanar_projection(n, w, *d)
@@ -201,7 +267,7 @@ def decal_surfgrad(td, image, projector, strength=1.0, falloff=0.2, shape="box",
     underneath) or, with `overwrite`, replacing it by that weight."""
     n = unit_base_normal(td)
     ax, ay, _, to_local = decal_frame(projector)
-    local = td.position @ to_local[:3, :3].T + to_local[:3, 3]
+    local = transform(td.position, to_local[:3, :3].T) + to_local[:3, 3]
     st = local[:, :2] * 0.5 + 0.5
     # A tangent-space normal map is TBN-style (slopes in its own unit frame), so its
     # derivative goes straight onto the unit projector axes, independent of the box size.
@@ -236,7 +302,7 @@ def volume_noise_perlin1985(td, scale=4.0, amount=0.05, octaves=4):
 def triplanar_geiss_normal(td, image, scale=1.0, k=3.0):
     n = unit_base_normal(td)
     p = td.position * scale
-    ms = [decode_normal_map(sample_image(image, p[:, list(ax)])) for ax in ((2, 1), (0, 2), (0, 1))]
+    ms = [decode_normal_map(sample_image(image, stack_last([p[:, ax[0]], p[:, ax[1]]]))) for ax in ((2, 1), (0, 2), (0, 1))]
     return triplanar_geiss(n, L.determine_triplanar_weights(n, k), *ms)
 
 

@@ -13,7 +13,7 @@ composite g(f) = f^k, all with their gradients through the chain rule.
 
 import numpy as np
 
-from .vecmath import as_float
+from .vecmath import as_float, stack_last
 
 _U32 = np.uint32
 
@@ -111,10 +111,22 @@ def _unique_rows(cells):
         return cells, np.zeros(0, dtype=np.int64)
     k = cells.astype(np.int64)
     lo = k.min(axis=0)
-    span = k.max(axis=0) - lo
-    if np.all(span < (1 << 21)):
+    span = k.max(axis=0) - lo + 1
+    o = k - lo
+    if int(np.prod(span)) <= max(4 * len(k), 1 << 16):
+        # Few cells in a small box (a block of texels): mark them in a dense table, no sort.
+        key = (o[:, 0] * span[1] + o[:, 1]) * span[2] + o[:, 2]
+        present = np.zeros(int(np.prod(span)), dtype=bool)
+        present[key] = True
+        first_key = np.nonzero(present)[0]
+        index = np.cumsum(present) - 1
+        cz = first_key % span[2]
+        cy = (first_key // span[2]) % span[1]
+        cx = first_key // (span[2] * span[1])
+        unique = (np.stack([cx, cy, cz], axis=-1) + lo).astype(cells.dtype)
+        return unique, index[key]
+    if np.all(span <= (1 << 21)):
         # Pack three 21-bit offsets into one int64 key: a 1-D unique is much faster.
-        o = k - lo
         key = (o[:, 0] << 42) | (o[:, 1] << 21) | o[:, 2]
         _, first, which = np.unique(key, return_index=True, return_inverse=True)
     else:
@@ -127,46 +139,79 @@ def gradient_noise(p):
 
     value = sum over the 8 cell corners c of w_c(fade(f)) * dot(g_c, f - c), with f = p -
     floor(p); the gradient is its exact derivative (product rule over the trilinear weights).
+    Computed component by component on contiguous rows (vecmath's layout).
     """
     (p,) = as_float(p)
-    cell = np.floor(p)
-    f = p - cell
-    u = _fade(f)
-    du = _fade_deriv(f)
-    value = np.zeros(p.shape[:-1], dtype=p.dtype)
-    grad = np.zeros(p.shape, dtype=p.dtype)
+    shape = p.shape[:-1]
+    q = p.reshape(-1, 3)
+    cell = np.floor(q)
+    f = [q[:, a] - cell[:, a] for a in range(3)]
+    u = [_fade(fa) for fa in f]
+    du = [_fade_deriv(fa) for fa in f]
     # Hash each distinct cell's corners once: dense samples share few cells.
-    unique_cells, which = _unique_rows(cell.reshape(-1, 3))
-    # Per axis: the trilinear weight is u where the corner is 1 and 1 - u where it is 0.
-    weight = [(1 - u[..., a], u[..., a]) for a in range(3)]
-    dweight = [(-du[..., a], du[..., a]) for a in range(3)]
-    for c in _CORNERS:
-        # cell + c also turns floor(-0.0) = -0.0 into +0.0, as a node graph's Add does.
-        g = lattice_gradient(unique_cells + c).astype(p.dtype)[which].reshape(p.shape)
-        d = f - c
-        dotted = g[..., 0] * d[..., 0] + g[..., 1] * d[..., 1] + g[..., 2] * d[..., 2]
-        wx, wy, wz = weight[0][c[0]], weight[1][c[1]], weight[2][c[2]]
-        wyz = wy * wz
-        w = wx * wyz
-        value += w * dotted
-        # Product rule: d(w * dot(g, p - corner)) = w g + dot(g, p - corner) grad w.
-        grad += w[..., None] * g
-        grad[..., 0] += dotted * dweight[0][c[0]] * wyz
-        grad[..., 1] += dotted * wx * dweight[1][c[1]] * wz
-        grad[..., 2] += dotted * wx * wy * dweight[2][c[2]]
-    return value, grad
+    unique_cells, which = _unique_rows(cell)
+    if len(q) == 0:
+        return np.zeros(shape, dtype=p.dtype), np.zeros(shape + (3,), dtype=p.dtype)
+    # All corners of the distinct cells in one hash call: (8, 3, cells) gradient rows.
+    # cell + c also turns floor(-0.0) = -0.0 into +0.0, as a node graph's Add does.
+    corners = (unique_cells[:, None, :] + _CORNERS).reshape(-1, 3)
+    lattice = np.ascontiguousarray(lattice_gradient(corners).astype(p.dtype)
+                                   .reshape(len(unique_cells), 8, 3).transpose(1, 2, 0))
+    d = [(f[a], f[a] - 1) for a in range(3)]        # f - c per axis
+    ux, uy, uz = u
+
+    def lerp(a, b, t):
+        b -= a
+        b *= t
+        b += a
+        return b
+
+    # value = sum_c w_c dot_c with trilinear weights w_c: lerps along x, then y, then z.
+    # gradient = sum_c w_c g_c + sum_c dot_c grad(w_c); the first sum is the same trilinear
+    # interpolation of the corner gradients, the second per axis du times the interpolation
+    # (over the other two axes) of the differences of dot_c along that axis.
+    along_x, diff_x, g_x = {}, {}, {}
+    for j in (0, 1):
+        for k in (0, 1):
+            pair_dot, pair_g = [], []
+            for i in (0, 1):
+                g = np.take(lattice[(i << 2) | (j << 1) | k], which, axis=1)
+                dotted = g[0] * d[0][i]
+                dotted += g[1] * d[1][j]
+                dotted += g[2] * d[2][k]
+                pair_dot.append(dotted)
+                pair_g.append(g)
+            diff_x[j, k] = pair_dot[1] - pair_dot[0]
+            along_x[j, k] = pair_dot[0] + ux * diff_x[j, k]
+            g_x[j, k] = lerp(pair_g[0], pair_g[1], ux)
+    along_y = {k: along_x[0, k] + uy * (along_x[1, k] - along_x[0, k]) for k in (0, 1)}
+    dz = along_y[1] - along_y[0]
+    value = along_y[0] + uz * dz
+    grad_w = lerp(lerp(g_x[0, 0], g_x[1, 0], uy), lerp(g_x[0, 1], g_x[1, 1], uy), uz)
+    dy0 = along_x[1, 0] - along_x[0, 0]
+    dy1 = along_x[1, 1] - along_x[0, 1]
+    ex0 = lerp(diff_x[0, 0], diff_x[1, 0], uy)
+    ex1 = lerp(diff_x[0, 1], diff_x[1, 1], uy)
+    grad = [grad_w[0] + du[0] * lerp(ex0, ex1, uz),
+            grad_w[1] + du[1] * lerp(dy0, dy1, uz),
+            grad_w[2] + du[2] * dz]
+    return value.reshape(shape), stack_last(grad).reshape(shape + (3,))
 
 
 def fractal_sum(p, octaves=4, lacunarity=2.0, gain=0.5):
     """Perlin's fractal sum: sum_i gain^i * noise(lacunarity^i * p), with its gradient."""
     (p,) = as_float(p)
     value = np.zeros(p.shape[:-1], dtype=p.dtype)
-    grad = np.zeros(p.shape, dtype=p.dtype)
+    grad = None
     for i in range(octaves):
         freq, amp = lacunarity ** i, gain ** i
         v, g = gradient_noise(p * freq)
+        grad = np.zeros_like(g) if grad is None else grad       # the noise's layout
         value += amp * v
-        grad += (amp * freq) * g  # chain rule: d/dp noise(freq p) = freq * grad
+        g *= amp * freq             # chain rule: d/dp noise(freq p) = freq * grad
+        grad += g
+    if grad is None:
+        grad = np.zeros(p.shape, dtype=p.dtype)
     return value, grad
 
 
@@ -175,12 +220,15 @@ def turbulence(p, octaves=4, lacunarity=2.0, gain=0.5):
     (sign(noise) * gradient; undefined only on the zero set of each octave)."""
     (p,) = as_float(p)
     value = np.zeros(p.shape[:-1], dtype=p.dtype)
-    grad = np.zeros(p.shape, dtype=p.dtype)
+    grad = None
     for i in range(octaves):
         freq, amp = lacunarity ** i, gain ** i
         v, g = gradient_noise(p * freq)
+        grad = np.zeros_like(g) if grad is None else grad       # the noise's layout
         value += amp * np.abs(v)
         grad += (amp * freq) * np.sign(v)[..., None] * g
+    if grad is None:
+        grad = np.zeros(p.shape, dtype=p.dtype)
     return value, grad
 
 

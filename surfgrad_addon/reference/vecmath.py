@@ -3,6 +3,11 @@
 Every function keeps the floating type of its array inputs: float32 in gives float32 out,
 anything else (float64, integers, Python lists) gives float64. Scalar parameters never
 widen the result.
+
+Layout: per-texel vectors are (N, 3) arrays stored component by component (Fortran order,
+each component contiguous), as `stack_last` and TexelData make them. numpy then runs an
+(N, 1) * (N, 3) product over N at a time instead of 3 at a time (3-5x faster); values are the
+same in any layout.
 """
 
 import numpy as np
@@ -31,18 +36,47 @@ def as_float(*arrays):
 
 
 def dot(a, b):
-    """Dot product over the last axis, keeping it (shape (..., 1)) so results broadcast."""
+    """Dot product over the last axis, keeping it (shape (..., 1)) so results broadcast.
+    Three components are summed in order, written out (a reduction over a short axis is
+    several times slower, and sums in the same order)."""
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape[-1:] == b.shape[-1:] == (3,):
+        out = a[..., 0:1] * b[..., 0:1]
+        out += a[..., 1:2] * b[..., 1:2]
+        out += a[..., 2:3] * b[..., 2:3]
+        return out
     return np.sum(a * b, axis=-1, keepdims=True)
+
+
+def dot3(a, b):
+    """dot() without the kept axis: shape (...,)."""
+    return dot(a, b)[..., 0]
+
+
+def stack_last(arrays):
+    """np.stack(arrays, axis=-1), each input a contiguous component of the result."""
+    return np.moveaxis(np.stack(arrays), 0, -1)
+
+
+_IDENTITY3 = np.eye(3)
+
+
+def transform(v, m):
+    """v @ m for vectors v (..., 3) and a 3 x 3 matrix m, component by component (keeps the
+    layout; sums in order 0, 1, 2)."""
+    m = np.asarray(m)
+    if m.shape == (3, 3) and np.array_equal(m, _IDENTITY3):
+        return np.array(v, order="K")    # x 1 + y 0 + z 0 is x (up to the sign of a zero)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    return stack_last([x * m[0, j] + y * m[1, j] + z * m[2, j] for j in range(3)])
 
 
 def cross(a, b):
     """Cross product over the last axis (written out: np.cross is slow on small axes)."""
     a, b = np.broadcast_arrays(a, b)
-    out = np.empty(a.shape, dtype=np.result_type(a, b))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
+    return stack_last([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                       a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                       a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]])
 
 
 def length(v):

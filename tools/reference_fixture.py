@@ -1,0 +1,98 @@
+"""Write the reference's float64 values on small rasters to an .npz (tests/data): the
+before-values that tests/test_fast_reference.py holds the optimised evaluator to (1e-12).
+
+    python tools/reference_fixture.py OUT.npz   # run from the checkout whose values to record
+
+Every registry method's resolved normal, on three rasters (the sphere; a transformed torus with
+its transform applied, 5.2 facts; the same not applied, 4.2 facts), with the rasters stored
+too, so the values do not depend on rasterize()'s tie rule. Also the noise, image sampling and
+height-map derivatives at fixed random points.
+"""
+
+import sys
+
+import numpy as np
+
+from surfgrad_addon import reference as R
+from surfgrad_addon.reference import blender_lines
+from surfgrad_addon.harness import methods as H
+
+
+def transformed():
+    ang = np.radians(35.0)
+    rot = np.array([[1, 0, 0], [0, np.cos(ang), -np.sin(ang)], [0, np.sin(ang), np.cos(ang)]])
+    m = np.eye(4)
+    m[:3, :3] = rot @ np.diag([1.5, 0.7, 1.1])
+    m[:3, 3] = [0.3, -0.2, 0.5]
+    return m
+
+
+def rasters():
+    sphere = R.meshes.uv_sphere(segments=32, rings=16)
+    torus = R.meshes.torus(matrix_world=transformed())
+    torus_na = R.meshes.torus(matrix_world=transformed())
+    torus_na.transform_applied = False
+    for mesh in (sphere, torus, torus_na):
+        mesh.point_attributes["sg_rest_position"] = np.asarray(mesh.positions) * 1.05
+    return {"sphere": (sphere, 28, blender_lines.LINES["5.2"]),
+            "torus": (torus, 24, blender_lines.LINES["5.2"]),
+            "torus42": (torus_na, 24, blender_lines.LINES["4.2"])}
+
+
+class Inputs:
+    uv_map, detail_uv = "UVMap", "Detail"
+
+    def __init__(self, variant="hq"):
+        self.variant = variant
+        self.images = {
+            "normal": R.images.hemisphere_tile_image(128).astype(np.float32).astype(np.float64),
+            "detail": R.images.hemisphere_tile_image(128, tiles=8, radius=0.6)
+            .astype(np.float32).astype(np.float64),
+            "height": R.images.wave_height_image(32).astype(np.float32).astype(np.float64)}
+
+        class Projector:
+            matrix_world = np.array([[0.5, -0.1, 0.0, 0.1], [0.1, 0.4, -0.2, 0.0],
+                                     [0.05, 0.2, 1.2, 0.2], [0, 0, 0, 1.0]])
+        self.projector = Projector()
+
+    def pixels(self, name):
+        return self.images[name]
+
+
+def cases():
+    return [(m.name, v) for m in H.METHODS.values() for v in m.variants]
+
+
+def points(rng, n=2000):
+    return {"p": rng.normal(size=(n, 3)) * 3.0, "st": rng.uniform(-1.5, 2.5, size=(n, 2))}
+
+
+def record(out):
+    data = {}
+    for key, (mesh, size, facts) in rasters().items():
+        td = R.rasterize(mesh, "UVMap", size, size, facts=facts)
+        data[f"{key}/triangle"] = td.triangle
+        data[f"{key}/pixel"] = td.pixel
+        data[f"{key}/barycentric"] = td.barycentric
+        for method, variant in cases():
+            ref = H.METHODS[method].reference(Inputs(variant), td)
+            data[f"{key}/{method}/{variant}"] = R.methods.resolve(ref)
+    pts = points(np.random.default_rng(13))
+    p, st = pts["p"], pts["st"]
+    inp = Inputs()
+    for name, fn in (("gradient_noise", R.gradient_noise), ("fractal_sum", R.fractal_sum),
+                     ("turbulence", R.turbulence)):
+        v, g = fn(p)
+        data[f"points/{name}/value"], data[f"points/{name}/gradient"] = v, g
+    for interp in ("Linear", "Closest"):
+        for ext in ("REPEAT", "EXTEND"):
+            data[f"points/sample/{interp}/{ext}"] = R.sample_image(inp.pixels("normal"), st,
+                                                                   interp, ext)
+    for hq in (False, True):
+        data[f"points/height_deriv/{hq}"] = R.deriv_from_height_map(inp.pixels("height"), st,
+                                                                    hq=hq)
+    np.savez_compressed(out, **data)
+
+
+if __name__ == "__main__":
+    record(sys.argv[1])
