@@ -33,8 +33,9 @@ def saved_texels(key):
 def test_every_method_and_raster_was_recorded():
     assert len(FX.cases()) >= 18
     for key in FX.rasters():
-        for method, variant in FX.cases():
-            assert f"{key}/{method}/{variant}" in SAVED.files
+        for case in FX.cases():
+            if case not in FX.NEW_CASES:
+                assert "{}/{}/{}".format(key, *FX.recorded(case)) in SAVED.files
 
 
 @pytest.mark.parametrize("key", list(FX.rasters()))
@@ -45,7 +46,18 @@ def test_methods_match_the_unoptimised_values(key, case):
     fn = FX.H.METHODS[method].reference
     # A small odd block size puts block seams inside triangles and rows.
     got = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(variant), b)), td, texels=97)
-    want = SAVED[f"{key}/{method}/{variant}"]
+    if case in FX.NEW_CASES:
+        # No before-values (newer than the recorded commit): blocks agree with one block, and
+        # on the sphere (the fixture's small projector misses the torus's tube) the round
+        # decals really bend normals.
+        whole = M.resolve(fn(FX.Inputs(variant), saved_texels(key)))
+        np.testing.assert_allclose(got, whole, rtol=0, atol=TOL)
+        assert np.isfinite(got).all()
+        if method == "decal" and key == "sphere":
+            bent = np.abs(got - M.unit_base_normal(td)).max(axis=-1) > 1e-3
+            assert bent.mean() > 0.01, bent.mean()
+        return
+    want = SAVED["{}/{}/{}".format(key, *FX.recorded(case))]
     assert got.dtype == np.float64 and got.shape == want.shape
     assert np.isfinite(want).all()
     np.testing.assert_allclose(got, want, rtol=0, atol=TOL)

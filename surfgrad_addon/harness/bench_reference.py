@@ -273,7 +273,8 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
     # Without bpy no feature gate can be asked (groups need Blender): every method counts.
     all_cases = cases() if has_bpy else [(m.name, v) for m in sorted(
         METHODS.values(), key=lambda m: m.name) for v in m.variants]
-    chosen = methods or [m for m, _ in all_cases]
+    # A Sampler method's reference is its per-image twin's: timed once, under the twin.
+    chosen = methods or [m for m, _ in all_cases if not METHODS[m].same_reference_as]
     variants = {m: v for m, v in all_cases}
     if not has_bpy:         # a scene-only reference reads what Blender's scene evaluates
         skipped = [m for m in chosen if METHODS[m].scene_only]
