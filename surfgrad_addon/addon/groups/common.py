@@ -42,8 +42,10 @@ def unavailable_reason(name):
     if need is None or hasattr(bpy.types, need[0]):
         return None
     node_type, line, use = need
-    instead = (f"; on this line use {SAMPLER_GROUPS[name]}, built per image"
-               if name in SAMPLER_GROUPS else "")
+    twin = SAMPLER_GROUPS.get(name)
+    instead = ("" if twin is None else
+               f"; on this line use {twin} with an Image Texture per plane" if
+               twin == "SG Triplanar" else f"; on this line use {twin}, built per image")
     return (f"{name} needs Blender {line} or newer: {use} ({node_type}), which Blender "
             f"{bpy.app.version_string} does not have{instead}")
 
