@@ -281,17 +281,9 @@ VIEW_TILT = (0.45, -0.3, 0.2)      # view = normalize(n + VIEW_TILT): oblique, f
 
 
 def _parallax_graph(inp, nodes, links):
-    geo = nodes.new("ShaderNodeNewGeometry")
-    view = nodes.new("ShaderNodeVectorMath")
-    view.operation = "ADD"
-    links.new(geo.outputs["Normal"], view.inputs[0])
-    view.inputs[1].default_value = VIEW_TILT
-    unit = nodes.new("ShaderNodeVectorMath")
-    unit.operation = "NORMALIZE"
-    links.new(view.outputs[0], unit.inputs[0])
     par = group_node(nodes, G.parallax_group(inp.bpy_image("height")))
     links.new(uv_node(nodes, inp.uv_map), par.inputs["UV"])
-    links.new(unit.outputs[0], par.inputs["View"])
+    links.new(_parallax_view(nodes, links), par.inputs["View"])
     par.inputs["Bump Scale"].default_value = PARALLAX_SCALE
     color = image_node(nodes, links, inp.bpy_image("normal"), par.outputs["UV"])
     nm = group_node(nodes, G.normal_map_group(inp.uv_map))

@@ -5,7 +5,7 @@ shading-normal fallback (.SG Safe Normal), the Bump-node surface gradient (.SG S
 import bpy
 
 from ..node_builder import ensure_group, running_line
-from ...reference.vecmath import DIVIDE_FLOOR
+from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
 
 
 VERSION = 17
@@ -329,6 +329,17 @@ def scaled_position_inputs(b, description):
         far = b.math("GREATER_THAN", reach, FAR_REPEATS)
         world = select(b, far, world, precise)
     return select(b, unlinked, b.scale(raw, scale), world), scale
+
+
+def surfgrad_reaching(b, n, v, against):
+    """Listing 5 for a normal v to reach from base n: n - v / (a . v) with a = `against`
+    (the normal v is measured from), and n - v (v unit) where v faces away from a, which still
+    resolves to v. A surface gradient that adds to others."""
+    k = b.dot(against, v)
+    inv = b.math("DIVIDE", 1.0, b.math("MAXIMUM", k, FLT_EPSILON))
+    away = b.math("LESS_THAN", k, FLT_EPSILON)
+    w = b.math("MULTIPLY_ADD", away, b.math("SUBTRACT", 1.0, inv), inv)
+    return b.sub(n, b.scale(v, w))
 
 
 def uv_input(b, description):

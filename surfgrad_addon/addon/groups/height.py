@@ -3,11 +3,10 @@ image (Listing 16, Eq. 20-21: HQ and one-texel) or forward differences (Listing 
 triplanar projection of a height image."""
 
 from ..node_builder import ensure_group
-from ...reference.vecmath import FLT_EPSILON
 from . import common
 from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, images_stale, normal_input,
-                     scaled_position_inputs, sub_group, texel_count_inputs, uv_gradients_group,
-                     uv_input)
+                     scaled_position_inputs, sub_group, surfgrad_reaching, texel_count_inputs,
+                     uv_gradients_group, uv_input)
 from .projection import triplanar_surface_gradient, triplanar_weights
 
 
@@ -182,11 +181,7 @@ def bump_strength_group():
             nb = b.normalize(b.sub(n, g))
             v = b.normalize(b.add(b.scale(nb, s), b.scale(n, b.math("SUBTRACT", 1.0, s))))
         with b.frame("Listing 5: N - v / (N . v); N - v where v faces away from N"):
-            k = b.dot(n, v)
-            inv = b.math("DIVIDE", 1.0, b.math("MAXIMUM", k, FLT_EPSILON))
-            away = b.math("LESS_THAN", k, FLT_EPSILON)
-            w = b.math("MULTIPLY_ADD", away, b.math("SUBTRACT", 1.0, inv), inv)
-            sg = b.sub(n, b.scale(v, w))
+            sg = surfgrad_reaching(b, n, v, n)
         b.output("Surface Gradient", "VECTOR", sg, "Surface gradient with the Bump node's "
                  "Strength applied")
     return ensure_group(".SG Bump Strength", common.VERSION, build,

@@ -3,9 +3,9 @@ MikkTSpace frame (Listing 9, SG Normal Map) or on a generated one (Listing 4, SG
 Basis, SG Tangent Normal), and the classic blends of two tangent-space normals (Eq. 18)."""
 
 from ..node_builder import ensure_group
-from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
+from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
-from .common import (directx_input, normal_input, sign_nonneg, sub_group,
+from .common import (directx_input, normal_input, sign_nonneg, sub_group, surfgrad_reaching,
                      tangent_normal_to_surfgrad, uv_gradients_group, uv_input)
 
 
@@ -121,11 +121,7 @@ def normal_map_group(uv_map=""):
         with b.frame("Listing 5 against the shading normal ns, + (n - ns): n - v / (ns . v); "
                      "n - v where v faces away from ns (strong non-uniform scale)"):
             ns = b.node("ShaderNodeNewGeometry").outputs["Normal"]
-            k = b.dot(ns, v)
-            inv = b.math("DIVIDE", 1.0, b.math("MAXIMUM", k, FLT_EPSILON))
-            away = b.math("LESS_THAN", k, FLT_EPSILON)
-            w = b.math("MULTIPLY_ADD", away, b.math("SUBTRACT", 1.0, inv), inv)
-            sg = b.sub(n, b.scale(v, w))
+            sg = surfgrad_reaching(b, n, v, ns)
         b.output("Surface Gradient", "VECTOR", sg, "Surface gradient: add to others, then "
                  "SG Resolve")
     name = "SG Normal Map" + (f" [{uv_map}]" if uv_map else "")
