@@ -1,0 +1,48 @@
+"""Optional compiled loops for the reference's hottest steps (numba, when it is installed).
+
+The numpy code beside each kernel stays the definition: every kernel computes the same
+numbers in the same order of operations (no fast-math, no contraction), and
+tests/test_compiled_kernels.py holds each one to its numpy twin bit for bit. Without numba, or
+with SURFGRAD_REFERENCE_COMPILED=0, the reference runs its numpy code only; it never needs
+numba to import or to give an answer.
+
+Why compiled loops: a numpy expression is one pass over memory per operation; the
+rasteriser's scan conversion, the corner-attribute gathers and the image lookups are
+gathers and scatters whose temporaries cost more than their arithmetic (README,
+Performance). A kernel does each in one pass, and `prange` spreads it over the cores the
+way Cycles' bake spreads its own.
+
+Kernels are compiled once per machine and cached on disk (numba's cache=True, next to this
+package or in the user's cache directory), so a fresh process loads them in milliseconds.
+"""
+
+import os
+
+ENV = "SURFGRAD_REFERENCE_COMPILED"
+
+try:
+    import numba
+except ImportError:             # the reference's numpy code runs instead
+    numba = None
+
+AVAILABLE = numba is not None
+
+
+def enabled():
+    """True when kernels run: numba imported and SURFGRAD_REFERENCE_COMPILED is not 0
+    (read at each call, so a test can compare both paths in one process)."""
+    return AVAILABLE and os.environ.get(ENV, "1").strip() != "0"
+
+
+def kernel(parallel=False):
+    """Decorator: numba.njit with the numpy error model (0/0 gives NaN as numpy does, not an
+    exception) and the disk cache; without numba the plain function, never called."""
+    def wrap(fn):
+        if numba is None:
+            return fn
+        return numba.njit(cache=True, nogil=True, parallel=parallel, error_model="numpy")(fn)
+    return wrap
+
+
+# Parallel loops inside kernels (numba resolves the global to its own prange).
+prange = numba.prange if numba is not None else range
