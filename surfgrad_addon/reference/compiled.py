@@ -28,6 +28,10 @@ except ImportError:             # the reference's numpy code runs instead
 AVAILABLE = numba is not None
 
 
+# More warm-up hooks (callables) of kernel modules: raster.load_compiled runs them.
+LOADERS = []
+
+
 def enabled():
     """True when kernels run: numba imported and SURFGRAD_REFERENCE_COMPILED is not 0
     (read at each call, so a test can compare both paths in one process)."""

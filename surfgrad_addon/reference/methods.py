@@ -31,10 +31,13 @@ FORWARD_FILTER_WIDTH = 2.0
 
 
 def reference_threads():
-    """Threads that evaluate blocks at once: SURFGRAD_REFERENCE_THREADS, default 1. numpy
-    releases the GIL inside its loops, so blocks can run in parallel; on the shared 2-core
-    development machine 2 threads measured no faster than 1 (README, Performance)."""
-    value = os.environ.get("SURFGRAD_REFERENCE_THREADS", "1")
+    """Threads that evaluate blocks at once: SURFGRAD_REFERENCE_THREADS, default the machine's
+    cores (at most 8), as Cycles' bake uses them. numpy and the compiled kernels release the
+    GIL inside their loops, so blocks run in parallel; results are identical for any count
+    (tests/test_fast_reference.py). A farm running one process per core sets it to 1."""
+    value = os.environ.get("SURFGRAD_REFERENCE_THREADS", "").strip()
+    if not value:
+        return max(1, min(8, os.cpu_count() or 1))
     try:
         return max(1, int(value))
     except ValueError:
@@ -83,7 +86,8 @@ def evaluate_in_blocks(fn, td, texels=None, threads=None):
     for start, stop, block, value in evaluated_blocks(fn, td, texels, threads):
         value = np.asarray(value)
         if out is None:
-            out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype)
+            # Component by component (vecmath's layout), as blocks come: contiguous copies.
+            out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype, order="F")
         out[start:stop] = value
     if out is None:                             # nothing covered: an empty result
         out = np.asarray(fn(td))

@@ -30,6 +30,7 @@ from functools import cached_property
 
 import numpy as np
 
+from . import compiled, raster_kernels
 from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
 from .vecmath import cross, normalize, transform
 
@@ -176,12 +177,15 @@ class TexelData:
     def block(self, start, stop):
         """The texels [start, stop) as a TexelData: same triangle image and per-triangle
         arrays, per-texel attributes computed for the block only."""
-        return TexelData(mesh=self.mesh, uv_map=self.uv_map, width=self.width,
-                         height=self.height, triangle=self.triangle,
-                         pixel=self.pixel[start:stop], barycentric=self.barycentric[start:stop],
-                         facts=self.facts, contested=self.contested,
-                         other_triangle=self.other_triangle, on_edge=self.on_edge,
-                         uv_offset=self.uv_offset, _shared=self._shared)
+        block = TexelData(mesh=self.mesh, uv_map=self.uv_map, width=self.width,
+                          height=self.height, triangle=self.triangle,
+                          pixel=self.pixel[start:stop], barycentric=self.barycentric[start:stop],
+                          facts=self.facts, contested=self.contested,
+                          other_triangle=self.other_triangle, on_edge=self.on_edge,
+                          uv_offset=self.uv_offset, _shared=self._shared)
+        if "tri" in self.__dict__:
+            block.__dict__["tri"] = self.__dict__["tri"][start:stop]
+        return block
 
     def blocks(self, texels=None):
         """(start, stop, block) over all covered texels, `texels` (BLOCK_TEXELS) at a time."""
@@ -206,6 +210,8 @@ class TexelData:
         """Corner values (T, 3, ...) interpolated at the texels: (N, ...), each component
         contiguous (vecmath's layout); summed over the corners in order 0, 1, 2."""
         v = np.asarray(corner_values, dtype=np.float64)
+        if compiled.enabled():
+            return self._interpolate_compiled(corner_values, v)
         key = ("corner_rows", id(corner_values))
         held = self._shared.get(key)
         if held is None or held[0] is not corner_values:
@@ -218,6 +224,20 @@ class TexelData:
         out = rows[:c] * b[0]
         out += rows[c:2 * c] * b[1]
         out += rows[2 * c:] * b[2]
+        return out[0] if v.ndim == 2 else out.reshape(v.shape[2:] + (-1,)).T
+
+    def _interpolate_compiled(self, corner_values, v):
+        """_interpolate by raster_kernels.interpolate_corners: one pass per texel over the
+        corners' components (T, 3 * C), held once per bake like the numpy rows."""
+        key = ("corner_table", id(corner_values))
+        held = self._shared.get(key)
+        if held is None or held[0] is not corner_values:
+            held = self._shared[key] = (corner_values, np.ascontiguousarray(
+                v.reshape(len(v), -1)))
+        channels = held[1].shape[1] // 3
+        out = np.empty((channels, len(self.pixel)))
+        raster_kernels.interpolate_corners(held[1], np.ascontiguousarray(self.tri),
+                                           np.ascontiguousarray(self.barycentric), out)
         return out[0] if v.ndim == 2 else out.reshape(v.shape[2:] + (-1,)).T
 
     @cached_property
@@ -408,6 +428,9 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
     # the per-texel test below, not the span's rounding, decides every texel. Spans are taken
     # in row order (triangle order within a row) and expanded band by band of rows, so the
     # working memory is a band's, not the image's.
+    if compiled.enabled():
+        return _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol,
+                                   lo, hi, counts)
     span_t, span_y, span_x0, span_x1 = _row_spans(coef, lo, hi, counts, np.maximum(tol, 1e-12))
     npx = width * height
     triangle = np.full(npx, -1, dtype=np.int32)
@@ -507,6 +530,62 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
                      on_edge=on_edge.reshape(height, width))
 
 
+_LOADED = []
+
+
+def load_compiled():
+    """Load (or, once per machine, compile) the compiled kernels before any timing, the way a
+    process imports its libraries: a tiny rasterisation and interpolation of every type the
+    real ones use. Returns the seconds it took (0 when kernels are off or already loaded)."""
+    if not compiled.enabled() or _LOADED:
+        return 0.0
+    import time
+    t0 = time.perf_counter()
+    tri = MeshArrays(positions=np.eye(3), triangles=np.array([[0, 1, 2]]),
+                     corner_normals=np.tile([0.0, 0.0, 1.0], (1, 3, 1)),
+                     uv_maps={"UV": np.array([[[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]]])})
+    td = rasterize(tri, "UV", 4, 4)
+    td.block(0, len(td.pixel)).position
+    td.uv()
+    for hook in compiled.LOADERS:
+        hook()
+    _LOADED.append(True)
+    return time.perf_counter() - t0
+
+
+def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol, lo, hi,
+                        counts):
+    """rasterize's spans and band loop as two compiled passes (raster_kernels): the scan of
+    every triangle's rows, then the covered texels in row-major order. Identical arrays."""
+    npx = width * height
+    triangle = np.full(npx, -1, dtype=np.int32)
+    other_tri = np.full(npx, -1, dtype=np.int32)
+    near = np.zeros(npx, dtype=np.uint8)
+    strict = np.zeros(npx, dtype=np.uint8)
+    cx, cy, cc = (np.ascontiguousarray(coef[:, :, j].T) for j in range(3))
+    tol = np.ascontiguousarray(tol, dtype=np.float64)
+    raster_kernels.scan_triangles(cx, cy, cc, tol, np.maximum(tol, 1e-12),
+                                  np.ascontiguousarray(lo), np.ascontiguousarray(hi), counts,
+                                  width, triangle, other_tri, near, strict)
+    n_max = int(np.count_nonzero(triangle >= 0))
+    pixel = np.empty((n_max, 2), dtype=np.int64)
+    bary = np.empty((n_max, 3))
+    tri = np.empty(n_max, dtype=np.int32)
+    contested = np.empty(npx, dtype=bool)
+    on_edge = np.zeros(npx, dtype=bool)
+    n = raster_kernels.covered_texels(triangle, near, strict, cx, cy, cc, tol, width, pixel,
+                                      tri, bary, contested, on_edge)
+    td = TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
+                   triangle=triangle.reshape(height, width), pixel=pixel[:n],
+                   barycentric=bary[:n], facts=facts,
+                   uv_offset=tuple(float(o) for o in uv_offset),
+                   contested=contested.reshape(height, width),
+                   other_triangle=other_tri.reshape(height, width),
+                   on_edge=on_edge.reshape(height, width))
+    td.__dict__["tri"] = tri[:n]         # the cached `tri`, known already
+    return td
+
+
 def _row_spans(coef, lo, hi, counts, tol):
     """Per (triangle, row) the x range [x0, x1] (inclusive, within the triangle's texel bounds)
     that holds every texel with all three barycentrics >= -tol, plus one texel each side.
@@ -525,9 +604,10 @@ def _row_spans(coef, lo, hi, counts, tol):
             bound = (-tol[t] - (coef[t, k, 1] * y + coef[t, k, 2])) / a
             x0 = np.where(a > 0, np.maximum(x0, np.floor(bound) - 1), x0)
             x1 = np.where(a < 0, np.minimum(x1, np.ceil(bound) + 1), x1)
-    x0 = np.maximum(x0, lo[t, 0]).astype(np.int64)
-    x1 = np.minimum(x1, hi[t, 0]).astype(np.int64)
-    keep = x1 >= x0
+    x0 = np.maximum(x0, lo[t, 0])
+    x1 = np.minimum(x1, hi[t, 0])
+    keep = x1 >= x0         # compared as floats: a sliver's huge bound must not wrap as int64
+    x0, x1 = x0.astype(np.int64), x1.astype(np.int64)
     t, y, x0, x1 = t[keep], y[keep], x0[keep], x1[keep]
     order = np.argsort(y, kind="stable")
     return t[order], y[order], x0[order], x1[order]

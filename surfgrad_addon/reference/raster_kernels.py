@@ -1,0 +1,128 @@
+"""Compiled loops of raster.py (see compiled.py): rasterize's scan conversion and the corner
+interpolation of TexelData. Each computes what the numpy code in raster.py computes, in the
+same order of operations, so both give identical arrays (tests/test_compiled_kernels.py).
+
+Blocks of texels already run on several threads (methods.evaluated_blocks), so these loops are
+serial and release the GIL (nogil) rather than start threads of their own.
+"""
+
+import numpy as np
+
+from .compiled import kernel
+
+
+@kernel()
+def _minimum(a, b):
+    """np.minimum: NaN if either is NaN."""
+    if a != a or b != b:
+        return np.nan
+    return a if a <= b else b
+
+
+@kernel()
+def _maximum(a, b):
+    """np.maximum: NaN if either is NaN."""
+    if a != a or b != b:
+        return np.nan
+    return a if a >= b else b
+
+
+@kernel()
+def _clamp_low(a):
+    """np.maximum(a, 0.0): a where a >= 0 or NaN, else 0."""
+    return a if (a >= 0.0 or a != a) else 0.0
+
+
+@kernel()
+def scan_triangles(cx, cy, cc, tol, span_tol, lo, hi, counts, width, triangle, other, near,
+                   strict):
+    """Visit every candidate texel of every triangle, triangles in index order as Blender's
+    bake scan-converts them (the last triangle containing a texel wins:
+    RE_bake_pixels_populate). A texel's claimants come in ascending triangle order, as in
+    rasterize's row-ordered spans, so the outcome is the same. Each row of a triangle is the
+    span _row_spans computes (the same bounds, in the same float steps). Fills, per texel of
+    the flat image: triangle (the winner, -1 if none), other (the claimant before it), near
+    and strict (how many triangles come within / lie beyond the edge tolerance, up to 2)."""
+    for t in range(cx.shape[1]):
+        if counts[t] == 0:
+            continue
+        tl = tol[t]
+        for y in range(lo[t, 1], hi[t, 1] + 1):
+            x0 = float(lo[t, 0])
+            x1 = float(hi[t, 0])
+            for k in range(3):
+                a = cx[k, t]
+                if a > 0 or a < 0:
+                    bound = (-span_tol[t] - (cy[k, t] * y + cc[k, t])) / a
+                    if a > 0:
+                        x0 = _maximum(x0, np.floor(bound) - 1)
+                    else:
+                        x1 = _minimum(x1, np.ceil(bound) + 1)
+            x0 = _maximum(x0, float(lo[t, 0]))
+            x1 = _minimum(x1, float(hi[t, 0]))
+            if not x1 >= x0:
+                continue
+            # Barycentric k = (cx x + cy y) + cc, in that order (rasterize's numpy bands).
+            r0, r1, r2 = cy[0, t] * y, cy[1, t] * y, cy[2, t] * y
+            for x in range(int(x0), int(x1) + 1):
+                b0 = (cx[0, t] * x + r0) + cc[0, t]
+                b1 = (cx[1, t] * x + r1) + cc[1, t]
+                b2 = (cx[2, t] * x + r2) + cc[2, t]
+                score = _minimum(_minimum(b0, b1), b2)
+                if not score >= -tl:
+                    continue
+                f = y * width + x
+                if near[f] < 2:
+                    near[f] += 1
+                if score > tl and strict[f] < 2:
+                    strict[f] += 1
+                if score >= -1e-12:
+                    other[f] = triangle[f]
+                    triangle[f] = t
+
+
+@kernel()
+def covered_texels(triangle, near, strict, cx, cy, cc, tol, width, pixel, tri, bary,
+                   contested, on_edge):
+    """The covered texels in row-major order: their (x, y), triangle and the winner's
+    barycentrics clamped to >= 0 and renormalised (summed in order 0, 1, 2); texels claimed
+    by two interiors (contested) and texels within rounding of an edge (on_edge). Returns
+    how many texels are covered."""
+    n = 0
+    for f in range(triangle.shape[0]):
+        contested[f] = strict[f] >= 2
+        t = triangle[f]
+        if t < 0:
+            continue
+        x = f % width
+        y = f // width
+        b0 = (cx[0, t] * x + cy[0, t] * y) + cc[0, t]
+        b1 = (cx[1, t] * x + cy[1, t] * y) + cc[1, t]
+        b2 = (cx[2, t] * x + cy[2, t] * y) + cc[2, t]
+        lowest = _minimum(_minimum(b0, b1), b2)
+        b0 = _clamp_low(b0)
+        b1 = _clamp_low(b1)
+        b2 = _clamp_low(b2)
+        total = (b0 + b1) + b2
+        bary[n, 0] = b0 / total
+        bary[n, 1] = b1 / total
+        bary[n, 2] = b2 / total
+        pixel[n, 0] = x
+        pixel[n, 1] = y
+        tri[n] = t
+        on_edge[f] = (near[f] >= 2 and strict[f] < 2) or lowest <= tol[t]
+        n += 1
+    return n
+
+
+@kernel()
+def interpolate_corners(corners, tri, bary, out):
+    """out[c, i] = corners[t, 0, c] b0 + corners[t, 1, c] b1 + corners[t, 2, c] b2 for texel i
+    of triangle t = tri[i], summed in order 0, 1, 2 (TexelData._interpolate)."""
+    channels = out.shape[0]
+    for i in range(tri.shape[0]):
+        t = tri[i]
+        b0, b1, b2 = bary[i, 0], bary[i, 1], bary[i, 2]
+        for c in range(channels):
+            out[c, i] = (corners[t, c] * b0 + corners[t, channels + c] * b1) \
+                + corners[t, 2 * channels + c] * b2
