@@ -108,7 +108,12 @@ def test_interpolated_attributes_match_numpy(monkeypatch):
         out = {}
         for start, stop, block in td.blocks(1000):      # block seams at odd places
             t, sign = block.tangent()
+            steps = block.texel_steps("Detail")
+            dp_ds, dp_dt, _ = block.derivatives()
             for name, value in (("position", block.position), ("normal", block.normal),
+                                ("geometric", block.geometric_normal), ("dp_ds", dp_ds),
+                                ("dp_dt", dp_dt), *((f"step{i}", v) for i, v in
+                                                    enumerate(steps)),
                                 ("shading", block.shading_normal), ("uv", block.uv()),
                                 ("rest", block.point_attribute("rest")), ("tangent", t),
                                 ("sign", sign), ("object", block.position_object)):
@@ -134,3 +139,17 @@ def test_kernels_load_once_and_report_their_time(monkeypatch):
     monkeypatch.setenv(compiled.ENV, "0")
     monkeypatch.setattr(raster, "_LOADED", [])
     assert raster.load_compiled() == 0.0          # kernels off: nothing to load
+
+
+def test_compiled_raster_makes_texels_per_block_only(monkeypatch):
+    """Memory follows the block: evaluating every block of a compiled raster never makes the
+    whole image's texel arrays; asking for them afterwards gives the blocks' values."""
+    from surfgrad_addon.reference import methods as M
+    monkeypatch.setenv(compiled.ENV, "1")
+    td = R.rasterize(R.meshes.uv_sphere(segments=16, rings=8), "UVMap", 100, 100)
+    assert "pixel" not in td.__dict__ and td.texel_count > 5000
+    pos = M.evaluate_in_blocks(lambda b: b.position, td, texels=777)
+    xy = M.evaluate_in_blocks(lambda b: b.pixel.astype(float), td, texels=1234)
+    assert "pixel" not in td.__dict__ and "barycentric" not in td.__dict__
+    assert np.array_equal(xy, td.pixel) and np.array_equal(pos, td.position)
+    assert td.texel_count == len(td.pixel) == int(td.covered.sum())

@@ -157,7 +157,7 @@ def method_seconds(method, variant, size, mesh=None):
     t1 = time.perf_counter()
     M.evaluate_in_blocks(lambda b: M.resolve(METHODS[method].reference(inp, b)), td)
     t2 = time.perf_counter()
-    return t2 - t0, t2 - t1, len(td.pixel)
+    return t2 - t0, t2 - t1, td.texel_count
 
 
 # 3. Compare in a child process --------------------------------------------------------------------
@@ -260,7 +260,7 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
         row["rasterize (UV sphere 64x32)"] = n / _median_time(
             lambda: R.rasterize(mesh, "UVMap", size, size), reps) / 1e6
         td = R.rasterize(mesh, "UVMap", size, size)
-        row["texel attributes (position, normal, uv, steps)"] = len(td.pixel) / _median_time(
+        row["texel attributes (position, normal, uv, steps)"] = td.texel_count / _median_time(
             lambda: M.evaluate_in_blocks(lambda b: (b.position, b.normal, b.uv(),
                                                     b.texel_steps())[0], td), reps) / 1e6
         for name, fn in cases_.items():

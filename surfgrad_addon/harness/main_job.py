@@ -104,9 +104,9 @@ def run(out_dir, resolution=256, overwrite=False, log=print):
         raster_s = time.perf_counter() - t0
         base = M.unit_base_normal(td)
         interior = td.interior()
-        log(f"[{scene_name}] rasterised {len(td.pixel)} texels "
+        log(f"[{scene_name}] rasterised {td.texel_count} texels "
             f"({interior.sum()} interior) in {raster_s:.3f} s")
-        scene = {"texels": int(len(td.pixel)), "interior_texels": int(interior.sum()),
+        scene = {"texels": int(td.texel_count), "interior_texels": int(interior.sum()),
                  "raster_seconds": raster_s, "methods": {}}
         normals = {}
         for name, (fn, sg_method) in table.items():

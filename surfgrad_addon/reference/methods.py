@@ -87,7 +87,7 @@ def evaluate_in_blocks(fn, td, texels=None, threads=None):
         value = np.asarray(value)
         if out is None:
             # Component by component (vecmath's layout), as blocks come: contiguous copies.
-            out = np.empty((len(td.pixel),) + value.shape[1:], dtype=value.dtype, order="F")
+            out = np.empty((td.texel_count,) + value.shape[1:], dtype=value.dtype, order="F")
         out[start:stop] = value
     if out is None:                             # nothing covered: an empty result
         out = np.asarray(fn(td))

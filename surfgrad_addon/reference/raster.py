@@ -40,6 +40,8 @@ _BAND_TEXELS = 1 << 14
 # Texels per evaluation block: a block's (n, 3) float64 arrays (0.4 MB) stay in a 2 MB L2.
 # Measured on the 2-core machine (bench-reference): 8K-32K are within 10%; 1M is 2-3x slower.
 BLOCK_TEXELS = 1 << 14
+# Per-texel arrays the compiled rasteriser makes per block (TexelData.row_start).
+_LAZY_TEXEL_FIELDS = ("pixel", "barycentric")
 # Float32 rounding of Blender's scan conversion, in texels at 256^2 (scaled with the size).
 _EDGE_TEXELS = 1e-4
 
@@ -152,8 +154,11 @@ class TexelData:
     width: int
     height: int
     triangle: np.ndarray
-    pixel: np.ndarray
-    barycentric: np.ndarray
+    # (N, 2) and (N, 3). The compiled rasteriser leaves them out (None) and gives row_start:
+    # then a block makes its own texels (raster_kernels.texels_in_range) and the whole
+    # image's are made only if asked for (__getattr__), so memory follows the block.
+    pixel: np.ndarray = None
+    barycentric: np.ndarray = None
     # The Blender line whose bake this models (blender_lines): differentials, normal storage.
     facts: LineFacts = MAIN_LINE
     # (H, W): texels inside two or more triangles (overlapping UVs); the triangle (other than
@@ -162,8 +167,43 @@ class TexelData:
     other_triangle: np.ndarray = None
     on_edge: np.ndarray = None
     uv_offset: tuple = (0.0, 0.0)
+    # (H + 1,): covered texels before each row (row-major order), when pixel is left out.
+    row_start: np.ndarray = field(default=None, repr=False, compare=False)
     # Per-triangle arrays computed once and shared by the whole bake and all of its blocks.
     _shared: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self):
+        for name in _LAZY_TEXEL_FIELDS:
+            if self.__dict__.get(name) is None and self.row_start is not None:
+                del self.__dict__[name]          # made on first use (__getattr__)
+
+    def __getattr__(self, name):
+        """The whole image's pixel, barycentric (and tri) made on first use when the compiled
+        rasteriser left them out."""
+        if name in _LAZY_TEXEL_FIELDS and self.__dict__.get("row_start") is not None:
+            pixel, tri, bary = self._texels(0, self.texel_count)
+            self.__dict__.update(pixel=pixel, barycentric=bary)
+            self.__dict__.setdefault("tri", tri)
+            return self.__dict__[name]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    @property
+    def texel_count(self):
+        """N, the number of covered texels."""
+        if "pixel" not in self.__dict__ and self.row_start is not None:
+            return int(self.row_start[-1])
+        return len(self.pixel)
+
+    def _texels(self, start, stop):
+        """(pixel, tri, barycentric) of covered texels [start, stop), from the triangle image."""
+        n = max(0, stop - start)
+        pixel = np.empty((n, 2), dtype=np.int64)
+        tri = np.empty(n, dtype=np.int32)
+        bary = np.empty((n, 3))
+        cx, cy, cc = self._shared["raster_coefficients"]
+        raster_kernels.texels_in_range(self.triangle.reshape(-1), self.row_start, self.width,
+                                       start, stop, cx, cy, cc, pixel, tri, bary)
+        return pixel, tri, bary
 
     @property
     def covered(self):
@@ -177,20 +217,25 @@ class TexelData:
     def block(self, start, stop):
         """The texels [start, stop) as a TexelData: same triangle image and per-triangle
         arrays, per-texel attributes computed for the block only."""
+        if "pixel" not in self.__dict__:        # the compiled rasteriser's: made per block
+            pixel, tri, bary = self._texels(start, stop)
+        else:
+            pixel, bary = self.pixel[start:stop], self.barycentric[start:stop]
+            tri = self.__dict__["tri"][start:stop] if "tri" in self.__dict__ else None
         block = TexelData(mesh=self.mesh, uv_map=self.uv_map, width=self.width,
                           height=self.height, triangle=self.triangle,
-                          pixel=self.pixel[start:stop], barycentric=self.barycentric[start:stop],
+                          pixel=pixel, barycentric=bary,
                           facts=self.facts, contested=self.contested,
                           other_triangle=self.other_triangle, on_edge=self.on_edge,
                           uv_offset=self.uv_offset, _shared=self._shared)
-        if "tri" in self.__dict__:
-            block.__dict__["tri"] = self.__dict__["tri"][start:stop]
+        if tri is not None:
+            block.__dict__["tri"] = tri
         return block
 
     def blocks(self, texels=None):
         """(start, stop, block) over all covered texels, `texels` (BLOCK_TEXELS) at a time."""
         texels = texels or BLOCK_TEXELS
-        n = len(self.pixel)
+        n = self.texel_count
         for start in range(0, n, texels):
             stop = min(n, start + texels)
             yield start, stop, self.block(start, stop)
@@ -235,10 +280,23 @@ class TexelData:
             held = self._shared[key] = (corner_values, np.ascontiguousarray(
                 v.reshape(len(v), -1)))
         channels = held[1].shape[1] // 3
-        out = np.empty((channels, len(self.pixel)))
+        out = np.empty((channels, self.texel_count))
         raster_kernels.interpolate_corners(held[1], np.ascontiguousarray(self.tri),
                                            np.ascontiguousarray(self.barycentric), out)
         return out[0] if v.ndim == 2 else out.reshape(v.shape[2:] + (-1,)).T
+
+    def per_texel(self, per_triangle):
+        """A per-triangle array (T,) or (T, C) at every texel: (N,) or (N, C), each component
+        contiguous (the same values as per_triangle[self.tri])."""
+        if not compiled.enabled() or per_triangle.ndim not in (1, 2) or \
+                per_triangle.dtype != np.float64:
+            return per_triangle[self.tri]
+        table = per_triangle.reshape(len(per_triangle), -1)
+        if not table.flags.c_contiguous:
+            table = np.ascontiguousarray(table)
+        out = np.empty((table.shape[1], self.texel_count))
+        raster_kernels.gather_rows(table, np.ascontiguousarray(self.tri), out)
+        return out[0] if per_triangle.ndim == 1 else out.T
 
     @cached_property
     def position(self):
@@ -306,7 +364,7 @@ class TexelData:
 
     @cached_property
     def geometric_normal(self):
-        return self.mesh.geometric_normals_world[self.tri]
+        return self.per_texel(self.mesh.geometric_normals_world)
 
     def uv(self, name=None):
         return self._interpolate(self.mesh.uv(name or self.uv_map))
@@ -341,7 +399,7 @@ class TexelData:
         name = name or self.uv_map
         dp_ds, dp_dt, bad = self.per_triangle(("derivatives", name),
                                               lambda: self.mesh.triangle_derivatives(name))
-        return dp_ds[self.tri], dp_dt[self.tri], bad[self.tri]
+        return self.per_texel(dp_ds), self.per_texel(dp_dt), bad[self.tri]
 
     def texel_steps(self, name=None):
         """Derivatives per bake-texel step, the bake's stand-in for ddx/ddy: returns
@@ -365,7 +423,7 @@ class TexelData:
                 dst_dt = (b2 * a1[:, 0:1] - b1 * a2[:, 0:1]) / det
             return dst_ds / self.width, dst_dt / self.height
         dst_dx, dst_dy = self.per_triangle(("uv_steps", name), chain)
-        return dpdx, dpdy, dst_dx[self.tri], dst_dy[self.tri]
+        return dpdx, dpdy, self.per_texel(dst_dx), self.per_texel(dst_dy)
 
     def to_image(self, values, fill=np.nan):
         """Scatter per-texel values (N, ...) into an (H, W, ...) image, `fill` elsewhere."""
@@ -391,6 +449,12 @@ class TexelData:
             return ok.ravel()
         ok = self.per_triangle(("interior", margin), image)     # one image for all blocks
         return ok[self.pixel[:, 1] * self.width + self.pixel[:, 0]]
+
+
+# The dataclass keeps the fields' None defaults as class attributes; without them a texel
+# field left out falls through to __getattr__, which makes it.
+for _name in _LAZY_TEXEL_FIELDS:
+    delattr(TexelData, _name)
 
 
 def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
@@ -545,7 +609,8 @@ def load_compiled():
                      corner_normals=np.tile([0.0, 0.0, 1.0], (1, 3, 1)),
                      uv_maps={"UV": np.array([[[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]]])})
     td = rasterize(tri, "UV", 4, 4)
-    td.block(0, len(td.pixel)).position
+    td.block(0, td.texel_count).position
+    td.pixel
     td.uv()
     for hook in compiled.LOADERS:
         hook()
@@ -556,7 +621,9 @@ def load_compiled():
 def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol, lo, hi,
                         counts):
     """rasterize's spans and band loop as two compiled passes (raster_kernels): the scan of
-    every triangle's rows, then the covered texels in row-major order. Identical arrays."""
+    every triangle's rows, then the flags and the covered texels per row. The texels' (x, y)
+    and barycentrics are left to the blocks (TexelData.row_start): identical values, and
+    memory of the triangle image, not of every texel's attributes."""
     npx = width * height
     triangle = np.full(npx, -1, dtype=np.int32)
     other_tri = np.full(npx, -1, dtype=np.int32)
@@ -567,23 +634,20 @@ def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol
     raster_kernels.scan_triangles(cx, cy, cc, tol, np.maximum(tol, 1e-12),
                                   np.ascontiguousarray(lo), np.ascontiguousarray(hi), counts,
                                   width, triangle, other_tri, near, strict)
-    n_max = int(np.count_nonzero(triangle >= 0))
-    pixel = np.empty((n_max, 2), dtype=np.int64)
-    bary = np.empty((n_max, 3))
-    tri = np.empty(n_max, dtype=np.int32)
-    contested = np.empty(npx, dtype=bool)
     on_edge = np.zeros(npx, dtype=bool)
-    n = raster_kernels.covered_texels(triangle, near, strict, cx, cy, cc, tol, width, pixel,
-                                      tri, bary, contested, on_edge)
-    td = TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
-                   triangle=triangle.reshape(height, width), pixel=pixel[:n],
-                   barycentric=bary[:n], facts=facts,
-                   uv_offset=tuple(float(o) for o in uv_offset),
-                   contested=contested.reshape(height, width),
-                   other_triangle=other_tri.reshape(height, width),
-                   on_edge=on_edge.reshape(height, width))
-    td.__dict__["tri"] = tri[:n]         # the cached `tri`, known already
-    return td
+    row_count = np.zeros(height, dtype=np.int64)
+    contested = np.empty(npx, dtype=bool)
+    raster_kernels.texel_flags(triangle, near, strict, cx, cy, cc, tol, width, row_count,
+                               contested, on_edge)
+    row_start = np.zeros(height + 1, dtype=np.int64)
+    np.cumsum(row_count, out=row_start[1:])
+    return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
+                     triangle=triangle.reshape(height, width), facts=facts,
+                     uv_offset=tuple(float(o) for o in uv_offset),
+                     contested=contested.reshape(height, width),
+                     other_triangle=other_tri.reshape(height, width),
+                     on_edge=on_edge.reshape(height, width), row_start=row_start,
+                     _shared={"raster_coefficients": (cx, cy, cc)})
 
 
 def _row_spans(coef, lo, hi, counts, tol):

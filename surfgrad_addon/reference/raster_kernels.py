@@ -82,13 +82,11 @@ def scan_triangles(cx, cy, cc, tol, span_tol, lo, hi, counts, width, triangle, o
 
 
 @kernel()
-def covered_texels(triangle, near, strict, cx, cy, cc, tol, width, pixel, tri, bary,
-                   contested, on_edge):
-    """The covered texels in row-major order: their (x, y), triangle and the winner's
-    barycentrics clamped to >= 0 and renormalised (summed in order 0, 1, 2); texels claimed
-    by two interiors (contested) and texels within rounding of an edge (on_edge). Returns
-    how many texels are covered."""
-    n = 0
+def texel_flags(triangle, near, strict, cx, cy, cc, tol, width, row_count, contested,
+                on_edge):
+    """Per texel: claimed by two interiors (contested), within rounding of an edge (on_edge:
+    claimed within tolerance by two triangles, or its winner's lowest barycentric within the
+    winner's tolerance); per row: how many texels are covered."""
     for f in range(triangle.shape[0]):
         contested[f] = strict[f] >= 2
         t = triangle[f]
@@ -100,19 +98,44 @@ def covered_texels(triangle, near, strict, cx, cy, cc, tol, width, pixel, tri, b
         b1 = (cx[1, t] * x + cy[1, t] * y) + cc[1, t]
         b2 = (cx[2, t] * x + cy[2, t] * y) + cc[2, t]
         lowest = _minimum(_minimum(b0, b1), b2)
-        b0 = _clamp_low(b0)
-        b1 = _clamp_low(b1)
-        b2 = _clamp_low(b2)
-        total = (b0 + b1) + b2
-        bary[n, 0] = b0 / total
-        bary[n, 1] = b1 / total
-        bary[n, 2] = b2 / total
-        pixel[n, 0] = x
-        pixel[n, 1] = y
-        tri[n] = t
         on_edge[f] = (near[f] >= 2 and strict[f] < 2) or lowest <= tol[t]
-        n += 1
-    return n
+        row_count[y] += 1
+
+
+@kernel()
+def texels_in_range(triangle, row_start, width, start, stop, cx, cy, cc, pixel, tri, bary):
+    """Covered texels start..stop-1 (row-major order) of the triangle image: their (x, y),
+    triangle, and the winner's barycentrics clamped to >= 0 and renormalised (summed in order
+    0, 1, 2), as rasterize's numpy bands compute them. row_start[y]: covered texels before row
+    y. A block's texels are made when it is evaluated, never the whole image's at once."""
+    if stop <= start:
+        return
+    y = np.searchsorted(row_start, start, side="right") - 1
+    i = row_start[y]
+    for f in range(y * width, triangle.shape[0]):
+        t = triangle[f]
+        if t < 0:
+            continue
+        if i >= start:
+            x = f % width
+            yy = f // width
+            b0 = (cx[0, t] * x + cy[0, t] * yy) + cc[0, t]
+            b1 = (cx[1, t] * x + cy[1, t] * yy) + cc[1, t]
+            b2 = (cx[2, t] * x + cy[2, t] * yy) + cc[2, t]
+            b0 = _clamp_low(b0)
+            b1 = _clamp_low(b1)
+            b2 = _clamp_low(b2)
+            total = (b0 + b1) + b2
+            k = i - start
+            bary[k, 0] = b0 / total
+            bary[k, 1] = b1 / total
+            bary[k, 2] = b2 / total
+            pixel[k, 0] = x
+            pixel[k, 1] = yy
+            tri[k] = t
+        i += 1
+        if i >= stop:
+            return
 
 
 @kernel()
@@ -126,3 +149,13 @@ def interpolate_corners(corners, tri, bary, out):
         for c in range(channels):
             out[c, i] = (corners[t, c] * b0 + corners[t, channels + c] * b1) \
                 + corners[t, 2 * channels + c] * b2
+
+
+@kernel()
+def gather_rows(table, tri, out):
+    """out[c, i] = table[tri[i], c]: a per-triangle (T, C) array at every texel, component by
+    component (vecmath's layout once transposed)."""
+    for i in range(tri.shape[0]):
+        t = tri[i]
+        for c in range(out.shape[0]):
+            out[c, i] = table[t, c]
