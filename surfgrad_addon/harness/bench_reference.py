@@ -196,6 +196,7 @@ def compare_child(method, size, python=None, root=ROOT, variant="hq"):
                     else f"exit {proc.returncode}"}
         r = json.loads(report.read_text())
     return {"bake_seconds": r["bake_seconds"], "reference_seconds": r["reference_seconds"],
+            "compiled_load_seconds": r.get("compiled_load_seconds", 0.0),
             "ratio": r["reference_seconds"] / r["bake_seconds"], "peak_gb": peak_gb,
             "max_deg": r["max_deg"], "texels": r["texels_compared"]}
 
@@ -247,6 +248,15 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
                "block_texels": BLOCK_TEXELS, "copy_gb_per_s": bandwidth,
                "texel_bytes": TEXEL_BYTES, "listings": {}, "methods": {}, "compare": {},
                "memory": {}}
+    load_seconds = R.raster.load_compiled()
+    kernels = {"enabled": R.compiled.enabled(),
+               "numba": getattr(R.compiled.numba, "__version__", None),
+               "load_seconds": load_seconds, "threads": M.reference_threads()}
+    results["compiled_kernels"] = kernels
+    log(f"compiled kernels: {'on' if kernels['enabled'] else 'off'}"
+        + (f" (numba {kernels['numba']}, loaded in {load_seconds:.3f} s)"
+           if kernels["enabled"] else " (numba missing or SURFGRAD_REFERENCE_COMPILED=0)")
+        + f"; blocks on {kernels['threads']} thread(s)")
     log(f"numpy copy: {bandwidth:.1f} GB/s; bandwidth floor at {TEXEL_BYTES} B/texel: "
         + ", ".join(f"{s}^2 {TEXEL_BYTES * s * s / bandwidth / 1e6:.1f} ms" for s in
                     sorted(set(sizes) | set(method_sizes))))
