@@ -17,6 +17,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from . import compiled, sampling_kernels
 from .blender_lines import MAIN_LINE
 
 INTERPOLATIONS = ("Closest", "Linear")
@@ -50,6 +51,11 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
                          f"got {image.shape}")
     height, width = image.shape[:2]
     st = np.asarray(st, dtype=image.dtype)
+    # The compiled loop (same numbers) whenever numba is there: it is faster from one lookup
+    # up (its call costs ~4 us, numpy's ~25 us; /work/notes/issue13-sampling.md).
+    if (compiled.enabled() and st.ndim and st.shape[-1] == 2 and image.size
+            and interpolation in INTERPOLATIONS and extension in EXTENSIONS):
+        return sampling_kernels.sample(image, st, interpolation, extension)
     # Texels by flat index (y * width + x), channels as rows: each lookup gathers one
     # contiguous row per channel (np.take; fancy indexing of (N, 3) rows is several times
     # slower), and results come out in vecmath's component layout.
