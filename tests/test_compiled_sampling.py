@@ -78,13 +78,22 @@ def test_kernels_match_the_numpy_path_bit_for_bit(paths, monkeypatch, shape, dty
             assert np.isfinite(got).all()
 
 
-@pytest.mark.parametrize("lead", [(), (1,), (3, 50), (2, 3, 17)], ids=str)
+def test_a_single_point_stays_on_numpy(monkeypatch):
+    # numpy 1.x promotes 0-d float32 arithmetic with Python floats to float64, so for st of
+    # shape (2,) the numpy path is the only definition on every line.
+    monkeypatch.setattr(K, "sample", None)      # would raise if called
+    image = np.random.default_rng(2).random((9, 11, 3)).astype(np.float32)
+    for interp in IS.INTERPOLATIONS:
+        assert IS.sample_image(image, [0.3, 0.7], interp).shape == (3,)
+
+
+@pytest.mark.parametrize("lead", [(0,), (1,), (3, 50), (2, 3, 17)], ids=str)
 def test_any_leading_shape_and_non_contiguous_coordinates(paths, lead):
     rng = np.random.default_rng(len(lead))
     for image in (rng.random((9, 11)), rng.random((9, 11, 3)).astype(np.float32)):
         st = rng.uniform(-1.5, 2.5, lead + (2,))
         strided = np.stack([st[..., 1], st[..., 0]])[::-1].transpose(tuple(range(1, st.ndim)) + (0,))
-        assert not strided.flags.c_contiguous or strided.ndim == 1
+        assert not strided.flags.c_contiguous or strided.size == 0
         for interp in IS.INTERPOLATIONS:
             assert_same(*paths(image, st, interp, "REPEAT"))
             assert_same(*paths(image, strided, interp, "EXTEND"))

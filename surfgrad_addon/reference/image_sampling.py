@@ -52,8 +52,9 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     height, width = image.shape[:2]
     st = np.asarray(st, dtype=image.dtype)
     # The compiled loop (same numbers) whenever numba is there: it is faster from one lookup
-    # up (its call costs ~4 us, numpy's ~25 us; /work/notes/issue13-sampling.md).
-    if (compiled.enabled() and st.ndim and st.shape[-1] == 2 and image.size
+    # up (its call costs ~4 us, numpy's ~25 us; /work/notes/issue13-sampling.md). A single
+    # point (st of shape (2,)) stays on numpy: numpy 1.x computes 0-d float32 in float64.
+    if (compiled.enabled() and st.ndim > 1 and st.shape[-1] == 2 and image.size
             and interpolation in INTERPOLATIONS and extension in EXTENSIONS):
         return sampling_kernels.sample(image, st, interpolation, extension)
     # Texels by flat index (y * width + x), channels as rows: each lookup gathers one
