@@ -19,7 +19,7 @@ EXTEND = 2          # np.clip(i, 0, size - 1)
 
 INT64_MIN = np.int64(-2**63)
 INT64_MAX = np.int64(2**63 - 1)
-_INT64_RANGE = 9.223372036854775808e18      # 2**63
+INT64_RANGE = 9.223372036854775808e18       # 2**63
 
 
 def wrap_mode(size, extension):
@@ -29,107 +29,111 @@ def wrap_mode(size, extension):
     return EXTEND
 
 
-@compiled.kernel()
-def _int_part(x):
-    """cycles_int_part of one value: trunc(x) - (x < 0) as int64."""
-    if abs(x) < _INT64_RANGE:
-        i = np.int64(x)
-        return i - 1 if x < 0 else i
-    # NaN, +-inf and |x| >= 2**63: numpy's astype(int64) gives INT64_MIN on x86 (the CPU's
-    # "integer indefinite"), and subtracting (x < 0) wraps it to INT64_MAX for negatives.
-    # Spelled out here because the compiled cast of these values is undefined.
-    return INT64_MAX if x < 0 else INT64_MIN
+# Both kernels spell out, per axis, image_sampling's cycles_int_part and wrap_texel_index:
+# i = trunc(x) - (x < 0); for NaN, +-inf and |x| >= 2**63 numpy's astype(int64) gives
+# INT64_MIN on x86 (the CPU's "integer indefinite") and subtracting (x < 0) wraps that to
+# INT64_MAX for negatives, so those are written out too (the compiled cast of them is
+# undefined). Every wrap case lands in [0, size). Written inline, not as helper calls: the
+# calls cost 1.5x per lookup (measured; /work/notes/issue13-sampling.md).
+
+@compiled.kernel(parallel=True)
+def sample_closest(texels, width, height, s, t, mode_x, mode_y, out):
+    """out[c, k] = texel (i(s[k] W), i(t[k] H)) of texels (H * W, C), wrapped."""
+    ftype = texels.dtype.type
+    wf = ftype(width)
+    hf = ftype(height)
+    nc = texels.shape[1]
+    for k in prange(s.shape[0]):
+        u = s[k] * wf
+        v = t[k] * hf
+        if abs(u) < INT64_RANGE:
+            x = np.int64(u)
+            if u < 0:
+                x -= 1
+        else:
+            x = INT64_MAX if u < 0 else INT64_MIN
+        if abs(v) < INT64_RANGE:
+            y = np.int64(v)
+            if v < 0:
+                y -= 1
+        else:
+            y = INT64_MAX if v < 0 else INT64_MIN
+        if mode_x == REPEAT_POW2:
+            x &= width - 1
+        elif mode_x == REPEAT_MOD:
+            x %= width
+        else:
+            x = min(max(x, 0), width - 1)
+        if mode_y == REPEAT_POW2:
+            y &= height - 1
+        elif mode_y == REPEAT_MOD:
+            y %= height
+        else:
+            y = min(max(y, 0), height - 1)
+        j = y * width + x
+        for c in range(nc):
+            out[c, k] = texels[j, c]
 
 
-@compiled.kernel()
-def _next(i):
-    """i + 1 with numpy's int64 wrap-around."""
-    return INT64_MIN if i == INT64_MAX else i + 1
-
-
-@compiled.kernel()
-def _wrap(i, size, mode):
-    """image_sampling.wrap_texel_index; every case lands in [0, size)."""
-    if mode == REPEAT_POW2:
-        return i & (size - 1)
-    if mode == REPEAT_MOD:
-        return i % size             # numba keeps Python's sign rule: non-negative
-    return min(max(i, 0), size - 1)
-
-
-@compiled.kernel()
-def _closest(texels, width, height, wf, hf, s, t, mode_x, mode_y, out, k):
-    """out[:, k] = texel (i(s[k] W), i(t[k] H)) of texels (H * W, C), wrapped."""
-    ix = _wrap(_int_part(s[k] * wf), width, mode_x)
-    iy = _wrap(_int_part(t[k] * hf), height, mode_y)
-    j = iy * width + ix
-    for c in range(texels.shape[1]):
-        out[c, k] = texels[j, c]
-
-
-@compiled.kernel()
-def _linear(texels, width, height, wf, hf, s, t, mode_x, mode_y, out, k):
-    """out[:, k] = bilinear lookup at (s[k] W - 0.5, t[k] H - 0.5), in image_sampling's order:
+@compiled.kernel(parallel=True)
+def sample_linear(texels, width, height, s, t, mode_x, mode_y, out):
+    """out[c, k] = bilinear lookup at (s[k] W - 0.5, t[k] H - 0.5), in image_sampling's order:
     ((c00 sx + c01 tx) (1 - ty)) + ((c10 sx + c11 tx) ty) with sx = 1 - tx."""
     ftype = texels.dtype.type
-    u = s[k] * wf
-    u -= ftype(0.5)
-    v = t[k] * hf
-    v -= ftype(0.5)
-    i0 = _int_part(u)
-    j0 = _int_part(v)
-    tx = u - ftype(i0)
-    ty = v - ftype(j0)
-    x1 = _wrap(_next(i0), width, mode_x)
-    y1 = _wrap(_next(j0), height, mode_y) * width
-    x0 = _wrap(i0, width, mode_x)
-    y0 = _wrap(j0, height, mode_y) * width
-    sx = ftype(1) - tx
-    sy = ftype(1) - ty
-    for c in range(texels.shape[1]):
-        row0 = texels[y0 + x0, c] * sx
-        row0 += texels[y0 + x1, c] * tx
-        row1 = texels[y1 + x0, c] * sx
-        row1 += texels[y1 + x1, c] * tx
-        out[c, k] = row0 * sy + row1 * ty
-
-
-# One loop per rule, serial and parallel: a short call is done before threads would start
-# (and on a busy machine a parallel loop waits for its slowest thread).
-
-@compiled.kernel()
-def closest_serial(texels, width, height, s, t, mode_x, mode_y, out):
-    wf, hf = texels.dtype.type(width), texels.dtype.type(height)
-    for k in range(s.shape[0]):
-        _closest(texels, width, height, wf, hf, s, t, mode_x, mode_y, out, k)
-
-
-@compiled.kernel(parallel=True)
-def closest_parallel(texels, width, height, s, t, mode_x, mode_y, out):
-    wf, hf = texels.dtype.type(width), texels.dtype.type(height)
+    wf = ftype(width)
+    hf = ftype(height)
+    half = ftype(0.5)
+    one = ftype(1)
+    nc = texels.shape[1]
     for k in prange(s.shape[0]):
-        _closest(texels, width, height, wf, hf, s, t, mode_x, mode_y, out, k)
-
-
-@compiled.kernel()
-def linear_serial(texels, width, height, s, t, mode_x, mode_y, out):
-    wf, hf = texels.dtype.type(width), texels.dtype.type(height)
-    for k in range(s.shape[0]):
-        _linear(texels, width, height, wf, hf, s, t, mode_x, mode_y, out, k)
-
-
-@compiled.kernel(parallel=True)
-def linear_parallel(texels, width, height, s, t, mode_x, mode_y, out):
-    wf, hf = texels.dtype.type(width), texels.dtype.type(height)
-    for k in prange(s.shape[0]):
-        _linear(texels, width, height, wf, hf, s, t, mode_x, mode_y, out, k)
-
-
-# From this many lookups the parallel loop runs (measured: /work/notes/issue13-sampling.md).
-PARALLEL_MIN_LOOKUPS = 1024
-
-KERNELS = {("Closest", False): closest_serial, ("Closest", True): closest_parallel,
-           ("Linear", False): linear_serial, ("Linear", True): linear_parallel}
+        u = s[k] * wf
+        u -= half
+        v = t[k] * hf
+        v -= half
+        if abs(u) < INT64_RANGE:
+            x0 = np.int64(u)
+            if u < 0:
+                x0 -= 1
+        else:
+            x0 = INT64_MAX if u < 0 else INT64_MIN
+        if abs(v) < INT64_RANGE:
+            y0 = np.int64(v)
+            if v < 0:
+                y0 -= 1
+        else:
+            y0 = INT64_MAX if v < 0 else INT64_MIN
+        tx = u - ftype(x0)
+        ty = v - ftype(y0)
+        x1 = INT64_MIN if x0 == INT64_MAX else x0 + 1      # numpy's int64 wrap-around
+        y1 = INT64_MIN if y0 == INT64_MAX else y0 + 1
+        if mode_x == REPEAT_POW2:
+            x0 &= width - 1
+            x1 &= width - 1
+        elif mode_x == REPEAT_MOD:
+            x0 %= width
+            x1 %= width
+        else:
+            x0 = min(max(x0, 0), width - 1)
+            x1 = min(max(x1, 0), width - 1)
+        if mode_y == REPEAT_POW2:
+            y0 &= height - 1
+            y1 &= height - 1
+        elif mode_y == REPEAT_MOD:
+            y0 %= height
+            y1 %= height
+        else:
+            y0 = min(max(y0, 0), height - 1)
+            y1 = min(max(y1, 0), height - 1)
+        y0 *= width
+        y1 *= width
+        sx = one - tx
+        sy = one - ty
+        for c in range(nc):
+            row0 = texels[y0 + x0, c] * sx
+            row0 += texels[y0 + x1, c] * tx
+            row1 = texels[y1 + x0, c] * sx
+            row1 += texels[y1 + x1, c] * tx
+            out[c, k] = row0 * sy + row1 * ty
 
 
 def sample(image, st, interpolation, extension):
@@ -142,7 +146,7 @@ def sample(image, st, interpolation, extension):
     s = st[..., 0].reshape(-1)
     t = st[..., 1].reshape(-1)
     out = np.empty((channels, s.shape[0]), dtype=image.dtype)
-    run = KERNELS[interpolation, s.shape[0] >= PARALLEL_MIN_LOOKUPS]
+    run = sample_closest if interpolation == "Closest" else sample_linear
     run(texels, width, height, s, t, wrap_mode(width, extension), wrap_mode(height, extension), out)
     if image.ndim == 2:
         return out[0].reshape(lead)
