@@ -34,7 +34,7 @@ def wrap_mode(size, extension):
 # INT64_MIN on x86 (the CPU's "integer indefinite") and subtracting (x < 0) wraps that to
 # INT64_MAX for negatives, so those are written out too (the compiled cast of them is
 # undefined). Every wrap case lands in [0, size). Written inline, not as helper calls: the
-# calls cost 1.5x per lookup (measured; /work/notes/issue13-sampling.md).
+# calls cost 1.5x per lookup (measured: Linear, 1024^2 lookups, 100 against 153 M/s).
 
 @compiled.kernel(parallel=True)
 def sample_closest(texels, width, height, s, t, mode_x, mode_y, out):
