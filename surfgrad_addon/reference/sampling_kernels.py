@@ -1,0 +1,154 @@
+"""Compiled image lookups: image_sampling.sample_image's Closest and Linear in one pass per
+lookup over all channels (numba, through compiled.py).
+
+image_sampling.py stays the definition: these loops do its arithmetic in its order and in the
+image's float type, so they give its numbers bit for bit (tests/test_compiled_sampling.py).
+A lookup reads its texels straight from the (H * W, C) image, where a texel's channels sit
+side by side (one cache line), instead of the numpy path's channel rows.
+"""
+
+import numpy as np
+
+from . import compiled
+from .compiled import prange
+
+# How an index is brought into [0, size): image_sampling.wrap_texel_index's three cases.
+REPEAT_POW2 = 0     # i & (size - 1)
+REPEAT_MOD = 1      # np.mod(i, size), non-negative
+EXTEND = 2          # np.clip(i, 0, size - 1)
+
+INT64_MIN = np.int64(-2**63)
+INT64_MAX = np.int64(2**63 - 1)
+INT64_RANGE = 9.223372036854775808e18       # 2**63
+
+
+def wrap_mode(size, extension):
+    """The wrap case of image_sampling.wrap_texel_index for one axis."""
+    if extension == "REPEAT":
+        return REPEAT_POW2 if size & (size - 1) == 0 else REPEAT_MOD
+    return EXTEND
+
+
+# Both kernels spell out, per axis, image_sampling's cycles_int_part and wrap_texel_index:
+# i = trunc(x) - (x < 0); for NaN, +-inf and |x| >= 2**63 numpy's astype(int64) gives
+# INT64_MIN on x86 (the CPU's "integer indefinite") and subtracting (x < 0) wraps that to
+# INT64_MAX for negatives, so those are written out too (the compiled cast of them is
+# undefined). Every wrap case lands in [0, size). Written inline, not as helper calls: the
+# calls cost 1.5x per lookup (measured: Linear, 1024^2 lookups, 100 against 153 M/s).
+
+@compiled.kernel(parallel=True)
+def sample_closest(texels, width, height, s, t, mode_x, mode_y, out):
+    """out[c, k] = texel (i(s[k] W), i(t[k] H)) of texels (H * W, C), wrapped."""
+    ftype = texels.dtype.type
+    wf = ftype(width)
+    hf = ftype(height)
+    nc = texels.shape[1]
+    for k in prange(s.shape[0]):
+        u = s[k] * wf
+        v = t[k] * hf
+        if abs(u) < INT64_RANGE:
+            x = np.int64(u)
+            if u < 0:
+                x -= 1
+        else:
+            x = INT64_MAX if u < 0 else INT64_MIN
+        if abs(v) < INT64_RANGE:
+            y = np.int64(v)
+            if v < 0:
+                y -= 1
+        else:
+            y = INT64_MAX if v < 0 else INT64_MIN
+        if mode_x == REPEAT_POW2:
+            x &= width - 1
+        elif mode_x == REPEAT_MOD:
+            x %= width
+        else:
+            x = min(max(x, 0), width - 1)
+        if mode_y == REPEAT_POW2:
+            y &= height - 1
+        elif mode_y == REPEAT_MOD:
+            y %= height
+        else:
+            y = min(max(y, 0), height - 1)
+        j = y * width + x
+        for c in range(nc):
+            out[c, k] = texels[j, c]
+
+
+@compiled.kernel(parallel=True)
+def sample_linear(texels, width, height, s, t, mode_x, mode_y, out):
+    """out[c, k] = bilinear lookup at (s[k] W - 0.5, t[k] H - 0.5), in image_sampling's order:
+    ((c00 sx + c01 tx) (1 - ty)) + ((c10 sx + c11 tx) ty) with sx = 1 - tx."""
+    ftype = texels.dtype.type
+    wf = ftype(width)
+    hf = ftype(height)
+    half = ftype(0.5)
+    one = ftype(1)
+    nc = texels.shape[1]
+    for k in prange(s.shape[0]):
+        u = s[k] * wf
+        u -= half
+        v = t[k] * hf
+        v -= half
+        if abs(u) < INT64_RANGE:
+            x0 = np.int64(u)
+            if u < 0:
+                x0 -= 1
+        else:
+            x0 = INT64_MAX if u < 0 else INT64_MIN
+        if abs(v) < INT64_RANGE:
+            y0 = np.int64(v)
+            if v < 0:
+                y0 -= 1
+        else:
+            y0 = INT64_MAX if v < 0 else INT64_MIN
+        tx = u - ftype(x0)
+        ty = v - ftype(y0)
+        x1 = INT64_MIN if x0 == INT64_MAX else x0 + 1      # numpy's int64 wrap-around
+        y1 = INT64_MIN if y0 == INT64_MAX else y0 + 1
+        if mode_x == REPEAT_POW2:
+            x0 &= width - 1
+            x1 &= width - 1
+        elif mode_x == REPEAT_MOD:
+            x0 %= width
+            x1 %= width
+        else:
+            x0 = min(max(x0, 0), width - 1)
+            x1 = min(max(x1, 0), width - 1)
+        if mode_y == REPEAT_POW2:
+            y0 &= height - 1
+            y1 &= height - 1
+        elif mode_y == REPEAT_MOD:
+            y0 %= height
+            y1 %= height
+        else:
+            y0 = min(max(y0, 0), height - 1)
+            y1 = min(max(y1, 0), height - 1)
+        y0 *= width
+        y1 *= width
+        sx = one - tx
+        sy = one - ty
+        for c in range(nc):
+            row0 = texels[y0 + x0, c] * sx
+            row0 += texels[y0 + x1, c] * tx
+            row1 = texels[y1 + x0, c] * sx
+            row1 += texels[y1 + x1, c] * tx
+            out[c, k] = row0 * sy + row1 * ty
+
+
+def sample(image, st, interpolation, extension):
+    """image_sampling.sample_image for a float32/float64 image of shape (H, W) or (H, W, C)
+    and st (..., 2) of the image's type, interpolation and extension already checked."""
+    height, width = image.shape[:2]
+    channels = image.shape[2] if image.ndim == 3 else 1
+    texels = np.ascontiguousarray(image).reshape(height * width, channels)
+    lead = st.shape[:-1]
+    s = st[..., 0].reshape(-1)
+    t = st[..., 1].reshape(-1)
+    out = np.empty((channels, s.shape[0]), dtype=image.dtype)
+    run = sample_closest if interpolation == "Closest" else sample_linear
+    run(texels, width, height, s, t, wrap_mode(width, extension), wrap_mode(height, extension), out)
+    if image.ndim == 2:
+        return out[0].reshape(lead)
+    # Channels last as a view: each channel contiguous, as the numpy path returns them.
+    return np.moveaxis(out.reshape((channels,) + lead), 0, -1)
