@@ -10,7 +10,6 @@ side by side (one cache line), instead of the numpy path's channel rows.
 import numpy as np
 
 from . import compiled
-from .compiled import prange
 
 # How an index is brought into [0, size): image_sampling.wrap_texel_index's three cases.
 REPEAT_POW2 = 0     # i & (size - 1)
@@ -35,15 +34,18 @@ def wrap_mode(size, extension):
 # INT64_MAX for negatives, so those are written out too (the compiled cast of them is
 # undefined). Every wrap case lands in [0, size). Written inline, not as helper calls: the
 # calls cost 1.5x per lookup (measured: Linear, 1024^2 lookups, 100 against 153 M/s).
+# Serial loops: blocks of texels already run on all cores (methods.evaluated_blocks), and a
+# parallel loop called from those threads would oversubscribe the cores (or, under numba's
+# workqueue threading layer, abort on concurrent use).
 
-@compiled.kernel(parallel=True)
+@compiled.kernel()
 def sample_closest(texels, width, height, s, t, mode_x, mode_y, out):
     """out[c, k] = texel (i(s[k] W), i(t[k] H)) of texels (H * W, C), wrapped."""
     ftype = texels.dtype.type
     wf = ftype(width)
     hf = ftype(height)
     nc = texels.shape[1]
-    for k in prange(s.shape[0]):
+    for k in range(s.shape[0]):
         u = s[k] * wf
         v = t[k] * hf
         if abs(u) < INT64_RANGE:
@@ -75,7 +77,7 @@ def sample_closest(texels, width, height, s, t, mode_x, mode_y, out):
             out[c, k] = texels[j, c]
 
 
-@compiled.kernel(parallel=True)
+@compiled.kernel()
 def sample_linear(texels, width, height, s, t, mode_x, mode_y, out):
     """out[c, k] = bilinear lookup at (s[k] W - 0.5, t[k] H - 0.5), in image_sampling's order:
     ((c00 sx + c01 tx) (1 - ty)) + ((c10 sx + c11 tx) ty) with sx = 1 - tx."""
@@ -85,7 +87,7 @@ def sample_linear(texels, width, height, s, t, mode_x, mode_y, out):
     half = ftype(0.5)
     one = ftype(1)
     nc = texels.shape[1]
-    for k in prange(s.shape[0]):
+    for k in range(s.shape[0]):
         u = s[k] * wf
         u -= half
         v = t[k] * hf
@@ -152,3 +154,17 @@ def sample(image, st, interpolation, extension):
         return out[0].reshape(lead)
     # Channels last as a view: each channel contiguous, as the numpy path returns them.
     return np.moveaxis(out.reshape((channels,) + lead), 0, -1)
+
+
+def _load():
+    """Load the kernels for the types the reference uses (raster.load_compiled)."""
+    for dtype in (np.float64, np.float32):
+        for shape in ((2, 2), (2, 2, 3)):
+            image = np.zeros(shape, dtype=dtype)
+            for interpolation in ("Closest", "Linear"):
+                for order in "CF":          # st's columns strided or contiguous
+                    st = np.zeros((2, 2), dtype=dtype, order=order)
+                    sample(image, st, interpolation, "REPEAT")
+
+
+compiled.LOADERS.append(_load)
