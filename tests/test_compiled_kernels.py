@@ -153,3 +153,38 @@ def test_compiled_raster_makes_texels_per_block_only(monkeypatch):
     assert "pixel" not in td.__dict__ and "barycentric" not in td.__dict__
     assert np.array_equal(xy, td.pixel) and np.array_equal(pos, td.position)
     assert td.texel_count == len(td.pixel) == int(td.covered.sum())
+
+
+@pytest.mark.parametrize("line", ["5.0", "5.2"])
+@pytest.mark.parametrize("applied", [True, False])
+def test_normal_map_frame_and_colours_match_numpy(monkeypatch, line, applied):
+    """Blender's Normal Map node frame (unit or unnormalised normal, by line), under a sheared
+    non-uniform transform applied to the mesh or not; the node's colour-to-derivative at
+    several strengths and both green conventions; Listing 2 on a colour."""
+    from surfgrad_addon.reference import methods as M
+    shear = np.array([[1.5, 0.3, 0.0, 2.0], [0.0, 0.7, 0.2, -1.0], [0.1, 0.0, 2.5, 0.5],
+                      [0.0, 0.0, 0.0, 1.0]])
+    mesh = R.meshes.torus(segments=20, rings=10, matrix_world=shear)
+    mesh.transform_applied = applied
+
+    def values():
+        td = R.rasterize(mesh, "UVMap", 80, 80, facts=LINES[line])
+        out = []
+        for _, _, block in td.blocks(999):
+            colour = R.sample_image(np.random.default_rng(2).uniform(size=(32, 32, 4)),
+                                    block.uv())
+            out.append([*M.mikktspace_frame(block), block.shading_normal,
+                        M.colour_to_derivative(colour), M.colour_to_derivative(colour, True),
+                        *(M.normal_map_node_derivative(colour, s, dx)
+                          for s in (0.0, 0.3, 1.0, 2.0) for dx in (False, True))])
+        return [np.concatenate(parts) for parts in zip(*out)]
+
+    plain, fast = both(monkeypatch, values)
+    assert len(plain) == 14
+    for k, (a, b) in enumerate(zip(plain, fast)):
+        assert a.shape == b.shape and np.array_equal(a, b), k
+    # The frame is Listing 9's: n unit, t and b scaled by the same 1/|n|.
+    assert np.allclose(np.linalg.norm(plain[0], axis=1), 1.0)
+    # Strength 0 is flat, and the DirectX flip negates the second component only.
+    assert np.array_equal(plain[6], np.zeros_like(plain[6]))
+    assert np.array_equal(plain[10][:, 1], -plain[11][:, 1])

@@ -13,6 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from . import compiled, normal_map_kernels
 from . import listings as L
 from . import decals as D
 from .cycles_bake import bump_differentials, uv_step
@@ -128,12 +129,34 @@ def decode_normal_map(rgb):
     return 2.0 * np.asarray(rgb, dtype=np.float64)[..., :3] - 1.0
 
 
+def _colour_rows(rgb):
+    """A sampled (N, C >= 3) colour as the compiled kernels read it, (C, N) contiguous, or
+    None where they do not apply (other shapes)."""
+    rgb = np.asarray(rgb)
+    if not compiled.enabled() or rgb.ndim != 2 or rgb.shape[1] < 3 or \
+            rgb.dtype not in (np.float32, np.float64):
+        return None
+    return np.ascontiguousarray(rgb.T)
+
+
+def colour_to_derivative(rgb, flip_vertical=False):
+    """Listing 2 on a sampled normal-map colour: tspace_normal_to_derivative(decode(rgb))."""
+    rows = _colour_rows(rgb)
+    if rows is None:
+        return L.tspace_normal_to_derivative(decode_normal_map(rgb), flip_vertical)
+    out = np.empty((2, rows.shape[1]))
+    normal_map_kernels.colour_to_listing2_derivative(rows, -1.0 if flip_vertical else 1.0, out)
+    return out.T
+
+
 def mikktspace_frame(td, uv_map=None):
     """Listing 9's frame (n/|n|, t/|n|, b/|n|) in world space, built as Blender's Normal Map
     node does: tangent, sign and the normal interpolated in object space (the normal
     unnormalised up to 5.0, unit in 5.2: TexelData.normal_map_normal_object),
     b = sign * cross(n, t) there, and all three taken to world space by the normal matrix
     (Cycles combines in object space and transforms the result as a normal)."""
+    if compiled.enabled():
+        return _mikktspace_frame_compiled(td, uv_map)
     t_obj, sign = td.tangent_object(uv_map)
     n_obj = td.normal_map_normal_object
     b_obj = np.asarray(sign)[:, None] * cross(n_obj, t_obj)
@@ -141,6 +164,39 @@ def mikktspace_frame(td, uv_map=None):
     n_w, t_w, b_w = transform(n_obj, nm), transform(t_obj, nm), transform(b_obj, nm)
     renorm = 1.0 / length(n_w)
     return n_w * renorm, t_w * renorm, b_w * renorm
+
+
+def _mikktspace_frame_compiled(td, uv_map=None):
+    """mikktspace_frame in one pass per texel (normal_map_kernels.mikktspace_frame)."""
+    name = uv_map or td.uv_map
+    if name not in td.mesh.tangents:
+        td.tangent_object(name)                 # its KeyError names the fix
+    normals, unit = td.normal_map_normal_corners()
+    nm = np.ascontiguousarray(td.mesh.normal_matrix.T)
+    n = td.texel_count
+    out = [np.empty((3, n)) for _ in range(3)]
+    normal_map_kernels.mikktspace_frame(
+        td.corner_table(td.mesh.tangents[name]), td.corner_table(td.mesh.tangent_signs[name]),
+        td.corner_table(normals), unit, np.ascontiguousarray(td.tri),
+        np.ascontiguousarray(td.barycentric), nm, bool(np.array_equal(nm, np.eye(3))), *out)
+    return tuple(o.T for o in out)
+
+
+def normal_map_node_derivative(rgb, strength=1.0, directx=False):
+    """Eq. 15 on the Normal Map node's colour: decode, the node's Strength
+    (normal_map_strength), -(x, y) / z; y negated for a DirectX map."""
+    rows = _colour_rows(rgb) if np.ndim(strength) == 0 else None
+    if rows is not None:
+        out = np.empty((2, rows.shape[1]))
+        normal_map_kernels.normal_map_node_derivative(
+            rows, float(strength), float(np.clip(strength, 0.0, 1.0)), bool(directx), out)
+        return out.T
+    ms = normal_map_strength(decode_normal_map(rgb), strength)
+    # Eq. 15 on the node's colour: its z is already Listing 2's clamp (and > 0).
+    deriv = -ms[..., :2] / ms[..., 2:3]
+    if directx:
+        deriv[..., 1] *= -1.0
+    return deriv
 
 
 def parallax_offset(td, height, view, bump_scale, steps=8, uv_map=None):
@@ -179,13 +235,9 @@ def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Lin
     directx: the map's green channel points down (DirectX convention; Listing 2's flip)."""
     n_f, t, b = mikktspace_frame(td, uv_map)
     n = unit_base_normal(td)
-    m = decode_normal_map(sample_image(image, td.uv(uv_map) if st is None else st,
-                                       interpolation))
-    ms = normal_map_strength(m, strength)
-    # Eq. 15 on the node's colour: its z is already Listing 2's clamp (and > 0).
-    deriv = -ms[..., :2] / ms[..., 2:3]
-    if directx:
-        deriv[..., 1] *= -1.0
+    deriv = normal_map_node_derivative(
+        sample_image(image, td.uv(uv_map) if st is None else st, interpolation), strength,
+        directx)
     v = normalize(n_f - L.surfgrad_from_tbn(deriv, t, b))
     # Where v faces away from n (strong non-uniform scale) no tangent surface gradient
     # reaches it; n - v still resolves to it.
@@ -198,8 +250,8 @@ def procedural_basis_surfgrad(td, image, uv_map, strength=1.0, interpolation="Li
     n = unit_base_normal(td)
     dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
     t, b = L.gen_basis_tb(n, dpdx, dpdy, dst_dx, dst_dy)
-    m = decode_normal_map(sample_image(image, td.uv(uv_map), interpolation))
-    return n, strength * L.surfgrad_from_tbn(L.tspace_normal_to_derivative(m), t, b)
+    deriv = colour_to_derivative(sample_image(image, td.uv(uv_map), interpolation))
+    return n, strength * L.surfgrad_from_tbn(deriv, t, b)
 
 
 def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
@@ -253,8 +305,9 @@ def triplanar_samples(td, image, scale=1.0, interpolation="Linear"):
     """Derivatives of the three planar projections of a normal map, sampled at world (z, y),
     (x, z) and (x, y) times `scale` (Eq. 19's planes)."""
     p = td.position * scale
-    return [L.tspace_normal_to_derivative(decode_normal_map(
-        sample_image(image, stack_last([p[:, ax[0]], p[:, ax[1]]]), interpolation))) for ax in ((2, 1), (0, 2), (0, 1))]
+    return [colour_to_derivative(sample_image(image, stack_last([p[:, ax[0]], p[:, ax[1]]]),
+                                              interpolation))
+            for ax in ((2, 1), (0, 2), (0, 1))]
 
 
 def triplanar_surfgrad(td, image, scale=1.0, k=3.0, strength=1.0, base_normal=None):
@@ -300,7 +353,7 @@ def decal_surfgrad(td, image, projector, strength=1.0, falloff=0.2, shape="box",
     st = local[:, :2] * 0.5 + 0.5
     # A tangent-space normal map is TBN-style (slopes in its own unit frame), so its
     # derivative goes straight onto the unit projector axes, independent of the box size.
-    deriv = L.tspace_normal_to_derivative(decode_normal_map(sample_image(image, st)))
+    deriv = colour_to_derivative(sample_image(image, st))
     weight = opacity * D.WEIGHTS[shape](local, falloff)
     sg = strength * opacity * D.SURFGRAD_FROM_DECAL[shape](n, deriv, ax, ay, local, falloff)
     base = np.zeros_like(sg) if base_sg is None else base_sg

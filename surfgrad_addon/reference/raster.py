@@ -31,6 +31,7 @@ from functools import cached_property
 import numpy as np
 
 from . import compiled, raster_kernels
+from . import normal_map_kernels, sampling_kernels  # noqa: F401 (their LOADERS)
 from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
 from .vecmath import cross, normalize, transform
 
@@ -271,19 +272,36 @@ class TexelData:
         out += rows[2 * c:] * b[2]
         return out[0] if v.ndim == 2 else out.reshape(v.shape[2:] + (-1,)).T
 
-    def _interpolate_compiled(self, corner_values, v):
-        """_interpolate by raster_kernels.interpolate_corners: one pass per texel over the
-        corners' components (T, 3 * C), held once per bake like the numpy rows."""
+    def corner_table(self, corner_values):
+        """Corner values (T, 3, ...) as the compiled kernels read them, (T, 3 * C) float64,
+        corner by corner: made once per bake and shared by its blocks."""
         key = ("corner_table", id(corner_values))
         held = self._shared.get(key)
         if held is None or held[0] is not corner_values:
+            v = np.asarray(corner_values, dtype=np.float64)
             held = self._shared[key] = (corner_values, np.ascontiguousarray(
                 v.reshape(len(v), -1)))
-        channels = held[1].shape[1] // 3
+        return held[1]
+
+    def _interpolate_compiled(self, corner_values, v):
+        """_interpolate by raster_kernels.interpolate_corners: one pass per texel over the
+        corners' components (T, 3 * C), held once per bake like the numpy rows."""
+        table = self.corner_table(corner_values)
+        channels = table.shape[1] // 3
         out = np.empty((channels, self.texel_count))
-        raster_kernels.interpolate_corners(held[1], np.ascontiguousarray(self.tri),
+        raster_kernels.interpolate_corners(table, np.ascontiguousarray(self.tri),
                                            np.ascontiguousarray(self.barycentric), out)
         return out[0] if v.ndim == 2 else out.reshape(v.shape[2:] + (-1,)).T
+
+    def _interpolate_unit(self, corner_values):
+        """normalize(self._interpolate(corner_values)) for (T, 3, 3) corner vectors."""
+        if not compiled.enabled():
+            return normalize(self._interpolate(corner_values))
+        out = np.empty((3, self.texel_count))
+        raster_kernels.interpolate_corners_unit(
+            self.corner_table(corner_values), np.ascontiguousarray(self.tri),
+            np.ascontiguousarray(self.barycentric), out)
+        return out.T
 
     def per_texel(self, per_triangle):
         """A per-triangle array (T,) or (T, C) at every texel: (N,) or (N, C), each component
@@ -317,15 +335,19 @@ class TexelData:
         shading). Up to 5.0: the unnormalised interpolation of the object's corner normals.
         In 5.2: the stored corner normals (world space and packed when the transform is
         applied) taken back to object space, interpolated and normalised."""
+        corners, unit = self.normal_map_normal_corners()
+        return self._interpolate_unit(corners) if unit else self.normal_object
+
+    def normal_map_normal_corners(self):
+        """The corner normals normal_map_normal_object interpolates (T, 3, 3), and whether
+        it normalises the result (5.2)."""
         if not self.facts.normal_map_unit_normal:
-            return self.normal_object
+            return self.mesh.corner_normals, False
         if self.mesh.transform_applied:
             m3 = np.asarray(self.mesh.matrix_world, dtype=np.float64)[:3, :3]
-            n = self.per_triangle("normal_map_corner_normals",
-                                  lambda: normalize(self._stored_world_normals @ m3))
-        else:
-            n = self._stored_object_normals
-        return normalize(self._interpolate(n))
+            return self.per_triangle("normal_map_corner_normals",
+                                     lambda: normalize(self._stored_world_normals @ m3)), True
+        return self._stored_object_normals, True
 
     @cached_property
     def normal(self):
@@ -338,7 +360,7 @@ class TexelData:
         transform is applied to the mesh (the default), else interpolated in object space and
         then transformed. The two differ only under non-uniform scale."""
         if self.mesh.transform_applied:
-            return normalize(self._interpolate(self._stored_world_normals))
+            return self._interpolate_unit(self._stored_world_normals)
         n = self._interpolate(self._stored_object_normals)
         return normalize(transform(n, self.mesh.normal_matrix.T))
 
@@ -609,7 +631,9 @@ def load_compiled():
                      corner_normals=np.tile([0.0, 0.0, 1.0], (1, 3, 1)),
                      uv_maps={"UV": np.array([[[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]]])})
     td = rasterize(tri, "UV", 4, 4)
-    td.block(0, td.texel_count).position
+    block = td.block(0, td.texel_count)
+    block.position
+    block.shading_normal
     td.pixel
     td.uv()
     for hook in compiled.LOADERS:

@@ -159,3 +159,19 @@ def gather_rows(table, tri, out):
         t = tri[i]
         for c in range(out.shape[0]):
             out[c, i] = table[t, c]
+
+
+@kernel()
+def interpolate_corners_unit(corners, tri, bary, out):
+    """interpolate_corners of (T, 3 * 3) corner vectors, each result divided by its length
+    sqrt((x x + y y) + z z) (vecmath.normalize)."""
+    for i in range(tri.shape[0]):
+        t = tri[i]
+        b0, b1, b2 = bary[i, 0], bary[i, 1], bary[i, 2]
+        x = (corners[t, 0] * b0 + corners[t, 3] * b1) + corners[t, 6] * b2
+        y = (corners[t, 1] * b0 + corners[t, 4] * b1) + corners[t, 7] * b2
+        z = (corners[t, 2] * b0 + corners[t, 5] * b1) + corners[t, 8] * b2
+        length = np.sqrt((x * x + y * y) + z * z)
+        out[0, i] = x / length
+        out[1, i] = y / length
+        out[2, i] = z / length
