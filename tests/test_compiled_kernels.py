@@ -188,3 +188,24 @@ def test_normal_map_frame_and_colours_match_numpy(monkeypatch, line, applied):
     # Strength 0 is flat, and the DirectX flip negates the second component only.
     assert np.array_equal(plain[6], np.zeros_like(plain[6]))
     assert np.array_equal(plain[10][:, 1], -plain[11][:, 1])
+
+
+@pytest.mark.parametrize("steps", [1, 4, 16])
+@pytest.mark.parametrize("shape", [(64, 64), (48, 80)])
+def test_parallax_march_matches_numpy(monkeypatch, steps, shape):
+    """The compiled march against parallax_occlusion_march on Linear lookups: rays that hit
+    at the first sample, cross between steps, never hit, and wrap around the image."""
+    from surfgrad_addon.reference import parallax_kernels
+    rng = np.random.default_rng(steps)
+    image = rng.uniform(size=shape)
+    st = rng.uniform(-1.5, 2.5, size=(3000, 2))
+    v = rng.normal(scale=0.2, size=(3000, 2))
+    v[:100] = 0.0                                   # straight down: hits at once where h = 1
+    monkeypatch.setenv(compiled.ENV, "0")
+    plain = R.parallax_occlusion_march(lambda q: R.sample_image(image, q), st, v, steps)
+    monkeypatch.setenv(compiled.ENV, "1")
+    fast = parallax_kernels.march(image, st, v, steps)
+    assert np.array_equal(plain, fast)
+    hit = np.linalg.norm(plain, axis=1) / np.maximum(np.linalg.norm(v, axis=1), 1e-300)
+    assert 0.0 <= hit.min() and hit.max() <= 1.0 + 1e-12
+    assert (hit[100:] > 0).sum() > 100 and (hit[100:] < 1).sum() > 100

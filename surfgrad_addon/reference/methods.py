@@ -13,7 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import compiled, normal_map_kernels
+from . import compiled, normal_map_kernels, parallax_kernels
 from . import listings as L
 from . import decals as D
 from .cycles_bake import bump_differentials, uv_step
@@ -205,7 +205,12 @@ def parallax_offset(td, height, view, bump_scale, steps=8, uv_map=None):
     n = unit_base_normal(td)
     dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
     v = project_vec_to_texture_space(n, dpdx, dpdy, dst_dx, dst_dy, view, bump_scale)
-    return parallax_occlusion_march(lambda q: sample_image(height, q), td.uv(uv_map), v, steps)
+    st = td.uv(uv_map)
+    height = np.asarray(height)
+    if compiled.enabled() and height.dtype == np.float64 and height.ndim == 2 and \
+            st.dtype == v.dtype == np.float64:
+        return parallax_kernels.march(height, st, v, steps)
+    return parallax_occlusion_march(lambda q: sample_image(height, q), st, v, steps)
 
 
 def normal_map_strength(m, strength):

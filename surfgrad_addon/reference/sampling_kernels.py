@@ -138,6 +138,60 @@ def sample_linear(texels, width, height, s, t, mode_x, mode_y, out):
             out[c, k] = row0 * sy + row1 * ty
 
 
+@compiled.kernel()
+def linear_at(texels, width, height, s, t, mode_x, mode_y, c):
+    """One channel of one Linear lookup, sample_linear's arithmetic for a single point (for
+    loops that sample as they go, such as the parallax march)."""
+    ftype = texels.dtype.type
+    u = s * ftype(width)
+    u -= ftype(0.5)
+    v = t * ftype(height)
+    v -= ftype(0.5)
+    if abs(u) < INT64_RANGE:
+        x0 = np.int64(u)
+        if u < 0:
+            x0 -= 1
+    else:
+        x0 = INT64_MAX if u < 0 else INT64_MIN
+    if abs(v) < INT64_RANGE:
+        y0 = np.int64(v)
+        if v < 0:
+            y0 -= 1
+    else:
+        y0 = INT64_MAX if v < 0 else INT64_MIN
+    tx = u - ftype(x0)
+    ty = v - ftype(y0)
+    x1 = INT64_MIN if x0 == INT64_MAX else x0 + 1
+    y1 = INT64_MIN if y0 == INT64_MAX else y0 + 1
+    if mode_x == REPEAT_POW2:
+        x0 &= width - 1
+        x1 &= width - 1
+    elif mode_x == REPEAT_MOD:
+        x0 %= width
+        x1 %= width
+    else:
+        x0 = min(max(x0, 0), width - 1)
+        x1 = min(max(x1, 0), width - 1)
+    if mode_y == REPEAT_POW2:
+        y0 &= height - 1
+        y1 &= height - 1
+    elif mode_y == REPEAT_MOD:
+        y0 %= height
+        y1 %= height
+    else:
+        y0 = min(max(y0, 0), height - 1)
+        y1 = min(max(y1, 0), height - 1)
+    y0 *= width
+    y1 *= width
+    sx = ftype(1) - tx
+    sy = ftype(1) - ty
+    row0 = texels[y0 + x0, c] * sx
+    row0 += texels[y0 + x1, c] * tx
+    row1 = texels[y1 + x0, c] * sx
+    row1 += texels[y1 + x1, c] * tx
+    return row0 * sy + row1 * ty
+
+
 def sample(image, st, interpolation, extension):
     """image_sampling.sample_image for a float32/float64 image of shape (H, W) or (H, W, C)
     and st (..., 2) of the image's type, interpolation and extension already checked."""
