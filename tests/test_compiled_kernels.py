@@ -209,3 +209,23 @@ def test_parallax_march_matches_numpy(monkeypatch, steps, shape):
     hit = np.linalg.norm(plain, axis=1) / np.maximum(np.linalg.norm(v, axis=1), 1e-300)
     assert 0.0 <= hit.min() and hit.max() <= 1.0 + 1e-12
     assert (hit[100:] > 0).sum() > 100 and (hit[100:] < 1).sum() > 100
+
+
+def test_listing1_resolve_matches_numpy(monkeypatch):
+    """Listing 1's twin: ordinary gradients, ones that cancel n exactly (no direction: n is
+    kept), NaN and infinite gradients (n kept), and huge ones."""
+    from surfgrad_addon.reference import methods as M
+    rng = np.random.default_rng(4)
+    n = rng.normal(size=(4000, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    sg = rng.normal(scale=0.7, size=(4000, 3))
+    sg[:50] = n[:50]
+    sg[50:60] = np.nan
+    sg[60:70] = np.inf
+    sg[70:80] *= 1e300
+    n, sg = np.asfortranarray(n), np.asfortranarray(sg)
+    with np.errstate(over="ignore", invalid="ignore"):     # the numpy path's |1e300|^2
+        plain, fast = both(monkeypatch, lambda: M.resolve((n, sg)))
+    assert np.array_equal(plain, fast)
+    assert np.array_equal(fast[:70], np.concatenate([n[:50], n[50:70]]))
+    assert np.allclose(np.linalg.norm(fast, axis=1), 1.0)

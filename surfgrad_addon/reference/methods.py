@@ -13,7 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import compiled, normal_map_kernels, parallax_kernels
+from . import compiled, listing_kernels, normal_map_kernels, parallax_kernels
 from . import listings as L
 from . import decals as D
 from .cycles_bake import bump_differentials, uv_step
@@ -367,6 +367,10 @@ def decal_surfgrad(td, image, projector, strength=1.0, falloff=0.2, shape="box",
 
 def resolve(n_sg):
     n, sg = n_sg
+    if compiled.enabled() and all(isinstance(a, np.ndarray) and a.dtype == np.float64 and
+                                  a.ndim == 2 and a.shape[1:] == (3,) for a in (n, sg)) \
+            and n.shape == sg.shape:
+        return listing_kernels.resolve(n, sg)
     return L.resolve_normal_from_surface_gradient(n, sg)
 
 

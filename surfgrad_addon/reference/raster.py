@@ -31,7 +31,8 @@ from functools import cached_property
 import numpy as np
 
 from . import compiled, raster_kernels
-from . import normal_map_kernels, parallax_kernels, sampling_kernels  # noqa: F401 (LOADERS)
+from . import (listing_kernels, normal_map_kernels, parallax_kernels,  # noqa: F401
+               sampling_kernels)       # (imported for their compiled.LOADERS)
 from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
 from .vecmath import cross, normalize, transform
 

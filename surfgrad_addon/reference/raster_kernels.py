@@ -87,19 +87,20 @@ def texel_flags(triangle, near, strict, cx, cy, cc, tol, width, row_count, conte
     """Per texel: claimed by two interiors (contested), within rounding of an edge (on_edge:
     claimed within tolerance by two triangles, or its winner's lowest barycentric within the
     winner's tolerance); per row: how many texels are covered."""
-    for f in range(triangle.shape[0]):
-        contested[f] = strict[f] >= 2
-        t = triangle[f]
-        if t < 0:
-            continue
-        x = f % width
-        y = f // width
-        b0 = (cx[0, t] * x + cy[0, t] * y) + cc[0, t]
-        b1 = (cx[1, t] * x + cy[1, t] * y) + cc[1, t]
-        b2 = (cx[2, t] * x + cy[2, t] * y) + cc[2, t]
-        lowest = _minimum(_minimum(b0, b1), b2)
-        on_edge[f] = (near[f] >= 2 and strict[f] < 2) or lowest <= tol[t]
-        row_count[y] += 1
+    for y in range(row_count.shape[0]):
+        row = y * width
+        for x in range(width):
+            f = row + x
+            contested[f] = strict[f] >= 2
+            t = triangle[f]
+            if t < 0:
+                continue
+            b0 = (cx[0, t] * x + cy[0, t] * y) + cc[0, t]
+            b1 = (cx[1, t] * x + cy[1, t] * y) + cc[1, t]
+            b2 = (cx[2, t] * x + cy[2, t] * y) + cc[2, t]
+            lowest = _minimum(_minimum(b0, b1), b2)
+            on_edge[f] = (near[f] >= 2 and strict[f] < 2) or lowest <= tol[t]
+            row_count[y] += 1
 
 
 @kernel()
@@ -112,30 +113,32 @@ def texels_in_range(triangle, row_start, width, start, stop, cx, cy, cc, pixel, 
         return
     y = np.searchsorted(row_start, start, side="right") - 1
     i = row_start[y]
-    for f in range(y * width, triangle.shape[0]):
-        t = triangle[f]
-        if t < 0:
-            continue
-        if i >= start:
-            x = f % width
-            yy = f // width
-            b0 = (cx[0, t] * x + cy[0, t] * yy) + cc[0, t]
-            b1 = (cx[1, t] * x + cy[1, t] * yy) + cc[1, t]
-            b2 = (cx[2, t] * x + cy[2, t] * yy) + cc[2, t]
-            b0 = _clamp_low(b0)
-            b1 = _clamp_low(b1)
-            b2 = _clamp_low(b2)
-            total = (b0 + b1) + b2
-            k = i - start
-            bary[k, 0] = b0 / total
-            bary[k, 1] = b1 / total
-            bary[k, 2] = b2 / total
-            pixel[k, 0] = x
-            pixel[k, 1] = yy
-            tri[k] = t
-        i += 1
-        if i >= stop:
-            return
+    height = row_start.shape[0] - 1
+    while y < height:
+        row = y * width
+        for x in range(width):
+            t = triangle[row + x]
+            if t < 0:
+                continue
+            if i >= start:
+                b0 = (cx[0, t] * x + cy[0, t] * y) + cc[0, t]
+                b1 = (cx[1, t] * x + cy[1, t] * y) + cc[1, t]
+                b2 = (cx[2, t] * x + cy[2, t] * y) + cc[2, t]
+                b0 = _clamp_low(b0)
+                b1 = _clamp_low(b1)
+                b2 = _clamp_low(b2)
+                total = (b0 + b1) + b2
+                k = i - start
+                bary[k, 0] = b0 / total
+                bary[k, 1] = b1 / total
+                bary[k, 2] = b2 / total
+                pixel[k, 0] = x
+                pixel[k, 1] = y
+                tri[k] = t
+            i += 1
+            if i >= stop:
+                return
+        y += 1
 
 
 @kernel()
