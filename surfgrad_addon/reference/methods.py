@@ -45,6 +45,10 @@ def reference_threads():
         raise ValueError(f"SURFGRAD_REFERENCE_THREADS must be a whole number, got {value!r}")
 
 
+# Blocks per thread handed to the pool at once: the threads share them as they finish,
+# then the caller gets them in order (its own work, e.g. compare's, never overlaps theirs).
+WINDOW_BLOCKS = 4
+
 _HEAP_KEPT = []
 
 
@@ -95,7 +99,7 @@ def evaluated_blocks(fn, td, texels=None, threads=None, seconds=None):
             return
         with ThreadPoolExecutor(threads) as pool:
             while True:
-                window = list(itertools.islice(blocks, threads))
+                window = list(itertools.islice(blocks, WINDOW_BLOCKS * threads))
                 if not window:
                     return
                 t0 = time.perf_counter()
