@@ -229,3 +229,29 @@ def test_listing1_resolve_matches_numpy(monkeypatch):
     assert np.array_equal(plain, fast)
     assert np.array_equal(fast[:70], np.concatenate([n[:50], n[50:70]]))
     assert np.allclose(np.linalg.norm(fast, axis=1), 1.0)
+
+
+def test_the_reference_runs_without_numba_and_gives_the_same_normals():
+    """In an interpreter that refuses numba (and bpy), the reference imports, runs its numpy
+    code only, and gives a method's normals equal to the compiled kernels' in this one."""
+    from support.child import NO_BPY, run_python
+    from surfgrad_addon.reference import methods as M
+    code = (NO_BPY.replace("('bpy', 'mathutils', 'bmesh')", "('bpy', 'mathutils', 'bmesh', 'numba')")
+            + "import numpy as np, surfgrad_addon.reference as R\n"
+            "from surfgrad_addon.reference import methods as M\n"
+            "assert not R.compiled.AVAILABLE and 'numba' not in sys.modules\n"
+            "td = R.rasterize(R.meshes.torus(segments=16, rings=8), 'UVMap', 40, 40)\n"
+            "img = np.random.default_rng(1).uniform(size=(16, 16, 4))\n"
+            "out = M.evaluate_in_blocks(lambda b: M.resolve(M.normal_map_surfgrad(b, img)), td, 300)\n"
+            "np.save(sys.argv[1], out)\n")
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        path = f"{tmp}/numpy_only.npy"
+        result = run_python(["-c", code, path], timeout=120)
+        assert result.returncode == 0, result.stderr
+        plain = np.load(path)
+    td = R.rasterize(R.meshes.torus(segments=16, rings=8), "UVMap", 40, 40)
+    img = np.random.default_rng(1).uniform(size=(16, 16, 4))
+    fast = M.evaluate_in_blocks(lambda b: M.resolve(M.normal_map_surfgrad(b, img)), td, 300)
+    assert compiled.enabled() and len(plain) > 500
+    assert np.array_equal(plain, fast)
