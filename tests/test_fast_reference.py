@@ -165,9 +165,28 @@ def test_threaded_blocks_give_the_same_values(monkeypatch):
     one = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(), b)), td, texels=50, threads=1)
     monkeypatch.setenv("SURFGRAD_REFERENCE_THREADS", "3")
     assert M.reference_threads() == 3
-    three = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(), b)), td, texels=50)
+    three = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(), b)), td, texels=50,
+                                 threads=3)
     np.testing.assert_array_equal(one, three)
     seconds = [0.0]
     seen = [v for *_, v in M.evaluated_blocks(lambda b: b.position, td, 50, 2, seconds)]
     np.testing.assert_array_equal(np.concatenate(seen), td.position)
     assert seconds[0] > 0
+
+
+def test_a_small_image_runs_its_blocks_on_the_calling_thread(monkeypatch):
+    """Threads by default only from two windows of blocks on (fewer only contend for the GIL);
+    asked for, they run whatever the size."""
+    import threading
+    td = saved_texels("torus")
+    monkeypatch.setenv("SURFGRAD_REFERENCE_THREADS", "2")
+
+    def where(texels, threads=None):
+        seen = set()
+        M.evaluate_in_blocks(lambda b: seen.add(threading.get_ident()) or b.position, td,
+                             texels=texels, threads=threads)
+        return seen
+    me = {threading.get_ident()}
+    assert where(50) == me                                  # 12 blocks < 2 x 4 x 2
+    assert where(50, threads=2) - me                        # asked for: worker threads
+    assert where(20) - me                                   # 29 blocks: threads by default

@@ -18,6 +18,8 @@ package or in the user's cache directory), so a fresh process loads them in mill
 
 import os
 
+import numpy as np
+
 ENV = "SURFGRAD_REFERENCE_COMPILED"
 
 try:
@@ -50,3 +52,21 @@ def kernel(parallel=False):
 
 # Parallel loops inside kernels (numba resolves the global to its own prange).
 prange = numba.prange if numba is not None else range
+
+
+# Scalar twins of numpy's NaN-propagating minimum and maximum, for the kernels.
+
+@kernel()
+def nan_minimum(a, b):
+    """np.minimum of two scalars: NaN if either is NaN."""
+    if a != a or b != b:
+        return np.nan
+    return a if a <= b else b
+
+
+@kernel()
+def nan_maximum(a, b):
+    """np.maximum of two scalars: NaN if either is NaN."""
+    if a != a or b != b:
+        return np.nan
+    return a if a >= b else b

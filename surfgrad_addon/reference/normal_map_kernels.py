@@ -10,16 +10,9 @@ import numpy as np
 
 from . import compiled
 from .compiled import kernel
+from .compiled import nan_maximum as _maximum
 
 TINY = np.finfo(np.float64).tiny
-
-
-@kernel()
-def _maximum(a, b):
-    """np.maximum: NaN if either is NaN."""
-    if a != a or b != b:
-        return np.nan
-    return a if a >= b else b
 
 
 @kernel()

@@ -9,22 +9,8 @@ serial and release the GIL (nogil) rather than start threads of their own.
 import numpy as np
 
 from .compiled import kernel
-
-
-@kernel()
-def _minimum(a, b):
-    """np.minimum: NaN if either is NaN."""
-    if a != a or b != b:
-        return np.nan
-    return a if a <= b else b
-
-
-@kernel()
-def _maximum(a, b):
-    """np.maximum: NaN if either is NaN."""
-    if a != a or b != b:
-        return np.nan
-    return a if a >= b else b
+from .compiled import nan_maximum as _maximum
+from .compiled import nan_minimum as _minimum
 
 
 @kernel()

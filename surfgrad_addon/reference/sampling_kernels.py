@@ -28,15 +28,52 @@ def wrap_mode(size, extension):
     return EXTEND
 
 
-# Both kernels spell out, per axis, image_sampling's cycles_int_part and wrap_texel_index:
-# i = trunc(x) - (x < 0); for NaN, +-inf and |x| >= 2**63 numpy's astype(int64) gives
-# INT64_MIN on x86 (the CPU's "integer indefinite") and subtracting (x < 0) wraps that to
-# INT64_MAX for negatives, so those are written out too (the compiled cast of them is
-# undefined). Every wrap case lands in [0, size). Written inline, not as helper calls: the
-# calls cost 1.5x per lookup (measured: Linear, 1024^2 lookups, 100 against 153 M/s).
-# Serial loops: blocks of texels already run on all cores (methods.evaluated_blocks), and a
-# parallel loop called from those threads would oversubscribe the cores (or, under numba's
-# workqueue threading layer, abort on concurrent use).
+# Per axis, image_sampling's cycles_int_part and wrap_texel_index: i = trunc(x) - (x < 0);
+# for NaN, +-inf and |x| >= 2**63 numpy's astype(int64) gives INT64_MIN on x86 (the CPU's
+# "integer indefinite") and subtracting (x < 0) wraps that to INT64_MAX for negatives, so those
+# are written out too (the compiled cast of them is undefined). Every wrap case lands in
+# [0, size). Serial loops: blocks of texels already run on all cores
+# (methods.evaluated_blocks), and a parallel loop called from those threads would
+# oversubscribe the cores (or, under numba's workqueue threading layer, abort on concurrent
+# use).
+
+@compiled.kernel()
+def _int_part(x):
+    """cycles_int_part of one value, with numpy's int64 results for the values it cannot cast."""
+    if abs(x) < INT64_RANGE:
+        i = np.int64(x)
+        return i - 1 if x < 0 else i
+    return INT64_MAX if x < 0 else INT64_MIN
+
+
+@compiled.kernel()
+def _wrap(i, size, mode):
+    """wrap_texel_index of one index: REPEAT on a power of two, REPEAT, EXTEND."""
+    if mode == REPEAT_POW2:
+        return i & (size - 1)
+    if mode == REPEAT_MOD:
+        return i % size             # numba keeps Python's sign rule: non-negative
+    return min(max(i, 0), size - 1)
+
+
+@compiled.kernel()
+def _linear_taps(width, height, s, t, mode_x, mode_y, ftype):
+    """A Linear lookup's four texels (flat indices) and weights sx, tx, sy, ty at (s W - 0.5,
+    t H - 0.5), in the image's float type, as image_sampling computes them."""
+    u = s * ftype(width)
+    u -= ftype(0.5)
+    v = t * ftype(height)
+    v -= ftype(0.5)
+    x0 = _int_part(u)
+    y0 = _int_part(v)
+    tx = u - ftype(x0)
+    ty = v - ftype(y0)
+    x1 = _wrap(INT64_MIN if x0 == INT64_MAX else x0 + 1, width, mode_x)  # numpy's int64 wrap
+    y1 = _wrap(INT64_MIN if y0 == INT64_MAX else y0 + 1, height, mode_y) * width
+    x0 = _wrap(x0, width, mode_x)
+    y0 = _wrap(y0, height, mode_y) * width
+    return y0 + x0, y0 + x1, y1 + x0, y1 + x1, ftype(1) - tx, tx, ftype(1) - ty, ty
+
 
 @compiled.kernel()
 def sample_closest(texels, width, height, s, t, mode_x, mode_y, out):
@@ -44,36 +81,10 @@ def sample_closest(texels, width, height, s, t, mode_x, mode_y, out):
     ftype = texels.dtype.type
     wf = ftype(width)
     hf = ftype(height)
-    nc = texels.shape[1]
     for k in range(s.shape[0]):
-        u = s[k] * wf
-        v = t[k] * hf
-        if abs(u) < INT64_RANGE:
-            x = np.int64(u)
-            if u < 0:
-                x -= 1
-        else:
-            x = INT64_MAX if u < 0 else INT64_MIN
-        if abs(v) < INT64_RANGE:
-            y = np.int64(v)
-            if v < 0:
-                y -= 1
-        else:
-            y = INT64_MAX if v < 0 else INT64_MIN
-        if mode_x == REPEAT_POW2:
-            x &= width - 1
-        elif mode_x == REPEAT_MOD:
-            x %= width
-        else:
-            x = min(max(x, 0), width - 1)
-        if mode_y == REPEAT_POW2:
-            y &= height - 1
-        elif mode_y == REPEAT_MOD:
-            y %= height
-        else:
-            y = min(max(y, 0), height - 1)
-        j = y * width + x
-        for c in range(nc):
+        j = _wrap(_int_part(t[k] * hf), height, mode_y) * width + \
+            _wrap(_int_part(s[k] * wf), width, mode_x)
+        for c in range(texels.shape[1]):
             out[c, k] = texels[j, c]
 
 
@@ -82,113 +93,27 @@ def sample_linear(texels, width, height, s, t, mode_x, mode_y, out):
     """out[c, k] = bilinear lookup at (s[k] W - 0.5, t[k] H - 0.5), in image_sampling's order:
     ((c00 sx + c01 tx) (1 - ty)) + ((c10 sx + c11 tx) ty) with sx = 1 - tx."""
     ftype = texels.dtype.type
-    wf = ftype(width)
-    hf = ftype(height)
-    half = ftype(0.5)
-    one = ftype(1)
-    nc = texels.shape[1]
     for k in range(s.shape[0]):
-        u = s[k] * wf
-        u -= half
-        v = t[k] * hf
-        v -= half
-        if abs(u) < INT64_RANGE:
-            x0 = np.int64(u)
-            if u < 0:
-                x0 -= 1
-        else:
-            x0 = INT64_MAX if u < 0 else INT64_MIN
-        if abs(v) < INT64_RANGE:
-            y0 = np.int64(v)
-            if v < 0:
-                y0 -= 1
-        else:
-            y0 = INT64_MAX if v < 0 else INT64_MIN
-        tx = u - ftype(x0)
-        ty = v - ftype(y0)
-        x1 = INT64_MIN if x0 == INT64_MAX else x0 + 1      # numpy's int64 wrap-around
-        y1 = INT64_MIN if y0 == INT64_MAX else y0 + 1
-        if mode_x == REPEAT_POW2:
-            x0 &= width - 1
-            x1 &= width - 1
-        elif mode_x == REPEAT_MOD:
-            x0 %= width
-            x1 %= width
-        else:
-            x0 = min(max(x0, 0), width - 1)
-            x1 = min(max(x1, 0), width - 1)
-        if mode_y == REPEAT_POW2:
-            y0 &= height - 1
-            y1 &= height - 1
-        elif mode_y == REPEAT_MOD:
-            y0 %= height
-            y1 %= height
-        else:
-            y0 = min(max(y0, 0), height - 1)
-            y1 = min(max(y1, 0), height - 1)
-        y0 *= width
-        y1 *= width
-        sx = one - tx
-        sy = one - ty
-        for c in range(nc):
-            row0 = texels[y0 + x0, c] * sx
-            row0 += texels[y0 + x1, c] * tx
-            row1 = texels[y1 + x0, c] * sx
-            row1 += texels[y1 + x1, c] * tx
+        j00, j01, j10, j11, sx, tx, sy, ty = _linear_taps(width, height, s[k], t[k], mode_x,
+                                                          mode_y, ftype)
+        for c in range(texels.shape[1]):
+            row0 = texels[j00, c] * sx
+            row0 += texels[j01, c] * tx
+            row1 = texels[j10, c] * sx
+            row1 += texels[j11, c] * tx
             out[c, k] = row0 * sy + row1 * ty
 
 
 @compiled.kernel()
 def linear_at(texels, width, height, s, t, mode_x, mode_y, c):
-    """One channel of one Linear lookup, sample_linear's arithmetic for a single point (for
-    loops that sample as they go, such as the parallax march)."""
-    ftype = texels.dtype.type
-    u = s * ftype(width)
-    u -= ftype(0.5)
-    v = t * ftype(height)
-    v -= ftype(0.5)
-    if abs(u) < INT64_RANGE:
-        x0 = np.int64(u)
-        if u < 0:
-            x0 -= 1
-    else:
-        x0 = INT64_MAX if u < 0 else INT64_MIN
-    if abs(v) < INT64_RANGE:
-        y0 = np.int64(v)
-        if v < 0:
-            y0 -= 1
-    else:
-        y0 = INT64_MAX if v < 0 else INT64_MIN
-    tx = u - ftype(x0)
-    ty = v - ftype(y0)
-    x1 = INT64_MIN if x0 == INT64_MAX else x0 + 1
-    y1 = INT64_MIN if y0 == INT64_MAX else y0 + 1
-    if mode_x == REPEAT_POW2:
-        x0 &= width - 1
-        x1 &= width - 1
-    elif mode_x == REPEAT_MOD:
-        x0 %= width
-        x1 %= width
-    else:
-        x0 = min(max(x0, 0), width - 1)
-        x1 = min(max(x1, 0), width - 1)
-    if mode_y == REPEAT_POW2:
-        y0 &= height - 1
-        y1 &= height - 1
-    elif mode_y == REPEAT_MOD:
-        y0 %= height
-        y1 %= height
-    else:
-        y0 = min(max(y0, 0), height - 1)
-        y1 = min(max(y1, 0), height - 1)
-    y0 *= width
-    y1 *= width
-    sx = ftype(1) - tx
-    sy = ftype(1) - ty
-    row0 = texels[y0 + x0, c] * sx
-    row0 += texels[y0 + x1, c] * tx
-    row1 = texels[y1 + x0, c] * sx
-    row1 += texels[y1 + x1, c] * tx
+    """One channel of one Linear lookup (sample_linear for a single point, for loops that
+    sample as they go, such as the parallax march)."""
+    j00, j01, j10, j11, sx, tx, sy, ty = _linear_taps(width, height, s, t, mode_x, mode_y,
+                                                      texels.dtype.type)
+    row0 = texels[j00, c] * sx
+    row0 += texels[j01, c] * tx
+    row1 = texels[j10, c] * sx
+    row1 += texels[j11, c] * tx
     return row0 * sy + row1 * ty
 
 
