@@ -255,3 +255,29 @@ def test_the_reference_runs_without_numba_and_gives_the_same_normals():
     fast = M.evaluate_in_blocks(lambda b: M.resolve(M.normal_map_surfgrad(b, img)), td, 300)
     assert compiled.enabled() and len(plain) > 500
     assert np.array_equal(plain, fast)
+
+
+def test_normal_map_reach_matches_the_listings():
+    """normal_map_kernels.reach_normal against Listings 3 and 5 in numpy, with texels whose
+    target faces away from the base normal (n - v there) and degenerate ones."""
+    from surfgrad_addon.reference import listings as L, normal_map_kernels, vecmath as V
+    rng = np.random.default_rng(11)
+    count = 5000
+    unit = lambda v: v / np.linalg.norm(v, axis=1, keepdims=True)     # noqa: E731
+    n_f, n = unit(rng.normal(size=(count, 3))), unit(rng.normal(size=(count, 3)))
+    t, b = rng.normal(size=(count, 3)) * 0.7, rng.normal(size=(count, 3)) * 0.7
+    deriv = rng.normal(size=(count, 2)) * 2.0
+    n[:300] = n_f[:300]                              # the usual case: same normal
+    deriv[:50] = 0.0
+    n_f, n, t, b, deriv = (np.asfortranarray(a) for a in (n_f, n, t, b, deriv))
+    v = V.normalize(n_f - L.surfgrad_from_tbn(deriv, t, b))
+    want = np.where(V.dot(n, v) < V.FLT_EPSILON, n - v, L.surfgrad_from_perturbed_normal(n, v))
+    out = np.empty((3, count))
+    normal_map_kernels.reach_normal(*(np.ascontiguousarray(a.T) for a in (n_f, t, b, deriv, n)),
+                                    out)
+    assert np.array_equal(out.T, want)
+    away = (V.dot(n, v) < V.FLT_EPSILON)[:, 0]
+    assert 1000 < away.sum() < 4500                  # both branches taken
+    # Resolved against n, it lands on v (Listing 5's point), where v is not away.
+    resolved = L.resolve_normal_from_surface_gradient(n, out.T)
+    assert np.allclose(resolved[~away], v[~away], atol=1e-9)

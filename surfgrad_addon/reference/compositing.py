@@ -11,7 +11,7 @@ import numpy as np
 
 from .listings import (resolve_normal_from_surface_gradient, surfgrad_from_tbn,
                        tspace_normal_to_derivative)
-from .vecmath import as_float, normalize
+from .vecmath import as_float, dot, normalize
 
 
 def _xyz(x, y, z):
@@ -43,7 +43,7 @@ def blend_rnm(a, b):
     a, b = as_float(a, b)
     ap = _xyz(a[..., 0], a[..., 1], a[..., 2] + 1)
     bp = _xyz(-b[..., 0], -b[..., 1], b[..., 2])
-    m = ap * (np.sum(ap * bp, axis=-1, keepdims=True) / ap[..., 2:3]) - bp
+    m = ap * (dot(ap, bp) / ap[..., 2:3]) - bp
     return normalize(m)
 
 

@@ -252,6 +252,12 @@ def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Lin
     deriv = normal_map_node_derivative(
         sample_image(image, td.uv(uv_map) if st is None else st, interpolation), strength,
         directx)
+    if compiled.enabled() and all(a.dtype == np.float64 and a.ndim == 2
+                                  for a in (n_f, t, b, deriv, n)):
+        out = np.empty((3, len(n)))
+        normal_map_kernels.reach_normal(*(np.ascontiguousarray(a.T) for a in (n_f, t, b, deriv, n)),
+                                        out)
+        return n, out.T
     v = normalize(n_f - L.surfgrad_from_tbn(deriv, t, b))
     # Where v faces away from n (strong non-uniform scale) no tangent surface gradient
     # reaches it; n - v still resolves to it.

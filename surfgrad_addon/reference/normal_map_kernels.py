@@ -13,6 +13,7 @@ from .compiled import kernel
 from .compiled import nan_maximum as _maximum
 
 TINY = np.finfo(np.float64).tiny
+FLT_EPSILON = 1.192092896e-07          # vecmath.FLT_EPSILON (Listings 5 and 10)
 
 
 @kernel()
@@ -92,6 +93,29 @@ def colour_to_listing2_derivative(rgb, sign, out):
         out[1, i] = -(sign * my) / z
 
 
+@kernel()
+def reach_normal(n_f, t, b, deriv, n, out):
+    """normal_map_surfgrad's last steps per texel: v = normalize(n_f - (d.x t + d.y b))
+    (Listing 3 on the node's frame), then the surface gradient that resolves to v against n:
+    Listing 5, or n - v where v faces away from n (n.v < FLT_EPSILON). Rows (3, N)."""
+    for i in range(n.shape[1]):
+        d0, d1 = deriv[0, i], deriv[1, i]
+        wx = n_f[0, i] - (d0 * t[0, i] + d1 * b[0, i])
+        wy = n_f[1, i] - (d0 * t[1, i] + d1 * b[1, i])
+        wz = n_f[2, i] - (d0 * t[2, i] + d1 * b[2, i])
+        length = np.sqrt((wx * wx + wy * wy) + wz * wz)
+        vx, vy, vz = wx / length, wy / length, wz / length
+        nx, ny, nz = n[0, i], n[1, i], n[2, i]
+        k = (nx * vx + ny * vy) + nz * vz
+        if k < FLT_EPSILON:
+            out[0, i], out[1, i], out[2, i] = nx - vx, ny - vy, nz - vz
+        else:
+            scale = _maximum(FLT_EPSILON, abs(k))
+            out[0, i] = (k * nx - vx) / scale
+            out[1, i] = (k * ny - vy) / scale
+            out[2, i] = (k * nz - vz) / scale
+
+
 def _load():
     """Load the kernels for the types the reference uses (raster.load_compiled)."""
     tables = np.zeros((1, 9)), np.ones((1, 3)), np.tile([0.0, 0.0, 1.0], 3)[None]
@@ -105,6 +129,8 @@ def _load():
         for flip in (False, True):
             normal_map_node_derivative(rows, 1.0, 1.0, flip, np.empty((2, 1)))
         colour_to_listing2_derivative(rows, 1.0, np.empty((2, 1)))
+    reach_normal(*(np.ones((3, 1)) for _ in range(3)), np.ones((2, 1)), np.ones((3, 1)),
+                 np.empty((3, 1)))
 
 
 compiled.LOADERS.append(_load)
