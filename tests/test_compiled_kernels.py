@@ -281,3 +281,21 @@ def test_normal_map_reach_matches_the_listings():
     # Resolved against n, it lands on v (Listing 5's point), where v is not away.
     resolved = L.resolve_normal_from_surface_gradient(n, out.T)
     assert np.allclose(resolved[~away], v[~away], atol=1e-9)
+
+
+@pytest.mark.parametrize("shape", [(64, 64), (48, 80)])
+@pytest.mark.parametrize("lod", [0.0, 1.0])
+@pytest.mark.parametrize("extension", ["REPEAT", "EXTEND"])
+def test_three_tap_height_derivative_matches_numpy(monkeypatch, shape, lod, extension):
+    """Listing 16's plain branch (three taps) compiled against its numpy code, points inside,
+    on and far outside the image; and it is the derivative of a plane image exactly."""
+    rng = np.random.default_rng(3)
+    image = rng.uniform(size=shape)
+    st = np.asfortranarray(rng.uniform(-1.5, 2.5, size=(4000, 2)))
+    plain, fast = both(monkeypatch, lambda: R.deriv_from_height_map(
+        image, st, lod=lod, extension=extension))
+    assert plain.shape == fast.shape == (4000, 2) and np.array_equal(plain, fast)
+    ramp = np.add.outer(np.arange(shape[0]) * 0.25, np.arange(shape[1]) * 0.5)
+    inside = np.asfortranarray(rng.uniform(0.3, 0.6, size=(500, 2)))
+    slope = R.deriv_from_height_map(ramp, inside, lod=lod, extension=extension)
+    assert np.allclose(slope, [0.5, 0.25])          # per texel of level 0, u then v

@@ -40,13 +40,15 @@ def enabled():
     return AVAILABLE and os.environ.get(ENV, "1").strip() != "0"
 
 
-def kernel(parallel=False):
+def kernel(parallel=False, inline=False):
     """Decorator: numba.njit with the numpy error model (0/0 gives NaN as numpy does, not an
-    exception) and the disk cache; without numba the plain function, never called."""
+    exception) and the disk cache; without numba the plain function, never called. inline:
+    a small helper compiled into each caller (numba's inline="always")."""
     def wrap(fn):
         if numba is None:
             return fn
-        return numba.njit(cache=True, nogil=True, parallel=parallel, error_model="numpy")(fn)
+        return numba.njit(cache=True, nogil=True, parallel=parallel, error_model="numpy",
+                          inline="always" if inline else "never")(fn)
     return wrap
 
 

@@ -7,6 +7,7 @@ and the HQ fade of Listing 16, as CalculateLevelOfDetail() would.
 
 import numpy as np
 
+from . import compiled, height_map_kernels
 from .image_sampling import sample_image, wrap_texel_index
 from .vecmath import as_float, saturate, stack_last
 
@@ -86,6 +87,11 @@ def deriv_from_height_map(height, st, hq=False, lod=0.0, interpolation="Linear",
     if height.dtype != st.dtype:
         height = _converted(height, st.dtype)
     h, w = height.shape
+    mix = min(max((lod - 0.5) / (0.05 - 0.5), 0.0), 1.0)
+    if compiled.enabled() and height.dtype == st.dtype == np.float64 and st.ndim == 2 and \
+            interpolation == "Linear" and extension in ("REPEAT", "EXTEND") and \
+            not (hq and mix > 0.0):
+        return height_map_kernels.derivative(height, st, lod, extension)
     eoffs = 2.0 ** lod
     offs_u = np.asarray([eoffs / w, 0.0], dtype=st.dtype)
     offs_v = np.asarray([0.0, eoffs / h], dtype=st.dtype)
@@ -93,7 +99,6 @@ def deriv_from_height_map(height, st, hq=False, lod=0.0, interpolation="Linear",
     h_r = sample_image(height, st + offs_u, interpolation, extension)
     h_u = sample_image(height, st + offs_v, interpolation, extension)
     deriv = stack_last([h_r - h_c, h_u - h_c]) / eoffs
-    mix = min(max((lod - 0.5) / (0.05 - 0.5), 0.0), 1.0)
     if hq and mix > 0.0:
         deriv = deriv + (_hq_derivative(height, st, extension) - deriv) * mix
     return deriv

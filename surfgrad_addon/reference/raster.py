@@ -31,8 +31,9 @@ from functools import cached_property
 import numpy as np
 
 from . import compiled, raster_kernels
-from . import (listing_kernels, normal_map_kernels, parallax_kernels,  # noqa: F401
-               sampling_kernels)       # (imported for their compiled.LOADERS)
+# The kernel modules, imported for their compiled.LOADERS (load_compiled runs them).
+from . import (height_map_kernels, listing_kernels, normal_map_kernels,  # noqa: F401
+               parallax_kernels, sampling_kernels)
 from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
 from .vecmath import cross, normalize, transform
 

@@ -37,7 +37,7 @@ def wrap_mode(size, extension):
 # oversubscribe the cores (or, under numba's workqueue threading layer, abort on concurrent
 # use).
 
-@compiled.kernel()
+@compiled.kernel(inline=True)
 def _int_part(x):
     """cycles_int_part of one value, with numpy's int64 results for the values it cannot cast."""
     if abs(x) < INT64_RANGE:
@@ -46,7 +46,7 @@ def _int_part(x):
     return INT64_MAX if x < 0 else INT64_MIN
 
 
-@compiled.kernel()
+@compiled.kernel(inline=True)
 def _wrap(i, size, mode):
     """wrap_texel_index of one index: REPEAT on a power of two, REPEAT, EXTEND."""
     if mode == REPEAT_POW2:
@@ -56,7 +56,7 @@ def _wrap(i, size, mode):
     return min(max(i, 0), size - 1)
 
 
-@compiled.kernel()
+@compiled.kernel(inline=True)
 def _linear_taps(width, height, s, t, mode_x, mode_y, ftype):
     """A Linear lookup's four texels (flat indices) and weights sx, tx, sy, ty at (s W - 0.5,
     t H - 0.5), in the image's float type, as image_sampling computes them."""
@@ -104,7 +104,7 @@ def sample_linear(texels, width, height, s, t, mode_x, mode_y, out):
             out[c, k] = row0 * sy + row1 * ty
 
 
-@compiled.kernel()
+@compiled.kernel(inline=True)
 def linear_at(texels, width, height, s, t, mode_x, mode_y, c):
     """One channel of one Linear lookup (sample_linear for a single point, for loops that
     sample as they go, such as the parallax march)."""
