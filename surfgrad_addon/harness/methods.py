@@ -280,15 +280,20 @@ PARALLAX_SCALE = 0.15
 VIEW_TILT = (0.45, -0.3, 0.2)      # view = normalize(n + VIEW_TILT): oblique, front-facing
 
 
-def _parallax_graph(inp, nodes, links):
-    par = group_node(nodes, G.parallax_group(inp.bpy_image("height")))
-    links.new(uv_node(nodes, inp.uv_map), par.inputs["UV"])
+def _normal_map_at_parallax(inp, nodes, links, par):
+    """A parallax group's view and scale set, and SG Normal Map read at its offset UV."""
     links.new(_parallax_view(nodes, links), par.inputs["View"])
     par.inputs["Bump Scale"].default_value = PARALLAX_SCALE
     color = image_node(nodes, links, inp.bpy_image("normal"), par.outputs["UV"])
     nm = group_node(nodes, G.normal_map_group(inp.uv_map))
     links.new(color, nm.inputs["Color"])
     return nm.outputs["Surface Gradient"]
+
+
+def _parallax_graph(inp, nodes, links):
+    par = group_node(nodes, G.parallax_group(inp.bpy_image("height")))
+    links.new(uv_node(nodes, inp.uv_map), par.inputs["UV"])
+    return _normal_map_at_parallax(inp, nodes, links, par)
 
 
 def _parallax_reference(inp, td):
@@ -355,12 +360,7 @@ def _parallax_sampler_graph(inp, nodes, links):
     par = group_node(nodes, G.parallax_sampler_group())
     links.new(sampler_socket(nodes, links, inp.bpy_image("height")), par.inputs["Sampler"])
     links.new(uv_node(nodes, inp.uv_map), par.inputs["UV"])
-    links.new(_parallax_view(nodes, links), par.inputs["View"])
-    par.inputs["Bump Scale"].default_value = PARALLAX_SCALE
-    color = image_node(nodes, links, inp.bpy_image("normal"), par.outputs["UV"])
-    nm = group_node(nodes, G.normal_map_group(inp.uv_map))
-    links.new(color, nm.inputs["Color"])
-    return nm.outputs["Surface Gradient"]
+    return _normal_map_at_parallax(inp, nodes, links, par)
 
 
 def _post_resolve_graph(inp, nodes, links):

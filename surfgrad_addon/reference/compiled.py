@@ -9,8 +9,9 @@ numba to import or to give an answer.
 Why compiled loops: a numpy expression is one pass over memory per operation; the
 rasteriser's scan conversion, the corner-attribute gathers and the image lookups are
 gathers and scatters whose temporaries cost more than their arithmetic (README,
-Performance). A kernel does each in one pass, and `prange` spreads it over the cores the
-way Cycles' bake spreads its own.
+Performance). A kernel does each in one pass; kernels are serial and release the GIL, and
+the blocks they run on spread over the cores (methods.evaluated_blocks), as Cycles' bake
+spreads its own.
 
 Kernels are compiled once per machine and cached on disk (numba's cache=True, next to this
 package or in the user's cache directory), so a fresh process loads them in milliseconds.
@@ -40,20 +41,17 @@ def enabled():
     return AVAILABLE and os.environ.get(ENV, "1").strip() != "0"
 
 
-def kernel(parallel=False, inline=False):
+def kernel(inline=False):
     """Decorator: numba.njit with the numpy error model (0/0 gives NaN as numpy does, not an
     exception) and the disk cache; without numba the plain function, never called. inline:
     a small helper compiled into each caller (numba's inline="always")."""
     def wrap(fn):
         if numba is None:
             return fn
-        return numba.njit(cache=True, nogil=True, parallel=parallel, error_model="numpy",
+        return numba.njit(cache=True, nogil=True, error_model="numpy",
                           inline="always" if inline else "never")(fn)
     return wrap
 
-
-# Parallel loops inside kernels (numba resolves the global to its own prange).
-prange = numba.prange if numba is not None else range
 
 
 # Scalar twins of numpy's NaN-propagating minimum and maximum, for the kernels.

@@ -7,7 +7,7 @@ from . import common
 from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, images_stale, normal_input,
                      scaled_position_inputs, sub_group, surfgrad_reaching, texel_count_inputs,
                      uv_gradients_group, uv_input)
-from .projection import triplanar_surface_gradient, triplanar_weights
+from .projection import sharpness_input, triplanar_surface_gradient, triplanar_weights
 
 
 def height_image_node(b, image, vector, interpolation, extension):
@@ -191,8 +191,7 @@ def bump_strength_group():
 def _triplanar_height_body(b, taps_for, sizes):
     n = normal_input(b)
     p, scale = scaled_position_inputs(b, "Where to project from (unlinked: world position)")
-    k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
-                min_value=1.0, max_value=64.0)
+    k = sharpness_input(b)
     bump = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
                    default=0.05, min_value=-1000.0, max_value=1000.0)
     plane_taps = taps_for(b)

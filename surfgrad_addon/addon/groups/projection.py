@@ -8,6 +8,18 @@ from .common import (SamplerTaps, decode_tangent_normal, directx_input, normal_i
                      object_position, require, scaled_position_inputs)
 
 
+def sharpness_input(b):
+    """The Sharpness socket of the triplanar groups: Listing 14's k."""
+    return b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
+                   min_value=1.0, max_value=64.0)
+
+
+def triplanar_blend_inputs(b):
+    """Sharpness and Strength, the triplanar normal-map groups' last two inputs."""
+    return sharpness_input(b), b.input("Strength", "FLOAT", "Bump scale", default=1.0,
+                                       min_value=-10.0, max_value=10.0)
+
+
 def triplanar_weights(b, n, k):
     """Listing 14: w = max(|n| - 0.2, 0)^k, normalised; returns the three weight sockets."""
     with b.frame("Listing 14: w = max(|n| - 0.2, 0)^k, normalised"):
@@ -55,10 +67,7 @@ def triplanar_group():
         cz = b.input("Color Z", "COLOR", "Tangent-space normal map sampled at UV Z",
                      default=(0.5, 0.5, 1.0, 1.0))
         directx = directx_input(b)
-        k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
-                    min_value=1.0, max_value=64.0)
-        strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
-                           max_value=10.0)
+        k, strength = triplanar_blend_inputs(b)
         weights = triplanar_weights(b, n, k)
         with b.frame("Listing 2 per plane"):
             derivs = [decode_tangent_normal(b, c, directx) for c in (cx, cy, cz)]
@@ -81,10 +90,7 @@ def triplanar_sampler_group():
         p, _ = scaled_position_inputs(b, "Where to project from (unlinked: world position)")
         taps = SamplerTaps(b)
         directx = directx_input(b)
-        k = b.input("Sharpness", "FLOAT", "Blend sharpness k of Listing 14", default=3.0,
-                    min_value=1.0, max_value=64.0)
-        strength = b.input("Strength", "FLOAT", "Bump scale", default=1.0, min_value=-10.0,
-                           max_value=10.0)
+        k, strength = triplanar_blend_inputs(b)
         weights = triplanar_weights(b, n, k)
         with b.frame("Eq. 19 planes: X samples (z, y), Y (x, z), Z (x, y); Listing 2 each"):
             x, y, z = b.separate(p)
