@@ -62,14 +62,23 @@ def add_layer_stack(material, uv_map=""):
 
 
 def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
-                    overwrite=False, log=print, samples=1, depth=None, tiles=None):
+                    overwrite=False, log=print, samples=1, depth=None, tiles=None,
+                    allow_partial=False):
     """Bake obj's own materials into a tangent- or object-space normal map (.png or .exr),
     restoring every setting it touches. With <UDIM> in the output name: one file per tile that
     holds UVs (or per tile of `tiles`). samples: per texel (anti-aliasing); depth: '8'/'16'
-    (PNG), 'half'/'float' (EXR). Returns the written path (the name with <UDIM> for tiles)."""
-    from .addon.normal_bake import bake_normal_map as bake
-    return bake(obj, output, space, resolution, uv_map, margin, samples, overwrite=overwrite,
-                log=log, depth=depth, tiles=tiles)
+    (PNG), 'half'/'float' (EXR); allow_partial: bake a layout with faces outside the UDIM
+    range (warned on stderr) instead of refusing it. The request is checked first
+    (addon/bake_request.py): a BakeRequestError (a ValueError) names every problem, and
+    nothing is written. Returns the written path (the name with <UDIM> for tiles)."""
+    from pathlib import Path
+    from .addon.bake_request import BakeRequest, bake
+    if obj is None or not hasattr(obj, "name"):
+        raise ValueError("give a mesh object to bake")
+    request = BakeRequest(obj.name, str(output), space, resolution, uv_map, margin, samples,
+                          depth, tiles, overwrite=overwrite, allow_partial=allow_partial)
+    bake(request, obj=obj, log=log)
+    return Path(output)
 
 
 def bake_batch(blends=None, output="{file}_{object}.<UDIM>.png", objects=None,

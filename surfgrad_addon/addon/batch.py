@@ -29,11 +29,14 @@ import threading
 import time
 from pathlib import Path
 
+from ..reference import tiles as T
+from . import bake_request as BR
 from . import normal_bake as NB
 
-SETTING_KEYS = ("uv_map", "space", "resolution", "samples", "margin", "depth")
+SETTING_KEYS = ("uv_map", "space", "resolution", "samples", "margin", "depth", "allow_partial")
 DEFAULTS = {"uv_map": None, "space": "tangent", "resolution": 1024, "samples": 1, "margin": 16,
-            "depth": None}
+            "depth": None, "allow_partial": False}
+NOT_HASHED = ("allow_partial",)            # settings that change no texel of the map
 TOKENS = ("{file}", "{object}", "{uv}")
 MANIFEST_NAME = "surfgrad-bake-manifest.json"
 RESULT_MARK = "@@surfgrad-batch "          # a worker's reply line (other output is its log)
@@ -82,15 +85,25 @@ def load_settings_file(path):
         raise BatchError(f"settings file {path} is not valid JSON ({err})") from None
     if not isinstance(data, dict) or set(data) - {"defaults", "assets"}:
         raise BatchError(f"settings file {path}: use an object with 'defaults' and/or 'assets'")
+    if not isinstance(data.get("assets", {}), dict):
+        raise BatchError(f"settings file {path}: 'assets' must be an object of "
+                         f"\"PATTERN\": {{settings}}")
+    problems = []
     for where, block in [("defaults", data.get("defaults", {}))] + \
             [(f"assets[{k!r}]", v) for k, v in data.get("assets", {}).items()]:
         if not isinstance(block, dict):
-            raise BatchError(f"settings file {path}: {where} must be an object")
-        unknown = sorted(set(block) - set(SETTING_KEYS))
-        if unknown:
-            raise BatchError(f"settings file {path}: {where} has unknown setting(s) "
-                             f"{', '.join(unknown)}; the settings are {', '.join(SETTING_KEYS)}")
+            problems.append(f"settings file {path}: {where} must be an object")
+            continue
+        # Every value is checked before any file is opened: a bad one bakes nothing.
+        problems += BR.settings_problems(block, f"settings file {path}: {where}")
+    if problems:
+        raise BatchError(_joined(problems))
     return data
+
+
+def _joined(problems):
+    return problems[0] if len(problems) == 1 else \
+        f"{len(problems)} problems:\n  - " + "\n  - ".join(problems)
 
 
 def asset_settings(defaults, overrides, blend_name, object_name):
@@ -150,6 +163,7 @@ def default_manifest(pattern):
 
 
 def settings_hash(settings, output, blender_version, version):
+    settings = {k: v for k, v in settings.items() if k not in NOT_HASHED}
     blob = json.dumps({"settings": settings, "output": str(output), "blender": blender_version,
                        "surfgrad": version}, sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()
@@ -202,12 +216,23 @@ def scan_open_file(objects=None, collections=None):
                  "materials": 0}
         if obj.type == "MESH":
             entry["materials"] = sum(1 for s in obj.material_slots if s.material)
+            entry["outside"] = {}
             for uv in obj.data.uv_layers:
-                entry["uv_maps"][uv.name] = NB.uv_tiles(obj.data, uv.name)[0]
+                entry["uv_maps"][uv.name], entry["outside"][uv.name] = \
+                    NB.uv_tiles(obj.data, uv.name)
                 if uv.active_render:
                     entry["active_uv"] = uv.name
+            entry["problems"] = _input_problems(obj)
         assets.append(entry)
     return {"assets": assets, "errors": errors}
+
+
+def _input_problems(obj):
+    """What bake_request finds wrong with obj's mesh and images (no setting changes these),
+    so the planner refuses the asset before any bake."""
+    if len(obj.data.polygons) == 0:
+        return []                          # the bake's own check names it
+    return BR.mesh_problems(obj, None, []) + BR.image_problems(obj)
 
 
 def dependencies_of_open_file():
@@ -255,13 +280,12 @@ def run_request(request, log=lambda *_: None):
             obj = bpy.data.objects.get(request["object"])
             if obj is None:
                 raise NB.NormalBakeError(f"no object named {request['object']!r}")
-            s = request["settings"]
-            res = NB.bake_normal_tiles(
-                obj, request["output"], s["space"], s["resolution"], s["uv_map"], s["margin"],
-                s["samples"], s["depth"], request.get("tiles"), request.get("empty_tiles",
-                                                                           "error"),
-                overwrite=request.get("overwrite", False), log=log,
-                threads=request.get("threads"))
+            bake_request = BR.BakeRequest.from_settings(
+                obj.name, request["output"], request["settings"], tiles=request.get("tiles"),
+                empty_tiles=request.get("empty_tiles", "error"),
+                overwrite=request.get("overwrite", False), threads=request.get("threads"))
+            # warnings travel in the reply: the parent prints them once
+            res = BR.bake(bake_request, obj, log=log, warn=lambda *_: None)
             reply.update({"paths": {str(t): str(p) for t, p in res["paths"].items()},
                           "tiles": res["tiles"], "uv_map": res["uv_map"], "depth": res["depth"],
                           "warnings": res["warnings"], "bake_s": res["bake_s"],
@@ -534,24 +558,10 @@ def _asset_key(blend, obj):
 
 def _tile_list(value):
     """'1001-1003,1005' / [1001, 1002] / None -> sorted tiles (None stays None)."""
-    if value in (None, "", []):
-        return None
-    if isinstance(value, (list, tuple)):
-        return sorted({int(v) for v in value})
-    tiles = set()
-    for part in str(value).replace(" ", "").split(","):
-        if not part:
-            continue
-        try:
-            if "-" in part:
-                a, b = part.split("-", 1)
-                tiles.update(range(int(a), int(b) + 1))
-            else:
-                tiles.add(int(part))
-        except ValueError:
-            raise BatchError(f"tiles {value!r}: give UDIM numbers like 1001,1002 or "
-                             f"1001-1010") from None
-    return sorted(tiles)
+    try:
+        return T.parse_tiles(value)
+    except ValueError as err:
+        raise BatchError(str(err)) from None
 
 
 def split_entry(entry):
@@ -584,13 +594,15 @@ def read_asset_list(path):
 def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, collections=None,
                defaults=None, settings_file=None, workers=1, force=False, overwrite=False,
                manifest=None, tiles=None, empty_tiles="error", open_file=False, worker_env=None,
-               worker_command_override=None, log=print, threads=None):
+               worker_command_override=None, log=print, threads=None, warn=BR.warn_stderr):
     """Bake every asset of `blends` (paths; or the open file with open_file) selected by
     `objects` / `collections` into files named by `output`. threads: Cycles threads per bake
     (default: all cores in this process or one worker, their share with several). Returns the run's report (also
     written, merged with earlier runs, to the manifest): per asset its status (baked, skipped,
-    failed), settings, hashes, timings, warnings, files. Raises BatchError for bad input of
-    the whole run; a bad asset only fails that asset."""
+    failed), settings, hashes, timings, warnings (also passed to `warn`: stderr), files.
+    The whole plan is checked before any bake: BatchError (nothing baked, nothing written)
+    for bad input of the whole run (settings values, output collisions, folders that cannot
+    be written); an asset whose own input is bad (mesh, images, UV layout) fails alone."""
     import bpy
     from .groups.common import VERSION
 
@@ -609,6 +621,17 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         raise BatchError(f"unknown setting(s) {', '.join(bad)}; the settings are "
                          f"{', '.join(SETTING_KEYS)}")
     overrides = overrides_data.get("assets", {})
+    problems = BR.settings_problems(base, "settings")
+    for where, block in [("settings", base)] + [(f"settings for {k!r}", v)
+                                                  for k, v in overrides.items()]:
+        if block.get("depth") is not None and not BR.settings_problems(
+                {"depth": block["depth"]}):
+            try:
+                NB.depth_for(str(output), block["depth"])
+            except NB.NormalBakeError as err:
+                problems.append(f"{where}: {err}")
+    if problems:
+        raise BatchError(_joined(problems))
     if open_file:
         if not bpy.data.filepath:
             raise BatchError("the open file has never been saved: save it, or give .blend files")
@@ -626,6 +649,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             per_file[blend].append(obj)
     blends = list(per_file)
     manifest_path = Path(manifest) if manifest else default_manifest(output)
+    problem = BR.folder_problem(manifest_path.parent)
+    if problem:
+        raise BatchError(f"manifest {manifest_path}: {problem}")
     previous = _read_manifest(manifest_path) or {"assets": {}}
     blender_version = bpy.app.version_string
     t_start = time.perf_counter()
@@ -660,7 +686,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     progress = Progress(log)
     progress.known = len(report["assets"])          # the files refused already
     progress.unscanned = len(to_scan)
-    outputs_seen = {}
+    outputs_seen, collisions, folders = {}, [], set()
     how = "this process" if workers == 0 else f"{workers} worker process(es)"
     # Cycles takes every core by default: several worker processes share them out.
     if threads is None:
@@ -692,7 +718,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             s = asset_settings(base, overrides, name, a["object"])
             entry = {"file": blend, "object": a["object"], "settings": s}
             entries.append(entry)
-            problem = _asset_problem(a, s)
+            problem = _asset_problem(a, s, name)
             if problem:
                 entry.update(status="failed", kind="input", error=problem)
                 continue
@@ -702,9 +728,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             out = expand(output, name, a["object"], uv)
             entry["output"] = out
             if out in outputs_seen:
-                entry.update(status="failed", kind="input",
-                             error=f"output {out} is also {outputs_seen[out]}'s: put "
-                                   f"{{object}} (or {{file}}) in the output pattern")
+                collisions.append(f"{name}:{a['object']} and {outputs_seen[out]} would both "
+                                  f"write {out}: put {{object}} (or {{file}}) in the output "
+                                  f"pattern")
                 continue
             outputs_seen[out] = f"{name}:{a['object']}"
             entry["input_hash"] = f["input_hash"]
@@ -720,7 +746,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                              note="inputs, settings and outputs unchanged (--force bakes "
                                   "again)")
                 continue
-            Path(out).parent.mkdir(parents=True, exist_ok=True)
+            folders.add(Path(out).parent)
             jobs.append({"op": "bake", "id": key, "file": blend,
                          "blend": None if open_file else blend, "object": a["object"],
                          "output": str(Path(out).resolve()), "settings": s, "tiles": tiles,
@@ -751,9 +777,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             progress.unscanned -= 1
             progress.scanned_files += 1
             progress.scanned_assets += len(f.get("scan", {}).get("assets", [])) or 1
-            jobs = plan_file(req["file"])
-            write_json_atomic(manifest_path, _merged(previous, report, files))
-            return jobs
+            return []                           # bakes are planned once every file is read
         entry = report["assets"][req["id"]]
         what = f"{Path(req['file']).name}:{req['object']}"
         entry.setdefault("attempts", []).append(
@@ -776,6 +800,8 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                 entry["input_hash"] = f["input_hash"]
             progress.step("baked", what, f": tile(s) {NB._tiles_text(reply['tiles'])}"
                                          f" in {reply['total_s']:.1f} s")
+            for w in reply["warnings"]:
+                warn(f"{what}: {w}")
         else:
             entry.update(status="failed", kind=reply.get("kind"), error=reply["error"])
             progress.step("failed", what, f": {reply['error']}")
@@ -785,13 +811,19 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     try:
         for entry in list(report["assets"].values()):
             step_entry(entry)
+        log(f"[batch] {len(files)} file(s), {len(to_scan)} to scan; baking with {how}")
+        # 1. Read every file, 2. plan and check the whole batch, 3. only then bake.
+        pool.map([{"op": "scan", "file": b, "blend": None if open_file else b,
+                   **files[b]["selection"]} for b in to_scan], on_reply)
         requests = []
         for blend in files:
-            if blend not in to_scan:
-                requests += plan_file(blend)
-        requests += [{"op": "scan", "file": b, "blend": None if open_file else b,
-                      **files[b]["selection"]} for b in to_scan]
-        log(f"[batch] {len(files)} file(s), {len(to_scan)} to scan; baking with {how}")
+            requests += plan_file(blend)
+        problems = collisions + sorted({p for p in map(BR.folder_problem, folders) if p})
+        if problems:
+            raise BatchError(_joined(problems) + "\n(nothing was baked)")
+        for folder in sorted(folders):
+            folder.mkdir(parents=True, exist_ok=True)
+        write_json_atomic(manifest_path, _merged(previous, report, files))
         pool.map(requests, on_reply)
         report["process_start_s"] = pool.start_times()
     finally:
@@ -806,8 +838,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     return report
 
 
-def _asset_problem(scan, s):
-    """What stops this asset from baking, known from the scan (None if nothing)."""
+def _asset_problem(scan, s, blend_name=""):
+    """What stops this asset from baking, known from the scan (None if nothing): the
+    bake request's checks of its mesh and images, its UV map and layout."""
     name = scan["object"]
     if scan["type"] != "MESH":
         return f"object {name!r} is a {scan['type'].lower()}, not a mesh: pick mesh objects"
@@ -818,6 +851,15 @@ def _asset_problem(scan, s):
                 f"{sorted(scan['uv_maps'])}")
     if not scan["materials"]:
         return f"object {name!r} has no material to bake"
+    if scan.get("problems"):
+        return _joined(scan["problems"])
+    uv = s["uv_map"] or scan["active_uv"] or next(iter(scan["uv_maps"]))
+    outside = scan.get("outside", {}).get(uv, 0)
+    if outside and not s.get("allow_partial"):
+        return (f"{outside} face(s) of UV map {uv!r} of object {name!r} lie outside the UDIM "
+                f"range (u 0..10, v >= 0) and would not be baked: move them into tiles, or "
+                f"bake the rest on purpose with --allow-partial (settings file: "
+                f"\"allow_partial\": true for {blend_name}:{name})")
     return None
 
 

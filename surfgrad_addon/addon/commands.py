@@ -8,7 +8,8 @@ Blender's own `bpy.utils.register_cli_command` (4.2 and later).
         [--objects NAME ...] [--collections NAME ...] [--settings per_asset.json] \\
         [--workers 4] [--force] [--manifest FILE] [the bake settings above]
 
-Bad input prints one line naming the thing and the fix and returns a non-zero exit code, no
+Bad input prints one line naming the thing and the fix and returns a non-zero exit code
+(addon/exit_codes.py: 2 refused before baking, 1 a bake or a batch asset failed), no
 traceback. The proving harness's commands (compare, bench, demo) run from a checkout:
 `python -m surfgrad_addon ...`.
 """
@@ -16,6 +17,8 @@ traceback. The proving harness's commands (compare, bench, demo) run from a chec
 import argparse
 import sys
 from pathlib import Path
+
+from .exit_codes import OK, code_for
 
 COMMAND = "surfgrad"
 _handle = None
@@ -44,6 +47,9 @@ def add_bake_normal_map(sub):
     nb.add_argument("--tiles", default=None,
                     help="UDIM tiles to bake, e.g. 1001,1002 or 1001-1010 (default: every tile "
                          "the UV map has faces in; needs <UDIM> in --output for more than 1001)")
+    nb.add_argument("--allow-partial", action="store_true",
+                    help="bake a UV layout with faces outside the UDIM range (u 0..10, v >= "
+                         "0); those faces are left out, with a warning (default: refused)")
     return nb
 
 
@@ -79,6 +85,9 @@ def add_bake_batch(sub):
     bb.add_argument("--depth", default=None, choices=("auto", "8", "16", "half", "float"),
                     help="8/16 for .png, half/float for .exr")
     bb.add_argument("--tiles", default=None, help="only these UDIM tiles, e.g. 1001-1002")
+    bb.add_argument("--allow-partial", action="store_true", default=None,
+                    help="bake UV layouts with faces outside the UDIM range, with a warning "
+                         "(default: that asset is refused; settings key allow_partial)")
     bb.add_argument("--if-tile-empty", default="error", choices=("error", "skip"),
                     help="a tile asked for with no UVs of an asset: refuse (default) or skip "
                          "(farm tasks over asset x tile)")
@@ -138,19 +147,16 @@ def run_bake_normal_map(args):
     """bake-normal-map with parsed options: open --blend (if given), bake --object. Raises
     ValueError (or NormalBakeError) naming the problem."""
     import bpy
-    from .normal_bake import bake_normal_map
+    from .bake_request import BakeRequest, bake
     if args.blend:
         if not Path(args.blend).is_file():
             raise ValueError(f".blend file {args.blend!r} does not exist")
         bpy.ops.wm.open_mainfile(filepath=args.blend)
-    obj = bpy.data.objects.get(args.object)
-    if obj is None:
-        raise ValueError(f"no object named {args.object!r}; objects: "
-                         f"{sorted(o.name for o in bpy.data.objects)}")
-    from .batch import _tile_list
-    return bake_normal_map(obj, args.output, args.space, args.resolution, args.uv_map,
-                           args.margin, args.samples, overwrite=args.overwrite,
-                           depth=args.depth, tiles=_tile_list(args.tiles))
+    request = BakeRequest(args.object, args.output, args.space, args.resolution, args.uv_map,
+                          args.margin, args.samples, args.depth, args.tiles,
+                          overwrite=args.overwrite, allow_partial=args.allow_partial)
+    bake(request)
+    return Path(args.output)
 
 
 def execute(argv):
@@ -165,8 +171,8 @@ def execute(argv):
         run_bake_normal_map(args)
     except (ValueError, KeyError, RuntimeError, FileExistsError) as err:
         print(f"surfgrad: error: {err}", file=sys.stderr)
-        return 2
-    return 0
+        return code_for(err)
+    return OK
 
 
 def register():

@@ -24,16 +24,17 @@ import os
 import time
 from pathlib import Path
 
+from ..reference import tiles as T
 from .bake_target import bake_target_problem, visible_for_bake
 from .scene_state import SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
-UDIM_TOKEN = "<UDIM>"
+UDIM_TOKEN = T.UDIM_TOKEN
 # extension -> (Blender file format, bit depths it takes, the default depth)
 FORMATS = {".png": ("PNG", ("8", "16"), "8"), ".exr": ("OPEN_EXR", ("half", "float"), "float")}
 # UDIM numbering: tile 1001 + u + 10 v for u in 0..9 (Blender's tiled images).
-UDIM_FIRST, UDIM_COLUMNS, UDIM_LAST = 1001, 10, 2000
+UDIM_FIRST, UDIM_COLUMNS, UDIM_LAST = T.UDIM_FIRST, T.UDIM_COLUMNS, T.UDIM_LAST
 
 
 def resolution_problem(resolution, lo, hi):
@@ -48,15 +49,13 @@ class NormalBakeError(ValueError):
     """Bad input: the message names the thing and the fix."""
 
 
-def tile_path(output, tile):
-    """The file of UDIM tile `tile` for an output name with <UDIM> (or the name itself)."""
-    return Path(str(output).replace(UDIM_TOKEN, str(tile)))
+tile_path = T.tile_path
+_tiles_text = T.tiles_text
 
 
 def uv_tiles(mesh, uv_map):
     """The UDIM tiles the faces of `uv_map` touch, sorted, and how many faces lie outside the
-    UDIM range (u in 0..10, v >= 0). A face counts in every tile its UV bounding box reaches
-    into (a face ending exactly on a tile border does not reach the next tile)."""
+    UDIM range (u in 0..10, v >= 0): reference.tiles.face_tiles on the mesh's UVs."""
     import numpy as np
     layer = mesh.uv_layers[uv_map]
     n_loops, n_faces = len(mesh.loops), len(mesh.polygons)
@@ -64,32 +63,9 @@ def uv_tiles(mesh, uv_map):
         return [], 0
     uv = np.empty(n_loops * 2, dtype=np.float64)
     layer.data.foreach_get("uv", uv)
-    uv = uv.reshape(-1, 2)
     starts = np.empty(n_faces, dtype=np.int64)
     mesh.polygons.foreach_get("loop_start", starts)
-    lo = np.minimum.reduceat(uv, starts, axis=0)
-    hi = np.maximum.reduceat(uv, starts, axis=0)
-    eps = 1e-6
-    t_lo = np.floor(lo + eps).astype(np.int64)
-    t_hi = np.floor(hi - eps).astype(np.int64)
-    t_hi = np.maximum(t_hi, t_lo)               # degenerate faces on a border
-    outside = (t_lo[:, 0] < 0) | (t_hi[:, 0] >= UDIM_COLUMNS) | (t_lo[:, 1] < 0) | \
-        (UDIM_FIRST + t_hi[:, 1] * UDIM_COLUMNS > UDIM_LAST)
-    tiles = set()
-    span = t_hi - t_lo
-    inside = ~outside
-    if inside.any():
-        simple = inside & (span[:, 0] == 0) & (span[:, 1] == 0)
-        tiles.update((UDIM_FIRST + t_lo[simple, 0] + UDIM_COLUMNS * t_lo[simple, 1]).tolist())
-        for i in np.flatnonzero(inside & ~simple):      # faces across tile borders (few)
-            for v in range(t_lo[i, 1], t_hi[i, 1] + 1):
-                for u in range(t_lo[i, 0], t_hi[i, 0] + 1):
-                    tiles.add(UDIM_FIRST + u + UDIM_COLUMNS * v)
-    return sorted(int(t) for t in tiles), int(outside.sum())
-
-
-def _tiles_text(tiles):
-    return ", ".join(map(str, tiles)) if tiles else "none"
+    return T.face_tiles(uv.reshape(-1, 2), starts)
 
 
 def check_output(output, overwrite_check=True):

@@ -205,7 +205,8 @@ def main(argv=None, in_blender=False):
                         from_open_file=in_blender)
     except (FileExistsError, ValueError, KeyError, RuntimeError) as err:
         print(f"surfgrad: error: {err}", file=sys.stderr)
-        return 2
+        from ..addon.exit_codes import code_for
+        return code_for(err)
     return 0
 
 

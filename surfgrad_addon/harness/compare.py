@@ -98,10 +98,10 @@ def _load_image(path):
     px = np.empty(w * h * img.channels, dtype=np.float32)
     img.pixels.foreach_get(px)
     px = px.reshape(h, w, img.channels).astype(np.float64)
-    if not np.all(np.isfinite(px)):
+    problem = R.input_checks.pixels_problem(f"image {str(path)!r}", px)
+    if problem:
         bpy.data.images.remove(img)
-        raise CompareError(f"image {str(path)!r} has non-finite pixels (NaN or Inf); fix "
-                           f"or clamp them before using it as a bump map")
+        raise CompareError(problem)
     return px[..., :3] if img.channels >= 3 else px[..., 0], img
 
 

@@ -30,5 +30,5 @@ from .decals import (DECAL_SHAPES, decal_weight_box, decal_weight_cone,  # noqa:
                      decal_weight_cylinder, decal_weight_sphere, surfgrad_from_decal_box,
                      surfgrad_from_decal_cone, surfgrad_from_decal_cylinder,
                      surfgrad_from_decal_sphere)
-from . import compiled, raster, tiles
+from . import compiled, input_checks, raster, tiles
 from . import images, meshes, methods

@@ -35,6 +35,7 @@ from . import compiled, raster_kernels
 from . import (height_map_kernels, listing_kernels, normal_map_kernels,  # noqa: F401
                parallax_kernels, sampling_kernels)
 from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
+from .input_checks import finite_problem
 from .vecmath import cross, normalize, transform
 
 # Texels per band of rows in rasterize (its working memory is about 150 bytes x this);
@@ -96,9 +97,9 @@ class MeshArrays:
         for label, arr in (("positions", p), ("corner_normals", self.corner_normals),
                            ("matrix_world", self.matrix_world),
                            *((f"UV map {k!r}", v) for k, v in self.uv_maps.items())):
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"{self.name}: {label} contain non-finite values (NaN or "
-                                 f"Inf); fix the mesh data before baking")
+            problem = finite_problem(label, arr)
+            if problem:
+                raise ValueError(f"{self.name}: {problem}")
         return self
 
     def uv(self, name):

@@ -1,0 +1,426 @@
+"""One bake request, checked once, before anything is baked.
+
+Every way in (`python -m surfgrad_addon bake-normal-map`, `blender -c surfgrad`, api, settings
+files and the bake-batch planner) builds a BakeRequest and runs the same checks up front:
+
+- settings: each one's type and range (settings_problems; no bpy, so the batch planner checks
+  a settings file before any Blender file is opened);
+- the object and its evaluated mesh: a mesh that can be baked, finite positions, faces with
+  area; far from the origin is a warning;
+- the UV map and its tiles (reference.tiles): finite UVs with area, a layout the output covers;
+  faces outside the UDIM range are an error unless allow_partial, then a printed warning;
+- every image the object's materials read (from the active Material Output, into node
+  groups): packed or on disk, loadable, and with finite pixels when float;
+- the output: format and bit depth, a folder that exists and takes a file (a probe file is
+  created and removed), no file replaced unless overwrite.
+
+check() raises BakeRequestError naming every problem found and its fix; nothing has been
+written and the .blend is as it was (images loaded for the check are freed again). Warnings
+are printed to stderr (where a user looks), and returned.
+"""
+
+import os
+import sys
+import tempfile
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+
+from ..reference import input_checks as IC
+from ..reference import tiles as T
+from . import normal_bake as NB
+from .exit_codes import BakeFailed
+
+FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
+SAMPLES_RANGE = (1, 65536)
+MARGIN_RANGE = (0, 1024)
+DEPTHS = ("auto", "8", "16", "half", "float")
+
+
+class BakeRequestError(NB.NormalBakeError):
+    """The request cannot be baked; `problems` lists each (the thing and the fix)."""
+
+    def __init__(self, problems):
+        self.problems = list(problems)
+        text = self.problems[0] if len(self.problems) == 1 else \
+            f"{len(self.problems)} problems:\n  - " + "\n  - ".join(self.problems)
+        super().__init__(text)
+
+
+def _whole(name, value, lo, hi, unit=""):
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        return f"{name} {value!r}: use a whole number{unit} from {lo} to {hi}"
+    return None
+
+
+# The settings a request takes (and a settings file may give per asset): name -> its check.
+def _space(v):
+    return None if v in NB.SPACES else f"space {v!r}: use one of {', '.join(sorted(NB.SPACES))}"
+
+
+def _depth(v):
+    return None if v is None or str(v) in DEPTHS else \
+        f"depth {v!r}: use one of {', '.join(DEPTHS)} (8/16 for .png, half/float for .exr)"
+
+
+def _uv_map(v):
+    return None if v is None or (isinstance(v, str) and v) else \
+        f"uv_map {v!r}: give a UV map's name (text), or leave it out for the active one"
+
+
+def _flag(name):
+    return lambda v: None if isinstance(v, bool) else f"{name} {v!r}: use true or false"
+
+
+SETTING_CHECKS = {
+    "uv_map": _uv_map,
+    "space": _space,
+    "resolution": lambda v: NB.resolution_problem(v, *NB.RESOLUTION_RANGE),
+    "samples": lambda v: _whole("samples", v, *SAMPLES_RANGE),
+    "margin": lambda v: _whole("margin", v, *MARGIN_RANGE, " of texels"),
+    "depth": _depth,
+    "allow_partial": _flag("allow_partial"),
+}
+
+
+def settings_problems(settings, where=""):
+    """Problems with a dict of settings (unknown names, wrong types, out of range); no bpy.
+    `where` prefixes each (e.g. the settings file and block)."""
+    prefix = f"{where}: " if where else ""
+    out = []
+    unknown = sorted(set(settings) - set(SETTING_CHECKS))
+    if unknown:
+        out.append(f"{prefix}unknown setting(s) {', '.join(map(str, unknown))}; the settings "
+                   f"are {', '.join(SETTING_CHECKS)}")
+    for key, check in SETTING_CHECKS.items():
+        if key in settings:
+            problem = check(settings[key])
+            if problem:
+                out.append(prefix + problem)
+    return out
+
+
+@dataclass
+class BakeRequest:
+    """What to bake: one object into one output name (with <UDIM>: one file per tile)."""
+    object: str
+    output: str
+    space: str = "tangent"
+    resolution: int = 1024
+    uv_map: str = None
+    margin: int = 16
+    samples: int = 1
+    depth: str = None
+    tiles: list = None
+    empty_tiles: str = "error"      # a tile asked for without UVs: "error" or "skip"
+    overwrite: bool = False
+    allow_partial: bool = False     # bake a layout with faces outside the UDIM range
+    threads: int = None
+
+    @classmethod
+    def from_settings(cls, obj_name, output, settings, **more):
+        """A request from a settings dict (bake-batch, settings files); unknown keys refused."""
+        problems = settings_problems(settings)
+        if problems:
+            raise BakeRequestError(problems)
+        known = {f.name for f in fields(cls)}
+        return cls(object=obj_name, output=str(output),
+                   **{k: v for k, v in {**settings, **more}.items() if k in known})
+
+    def settings(self):
+        return {k: v for k, v in asdict(self).items() if k in SETTING_CHECKS}
+
+    def own_problems(self):
+        """Problems of the request itself (no bpy): settings, output name, tiles, depth."""
+        out = settings_problems(self.settings())
+        if self.empty_tiles not in ("error", "skip"):
+            out.append(f"empty tiles {self.empty_tiles!r}: use 'error' or 'skip'")
+        if self.threads is not None and _whole("threads", self.threads, 1, 1024):
+            out.append(_whole("threads", self.threads, 1, 1024))
+        try:
+            self.tiles = T.parse_tiles(self.tiles)
+        except ValueError as err:
+            out.append(str(err))
+        try:
+            NB.check_output(self.output)
+            if not _depth(self.depth):
+                NB.depth_for(self.output, self.depth)
+        except NB.NormalBakeError as err:
+            out.append(str(err))
+        return out
+
+
+@dataclass
+class CheckedRequest:
+    """A request that passed every check, with what the checks found."""
+    request: BakeRequest
+    uv_map: str
+    tiles: list
+    tiles_with_uvs: list
+    depth: str
+    finals: dict = field(default_factory=dict)      # tile -> the file it will be written to
+    warnings: list = field(default_factory=list)
+
+
+def warn_stderr(message):
+    print(f"surfgrad: warning: {message}", file=sys.stderr, flush=True)
+
+
+def check(request, obj=None, warn=warn_stderr):
+    """Check everything about `request` before baking; returns a CheckedRequest (its warnings
+    already passed to `warn`) or raises BakeRequestError naming every problem and its fix."""
+    problems = request.own_problems()
+    if problems:                  # a bad option: name it before looking at the scene
+        raise BakeRequestError(problems)
+    import bpy
+    if obj is None:
+        obj = bpy.data.objects.get(request.object)
+        if obj is None:
+            raise BakeRequestError([f"no object named {request.object!r}; objects: "
+                                    f"{sorted(o.name for o in bpy.data.objects)}"])
+    warnings = []
+    try:
+        uv_map, tiles, with_uvs, tile_warnings = NB.plan_tiles(
+            obj, request.output, request.uv_map, request.tiles, request.empty_tiles)
+    except NB.NormalBakeError as err:
+        raise BakeRequestError([str(err)]) from None
+    problems += mesh_problems(obj, uv_map, warnings)
+    outside = NB.uv_tiles(obj.data, uv_map)[1]
+    if outside and not request.allow_partial:
+        problems.append(f"{outside} face(s) of UV map {uv_map!r} of object {obj.name!r} lie "
+                        f"outside the UDIM range (u 0..10, v >= 0) and would not be baked: "
+                        f"move them into tiles (UV > Pack Islands), or bake the rest on "
+                        f"purpose with --allow-partial (api: allow_partial=True; settings "
+                        f"file: \"allow_partial\": true)")
+    else:
+        warnings += tile_warnings
+    if not any(s.material for s in obj.material_slots):
+        problems.append(f"object {obj.name!r} has no material to bake: give it one")
+    problems += image_problems(obj)
+    depth = NB.depth_for(request.output, request.depth)
+    finals = {t: T.tile_path(request.output, t) for t in tiles}
+    problems += output_problems(request.output, finals, request.overwrite)
+    if problems:
+        raise BakeRequestError(problems)
+    for w in warnings:
+        warn(w)
+    return CheckedRequest(request, uv_map, tiles, with_uvs, depth, finals, warnings)
+
+
+def bake(request, obj=None, log=print, warn=warn_stderr):
+    """Check `request`, then bake it (normal_bake.bake_normal_tiles). Returns its result dict
+    (paths, tiles, uv_map, depth, warnings, timings). Raises BakeRequestError before anything
+    is written, or BakeFailed when the bake itself fails."""
+    import bpy
+    checked = check(request, obj, warn)
+    obj = obj or bpy.data.objects[request.object]
+    r = request
+    try:
+        result = NB.bake_normal_tiles(obj, r.output, r.space, r.resolution, checked.uv_map,
+                                      r.margin, r.samples, checked.depth, r.tiles,
+                                      r.empty_tiles, overwrite=r.overwrite, log=log,
+                                      threads=r.threads)
+    except RuntimeError as err:           # the bake operator or the image write
+        raise BakeFailed(f"the bake of {obj.name!r} failed: {err}") from None
+    result["warnings"] = list(dict.fromkeys(checked.warnings + result.get("warnings", [])))
+    return result
+
+
+# The checks ---------------------------------------------------------------------------------
+
+def mesh_problems(obj, uv_map, warnings):
+    """The evaluated mesh as the bake sees it: finite positions, faces with area, finite UVs
+    with area in `uv_map`; far from the origin adds a warning."""
+    import bpy
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    eval_obj = obj.evaluated_get(depsgraph)
+    mesh = eval_obj.to_mesh()
+    what = f"mesh {obj.data.name!r} of object {obj.name!r}"
+    out = []
+    try:
+        mesh.calc_loop_triangles()
+        nv, nl, nt = len(mesh.vertices), len(mesh.loops), len(mesh.loop_triangles)
+        positions = np.empty(nv * 3, np.float64)
+        mesh.vertices.foreach_get("co", positions)
+        positions = positions.reshape(-1, 3)
+        tris = np.empty(nt * 3, np.int64)
+        mesh.loop_triangles.foreach_get("vertices", tris)
+        tris = tris.reshape(-1, 3)
+        tri_loops = np.empty(nt * 3, np.int64)
+        mesh.loop_triangles.foreach_get("loops", tri_loops)
+        matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
+        uv = None
+        if uv_map in mesh.uv_layers:
+            uv = np.empty(nl * 2, np.float64)
+            mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
+            uv = uv.reshape(-1, 2)[tri_loops].reshape(-1, 3, 2)
+    finally:
+        eval_obj.to_mesh_clear()
+    fix = "fix or remove those vertices (a bad import or script often leaves them)"
+    problem = IC.finite_problem(f"the vertex positions of {what}", positions, fix) or \
+        IC.finite_problem(f"the transform of object {obj.name!r}", matrix,
+                          "reset it (Object > Clear > Location/Rotation/Scale)")
+    if problem:
+        return [problem]
+    if nt == 0:
+        return [f"{what} has no faces to bake; add geometry"]
+    world = positions @ matrix[:3, :3].T + matrix[:3, 3]
+    if IC.zero_area_mask(world, tris).all():
+        out.append(f"every face of {what} has zero area (collapsed to a point or a line, or "
+                   f"scaled to 0), so there is no surface to bake: fix the mesh or the "
+                   f"object's scale")
+    if uv is not None:
+        problem = IC.finite_problem(f"the UVs of UV map {uv_map!r} of object {obj.name!r}",
+                                    uv, "unwrap it again (UV > Unwrap)")
+        if problem:
+            out.append(problem)
+        elif not (IC.uv_triangle_areas(uv) > 0).any():
+            out.append(f"UV map {uv_map!r} of object {obj.name!r} has no area (every face "
+                       f"collapsed to a point or a line in UV space), so the bake would "
+                       f"cover no texel: unwrap it (UV > Unwrap)")
+    far = float(np.max(np.abs(world))) if len(world) else 0.0
+    if far > FAR_FROM_ORIGIN_M:
+        warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: Cycles' "
+                        f"float32 positions lose precision there (bump-derived normals can be "
+                        f"off by degrees); move it near the origin to bake if that matters")
+    return out
+
+
+def material_images(obj):
+    """[(material, node path, node, image or None)] for every image node the object's
+    materials read: reached from the active Material Output through links, into node groups."""
+    found, memo = [], {}
+    for slot in obj.material_slots:
+        mat = slot.material
+        if mat is None or not mat.use_nodes or mat.node_tree is None:
+            continue
+        tree = mat.node_tree
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+        active = [n for n in outputs if n.is_active_output] or outputs
+        for node, path in _reached(tree, active, memo):
+            if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
+                found.append((mat, path, node, node.image))
+    return found
+
+
+def _reached(tree, starts, memo):
+    """(node, path of node names) of every node `starts` read in `tree` through links that
+    are not muted, and inside the node groups they use (each group walked once: memo)."""
+    links_to = {}
+    for link in tree.links:
+        if link.is_valid and not getattr(link, "is_muted", False):
+            links_to.setdefault(link.to_node.name, []).append(link.from_node)
+    out, todo, seen = [], list(starts), set()
+    while todo:
+        node = todo.pop()
+        if node.name in seen:
+            continue
+        seen.add(node.name)
+        out.append((node, node.name))
+        todo += links_to.get(node.name, [])
+        group = getattr(node, "node_tree", None) if node.type == "GROUP" else None
+        if group is not None:
+            if group.name not in memo:
+                memo[group.name] = []           # a group that holds itself stops here
+                inner = [n for n in group.nodes if n.bl_idname == "NodeGroupOutput"]
+                memo[group.name] = _reached(group, inner, memo)
+            out += [(n, f"{node.name} > {p}") for n, p in memo[group.name]]
+    return out
+
+
+def image_problems(obj):
+    """Every image the object's materials read: set, present, loadable, finite pixels."""
+    out, checked = [], set()
+    for mat, path, node, image in material_images(obj):
+        if image is None:
+            out.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
+                       f"would bake its magenta 'missing' colour; pick an image or remove the "
+                       f"node")
+            continue
+        if image.name in checked:
+            continue
+        checked.add(image.name)
+        problem = one_image_problem(image)
+        if problem:
+            out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
+    return out
+
+
+def _image_files(image):
+    """The files an unpacked file image reads (one per UDIM tile for a tiled one)."""
+    import bpy
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    if image.source == "TILED":
+        return [T.tile_path(path, t.number) for t in image.tiles]
+    return [Path(path)]
+
+
+def one_image_problem(image):
+    """None when `image` can be read as Cycles will read it, else what is wrong and the fix.
+    An image this check loads is freed again (it stays as unloaded as it was)."""
+    if image.source in ("GENERATED", "VIEWER"):
+        return None
+    packed = bool(getattr(image, "packed_files", None) and len(image.packed_files)) or \
+        image.packed_file is not None
+    what = f"image {image.name!r}"
+    if not packed:
+        if not image.filepath:
+            return f"{what} has no file path and is not packed: pick its file, or pack it"
+        missing = [str(p) for p in _image_files(image) if not p.is_file()]
+        if missing:
+            return (f"{what} reads {missing[0]!r}, which does not exist: Cycles would bake "
+                    f"its magenta 'missing' colour; put the file there, fix the path "
+                    f"(File > External Data > Find Missing Files), or pack it")
+        if image.source in ("MOVIE", "SEQUENCE"):
+            return None                         # frames: present is what can be checked
+    had_data = image.has_data
+    try:
+        w, h = image.size
+        if w == 0 or h == 0:
+            return (f"{what} ({'packed' if packed else repr(image.filepath)}) could not be "
+                    f"read (damaged, or a format Blender does not open): re-save it as PNG "
+                    f"or EXR")
+        if image.is_float:                      # only float buffers can hold NaN / Inf
+            px = np.empty(w * h * image.channels, dtype=np.float32)
+            image.pixels.foreach_get(px)
+            return IC.pixels_problem(what, px)
+        return None
+    finally:
+        if not had_data and image.has_data:
+            image.buffers_free()
+
+
+def output_problems(output, finals, overwrite):
+    """The output's folder takes a file (probed: created and removed) and no file it would
+    write exists unless overwrite."""
+    out = []
+    folder = Path(output).parent
+    problem = folder_problem(folder)
+    if problem:
+        out.append(problem)
+    existing = [str(p) for p in finals.values() if p.exists()]
+    if existing and not overwrite:
+        out.append(f"{existing[0]} exists; pass --overwrite (api: overwrite=True) to replace "
+                   f"it")
+    return out
+
+
+def folder_problem(folder):
+    """None when a file can be created in `folder` (tried: a probe file is made and removed),
+    else what is wrong and the fix. A missing folder is checked at its nearest existing parent
+    (bake-batch creates the rest)."""
+    folder = Path(folder) if str(folder) else Path(".")
+    probe_in = folder
+    while not probe_in.exists() and probe_in.parent != probe_in:
+        probe_in = probe_in.parent
+    if not probe_in.is_dir():
+        return f"output folder {str(folder)!r}: {str(probe_in)!r} is a file, not a folder"
+    try:
+        fd, name = tempfile.mkstemp(prefix=".surfgrad-probe-", dir=probe_in)
+        os.close(fd)
+        os.unlink(name)
+    except OSError as err:
+        return (f"output folder {str(probe_in)!r} is not writable ({err.strerror}): pick a "
+                f"folder you can write to, or fix its permissions")
+    return None

@@ -1,0 +1,70 @@
+"""Whether input data can be baked at all: finite numbers, faces with area (no bpy).
+
+One place for the checks `compare` and the bake request both make, so a NaN pixel or a
+collapsed mesh is refused with the same words on either path.
+"""
+
+import numpy as np
+
+# A face whose area is below this share of the mesh's squared extent is taken as zero area
+# (collapsed in float32: Cycles cannot place a texel on it).
+RELATIVE_AREA_EPS = 1e-12
+_CHUNK = 1 << 24            # values per slice when counting non-finite ones (bounded memory)
+
+
+def all_finite(values):
+    """True when every value is finite. A float64 sum is NaN/Inf if any value is, and needs
+    no temporary array; only a sum that overflows (finite values near 1e308) looks closer."""
+    a = np.asarray(values)
+    if a.size == 0 or not np.issubdtype(a.dtype, np.floating):
+        return True
+    if np.isfinite(np.add.reduce(a.ravel(), dtype=np.float64)):
+        return True
+    return nonfinite_count(a) == 0
+
+
+def nonfinite_count(values):
+    """How many values are NaN or +-Inf (counted slice by slice)."""
+    flat = np.asarray(values).ravel()
+    return int(sum(int(np.count_nonzero(~np.isfinite(flat[i:i + _CHUNK])))
+                   for i in range(0, flat.size, _CHUNK)))
+
+
+def finite_problem(label, values, fix="fix the mesh data before baking"):
+    """None when `values` are all finite, else a message naming them and the fix."""
+    if all_finite(values):
+        return None
+    return f"{label} contain non-finite values (NaN or Inf); {fix}"
+
+
+def pixels_problem(label, pixels):
+    """None when an image's pixels are all finite, else what is wrong and the fix."""
+    if all_finite(pixels):
+        return None
+    n = nonfinite_count(pixels)
+    return (f"{label} has non-finite pixels (NaN or Inf, {n} value(s)); fix or clamp them "
+            f"before using it (e.g. re-save it from an image editor, or a Math node clamp)")
+
+
+def triangle_areas(positions, triangles):
+    """(T,) areas of the triangles (vertex indices (T, 3)) of the positions (V, 3)."""
+    p = np.asarray(positions, dtype=np.float64)[np.asarray(triangles)]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=-1)
+
+
+def zero_area_mask(positions, triangles):
+    """(T,) True where a triangle has no area (collapsed to a line or a point), measured
+    against the mesh's own size."""
+    p = np.asarray(positions, dtype=np.float64)
+    if len(p) == 0:
+        return np.ones(len(triangles), bool)
+    extent = float(np.max(p.max(axis=0) - p.min(axis=0)))
+    return triangle_areas(p, triangles) <= RELATIVE_AREA_EPS * extent * extent
+
+
+def uv_triangle_areas(uv_triangles):
+    """(T,) areas in UV space of UV triangles (T, 3, 2)."""
+    uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
+    a, b, c = uv[:, 0], uv[:, 1], uv[:, 2]
+    return 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) -
+                        (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
