@@ -251,7 +251,7 @@ def mesh_problems(obj, uv_map, warnings):
         mesh.loop_triangles.foreach_get("loops", tri_loops)
         matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
         uv = None
-        if uv_map in mesh.uv_layers:
+        if uv_map and uv_map in mesh.uv_layers:
             uv = np.empty(nl * 2, np.float64)
             mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
             uv = uv.reshape(-1, 2)[tri_loops].reshape(-1, 3, 2)

@@ -729,8 +729,8 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry["output"] = out
             if out in outputs_seen:
                 collisions.append(f"{name}:{a['object']} and {outputs_seen[out]} would both "
-                                  f"write {out}: put {{object}} (or {{file}}) in the output "
-                                  f"pattern")
+                                  f"write {out}: make the output pattern tell them apart "
+                                  f"({', '.join(TOKENS)})")
                 continue
             outputs_seen[out] = f"{name}:{a['object']}"
             entry["input_hash"] = f["input_hash"]
