@@ -293,7 +293,7 @@ def material_images(obj):
     found, memo = [], {}
     for slot in obj.material_slots:
         mat = slot.material
-        if mat is None or not mat.use_nodes or mat.node_tree is None:
+        if mat is None or mat.node_tree is None:      # (a tree without use_nodes: checked too)
             continue
         tree = mat.node_tree
         outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
