@@ -181,6 +181,32 @@ def test_a_bad_input_is_refused_before_baking(tmp_path, fault, words):
     assert _sha(blend) == before
 
 
+BAD_OPTIONS = [
+    (["--margin", "-1"], "margin -1: use a whole number of texels from 0 to 1024"),
+    (["--samples", "0"], "samples 0: use a whole number from 1 to 65536"),
+    (["--resolution", "3"], "resolution 3: use a whole number of texels from 4 to 16384"),
+    (["--tiles", "10o1"], "tiles '10o1': give UDIM numbers like 1001,1002"),
+    (["--depth", "half"], "bit depth 'half' does not go with .png: use one of 8, 16"),
+]
+
+
+def test_bad_options_are_refused_with_every_problem_named(tmp_path):
+    blend = _scene(tmp_path, "good")
+    before = _sha(blend)
+    out_dir = tmp_path / "maps"
+    out_dir.mkdir()
+    for args, message in BAD_OPTIONS:
+        res = _bake_cli(blend, out_dir / "n.png", *args)
+        assert res.returncode == exit_codes.BAD_REQUEST, (args, res.stderr[-2000:])
+        assert message in res.stderr, (message, res.stderr[-2000:])
+    # several at once: one message lists them all
+    res = _bake_cli(blend, out_dir / "n.png", "--margin", "-1", "--samples", "0")
+    assert res.returncode == exit_codes.BAD_REQUEST
+    assert "2 problems:" in res.stderr and "margin -1" in res.stderr and "samples 0" in \
+        res.stderr, res.stderr[-2000:]
+    assert _listing(out_dir) == [] and _sha(blend) == before
+
+
 def test_a_read_only_output_folder_is_refused_before_baking(tmp_path):
     blend = _scene(tmp_path, "readonly")
     before = _sha(blend)

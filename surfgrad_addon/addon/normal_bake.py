@@ -26,6 +26,7 @@ from pathlib import Path
 
 from ..reference import tiles as T
 from .bake_target import bake_target_problem, visible_for_bake
+from .exit_codes import BakeFailed
 from .scene_state import SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
@@ -238,7 +239,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
                     o.select_set(o in selection)
                 bpy.context.view_layer.objects.active = active_obj
         if outcome != {"FINISHED"}:
-            raise NormalBakeError(f"the bake of {obj.name!r} did not finish ({outcome})")
+            raise BakeFailed(f"the bake of {obj.name!r} did not finish ({outcome})")
         t0 = time.perf_counter()
         temp = output.parent / f".{output.stem}.part{os.getpid()}{output.suffix}"
         temps = {t: tile_path(temp, t) for t in tiles}
@@ -247,7 +248,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
         image.save()
         missing = [str(p) for p in temps.values() if not p.is_file()]
         if missing:
-            raise NormalBakeError(f"Blender wrote no file {missing[0]}")
+            raise BakeFailed(f"Blender wrote no file {missing[0]}")
         if depth == "half":
             _to_half_exr(bpy, scene, temps.values())
         for t in tiles:
