@@ -310,7 +310,7 @@ _BOOT = ("import importlib.util, sys\n"
 
 def worker_command():
     """The command that starts one worker: Blender itself (-b --factory-startup
-    --python-expr) when this is a Blender binary, else this Python (the bpy module). The
+    --python-exit-code 1 --python-expr) when this is a Blender binary, else this Python (the bpy module). The
     worker loads this package from its folder, so a checkout and an installed extension both
     work."""
     import bpy
