@@ -118,7 +118,7 @@ function compileJob(job) {
         argsBefore: [],
         blendfile: blendfile,
         args: [
-          // Before --python-expr: an uncaught Python error exits 1, not 0 (task failed).
+          // --python-exit-code 1 before --python-expr: a Python error exits 1, not 0 (failed).
           "--python-exit-code", "1", "--python-expr", PYTHON_EXPR, "--",
           "bake-batch", "--open-file", `--objects=${name}`,
           "--tiles", String(tile), "--if-tile-empty", "skip",
