@@ -258,6 +258,31 @@ def test_a_hung_worker_times_out_without_retry_and_the_rest_bakes(assets, tmp_pa
     assert alive(run.seen) == []                                  # the hung one killed
 
 
+def test_a_worker_stopped_from_outside_fails_its_asset_without_retry(assets, tmp_path):
+    """SIGTERM to one worker (not the batch): it exits 143; its asset fails, not retried as
+    a crash, and the batch goes on."""
+    a, b = assets
+    out = tmp_path / "maps"
+    run = Run(["bake-batch", a, b, "--output", out / "{file}_{object}.png", "--workers", "1",
+               "--resolution", "16"], tmp_path, env={batch.FAULT_ENV: "hang:Stone"})
+    run.wait_for(lambda: "baked a.blend:Rock" in run.stdout)
+    time.sleep(1.0)                                # the worker is on Stone, hanging
+    (worker,) = descendants(run.proc.pid)
+    os.kill(worker, signal.SIGTERM)
+    code = run.finish(timeout=120)
+    assert code == 1, run.stderr[-2000:]
+    m = json.loads((out / batch.MANIFEST_NAME).read_text())
+    status = {e["object"]: e for e in m["assets"].values()}
+    assert status["Rock"]["status"] == status["Tree"]["status"] == "baked"
+    stone = status["Stone"]
+    assert (stone["status"], stone["kind"], len(stone["attempts"])) == \
+        ("failed", "interrupted", 1)
+    assert "its worker process was stopped by SIGTERM (not retried)" in stone["error"]
+    assert "retrying" not in run.stdout + run.stderr
+    assert sorted(_files(out)) == ["a_Rock.png", "b_Tree.png", batch.MANIFEST_NAME]
+    assert alive(run.seen | {worker}) == []
+
+
 def test_hung_worker_default_timeout_is_generous_and_scales_with_the_bake():
     s = dict(batch.DEFAULTS)
     assert batch.bake_timeout(s, 1) == pytest.approx(300 + 1024 ** 2 / 1e5)
