@@ -377,10 +377,11 @@ class Worker:
 
     def kill(self):
         """End the process and everything in its group now."""
-        try:
-            os.killpg(self.proc.pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
+        if hasattr(os, "killpg"):                # POSIX; on Windows the process alone
+            try:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
         try:
             self.proc.kill()
         except OSError:

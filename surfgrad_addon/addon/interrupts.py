@@ -53,11 +53,13 @@ def stoppable(what="the command"):
         yield
         return
     read_fd, write_fd = os.pipe()
-    os.set_blocking(write_fd, False)
     previous = {s: signal.getsignal(s) for s in SIGNALS}
     try:
+        os.set_blocking(write_fd, False)
         old_fd = signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
-    except ValueError:                          # not the main interpreter
+    except (ValueError, OSError):               # Windows wants a socket: signals as before
+        old_fd = None
+    if old_fd is None:
         os.close(read_fd)
         os.close(write_fd)
         yield
