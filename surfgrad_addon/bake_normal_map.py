@@ -1,7 +1,7 @@
 """Bake an object's material into a normal map file, inside Blender:
 
-    blender -b scene.blend --python surfgrad_addon/bake_normal_map.py -- \\
-        --object Rock --output rock_normal.png [--space tangent|object] [--resolution 2048] \\
+    blender -b scene.blend --python-exit-code 1 --python surfgrad_addon/bake_normal_map.py \\
+        -- --object Rock --output rock_normal.png [--space tangent|object] [--resolution 2048] \\
         [--uv-map NAME] [--margin 16] [--overwrite]
 
 The same as `python -m surfgrad_addon bake-normal-map --blend scene.blend ...` with the bpy

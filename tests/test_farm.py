@@ -5,6 +5,7 @@ line bakes when run."""
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -97,22 +98,76 @@ def test_openjd_template_runs_one_task_per_asset_and_tile(farm_assets, tmp_path)
     assert "c.blend is named .blend but is not a Blender file" in res.stdout + res.stderr
 
 
-def _compile(settings):
+def test_openjd_outputs_resolve_to_absolute_paths_on_submission(farm_assets, tmp_path):
+    """A task runs in a temporary session folder: a relative output would vanish with it.
+    OutputPattern and ManifestDir are PATH parameters, made absolute against the submitter's
+    folder; the task script refuses any that still is not (another runner)."""
+    openjd = _openjd()
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    args = [openjd, "run", str(TEMPLATE), "-p", f"AssetList={farm_assets}",
+            "-p", "AssetIndices=1", "-p", "Tiles=1001", "-p", "OutputPattern=maps/{object}.png",
+            "-p", "ManifestDir=maps/manifests", "-p", "Resolution=16",
+            "-p", f"Launcher={sys.executable} -m surfgrad_addon"]
+    res = subprocess.run(args, cwd=tmp_path, env=env, capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0, res.stdout[-3000:]
+    assert sorted(str(p.relative_to(tmp_path)) for p in (tmp_path / "maps").rglob("*.*")) == [
+        "maps/Tree.png", "maps/manifests/asset-1-tile-1001.json"]
+    # The task script itself, given a relative path as-is.
+    text = TEMPLATE.read_text()
+    script = text[text.index("data: |") + len("data: |"):text.index("actions:")]
+    script = "\n".join(line[12:] for line in script.splitlines())
+    for output, manifests in (("maps/x.png", "/m"), ("/o/x.png", "m")):
+        values = {"Param.OutputPattern": output, "Param.ManifestDir": manifests,
+                  "Param.Launcher": "false"}
+        body = re.sub(r"\{\{([^}]+)\}\}", lambda m: values.get(m.group(1), "0"), script)
+        res = subprocess.run(["bash", "-c", body], cwd=tmp_path, capture_output=True,
+                             text=True, timeout=60)
+        assert res.returncode == 2, res.stderr
+        assert "is relative: a farm task runs in a temporary folder" in res.stderr
+
+
+def _compile(settings, script=JOB_TYPE):
     node = shutil.which("node")
     if not node:
         pytest.skip("node is not installed (the Flamenco job type is JavaScript)")
     res = subprocess.run([node, str(ROOT / "tests" / "support" / "flamenco_compile.js"),
-                          str(JOB_TYPE), json.dumps(settings)], capture_output=True, text=True,
+                          str(script), json.dumps(settings)], capture_output=True, text=True,
                          timeout=60)
     assert res.returncode == 0, res.stderr
     return json.loads(res.stdout)
 
 
+def _job_type():
+    """The job type's settings, as the Manager lists them to the add-on."""
+    job = _compile({"objects": "A", "blendfile": "/p/a.blend", "output_pattern": "/p/{object}.png",
+                    "manifest_dir": "/p/m"})
+    return job["job_type"]["settings"]
+
+
+def _as_addon_submits(project_blend, farm_blend, **given):
+    """The settings Flamenco's add-on sends: every setting (its property holds the default
+    unless set), the hidden ones evaluated in the artist's Blender (abspath: '//' is the
+    folder of the file being submitted), blendfile the farm's copy (Shaman's checkout)."""
+    def abspath(p):
+        return str(Path(project_blend).parent / p[2:]) if p.startswith("//") else p
+    settings = {s["key"]: s["default"] for s in _job_type() if "default" in s}
+    settings.update(given)
+    settings["output_path"] = abspath(settings["output_pattern"])
+    settings["manifest_path"] = abspath(settings["manifest_dir"])
+    settings["blendfile"] = str(farm_blend)
+    return settings
+
+
 def test_flamenco_job_type_compiles_to_one_blender_task_per_object_and_tile(farm_assets,
                                                                            tmp_path):
-    blend = str(tmp_path / "in" / "b.blend")
-    job = _compile({"objects": "Tree, Bush", "tiles": "1001-1002", "blendfile": blend,
-                    "resolution": 16, "samples": 2})
+    project = tmp_path / "in" / "b.blend"
+    farm = tmp_path / "shaman" / "job-0001" / "b.blend"       # the farm's copy of the file
+    farm.parent.mkdir(parents=True)
+    shutil.copy(project, farm)
+    job = _compile(_as_addon_submits(project, farm, objects="Tree, Bush", tiles="1001-1002",
+                                     resolution=16, samples=2))
     keys = [s["key"] for s in job["job_type"]["settings"]]
     assert {"objects", "tiles", "output_pattern", "resolution", "samples", "blendfile"} <= \
         set(keys)
@@ -124,29 +179,76 @@ def test_flamenco_job_type_compiles_to_one_blender_task_per_object_and_tile(farm
         assert cmd["name"] == "blender-render"
         p = cmd["parameters"]
         assert p["exe"] == "{blender}" and p["exeArgs"] == "{blenderArgs}"
-        assert p["blendfile"] == blend and p["args"][0] == "--python-expr"
+        # An uncaught Python error must fail the task: the exit code flag comes first.
+        assert p["blendfile"] == str(farm)
+        assert p["args"][:3] == ["--python-exit-code", "1", "--python-expr"]
         args = p["args"][p["args"].index("--") + 1:]
         assert args[:3] == ["bake-batch", "--open-file", f"--objects={task['name'].split()[1]}"]
         assert args[args.index("--tiles") + 1] == task["name"].split()[2]
+        # '//' resolved on submission against the project's file, not the farm's copy.
         assert args[args.index("--output") + 1] == \
-            str(tmp_path / "in" / "maps" / "{file}_{object}.<UDIM>.png")   # '//' resolved
+            str(tmp_path / "in" / "maps" / "{file}_{object}.<UDIM>.png")
+        assert args[args.index("--manifest") + 1].startswith(str(tmp_path / "in" / "maps"))
         assert args[args.index("--resolution") + 1] == "16"
-    bad = _compile({"objects": "Tree", "tiles": "1001-99", "blendfile": blend})
+    blend = str(project)
+    bad = _compile({"objects": "Tree", "tiles": "1001-99", "blendfile": blend,
+                    "output_pattern": "/o/{object}.png", "manifest_dir": "/o"})
     assert "tiles '1001-99'" in bad["error"]
     assert "objects" in _compile({"objects": " , ", "blendfile": blend})["error"]
 
-    # Run two of the commands as a worker's Blender would (the file opened, the extension's
-    # commands module loaded, the arguments on sys.argv), with the bpy module.
+    # Run two of the commands as a worker's Blender would (the farm's copy opened, the
+    # extension's commands module loaded, the arguments on sys.argv), with the bpy module.
     for task in job["tasks"][:2]:
         p = task["commands"][0]["parameters"]
+        expr = p["args"][p["args"].index("--python-expr") + 1]
         code = ("import sys, bpy\n"
                 f"bpy.ops.wm.open_mainfile(filepath={p['blendfile']!r})\n"
                 "import surfgrad_addon.addon.commands\n"
                 f"sys.argv = ['blender', '-b', '-y', {p['blendfile']!r}] + {p['args']!r}\n"
-                f"exec({p['args'][1]!r})\n")
+                f"exec({expr!r})\n")
         res = run_python(["-c", code])
         assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     maps = tmp_path / "in" / "maps"
     assert sorted(p.name for p in maps.glob("*.png")) == ["b_Tree.1001.png"]
     assert sorted(p.name for p in (maps / "manifests").glob("*.json")) == ["Tree-1001.json",
                                                                             "Tree-1002.json"]
+    assert sorted(p.name for p in farm.parent.rglob("*")) == ["b.blend"]   # nothing there
+
+
+def test_flamenco_job_type_takes_settings_as_the_manager_passes_them(tmp_path):
+    """The Manager passes the submitted settings as they are (no defaults) to a script run in
+    strict mode: a submission without the add-on (the API) gets the job type's own defaults,
+    and an output relative to the blend file is refused with the fix, not baked into the
+    farm's copy of the file."""
+    blend = "/farm/jobs/0001/b.blend"
+    job = _compile({"objects": "Tree", "blendfile": blend,
+                    "output_pattern": "/proj/maps/{file}_{object}.<UDIM>.png",
+                    "manifest_dir": "/proj/maps/manifests/"})
+    (task,) = job["tasks"]
+    args = task["commands"][0]["parameters"]["args"]
+    given = dict(zip(args, args[1:]))                 # each flag -> the value after it
+    assert given["--tiles"] == "1001" and given["--resolution"] == "2048"
+    assert given["--samples"] == "16" and given["--space"] == "tangent"
+    assert given["--depth"] == "auto" and given["--margin"] == "16"
+    assert given["--manifest"] == "/proj/maps/manifests/Tree-1001.json"
+    for settings in ({"objects": "Tree", "blendfile": blend},
+                     {"objects": "Tree", "blendfile": blend, "output_pattern": "maps/x.png",
+                      "manifest_dir": "/m"},
+                     {"objects": "Tree", "blendfile": blend, "output_pattern": "/o/x.png",
+                      "manifest_dir": "//maps/manifests"}):
+        err = _compile(settings)["error"]
+        assert "is relative: on the farm it would resolve inside the job's copy" in err, err
+        assert "give an absolute path" in err
+    assert "blendfile" in _compile({"objects": "Tree", "output_pattern": "/o/x.png",
+                                    "manifest_dir": "/m"})["error"]
+    # The stand-in is as strict as the Manager: strict mode, settings exactly as submitted.
+    sloppy = tmp_path / "sloppy.js"
+    sloppy.write_text("const JOB_TYPE = {label: 'x', settings: [{key: 'n', type: 'int32', "
+                      "default: 3}]};\n"
+                      "function compileJob(job) { leaked = Object.keys(job.settings); }\n")
+    assert "leaked is not defined" in _compile({}, sloppy)["error"]
+    echo = tmp_path / "echo.js"
+    echo.write_text("const JOB_TYPE = {label: 'x', settings: [{key: 'n', type: 'int32', "
+                    "default: 3}]};\n"
+                    "function compileJob(job) { throw JSON.stringify(job.settings); }\n")
+    assert json.loads(_compile({"m": 1}, echo)["error"]) == {"m": 1}

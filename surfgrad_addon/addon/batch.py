@@ -23,6 +23,7 @@ import json
 import os
 import queue
 import re
+import signal
 import subprocess
 import sys
 import threading
@@ -31,6 +32,7 @@ from pathlib import Path
 
 from ..reference import tiles as T
 from . import bake_request as BR
+from . import interrupts
 from . import normal_bake as NB
 
 SETTING_KEYS = ("uv_map", "space", "resolution", "samples", "margin", "depth", "allow_partial")
@@ -41,7 +43,10 @@ TOKENS = ("{file}", "{object}", "{uv}")
 MANIFEST_NAME = "surfgrad-bake-manifest.json"
 RESULT_MARK = "@@surfgrad-batch "          # a worker's reply line (other output is its log)
 BLEND_MAGIC = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")   # plain, gzip, zstd
-FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT" or "die-once:OBJECT"
+FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT", "die-once:OBJECT", "hang:OBJECT"
+SCAN_TIMEOUT_S = 600.0                      # a worker's scan of one file, unless told
+BAKE_TIMEOUT_S = 300.0                      # a worker's bake: this plus 10 s per million
+TEXEL_SAMPLES_PER_S = 1e5                   # texel-samples (about 1/30 of one loaded core)
 
 
 class BatchError(ValueError):
@@ -180,10 +185,10 @@ def input_hash(blend, dependencies=()):
 
 # In a Blender session: scan and bake -----------------------------------------------------------
 
-def scan_open_file(objects=None, collections=None):
+def scan_open_file(objects=None, collections=None, everything=False):
     """The assets of the open file: with `objects` (names or wildcards) and/or `collections`
-    (names, their objects and child collections), those; with neither, every mesh object with
-    a material. Returns {"assets": [...], "errors": [...]}: per asset its name, UV maps with
+    (names, their objects and child collections), those; with neither, or with everything,
+    (also) every mesh object with a material. Returns {"assets": [...], "errors": [...]}: per asset its name, UV maps with
     the tiles each holds, the active render UV map, and its material count."""
     import bpy
     chosen, errors = [], []
@@ -205,8 +210,8 @@ def scan_open_file(objects=None, collections=None):
                            f"{sorted(c.name for c in bpy.data.collections)}"})
             continue
         chosen += [o for o in coll.all_objects if o.type == "MESH"]
-    if not objects and not collections:
-        chosen = [o for o in mesh_objects if any(s.material for s in o.material_slots)]
+    if everything or (not objects and not collections):
+        chosen += [o for o in mesh_objects if any(s.material for s in o.material_slots)]
     seen, assets = set(), []
     for obj in chosen:
         if obj.name in seen:
@@ -272,7 +277,8 @@ def run_request(request, log=lambda *_: None):
         load_s = open_blend(request["blend"]) if request.get("blend") else 0.0
         reply["load_s"] = load_s
         if request["op"] == "scan":
-            reply.update(scan_open_file(request.get("objects"), request.get("collections")))
+            reply.update(scan_open_file(request.get("objects"), request.get("collections"),
+                                        request.get("everything", False)))
             reply["dependencies"] = dependencies_of_open_file()
         else:
             import bpy
@@ -285,7 +291,8 @@ def run_request(request, log=lambda *_: None):
                 empty_tiles=request.get("empty_tiles", "error"),
                 overwrite=request.get("overwrite", False), threads=request.get("threads"))
             # warnings travel in the reply: the parent prints them once
-            res = BR.bake(bake_request, obj, log=log, warn=lambda *_: None)
+            with interrupts.partials_of(request["output"]):     # a stop removes its temps
+                res = BR.bake(bake_request, obj, log=log, warn=lambda *_: None)
             reply.update({"paths": {str(t): str(p) for t, p in res["paths"].items()},
                           "tiles": res["tiles"], "uv_map": res["uv_map"], "depth": res["depth"],
                           "warnings": res["warnings"], "bake_s": res["bake_s"],
@@ -301,13 +308,15 @@ def run_request(request, log=lambda *_: None):
 
 
 def _fault(request):
-    """Test hook (SURFGRAD_BATCH_FAULT): make this worker process die on an asset."""
+    """Test hook (SURFGRAD_BATCH_FAULT): make this worker process die or hang on an asset."""
     fault = os.environ.get(FAULT_ENV, "")
     if ":" in fault and request.get("in_worker"):
         kind, name = fault.split(":", 1)
         if name == request["object"] and (kind == "die" or
                                           (kind == "die-once" and request.get("attempt") == 1)):
             os._exit(70)
+        if name == request["object"] and kind == "hang":
+            time.sleep(24 * 3600)
 
 
 # Worker processes --------------------------------------------------------------------------------
@@ -325,35 +334,63 @@ _BOOT = ("import importlib.util, sys\n"
 
 def worker_command():
     """The command that starts one worker: Blender itself (-b --factory-startup
-    --python-expr) when this is a Blender binary, else this Python (the bpy module). The
+    --python-exit-code 1 --python-expr) when this is a Blender binary, else this Python (the bpy module). The
     worker loads this package from its folder, so a checkout and an installed extension both
     work."""
     import bpy
     code = _BOOT.format(root=str(Path(__file__).resolve().parents[1]))
     binary = getattr(bpy.app, "binary_path", "") or ""
     if binary and Path(binary).name.lower().startswith("blender") and Path(binary).is_file():
-        return [binary, "-b", "--factory-startup", "--python-expr", code]
+        # --python-exit-code: an uncaught Python error ends Blender non-zero (else 0)
+        return [binary, "-b", "--factory-startup", "--python-exit-code", "1", "--python-expr",
+                code]
     return [sys.executable, "-c", code]
 
 
+TIMED_OUT = "timed out"                     # Worker.call's answer when a request overran
+STOP_CODES = {130: "SIGINT", 143: "SIGTERM", -2: "SIGINT", -15: "SIGTERM"}
+
+
 class Worker:
-    """One worker process: requests in on stdin, replies out on stdout (marked lines)."""
+    """One worker process: requests in on stdin, replies out on stdout (marked lines). It runs
+    in its own process group (a terminal's Ctrl-C reaches the batch, which stops it), and a
+    reader thread takes its output so that a request can time out."""
 
     def __init__(self, command, env=None):
         self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, text=True, bufsize=1, env=env)
+                                     stderr=subprocess.STDOUT, text=True, bufsize=1, env=env,
+                                     start_new_session=True)
         self.tail = []
         self.started = time.perf_counter()
         self.ready_s = None
+        self.lines = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
 
-    def call(self, request):
-        """Send a request and wait for its reply; None if the process died first."""
+    def _read(self):
+        try:
+            for line in self.proc.stdout:
+                self.lines.put(line)
+        except (OSError, ValueError):
+            pass
+        self.lines.put(None)
+
+    def call(self, request, timeout=None):
+        """Send a request and wait for its reply: None if the process died first, TIMED_OUT
+        after `timeout` seconds (the process is left to the caller)."""
         try:
             self.proc.stdin.write(json.dumps(request) + "\n")
             self.proc.stdin.flush()
         except (BrokenPipeError, OSError):
             return None
-        for line in self.proc.stdout:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            try:
+                line = self.lines.get(timeout=None if deadline is None else
+                                      max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                return TIMED_OUT
+            if line is None:
+                return None
             if line.startswith(RESULT_MARK):
                 reply = json.loads(line[len(RESULT_MARK):])
                 if reply.get("op") == "ready":
@@ -361,14 +398,25 @@ class Worker:
                     continue
                 return reply
             self.tail = (self.tail + [line.rstrip()])[-15:]
-        return None
+
+    def kill(self):
+        """End the process and everything in its group now."""
+        if hasattr(os, "killpg"):                # POSIX; on Windows the process alone
+            try:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+        try:
+            self.proc.kill()
+        except OSError:
+            pass
+        return self.proc.wait()
 
     def exit_code(self):
         try:
             return self.proc.wait(timeout=10)
         except subprocess.TimeoutExpired:
-            self.proc.kill()
-            return self.proc.wait()
+            return self.kill()
 
     def close(self):
         if self.proc.poll() is None:
@@ -382,12 +430,18 @@ class Worker:
 class Pool:
     """`workers` worker threads, each driving one worker process (started when first needed,
     started anew after one dies). map() runs requests; a request whose worker died or which
-    failed unexpectedly (kind "crash") is retried once in a fresh process."""
+    failed unexpectedly (kind "crash") is retried once in a fresh process. A request that
+    overruns its "timeout" (seconds) has its worker killed and fails (kind "timeout"); a
+    worker ended by SIGINT/SIGTERM from outside fails its request (kind "interrupted"); neither
+    is retried. stop() kills every worker and removes its unfinished files."""
 
     def __init__(self, workers, command=None, env=None, retries=1):
         self.workers, self.command, self.env, self.retries = workers, command, env, retries
         self.procs = [None] * workers
         self.process_starts = []                  # seconds from spawn to ready, per process
+        self.lock = threading.RLock()             # on_reply runs under it; so does stop()
+        self.current = {}                         # slot -> (worker, request) in flight
+        self.stopped = False
 
     def map(self, requests, on_reply):
         """Run `requests`; on_reply(request, reply, retry) may return follow-up requests: the
@@ -396,7 +450,7 @@ class Pool:
         todo, urgent = queue.Queue(), queue.Queue()
         for r in requests:
             todo.put(dict(r, attempt=1))
-        lock = threading.Lock()
+        lock = self.lock
         busy = [0]
 
         def take(local):
@@ -411,7 +465,7 @@ class Pool:
 
         def run(slot):
             local = []
-            while True:
+            while not self.stopped:
                 with lock:
                     req = take(local)
                     if req is None:
@@ -424,6 +478,8 @@ class Pool:
                     continue
                 try:
                     reply = self._call(slot, req, lock)
+                    if self.stopped:              # the batch is being stopped: no reply
+                        return
                     retry = reply["status"] == "error" and reply.get("kind") == "crash" \
                         and req["attempt"] <= self.retries
                     reply["attempt"] = req["attempt"]
@@ -450,19 +506,58 @@ class Pool:
         worker = self.procs[slot]
         if worker is None or worker.proc.poll() is not None:
             worker = self.procs[slot] = Worker(self.command or worker_command(), self.env)
-        reply = worker.call(dict(req, in_worker=True))
+        with lock:
+            self.current[slot] = (worker, req)
+        if self.stopped:                          # stop() ran while this one was starting
+            worker.kill()
+        reply = worker.call(dict(req, in_worker=True), req.get("timeout"))
+        with lock:
+            self.current.pop(slot, None)
         if worker.ready_s is not None and not getattr(worker, "counted", False):
             worker.counted = True
             with lock:
                 self.process_starts.append((worker, worker.ready_s))
+        if reply is TIMED_OUT:
+            worker.kill()
+            self.procs[slot] = None
+            if req["op"] == "bake":
+                interrupts.remove_partials(req["output"], worker.proc.pid)
+            return {"op": req["op"], "id": req.get("id"), "status": "error", "kind": "timeout",
+                    "error": f"no reply from its worker process in {req['timeout']:.0f} s: "
+                             f"taken as hung and killed (not retried); if it only needs "
+                             f"longer, raise --worker-timeout"}
         if reply is None:
             code = worker.exit_code()
             self.procs[slot] = None
+            if req["op"] == "bake":
+                interrupts.remove_partials(req["output"], worker.proc.pid)
             tail = "\n    ".join(worker.tail[-5:])
+            if code in STOP_CODES:
+                return {"op": req["op"], "id": req.get("id"), "status": "error",
+                        "kind": "interrupted",
+                        "error": f"its worker process was stopped by {STOP_CODES[code]} "
+                                 f"(not retried)"}
             reply = {"op": req["op"], "id": req.get("id"), "status": "error", "kind": "crash",
                      "error": f"the worker process died (exit code {code})"
                               + (f"; its last output:\n    {tail}" if tail else "")}
         return reply
+
+    def stop(self):
+        """Kill every worker process (and its group) now and remove the temporary files of
+        the bakes they were doing; no request is retried or replied to after this. Returns
+        the number of processes stopped."""
+        self.stopped = True
+        stopped = 0
+        for slot, worker in enumerate(self.procs):
+            if worker is None:
+                continue
+            if worker.proc.poll() is None:
+                stopped += 1
+            worker.kill()
+            _, req = self.current.get(slot, (None, None))
+            if req and req["op"] == "bake":
+                interrupts.remove_partials(req["output"], worker.proc.pid)
+        return stopped
 
     def start_times(self):
         return [s for _, s in self.process_starts]
@@ -480,6 +575,7 @@ class InProcess:
 
     def __init__(self, log, retries=1):
         self.log, self.retries = log, retries
+        self.lock = threading.RLock()
 
     def map(self, requests, on_reply):
         todo = [dict(r, attempt=1) for r in requests]
@@ -489,13 +585,17 @@ class InProcess:
             reply["attempt"] = req["attempt"]
             retry = reply["status"] == "error" and reply.get("kind") == "crash" \
                 and req["attempt"] <= self.retries
-            more = on_reply(req, reply, retry) or []
+            with self.lock:
+                more = on_reply(req, reply, retry) or []
             if retry:
                 more = [dict(req, attempt=req["attempt"] + 1)] + \
                     [dict(m, attempt=1) for m in more]
             else:
                 more = [dict(m, attempt=1) for m in more]
             todo[:0] = more
+
+    def stop(self):
+        return 0
 
     def start_times(self):
         return []
@@ -594,7 +694,8 @@ def read_asset_list(path):
 def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, collections=None,
                defaults=None, settings_file=None, workers=1, force=False, overwrite=False,
                manifest=None, tiles=None, empty_tiles="error", open_file=False, worker_env=None,
-               worker_command_override=None, log=print, threads=None, warn=BR.warn_stderr):
+               worker_command_override=None, log=print, threads=None, warn=BR.warn_stderr,
+               worker_timeout=None):
     """Bake every asset of `blends` (paths; or the open file with open_file) selected by
     `objects` / `collections` into files named by `output`. threads: Cycles threads per bake
     (default: all cores in this process or one worker, their share with several). Returns the run's report (also
@@ -602,7 +703,10 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     failed), settings, hashes, timings, warnings (also passed to `warn`: stderr), files.
     The whole plan is checked before any bake: BatchError (nothing baked, nothing written)
     for bad input of the whole run (settings values, output collisions, folders that cannot
-    be written); an asset whose own input is bad (mesh, images, UV layout) fails alone."""
+    be written); an asset whose own input is bad (mesh, images, UV layout) fails alone.
+    worker_timeout: seconds a scan or bake may take in a worker before it is taken as hung
+    (default: SCAN_TIMEOUT_S for a scan, bake_timeout() for a bake). Entries naming the same
+    file are merged: `a.blend` with `a.blend:Obj` bakes the file's assets and Obj."""
     import bpy
     from .groups.common import VERSION
 
@@ -610,6 +714,10 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     if workers is None or isinstance(workers, bool) or not isinstance(workers, int) \
             or workers < 0:
         raise BatchError(f"workers {workers!r}: give 0 (this process) or more processes")
+    if worker_timeout is not None and (isinstance(worker_timeout, bool) or
+                                       not isinstance(worker_timeout, (int, float)) or
+                                       not worker_timeout > 0):
+        raise BatchError(f"worker timeout {worker_timeout!r}: give seconds, more than 0")
     if empty_tiles not in ("error", "skip"):
         raise BatchError("empty tiles: use 'error' or 'skip'")
     tiles = _tile_list(tiles)
@@ -640,13 +748,15 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         force = force or bpy.data.is_dirty        # unsaved changes: the file's hash says nothing
     if not blends:
         raise BatchError("give .blend files to bake (or bake the open file)")
-    per_file = {}                                # file -> objects named with it (or [])
-    for entry in blends:
+    per_file, whole = {}, set()                  # file -> objects named with it; files named
+    for entry in blends:                         # alone (all their assets)
         blend, obj = split_entry(entry)
         blend = str(Path(blend).resolve())
         per_file.setdefault(blend, [])
         if obj:
             per_file[blend].append(obj)
+        else:
+            whole.add(blend)
     blends = list(per_file)
     manifest_path = Path(manifest) if manifest else default_manifest(output)
     problem = BR.folder_problem(manifest_path.parent)
@@ -665,6 +775,8 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     for blend in blends:
         selection = {"objects": (objects or []) + per_file[blend],
                      "collections": collections or []}
+        if blend in whole and per_file[blend] and not objects and not collections:
+            selection["everything"] = True      # `a.blend a.blend:Obj`: the union
         problem = blend_problem(blend)
         if problem:
             report["assets"][_asset_key(blend, "*")] = {
@@ -691,6 +803,25 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     # Cycles takes every core by default: several worker processes share them out.
     if threads is None:
         threads = None if workers <= 1 else max(1, (os.cpu_count() or 1) // workers)
+
+    def stop_batch(signal_name):
+        """On Ctrl-C / SIGTERM (interrupts.py): stop the workers, record every asset not
+        finished as interrupted (a rerun bakes it), write the manifest."""
+        held = pool.lock.acquire(timeout=5)      # not while a reply is being recorded
+        try:
+            n = pool.stop()
+            left = [e for e in report["assets"].values() if "status" not in e]
+            for e in left:
+                e.update(status="interrupted", error=f"stopped by {signal_name} before it "
+                                                     f"was baked")
+            report["interrupted"] = signal_name
+            write_json_atomic(manifest_path, _merged(previous, report, files))
+            interrupts.say(f"[batch] {signal_name}: stopped {n} worker process(es); "
+                           f"{len(left)} asset(s) not baked, recorded as interrupted in "
+                           f"{manifest_path}")
+        finally:
+            if held:
+                pool.lock.release()
 
     def step_entry(entry):
         what = f"{Path(entry['file']).name}:{entry.get('object') or '*'}"
@@ -747,7 +878,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                                   "again)")
                 continue
             folders.add(Path(out).parent)
+            n_tiles = len(tiles) if tiles else len(a["uv_maps"].get(uv) or [1])
             jobs.append({"op": "bake", "id": key, "file": blend,
+                         "timeout": worker_timeout or bake_timeout(s, n_tiles),
                          "blend": None if open_file else blend, "object": a["object"],
                          "output": str(Path(out).resolve()), "settings": s, "tiles": tiles,
                          "empty_tiles": empty_tiles, "threads": threads,
@@ -813,18 +946,20 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             step_entry(entry)
         log(f"[batch] {len(files)} file(s), {len(to_scan)} to scan; baking with {how}")
         # 1. Read every file, 2. plan and check the whole batch, 3. only then bake.
-        pool.map([{"op": "scan", "file": b, "blend": None if open_file else b,
-                   **files[b]["selection"]} for b in to_scan], on_reply)
-        requests = []
-        for blend in files:
-            requests += plan_file(blend)
-        problems = collisions + sorted({p for p in map(BR.folder_problem, folders) if p})
-        if problems:
-            raise BatchError(_joined(problems) + "\n(nothing was baked)")
-        for folder in sorted(folders):
-            folder.mkdir(parents=True, exist_ok=True)
-        write_json_atomic(manifest_path, _merged(previous, report, files))
-        pool.map(requests, on_reply)
+        with interrupts.on_stop(stop_batch):
+            pool.map([{"op": "scan", "file": b, "blend": None if open_file else b,
+                       "timeout": worker_timeout or SCAN_TIMEOUT_S,
+                       **files[b]["selection"]} for b in to_scan], on_reply)
+            requests = []
+            for blend in files:
+                requests += plan_file(blend)
+            problems = collisions + sorted({p for p in map(BR.folder_problem, folders) if p})
+            if problems:
+                raise BatchError(_joined(problems) + "\n(nothing was baked)")
+            for folder in sorted(folders):
+                folder.mkdir(parents=True, exist_ok=True)
+            write_json_atomic(manifest_path, _merged(previous, report, files))
+            pool.map(requests, on_reply)
         report["process_start_s"] = pool.start_times()
     finally:
         pool.close()
@@ -836,6 +971,15 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     log(f"[batch] {c['baked']} baked, {c['skipped']} skipped, {c['failed']} failed in "
         f"{report['total_s']:.1f} s; manifest {manifest_path}")
     return report
+
+
+def bake_timeout(settings, n_tiles):
+    """Seconds a worker's bake may take before it is taken as hung: BAKE_TIMEOUT_S plus the
+    texel-samples at TEXEL_SAMPLES_PER_S, generous (about 30x a loaded 2-core machine)."""
+    texels = int(settings.get("resolution") or DEFAULTS["resolution"]) ** 2
+    work = texels * int(settings.get("samples") or 1) * max(1, int(n_tiles))
+    return BAKE_TIMEOUT_S + work / TEXEL_SAMPLES_PER_S
+
 
 
 def _asset_problem(scan, s, blend_name=""):

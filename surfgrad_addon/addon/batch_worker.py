@@ -6,7 +6,7 @@ batch.RESULT_MARK on stdout. Anything else on stdout is the worker's log. Ends a
 import json
 import sys
 
-from . import batch
+from . import batch, interrupts
 
 
 def _reply(data):
@@ -17,10 +17,13 @@ def _reply(data):
 def main():
     import bpy  # noqa: F401 - loaded before "ready": the process start includes it
     _reply({"op": "ready"})
-    for line in sys.stdin:
-        line = line.strip()
-        if not line:
-            continue
-        request = json.loads(line)
-        _reply(batch.run_request(request, log=lambda *a: print(*a, flush=True)))
+    # SIGTERM / SIGINT sent to this worker: its temporary files go, exit 143 / 130 (the batch
+    # then fails that asset without a retry); the batch itself stops workers with SIGKILL.
+    with interrupts.stoppable("the worker"):
+        for line in sys.stdin:
+            line = line.strip()
+            if not line:
+                continue
+            request = json.loads(line)
+            _reply(batch.run_request(request, log=lambda *a: print(*a, flush=True)))
     return 0

@@ -93,6 +93,10 @@ def add_bake_batch(sub):
                          "(farm tasks over asset x tile)")
     bb.add_argument("--workers", type=int, default=1,
                     help="separate Blender processes baking at once (0: this process)")
+    bb.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
+                    help="seconds one scan or bake may take in a worker before the worker is "
+                         "taken as hung, killed and the asset failed (default: 5 minutes plus "
+                         "10 s per million texel-samples of the bake)")
     bb.add_argument("--threads", type=int, default=None,
                     help="Cycles threads per bake (default: every core, shared out between "
                          "workers)")
@@ -118,7 +122,12 @@ def parser():
 def run_bake_batch(args, log=print):
     """bake-batch with parsed options; returns the exit code: 0 when every asset was baked or
     skipped, 1 when any failed (each named in the log and the manifest)."""
-    from . import batch
+    from . import batch, interrupts
+    with interrupts.stoppable("the batch"):
+        return _bake_batch(batch, args, log)
+
+
+def _bake_batch(batch, args, log):
     blends = list(args.blends)
     if args.asset_list:
         listed = batch.read_asset_list(args.asset_list)
@@ -135,7 +144,8 @@ def run_bake_batch(args, log=print):
     report = batch.bake_batch(blends, args.output, args.objects, args.collections, defaults,
                               args.settings, args.workers, args.force, args.overwrite,
                               args.manifest, args.tiles, args.if_tile_empty, args.open_file,
-                              log=log, threads=args.threads)
+                              log=log, threads=args.threads,
+                              worker_timeout=getattr(args, "worker_timeout", None))
     failed = [a for a in report["assets"].values() if a.get("status") == "failed"]
     for a in failed:
         print(f"surfgrad: error: {Path(a['file']).name}:{a.get('object') or '*'}: "
@@ -146,6 +156,13 @@ def run_bake_batch(args, log=print):
 def run_bake_normal_map(args):
     """bake-normal-map with parsed options: open --blend (if given), bake --object. Raises
     ValueError (or NormalBakeError) naming the problem."""
+    from . import interrupts
+    # Ctrl-C / SIGTERM: the bake stops, its temporary files go, exit 130 / 143 (interrupts.py).
+    with interrupts.stoppable("the bake"), interrupts.partials_of(args.output):
+        return _bake_normal_map(args)
+
+
+def _bake_normal_map(args):
     import bpy
     from .bake_request import BakeRequest, bake
     if args.blend:

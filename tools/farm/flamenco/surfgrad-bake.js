@@ -2,8 +2,10 @@
 // Flamenco 3 job type: surfgrad normal-map bakes, one task per object x UDIM tile.
 // Install: put this file in the `scripts` folder next to the flamenco-manager executable and
 // restart the Manager; workers need Blender 4.2+ with the surfgrad extension enabled (their
-// Blender runs `--python-expr`, which calls the extension's `bake-batch` command on the file
-// Flamenco opened). See README.md, "Bake on a farm".
+// Blender runs `--python-exit-code 1 --python-expr`, which calls the extension's `bake-batch`
+// command on the file Flamenco opened; any Python error fails the task). Written for the
+// Manager's runtime: strict mode, and settings exactly as submitted (the Manager fills in no
+// defaults: compileJob does). See README.md, "Bake on a farm".
 
 const JOB_TYPE = {
   label: "surfgrad Normal-Map Bake",
@@ -21,6 +23,15 @@ const JOB_TYPE = {
       description: "Output files: {file}, {object}, {uv}, <UDIM>; '//' is the blend file's folder" },
     { key: "manifest_dir", type: "string", subtype: "dir_path", default: "//maps/manifests",
       description: "Folder for the per-task manifests (JSON)" },
+    // The add-on evaluates hidden settings in the artist's Blender on submission: '//' there is
+    // the project's folder. On the farm the file is a copy (with Shaman, deleted with the job),
+    // so the tasks write only to these absolute paths.
+    { key: "output_path", type: "string", visible: "hidden",
+      eval: "str(abspath(settings.output_pattern))",
+      description: "output_pattern as an absolute path, resolved on submission" },
+    { key: "manifest_path", type: "string", visible: "hidden",
+      eval: "str(abspath(settings.manifest_dir))",
+      description: "manifest_dir as an absolute path, resolved on submission" },
     { key: "resolution", type: "int32", default: 2048, description: "Texels per side" },
     { key: "samples", type: "int32", default: 16, description: "Cycles samples per texel" },
     { key: "margin", type: "int32", default: 16, description: "Texels past UV borders" },
@@ -58,20 +69,46 @@ function parseTiles(text) {
   return tiles.sort((a, b) => a - b);
 }
 
-function relativeToBlend(p, blendfile) {
-  // Blender's '//' prefix: the blend file's folder.
-  if (!p.startsWith("//")) return p;
-  const cut = Math.max(blendfile.lastIndexOf("/"), blendfile.lastIndexOf("\\"));
-  return (cut >= 0 ? blendfile.slice(0, cut + 1) : "") + p.slice(2);
+// A setting as submitted, else the job type's default (the Manager applies none).
+function setting(s, key) {
+  const value = s[key];
+  if (value !== undefined && value !== null) return value;
+  const spec = JOB_TYPE.settings.find((x) => x.key === key);
+  if (spec && "default" in spec) return spec.default;
+  throw `${key}: this job needs it; submit the job from Blender's Flamenco add-on, or set it`;
+}
+
+function isAbsolute(p) {
+  return p.startsWith("/") && !p.startsWith("//") || /^[A-Za-z]:[\\/]/.test(p) ||
+    p.startsWith("\\\\");
+}
+
+// An output as an absolute path: the value the add-on resolved on submission, else the
+// setting itself if absolute. A blend-relative ('//') or relative path would resolve inside
+// the farm's copy of the file (deleted with the job): refused with the fix.
+function absoluteOutput(s, key, resolvedKey) {
+  const resolved = s[resolvedKey];
+  const p = String(resolved !== undefined && resolved !== null && resolved !== "" ? resolved :
+    setting(s, key));
+  if (!isAbsolute(p)) {
+    throw `${key} '${p}' is relative: on the farm it would resolve inside the job's copy of ` +
+      "the blend file (with Shaman, deleted with the job), so the files would vanish and a " +
+      "resubmitted job would never skip unchanged work; submit from Blender's Flamenco " +
+      "add-on (it resolves '//' against your file) or give an absolute path";
+  }
+  return p;
 }
 
 function compileJob(job) {
   const s = job.settings;
-  const objects = String(s.objects).split(",").map((n) => n.trim()).filter((n) => n);
+  const objects = String(setting(s, "objects")).split(",").map((n) => n.trim())
+    .filter((n) => n);
   if (!objects.length) throw "objects: name at least one mesh object to bake";
-  const tiles = parseTiles(s.tiles);
-  const output = relativeToBlend(String(s.output_pattern), s.blendfile);
-  const manifests = relativeToBlend(String(s.manifest_dir), s.blendfile);
+  const blendfile = String(setting(s, "blendfile"));
+  if (!blendfile) throw "blendfile: the job needs the blend file to bake";
+  const tiles = parseTiles(setting(s, "tiles"));
+  const output = absoluteOutput(s, "output_pattern", "output_path");
+  const manifests = absoluteOutput(s, "manifest_dir", "manifest_path").replace(/[\\/]+$/, "");
   for (const name of objects) {
     for (const tile of tiles) {
       const task = author.Task(`bake ${name} ${tile}`, "blender");
@@ -79,16 +116,18 @@ function compileJob(job) {
         exe: "{blender}",
         exeArgs: "{blenderArgs}",
         argsBefore: [],
-        blendfile: s.blendfile,
+        blendfile: blendfile,
         args: [
-          "--python-expr", PYTHON_EXPR, "--",
+          // --python-exit-code 1 before --python-expr: a Python error exits 1, not 0 (failed).
+          "--python-exit-code", "1", "--python-expr", PYTHON_EXPR, "--",
           "bake-batch", "--open-file", `--objects=${name}`,
           "--tiles", String(tile), "--if-tile-empty", "skip",
           "--output", output,
           "--manifest", `${manifests}/${name}-${tile}.json`,
-          "--resolution", String(s.resolution), "--samples", String(s.samples),
-          "--margin", String(s.margin), "--space", String(s.space),
-          "--depth", String(s.depth), "--workers", "0",
+          "--resolution", String(setting(s, "resolution")),
+          "--samples", String(setting(s, "samples")),
+          "--margin", String(setting(s, "margin")), "--space", String(setting(s, "space")),
+          "--depth", String(setting(s, "depth")), "--workers", "0",
         ],
       }));
       job.addTask(task);

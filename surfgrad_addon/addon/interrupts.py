@@ -1,0 +1,169 @@
+"""Ctrl-C (SIGINT) and SIGTERM for the pipeline commands: bake-normal-map, bake-batch and its
+worker processes stop within about a second, exit 130 (SIGINT) or 143 (SIGTERM), leave no
+output, no temporary file and no process behind, and print one line, no traceback.
+
+Why not KeyboardInterrupt: a bake is one blocking call into Cycles, and Python runs a signal
+handler only between bytecodes; the KeyboardInterrupt then surfaces inside Cycles' own Python
+bake callback, where Blender logs it and goes on to finish the bake (the file is written,
+exit 0). So the handler here does nothing itself: Python's C-level handler also writes the
+signal number to a wake-up pipe (signal.set_wakeup_fd), a watcher thread reading that pipe
+runs the registered clean-ups (kill worker process groups, remove temporary files, record
+unfinished assets in the manifest) and ends the process with os._exit(128 + signal). Cycles
+releases the GIL while it bakes, so the watcher runs at once; a call that holds the GIL
+(loading a .blend, saving an image) delays it until that call returns.
+
+Only command-line entry points install this (stoppable); the Python API and the operators
+leave the session's own signal handling alone.
+"""
+
+import os
+import re
+import signal
+import sys
+import threading
+from contextlib import contextmanager
+from pathlib import Path
+
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_WAKE_END = 0                               # byte that ends the watcher (no signal is 0)
+_state = {"active": False, "what": "the command", "cleanups": []}
+_stopping = threading.Lock()
+
+
+def exit_code(signum):
+    """The shell's code for a process ended by `signum`: 130 for SIGINT, 143 for SIGTERM."""
+    return 128 + int(signum)
+
+
+def say(text):
+    """One line on stderr, written straight to the descriptor (the watcher must not wait on a
+    stream lock the main thread may hold)."""
+    try:
+        os.write(2, (text.rstrip("\n") + "\n").encode("utf-8", "replace"))
+    except OSError:
+        pass
+
+
+@contextmanager
+def stoppable(what="the command"):
+    """Within this block SIGINT and SIGTERM stop the process cleanly (see the module's
+    docstring). Only in the main thread (elsewhere signals cannot be handled: a no-op); a
+    nested block keeps the outer one."""
+    if _state["active"] or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    read_fd, write_fd = os.pipe()
+    previous = {s: signal.getsignal(s) for s in SIGNALS}
+    try:
+        os.set_blocking(write_fd, False)
+        old_fd = signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
+    except (ValueError, OSError):               # Windows wants a socket: signals as before
+        old_fd = None
+    if old_fd is None:
+        os.close(read_fd)
+        os.close(write_fd)
+        yield
+        return
+    for s in SIGNALS:
+        signal.signal(s, _note)
+    _state.update(active=True, what=what)
+    watcher = threading.Thread(target=_watch, args=(read_fd,), daemon=True,
+                               name="surfgrad-interrupts")
+    watcher.start()
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler if handler is not None else signal.SIG_DFL)
+        signal.set_wakeup_fd(old_fd)
+        _state["active"] = False
+        try:
+            os.write(write_fd, bytes([_WAKE_END]))
+        except OSError:
+            pass
+        watcher.join(5)
+        os.close(write_fd)
+        os.close(read_fd)
+
+
+def _note(signum, frame):
+    """The Python-level handler: nothing to do, the watcher stops the process (raising here
+    would land inside Blender's callbacks, see the module's docstring)."""
+
+
+def _watch(read_fd):
+    while True:
+        try:
+            data = os.read(read_fd, 64)
+        except OSError:
+            return
+        if not data:
+            return
+        for byte in data:
+            if byte == _WAKE_END:
+                return
+            if byte in (int(s) for s in SIGNALS):
+                stop(byte)
+
+
+def stop(signum):
+    """Run the clean-ups (last registered first), say so, end the process."""
+    if not _stopping.acquire(blocking=False):     # a second Ctrl-C while stopping
+        return
+    name = signal.Signals(signum).name
+    for cleanup in reversed(list(_state["cleanups"])):
+        try:
+            cleanup(name)
+        except Exception as err:                  # noqa: BLE001 - the stop goes on
+            say(f"surfgrad: while stopping: {type(err).__name__}: {err}")
+    try:
+        sys.stdout.flush()
+    except Exception:                             # noqa: BLE001
+        pass
+    say(f"surfgrad: interrupted by {name}: stopped {_state['what']}; exit code "
+        f"{exit_code(signum)}")
+    os._exit(exit_code(signum))
+
+
+@contextmanager
+def on_stop(cleanup):
+    """Run cleanup(signal_name) if the process is stopped within this block."""
+    _state["cleanups"].append(cleanup)
+    try:
+        yield
+    finally:
+        _state["cleanups"].remove(cleanup)
+
+
+def partial_pattern(output, pid):
+    """A regex matching the temporary files a bake of `output` in process `pid` writes
+    (normal_bake: `.{stem}.part{pid}{suffix}`, with <UDIM> as the tile number, and the
+    `.half` copy of a half-float EXR)."""
+    stem = re.escape(Path(str(output)).stem).replace(re.escape("<UDIM>"), r"\d+")
+    return re.compile(rf"\.{stem}\.part{int(pid)}\..+")
+
+
+def remove_partials(output, pid):
+    """Remove the temporary files of a bake of `output` by process `pid`; returns them."""
+    folder = Path(str(output)).parent
+    pattern = partial_pattern(output, pid)
+    removed = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        if pattern.fullmatch(name):
+            try:
+                (folder / name).unlink()
+                removed.append(str(folder / name))
+            except OSError:
+                pass
+    return removed
+
+
+@contextmanager
+def partials_of(output):
+    """While baking `output` in this process: a stop removes its temporary files."""
+    with on_stop(lambda _name: remove_partials(output, os.getpid())):
+        yield
