@@ -196,9 +196,17 @@ EXCLUSION_REASONS = {
                 "conversion decides the side, and on an island border Cycles moves a sample it "
                 "finds outside its triangle by a hashed jitter (bake_jitter_barycentric)"),
     3: ("outside", "covered by the bake or by the reference but not by both"),
+    4: ("backfacing", "the shading normal (the interpolated vertex or corner normals) faces "
+                      "away from its triangle (or within rounding of it): a bake's ray comes "
+                      "in along -N (integrator/init_from_bake.h), so Cycles finds the back "
+                      "face and flips N, Ng, dPdu and dPdv there (geom/shader_data.h), and "
+                      "every node shades the back side; the references model the front side"),
 }
 HEAT_COLOURS = {0: (0.05, 0.05, 0.2), 1: (0.9, 0.1, 0.8), 2: (1.0, 0.55, 0.0),
-                3: (0.0, 0.8, 0.8)}
+                3: (0.0, 0.8, 0.8), 4: (0.2, 0.9, 0.2)}
+# dot(shading normal, geometric normal) below this is "backfacing": the bake's float32 sign
+# test can go either way within the rounding of the (packed) stored normals.
+BACKFACING_DOT = 1e-4
 
 
 class ErrorImage(np.ndarray):
@@ -252,6 +260,22 @@ def overlap_warning(mesh, uv_map, td_list):
             f"Overlapping faces ({len(pairs)} pairs): {shown}{more}.")
 
 
+def backfacing_warning(mesh, report):
+    """A warning naming the faces whose shading normals face away from them, or None."""
+    tris = report.get("backfacing_triangles") or []
+    if not tris:
+        return None
+    faces = sorted({int(mesh.triangle_faces[t]) if mesh.triangle_faces is not None else int(t)
+                    for t in tris})
+    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
+                                              if len(faces) > 8 else "")
+    return (f"{mesh.name!r}: {report['excluded']['backfacing']} texels of {len(tris)} "
+            f"triangles (faces {shown}) are not compared (backfacing): their vertex or corner "
+            f"normals face away from the face, so Cycles shades its back side there (normals "
+            f"flipped). If that is not meant, recalculate the normals (Mesh > Normals > "
+            f"Recalculate Outside) or fix the custom normals.")
+
+
 def compare_graph(inp, obj, graph, reference, resolution, log=None):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
     and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""
@@ -301,7 +325,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None):
     if report["texels_compared"] == 0:
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
                            f"(excluded: {report['excluded']}); raise --resolution")
-    warnings = [w for w in [overlap_warning(mesh, inp.uv_map, tds)] if w]
+    warnings = [w for w in [overlap_warning(mesh, inp.uv_map, tds),
+                            backfacing_warning(mesh, report)] if w]
     for w in warnings:
         if log:
             log(f"warning: {w}")
@@ -327,6 +352,7 @@ def _compare_tile(td, reference, pixels, covered):
     errs, contested_errs = [], []
     sums = dict.fromkeys(("compared", "contested", "tilt_bake", "tilt_ref", "finite_unit",
                           "both", "finite_unit_all", "away", "truth_away", "away_wrong"), 0)
+    sums["backfacing_triangles"] = set()
     seconds = [0.0]
     for _, _, block, ref in M.evaluated_blocks(reference, td, seconds=seconds):
             px, py = block.pixel[:, 0], block.pixel[:, 1]
@@ -334,8 +360,12 @@ def _compare_tile(td, reference, pixels, covered):
             in_bake = covered[py, px]
             contested = td.contested[py, px]
             edge = td.on_edge[py, px] & ~contested
-            compared = in_bake & ~edge
+            facing = np.sum(block.shading_normal * block.geometric_normal, axis=-1)
+            backfacing = in_bake & ~edge & (facing < BACKFACING_DOT)
+            compared = in_bake & ~edge & ~backfacing
             reasons[py[edge & in_bake], px[edge & in_bake]] = 2
+            reasons[py[backfacing], px[backfacing]] = 4
+            sums["backfacing_triangles"] |= set(np.unique(block.tri[backfacing]).tolist())
             marked = contested & compared
             reasons[py[marked], px[marked]] = CONTESTED
             err = angle_deg(baked[compared], ref[compared])
@@ -384,6 +414,7 @@ def _stats(err):
 def _merge(tile_reports):
     """The report over every tile (per-tile figures stay in each tile's dict)."""
     err = np.concatenate([t["_err"] for t in tile_reports])
+    backfacing = set().union(*(t["_sums"].pop("backfacing_triangles") for t in tile_reports))
     sums = {k: sum(t["_sums"][k] for t in tile_reports) for k in tile_reports[0]["_sums"]}
     covered = sum(t["texels_covered"] for t in tile_reports)
     compared = sums["compared"]
@@ -403,6 +434,7 @@ def _merge(tile_reports):
         "texels_covered": covered, "texels_compared": compared,
         "texels_contested": contested,
         "texels_excluded": n_excl, "excluded": excluded,
+        "backfacing_triangles": sorted(int(t) for t in backfacing),
         "excluded_fraction": n_excl / max(1, covered),
         **_stats(err),
         "contested_max_deg": max(cmax) if cmax else None,
