@@ -54,38 +54,25 @@ def tile_path(output, tile):
 
 
 def uv_tiles(mesh, uv_map):
-    """The UDIM tiles the faces of `uv_map` touch, sorted, and how many faces lie outside the
-    UDIM range (u in 0..10, v >= 0). A face counts in every tile its UV bounding box reaches
-    into (a face ending exactly on a tile border does not reach the next tile)."""
+    """The UDIM tiles the faces of `uv_map` cover, sorted, and how many faces lie (partly)
+    outside the UDIM range (u in 0..10, v >= 0). Exact (reference/tiles.py): a tile counts
+    when a face's triangle covers part of it, not when only its bounding box reaches in, and
+    a face across the range's border still names the tiles its inside part covers."""
     import numpy as np
-    layer = mesh.uv_layers[uv_map]
-    n_loops, n_faces = len(mesh.loops), len(mesh.polygons)
-    if n_faces == 0:
+    from ..reference import tiles as T
+    if len(mesh.polygons) == 0:
         return [], 0
-    uv = np.empty(n_loops * 2, dtype=np.float64)
-    layer.data.foreach_get("uv", uv)
-    uv = uv.reshape(-1, 2)
-    starts = np.empty(n_faces, dtype=np.int64)
-    mesh.polygons.foreach_get("loop_start", starts)
-    lo = np.minimum.reduceat(uv, starts, axis=0)
-    hi = np.maximum.reduceat(uv, starts, axis=0)
-    eps = 1e-6
-    t_lo = np.floor(lo + eps).astype(np.int64)
-    t_hi = np.floor(hi - eps).astype(np.int64)
-    t_hi = np.maximum(t_hi, t_lo)               # degenerate faces on a border
-    outside = (t_lo[:, 0] < 0) | (t_hi[:, 0] >= UDIM_COLUMNS) | (t_lo[:, 1] < 0) | \
-        (UDIM_FIRST + t_hi[:, 1] * UDIM_COLUMNS > UDIM_LAST)
-    tiles = set()
-    span = t_hi - t_lo
-    inside = ~outside
-    if inside.any():
-        simple = inside & (span[:, 0] == 0) & (span[:, 1] == 0)
-        tiles.update((UDIM_FIRST + t_lo[simple, 0] + UDIM_COLUMNS * t_lo[simple, 1]).tolist())
-        for i in np.flatnonzero(inside & ~simple):      # faces across tile borders (few)
-            for v in range(t_lo[i, 1], t_hi[i, 1] + 1):
-                for u in range(t_lo[i, 0], t_hi[i, 0] + 1):
-                    tiles.add(UDIM_FIRST + u + UDIM_COLUMNS * v)
-    return sorted(int(t) for t in tiles), int(outside.sum())
+    mesh.calc_loop_triangles()
+    nt = len(mesh.loop_triangles)
+    loops = np.empty(nt * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    faces = np.empty(nt, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("polygon_index", faces)
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
+    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
+    outside = np.unique(faces[T.triangles_outside(uv)])
+    return T.tiles_with_uvs(uv), int(len(outside))
 
 
 def _tiles_text(tiles):

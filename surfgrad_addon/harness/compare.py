@@ -154,10 +154,12 @@ def angle_deg(a, b):
     return np.where(valid, ang, 180.0)
 
 
-def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print):
+def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print,
+                   tiles=None):
     """Bake `method` on obj and compare with the reference (variant None: "hq" for the
-    height maps, the method's first otherwise, e.g. the box decal). Returns (report dict,
-    per-texel error image (H, W) with NaN where not compared)."""
+    height maps, the method's first otherwise, e.g. the box decal). `tiles`: the UDIM tiles
+    to bake and compare (None: what target_tiles picks, as Blender's bake would fill).
+    Returns (report dict, per-texel error image (H, W) with NaN where not compared)."""
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
@@ -177,7 +179,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     import bpy
     try:
         with m.scene(obj, inp):
-            report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log)
+            report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
+                                         tiles=tiles)
         report["method"] = method
         report["variant"] = inp.variant if len(m.variants) > 1 else None
         return report, heat
@@ -223,20 +226,52 @@ class ErrorImage(np.ndarray):
         self.reasons = getattr(obj, "reasons", None)
 
 
-def target_tiles(mesh, uv_map, name):
-    """The images a bake of `uv_map` fills: [1001] (the plain 0..1 image) when the layout
-    stays inside it, else every UDIM tile it touches. Raises CompareError when it touches
-    none (every UV below 0, or beyond tile 2000)."""
+def target_tiles(mesh, uv_map, name, tiles=None):
+    """What a bake of `uv_map` fills, as Blender's bake does it: (tiles, note). [1001] is the
+    plain 0..1 image. Asked-for `tiles`: those UDIM tiles. Otherwise a layout whose every face
+    lies on the UDIM grid (u 0..10, v >= 0) is a UDIM layout: every tile its faces cover; a
+    layout with faces beyond it (tiling UVs, negative tiles) is baked as a plain image bakes
+    it, the 0..1 square. `note` says how many faces lie (partly) outside the target, whose
+    parts there a bake does not write (no wrap) and the comparison cannot see, or is None.
+    Raises CompareError when nothing lies inside the target."""
     uv = mesh.uv(uv_map)
-    touched = R.tiles.tiles_touched(uv)
-    if not touched:
-        lo, hi = uv.reshape(-1, 2).min(0), uv.reshape(-1, 2).max(0)
-        raise CompareError(
-            f"UV map {uv_map!r} of {name!r} puts nothing inside the bake target: its UVs span "
-            f"u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}, outside 0..1 and every "
-            f"UDIM tile (a bake ignores what lies outside, it does not wrap); move the islands "
-            f"into the UV square (UV > Pack Islands) or onto UDIM tiles")
-    return touched
+    faces = mesh.triangle_faces if mesh.triangle_faces is not None else \
+        np.arange(len(mesh.triangles))
+    lo, hi = uv.reshape(-1, 2).min(0), uv.reshape(-1, 2).max(0)
+    span = f"u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}"
+    with_uvs = R.tiles.tiles_with_uvs(uv)
+    if tiles:
+        tiles = sorted({int(t) for t in tiles})
+        bad = [t for t in tiles if not R.tiles.UDIM_FIRST <= t <= R.tiles.UDIM_LAST]
+        if bad:
+            raise CompareError(f"tile {bad[0]}: UDIM tiles are numbered {R.tiles.UDIM_FIRST} "
+                               f"to {R.tiles.UDIM_LAST}")
+        empty = [t for t in tiles if t not in with_uvs]
+        if empty:
+            raise CompareError(f"tile(s) {', '.join(map(str, empty))} hold no UVs of UV map "
+                               f"{uv_map!r} of {name!r} (its UVs span {span}, on tiles "
+                               f"{', '.join(map(str, with_uvs)) or 'none'}); ask for tiles "
+                               f"that hold UVs")
+        where = f"UDIM tile(s) {', '.join(map(str, tiles))}"
+    elif not R.tiles.triangles_outside(uv).any() and with_uvs:
+        tiles, where = with_uvs, None
+    else:
+        tiles, where = [R.tiles.UDIM_FIRST], "the 0..1 UV square (a plain image)"
+        if R.tiles.UDIM_FIRST not in with_uvs:
+            raise CompareError(
+                f"UV map {uv_map!r} of {name!r} puts nothing inside the bake target: its UVs "
+                f"span {span}, with faces outside the UDIM tiles (u 0..10, v >= 0), so a bake "
+                f"fills the 0..1 square as a plain image does, and nothing lies there (a bake "
+                f"does not wrap); move the islands into the UV square (UV > Pack Islands), "
+                f"onto UDIM tiles, or ask for the UDIM tiles to compare (--tiles)")
+    outside = np.unique(faces[R.tiles.triangles_outside(uv, tiles)])
+    note = None
+    if len(outside) and where:
+        n_faces = len(np.unique(faces))
+        note = (f"UV map {uv_map!r} of {mesh.name!r}: {len(outside)} of {n_faces} faces lie "
+                f"(partly) outside {where} (its UVs span {span}); a bake writes only what "
+                f"lies inside (no wrap), so only that is compared")
+    return tiles, len(outside), note
 
 
 def overlap_warning(mesh, uv_map, td_list):
@@ -276,7 +311,7 @@ def backfacing_warning(mesh, report):
             f"Recalculate Outside) or fix the custom normals.")
 
 
-def compare_graph(inp, obj, graph, reference, resolution, log=None):
+def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
     and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""
     method = getattr(graph, "__name__", "graph")
@@ -284,7 +319,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None):
         mesh = mesh_arrays_from_object(obj)
     except MeshDataError as err:
         raise CompareError(str(err)) from err
-    tiles = target_tiles(mesh, inp.uv_map, obj.name)
+    tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     # Compiled kernels load once per process (like an import), reported apart from the timing.
     load_seconds = R.raster.load_compiled()
     G.build_all()
@@ -325,13 +360,14 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None):
     if report["texels_compared"] == 0:
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
                            f"(excluded: {report['excluded']}); raise --resolution")
-    warnings = [w for w in [overlap_warning(mesh, inp.uv_map, tds),
+    warnings = [w for w in [tile_note, overlap_warning(mesh, inp.uv_map, tds),
                             backfacing_warning(mesh, report)] if w]
     for w in warnings:
         if log:
             log(f"warning: {w}")
     report.update({"method": method, "object": obj.name, "uv_map": inp.uv_map,
                    "resolution": resolution, "bake_seconds": bake_seconds,
+                   "faces_outside": faces_outside,
                    "reference_seconds": reference_seconds, "warnings": warnings,
                    "compiled_kernels": R.compiled.enabled(),
                    "compiled_load_seconds": load_seconds,
@@ -464,7 +500,7 @@ def write_heat_map(path, heat, overwrite):
 
 
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
-        variant=None, overwrite=False, log=print, from_open_file=False):
+        variant=None, overwrite=False, log=print, from_open_file=False, tiles=None):
     """The command: load, bake, compare, write the JSON and the heat map, print a summary."""
     import bpy
     json_out = Path(json_out)
@@ -485,7 +521,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
                            f"{sorted(o.name for o in bpy.data.objects)}")
     from .. import api                  # the command goes through the public API
     report, heat = api.compare(obj, method, resolution, variant, uv_map, image,
-                               with_heat_map=True)
+                               with_heat_map=True, tiles=tiles)
     json_out.parent.mkdir(parents=True, exist_ok=True)
     json_out.write_text(json.dumps(report, indent=2))
     write_heat_map(heat_path, heat, overwrite)
