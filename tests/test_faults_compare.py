@@ -117,19 +117,23 @@ def test_the_reference_reads_the_render_mesh(empty_file, kind):
     assert settings() == kept and _scene_state() == before
 
 
-def test_render_pass_leaves_a_scene_with_a_camera_and_a_render_result(empty_file):
+def test_render_pass_puts_back_the_scene_camera_settings_and_render_result(empty_file):
     obj, _, _ = _render_only_object("subdivision")
     cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
     bpy.context.scene.collection.objects.link(cam)
     bpy.context.scene.camera = cam
     sc = bpy.context.scene
     sc.render.engine = "BLENDER_WORKBENCH"
+    sc.render.resolution_x = sc.render.resolution_y = 8
+    assert bpy.ops.render.render() == {"FINISHED"}          # the user's last render
+    assert bpy.data.images["Render Result"].type == "RENDER_RESULT"
     sc.render.resolution_x = 1234
     obj.hide_render = True                  # lent visible for the pass, as for a bake
     before = _scene_state()
     mesh = mesh_arrays_from_object(obj)
     assert len(mesh.triangles) == 2 * NX * NY * 16
-    assert _scene_state() == before and obj.hide_render
+    assert _scene_state() == before and obj.hide_render and sc.camera == cam
+    assert "Render Result" in bpy.data.images
     assert "SURFGRAD_RENDER_MESH" not in dir(bpy.types)
 
 

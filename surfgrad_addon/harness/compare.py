@@ -1,7 +1,7 @@
 """Bake a method's node groups with Cycles and compare them texel by texel with the reference.
 
     python -m surfgrad_addon compare --blend FILE --object NAME --method METHOD \\
-        --resolution N --json OUT [--uv-map NAME] [--image PATH] [--variant V]
+        --resolution N --json OUT [--uv-map NAME] [--image PATH] [--variant V] [--tiles N ...]
 
 Without --blend the procedural test scene (blender/scenes.py) is used. The bake and the
 reference see the same mesh (the evaluated object with the normals Cycles shades with,
@@ -10,9 +10,12 @@ the same parameters, and the same texels: the reference gives each texel the tri
 gives it (the last one covering it), so contested texels of overlapping UV islands are compared
 too, counted and named in a warning. Angular error is measured over every texel both cover; a
 texel is excluded only for a stated reason (EXCLUSION_REASONS: within float32 rounding of a
-triangle edge, covered by one side only), counted per reason in the report and drawn in its own
-colour in the heat map. A UV layout on UDIM tiles is baked into a tiled image and compared
-tile by tile.
+triangle edge, covered by one side only, a shading normal facing away from its triangle),
+counted per reason in the report and drawn in its own colour in the heat map. The mesh is the
+one Cycles renders (modifiers at their render settings: render_mesh.py). A UV layout on UDIM
+tiles is baked into a tiled image and compared tile by tile; one with faces beyond the UDIM
+grid (tiling UVs) on the 0..1 square a plain image bakes, or on the tiles asked for, with the
+faces outside counted.
 """
 
 import json
@@ -227,12 +230,14 @@ class ErrorImage(np.ndarray):
 
 
 def target_tiles(mesh, uv_map, name, tiles=None):
-    """What a bake of `uv_map` fills, as Blender's bake does it: (tiles, note). [1001] is the
+    """What a bake of `uv_map` fills, as Blender's bake does it: (tiles, faces outside, note).
+    [1001] is the
     plain 0..1 image. Asked-for `tiles`: those UDIM tiles. Otherwise a layout whose every face
     lies on the UDIM grid (u 0..10, v >= 0) is a UDIM layout: every tile its faces cover; a
     layout with faces beyond it (tiling UVs, negative tiles) is baked as a plain image bakes
-    it, the 0..1 square. `note` says how many faces lie (partly) outside the target, whose
-    parts there a bake does not write (no wrap) and the comparison cannot see, or is None.
+    it, the 0..1 square. Faces outside: how many lie (partly) outside the target, whose parts
+    there a bake does not write (no wrap) and the comparison cannot see; `note` says so, or
+    is None.
     Raises CompareError when nothing lies inside the target."""
     uv = mesh.uv(uv_map)
     faces = mesh.triangle_faces if mesh.triangle_faces is not None else \

@@ -7,9 +7,9 @@ set to false. Python's evaluated_depsgraph_get() is the viewport's, and Python c
 render one; but a render engine's render(depsgraph) receives it. So `read_in_render_mode`
 registers a tiny temporary RenderEngine that does nothing but call `read(depsgraph)`, renders
 one frame of the context's view layer at 4 x 4 with it (no file written), and puts back
-everything it touched: the render settings, the scene camera (a temporary one when the scene
-has none: Blender refuses to render without), the "Render Result" image if there was none, and
-the engine class. Render handlers of add-ons still run, as for any render.
+everything it touched: the render settings, the scene camera (a temporary one stands in:
+Blender refuses to render without one, and the scene's may be missing or hidden), the "Render
+Result" image if there was none, and the engine class. Render handlers of add-ons still run, as for any render.
 """
 
 from contextlib import ExitStack
@@ -66,19 +66,19 @@ def read_in_render_mode(obj, read, context=None):
     images_before = set(bpy.data.images)
     engine = _engine_class()
     job = {"layer": view_layer.name, "read": read}
-    camera = None
     with ExitStack() as stack:
         bpy.utils.register_class(engine)
         stack.callback(bpy.utils.unregister_class, engine)
         stack.callback(_remove_new_render_result, images_before)
         stack.enter_context(restored(scene, settings))
         stack.enter_context(visible_for_bake(obj, view_layer))
-        if scene.camera is None:
-            data = bpy.data.cameras.new(".surfgrad_render_mesh")
-            camera = bpy.data.objects.new(".surfgrad_render_mesh", data)
-            scene.collection.objects.link(camera)
-            scene.camera = camera
-            stack.callback(_remove_camera, scene, camera, data)
+        # Always a camera of our own: the scene's may be missing or outside the view layer.
+        data = bpy.data.cameras.new(".surfgrad_render_mesh")
+        camera = bpy.data.objects.new(".surfgrad_render_mesh", data)
+        scene.collection.objects.link(camera)
+        stack.callback(_remove_camera, camera, data)
+        stack.enter_context(restored(scene, ("camera",)))
+        scene.camera = camera
         r = scene.render
         r.engine = ENGINE_ID
         r.resolution_x = r.resolution_y = 4
@@ -113,10 +113,8 @@ def _has(root, path):
     return True
 
 
-def _remove_camera(scene, camera, data):
+def _remove_camera(camera, data):
     import bpy
-    if scene.camera == camera:
-        scene.camera = None
     bpy.data.objects.remove(camera)
     bpy.data.cameras.remove(data)
 
