@@ -202,7 +202,7 @@ def test_suzanne_as_shipped_backfacing_texels_are_excluded_and_counted(empty_fil
         assert any(line.startswith("warning: ") and "(backfacing)" in line for line in logged)
 
 
-# 3. Tiling layouts ---------------------------------------------------------------------------------
+# 3. Tiling layouts -------------------------------------------------------------------------------
 
 def _tiling(name="Tiling"):
     """A 16 x 16 grid whose UVs are scaled to -7.15..7.25 (0.9 per face): faces on negative
@@ -296,7 +296,7 @@ def test_compare_command_on_a_tiling_file(tmp_path):
     assert hashlib.sha256(blend.read_bytes()).hexdigest() == digest
 
 
-# 4. Mirror + Array sharing UVs ---------------------------------------------------------------------
+# 4. Mirror + Array sharing UVs -------------------------------------------------------------------
 
 def _mirror_array(name="MirrorArray", flip_u=False):
     obj = A._link(name, A._grid(name, nx=6, ny=6, x0=0.0, x1=0.6, bend=0.5, seed=2))

@@ -9,7 +9,8 @@ registers a tiny temporary RenderEngine that does nothing but call `read(depsgra
 one frame of the context's view layer at 4 x 4 with it (no file written), and puts back
 everything it touched: the render settings, the scene camera (a temporary one stands in:
 Blender refuses to render without one, and the scene's may be missing or hidden), the "Render
-Result" image if there was none, and the engine class. Render handlers of add-ons still run, as for any render.
+Result" image if there was none, and the engine class. Render handlers of add-ons still run,
+as for any render.
 """
 
 from contextlib import ExitStack

@@ -123,7 +123,8 @@ def triangles_outside(uv_triangles, tiles=None):
     """(T,) True where a UV triangle has area outside the given tiles (None: outside the
     UDIM grid): the part a bake into those tiles does not write. A triangle is inside when
     it lies in the tiles' squares' union: inside the UDIM grid (tiles 1001 to 2000: u 0..10,
-    v 0..100) and every tile it covers is one of them (within BORDER_EPS). Zero-area triangles are never outside (they bake nothing anywhere)."""
+    v 0..100) and every tile it covers is one of them (within BORDER_EPS). Zero-area
+    triangles are never outside (they bake nothing anywhere)."""
     uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
     area2 = np.abs((uv[:, 1, 0] - uv[:, 0, 0]) * (uv[:, 2, 1] - uv[:, 0, 1])
                    - (uv[:, 2, 0] - uv[:, 0, 0]) * (uv[:, 1, 1] - uv[:, 0, 1]))
