@@ -106,10 +106,11 @@ def bake_batch(blends=None, output="{file}_{object}.<UDIM>.png", objects=None,
 
 
 def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
-            with_heat_map=False):
+            with_heat_map=False, tiles=None):
     """Bake `method`'s node groups on obj with Cycles and compare texel by texel with the numpy
     reference; returns the report dict (mean / p99 / max angular error in degrees, texel
-    counts, timings), and with with_heat_map the per-texel error image too. Needs the proving
+    counts, timings), and with with_heat_map the per-texel error image too. tiles: the UDIM
+    tiles to bake and compare (default: what Blender's bake fills). Needs the proving
     harness (a checkout, not the extension zip)."""
     try:
         from .harness import compare as harness_compare
@@ -121,7 +122,7 @@ def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
     try:
         report, heat = harness_compare.compare_object(obj, method, resolution, uv_map=uv_map,
                                                       image=image, variant=variant,
-                                                      log=lambda *_: None)
+                                                      log=lambda *_: None, tiles=tiles)
     finally:
         # The file is the user's: the groups the bake needed go again (users first).
         for tree in [t for t in bpy.data.node_groups if t not in before][::-1]:

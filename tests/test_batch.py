@@ -110,10 +110,11 @@ def test_uv_layouts_that_miss_the_target_tiles_are_refused(asset, tmp_path):
     for kw, message in cases:
         with pytest.raises(NB.NormalBakeError, match=message):
             NB.bake_normal_tiles(rock, resolution=16, **kw, **QUIET)
-    # UVs only in tile 1002 and a single image: nothing inside the 0-1 square.
+    # UVs only in tile 1002 and a single image: nothing inside the 0-1 square (each quad
+    # squeezed into 1002, keeping its area: a zero-area face covers no tile).
     uv = rock.data.uv_layers["UVMap"].data
     for d in uv:
-        d.uv = (d.uv[0] % 1 + 1, d.uv[1] % 1)
+        d.uv = ((d.uv[0] * 0.999) % 1 + 1, (d.uv[1] * 0.999) % 1)
     with pytest.raises(NB.NormalBakeError, match="puts nothing inside the 0-1 UV square .* "
                                                  "tiles 1002"):
         NB.bake_normal_tiles(rock, tmp_path / "r.png", resolution=16, **QUIET)

@@ -50,7 +50,8 @@ def test_every_texel_explained_on_real_assets(assets, asset, method):
     REPORTS[(asset, method)] = report
     covered = report["texels_covered"]
     assert covered > 20000
-    assert set(report["excluded"]) == {"edge", "outside"}
+    assert set(report["excluded"]) == {"edge", "outside", "backfacing"}
+    assert report["excluded"]["backfacing"] == 0           # every normal faces its face
     assert report["texels_excluded"] == sum(report["excluded"].values())
     assert report["excluded_fraction"] <= 0.10, report["excluded"]
     assert report["texels_compared"] + report["texels_excluded"] == covered
@@ -118,8 +119,8 @@ def test_the_command_reports_contested_texels_and_excluded_reasons(assets, tmp_p
                 from_open_file=True)
     report = json.loads(out.read_text())
     assert report["texels_contested"] == report["texels_covered"] > 0
-    assert report["excluded"] == {"edge": 0, "outside": 0}
+    assert report["excluded"] == {"edge": 0, "outside": 0, "backfacing": 0}
     assert f"({report['texels_contested']} contested)" in lines[0]
-    assert "excluded 0 (edge 0, outside 0)" in lines[0]
+    assert "excluded 0 (edge 0, outside 0, backfacing 0)" in lines[0]
     assert lines[-1].startswith("warning: UV map 'UVMap' of 'MirrorModifier'")
     assert (tmp_path / "m_error.png").stat().st_size > 0

@@ -55,18 +55,24 @@ _tiles_text = T.tiles_text
 
 
 def uv_tiles(mesh, uv_map):
-    """The UDIM tiles the faces of `uv_map` touch, sorted, and how many faces lie outside the
-    UDIM range (u in 0..10, v >= 0): reference.tiles.face_tiles on the mesh's UVs."""
+    """The UDIM tiles the faces of `uv_map` cover, sorted, and how many faces lie (partly)
+    outside the UDIM range (u in 0..10, v >= 0). Exact (reference/tiles.py): a tile counts
+    when a face's triangle covers part of it, not when only its bounding box reaches in, and
+    a face across the range's border still names the tiles its inside part covers."""
     import numpy as np
-    layer = mesh.uv_layers[uv_map]
-    n_loops, n_faces = len(mesh.loops), len(mesh.polygons)
-    if n_faces == 0:
+    if len(mesh.polygons) == 0:
         return [], 0
-    uv = np.empty(n_loops * 2, dtype=np.float64)
-    layer.data.foreach_get("uv", uv)
-    starts = np.empty(n_faces, dtype=np.int64)
-    mesh.polygons.foreach_get("loop_start", starts)
-    return T.face_tiles(uv.reshape(-1, 2), starts)
+    mesh.calc_loop_triangles()
+    nt = len(mesh.loop_triangles)
+    loops = np.empty(nt * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    faces = np.empty(nt, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("polygon_index", faces)
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
+    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
+    outside = np.unique(faces[T.triangles_outside(uv)])
+    return T.tiles_with_uvs(uv), int(len(outside))
 
 
 def check_output(output, overwrite_check=True):

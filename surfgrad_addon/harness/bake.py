@@ -84,17 +84,21 @@ def _check_target(obj, uv_map):
 
 
 def _tiled_float_image(name, width, height, tiles):
-    """A UDIM image with the given tiles, every tile float, cleared to (0, 0, 0, 0)."""
+    """A UDIM image with the given tiles, every tile float, cleared to (0, 0, 0, 0). Tiles are
+    added with image.tiles.new and each filled through its own active index (tile_add's poll
+    fails once the first tile is renumbered away from 1001: that tile has no buffer yet)."""
     import bpy
     image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, tiled=True)
     image.colorspace_settings.name = "Non-Color"
     image.generated_color = (0.0, 0.0, 0.0, 0.0)
     image.tiles[0].number = tiles[0]
     for number in tiles[1:]:
+        image.tiles.new(tile_number=number)
+    for index in range(len(image.tiles)):
+        image.tiles.active_index = index
         with bpy.context.temp_override(edit_image=image):
-            bpy.ops.image.tile_add(number=number, count=1, fill=True, color=(0, 0, 0, 0),
-                                   generated_type="BLANK", width=width, height=height,
-                                   float=True, alpha=True)
+            bpy.ops.image.tile_fill(color=(0, 0, 0, 0), generated_type="BLANK", width=width,
+                                    height=height, float=True, alpha=True)
     return image
 
 

@@ -81,6 +81,9 @@ def main(argv=None, in_blender=False):
                      choices=("forward", "one-texel", "hq", "box", "sphere", "cylinder", "cone"),
                      help="height-map derivative variant (default hq) or decal shape "
                           "(default box)")
+    cmp.add_argument("--tiles", type=int, nargs="+", default=None,
+                     help="UDIM tiles to bake and compare (default: the 0-1 square, or every "
+                          "tile with faces when all faces lie on UDIM tiles)")
     cmp.add_argument("--overwrite", action="store_true", help="replace existing outputs")
     call = sub.add_parser("compare-all", help="every method on every test object (needs bpy)")
     call.add_argument("--out", default="out/compare", help="output folder")
@@ -202,7 +205,7 @@ def main(argv=None, in_blender=False):
             from . import compare
             compare.run(args.blend, args.object, args.method, args.resolution, args.json,
                         args.uv_map, args.image, args.variant, args.overwrite,
-                        from_open_file=in_blender)
+                        from_open_file=in_blender, tiles=args.tiles)
     except (FileExistsError, ValueError, KeyError, RuntimeError) as err:
         print(f"surfgrad: error: {err}", file=sys.stderr)
         from ..addon.exit_codes import code_for

@@ -1,7 +1,7 @@
 """Bake a method's node groups with Cycles and compare them texel by texel with the reference.
 
     python -m surfgrad_addon compare --blend FILE --object NAME --method METHOD \\
-        --resolution N --json OUT [--uv-map NAME] [--image PATH] [--variant V]
+        --resolution N --json OUT [--uv-map NAME] [--image PATH] [--variant V] [--tiles N ...]
 
 Without --blend the procedural test scene (blender/scenes.py) is used. The bake and the
 reference see the same mesh (the evaluated object with the normals Cycles shades with,
@@ -10,9 +10,12 @@ the same parameters, and the same texels: the reference gives each texel the tri
 gives it (the last one covering it), so contested texels of overlapping UV islands are compared
 too, counted and named in a warning. Angular error is measured over every texel both cover; a
 texel is excluded only for a stated reason (EXCLUSION_REASONS: within float32 rounding of a
-triangle edge, covered by one side only), counted per reason in the report and drawn in its own
-colour in the heat map. A UV layout on UDIM tiles is baked into a tiled image and compared
-tile by tile.
+triangle edge, covered by one side only, a shading normal facing away from its triangle),
+counted per reason in the report and drawn in its own colour in the heat map. The mesh is the
+one Cycles renders (modifiers at their render settings: render_mesh.py). A UV layout on UDIM
+tiles is baked into a tiled image and compared tile by tile; one with faces beyond the UDIM
+grid (tiling UVs) on the 0..1 square a plain image bakes, or on the tiles asked for, with the
+faces outside counted.
 """
 
 import json
@@ -154,10 +157,12 @@ def angle_deg(a, b):
     return np.where(valid, ang, 180.0)
 
 
-def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print):
+def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print,
+                   tiles=None):
     """Bake `method` on obj and compare with the reference (variant None: "hq" for the
-    height maps, the method's first otherwise, e.g. the box decal). Returns (report dict,
-    per-texel error image (H, W) with NaN where not compared)."""
+    height maps, the method's first otherwise, e.g. the box decal). `tiles`: the UDIM tiles
+    to bake and compare (None: what target_tiles picks, as Blender's bake would fill).
+    Returns (report dict, per-texel error image (H, W) with NaN where not compared)."""
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
@@ -177,7 +182,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     import bpy
     try:
         with m.scene(obj, inp):
-            report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log)
+            report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
+                                         tiles=tiles)
         report["method"] = method
         report["variant"] = inp.variant if len(m.variants) > 1 else None
         return report, heat
@@ -196,9 +202,17 @@ EXCLUSION_REASONS = {
                 "conversion decides the side, and on an island border Cycles moves a sample it "
                 "finds outside its triangle by a hashed jitter (bake_jitter_barycentric)"),
     3: ("outside", "covered by the bake or by the reference but not by both"),
+    4: ("backfacing", "the shading normal (the interpolated vertex or corner normals) faces "
+                      "away from its triangle (or within rounding of it): a bake's ray comes "
+                      "in along -N (integrator/init_from_bake.h), so Cycles finds the back "
+                      "face and flips N, Ng, dPdu and dPdv there (geom/shader_data.h), and "
+                      "every node shades the back side; the references model the front side"),
 }
 HEAT_COLOURS = {0: (0.05, 0.05, 0.2), 1: (0.9, 0.1, 0.8), 2: (1.0, 0.55, 0.0),
-                3: (0.0, 0.8, 0.8)}
+                3: (0.0, 0.8, 0.8), 4: (0.2, 0.9, 0.2)}
+# dot(shading normal, geometric normal) below this is "backfacing": the bake's float32 sign
+# test can go either way within the rounding of the (packed) stored normals.
+BACKFACING_DOT = 1e-4
 
 
 class ErrorImage(np.ndarray):
@@ -215,20 +229,54 @@ class ErrorImage(np.ndarray):
         self.reasons = getattr(obj, "reasons", None)
 
 
-def target_tiles(mesh, uv_map, name):
-    """The images a bake of `uv_map` fills: [1001] (the plain 0..1 image) when the layout
-    stays inside it, else every UDIM tile it touches. Raises CompareError when it touches
-    none (every UV below 0, or beyond tile 2000)."""
+def target_tiles(mesh, uv_map, name, tiles=None):
+    """What a bake of `uv_map` fills, as Blender's bake does it: (tiles, faces outside, note).
+    [1001] is the
+    plain 0..1 image. Asked-for `tiles`: those UDIM tiles. Otherwise a layout whose every face
+    lies on the UDIM grid (u 0..10, v >= 0) is a UDIM layout: every tile its faces cover; a
+    layout with faces beyond it (tiling UVs, negative tiles) is baked as a plain image bakes
+    it, the 0..1 square. Faces outside: how many lie (partly) outside the target, whose parts
+    there a bake does not write (no wrap) and the comparison cannot see; `note` says so, or
+    is None.
+    Raises CompareError when nothing lies inside the target."""
     uv = mesh.uv(uv_map)
-    touched = R.tiles.tiles_touched(uv)
-    if not touched:
-        lo, hi = uv.reshape(-1, 2).min(0), uv.reshape(-1, 2).max(0)
-        raise CompareError(
-            f"UV map {uv_map!r} of {name!r} puts nothing inside the bake target: its UVs span "
-            f"u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}, outside 0..1 and every "
-            f"UDIM tile (a bake ignores what lies outside, it does not wrap); move the islands "
-            f"into the UV square (UV > Pack Islands) or onto UDIM tiles")
-    return touched
+    faces = mesh.triangle_faces if mesh.triangle_faces is not None else \
+        np.arange(len(mesh.triangles))
+    lo, hi = uv.reshape(-1, 2).min(0), uv.reshape(-1, 2).max(0)
+    span = f"u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}"
+    with_uvs = R.tiles.tiles_with_uvs(uv)
+    if tiles:
+        tiles = sorted({int(t) for t in tiles})
+        bad = [t for t in tiles if not R.tiles.UDIM_FIRST <= t <= R.tiles.UDIM_LAST]
+        if bad:
+            raise CompareError(f"tile {bad[0]}: UDIM tiles are numbered {R.tiles.UDIM_FIRST} "
+                               f"to {R.tiles.UDIM_LAST}")
+        empty = [t for t in tiles if t not in with_uvs]
+        if empty:
+            raise CompareError(f"tile(s) {', '.join(map(str, empty))} hold no UVs of UV map "
+                               f"{uv_map!r} of {name!r} (its UVs span {span}, on tiles "
+                               f"{', '.join(map(str, with_uvs)) or 'none'}); ask for tiles "
+                               f"that hold UVs")
+        where = f"UDIM tile(s) {', '.join(map(str, tiles))}"
+    elif not R.tiles.triangles_outside(uv).any() and with_uvs:
+        tiles, where = with_uvs, None
+    else:
+        tiles, where = [R.tiles.UDIM_FIRST], "the 0..1 UV square (a plain image)"
+        if R.tiles.UDIM_FIRST not in with_uvs:
+            raise CompareError(
+                f"UV map {uv_map!r} of {name!r} puts nothing inside the bake target: its UVs "
+                f"span {span}, with faces outside the UDIM tiles (u 0..10, v >= 0), so a bake "
+                f"fills the 0..1 square as a plain image does, and nothing lies there (a bake "
+                f"does not wrap); move the islands into the UV square (UV > Pack Islands), "
+                f"onto UDIM tiles, or ask for the UDIM tiles to compare (--tiles)")
+    outside = np.unique(faces[R.tiles.triangles_outside(uv, tiles)])
+    note = None
+    if len(outside) and where:
+        n_faces = len(np.unique(faces))
+        note = (f"UV map {uv_map!r} of {mesh.name!r}: {len(outside)} of {n_faces} faces lie "
+                f"(partly) outside {where} (its UVs span {span}); a bake writes only what "
+                f"lies inside (no wrap), so only that is compared")
+    return tiles, len(outside), note
 
 
 def overlap_warning(mesh, uv_map, td_list):
@@ -252,7 +300,23 @@ def overlap_warning(mesh, uv_map, td_list):
             f"Overlapping faces ({len(pairs)} pairs): {shown}{more}.")
 
 
-def compare_graph(inp, obj, graph, reference, resolution, log=None):
+def backfacing_warning(mesh, report):
+    """A warning naming the faces whose shading normals face away from them, or None."""
+    tris = report.get("backfacing_triangles") or []
+    if not tris:
+        return None
+    faces = sorted({int(mesh.triangle_faces[t]) if mesh.triangle_faces is not None else int(t)
+                    for t in tris})
+    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
+                                              if len(faces) > 8 else "")
+    return (f"{mesh.name!r}: {report['excluded']['backfacing']} texels of {len(tris)} "
+            f"triangles (faces {shown}) are not compared (backfacing): their vertex or corner "
+            f"normals face away from the face, so Cycles shades its back side there (normals "
+            f"flipped). If that is not meant, recalculate the normals (Mesh > Normals > "
+            f"Recalculate Outside) or fix the custom normals.")
+
+
+def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
     and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""
     method = getattr(graph, "__name__", "graph")
@@ -260,7 +324,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None):
         mesh = mesh_arrays_from_object(obj)
     except MeshDataError as err:
         raise CompareError(str(err)) from err
-    tiles = target_tiles(mesh, inp.uv_map, obj.name)
+    tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     # Compiled kernels load once per process (like an import), reported apart from the timing.
     load_seconds = R.raster.load_compiled()
     G.build_all()
@@ -301,12 +365,14 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None):
     if report["texels_compared"] == 0:
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
                            f"(excluded: {report['excluded']}); raise --resolution")
-    warnings = [w for w in [overlap_warning(mesh, inp.uv_map, tds)] if w]
+    warnings = [w for w in [tile_note, overlap_warning(mesh, inp.uv_map, tds),
+                            backfacing_warning(mesh, report)] if w]
     for w in warnings:
         if log:
             log(f"warning: {w}")
     report.update({"method": method, "object": obj.name, "uv_map": inp.uv_map,
                    "resolution": resolution, "bake_seconds": bake_seconds,
+                   "faces_outside": faces_outside,
                    "reference_seconds": reference_seconds, "warnings": warnings,
                    "compiled_kernels": R.compiled.enabled(),
                    "compiled_load_seconds": load_seconds,
@@ -327,6 +393,7 @@ def _compare_tile(td, reference, pixels, covered):
     errs, contested_errs = [], []
     sums = dict.fromkeys(("compared", "contested", "tilt_bake", "tilt_ref", "finite_unit",
                           "both", "finite_unit_all", "away", "truth_away", "away_wrong"), 0)
+    sums["backfacing_triangles"] = set()
     seconds = [0.0]
     for _, _, block, ref in M.evaluated_blocks(reference, td, seconds=seconds):
             px, py = block.pixel[:, 0], block.pixel[:, 1]
@@ -334,8 +401,12 @@ def _compare_tile(td, reference, pixels, covered):
             in_bake = covered[py, px]
             contested = td.contested[py, px]
             edge = td.on_edge[py, px] & ~contested
-            compared = in_bake & ~edge
+            facing = np.sum(block.shading_normal * block.geometric_normal, axis=-1)
+            backfacing = in_bake & ~edge & (facing < BACKFACING_DOT)
+            compared = in_bake & ~edge & ~backfacing
             reasons[py[edge & in_bake], px[edge & in_bake]] = 2
+            reasons[py[backfacing], px[backfacing]] = 4
+            sums["backfacing_triangles"] |= set(np.unique(block.tri[backfacing]).tolist())
             marked = contested & compared
             reasons[py[marked], px[marked]] = CONTESTED
             err = angle_deg(baked[compared], ref[compared])
@@ -384,6 +455,7 @@ def _stats(err):
 def _merge(tile_reports):
     """The report over every tile (per-tile figures stay in each tile's dict)."""
     err = np.concatenate([t["_err"] for t in tile_reports])
+    backfacing = set().union(*(t["_sums"].pop("backfacing_triangles") for t in tile_reports))
     sums = {k: sum(t["_sums"][k] for t in tile_reports) for k in tile_reports[0]["_sums"]}
     covered = sum(t["texels_covered"] for t in tile_reports)
     compared = sums["compared"]
@@ -403,6 +475,7 @@ def _merge(tile_reports):
         "texels_covered": covered, "texels_compared": compared,
         "texels_contested": contested,
         "texels_excluded": n_excl, "excluded": excluded,
+        "backfacing_triangles": sorted(int(t) for t in backfacing),
         "excluded_fraction": n_excl / max(1, covered),
         **_stats(err),
         "contested_max_deg": max(cmax) if cmax else None,
@@ -432,7 +505,7 @@ def write_heat_map(path, heat, overwrite):
 
 
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
-        variant=None, overwrite=False, log=print, from_open_file=False):
+        variant=None, overwrite=False, log=print, from_open_file=False, tiles=None):
     """The command: load, bake, compare, write the JSON and the heat map, print a summary."""
     import bpy
     json_out = Path(json_out)
@@ -453,7 +526,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
                            f"{sorted(o.name for o in bpy.data.objects)}")
     from .. import api                  # the command goes through the public API
     report, heat = api.compare(obj, method, resolution, variant, uv_map, image,
-                               with_heat_map=True)
+                               with_heat_map=True, tiles=tiles)
     json_out.parent.mkdir(parents=True, exist_ok=True)
     json_out.write_text(json.dumps(report, indent=2))
     write_heat_map(heat_path, heat, overwrite)

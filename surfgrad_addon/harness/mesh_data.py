@@ -1,6 +1,7 @@
 """A Blender mesh object as the reference's MeshArrays: what Cycles sees, as plain arrays.
 
-The evaluated mesh (modifiers applied) is triangulated with Blender's own loop triangles;
+The mesh as Cycles renders and bakes it (modifiers evaluated in RENDER mode: render_mesh.py) is
+triangulated with Blender's own loop triangles;
 per-corner normals are the normals Cycles shades with (cycles_normals: corner, vertex or
 per-triangle normals by the line's rule); tangents and signs are MikkTSpace for every UV map,
 computed on the triangles with those normals as Cycles does.
@@ -56,17 +57,33 @@ def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
 
 def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None):
     """MeshArrays of `obj` (evaluated, world matrix included), as the running line's Cycles
-    (or `facts`' line) sees it. Raises MeshDataError for an object without mesh data, faces or
-    UV maps."""
-    import bpy
-
+    (or `facts`' line) sees it. Without `depsgraph` the object is evaluated as Cycles renders
+    and bakes it, in RENDER mode (render_mesh.read_in_render_mode: Subdivision's Render levels,
+    modifiers shown in renders only, Geometry Nodes' Is Viewport false); a given depsgraph is
+    used as it is. Raises MeshDataError for an object without mesh data, faces or UV maps."""
     if obj is None:
         raise MeshDataError("no object given")
     if obj.type != "MESH":
         raise MeshDataError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh; pick a "
                             f"mesh object (or convert it with Object > Convert > Mesh)")
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    facts = facts or running_line()
+    if depsgraph is None:
+        from .render_mesh import read_in_render_mode
+        arrays, flat = read_in_render_mode(obj, lambda dg: _evaluated_arrays(obj, dg, facts))
+    else:
+        arrays, flat = _evaluated_arrays(obj, depsgraph, facts)
+    if need_tangents:
+        arrays.tangents, arrays.tangent_signs = triangle_mikktspace(arrays, flat)
+    return arrays
+
+
+def _evaluated_arrays(obj, depsgraph, facts):
+    """(MeshArrays without tangents, flat triangles (T,)) of obj evaluated in `depsgraph`."""
     eval_obj = obj.evaluated_get(depsgraph)
+    if not eval_obj.is_evaluated:
+        raise MeshDataError(f"object {obj.name!r} is not part of what Cycles renders (its "
+                            f"collection is disabled for renders, or it is in no view layer "
+                            f"of this scene); enable it for renders")
     mesh = eval_obj.to_mesh()
     try:
         if len(mesh.polygons) == 0:
@@ -79,8 +96,7 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
         positions = _get(mesh.vertices, "co", nv, 3)
         tri_loops = _get(mesh.loop_triangles, "loops", nt, 3, np.int64)
         tri_verts = _get(mesh.loop_triangles, "vertices", nt, 3, np.int64)
-        corner_normals = cycles_normals(mesh, positions, tri_loops, tri_verts,
-                                        facts or running_line())
+        corner_normals = cycles_normals(mesh, positions, tri_loops, tri_verts, facts)
         triangle_faces = _get(mesh.loop_triangles, "polygon_index", nt, 1, np.int64)
         flat = flat_triangles(mesh, nt)
         names = [layer.name for layer in mesh.uv_layers]
@@ -102,9 +118,7 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
                             triangle_faces=triangle_faces).validate()
     finally:
         eval_obj.to_mesh_clear()
-    if need_tangents:
-        arrays.tangents, arrays.tangent_signs = triangle_mikktspace(arrays, flat)
-    return arrays
+    return arrays, flat
 
 
 def triangle_mikktspace(arrays, flat=None):

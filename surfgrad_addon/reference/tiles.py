@@ -68,35 +68,6 @@ def fraction_inside_unit_square(uv_triangles):
     return float(np.mean(np.all((uv >= 0) & (uv <= 1), axis=1)))
 
 
-def face_tiles(uv, loop_starts, eps=1e-6):
-    """(sorted UDIM tiles, faces outside the tile grid) of a UV layout given per loop (L, 2)
-    with each face's first loop. A face counts in every tile its UV bounding box reaches into
-    (a face ending exactly on a tile border, within eps, does not reach the next tile); it
-    lies outside when its box leaves u 0..10 or v >= 0 or passes tile 2000."""
-    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-    starts = np.asarray(loop_starts, dtype=np.int64)
-    if len(starts) == 0:
-        return [], 0
-    lo = np.minimum.reduceat(uv, starts, axis=0)
-    hi = np.maximum.reduceat(uv, starts, axis=0)
-    t_lo = np.floor(lo + eps).astype(np.int64)
-    t_hi = np.floor(hi - eps).astype(np.int64)
-    t_hi = np.maximum(t_hi, t_lo)               # degenerate faces on a border
-    outside = (t_lo[:, 0] < 0) | (t_hi[:, 0] >= UDIM_COLUMNS) | (t_lo[:, 1] < 0) | \
-        (UDIM_FIRST + t_hi[:, 1] * UDIM_COLUMNS > UDIM_LAST)
-    tiles = set()
-    span = t_hi - t_lo
-    inside = ~outside
-    if inside.any():
-        simple = inside & (span[:, 0] == 0) & (span[:, 1] == 0)
-        tiles.update((UDIM_FIRST + t_lo[simple, 0] + UDIM_COLUMNS * t_lo[simple, 1]).tolist())
-        for i in np.flatnonzero(inside & ~simple):      # faces across tile borders (few)
-            for v in range(t_lo[i, 1], t_hi[i, 1] + 1):
-                for u in range(t_lo[i, 0], t_hi[i, 0] + 1):
-                    tiles.add(UDIM_FIRST + u + UDIM_COLUMNS * v)
-    return sorted(int(t) for t in tiles), int(outside.sum())
-
-
 def parse_tiles(value):
     """'1001-1003,1005' / [1001, 1002] / None -> sorted tile numbers (None stays None).
     Raises ValueError naming the form to use."""
@@ -132,3 +103,77 @@ def tiles_text(tiles):
 def tile_path(output, tile):
     """The file of UDIM tile `tile` for an output name with <UDIM> (or the name itself)."""
     return Path(str(output).replace(UDIM_TOKEN, str(tile)))
+
+
+# Exact tile maths: which tiles a triangle really covers (area, not its bounding box) -------------
+
+_GRID = (UDIM_COLUMNS, (UDIM_LAST - UDIM_FIRST) // UDIM_COLUMNS + 1)   # 10 x 100 tile squares
+# Overlap thinner than this (UV units) is none: float32 UVs a rounding past a border (1e-7)
+# reach no texel centre at any image size Blender makes.
+BORDER_EPS = 1e-6
+
+
+def _overlaps_square(uv, lo):
+    """(P,) True where triangle uv (P, 3, 2) and the unit square at corner lo (P, 2) share
+    area. Separating axes of two convex shapes: the square's two and the triangle's three
+    edge normals; touching (a shared edge or corner) is no overlap. A zero-area triangle
+    overlaps nothing."""
+    hi = lo + 1.0
+    e = BORDER_EPS
+    sep = (uv[..., 0].max(1) <= lo[:, 0] + e) | (uv[..., 0].min(1) >= hi[:, 0] - e) | \
+        (uv[..., 1].max(1) <= lo[:, 1] + e) | (uv[..., 1].min(1) >= hi[:, 1] - e)
+    corners = np.stack([lo, [1, 0] * hi + [0, 1] * lo, hi, [0, 1] * hi + [1, 0] * lo], 1)
+    for k in range(3):
+        a, b = uv[:, k], uv[:, (k + 1) % 3]
+        axis = np.stack([a[:, 1] - b[:, 1], b[:, 0] - a[:, 0]], -1)     # the edge's normal
+        t = np.einsum("pi,pki->pk", axis, uv)
+        s = np.einsum("pi,pki->pk", axis, corners)
+        e = BORDER_EPS * np.linalg.norm(axis, axis=-1)
+        sep |= (t.max(1) <= s.min(1) + e) | (s.max(1) <= t.min(1) + e)
+    return ~sep
+
+
+def triangle_tiles(uv_triangles):
+    """(triangle index (P,), tile number (P,)) for every UV triangle (T, 3, 2) and UDIM tile
+    that share area: what a bake into that tile can write (no bounding-box guesses). Tiles
+    outside the UDIM grid (u < 0, u >= 10, v < 0, beyond 2000) are not listed."""
+    uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
+    if len(uv) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    lo = np.clip(np.floor(uv.min(1)), -1, _GRID).astype(np.int64)
+    hi = np.clip(np.ceil(uv.max(1)) - 1, -1, _GRID).astype(np.int64)
+    lo, hi = np.maximum(lo, 0), np.minimum(hi, np.array(_GRID) - 1)
+    n = np.maximum(hi - lo + 1, 0)
+    count = n[:, 0] * n[:, 1]
+    tri = np.repeat(np.arange(len(uv)), count)
+    k = np.arange(len(tri)) - np.repeat(np.cumsum(count) - count, count)
+    iu = lo[tri, 0] + k % np.maximum(n[tri, 0], 1)
+    iv = lo[tri, 1] + k // np.maximum(n[tri, 0], 1)
+    ok = _overlaps_square(uv[tri], np.stack([iu, iv], -1).astype(np.float64))
+    number = UDIM_FIRST + iu + UDIM_COLUMNS * iv
+    ok &= number <= UDIM_LAST
+    return tri[ok], number[ok]
+
+
+def tiles_with_uvs(uv_triangles):
+    """Sorted UDIM tiles some UV triangle (T, 3, 2) covers with area (triangle_tiles)."""
+    return sorted(int(t) for t in np.unique(triangle_tiles(uv_triangles)[1]))
+
+
+def triangles_outside(uv_triangles, tiles=None):
+    """(T,) True where a UV triangle has area outside the given tiles (None: outside the
+    UDIM grid): the part a bake into those tiles does not write. A triangle is inside when
+    it lies in the tiles' squares' union: inside the UDIM grid (tiles 1001 to 2000: u 0..10,
+    v 0..100) and every tile it covers is one of them (within BORDER_EPS). Zero-area
+    triangles are never outside (they bake nothing anywhere)."""
+    uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
+    area2 = np.abs((uv[:, 1, 0] - uv[:, 0, 0]) * (uv[:, 2, 1] - uv[:, 0, 1])
+                   - (uv[:, 2, 0] - uv[:, 0, 0]) * (uv[:, 1, 1] - uv[:, 0, 1]))
+    e = BORDER_EPS
+    in_grid = np.all((uv >= -e) & (uv <= np.array(_GRID, dtype=np.float64) + e), axis=(1, 2))
+    outside = ~in_grid
+    if tiles is not None:
+        tri, number = triangle_tiles(uv)
+        wanted = np.isin(number, np.asarray(sorted(int(t) for t in tiles), dtype=np.int64))
+        outside[tri[~wanted]] = True
+    return outside & (area2 > 0)
