@@ -407,7 +407,7 @@ def draw_far_warning(layout, context):
     text = render_precision_warning(getattr(context, "object", None))
     if text:
         box = layout.box()
-        for i, line in enumerate(textwrap.wrap(text, 38)):
+        for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
             box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
 
 

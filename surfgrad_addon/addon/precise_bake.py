@@ -86,6 +86,7 @@ def precise_far(obj, log=None):
         yield twin
     finally:
         bpy.data.objects.remove(twin, do_unlink=True)
+        bpy.context.view_layer.update()     # else the view layer lists a stale empty base
 
 
 def uses_surfgrad_groups(obj):
