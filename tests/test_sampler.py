@@ -73,24 +73,33 @@ def test_the_menu_wraps_the_active_image_texture_in_a_sampler_zone(fresh):
     tex.image = img
     tree.links.new(uv.outputs[0], tex.inputs["Vector"])
     bsdf = tree.nodes["Principled BSDF"]
-    tree.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])   # crosses the zone: removed
+    tree.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])   # another use: kept
+    tex.interpolation, tex.extension = "Closest", "EXTEND"
     tree.nodes.active = tex
     node = ui.add_group_node(tree, "SG Height Map HQ (Sampler)")
     zin = next(n for n in tree.nodes if n.bl_idname == "NodeClosureInput")
     zout = next(n for n in tree.nodes if n.bl_idname == "NodeClosureOutput")
-    assert tex.inputs["Vector"].links[0].from_node == zin
-    assert zout.inputs["Color"].links[0].from_node == tex
+    # The texture feeds the Base Color too: it stays with its links, a copy goes in the zone.
+    inside = zout.inputs["Color"].links[0].from_node
+    assert inside != tex and inside.bl_idname == "ShaderNodeTexImage"
+    assert (inside.image, inside.interpolation, inside.extension) == (img, "Closest", "EXTEND")
+    assert inside.inputs["Vector"].links[0].from_node == zin
+    assert bsdf.inputs["Base Color"].links[0].from_node == tex
+    assert tex.inputs["Vector"].links[0].from_node == uv
     assert node.inputs["Sampler"].links[0].from_node == zout
     assert node.inputs["UV"].links[0].from_node == uv
     assert (node.inputs["Width"].default_value, node.inputs["Height"].default_value) == (64, 32)
-    assert not bsdf.inputs["Base Color"].is_linked
     assert all(link.is_valid for link in tree.links)
-    # One group for every image: a second image reuses it.
+    # One group for every image: a second image reuses it. A texture with no other use is
+    # itself wrapped in the zone (no copy).
     tex2 = tree.nodes.new("ShaderNodeTexImage")
     tex2.image = bpy.data.images.new("other", 16, 16)
     tree.nodes.active = tex2
+    n_tex = len([n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"])
     node2 = ui.add_group_node(tree, "SG Height Map HQ (Sampler)")
     assert node2.node_tree == node.node_tree
+    assert node2.inputs["Sampler"].links[0].from_node.inputs["Color"].links[0].from_node == tex2
+    assert len([n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"]) == n_tex
     assert len([g for g in bpy.data.node_groups if g.name.startswith("SG Height Map")]) == 1
 
 

@@ -27,6 +27,7 @@ from pathlib import Path
 from ..reference import tiles as T
 from .bake_target import bake_target_problem, visible_for_bake
 from .exit_codes import BakeFailed
+from .precise_bake import precise_far
 from .scene_state import SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
@@ -216,7 +217,8 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
             added.append((tree, node, tree.nodes.active))
             tree.nodes.active = node
         active_uv = mesh.uv_layers.active.name
-        with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer):
+        with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
+                precise_far(obj, log):           # far out: as precise as at the origin
             scene.render.engine = "CYCLES"
             scene.cycles.device = "CPU"
             scene.cycles.samples = samples

@@ -5,11 +5,13 @@ from scripts and tests); the operators wrap them.
 """
 
 import math
+import textwrap
 
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
 from . import groups as G
+from .all_or_nothing import all_or_nothing
 
 NORMAL_SOCKET = "Normal"
 
@@ -29,6 +31,37 @@ def _active_tree(context):
     if mat.node_tree is None:
         mat.use_nodes = True
     return mat, mat.node_tree
+
+
+def _is_world_tree(tree):
+    return any(owner.node_tree == tree for owner in (*bpy.data.worlds, *bpy.data.linestyles)
+               if getattr(owner, "node_tree", None) is not None)
+
+
+def shown_tree(context):
+    """The node tree to edit: the one the Shader Editor shows (pinned, or a group entered),
+    else (no editor, or it shows nothing) the active object's active material. Raises
+    SurfgradError where it makes no sense: the editor shows the World or a line style."""
+    space = getattr(context, "space_data", None)
+    if space is not None and space.type == 'NODE_EDITOR' and \
+            getattr(space, "tree_type", None) == "ShaderNodeTree":
+        tree = space.edit_tree
+        if space.shader_type != 'OBJECT' or (tree is not None and _is_world_tree(tree)):
+            raise SurfgradError("The Shader Editor shows the World's (or a line style's) "
+                                "nodes: layer stacks and decals go in a material; switch "
+                                "the editor to Object and show a material")
+        if tree is not None:
+            if not tree.is_editable:
+                raise SurfgradError(f"{tree.name!r} is not editable (linked or override "
+                                    f"data): make it local first")
+            return tree
+    return _active_tree(context)[1]
+
+
+def _prebuild(*builders):
+    """Check first: build (or reuse) every group an edit needs before any node is made; a
+    foreign group under one of our names raises ValueError here, with nothing added."""
+    return [build() for build in builders]
 
 
 def _surface_shader(tree):
@@ -58,6 +91,7 @@ def add_layer_stack(tree, uv_map=""):
     """SG Normal Map -> SG Combine -> SG Resolve -> the surface shader's Normal. Returns the
     new nodes. An existing link into the shader's Normal is replaced (and reported)."""
     shader = _surface_shader(tree)
+    _prebuild(G.resolve_group, G.combine_group, lambda: G.normal_map_group(uv_map))
     x, y = shader.location
     replaced = shader.inputs[NORMAL_SOCKET].is_linked
     resolve = _group_node(tree, G.resolve_group, (x - 260, y - 420))
@@ -79,12 +113,20 @@ def convert_node(tree, node):
     if node.bl_idname not in ("ShaderNodeNormalMap", "ShaderNodeBump"):
         raise SurfgradError(f"{node.name!r} is a {node.bl_idname}: select a Normal Map or a "
                             f"Bump node to convert")
+    if node.bl_idname == "ShaderNodeNormalMap" and node.space != "TANGENT":
+        raise SurfgradError(f"{node.name!r} is an {node.space.lower()}-space Normal Map: "
+                            f"use SG Object Normal for object or world space maps")
+    if node.bl_idname == "ShaderNodeNormalMap":
+        _prebuild(G.resolve_group, lambda: G.normal_map_group(node.uv_map))
+    else:
+        fw = node.inputs["Filter Width"].default_value if "Filter Width" in node.inputs else None
+        strength = node.inputs["Strength"]
+        blends = strength.is_linked or strength.default_value != 1.0
+        _prebuild(G.resolve_group, lambda: G.height_map_forward_group(fw),
+                  *([G.bump_strength_group] if blends else []))
     outgoing = [lk.to_socket for lk in node.outputs["Normal"].links]
     x, y = node.location
     if node.bl_idname == "ShaderNodeNormalMap":
-        if node.space != "TANGENT":
-            raise SurfgradError(f"{node.name!r} is an {node.space.lower()}-space Normal Map: "
-                                f"use SG Object Normal for object or world space maps")
         sg = _group_node(tree, lambda: G.normal_map_group(node.uv_map), (x, y))
         _move_input(tree, node.inputs["Color"], sg.inputs["Color"])
         _move_input(tree, node.inputs["Strength"], sg.inputs["Strength"])
@@ -157,6 +199,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     the empty's rotation. Returns (empty, decal node)."""
     if shape not in DECAL_SHAPES:
         raise SurfgradError(f"decal shape {shape!r}: use one of {', '.join(DECAL_SHAPES)}")
+    _prebuild(G.projector_coordinates_group, G.decal_coordinates_group, G.decal_group)
     empty = bpy.data.objects.new(name, None)
     display, outlines = DECAL_DISPLAY[shape]
     empty.empty_display_type = display
@@ -257,9 +300,10 @@ into SG Resolve, wired into the BSDF's Normal"""
 
     def execute(self, context):
         try:
-            _, tree = _active_tree(context)
-            made = add_layer_stack(tree, self.uv_map)
-        except SurfgradError as err:
+            tree = shown_tree(context)
+            with all_or_nothing(tree):
+                made = add_layer_stack(tree, self.uv_map)
+        except (ValueError, RuntimeError) as err:      # SurfgradError, a foreign group
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
         note = " (replaced the previous link into Normal)" if made["replaced"] else ""
@@ -292,8 +336,9 @@ same look (links are kept)"""
             return {'CANCELLED'}
         kind = node.bl_label
         try:
-            convert_node(tree, node)
-        except SurfgradError as err:
+            with all_or_nothing(tree):
+                convert_node(tree, node)
+        except (ValueError, RuntimeError) as err:      # SurfgradError, a foreign group
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
         self.report({'INFO'}, f"Converted the {kind} node to surface gradients")
@@ -321,13 +366,14 @@ material; the decal's axes follow the empty"""
 
     def execute(self, context):
         try:
-            _, tree = _active_tree(context)
+            tree = shown_tree(context)
             image = bpy.data.images.get(self.image) if self.image else None
             if self.image and image is None:
                 raise SurfgradError(f"No image named {self.image!r} in this file: open it "
                                     f"first (Image > Open)")
-            empty, _ = add_decal_projector(context, tree, image, shape=self.shape)
-        except SurfgradError as err:
+            with all_or_nothing(tree):
+                empty, _ = add_decal_projector(context, tree, image, shape=self.shape)
+        except (ValueError, RuntimeError) as err:      # SurfgradError, a foreign group
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
         self.report({'INFO'}, f"Added {empty.name!r} ({self.shape}): scale it to size the "
@@ -352,6 +398,17 @@ class NODE_PT_surfgrad(bpy.types.Panel):
         col.operator(SURFGRAD_OT_add_layer_stack.bl_idname, icon="NODETREE")
         col.operator(SURFGRAD_OT_convert_node.bl_idname, icon="FILE_REFRESH")
         col.operator(SURFGRAD_OT_add_decal_projector.bl_idname, icon="MOD_UVPROJECT")
+        draw_far_warning(self.layout, context)
+
+
+def draw_far_warning(layout, context):
+    """Far from the origin, renders lose precision: say so under the tools, with the fix."""
+    from .precise_bake import render_precision_warning
+    text = render_precision_warning(getattr(context, "object", None))
+    if text:
+        box = layout.box()
+        for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
+            box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
 
 
 CLASSES = (SURFGRAD_OT_add_layer_stack, SURFGRAD_OT_convert_node,

@@ -15,10 +15,11 @@ def has_closures():
 
 def sampler_zone(nodes, links, tex=None, location=(0.0, 0.0)):
     """A Closure Zone with a Vector input and a Color output around Image Texture node `tex`
-    (its Vector from the zone, its Color out of it); `tex` None: an empty zone. Links from
-    `tex`'s outputs to nodes outside the zone would cross it and are removed. Returns
-    (closure output node, number of links removed, the socket that fed `tex`'s Vector or
-    None: the caller gives it to the group's UV)."""
+    (its Vector from the zone, its Color out of it); `tex` None: an empty zone. A `tex` whose
+    outputs feed other nodes (Base Color, Roughness, ...) keeps them: links out of the zone
+    would cross it, so it stays where it is and a copy of it (same image and settings) goes
+    into the zone. Returns (closure output node, the node in the zone or None, the socket that
+    fed `tex`'s Vector or None: the caller gives it to the group's UV)."""
     zin, zout = nodes.new(ZONE_INPUT), nodes.new(ZONE_OUTPUT)
     if not zin.pair_with_output(zout):
         raise RuntimeError("Blender did not pair the Closure Input and Output nodes")
@@ -27,16 +28,38 @@ def sampler_zone(nodes, links, tex=None, location=(0.0, 0.0)):
     zin.label, zout.label = "Sampler", "Sampler"
     x, y = location
     zin.location, zout.location = (x - 460, y), (x, y)
-    removed, vector_source = 0, None
+    vector_source = None
     if tex is not None:
-        for out in tex.outputs:
-            for link in list(out.links):
-                links.remove(link)
-                removed += 1
         if tex.inputs["Vector"].is_linked:
             vector_source = tex.inputs["Vector"].links[0].from_socket
+        if any(out.is_linked for out in tex.outputs):
+            tex = copy_image_texture(nodes, tex)
+        elif vector_source is not None:
             links.remove(tex.inputs["Vector"].links[0])
         links.new(zin.outputs["Vector"], tex.inputs["Vector"])
         links.new(tex.outputs["Color"], zout.inputs["Color"])
         tex.location = (x - 260, y)
-    return zout, removed, vector_source
+    return zout, tex, vector_source
+
+
+# What makes an Image Texture node sample as it does (node and image-user settings).
+_TEX_SETTINGS = ("image", "interpolation", "projection", "projection_blend", "extension")
+_USER_SETTINGS = ("frame_duration", "frame_start", "frame_offset", "use_cyclic",
+                  "use_auto_refresh")
+_MAPPING_SETTINGS = ("vector_type", "translation", "rotation", "scale", "min", "max",
+                     "use_min", "use_max", "mapping", "mapping_x", "mapping_y", "mapping_z")
+
+
+def copy_image_texture(nodes, tex):
+    """A new Image Texture node sampling exactly as `tex` does (unlinked)."""
+    copy = nodes.new("ShaderNodeTexImage")
+    for name in _TEX_SETTINGS:
+        setattr(copy, name, getattr(tex, name))
+    for name in _USER_SETTINGS:
+        if hasattr(tex.image_user, name):
+            setattr(copy.image_user, name, getattr(tex.image_user, name))
+    for name in _MAPPING_SETTINGS:
+        if hasattr(tex.texture_mapping, name):
+            setattr(copy.texture_mapping, name, getattr(tex.texture_mapping, name))
+    copy.label = tex.label
+    return copy

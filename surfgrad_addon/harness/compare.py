@@ -29,6 +29,7 @@ from .. import reference as R
 from ..addon import groups as G
 from ..addon.bake_target import bake_target_problem
 from ..addon.normal_bake import resolution_problem
+from ..addon.precise_bake import precise_far
 from ..reference import methods as M
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
@@ -181,7 +182,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     inp = prepare_inputs(obj, uv_map, image, variant)
     import bpy
     try:
-        with m.scene(obj, inp):
+        # Far out: a second user keeps the mesh in object space (before the mesh is read).
+        with m.scene(obj, inp), precise_far(obj, log):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
                                          tiles=tiles)
         report["method"] = method

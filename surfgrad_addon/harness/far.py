@@ -4,7 +4,8 @@ moved 0, 1 km and 10 km away, beside Blender's built-in node for the same job.
     python -m surfgrad_addon bench-far [--out DIR] [--resolution N] [--distances M ...]
 
 Ours: compare.compare_object at each distance (the reference works in float64 from the same
-float32 object matrix, so it carries no float32 position error). Built-in: there is no float64
+float32 object matrix, so it carries no float32 position error; beyond 100 m compare gives the
+mesh a temporary second user, addon/precise_bake.py, so Cycles keeps it in object space). Built-in: there is no float64
 model of Blender's nodes, so each built-in is fed object-space coordinates (its texture does
 not move with the object) and its bake at distance d is compared with its own bake at the
 origin, texel by texel: whatever differs is float32 position error (the geometry, UVs and
