@@ -113,7 +113,7 @@ def _scene(tmp_path, fault):
     _write_png(tex)
     image = None
     if fault in ("missing", "unreadable", "good", "partial", "far", "group_missing",
-                 "nan_positions", "zero_area", "readonly"):
+                 "nan_positions", "zero_area", "readonly", "overlap"):
         image = bpy.data.images.load(str(tex))
     if fault in ("nan_pixels", "inf_pixels"):
         exr = tmp_path / "tex.exr"
@@ -130,6 +130,8 @@ def _scene(tmp_path, fault):
     if fault == "partial":                          # the second quad at v -1..0
         quads = 2
         uvs = [(0, 0), (1, 0), (1, 1), (0, 1), (0, -1), (1, -1), (1, 0), (0, 0)]
+    if fault == "overlap":                          # two quads on the same 0-1 square
+        quads = 2
     obj = _plane(verts, uvs, quads)
     if fault == "far":
         obj.location = (5000.0, 0.0, 0.0)
@@ -263,6 +265,20 @@ def test_far_from_the_origin_is_a_printed_warning(tmp_path):
     assert res.returncode == exit_codes.OK, res.stderr[-2000:]
     assert "surfgrad: warning: object 'Plane' reaches 5001 m from the origin" in res.stderr, \
         res.stderr[-2000:]
+
+
+def test_overlapping_uv_islands_are_a_printed_warning(tmp_path):
+    """Two quads stacked on the same 0-1 square: every texel centre is under both, except
+    the 32 on each quad's diagonal (a shared edge belongs to neither triangle), so
+    1024 - 32 = 992 of 1024 texels (97%) are contested at 32 x 32."""
+    blend = _scene(tmp_path, "overlap")
+    res = _bake_cli(blend, tmp_path / "overlap.png")
+    assert res.returncode == exit_codes.OK, res.stderr[-2000:]
+    assert "surfgrad: warning: UV map 'UVMap' of object 'Plane': 97% of tile 1001's texels " \
+        "lie under more than one face" in res.stderr, res.stderr[-2000:]
+    good = _scene(tmp_path / "g", "good")
+    res = _bake_cli(good, tmp_path / "good.png")
+    assert res.returncode == exit_codes.OK and "more than one face" not in res.stderr
 
 
 def test_the_api_refuses_in_process_and_leaves_the_file_as_it_was(tmp_path):

@@ -6,7 +6,7 @@ files and the bake-batch planner) builds a BakeRequest and runs the same checks 
 - settings: each one's type and range (settings_problems; no bpy, so the batch planner checks
   a settings file before any Blender file is opened);
 - the object and its evaluated mesh: a mesh that can be baked, finite positions, faces with
-  area; far from the origin is a warning;
+  area; far from the origin and overlapping UV islands (contested texels) are warnings;
 - the UV map and its tiles (reference.tiles): finite UVs with area, a layout the output covers;
   faces outside the UDIM range are an error unless allow_partial, then a printed warning;
 - every image the object's materials read (from the active Material Output, into node
@@ -29,9 +29,11 @@ import numpy as np
 
 from ..reference import input_checks as IC
 from ..reference import tiles as T
+from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from .exit_codes import BakeFailed
 
+OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
 SAMPLES_RANGE = (1, 65536)
 MARGIN_RANGE = (0, 1024)
@@ -185,7 +187,7 @@ def check(request, obj=None, warn=warn_stderr):
             obj, request.output, request.uv_map, request.tiles, request.empty_tiles)
     except NB.NormalBakeError as err:
         raise BakeRequestError([str(err)]) from None
-    problems += mesh_problems(obj, uv_map, warnings)
+    problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution)
     outside = NB.uv_tiles(obj.data, uv_map)[1]
     if outside and not request.allow_partial:
         problems.append(f"{outside} face(s) of UV map {uv_map!r} of object {obj.name!r} lie "
@@ -229,9 +231,10 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
 
 # The checks ---------------------------------------------------------------------------------
 
-def mesh_problems(obj, uv_map, warnings):
+def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
     """The evaluated mesh as the bake sees it: finite positions, faces with area, finite UVs
-    with area in `uv_map`; far from the origin adds a warning."""
+    with area in `uv_map`; far from the origin, and texels of `tiles` that overlapping UV
+    islands contest at `resolution`, add warnings."""
     import bpy
     depsgraph = bpy.context.evaluated_depsgraph_get()
     eval_obj = obj.evaluated_get(depsgraph)
@@ -281,9 +284,28 @@ def mesh_problems(obj, uv_map, warnings):
                        f"cover no texel: unwrap it (UV > Unwrap)")
     far = float(np.max(np.abs(world))) if len(world) else 0.0
     if far > FAR_FROM_ORIGIN_M:
-        warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: Cycles' "
-                        f"float32 positions lose precision there (bump-derived normals can be "
-                        f"off by degrees); move it near the origin to bake if that matters")
+        warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: the bake "
+                        f"keeps its mesh in object space for precision (addon/precise_bake.py), "
+                        f"but renders of it there lose precision in bump-derived normals; "
+                        f"keep the scene near the origin for renders")
+    if uv is not None and tiles and resolution:
+        warnings += overlap_warnings(uv, tiles, resolution, f"UV map {uv_map!r} of object "
+                                                            f"{obj.name!r}")
+    return out
+
+
+def overlap_warnings(uv, tiles, resolution, what):
+    """A warning per tile whose texels overlapping UV islands contest (counted at up to
+    OVERLAP_CHECK_SIZE texels a side, which bounds its cost)."""
+    size = min(int(resolution), OVERLAP_CHECK_SIZE)
+    out = []
+    for tile in tiles:
+        n = UV.contested_texels(uv, size, T.tile_uv_offset(tile))
+        if n:
+            out.append(f"{what}: {100.0 * n / size ** 2:.2g}% of tile {tile}'s texels lie "
+                       f"under more than one face (overlapping UV islands, e.g. mirrored "
+                       f"halves stacked); the map keeps only the face last in mesh order "
+                       f"there: give each island its own UV space if both sides differ")
     return out
 
 

@@ -1,0 +1,48 @@
+"""Texels that more than one UV triangle claims (overlapping UV islands, e.g. mirrored halves
+stacked on each other): a bake writes only one face's normal there (the last in mesh order,
+reference/raster.py), so a bake warns with their count before it starts.
+
+Only the UV layout is needed (no positions or normals), so the check runs before any bake at
+a bounded size: a texel is sampled at its centre, and a centre on a shared edge (within
+EDGE_EPS of the triangle's area) belongs to neither side, so neighbouring faces of one island
+never count as overlapping.
+"""
+
+import numpy as np
+
+EDGE_EPS = 1e-6          # relative to twice the triangle's area: float32 UVs on a shared edge
+_CHUNK = 1 << 20         # candidate texels per pass: bounded memory at any size
+
+
+def contested_texels(uv_triangles, size, uv_offset=(0.0, 0.0)):
+    """How many texel centres of a size x size image of the unit square at uv_offset (a UDIM
+    tile's corner) lie strictly inside two or more UV triangles (T, 3, 2) with area."""
+    uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
+    q = (uv - np.asarray(uv_offset, dtype=np.float64)) * size - 0.5   # centre of texel i is i
+    a, b, c = q[:, 0], q[:, 1], q[:, 2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    lo = np.maximum(np.ceil(q.min(axis=1)), 0).astype(np.int64)
+    hi = np.minimum(np.floor(q.max(axis=1)), size - 1).astype(np.int64)
+    span = np.maximum(hi - lo + 1, 0)
+    count = span[:, 0] * span[:, 1]
+    count[area == 0] = 0
+    keep = np.flatnonzero(count)
+    if len(keep) == 0:
+        return 0
+    claims = np.zeros(size * size, dtype=np.int32)
+    # Triangles in groups whose candidate texels fit one pass.
+    bounds = np.searchsorted(np.cumsum(count[keep]), np.arange(_CHUNK, count.sum(), _CHUNK))
+    for group in np.split(keep, bounds):
+        n = count[group]
+        tri = np.repeat(group, n)
+        k = np.arange(len(tri)) - np.repeat(np.cumsum(n) - n, n)
+        x = lo[tri, 0] + k % span[tri, 0]
+        y = lo[tri, 1] + k // span[tri, 0]
+        inside = np.ones(len(tri), dtype=bool)
+        s = np.sign(area[tri])
+        for p0, p1 in ((a, b), (b, c), (c, a)):        # each edge's half-plane, inward side
+            e = (p1[tri, 0] - p0[tri, 0]) * (y - p0[tri, 1]) - \
+                (p1[tri, 1] - p0[tri, 1]) * (x - p0[tri, 0])
+            inside &= s * e > EDGE_EPS * np.abs(area[tri])
+        np.add.at(claims, y[inside] * size + x[inside], 1)
+    return int(np.count_nonzero(claims >= 2))
