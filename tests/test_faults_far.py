@@ -13,8 +13,12 @@ user that Cycles counts and no bake ray sees (addon/precise_bake.py). Pinned her
 - bake-normal-map (in process, and the CLI) and bake-batch of a far asset agree with the same
   asset at the origin within the bar; the .blend is unchanged (sha256); the scene after the
   call has the same objects, collection links and mesh users as before;
-- objects with render modifiers (their own Cycles geometry: no second user can share it) are
-  warned about where the user looks;
+- objects modified for renders (modifiers, shape keys: their own Cycles geometry, which no
+  second object can share) are baked from a temporary copy of their render mesh that the twin
+  shares: far out within the bar against the reference and the same object at the origin; the
+  copy bakes the same map as the object itself at the origin; the object, its modifiers'
+  switches and Multires levels, slots and shape keys come back; a linked one is warned about;
+- mesh_data's transform_applied follows Cycles' rule (addon/cycles_geometry.py);
 - the sidebar says when an object using the groups is far enough to lose precision in renders.
 """
 
@@ -216,6 +220,59 @@ def test_modified_object_far_out_gets_its_render_mesh_shared(objects):
         assert len(said) == 1 and "render mesh is baked from a temporary copy" in said[0]
     finally:
         obj.modifiers.remove(mod)
+
+
+def test_multires_levels_and_switches_come_back(objects):
+    """Blender resets Multires levels from the mesh it is given; the route puts them back, with
+    the switches, the mesh and its users; inside, the stand-in is the Render level's mesh."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=12, ring_count=6, calc_uvs=True)
+    obj = bpy.context.active_object
+    mesh = obj.data
+    mod = obj.modifiers.new("Multires", "MULTIRES")
+    for _ in range(2):
+        bpy.ops.object.multires_subdivide(modifier="Multires", mode="CATMULL_CLARK")
+    mod.levels, mod.sculpt_levels, mod.render_levels = 1, 2, 2
+    try:
+        faces = read_in_render_mode(obj, lambda dg: len(obj.evaluated_get(dg).data.polygons))
+        with moved(obj, 10000.0):
+            before, mine = scene_state(), object_state(obj)
+            levels = (mod.levels, mod.sculpt_levels, mod.render_levels, mod.total_levels)
+            with P.precise_far(obj) as made:
+                assert made is not None and made.data == obj.data != mesh
+                assert len(obj.data.polygons) == faces > 8 * len(mesh.polygons)
+            assert scene_state() == before and object_state(obj) == mine
+            assert (mod.levels, mod.sculpt_levels, mod.render_levels,
+                    mod.total_levels) == levels == (1, 2, 2, 2)
+    finally:
+        bpy.data.objects.remove(obj)
+        bpy.data.meshes.remove(mesh)
+
+
+def test_linked_modified_object_is_warned_about(tmp_path):
+    """A far object linked from a library and modified for renders cannot have its mesh
+    swapped: the route says so where the user looks and changes nothing."""
+    mesh = bpy.data.meshes.new("Linked far")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    obj = bpy.data.objects.new("Linked far", mesh)
+    obj.location = (10000.0, 0.0, 0.0)
+    obj.modifiers.new("Subdivision", "SUBSURF")
+    library = tmp_path / "library.blend"
+    bpy.data.libraries.write(str(library), {obj})
+    bpy.data.objects.remove(obj)
+    bpy.data.meshes.remove(mesh)
+    with bpy.data.libraries.load(str(library), link=True) as (src, dst):
+        dst.objects = ["Linked far"]
+    linked = dst.objects[0]
+    bpy.context.scene.collection.objects.link(linked)
+    try:
+        bpy.context.view_layer.update()
+        before, said = scene_state(), []
+        with P.precise_far(linked, said.append) as made:
+            assert made is None and scene_state() == before
+        assert len(said) == 1 and said[0].startswith("warning: object 'Linked far' is 10.0 km")
+        assert "linked from" in said[0] and "make it local" in said[0]
+    finally:
+        bpy.data.libraries.remove(linked.library)
 
 
 # bake-normal-map and bake-batch -----------------------------------------------------------

@@ -69,6 +69,16 @@ def precise_far(obj, log=None):
         return
     with ExitStack() as stack:
         if own_geometry(obj, bpy.context.scene):
+            if obj.library is not None:         # a linked object's mesh cannot be swapped
+                if log:
+                    log(f"warning: object {obj.name!r} is {_km(distance_from_origin(obj))} from "
+                        f"the origin, modified for renders and linked from "
+                        f"{obj.library.filepath!r}: Cycles keeps its evaluated mesh in world "
+                        f"space (float32), so Bump-based detail (height maps, parallax, detail "
+                        f"layers) may be off by up to a few degrees; make it local or move it "
+                        f"near the origin for a bake as precise as at the origin")
+                yield None
+                return
             stack.enter_context(render_mesh_swapped(obj))
             if log:
                 log(f"      {obj.name}: {_km(distance_from_origin(obj))} from the origin; its "
@@ -109,8 +119,18 @@ def render_mesh_swapped(obj):
               if md.type == "MULTIRES"]
     slots = [(s.link, s.material) for s in obj.material_slots]
     shape = {k: getattr(obj, k) for k in _SHAPE}
-    mesh = read_in_render_mode(obj, lambda dg: bpy.data.meshes.new_from_object(
-        obj.evaluated_get(dg), preserve_all_data_layers=True, depsgraph=dg))
+    made = []
+
+    def copy(depsgraph):
+        made.append(bpy.data.meshes.new_from_object(
+            obj.evaluated_get(depsgraph), preserve_all_data_layers=True, depsgraph=depsgraph))
+    try:
+        read_in_render_mode(obj, copy)
+    except BaseException:
+        for mesh in made:                       # the pass failed after the copy was made
+            bpy.data.meshes.remove(mesh)
+        raise
+    mesh = made[0]
     mesh.name = f".{original.name} (surfgrad precise bake)"
     try:
         obj.data = mesh
