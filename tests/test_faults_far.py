@@ -580,13 +580,19 @@ def _sha(path):
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def test_cli_bake_normal_map_and_bake_batch_far_out(asset, tmp_path):
-    """The commands on a saved far asset: exit 0, the map agrees with the origin bake, the
-    .blend is unchanged."""
-    home = _bake(asset, tmp_path / "origin.exr")
-    blend = tmp_path / "far.blend"
-    with moved(asset, 10000.0):
-        bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+@pytest.mark.parametrize("modified", [False, True])
+def test_cli_bake_normal_map_and_bake_batch_far_out(asset, tmp_path, modified):
+    """The commands on a saved far asset (plain, or with a Subdivision modifier at Blender's
+    defaults): exit 0, the map agrees with the origin bake, the .blend is unchanged."""
+    mod = asset.modifiers.new("Subdivision", "SUBSURF") if modified else None
+    try:
+        home = _bake(asset, tmp_path / "origin.exr")
+        blend = tmp_path / "far.blend"
+        with moved(asset, 10000.0):
+            bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    finally:
+        if mod is not None:
+            asset.modifiers.remove(mod)
     sha = _sha(blend)
     one = tmp_path / "one.exr"
     done = run_python(["-m", "surfgrad_addon", "bake-normal-map", "--blend", str(blend),
