@@ -219,6 +219,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 precise_far(obj, log):           # far out: as precise as at the origin
+            mesh = obj.data         # the route may stand a copy of the render mesh in for it
             scene.render.engine = "CYCLES"
             scene.cycles.device = "CPU"
             scene.cycles.samples = samples

@@ -1,7 +1,7 @@
 """A Blender mesh object as the reference's MeshArrays: what Cycles sees, as plain arrays.
 
-The mesh as Cycles renders and bakes it (modifiers evaluated in RENDER mode: render_mesh.py) is
-triangulated with Blender's own loop triangles;
+The mesh as Cycles renders and bakes it (modifiers evaluated in RENDER mode:
+addon/render_mesh.py) is triangulated with Blender's own loop triangles;
 per-corner normals are the normals Cycles shades with (cycles_normals: corner, vertex or
 per-triangle normals by the line's rule); tangents and signs are MikkTSpace for every UV map,
 computed on the triangles with those normals as Cycles does.
@@ -9,6 +9,7 @@ computed on the triangles with those normals as Cycles does.
 
 import numpy as np
 
+from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.raster import MeshArrays
 from ..reference.vecmath import cross, normalize
@@ -68,7 +69,7 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
                             f"mesh object (or convert it with Object > Convert > Mesh)")
     facts = facts or running_line()
     if depsgraph is None:
-        from .render_mesh import read_in_render_mode
+        from ..addon.render_mesh import read_in_render_mode
         arrays, flat = read_in_render_mode(obj, lambda dg: _evaluated_arrays(obj, dg, facts))
     else:
         arrays, flat = _evaluated_arrays(obj, depsgraph, facts)
@@ -109,11 +110,12 @@ def _evaluated_arrays(obj, depsgraph, facts):
                     and not attr.name.startswith(".") and attr.name != "position"):
                 point_attributes[attr.name] = _get(attr.data, "vector", nv, 3)
         matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
-        # Cycles applies the object transform to a mesh used by one object only.
+        # Cycles applies the object transform to geometry used by one object only
+        # (addon/cycles_geometry.py: by the object when modified, else by the mesh).
         arrays = MeshArrays(positions=positions, triangles=tri_verts,
                             corner_normals=corner_normals, uv_maps=uv_maps,
                             matrix_world=matrix, name=obj.name,
-                            transform_applied=obj.data.users == 1,
+                            transform_applied=transform_applied(obj, depsgraph),
                             point_attributes=point_attributes,
                             triangle_faces=triangle_faces).validate()
     finally:

@@ -1,0 +1,128 @@
+"""Read an object exactly as Cycles evaluates it for a render (and a bake): the RENDER depsgraph.
+
+Blender's bake builds its own depsgraph in render mode (object_bake_api.cc: DEG_graph_new(...,
+DAG_EVAL_RENDER)), so modifiers run at their render settings: Subdivision's Render levels,
+Multires' Render level, modifiers shown in renders only, a Geometry Nodes "Is Viewport" switch
+set to false. Python's evaluated_depsgraph_get() is the viewport's, and Python cannot build a
+render one; but a render engine's render(depsgraph) receives it. So `read_in_render_mode`
+registers a tiny temporary RenderEngine that does nothing but call `read(depsgraph)`, renders
+one frame of the context's view layer at 4 x 4 with it (no file written), and puts back
+everything it touched: the render settings, the scene camera (a temporary one stands in:
+Blender refuses to render without one, and the scene's may be missing or hidden), the "Render
+Result" image if there was none, and the engine class. Render handlers of add-ons still run,
+as for any render.
+"""
+
+from contextlib import ExitStack
+
+from .bake_target import visible_for_bake
+from .scene_state import restored
+
+
+class RenderMeshError(RuntimeError):
+    """The render-mode evaluation could not run; the message names why."""
+
+
+_JOB = {}
+# Render settings the probe render changes (put back after it).
+_SETTINGS = ("render.engine", "render.resolution_x", "render.resolution_y",
+             "render.resolution_percentage", "render.use_single_layer", "render.use_compositing",
+             "render.use_sequencer", "render.use_freestyle", "render.use_border",
+             "render.use_motion_blur")
+ENGINE_ID = "SURFGRAD_RENDER_MESH"
+
+
+def _engine_class():
+    import bpy
+
+    class SurfgradRenderMesh(bpy.types.RenderEngine):
+        """Does not draw: hands the render depsgraph of the probed view layer to the job."""
+        bl_idname = ENGINE_ID
+        bl_label = "surfgrad render-mode mesh (temporary)"
+        bl_use_preview = False
+
+        def render(self, depsgraph):
+            job = _JOB.get("job")
+            if job is None or job.get("done") or depsgraph.view_layer.name != job["layer"]:
+                return
+            job["done"] = True
+            job["mode"] = depsgraph.mode
+            try:
+                job["result"] = job["read"](depsgraph)
+            except BaseException as err:        # re-raised in the caller, not lost in C
+                job["error"] = err
+
+    return SurfgradRenderMesh
+
+
+def read_in_render_mode(obj, read, context=None):
+    """read(depsgraph) called with the RENDER depsgraph of the context's scene and view layer,
+    obj made visible for it as for a bake (visible_for_bake). Returns what read returns;
+    re-raises what it raises. Changes nothing in the file."""
+    import bpy
+
+    context = context or bpy.context
+    scene, view_layer = context.scene, context.view_layer
+    settings = tuple(p for p in _SETTINGS if _has(scene, p))
+    images_before = set(bpy.data.images)
+    engine = _engine_class()
+    job = {"layer": view_layer.name, "read": read}
+    with ExitStack() as stack:
+        bpy.utils.register_class(engine)
+        stack.callback(bpy.utils.unregister_class, engine)
+        stack.callback(_remove_new_render_result, images_before)
+        stack.enter_context(restored(scene, settings))
+        stack.enter_context(visible_for_bake(obj, view_layer))
+        # Always a camera of our own: the scene's may be missing or outside the view layer.
+        data = bpy.data.cameras.new(".surfgrad_render_mesh")
+        camera = bpy.data.objects.new(".surfgrad_render_mesh", data)
+        scene.collection.objects.link(camera)
+        stack.callback(_remove_camera, camera, data)
+        stack.enter_context(restored(scene, ("camera",)))
+        scene.camera = camera
+        r = scene.render
+        r.engine = ENGINE_ID
+        r.resolution_x = r.resolution_y = 4
+        r.resolution_percentage = 100
+        for name in ("use_single_layer", "use_compositing", "use_sequencer",
+                     "use_freestyle", "use_border", "use_motion_blur"):
+            if hasattr(r, name):
+                setattr(r, name, name == "use_single_layer")
+        _JOB["job"] = job
+        try:
+            outcome = bpy.ops.render.render(write_still=False)
+        except RuntimeError as err:
+            raise RenderMeshError(f"could not evaluate {obj.name!r} as Cycles renders it "
+                                  f"(a 4 x 4 render-mode pass failed: {err})") from err
+        finally:
+            _JOB.pop("job", None)
+    if "error" in job:
+        raise job["error"]
+    if not job.get("done") or outcome != {"FINISHED"}:
+        raise RenderMeshError(f"could not evaluate {obj.name!r} as Cycles renders it: the "
+                              f"render-mode pass did not reach view layer {view_layer.name!r}")
+    if job["mode"] != "RENDER":
+        raise RenderMeshError(f"the render-mode pass got a {job['mode']} depsgraph")
+    return job.get("result")
+
+
+def _has(root, path):
+    for part in path.split("."):
+        if not hasattr(root, part):
+            return False
+        root = getattr(root, part)
+    return True
+
+
+def _remove_camera(camera, data):
+    import bpy
+    bpy.data.objects.remove(camera)
+    bpy.data.cameras.remove(data)
+
+
+def _remove_new_render_result(images_before):
+    """The render made a "Render Result" image where the file had none: remove it."""
+    import bpy
+    for img in list(bpy.data.images):
+        if img not in images_before and img.type == "RENDER_RESULT":
+            bpy.data.images.remove(img)
