@@ -35,7 +35,7 @@ from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, cases, resolve_sg,
                       unavailable_reason)
-from .png import write_png
+from .pictures import write_png
 
 DETAIL_UV = "Detail"
 
