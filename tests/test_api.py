@@ -15,8 +15,10 @@ from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.harness import api as harness_api  # noqa: E402
 from surfgrad_addon.harness import scenes  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
 
 
+@pytest.mark.tier("blender")
 def test_node_group_builds_every_group_by_name(fresh):
     for name in api.group_names():
         if G.unavailable_reason(name):
@@ -31,6 +33,7 @@ def test_node_group_builds_every_group_by_name(fresh):
     assert len(frame) == 1 and frame[0].uv_map == "Detail"
 
 
+@pytest.mark.tier("blender")
 def test_node_group_refuses_unknown_names_and_options(fresh):
     with pytest.raises(ValueError, match="no surfgrad group named 'SG Nope'.*SG Resolve"):
         api.node_group("SG Nope")

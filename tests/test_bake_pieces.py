@@ -12,6 +12,8 @@ from surfgrad_addon.harness import compare as C  # noqa: E402
 from surfgrad_addon.harness import scenes  # noqa: E402
 from surfgrad_addon.harness.methods import METHODS, resolve_sg  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
 
 def uv_state(obj):
     return [(layer.name, layer.active, layer.active_render) for layer in obj.data.uv_layers]

@@ -15,6 +15,9 @@ from surfgrad_addon.addon import batch, normal_bake as NB  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import run_python  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 QUIET = dict(log=lambda *_: None)
 
 
@@ -44,6 +47,7 @@ def asset(tmp_path):
                           image_size=64)
 
 
+@pytest.mark.tier("blender")
 def test_udim_tiles_match_the_single_image_bake_and_the_source(asset, tmp_path):
     _open(asset)
     rock = bpy.data.objects["Rock"]
@@ -98,6 +102,7 @@ def test_bit_depths_are_what_the_files_hold(asset, tmp_path):
                              **QUIET)
 
 
+@pytest.mark.tier("blender")
 def test_uv_layouts_that_miss_the_target_tiles_are_refused(asset, tmp_path):
     _open(asset)
     rock = bpy.data.objects["Rock"]
@@ -125,6 +130,7 @@ def test_uv_layouts_that_miss_the_target_tiles_are_refused(asset, tmp_path):
     assert list(tmp_path.glob("r.*")) == []
 
 
+@pytest.mark.tier("blender")
 def test_samples_anti_alias_detail_finer_than_a_texel(tmp_path):
     """Per-texel random normals at 4x the bake resolution: one sample per texel picks one
     source texel; 16 jittered samples approach the texel's average (the box-filtered source,
@@ -235,6 +241,7 @@ def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
     assert not list((tmp_path / "r2").glob(".*"))                 # nothing half-written
 
 
+@pytest.mark.tier("child")
 def test_command_line_bad_inputs_fail_their_asset_and_the_rest_go_on(three, tmp_path):
     notblend = tmp_path / "in" / "notes.txt"
     notblend.write_text("not a blend")
@@ -296,6 +303,7 @@ def test_collections_and_the_api(tmp_path):
         api.bake_batch([str(blend)], "x.png", colour=1)
 
 
+@pytest.mark.tier("child")
 def test_the_readme_example_bakes_the_procedural_assets(tmp_path):
     """README: batch-assets, then bake-batch over them with 2 workers (as a fresh clone)."""
     res = run_python(["-m", "surfgrad_addon", "batch-assets", "--out", tmp_path / "assets",

@@ -7,6 +7,9 @@ import json
 
 import pytest
 
+pytestmark = pytest.mark.tier("blender")
+
+
 pytest.importorskip("bpy")
 
 from surfgrad_addon.harness.bench import render_cost  # noqa: E402

@@ -66,6 +66,9 @@ texels. The whole file runs in about 3 s.
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.tier("bake")
+
+
 pytest.importorskip("bpy")
 
 from support import bake_probe as base  # noqa: E402
@@ -255,6 +258,7 @@ def test_group_normal_input_unlinked_and_linked(via_bump):
     assert np.abs(np.linalg.norm(ref, axis=-1) - 1).min() > 0.1
 
 
+@pytest.mark.tier("blender")
 def test_default_input_normal_is_geometry_nodes_only():
     bpy = base._bpy()
     base.new_scene()
@@ -416,6 +420,7 @@ def test_bump_node_over_image_reproduced_in_numpy(kind, smooth, size):
     assert fp.angle_deg(got, model(0.5 * sx, 0.5 * sy)).max() > 5.0
 
 
+@pytest.mark.tier("blender")
 def test_bake_differentials_radius():
     """The model's r = k (|dP/ds| / W + |dP/dt| / H), k = 0.25 up to 5.0 and 0.5 in 5.2, and
     the pair is r * make_orthonormals(Ng). (The bakes above pin k against Cycles.)"""

@@ -20,6 +20,9 @@ import pytest
 
 from support.blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
 
+pytestmark = pytest.mark.tier("child")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 
 EXT_MODULE = "bl_ext.user_default.surfgrad"

@@ -26,6 +26,9 @@ from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
 from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
+
 FAR = 10000.0
 RES = 48
 
@@ -146,6 +149,7 @@ FAR_METHODS = [("triplanar", "hq"), ("triplanar-height", "hq"), ("decal", "box")
                ("normal-map", "hq"), ("object-normal", "hq")]
 
 
+@pytest.mark.tier("bake")
 @pytest.mark.parametrize("method,variant", FAR_METHODS)
 @pytest.mark.parametrize("obj_name", ["Sphere", "Transformed"])
 def test_methods_within_the_bar_10_km_out(objects, obj_name, method, variant):
@@ -167,6 +171,7 @@ BUMP_LIMITS = {("height-map", "hq"): (0.25, 0.35), ("height-map", "forward"): (0
                ("procedural-basis", "hq"): (0.3, 0.7), ("parallax", "hq"): (1.5, 30.0)}
 
 
+@pytest.mark.tier("bake")
 @pytest.mark.parametrize("method,variant", sorted(BUMP_LIMITS))
 def test_bump_node_methods_limit_far_away_is_cycles_world_space_vertices(objects, method,
                                                                            variant,
@@ -187,6 +192,7 @@ def test_bump_node_methods_limit_far_away_is_cycles_world_space_vertices(objects
     assert shared["p99_deg"] <= 0.1 and shared["max_deg"] <= 0.5, shared
 
 
+@pytest.mark.tier("child")
 def test_bench_far_command(tmp_path):
     out = tmp_path / "far"
     args = ["-m", "surfgrad_addon", "bench-far", "--out", str(out), "--resolution", "16",

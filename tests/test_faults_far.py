@@ -34,6 +34,9 @@ from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
 from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.methods import cases  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
+
 RES = 48
 BAR_P99, BAR_MAX = 0.1, 0.5
 # The methods whose derivatives come from the Bump node (README's far table), where this line
@@ -82,6 +85,7 @@ def scene_state():
 
 # compare ----------------------------------------------------------------------------------
 
+@pytest.mark.tier("bake")
 @pytest.mark.parametrize("distance", [1000.0, 10000.0])
 @pytest.mark.parametrize("method,variant", BUMP)
 def test_compare_bump_node_methods_far_out_within_the_bar(objects, method, variant, distance):
@@ -96,6 +100,7 @@ def test_compare_bump_node_methods_far_out_within_the_bar(objects, method, varia
         assert report["tilt_mean_deg"] > 1.0        # the method really bends the normals
 
 
+@pytest.mark.tier("bake")
 def test_without_the_route_the_same_compare_is_out_of_the_bar(objects, monkeypatch):
     obj = objects["Transformed"]
     with moved(obj, 10000.0):
@@ -329,6 +334,7 @@ def _sha(path):
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+@pytest.mark.tier("child")
 def test_cli_bake_normal_map_and_bake_batch_far_out(asset, tmp_path):
     """The commands on a saved far asset: exit 0, the map agrees with the origin bake, the
     .blend is unchanged."""

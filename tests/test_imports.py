@@ -11,6 +11,7 @@ from surfgrad_addon.harness import package
 
 pytestmark = pytest.mark.tier("numpy")
 
+
 OURS = "surfgrad_addon"
 EDGES = I.graph()
 

@@ -11,6 +11,9 @@ from support import facts_probe as fp  # noqa: E402
 from surfgrad_addon.addon import compat  # noqa: E402
 from surfgrad_addon.reference.blender_lines import LINES, facts_for  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
+
 LINE = facts_for(bpy.app.version)
 
 
@@ -72,6 +75,7 @@ def test_modifier_inputs_through_compat_on_every_line():
         compat.set_input(mod, "Nope", 1.0)
 
 
+@pytest.mark.tier("bake")
 def test_packed_normals_are_this_lines_storage():
     """The shading normal under a rotated, non-uniformly scaled transform: this line's storage
     model (5.2: object normals packed into 2 x 16-bit octahedral, transformed, packed again;

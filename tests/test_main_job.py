@@ -11,9 +11,13 @@ import pytest
 from surfgrad_addon.harness import main_job
 from surfgrad_addon.harness.pictures import write_png
 
+pytestmark = pytest.mark.tier("child")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.tier("numpy")
 def test_png_writer_round_trips_through_an_independent_reader(tmp_path):
     from matplotlib import image as mpimg
     rgba = np.zeros((3, 5, 4))
@@ -40,6 +44,7 @@ def test_png_writer_round_trips_through_an_independent_reader(tmp_path):
     assert not (tmp_path / "bad.png").exists()
 
 
+@pytest.mark.tier("bake")
 def test_main_job_writes_maps_and_summary(tmp_path):
     summary = main_job.run(tmp_path, resolution=48, log=lambda *_: None)
     for scene in ("sphere", "torus"):
