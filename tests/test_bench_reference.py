@@ -11,7 +11,7 @@ import pytest
 from surfgrad_addon.harness import bench_reference as BR
 from surfgrad_addon.reference import compiled
 
-pytestmark = pytest.mark.tier("numpy")
+pytestmark = pytest.mark.tier("child")      # bench-reference runs a compare child
 
 
 def test_bench_reference_writes_measured_figures(tmp_path):
