@@ -74,7 +74,6 @@ def test_a_non_finite_image_is_refused_and_not_left_behind(plane, tmp_path):
     assert len(bpy.data.images) == before
 
 
-@pytest.mark.tier("blender")
 def test_bake_normal_map_inside_blender_honours_blend(plane, tmp_path, capsys):
     """Inside Blender (blender -b --python blender_cli.py -- bake-normal-map --blend F), F is
     opened like anywhere else: a missing file is an error, not a bake of the open file."""

@@ -47,7 +47,6 @@ def asset(tmp_path):
                           image_size=64)
 
 
-@pytest.mark.tier("blender")
 def test_udim_tiles_match_the_single_image_bake_and_the_source(asset, tmp_path):
     _open(asset)
     rock = bpy.data.objects["Rock"]
@@ -102,7 +101,6 @@ def test_bit_depths_are_what_the_files_hold(asset, tmp_path):
                              **QUIET)
 
 
-@pytest.mark.tier("blender")
 def test_uv_layouts_that_miss_the_target_tiles_are_refused(asset, tmp_path):
     _open(asset)
     rock = bpy.data.objects["Rock"]
@@ -130,7 +128,6 @@ def test_uv_layouts_that_miss_the_target_tiles_are_refused(asset, tmp_path):
     assert list(tmp_path.glob("r.*")) == []
 
 
-@pytest.mark.tier("blender")
 def test_samples_anti_alias_detail_finer_than_a_texel(tmp_path):
     """Per-texel random normals at 4x the bake resolution: one sample per texel picks one
     source texel; 16 jittered samples approach the texel's average (the box-filtered source,
@@ -212,6 +209,7 @@ def test_batch_never_overwrites_files_it_did_not_write(three, tmp_path):
     assert foreign.read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.tier("child")
 def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
     one = _run(three, tmp_path / "w0" / "{file}_{object}.<UDIM>.png",
                defaults={"resolution": 32}, workers=0)
@@ -282,6 +280,7 @@ def test_command_line_bad_inputs_fail_their_asset_and_the_rest_go_on(three, tmp_
     assert res.returncode == 2 and "unknown token {name}" in res.stderr
 
 
+@pytest.mark.tier("child")
 def test_collections_and_the_api(tmp_path):
     blend = BA.write_asset(tmp_path / "c.blend", ("A", "B", "C"), tiles=(1001,),
                            image_size=16, collection="Props")

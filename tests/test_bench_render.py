@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-pytestmark = pytest.mark.tier("blender")
+pytestmark = pytest.mark.tier("bake")
 
 
 pytest.importorskip("bpy")

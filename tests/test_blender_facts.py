@@ -420,7 +420,6 @@ def test_bump_node_over_image_reproduced_in_numpy(kind, smooth, size):
     assert fp.angle_deg(got, model(0.5 * sx, 0.5 * sy)).max() > 5.0
 
 
-@pytest.mark.tier("blender")
 def test_bake_differentials_radius():
     """The model's r = k (|dP/ds| / W + |dP/dt| / H), k = 0.25 up to 5.0 and 0.5 in 5.2, and
     the pair is r * make_orthonormals(Ng). (The bakes above pin k against Cycles.)"""

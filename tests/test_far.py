@@ -26,7 +26,7 @@ from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
 from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 
-pytestmark = pytest.mark.tier("blender")
+pytestmark = pytest.mark.tier("bake")
 
 
 FAR = 10000.0
@@ -149,7 +149,6 @@ FAR_METHODS = [("triplanar", "hq"), ("triplanar-height", "hq"), ("decal", "box")
                ("normal-map", "hq"), ("object-normal", "hq")]
 
 
-@pytest.mark.tier("bake")
 @pytest.mark.parametrize("method,variant", FAR_METHODS)
 @pytest.mark.parametrize("obj_name", ["Sphere", "Transformed"])
 def test_methods_within_the_bar_10_km_out(objects, obj_name, method, variant):
@@ -171,7 +170,6 @@ BUMP_LIMITS = {("height-map", "hq"): (0.25, 0.35), ("height-map", "forward"): (0
                ("procedural-basis", "hq"): (0.3, 0.7), ("parallax", "hq"): (1.5, 30.0)}
 
 
-@pytest.mark.tier("bake")
 @pytest.mark.parametrize("method,variant", sorted(BUMP_LIMITS))
 def test_bump_node_methods_limit_far_away_is_cycles_world_space_vertices(objects, method,
                                                                            variant,

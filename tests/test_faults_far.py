@@ -34,7 +34,7 @@ from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
 from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.methods import cases  # noqa: E402
 
-pytestmark = pytest.mark.tier("blender")
+pytestmark = pytest.mark.tier("bake")
 
 
 RES = 48
@@ -85,7 +85,6 @@ def scene_state():
 
 # compare ----------------------------------------------------------------------------------
 
-@pytest.mark.tier("bake")
 @pytest.mark.parametrize("distance", [1000.0, 10000.0])
 @pytest.mark.parametrize("method,variant", BUMP)
 def test_compare_bump_node_methods_far_out_within_the_bar(objects, method, variant, distance):
@@ -100,7 +99,6 @@ def test_compare_bump_node_methods_far_out_within_the_bar(objects, method, varia
         assert report["tilt_mean_deg"] > 1.0        # the method really bends the normals
 
 
-@pytest.mark.tier("bake")
 def test_without_the_route_the_same_compare_is_out_of_the_bar(objects, monkeypatch):
     obj = objects["Transformed"]
     with moved(obj, 10000.0):

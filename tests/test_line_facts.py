@@ -22,6 +22,7 @@ def test_the_running_blender_is_a_supported_line():
     assert LINE.line in LINES
 
 
+@pytest.mark.tier("bake")
 def test_api_facts_match_what_this_blender_has():
     tree = bpy.data.node_groups.new(".facts", "ShaderNodeTree")
     try:

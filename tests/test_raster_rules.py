@@ -23,7 +23,7 @@ from surfgrad_addon.harness import bake as B  # noqa: E402
 from surfgrad_addon.harness.compare import angle_deg  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 
-pytestmark = pytest.mark.tier("blender")
+pytestmark = pytest.mark.tier("bake")
 
 
 def soup(name, uvs, heights=None):

@@ -3,7 +3,7 @@ every hostile case, and never faces away from the geometric normal where the tru
 
 import pytest
 
-pytestmark = pytest.mark.tier("blender")
+pytestmark = pytest.mark.tier("bake")
 
 
 pytest.importorskip("bpy")

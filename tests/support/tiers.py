@@ -19,6 +19,7 @@ does less than its tier stays where it is: it costs time, it hides nothing.)
 """
 
 import sys
+import sysconfig
 import traceback
 
 TIERS = ("numpy", "blender", "bake", "child", "eevee")
@@ -40,9 +41,21 @@ _BLENDER_TOP = ("bpy", "_bpy", "mathutils", "bmesh", "bpy_extras", "bpy_types", 
                 "gpu_extras")
 _PROCESS_EVENTS = {"subprocess.Popen", "os.posix_spawn", "os.fork", "os.forkpty", "os.system",
                    "os.exec", "os.spawn"}
-# Library internals that run a helper program to look something up (a font list, a shared
-# library's path, the platform): not a test's own child process.
-_LOOKUP_FRAMES = ("matplotlib", "ctypes/util.py", "ctypes\\util.py", "platform.py", "uuid.py")
+# Where the standard library lives: a process started from it is someone else's call.
+_STDLIB = sysconfig.get_paths()["stdlib"]
+
+
+def _library_lookup(stack):
+    """Whether the innermost caller outside the standard library is an installed package:
+    a library running a helper program to look something up (numpy 1.26 runs lscpu when
+    numpy.testing loads, matplotlib fc-list, numba its CPU probe), not a test's own process."""
+    for frame in reversed(stack):
+        path = frame.filename
+        if "site-packages" in path or "dist-packages" in path:
+            return True
+        if not (path.startswith("<") or path.startswith(_STDLIB)):
+            return False
+    return False
 
 
 class _State:
@@ -77,11 +90,12 @@ class _BlockBlender:
 def _audit(event, args):
     if _State.tier is None or event not in _PROCESS_EVENTS:
         return
-    stack = traceback.extract_stack()
-    if any(part in frame.filename for frame in stack for part in _LOOKUP_FRAMES):
+    stack = traceback.extract_stack()[:-1]
+    if _library_lookup(stack):
         return
     what = args[1] if event == "subprocess.Popen" and len(args) > 1 else args[:1]
-    _note("process", f"{event} {what!r}")
+    where = "".join(traceback.format_list(stack[-8:-1]))
+    _note("process", f"{event} {what!r}:\n{where}")
 
 
 def _trace_operators():
