@@ -5,7 +5,6 @@ import pytest
 
 pytestmark = pytest.mark.tier("bake")
 
-
 pytest.importorskip("bpy")
 
 from surfgrad_addon.harness.bench import stability  # noqa: E402
