@@ -50,7 +50,9 @@ def _durations_table(folder, lines):
                  else "-" for name in TIERS]
         out.append(f"| {line} | " + " | ".join(cells) + f" | {d['wall_seconds']:.1f} s |")
     picked = {line: d["markexpr"] for line, d in runs.items() if d.get("markexpr")}
-    out.extend(f"\n- {line}: only the tests `-m {expr}` picks" for line, expr in picked.items())
+    if picked:
+        out.append("")
+        out.extend(f"- {line}: only the tests `-m {expr}` picks" for line, expr in picked.items())
     out.append("")
     return out
 
@@ -70,7 +72,9 @@ def main(argv):
         ok = run.get("exit") == 0
         passed += ok
         failed += not ok
-        out.append(f"| {line} | {bake['blender'] if bake else '?'} | "
+        durations = _load(folder, "durations", line) or {}
+        version = bake["blender"] if bake else durations.get("blender") or "?"
+        out.append(f"| {line} | {version} | "
                    f"{'passed' if ok else 'FAILED' if run else 'did not run'} | "
                    f"{run.get('seconds', '?')} |")
         if not ok:
