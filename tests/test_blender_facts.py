@@ -68,7 +68,6 @@ import pytest
 
 pytestmark = pytest.mark.tier("bake")
 
-
 pytest.importorskip("bpy")
 
 from support import bake_probe as base  # noqa: E402

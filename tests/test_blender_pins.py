@@ -21,7 +21,6 @@ import pytest
 
 pytestmark = pytest.mark.tier("bake")
 
-
 pytest.importorskip("bpy")
 
 from support import bake_probe as probe  # noqa: E402

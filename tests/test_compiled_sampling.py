@@ -11,7 +11,6 @@ from surfgrad_addon.reference import compiled, image_sampling as IS
 
 pytestmark = pytest.mark.tier("numpy")
 
-
 pytest.importorskip("numba", reason="numba is not installed: the reference runs numpy only")
 
 from surfgrad_addon.reference import sampling_kernels as K  # noqa: E402

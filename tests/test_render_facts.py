@@ -41,7 +41,6 @@ import pytest
 
 pytestmark = pytest.mark.tier("bake")
 
-
 pytest.importorskip("bpy")
 
 from support import bake_probe as base  # noqa: E402

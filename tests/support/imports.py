@@ -6,8 +6,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = "surfgrad_addon"
-
-
 BLENDER_MODULES = {"bpy", "_bpy", "mathutils", "bmesh", "bpy_extras", "bpy_types", "gpu",
                    "gpu_extras", "bl_math", "aud", "idprop", "imbuf", "freestyle"}
 

@@ -18,9 +18,15 @@ and a test that does more than its tier allows fails, naming the tier it needs. 
 does less than its tier stays where it is: it costs time, it hides nothing.)
 """
 
+import json
+import os
 import sys
 import sysconfig
+import time
 import traceback
+from pathlib import Path
+
+import pytest
 
 TIERS = ("numpy", "blender", "bake", "child", "eevee")
 DESCRIPTIONS = {
@@ -176,13 +182,6 @@ def complaint(nodeid, tier, seen):
 
 
 # pytest hooks (tests/conftest.py imports them; `-p support.tiers` loads them elsewhere) ---------
-
-import json      # noqa: E402
-import os        # noqa: E402
-import time      # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import pytest    # noqa: E402
 
 _TIER_OF = {}            # nodeid -> tier, for the reports
 _TIMES = {}              # tier -> {"tests", "seconds", "passed", "failed", "skipped"}
