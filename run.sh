@@ -7,7 +7,8 @@
 #                             Python 3.13, .venv), then 5.0, 4.5 LTS and 4.2 LTS (Python 3.11,
 #                             .venv-bpy50/45/42); a table of the lines in out/lines/summary.md.
 #                             LINES="5.2 4.2" bash run.sh test -k decal picks lines; ARGS go to
-#                             pytest on each line.
+#                             pytest on each line (-m numpy|blender|bake|child|eevee picks tiers:
+#                             README, The two commands); seconds per tier in the summary.
 #   bash run.sh bench [ARGS]  speed against accuracy of every method, stability: out/bench
 #   bash run.sh bench-reference  throughput of the numpy reference: out/bench_reference.json
 #   bash run.sh bench-render [--quick]  render cost against Blender's own nodes: out/bench_render

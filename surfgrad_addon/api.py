@@ -7,11 +7,11 @@
     api.bake_normal_map(rock, "rock_nrm.<UDIM>.png", samples=16, depth="16")   # UDIM tiles
     report = api.bake_batch(["a.blend", "b.blend"], "maps/{file}/{object}.<UDIM>.png",
                             resolution=2048, samples=16, workers=2)
-    report = api.compare(bpy.data.objects["Rock"], "triplanar", resolution=128)
 
-From an installed extension the same module is `bl_ext.<repo>.surfgrad.api`; `compare` needs the
-proving harness, which only a checkout has. Every function raises ValueError (or a subclass)
-with a message that names the problem and the fix.
+From an installed extension the same module is `bl_ext.<repo>.surfgrad.api`: it offers only
+what the extension does (no harness behind it). The bake-against-reference comparison is the
+harness's: `surfgrad_addon.harness.api.compare`, in a checkout. Every function raises
+ValueError (or a subclass) with a message that names the problem and the fix.
 """
 
 from .addon import groups as _groups
@@ -105,26 +105,11 @@ def bake_batch(blends=None, output="{file}_{object}.<UDIM>.png", objects=None,
                             open_file=blends is None, log=log)
 
 
-def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
-            with_heat_map=False, tiles=None):
-    """Bake `method`'s node groups on obj with Cycles and compare texel by texel with the numpy
-    reference; returns the report dict (mean / p99 / max angular error in degrees, texel
-    counts, timings), and with with_heat_map the per-texel error image too. tiles: the UDIM
-    tiles to bake and compare (default: what Blender's bake fills). Needs the proving
-    harness (a checkout, not the extension zip)."""
-    try:
-        from .harness import compare as harness_compare
-    except ImportError as err:
-        raise ValueError("compare needs surfgrad's proving harness: run it from a checkout "
-                         "of the repository (python -m surfgrad_addon compare ...)") from err
-    import bpy
-    before = set(bpy.data.node_groups)
-    try:
-        report, heat = harness_compare.compare_object(obj, method, resolution, uv_map=uv_map,
-                                                      image=image, variant=variant,
-                                                      log=lambda *_: None, tiles=tiles)
-    finally:
-        # The file is the user's: the groups the bake needed go again (users first).
-        for tree in [t for t in bpy.data.node_groups if t not in before][::-1]:
-            bpy.data.node_groups.remove(tree)
-    return (report, heat) if with_heat_map else report
+def __getattr__(name):
+    # compare moved to the harness, which the extension does not ship; say where it went
+    # rather than import it (the API offers only what an installed extension can do).
+    if name == "compare":
+        raise AttributeError("surfgrad_addon.api.compare moved to surfgrad_addon.harness.api."
+                             "compare: it needs the proving harness, which only a checkout of "
+                             "the repository has (python -m surfgrad_addon compare ...)")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

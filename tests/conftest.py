@@ -1,10 +1,10 @@
-"""Shared test helpers: the `fresh` file fixture, and the report directory that
-`bash run.sh test` collects per Blender line.
+"""Shared test helpers: the `fresh` file fixture, the tiers (tests/support/tiers.py), and the
+report directory that `bash run.sh test` collects per Blender line.
 
 `bash run.sh test` runs this suite once per supported Blender line, each in its own venv, and
 sets SURFGRAD_REPORT_DIR; tests that produce figures for the lines' summary
 (tools/lines_summary.py) write them there as <name>-<line>.json. Without the variable nothing
-is written.
+is written. The tiers' hooks write durations-<line>.json there (seconds and tests per tier).
 """
 
 import json
@@ -12,6 +12,12 @@ import os
 from pathlib import Path
 
 import pytest
+
+# The tiers (numpy, blender, bake, child, eevee): each test's declared tier becomes its marker,
+# a guard fails a test that does more than its tier allows, durations per tier are recorded.
+from support.tiers import (pytest_collection_finish, pytest_collection_modifyitems,  # noqa: F401
+                           pytest_configure, pytest_runtest_call, pytest_runtest_logreport,
+                           pytest_runtest_setup, pytest_sessionfinish)
 
 
 def line_name():

@@ -1,5 +1,6 @@
 """The public API (surfgrad_addon.api) that scripts and TDs use: every group by name, with
-options; the layer stack; the normal-map bake; the comparison. Clear errors for bad names."""
+options; the layer stack; the normal-map bake. The comparison is the harness's
+(surfgrad_addon.harness.api). Clear errors for bad names."""
 
 import re
 
@@ -11,10 +12,13 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.harness import api as harness_api  # noqa: E402
 from surfgrad_addon.harness import scenes  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
 
 
+@pytest.mark.tier("blender")
 def test_node_group_builds_every_group_by_name(fresh):
     for name in api.group_names():
         if G.unavailable_reason(name):
@@ -29,6 +33,7 @@ def test_node_group_builds_every_group_by_name(fresh):
     assert len(frame) == 1 and frame[0].uv_map == "Detail"
 
 
+@pytest.mark.tier("blender")
 def test_node_group_refuses_unknown_names_and_options(fresh):
     with pytest.raises(ValueError, match="no surfgrad group named 'SG Nope'.*SG Resolve"):
         api.node_group("SG Nope")
@@ -44,8 +49,20 @@ def test_layer_stack_bake_and_compare_through_the_api(fresh, tmp_path):
     assert nodes["resolve"].outputs[0].is_linked
     out = api.bake_normal_map(obj, tmp_path / "n.exr", resolution=16, log=lambda *_: None)
     assert out.is_file()
-    report = api.compare(obj, "normal-map", resolution=24)
+    groups = set(bpy.data.node_groups)
+    report = harness_api.compare(obj, "normal-map", resolution=24)
     assert report["max_deg"] <= 0.5 and report["texels_compared"] > 0.5 * 24 * 24
     assert np.isfinite(report["mean_deg"])
+    assert set(bpy.data.node_groups) == groups      # the bake's own groups went again
     with pytest.raises(ValueError, match="give a material"):
         api.add_layer_stack(None)
+
+
+def test_the_api_offers_no_compare_and_says_where_it_went():
+    """api ships in the extension, the harness does not: compare lives in the harness's API,
+    and the old name says so instead of importing the harness."""
+    with pytest.raises(AttributeError, match=r"harness\.api\.compare.*checkout"):
+        api.compare
+    assert not hasattr(api, "compare") and "compare" not in dir(api)
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        api.nothing

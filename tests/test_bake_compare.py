@@ -17,6 +17,9 @@ from surfgrad_addon.harness import methods  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.reference import methods as M  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 RESOLUTION = 48
 REPORTS = {}
@@ -133,6 +136,7 @@ def _run_cli(args, cwd):
     return run_python(["-m", "surfgrad_addon", *args], cwd=cwd)
 
 
+@pytest.mark.tier("child")
 def test_the_command_line_offers_every_registered_method(tmp_path):
     out = _run_cli(["compare", "--help"], tmp_path)
     assert out.returncode == 0, out.stderr
@@ -143,6 +147,7 @@ def test_the_command_line_offers_every_registered_method(tmp_path):
     assert bad.returncode != 0 and "invalid choice: 'warp-drive'" in bad.stderr
 
 
+@pytest.mark.tier("child")
 def test_compare_command_line(tmp_path):
     out = _run_cli(["compare", "--object", "Torus", "--method", "procedural-basis",
                     "--resolution", "32", "--json", str(tmp_path / "r.json")], tmp_path)
@@ -163,6 +168,7 @@ def test_compare_command_line(tmp_path):
     assert again.returncode == 2 and "--overwrite" in again.stderr
 
 
+@pytest.mark.tier("child")
 def test_compare_inside_blender_on_a_saved_file(tmp_path):
     """`blender -b FILE --python surfgrad_addon/blender_cli.py -- compare ...`, with the bpy
     module standing in for the blender binary: open the file, then run the script."""

@@ -12,6 +12,8 @@ from surfgrad_addon.harness import compare as C  # noqa: E402
 from surfgrad_addon.harness import scenes  # noqa: E402
 from surfgrad_addon.harness.methods import METHODS, resolve_sg  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
 
 def uv_state(obj):
     return [(layer.name, layer.active, layer.active_render) for layer in obj.data.uv_layers]
@@ -40,6 +42,7 @@ def test_pieces_bake_what_one_bake_does(obj_name, method):
     assert np.abs(pieces[covered] - whole[covered]).mean() < 5e-6
 
 
+@pytest.mark.tier("blender")
 def test_piece_grid_is_a_power_of_two_that_divides_the_size():
     assert B._grid(2048, 2048) == 1
     assert B._grid(4096, 2048) == 2

@@ -8,6 +8,8 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.harness import compare, scenes as test_scenes  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
 
 @pytest.fixture()
 def plane(fresh):

@@ -15,6 +15,9 @@ from surfgrad_addon.addon import batch, normal_bake as NB  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import run_python  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 QUIET = dict(log=lambda *_: None)
 
 
@@ -206,6 +209,7 @@ def test_batch_never_overwrites_files_it_did_not_write(three, tmp_path):
     assert foreign.read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.tier("child")
 def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
     one = _run(three, tmp_path / "w0" / "{file}_{object}.<UDIM>.png",
                defaults={"resolution": 32}, workers=0)
@@ -235,6 +239,7 @@ def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
     assert not list((tmp_path / "r2").glob(".*"))                 # nothing half-written
 
 
+@pytest.mark.tier("child")
 def test_command_line_bad_inputs_fail_their_asset_and_the_rest_go_on(three, tmp_path):
     notblend = tmp_path / "in" / "notes.txt"
     notblend.write_text("not a blend")
@@ -275,6 +280,7 @@ def test_command_line_bad_inputs_fail_their_asset_and_the_rest_go_on(three, tmp_
     assert res.returncode == 2 and "unknown token {name}" in res.stderr
 
 
+@pytest.mark.tier("child")
 def test_collections_and_the_api(tmp_path):
     blend = BA.write_asset(tmp_path / "c.blend", ("A", "B", "C"), tiles=(1001,),
                            image_size=16, collection="Props")
@@ -296,6 +302,7 @@ def test_collections_and_the_api(tmp_path):
         api.bake_batch([str(blend)], "x.png", colour=1)
 
 
+@pytest.mark.tier("child")
 def test_the_readme_example_bakes_the_procedural_assets(tmp_path):
     """README: batch-assets, then bake-batch over them with 2 workers (as a fresh clone)."""
     res = run_python(["-m", "surfgrad_addon", "batch-assets", "--out", tmp_path / "assets",

@@ -11,6 +11,8 @@ import pytest
 from surfgrad_addon.harness import bench_reference as BR
 from surfgrad_addon.reference import compiled
 
+pytestmark = pytest.mark.tier("child")      # bench-reference runs a compare child
+
 
 def test_bench_reference_writes_measured_figures(tmp_path):
     out = tmp_path / "bench.json"

@@ -7,6 +7,8 @@ import json
 
 import pytest
 
+pytestmark = pytest.mark.tier("bake")
+
 pytest.importorskip("bpy")
 
 from surfgrad_addon.harness.bench import render_cost  # noqa: E402

@@ -66,6 +66,8 @@ texels. The whole file runs in about 3 s.
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.tier("bake")
+
 pytest.importorskip("bpy")
 
 from support import bake_probe as base  # noqa: E402
@@ -255,6 +257,7 @@ def test_group_normal_input_unlinked_and_linked(via_bump):
     assert np.abs(np.linalg.norm(ref, axis=-1) - 1).min() > 0.1
 
 
+@pytest.mark.tier("blender")
 def test_default_input_normal_is_geometry_nodes_only():
     bpy = base._bpy()
     base.new_scene()

@@ -19,6 +19,8 @@ support/bake_probe); the expected values below use those points.
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.tier("bake")
+
 pytest.importorskip("bpy")
 
 from support import bake_probe as probe  # noqa: E402

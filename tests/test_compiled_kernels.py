@@ -11,8 +11,9 @@ import surfgrad_addon.reference as R
 from surfgrad_addon.reference import compiled, raster
 from surfgrad_addon.reference.blender_lines import LINES
 
-pytestmark = pytest.mark.skipif(not compiled.AVAILABLE,
-                                reason="numba is not installed: the reference runs numpy only")
+pytestmark = [pytest.mark.tier("numpy"),
+              pytest.mark.skipif(not compiled.AVAILABLE,
+                                 reason="numba is not installed: the reference runs numpy only")]
 
 FIELDS = ("triangle", "other_triangle", "contested", "on_edge", "pixel", "barycentric", "tri")
 
@@ -231,6 +232,7 @@ def test_listing1_resolve_matches_numpy(monkeypatch):
     assert np.allclose(np.linalg.norm(fast, axis=1), 1.0)
 
 
+@pytest.mark.tier("child")
 def test_the_reference_runs_without_numba_and_gives_the_same_normals():
     """In an interpreter that refuses numba (and bpy), the reference imports, runs its numpy
     code only, and gives a method's normals equal to the compiled kernels' in this one."""

@@ -9,6 +9,8 @@ import pytest
 
 from surfgrad_addon.reference import compiled, image_sampling as IS
 
+pytestmark = pytest.mark.tier("numpy")
+
 pytest.importorskip("numba", reason="numba is not installed: the reference runs numpy only")
 
 from surfgrad_addon.reference import sampling_kernels as K  # noqa: E402

@@ -5,6 +5,9 @@ import pytest
 
 import surfgrad_addon.reference as R
 
+pytestmark = pytest.mark.tier("numpy")
+
+
 N = 1000
 
 

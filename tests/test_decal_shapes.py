@@ -8,6 +8,9 @@ import pytest
 
 from surfgrad_addon.reference import decals as D
 
+pytestmark = pytest.mark.tier("numpy")
+
+
 F = 0.2        # falloff
 
 
@@ -50,6 +53,7 @@ def test_add_sums_and_overwrite_replaces_by_the_weight():
     np.testing.assert_allclose(over, [[0.0, -0.4, 0.0], [0.15, -0.025, 0.0]])
 
 
+@pytest.mark.tier("blender")
 def test_the_operator_offers_every_shape_and_displays_it(fresh):
     bpy = fresh
     from surfgrad_addon.addon import operators as O

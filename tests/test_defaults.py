@@ -14,6 +14,9 @@ from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa:
 from surfgrad_addon.reference import images as T  # noqa: E402
 from surfgrad_addon.reference.image_sampling import texel_centres  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 RES = 48
 
 

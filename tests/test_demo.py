@@ -10,6 +10,9 @@ from surfgrad_addon.addon import groups as G
 from surfgrad_addon.harness import demo  # noqa: E402
 from surfgrad_addon.addon.sampler_zone import has_closures  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 EXHIBITS = ("layered", "triplanar", "decal", "noise", "height", "displacement", "parallax",
             "decal-shapes")
 

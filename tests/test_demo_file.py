@@ -11,6 +11,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+pytestmark = pytest.mark.tier("blender")
+
+
 DEMO = Path(__file__).resolve().parents[1] / "demo.blend"
 EXHIBITS = ("layered", "triplanar", "decal", "noise", "height", "displacement", "parallax",
             "decal-shapes")
@@ -41,6 +44,7 @@ def test_demo_blend_is_saved_by_the_oldest_line_with_every_feature(demo_file):
     assert all(img.packed_file is not None for img in bpy.data.images)
 
 
+@pytest.mark.tier("bake")
 @pytest.mark.parametrize("exhibit", ["decal", "triplanar", "decal-shapes"])
 def test_demo_exhibit_renders(demo_file, exhibit, tmp_path):
     """A small Cycles render of an exhibit: finite, not blank, and the surface-gradient side

@@ -14,6 +14,9 @@ from surfgrad_addon.harness import bake, compare as C, scenes as test_scenes  # 
 from surfgrad_addon.harness import methods  # noqa: E402
 from surfgrad_addon.reference import methods as M  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 RES = 48
 
 

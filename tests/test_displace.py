@@ -12,6 +12,8 @@ from surfgrad_addon.harness import compare, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.harness import methods  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
 
 # SG Displace is gated below 4.5 (groups.REQUIRES, docs/versions.md): its tests skip there with
 # the gate's own message, and test_displace_is_refused_where_the_gate_says checks the refusal.
@@ -27,6 +29,7 @@ def _vertex_data(mesh):
     return p.reshape(-1, 3), n.reshape(-1, 3)
 
 
+@pytest.mark.tier("bake")
 @needs_displace
 @pytest.mark.parametrize("obj_name,settings", [
     ("Sphere", {"Amount": 0.1, "Scale": 2.0, "Octaves": 1}),

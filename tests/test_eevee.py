@@ -40,6 +40,9 @@ import numpy as np
 import pytest
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
+pytestmark = pytest.mark.tier("eevee")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 CELL = 64                     # pixels per exhibit (each sphere is ~53 px across)
 IMAGE_SIZE = 16               # the smooth test images, magnified ~3x at the sphere's centre

@@ -40,6 +40,9 @@ import numpy as np
 import pytest
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
+pytestmark = pytest.mark.tier("eevee")
+
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_eevee import (BPY_OK, _angle_deg, configure_render, probe_gpu_context,  # noqa: E402
                         run_eevee_child)

@@ -20,6 +20,9 @@ import pytest
 
 from support.blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
 
+pytestmark = pytest.mark.tier("child")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 
 EXT_MODULE = "bl_ext.user_default.surfgrad"
@@ -447,6 +450,24 @@ def test_validator_and_builder_make_the_expected_zip(built):
             "__main__.py", "bake_normal_map.py", "blender_cli.py"), name
         assert "__pycache__" not in name and not name.endswith((".pyc", ".zip")), name
     assert manifest_bytes == (ROOT / "blender_manifest.toml").read_bytes()
+
+
+def test_the_zip_imports_nothing_it_does_not_hold(built, tmp_path):
+    """Every module in the built zip, read with ast (lazy imports too), imports only modules
+    the zip holds: nothing of the harness, no cycle (tests/test_imports.py does the checkout)."""
+    from support import imports as I
+    root = tmp_path / "surfgrad_addon"       # the zip's root is the package's own folder
+    with zipfile.ZipFile(built.zip) as zf:
+        py = [n for n in zf.namelist() if n.endswith(".py")]
+        for name in py:
+            (root / name).parent.mkdir(parents=True, exist_ok=True)
+            (root / name).write_bytes(zf.read(name))
+    edges = I.graph(root=tmp_path)
+    assert len(edges) == len(py) > 40
+    assert not [m for m in edges if ".harness" in m]
+    outside = {m: sorted(t for t in ts if t not in edges) for m, ts in edges.items()}
+    assert not {m: t for m, t in outside.items() if t}
+    assert I.cycles(edges) == []
 
 
 def test_validator_rejects_a_bad_manifest(tmp_path):

@@ -26,6 +26,9 @@ from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
 from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 FAR = 10000.0
 RES = 48
 
@@ -187,6 +190,7 @@ def test_bump_node_methods_limit_far_away_is_cycles_world_space_vertices(objects
     assert shared["p99_deg"] <= 0.1 and shared["max_deg"] <= 0.5, shared
 
 
+@pytest.mark.tier("child")
 def test_bench_far_command(tmp_path):
     out = tmp_path / "far"
     args = ["-m", "surfgrad_addon", "bench-far", "--out", str(out), "--resolution", "16",

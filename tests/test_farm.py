@@ -19,6 +19,9 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import ROOT, run_python  # noqa: E402
 
+pytestmark = pytest.mark.tier("child")
+
+
 TEMPLATE = ROOT / "tools" / "farm" / "openjd" / "surfgrad-bake.yaml"
 JOB_TYPE = ROOT / "tools" / "farm" / "flamenco" / "surfgrad-bake.js"
 

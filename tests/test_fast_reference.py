@@ -13,6 +13,9 @@ import pytest
 import surfgrad_addon.reference as R
 from surfgrad_addon.reference import methods as M
 
+pytestmark = pytest.mark.tier("numpy")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location("reference_fixture",
                                                ROOT / "tools" / "reference_fixture.py")

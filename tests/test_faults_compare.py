@@ -29,6 +29,9 @@ from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E4
 import surfgrad_addon.reference as R  # noqa: E402
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 RES = 64
 P99, MAX = 0.1, 0.5
 
@@ -247,6 +250,7 @@ def test_tiling_layout_on_asked_for_tiles(empty_file):
         _compare(obj, tiles=[1099])
 
 
+@pytest.mark.tier("blender")
 def test_tiles_are_named_where_the_faces_are(empty_file):
     obj = _tiling()
     tiles, outside = NB.uv_tiles(obj.data, "UVMap")
@@ -273,6 +277,7 @@ def test_tiles_are_named_where_the_faces_are(empty_file):
     assert R.tiles.triangles_outside(tri, [1001, 1002]).all()
 
 
+@pytest.mark.tier("child")
 def test_compare_command_on_a_tiling_file(tmp_path):
     """The command line on a saved tiling layout, with asked-for tiles: exit 0, the report,
     and the .blend untouched."""

@@ -40,6 +40,9 @@ from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
 from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.methods import cases  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 RES = 48
 BAR_P99, BAR_MAX = 0.1, 0.5
 # The methods whose derivatives come from the Bump node (README's far table), where this line
@@ -580,6 +583,7 @@ def _sha(path):
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+@pytest.mark.tier("child")
 @pytest.mark.parametrize("modified", [False, True])
 def test_cli_bake_normal_map_and_bake_batch_far_out(asset, tmp_path, modified):
     """The commands on a saved far asset (plain, or with a Subdivision modifier at Blender's

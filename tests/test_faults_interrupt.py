@@ -26,6 +26,9 @@ from surfgrad_addon.addon import batch, interrupts  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import ROOT  # noqa: E402
 
+pytestmark = pytest.mark.tier("child")
+
+
 # A bake of this size takes ~25 s on the 2-core test machine (1024^2 x 64 samples), far more
 # than the stop may take.
 BIG = ["--resolution", "1024", "--samples", "64"]
@@ -283,6 +286,7 @@ def test_a_worker_stopped_from_outside_fails_its_asset_without_retry(assets, tmp
     assert alive(run.seen | {worker}) == []
 
 
+@pytest.mark.tier("bake")
 def test_hung_worker_default_timeout_is_generous_and_scales_with_the_bake():
     s = dict(batch.DEFAULTS)
     assert batch.bake_timeout(s, 1) == pytest.approx(300 + 1024 ** 2 / 1e5)
@@ -292,6 +296,7 @@ def test_hung_worker_default_timeout_is_generous_and_scales_with_the_bake():
         batch.bake_batch(["x.blend"], "m/{object}.png", worker_timeout=0)
 
 
+@pytest.mark.tier("bake")
 def test_entries_for_the_same_file_are_merged_not_narrowed(assets, tmp_path):
     a, _ = assets
     before = _sha(a)
@@ -309,6 +314,7 @@ def test_entries_for_the_same_file_are_merged_not_narrowed(assets, tmp_path):
     assert _sha(a) == before
 
 
+@pytest.mark.tier("blender")
 def test_partial_file_pattern_matches_what_a_bake_writes(tmp_path):
     pid = 4321
     keep = [".rock.part43210.png", "rock.png", ".rock.part4321", ".other.part4321.png"]
@@ -338,6 +344,7 @@ def _documented_lines():
                     yield f"{path.relative_to(ROOT)}:{n}", line
 
 
+@pytest.mark.tier("blender")
 def test_every_blender_command_line_exits_non_zero_on_a_python_error():
     lines = list(_documented_lines())
     where = {w.split(":")[0] for w, _ in lines}

@@ -23,6 +23,9 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.tier("child")
+
+
 MATERIAL = "SG Faults"
 OTHER = "SG Pinned"
 

@@ -19,6 +19,9 @@ from surfgrad_addon.addon import exit_codes  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from support.child import run_python  # noqa: E402
 
+pytestmark = pytest.mark.tier("child")
+
+
 RES = "32"
 
 
@@ -281,6 +284,7 @@ def test_overlapping_uv_islands_are_a_printed_warning(tmp_path):
     assert res.returncode == exit_codes.OK and "more than one face" not in res.stderr
 
 
+@pytest.mark.tier("bake")
 def test_the_api_refuses_in_process_and_leaves_the_file_as_it_was(tmp_path):
     from surfgrad_addon import api
     from surfgrad_addon.addon.bake_request import BakeRequestError

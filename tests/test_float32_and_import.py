@@ -8,6 +8,9 @@ import pytest
 
 import surfgrad_addon.reference as R
 
+pytestmark = pytest.mark.tier("child")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 rng = np.random.default_rng(11)
 n = rng.normal(size=(500, 3))
@@ -46,6 +49,7 @@ CASES = {
 }
 
 
+@pytest.mark.tier("numpy")
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_float32_in_float32_out(name):
     f64 = CASES[name](lambda a: np.asarray(a, np.float64))

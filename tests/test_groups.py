@@ -12,6 +12,7 @@ from surfgrad_addon.harness import bake, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
 
 
 def test_building_twice_gives_one_group_each(fresh):
@@ -56,6 +57,7 @@ def test_every_group_is_documented_with_frames(fresh):
         assert any(n.bl_idname == "NodeFrame" and n.label for n in tree.nodes), name
 
 
+@pytest.mark.tier("bake")
 def test_sg_noise_value_and_gradient_equal_the_reference(fresh):
     """SG Noise's Value (baked through the emission's red channel) and Gradient, against
     reference.fractal_sum on the object coordinates: to float32 precision."""
@@ -102,6 +104,7 @@ def test_image_bound_groups_take_the_active_image_texture(fresh):
     assert ui.image_bound("SG Parallax") and not ui.image_bound("SG Resolve")
 
 
+@pytest.mark.tier("bake")
 def test_triplanar_height_with_three_images_matches_the_reference(fresh):
     """SG Triplanar Height with a different height image per plane, baked, against the
     reference (the single-image case is in the bake comparison suite)."""

@@ -16,6 +16,9 @@ from conftest import write_report  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.node_builder import interface_signature  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
+
 GOLDEN = Path(__file__).with_name("interfaces.json")
 
 

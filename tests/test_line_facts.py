@@ -11,6 +11,9 @@ from support import facts_probe as fp  # noqa: E402
 from surfgrad_addon.addon import compat  # noqa: E402
 from surfgrad_addon.reference.blender_lines import LINES, facts_for  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
+
 LINE = facts_for(bpy.app.version)
 
 
@@ -19,6 +22,7 @@ def test_the_running_blender_is_a_supported_line():
     assert LINE.line in LINES
 
 
+@pytest.mark.tier("bake")
 def test_api_facts_match_what_this_blender_has():
     tree = bpy.data.node_groups.new(".facts", "ShaderNodeTree")
     try:
@@ -72,6 +76,7 @@ def test_modifier_inputs_through_compat_on_every_line():
         compat.set_input(mod, "Nope", 1.0)
 
 
+@pytest.mark.tier("bake")
 def test_packed_normals_are_this_lines_storage():
     """The shading normal under a rotated, non-uniformly scaled transform: this line's storage
     model (5.2: object normals packed into 2 x 16-bit octahedral, transformed, packed again;

@@ -9,11 +9,15 @@ import numpy as np
 import pytest
 
 from surfgrad_addon.harness import main_job
-from surfgrad_addon.harness.png import write_png
+from surfgrad_addon.harness.pictures import write_png
+
+pytestmark = pytest.mark.tier("child")
+
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.tier("numpy")
 def test_png_writer_round_trips_through_an_independent_reader(tmp_path):
     from matplotlib import image as mpimg
     rgba = np.zeros((3, 5, 4))
@@ -26,8 +30,21 @@ def test_png_writer_round_trips_through_an_independent_reader(tmp_path):
     np.testing.assert_allclose(back[0, 4], [0, 128 / 255, 1, 1], atol=1 / 255)
     with pytest.raises(FileExistsError, match="overwrite"):
         write_png(path, rgba)
+    # RGB and grey, rounded to the nearest 8-bit value, NaN as black, rows as given when not
+    # bottom-up; read back by Pillow (what encodes them) and matplotlib alike.
+    from PIL import Image
+    rgb = np.array([[[0.2, np.nan, 1.7], [1 / 255 * 0.49, 1 / 255 * 0.51, 0.5]]])
+    back = np.asarray(Image.open(write_png(tmp_path / "rgb.png", rgb, bottom_up=False)))
+    assert back.dtype == np.uint8 and back.tolist() == [[[51, 0, 255], [0, 1, 128]]]
+    grey = write_png(tmp_path / "g.png", np.array([[0, 64], [128, 255]]), bottom_up=True)
+    assert Image.open(grey).mode == "L"
+    assert np.asarray(Image.open(grey)).tolist() == [[128, 255], [0, 64]]
+    with pytest.raises(ValueError, match="1, 3 or 4 channels"):
+        write_png(tmp_path / "bad.png", np.zeros((2, 2, 2)))
+    assert not (tmp_path / "bad.png").exists()
 
 
+@pytest.mark.tier("bake")
 def test_main_job_writes_maps_and_summary(tmp_path):
     summary = main_job.run(tmp_path, resolution=48, log=lambda *_: None)
     for scene in ("sphere", "torus"):

@@ -8,6 +8,9 @@ import pytest
 
 import surfgrad_addon.reference as R
 
+pytestmark = pytest.mark.tier("numpy")
+
+
 M32 = 0xFFFFFFFF
 
 

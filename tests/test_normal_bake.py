@@ -16,6 +16,9 @@ from surfgrad_addon.harness import compare, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.reference import images as T  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -78,6 +81,7 @@ def test_bad_input_is_refused(tmp_path):
         normal_bake.bake_normal_map(obj, tmp_path / "c.png", uv_map="Nope", log=lambda *_: None)
 
 
+@pytest.mark.tier("child")
 def test_command_line_writes_a_png_with_progress(tmp_path):
     blend = tmp_path / "s.blend"
     obj = test_scenes.new_scene(["Sphere"])["Sphere"]

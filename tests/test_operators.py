@@ -11,6 +11,8 @@ from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa:
 from surfgrad_addon.reference import images as T  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
 
 @pytest.fixture()
 def sphere():
@@ -74,6 +76,7 @@ def _normal_map_node(img, strength):
     return make
 
 
+@pytest.mark.tier("bake")
 @pytest.mark.parametrize("strength", [0.0, 0.25, 0.5, 1.0, 1.5, 2.0])
 def test_normal_map_conversion_keeps_the_look(sphere, strength):
     """Cycles' Normal Map node scales x, y by Strength and blends z toward 1; SG Normal Map hands
@@ -107,6 +110,7 @@ def _bump_node(img, strength, distance, invert=False):
     return make
 
 
+@pytest.mark.tier("bake")
 @pytest.mark.parametrize("strength,distance,invert", [
     (1.0, 0.1, False), (0.0, 0.1, False), (0.2, 0.1, False), (0.5, 1.0, False),
     (1.0, 1.0, True), (0.7, 0.05, True), (2.0, 0.1, False)])
@@ -125,6 +129,7 @@ def test_bump_conversion_keeps_the_look(sphere, strength, distance, invert):
         assert tilt.std() > 10
 
 
+@pytest.mark.tier("bake")
 def test_converted_bump_with_strength_uses_the_blend_helper(sphere):
     _, tree, bsdf = _material(sphere)
     img = compare.bpy_float_image("h", T.wave_height_image(16, (3.0, 2.0)))

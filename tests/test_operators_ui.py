@@ -30,6 +30,9 @@ import pytest
 
 from support.blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
 
+pytestmark = pytest.mark.tier("child")
+
+
 ROOT = Path(__file__).resolve().parents[1]
 
 OPERATORS = ("surfgrad.add_layer_stack", "surfgrad.convert_node",

@@ -5,6 +5,8 @@ import pytest
 
 import surfgrad_addon.reference as R
 
+pytestmark = pytest.mark.tier("numpy")
+
 
 def one_mesh(positions, tris, uvs, normals=None, matrix=None, extra_uv=None):
     positions = np.asarray(positions, float)

@@ -23,6 +23,8 @@ from surfgrad_addon.harness import bake as B  # noqa: E402
 from surfgrad_addon.harness.compare import angle_deg  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
 
 def soup(name, uvs, heights=None):
     """Separate triangles at their UVs (z = heights per corner), face attribute "fid" = index."""

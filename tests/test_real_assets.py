@@ -17,6 +17,9 @@ bpy = pytest.importorskip("bpy")
 from conftest import write_report  # noqa: E402
 from surfgrad_addon.harness import asset_scenes as A, compare  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
+
 RESOLUTION = 256
 METHODS = ("normal-map", "height-map", "triplanar", "post-resolve", "displace-bump")
 REPORTS = {}

@@ -39,6 +39,8 @@ The file runs in under 1 s per line (each render of 32 x 32 px takes ~5 ms).
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.tier("bake")
+
 pytest.importorskip("bpy")
 
 from support import bake_probe as base  # noqa: E402

@@ -12,6 +12,9 @@ from surfgrad_addon.addon import ui  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.addon.sampler_zone import has_closures  # noqa: E402
 
+pytestmark = pytest.mark.tier("blender")
+
+
 closures = pytest.mark.skipif(not has_closures(), reason="Closure zones and Evaluate Closure "
                               "exist from Blender 5.0 (docs/versions.md)")
 no_closures = pytest.mark.skipif(has_closures(), reason="this line has closures")

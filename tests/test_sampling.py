@@ -6,6 +6,9 @@ import pytest
 
 import surfgrad_addon.reference as R
 
+pytestmark = pytest.mark.tier("numpy")
+
+
 IMG = np.arange(12, dtype=np.float64).reshape(3, 4)   # 3 rows (v), 4 columns (u); row 0 at v=0
 
 

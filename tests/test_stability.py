@@ -3,6 +3,8 @@ every hostile case, and never faces away from the geometric normal where the tru
 
 import pytest
 
+pytestmark = pytest.mark.tier("bake")
+
 pytest.importorskip("bpy")
 
 from surfgrad_addon.harness.bench import stability  # noqa: E402

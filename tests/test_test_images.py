@@ -1,9 +1,12 @@
 """The procedural test images' closed forms: the truths later comparisons rely on."""
 
 import numpy as np
+import pytest
 
 import surfgrad_addon.reference as R
 from surfgrad_addon.reference import images as T
+
+pytestmark = pytest.mark.tier("numpy")
 
 
 def test_wave_height_derivative_matches_central_differences():

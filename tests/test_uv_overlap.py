@@ -3,8 +3,11 @@
 answer is known by hand."""
 
 import numpy as np
+import pytest
 
 from surfgrad_addon.reference.uv_overlap import contested_texels
+
+pytestmark = pytest.mark.tier("numpy")
 
 
 def _brute(uv, size, offset=(0.0, 0.0)):

@@ -1,8 +1,8 @@
 """The supported Blender lines side by side, after `bash run.sh test` ran the suite on each:
 whether each line passed and how long it took, every method's worst p99 / max angular error
-against the reference over the four test objects, and whether the group interfaces are the
-same everywhere. Reads out/lines/*.json (written by run.sh and the tests through
-tests/conftest.py), writes out/lines/summary.md, prints it, and ends with a plain
+against the reference over the four test objects, the suite's tests and seconds per tier,
+and whether the group interfaces are the same everywhere. Reads out/lines/*.json (written by
+run.sh and the tests through tests/conftest.py), writes out/lines/summary.md, prints it, and ends with a plain
 'lines: N passed, M failed' line. Exit status 1 if a line failed or a report is missing.
 
     python tools/lines_summary.py out/lines 5.2 5.0 4.5 4.2
@@ -33,6 +33,30 @@ def _interfaces_note(folder, lines):
     return problems, sorted(dumps)
 
 
+TIERS = ("numpy", "blender", "bake", "child", "eevee")     # tests/support/tiers.py
+
+
+def _durations_table(folder, lines):
+    """Tests and seconds per tier on each line (durations-<line>.json, from the tiers' hooks
+    in tests/conftest.py): the figures the docs quote."""
+    runs = {line: _load(folder, "durations", line) for line in lines}
+    runs = {line: d for line, d in runs.items() if d}
+    if not runs:
+        return []
+    out = ["## Suite time per tier: tests / seconds (set-up, call and teardown)\n",
+           "| line | " + " | ".join(TIERS) + " | wall |", "|---|" + "---|" * (len(TIERS) + 1)]
+    for line, d in runs.items():
+        cells = [f"{t['tests']} / {t['seconds']:.1f} s" if (t := d["tiers"].get(name))
+                 else "-" for name in TIERS]
+        out.append(f"| {line} | " + " | ".join(cells) + f" | {d['wall_seconds']:.1f} s |")
+    picked = {line: d["markexpr"] for line, d in runs.items() if d.get("markexpr")}
+    if picked:
+        out.append("")
+        out.extend(f"- {line}: only the tests `-m {expr}` picks" for line, expr in picked.items())
+    out.append("")
+    return out
+
+
 def main(argv):
     folder = Path(argv[0])
     lines = argv[1:]
@@ -48,7 +72,9 @@ def main(argv):
         ok = run.get("exit") == 0
         passed += ok
         failed += not ok
-        out.append(f"| {line} | {bake['blender'] if bake else '?'} | "
+        durations = _load(folder, "durations", line) or {}
+        version = bake["blender"] if bake else durations.get("blender") or "?"
+        out.append(f"| {line} | {version} | "
                    f"{'passed' if ok else 'FAILED' if run else 'did not run'} | "
                    f"{run.get('seconds', '?')} |")
         if not ok:
@@ -86,6 +112,7 @@ def main(argv):
             for method, why in compares[line].get("skipped", {}).items():
                 out.append(f"\n- {line}, {method}: {why}")
         out.append("")
+    out.extend(_durations_table(folder, lines))
     problems, compared = _interfaces_note(folder, lines)
     if len(compared) >= 2:
         out.append(f"## Group interfaces: {'identical' if not problems else 'DIFFERENT'} "

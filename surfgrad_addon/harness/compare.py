@@ -35,7 +35,7 @@ from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, cases, resolve_sg,
                       unavailable_reason)
-from .png import write_png
+from .pictures import write_png
 
 DETAIL_UV = "Detail"
 
@@ -506,6 +506,22 @@ def write_heat_map(path, heat, overwrite):
     return write_png(path, np.asarray(rgb), overwrite=overwrite)
 
 
+def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
+            with_heat_map=False, tiles=None):
+    """The public comparison (surfgrad_addon.harness.api.compare): compare_object, quiet, with
+    the node groups the bake added removed again (the file is the user's)."""
+    import bpy
+    before = set(bpy.data.node_groups)
+    try:
+        report, heat = compare_object(obj, method, resolution, uv_map=uv_map, image=image,
+                                      variant=variant, log=lambda *_: None, tiles=tiles)
+    finally:
+        # The groups the bake needed go again (users first).
+        for tree in [t for t in bpy.data.node_groups if t not in before][::-1]:
+            bpy.data.node_groups.remove(tree)
+    return (report, heat) if with_heat_map else report
+
+
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
         variant=None, overwrite=False, log=print, from_open_file=False, tiles=None):
     """The command: load, bake, compare, write the JSON and the heat map, print a summary."""
@@ -526,9 +542,8 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     if obj is None:
         raise CompareError(f"no object named {object_name!r}; objects: "
                            f"{sorted(o.name for o in bpy.data.objects)}")
-    from .. import api                  # the command goes through the public API
-    report, heat = api.compare(obj, method, resolution, variant, uv_map, image,
-                               with_heat_map=True, tiles=tiles)
+    report, heat = compare(obj, method, resolution, variant, uv_map, image,   # the public one
+                           with_heat_map=True, tiles=tiles)
     json_out.parent.mkdir(parents=True, exist_ok=True)
     json_out.write_text(json.dumps(report, indent=2))
     write_heat_map(heat_path, heat, overwrite)

@@ -15,7 +15,7 @@ import numpy as np
 from .. import reference as R
 from ..reference import methods as M
 from .methods import HEIGHT_BUMP_SCALE, METHODS
-from .png import write_png
+from .pictures import write_png
 
 # The main job's own images: finer than the bake comparison's (its maps are looked at).
 REFERENCE_IMAGE_SIZE = 256
