@@ -26,11 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference as R
-from ..addon import groups as G
 from ..addon.bake_target import bake_target_problem
 from ..addon.normal_bake import resolution_problem
 from ..addon.precise_bake import precise_far
 from ..reference import methods as M
+from ..reference.agreement import COUNTS as AGREEMENT_COUNTS, texel_agreement
+from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, cases, resolve_sg,
@@ -145,18 +146,6 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
 
 
 # The comparison -----------------------------------------------------------------------------------
-
-def angle_deg(a, b):
-    """Angle between vectors in float64, accurate near zero (atan2 of |a x b| and a . b).
-    A zero-length or non-finite vector has no direction: it scores 180 degrees, never 0."""
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1),
-                                np.sum(a * b, axis=-1)))
-    valid = (np.isfinite(a).all(-1) & np.isfinite(b).all(-1)
-             & (np.linalg.norm(a, axis=-1) > 0) & (np.linalg.norm(b, axis=-1) > 0))
-    return np.where(valid, ang, 180.0)
-
 
 def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print,
                    tiles=None):
@@ -329,7 +318,6 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     # Compiled kernels load once per process (like an import), reported apart from the timing.
     load_seconds = R.raster.load_compiled()
-    G.build_all()
     def build(nodes, links):
         out = graph(inp, nodes, links)
         # Graphs return a surface gradient to resolve against the shading normal, or (post-
@@ -398,41 +386,20 @@ def _compare_tile(td, reference, pixels, covered):
     sums["backfacing_triangles"] = set()
     seconds = [0.0]
     for _, _, block, ref in M.evaluated_blocks(reference, td, seconds=seconds):
-            px, py = block.pixel[:, 0], block.pixel[:, 1]
-            baked = pixels[py, px].astype(np.float64)
-            in_bake = covered[py, px]
-            contested = td.contested[py, px]
-            edge = td.on_edge[py, px] & ~contested
-            facing = np.sum(block.shading_normal * block.geometric_normal, axis=-1)
-            backfacing = in_bake & ~edge & (facing < BACKFACING_DOT)
-            compared = in_bake & ~edge & ~backfacing
-            reasons[py[edge & in_bake], px[edge & in_bake]] = 2
-            reasons[py[backfacing], px[backfacing]] = 4
-            sums["backfacing_triangles"] |= set(np.unique(block.tri[backfacing]).tolist())
-            marked = contested & compared
-            reasons[py[marked], px[marked]] = CONTESTED
-            err = angle_deg(baked[compared], ref[compared])
-            errs.append(err)
-            heat[py[compared], px[compared]] = err
-            contested_errs.append(angle_deg(baked[marked], ref[marked]))
-            base = M.unit_base_normal(block)[compared]
-            ng = block.geometric_normal[in_bake]
-            b_all, r_all = baked[in_bake], ref[in_bake]
-            away = np.sum(b_all * ng, axis=-1) < -1e-3
-            truth_dot = np.sum(r_all * ng, axis=-1)
-            b_cmp = baked[compared]
-            sums["compared"] += int(compared.sum())
-            sums["contested"] += int(marked.sum())
-            sums["tilt_bake"] += float(angle_deg(b_cmp, base).sum())
-            sums["tilt_ref"] += float(angle_deg(ref[compared], base).sum())
-            sums["finite_unit"] += int(np.sum(np.isfinite(b_cmp).all(-1) & (
-                np.abs(np.linalg.norm(b_cmp, axis=-1) - 1) < 1e-4)))
-            sums["both"] += len(b_all)
-            sums["finite_unit_all"] += int(np.sum(np.isfinite(b_all).all(-1) & (
-                np.abs(np.linalg.norm(b_all, axis=-1) - 1) < 1e-3)))
-            sums["away"] += int(away.sum())
-            sums["truth_away"] += int(np.sum(truth_dot < 0))
-            sums["away_wrong"] += int(np.sum(away & ~(truth_dot < 1e-3)))
+        # One pass per block (reference/agreement.py): classes, reasons, atan2 arguments.
+        a = texel_agreement(block.pixel, pixels, covered, td.contested, td.on_edge, ref,
+                            block.shading_normal, block.geometric_normal,
+                            M.unit_base_normal(block), BACKFACING_DOT, reasons)
+        err = a.error()
+        errs.append(err)
+        heat.ravel()[a.flat[:a.n]] = err
+        contested_errs.append(err[a.marked[:a.n]])
+        sums["backfacing_triangles"] |= set(np.unique(block.tri[a.backfacing]).tolist())
+        tilt_bake, tilt_ref = a.tilts()
+        sums["tilt_bake"] += float(tilt_bake.sum())
+        sums["tilt_ref"] += float(tilt_ref.sum())
+        for name, count in zip(AGREEMENT_COUNTS, a.counts.tolist()):
+            sums[name] += count
     contested_err = np.concatenate(contested_errs) if contested_errs else np.zeros(0)
     excluded = {name: int((reasons == code).sum())
                 for code, (name, _) in EXCLUSION_REASONS.items()}
