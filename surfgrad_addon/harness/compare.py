@@ -324,8 +324,10 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
         # resolve) an already resolved normal.
         return out if out.name == "Normal" else resolve_sg(nodes, links, out)
     if tiles == [R.tiles.UDIM_FIRST]:
+        # RGBA as read back (no copy): the comparison reads channels 0-2.
         pixels, covered, bake_seconds = B.bake_vector_in_pieces(obj, build, resolution,
-                                                                resolution, uv_map=inp.uv_map)
+                                                                resolution, uv_map=inp.uv_map,
+                                                                rgba=True)
         baked_tiles = {tiles[0]: (pixels, covered)}
     else:
         baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
@@ -380,7 +382,9 @@ def _compare_tile(td, reference, pixels, covered):
     reasons = np.zeros((h, w), dtype=np.int8)
     reasons[covered ^ td.covered] = 3
     heat = np.full((h, w), np.nan)
-    errs, contested_errs = [], []
+    errs = np.empty(td.texel_count)            # the compared texels' errors, block after block
+    n_errs = 0
+    contested_errs = []
     sums = dict.fromkeys(("compared", "contested", "tilt_bake", "tilt_ref", "finite_unit",
                           "both", "finite_unit_all", "away", "truth_away", "away_wrong"), 0)
     sums["backfacing_triangles"] = set()
@@ -391,7 +395,8 @@ def _compare_tile(td, reference, pixels, covered):
                             block.shading_normal, block.geometric_normal,
                             M.unit_base_normal(block), BACKFACING_DOT, reasons)
         err = a.error()
-        errs.append(err)
+        errs[n_errs:n_errs + len(err)] = err
+        n_errs += len(err)
         heat.ravel()[a.flat[:a.n]] = err
         contested_errs.append(err[a.marked[:a.n]])
         sums["backfacing_triangles"] |= set(np.unique(block.tri[a.backfacing]).tolist())
@@ -409,7 +414,7 @@ def _compare_tile(td, reference, pixels, covered):
         "texels_contested": sums["contested"],
         "excluded": excluded,
         "contested_max_deg": float(contested_err.max()) if len(contested_err) else None,
-        "_err": np.concatenate(errs) if errs else np.zeros(0), "_sums": sums,
+        "_err": errs[:n_errs], "_sums": sums,
     }
     return r, ErrorImage(heat, reasons), seconds[0]
 
@@ -423,7 +428,8 @@ def _stats(err):
 
 def _merge(tile_reports):
     """The report over every tile (per-tile figures stay in each tile's dict)."""
-    err = np.concatenate([t["_err"] for t in tile_reports])
+    err = (tile_reports[0]["_err"] if len(tile_reports) == 1 else
+           np.concatenate([t["_err"] for t in tile_reports]))
     backfacing = set().union(*(t["_sums"].pop("backfacing_triangles") for t in tile_reports))
     sums = {k: sum(t["_sums"][k] for t in tile_reports) for k in tile_reports[0]["_sums"]}
     covered = sum(t["texels_covered"] for t in tile_reports)
@@ -451,7 +457,10 @@ def _merge(tile_reports):
         "finite_unit_fraction": sums["finite_unit"] / compared if compared else 0.0,
     }
     for t in tile_reports:
-        t.update(_stats(t.pop("_err")))
+        # One tile: its errors are the report's (no second pass over them).
+        err = t.pop("_err")
+        t.update(_stats(err) if len(tile_reports) > 1 else
+                 {k: report[k] for k in ("mean_deg", "p99_deg", "max_deg")})
         del t["_sums"]
     return report
 
@@ -460,17 +469,37 @@ def write_heat_map(path, heat, overwrite):
     """Error in degrees as a picture: black 0, white at the max (or 0.5 deg, whichever is
     larger), uncovered texels dark blue; contested texels magenta (their error is in the
     report), excluded ones in their reason's colour (edge orange, outside cyan: HEAT_COLOURS)."""
+    return write_png(path, heat_map_rgb(heat), overwrite=overwrite)
+
+
+def _byte(value):
+    """A [0, 1] colour channel as the PNG's byte: round half up, as write_png rounds floats."""
+    return np.minimum(np.asarray(value) * 255.0 + 0.5, 255.0).astype(np.uint8)
+
+
+def heat_map_rgb(heat):
+    """write_heat_map's picture, (H, W, 3) uint8: channel by channel into one byte image,
+    the reason colours through a table (no float RGB image, no mask per colour)."""
+    codes = getattr(heat, "reasons", None)
+    heat = np.asarray(heat, dtype=np.float64)
     finite = np.isfinite(heat)
     top = max(0.5, float(np.nanmax(heat)) if finite.any() else 0.5)
-    v = np.clip(np.nan_to_num(np.asarray(heat, dtype=np.float64), nan=0.0) / top, 0, 1)
-    rgb = np.stack([v, v ** 0.5 * 0.8, v ** 2], axis=-1)
-    rgb[~finite] = HEAT_COLOURS[0]
-    reasons = getattr(heat, "reasons", None)
-    if reasons is not None:
-        for code, colour in HEAT_COLOURS.items():
-            if code:
-                rgb[reasons == code] = colour
-    return write_png(path, np.asarray(rgb), overwrite=overwrite)
+    v = np.clip(np.nan_to_num(heat, nan=0.0) / top, 0, 1)
+    rgb = np.empty(heat.shape + (3,), dtype=np.uint8)
+    rgb[..., 0] = _byte(v)
+    rgb[..., 1] = _byte(np.sqrt(v) * 0.8)
+    rgb[..., 2] = _byte(np.square(v))
+    table = np.zeros((256, 3), dtype=np.uint8)      # int8 code -> colour (index code & 255)
+    known = np.zeros(256, dtype=bool)
+    for code, colour in HEAT_COLOURS.items():
+        table[code & 255], known[code & 255] = _byte(colour), True
+    index = (np.zeros(heat.shape, dtype=np.uint8) if codes is None
+             else np.asarray(codes, dtype=np.int8).view(np.uint8))
+    # A reason's colour wins; any other texel without an error is HEAT_COLOURS[0].
+    reason = known[index] & (index != 0)
+    special = reason | ~finite
+    rgb[special] = table[np.where(reason, index, 0)[special]]
+    return rgb
 
 
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
