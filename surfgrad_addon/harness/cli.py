@@ -6,6 +6,7 @@
                    its exhibits
   bench-reference  throughput of the reference evaluator (listings, whole methods), its time
                    against Cycles' bake and its peak memory per size (JSON)
+  bench-compare    a whole compare's wall time against the bake alone (2048^2, 4096^2; JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
   bake-normal-map  bake an object's material into a tangent- or object-space normal map file
   bake-batch       bake many objects / collections / .blend files: UDIM tiles, per-asset
@@ -63,6 +64,17 @@ def main(argv=None, in_blender=False):
                        help="compare methods to run (default: all)")
     bench.add_argument("--repeats", type=int, default=3, help="runs per figure (median)")
     bench.add_argument("--overwrite", action="store_true", help="replace an existing JSON")
+    bcmp = sub.add_parser("bench-compare", help="a whole compare's wall time against the bake "
+                                                "alone, interleaved child processes (JSON)")
+    bcmp.add_argument("--out", default="out/bench_compare.json", help="JSON output path")
+    bcmp.add_argument("--sizes", type=int, nargs="+", default=None,
+                      help="bake sizes (default 2048 4096)")
+    bcmp.add_argument("--method", default=None, help="method (default normal-map)")
+    bcmp.add_argument("--repeats", type=int, default=3, help="pairs per size (median)")
+    bcmp.add_argument("--compare-root", default=None,
+                      help="checkout whose compare command to time (default this one; e.g. "
+                           "an earlier commit's, for before/after figures)")
+    bcmp.add_argument("--overwrite", action="store_true", help="replace an existing JSON")
     cmp = sub.add_parser("compare", help="bake a method and compare it with the reference")
     cmp.add_argument("--blend", default=None,
                      help=".blend file to open (default: the procedural test scene; inside "
@@ -201,6 +213,10 @@ def main(argv=None, in_blender=False):
                    compare_sizes=pick(args.compare_sizes, br.COMPARE_SIZES),
                    memory_sizes=pick(args.memory_sizes, br.MEMORY_SIZES),
                    methods=args.methods, repeats=args.repeats)
+        elif args.command == "bench-compare":
+            from . import bench_compare as bc
+            bc.run(args.out, tuple(args.sizes or bc.SIZES), args.method or bc.METHOD,
+                   args.repeats, args.overwrite, compare_root=args.compare_root)
         elif args.command == "compare":
             from . import compare
             compare.run(args.blend, args.object, args.method, args.resolution, args.json,
