@@ -101,6 +101,8 @@ def main(argv=None, in_blender=False):
     call.add_argument("--out", default="out/compare", help="output folder")
     call.add_argument("--resolution", type=int, default=64, help="bake size in texels")
     call.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    call.add_argument("--workers", type=int, default=None,
+                      help="processes sharing the cases (default: one per core, at most 2)")
     demo.add_argument("--compare-resolution", type=int, default=64,
                       help="bake size of the bake-vs-reference stage")
     demo.add_argument("--no-bake", action="store_true",
@@ -161,9 +163,9 @@ def main(argv=None, in_blender=False):
             from . import main_job
             main_job.run(args.out, args.resolution, args.overwrite)
             if not args.no_bake:
-                from . import compare
-                compare.run_all(f"{args.out}/compare", args.compare_resolution,
-                                args.overwrite)
+                from . import compare_all
+                compare_all.run_all(f"{args.out}/compare", args.compare_resolution,
+                                    args.overwrite)
                 from .bench import run as bench_run
                 bench_run.run(f"{args.out}/bench", quick=True, overwrite=args.overwrite)
                 from . import demo
@@ -195,8 +197,9 @@ def main(argv=None, in_blender=False):
             if args.pictures:
                 demo.render_pictures(cams, args.pictures)
         elif args.command == "compare-all":
-            from . import compare
-            compare.run_all(args.out, args.resolution, args.overwrite)
+            from . import compare_all
+            compare_all.run_all(args.out, args.resolution, args.overwrite,
+                                workers=args.workers)
         elif args.command == "bench-render":
             from .bench import render_cost
             render_cost.run(args.out, args.quick, args.overwrite)

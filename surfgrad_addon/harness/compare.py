@@ -34,7 +34,7 @@ from ..reference.agreement import COUNTS as AGREEMENT_COUNTS, texel_agreement
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
-from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, cases, resolve_sg,
+from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, resolve_sg,
                       unavailable_reason)
 from .png import write_png
 
@@ -543,61 +543,3 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
 
 def _excluded_text(report):
     return ", ".join(f"{k} {v}" for k, v in report["excluded"].items())
-
-
-def compare_cases():
-    """(method, variant) for every method this Blender can run (methods.cases())."""
-    return cases()
-
-
-def run_all(out_dir, resolution=64, overwrite=False, log=print):
-    """Every method on every object of the procedural test scene: JSON, a Markdown table and
-    an error heat map per case."""
-    from . import scenes
-    out = Path(out_dir)
-    table_md, table_json = out / "compare.md", out / "compare.json"
-    for p in (table_md, table_json):
-        if p.exists() and not overwrite:
-            raise CompareError(f"{p} exists; pass --overwrite to replace it")
-    (out / "heat").mkdir(parents=True, exist_ok=True)
-    objects = scenes.new_scene()
-    cases = compare_cases()
-    for method in METHODS:
-        if unavailable_reason(method) is not None:
-            log(f"skipped {method}: {unavailable_reason(method)}")
-    reports = []
-    total = len(cases) * len(objects)
-    for i, (method, variant) in enumerate(cases):
-        for name, obj in objects.items():
-            report, heat = compare_object(obj, method, resolution, variant=variant,
-                                          log=lambda *_: None)
-            reports.append(report)
-            label = method + (f"-{variant}" if len(METHODS[method].variants) > 1 else "")
-            write_heat_map(out / "heat" / f"{label}_{name}.png", heat, overwrite=True)
-            log(f"[{len(reports)}/{total}] {label:22s} {name:12s} p99 "
-                f"{report['p99_deg']:.4f} max {report['max_deg']:.4f} deg, bake "
-                f"{report['bake_seconds']:.3f} s, reference {report['reference_seconds']:.3f} s")
-    table_json.write_text(json.dumps(reports, indent=2))
-    lines = [f"# Bakes against the reference at {resolution}^2",
-             "", "Angular error (degrees) between the Cycles bake of each method's node groups "
-             "and the numpy reference, over every texel both cover (contested texels of "
-             "overlapping UVs included: the reference follows the bake's rule); excluded "
-             "texels counted by reason (edge: within float32 rounding of a triangle edge; "
-             "outside: covered by one side only).", "",
-             "| method | scene | texels | contested | excluded | edge | outside | mean | p99 | "
-             "max | bake s | reference s |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in reports:
-        label = r["method"] + (f" ({r['variant']})" if r["variant"] else "")
-        lines.append(f"| {label} | {r['object']} | {r['texels_compared']} | "
-                     f"{r['texels_contested']} | {100 * r['excluded_fraction']:.2f}% | "
-                     f"{r['excluded']['edge']} | {r['excluded']['outside']} | "
-                     f"{r['mean_deg']:.5f} | "
-                     f"{r['p99_deg']:.4f} | {r['max_deg']:.4f} | {r['bake_seconds']:.3f} | "
-                     f"{r['reference_seconds']:.3f} |")
-    worst = max(reports, key=lambda r: r["max_deg"])
-    lines += ["", f"Worst case: {worst['method']} on {worst['object']}, max "
-                  f"{worst['max_deg']:.4f} deg (bar: p99 0.1, max 0.5)."]
-    table_md.write_text("\n".join(lines) + "\n")
-    log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
-    return reports
