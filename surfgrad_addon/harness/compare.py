@@ -20,6 +20,7 @@ faces outside counted.
 
 import json
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -316,29 +317,43 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     except MeshDataError as err:
         raise CompareError(str(err)) from err
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
-    # Compiled kernels load once per process (like an import), reported apart from the timing.
-    load_seconds = R.raster.load_compiled()
+    facts = B.running_line()
+
+    def prepare():
+        """bpy-free work that needs no bake: runs beside it (Cycles releases the GIL).
+        Compiled kernels load once per process (like an import), reported apart from the
+        timing; each tile's rasterisation counts as reference time."""
+        load = R.raster.load_compiled()
+        rasters = {}
+        for number in tiles:
+            t0 = time.perf_counter()
+            td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=facts,
+                             uv_offset=R.tiles.tile_uv_offset(number))
+            rasters[number] = (td, time.perf_counter() - t0)
+        return load, rasters
+
     def build(nodes, links):
         out = graph(inp, nodes, links)
         # Graphs return a surface gradient to resolve against the shading normal, or (post-
         # resolve) an already resolved normal.
         return out if out.name == "Normal" else resolve_sg(nodes, links, out)
-    if tiles == [R.tiles.UDIM_FIRST]:
-        # RGBA as read back (no copy): the comparison reads channels 0-2.
-        pixels, covered, bake_seconds = B.bake_vector_in_pieces(obj, build, resolution,
-                                                                resolution, uv_map=inp.uv_map,
-                                                                rgba=True)
-        baked_tiles = {tiles[0]: (pixels, covered)}
-    else:
-        baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
-                                                        tiles, uv_map=inp.uv_map)
+    with ThreadPoolExecutor(1) as pool:
+        prepared = pool.submit(prepare)
+        if tiles == [R.tiles.UDIM_FIRST]:
+            # RGBA as read back (no copy): the comparison reads channels 0-2.
+            pixels, covered, bake_seconds = B.bake_vector_in_pieces(
+                obj, build, resolution, resolution, uv_map=inp.uv_map, rgba=True)
+            baked_tiles = {tiles[0]: (pixels, covered)}
+        else:
+            baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution,
+                                                            resolution, tiles,
+                                                            uv_map=inp.uv_map)
+        load_seconds, rasters = prepared.result()
     reference_seconds = 0.0
     tile_reports, heats, tds = [], [], []
     for number in tiles:
-        t0 = time.perf_counter()
-        td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=B.running_line(),
-                         uv_offset=R.tiles.tile_uv_offset(number))
-        reference_seconds += time.perf_counter() - t0
+        td, seconds = rasters.pop(number)
+        reference_seconds += seconds
         pixels, covered = baked_tiles.pop(number)
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
