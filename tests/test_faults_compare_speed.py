@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_a_failing_worker_is_named_and_no_table_is_written(tmp_path, monkeypatch):
     # The worker starts in a folder without the package: it cannot import it and exits 1.
     monkeypatch.setattr(CA, "ROOT", tmp_path)
+    monkeypatch.delenv("PYTHONPATH", raising=False)
     out = tmp_path / "out"
     with pytest.raises(CompareError) as err:
         CA.run_all(out, 16, workers=2, methods=["normal-map"], log=lambda *_: None)
@@ -52,6 +53,7 @@ def test_the_command_exits_non_zero_with_the_message(tmp_path):
 
 
 def test_bench_compare_names_a_failing_child(tmp_path, monkeypatch):
+    monkeypatch.delenv("PYTHONPATH", raising=False)
     out = tmp_path / "bench.json"
     with pytest.raises(RuntimeError, match=r"failed \(exit 1\).*No module named"):
         BC.run(out, sizes=(64,), repeats=1, root=tmp_path, log=lambda *_: None)
