@@ -152,19 +152,20 @@ PIECE_UV_MAP = "surfgrad_bake_piece"      # the temporary UV map of a piece
 
 
 def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
-                          piece=PIECE_TEXELS):
+                          piece=PIECE_TEXELS, rgba=False):
     """bake_vector, with Cycles' memory bounded by a piece: an image larger than piece x piece
     is baked as a grid of pieces, each through a temporary UV map that scales the UV map by
     the (power-of-two) grid size and shifts the piece onto 0..1. The sample points and the
     bake differentials are the whole image's (the scale and shift are exact in float32 inside
     the piece), and a bake ignores UVs outside 0..1. Objects with modifiers (which may move
     UVs) and sizes that do not split into powers of two are baked whole. Returns what
-    bake_vector returns, the seconds summed over the pieces."""
+    bake_vector returns (rgba: the baked RGBA, alpha 1 where written, no copy), the seconds
+    summed over the pieces."""
     import bpy
     _check_target(obj, uv_map)
     nx, ny = _grid(width, piece), _grid(height, piece)
     if (nx == 1 and ny == 1) or len(obj.modifiers) or nx is None or ny is None:
-        return bake_vector(obj, build, width, height, uv_map, log)
+        return bake_vector(obj, build, width, height, uv_map, log, rgba=rgba)
     mesh = obj.data
     name = uv_map or next(layer.name for layer in mesh.uv_layers if layer.active_render)
     uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
@@ -174,10 +175,10 @@ def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
     render = next((layer.name for layer in mesh.uv_layers if layer.active_render), None)
     tmp = mesh.uv_layers.new(name=PIECE_UV_MAP, do_init=False)
     if tmp is None:                     # the mesh has the most UV maps Blender allows
-        return bake_vector(obj, build, width, height, uv_map, log)
+        return bake_vector(obj, build, width, height, uv_map, log, rgba=rgba)
     pw, ph = width // nx, height // ny
-    pixels = np.empty((height, width, 3), dtype=np.float32)
-    covered = np.empty((height, width), dtype=bool)
+    pixels = np.empty((height, width, 4), dtype=np.float32)
+    buffer = np.empty((ph, pw, 4), dtype=np.float32)        # each piece's read-back
     seconds = 0.0
     try:
         mesh.uv_layers.active_index = active
@@ -187,9 +188,8 @@ def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
                     [i, j], dtype=np.float32)
                 tmp.uv.foreach_set("vector", shifted.ravel())
                 mesh.update()
-                px, cov, s = bake_vector(obj, build, pw, ph, tmp.name)
-                pixels[j * ph:(j + 1) * ph, i * pw:(i + 1) * pw] = px
-                covered[j * ph:(j + 1) * ph, i * pw:(i + 1) * pw] = cov
+                _, _, s = bake_vector(obj, build, pw, ph, tmp.name, rgba=True, out=buffer)
+                pixels[j * ph:(j + 1) * ph, i * pw:(i + 1) * pw] = buffer
                 seconds += s
                 if log:
                     log(f"baked piece {j * nx + i + 1}/{nx * ny} of {obj.name}")
@@ -199,7 +199,13 @@ def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
         if render is not None:
             mesh.uv_layers[render].active_render = True
         mesh.update()
-    return pixels, covered, seconds
+    return _result(pixels, rgba) + (seconds,)
+
+
+def _result(px, rgba):
+    """(RGB, coverage) of a baked RGBA image: the RGBA itself (no copy) when rgba."""
+    covered = px[..., 3] > 0.5
+    return (px if rgba else px[..., :3].copy()), covered
 
 
 def _grid(size, piece):
@@ -213,7 +219,8 @@ def _grid(size, piece):
     return n
 
 
-def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=None):
+def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=None,
+                rgba=False, out=None):
     """Bake the vector returned by `build(nodes, links)` (an output socket of a node created in
     the given temporary material's tree) over obj's UV map `uv_map` (default: the active one).
 
@@ -221,6 +228,7 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
     at the bottom. `displacement(nodes, links)`, if given, returns a displacement vector for
     Cycles' true displacement of the surface during the bake. Texels the bake did not write
     are marked uncovered: the image is cleared to alpha 0 and the bake writes alpha 1.
+    rgba: the pixels are the baked (height, width, 4) RGBA (read into `out` if given).
     """
     import bpy
 
@@ -232,10 +240,9 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
         # A cleared float image is (0, 0, 0, 0); baked texels get alpha 1.
         image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
         seconds = _bake_into(obj, build, image, uv_map, displacement, log)
-        px = np.empty(width * height * 4, dtype=np.float32)
-        image.pixels.foreach_get(px)
-        px = px.reshape(height, width, 4)
-        return px[..., :3].copy(), px[..., 3] > 0.5, seconds
+        px = np.empty((height, width, 4), dtype=np.float32) if out is None else out
+        image.pixels.foreach_get(px.reshape(-1))        # straight into the buffer
+        return _result(px, rgba) + (seconds,)
     finally:
         bpy.data.images.remove(image)
 

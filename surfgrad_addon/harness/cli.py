@@ -6,6 +6,7 @@
                    its exhibits
   bench-reference  throughput of the reference evaluator (listings, whole methods), its time
                    against Cycles' bake and its peak memory per size (JSON)
+  bench-compare    a whole compare's wall time against the bake alone (2048^2, 4096^2; JSON)
   compare-all      every method on every procedural test object: table, JSON, heat maps
   bake-normal-map  bake an object's material into a tangent- or object-space normal map file
   bake-batch       bake many objects / collections / .blend files: UDIM tiles, per-asset
@@ -63,6 +64,17 @@ def main(argv=None, in_blender=False):
                        help="compare methods to run (default: all)")
     bench.add_argument("--repeats", type=int, default=3, help="runs per figure (median)")
     bench.add_argument("--overwrite", action="store_true", help="replace an existing JSON")
+    bcmp = sub.add_parser("bench-compare", help="a whole compare's wall time against the bake "
+                                                "alone, interleaved child processes (JSON)")
+    bcmp.add_argument("--out", default="out/bench_compare.json", help="JSON output path")
+    bcmp.add_argument("--sizes", type=int, nargs="+", default=None,
+                      help="bake sizes (default 2048 4096)")
+    bcmp.add_argument("--method", default=None, help="method (default normal-map)")
+    bcmp.add_argument("--repeats", type=int, default=3, help="pairs per size (median)")
+    bcmp.add_argument("--compare-root", default=None,
+                      help="checkout whose compare command to time (default this one; e.g. "
+                           "an earlier commit's, for before/after figures)")
+    bcmp.add_argument("--overwrite", action="store_true", help="replace an existing JSON")
     cmp = sub.add_parser("compare", help="bake a method and compare it with the reference")
     cmp.add_argument("--blend", default=None,
                      help=".blend file to open (default: the procedural test scene; inside "
@@ -89,6 +101,8 @@ def main(argv=None, in_blender=False):
     call.add_argument("--out", default="out/compare", help="output folder")
     call.add_argument("--resolution", type=int, default=64, help="bake size in texels")
     call.add_argument("--overwrite", action="store_true", help="replace existing outputs")
+    call.add_argument("--workers", type=int, default=None,
+                      help="processes sharing the cases (default: one per core, at most 2)")
     demo.add_argument("--compare-resolution", type=int, default=64,
                       help="bake size of the bake-vs-reference stage")
     demo.add_argument("--no-bake", action="store_true",
@@ -149,9 +163,9 @@ def main(argv=None, in_blender=False):
             from . import main_job
             main_job.run(args.out, args.resolution, args.overwrite)
             if not args.no_bake:
-                from . import compare
-                compare.run_all(f"{args.out}/compare", args.compare_resolution,
-                                args.overwrite)
+                from . import compare_all
+                compare_all.run_all(f"{args.out}/compare", args.compare_resolution,
+                                    args.overwrite)
                 from .bench import run as bench_run
                 bench_run.run(f"{args.out}/bench", quick=True, overwrite=args.overwrite)
                 from . import demo
@@ -183,8 +197,9 @@ def main(argv=None, in_blender=False):
             if args.pictures:
                 demo.render_pictures(cams, args.pictures)
         elif args.command == "compare-all":
-            from . import compare
-            compare.run_all(args.out, args.resolution, args.overwrite)
+            from . import compare_all
+            compare_all.run_all(args.out, args.resolution, args.overwrite,
+                                workers=args.workers)
         elif args.command == "bench-render":
             from .bench import render_cost
             render_cost.run(args.out, args.quick, args.overwrite)
@@ -201,6 +216,10 @@ def main(argv=None, in_blender=False):
                    compare_sizes=pick(args.compare_sizes, br.COMPARE_SIZES),
                    memory_sizes=pick(args.memory_sizes, br.MEMORY_SIZES),
                    methods=args.methods, repeats=args.repeats)
+        elif args.command == "bench-compare":
+            from . import bench_compare as bc
+            bc.run(args.out, tuple(args.sizes or bc.SIZES), args.method or bc.METHOD,
+                   args.repeats, args.overwrite, compare_root=args.compare_root)
         elif args.command == "compare":
             from . import compare
             compare.run(args.blend, args.object, args.method, args.resolution, args.json,

@@ -20,20 +20,22 @@ faces outside counted.
 
 import json
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .. import reference as R
-from ..addon import groups as G
 from ..addon.bake_target import bake_target_problem
 from ..addon.normal_bake import resolution_problem
 from ..addon.precise_bake import precise_far
 from ..reference import methods as M
+from ..reference.agreement import COUNTS as AGREEMENT_COUNTS, texel_agreement
+from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
-from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, cases, resolve_sg,
+from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, resolve_sg,
                       unavailable_reason)
 from .pictures import write_png
 
@@ -145,18 +147,6 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
 
 
 # The comparison -----------------------------------------------------------------------------------
-
-def angle_deg(a, b):
-    """Angle between vectors in float64, accurate near zero (atan2 of |a x b| and a . b).
-    A zero-length or non-finite vector has no direction: it scores 180 degrees, never 0."""
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1),
-                                np.sum(a * b, axis=-1)))
-    valid = (np.isfinite(a).all(-1) & np.isfinite(b).all(-1)
-             & (np.linalg.norm(a, axis=-1) > 0) & (np.linalg.norm(b, axis=-1) > 0))
-    return np.where(valid, ang, 180.0)
-
 
 def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print,
                    tiles=None):
@@ -327,28 +317,43 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     except MeshDataError as err:
         raise CompareError(str(err)) from err
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
-    # Compiled kernels load once per process (like an import), reported apart from the timing.
-    load_seconds = R.raster.load_compiled()
-    G.build_all()
+    facts = B.running_line()
+
+    def prepare():
+        """bpy-free work that needs no bake: runs beside it (Cycles releases the GIL).
+        Compiled kernels load once per process (like an import), reported apart from the
+        timing; each tile's rasterisation counts as reference time."""
+        load = R.raster.load_compiled()
+        rasters = {}
+        for number in tiles:
+            t0 = time.perf_counter()
+            td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=facts,
+                             uv_offset=R.tiles.tile_uv_offset(number))
+            rasters[number] = (td, time.perf_counter() - t0)
+        return load, rasters
+
     def build(nodes, links):
         out = graph(inp, nodes, links)
         # Graphs return a surface gradient to resolve against the shading normal, or (post-
         # resolve) an already resolved normal.
         return out if out.name == "Normal" else resolve_sg(nodes, links, out)
-    if tiles == [R.tiles.UDIM_FIRST]:
-        pixels, covered, bake_seconds = B.bake_vector_in_pieces(obj, build, resolution,
-                                                                resolution, uv_map=inp.uv_map)
-        baked_tiles = {tiles[0]: (pixels, covered)}
-    else:
-        baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
-                                                        tiles, uv_map=inp.uv_map)
+    with ThreadPoolExecutor(1) as pool:
+        prepared = pool.submit(prepare)
+        if tiles == [R.tiles.UDIM_FIRST]:
+            # RGBA as read back (no copy): the comparison reads channels 0-2.
+            pixels, covered, bake_seconds = B.bake_vector_in_pieces(
+                obj, build, resolution, resolution, uv_map=inp.uv_map, rgba=True)
+            baked_tiles = {tiles[0]: (pixels, covered)}
+        else:
+            baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution,
+                                                            resolution, tiles,
+                                                            uv_map=inp.uv_map)
+        load_seconds, rasters = prepared.result()
     reference_seconds = 0.0
     tile_reports, heats, tds = [], [], []
     for number in tiles:
-        t0 = time.perf_counter()
-        td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=B.running_line(),
-                         uv_offset=R.tiles.tile_uv_offset(number))
-        reference_seconds += time.perf_counter() - t0
+        td, seconds = rasters.pop(number)
+        reference_seconds += seconds
         pixels, covered = baked_tiles.pop(number)
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
@@ -392,47 +397,29 @@ def _compare_tile(td, reference, pixels, covered):
     reasons = np.zeros((h, w), dtype=np.int8)
     reasons[covered ^ td.covered] = 3
     heat = np.full((h, w), np.nan)
-    errs, contested_errs = [], []
+    errs = np.empty(td.texel_count)            # the compared texels' errors, block after block
+    n_errs = 0
+    contested_errs = []
     sums = dict.fromkeys(("compared", "contested", "tilt_bake", "tilt_ref", "finite_unit",
                           "both", "finite_unit_all", "away", "truth_away", "away_wrong"), 0)
     sums["backfacing_triangles"] = set()
     seconds = [0.0]
     for _, _, block, ref in M.evaluated_blocks(reference, td, seconds=seconds):
-            px, py = block.pixel[:, 0], block.pixel[:, 1]
-            baked = pixels[py, px].astype(np.float64)
-            in_bake = covered[py, px]
-            contested = td.contested[py, px]
-            edge = td.on_edge[py, px] & ~contested
-            facing = np.sum(block.shading_normal * block.geometric_normal, axis=-1)
-            backfacing = in_bake & ~edge & (facing < BACKFACING_DOT)
-            compared = in_bake & ~edge & ~backfacing
-            reasons[py[edge & in_bake], px[edge & in_bake]] = 2
-            reasons[py[backfacing], px[backfacing]] = 4
-            sums["backfacing_triangles"] |= set(np.unique(block.tri[backfacing]).tolist())
-            marked = contested & compared
-            reasons[py[marked], px[marked]] = CONTESTED
-            err = angle_deg(baked[compared], ref[compared])
-            errs.append(err)
-            heat[py[compared], px[compared]] = err
-            contested_errs.append(angle_deg(baked[marked], ref[marked]))
-            base = M.unit_base_normal(block)[compared]
-            ng = block.geometric_normal[in_bake]
-            b_all, r_all = baked[in_bake], ref[in_bake]
-            away = np.sum(b_all * ng, axis=-1) < -1e-3
-            truth_dot = np.sum(r_all * ng, axis=-1)
-            b_cmp = baked[compared]
-            sums["compared"] += int(compared.sum())
-            sums["contested"] += int(marked.sum())
-            sums["tilt_bake"] += float(angle_deg(b_cmp, base).sum())
-            sums["tilt_ref"] += float(angle_deg(ref[compared], base).sum())
-            sums["finite_unit"] += int(np.sum(np.isfinite(b_cmp).all(-1) & (
-                np.abs(np.linalg.norm(b_cmp, axis=-1) - 1) < 1e-4)))
-            sums["both"] += len(b_all)
-            sums["finite_unit_all"] += int(np.sum(np.isfinite(b_all).all(-1) & (
-                np.abs(np.linalg.norm(b_all, axis=-1) - 1) < 1e-3)))
-            sums["away"] += int(away.sum())
-            sums["truth_away"] += int(np.sum(truth_dot < 0))
-            sums["away_wrong"] += int(np.sum(away & ~(truth_dot < 1e-3)))
+        # One pass per block (reference/agreement.py): classes, reasons, atan2 arguments.
+        a = texel_agreement(block.pixel, pixels, covered, td.contested, td.on_edge, ref,
+                            block.shading_normal, block.geometric_normal,
+                            M.unit_base_normal(block), BACKFACING_DOT, reasons)
+        err = a.error()
+        errs[n_errs:n_errs + len(err)] = err
+        n_errs += len(err)
+        heat.ravel()[a.flat[:a.n]] = err
+        contested_errs.append(err[a.marked[:a.n]])
+        sums["backfacing_triangles"] |= set(np.unique(block.tri[a.backfacing]).tolist())
+        tilt_bake, tilt_ref = a.tilts()
+        sums["tilt_bake"] += float(tilt_bake.sum())
+        sums["tilt_ref"] += float(tilt_ref.sum())
+        for name, count in zip(AGREEMENT_COUNTS, a.counts.tolist()):
+            sums[name] += count
     contested_err = np.concatenate(contested_errs) if contested_errs else np.zeros(0)
     excluded = {name: int((reasons == code).sum())
                 for code, (name, _) in EXCLUSION_REASONS.items()}
@@ -442,7 +429,7 @@ def _compare_tile(td, reference, pixels, covered):
         "texels_contested": sums["contested"],
         "excluded": excluded,
         "contested_max_deg": float(contested_err.max()) if len(contested_err) else None,
-        "_err": np.concatenate(errs) if errs else np.zeros(0), "_sums": sums,
+        "_err": errs[:n_errs], "_sums": sums,
     }
     return r, ErrorImage(heat, reasons), seconds[0]
 
@@ -456,7 +443,8 @@ def _stats(err):
 
 def _merge(tile_reports):
     """The report over every tile (per-tile figures stay in each tile's dict)."""
-    err = np.concatenate([t["_err"] for t in tile_reports])
+    err = (tile_reports[0]["_err"] if len(tile_reports) == 1 else
+           np.concatenate([t["_err"] for t in tile_reports]))
     backfacing = set().union(*(t["_sums"].pop("backfacing_triangles") for t in tile_reports))
     sums = {k: sum(t["_sums"][k] for t in tile_reports) for k in tile_reports[0]["_sums"]}
     covered = sum(t["texels_covered"] for t in tile_reports)
@@ -484,7 +472,10 @@ def _merge(tile_reports):
         "finite_unit_fraction": sums["finite_unit"] / compared if compared else 0.0,
     }
     for t in tile_reports:
-        t.update(_stats(t.pop("_err")))
+        # One tile: its errors are the report's (no second pass over them).
+        err = t.pop("_err")
+        t.update(_stats(err) if len(tile_reports) > 1 else
+                 {k: report[k] for k in ("mean_deg", "p99_deg", "max_deg")})
         del t["_sums"]
     return report
 
@@ -493,17 +484,37 @@ def write_heat_map(path, heat, overwrite):
     """Error in degrees as a picture: black 0, white at the max (or 0.5 deg, whichever is
     larger), uncovered texels dark blue; contested texels magenta (their error is in the
     report), excluded ones in their reason's colour (edge orange, outside cyan: HEAT_COLOURS)."""
+    return write_png(path, heat_map_rgb(heat), overwrite=overwrite)
+
+
+def _byte(value):
+    """A [0, 1] colour channel as the PNG's byte: round half up, as write_png rounds floats."""
+    return np.minimum(np.asarray(value) * 255.0 + 0.5, 255.0).astype(np.uint8)
+
+
+def heat_map_rgb(heat):
+    """write_heat_map's picture, (H, W, 3) uint8: channel by channel into one byte image,
+    the reason colours through a table (no float RGB image, no mask per colour)."""
+    codes = getattr(heat, "reasons", None)
+    heat = np.asarray(heat, dtype=np.float64)
     finite = np.isfinite(heat)
     top = max(0.5, float(np.nanmax(heat)) if finite.any() else 0.5)
-    v = np.clip(np.nan_to_num(np.asarray(heat, dtype=np.float64), nan=0.0) / top, 0, 1)
-    rgb = np.stack([v, v ** 0.5 * 0.8, v ** 2], axis=-1)
-    rgb[~finite] = HEAT_COLOURS[0]
-    reasons = getattr(heat, "reasons", None)
-    if reasons is not None:
-        for code, colour in HEAT_COLOURS.items():
-            if code:
-                rgb[reasons == code] = colour
-    return write_png(path, np.asarray(rgb), overwrite=overwrite)
+    v = np.clip(np.nan_to_num(heat, nan=0.0) / top, 0, 1)
+    rgb = np.empty(heat.shape + (3,), dtype=np.uint8)
+    rgb[..., 0] = _byte(v)
+    rgb[..., 1] = _byte(np.sqrt(v) * 0.8)
+    rgb[..., 2] = _byte(np.square(v))
+    table = np.zeros((256, 3), dtype=np.uint8)      # int8 code -> colour (index code & 255)
+    known = np.zeros(256, dtype=bool)
+    for code, colour in HEAT_COLOURS.items():
+        table[code & 255], known[code & 255] = _byte(colour), True
+    index = (np.zeros(heat.shape, dtype=np.uint8) if codes is None
+             else np.asarray(codes, dtype=np.int8).view(np.uint8))
+    # A reason's colour wins; any other texel without an error is HEAT_COLOURS[0].
+    reason = known[index] & (index != 0)
+    special = reason | ~finite
+    rgb[special] = table[np.where(reason, index, 0)[special]]
+    return rgb
 
 
 def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
@@ -562,61 +573,3 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
 
 def _excluded_text(report):
     return ", ".join(f"{k} {v}" for k, v in report["excluded"].items())
-
-
-def compare_cases():
-    """(method, variant) for every method this Blender can run (methods.cases())."""
-    return cases()
-
-
-def run_all(out_dir, resolution=64, overwrite=False, log=print):
-    """Every method on every object of the procedural test scene: JSON, a Markdown table and
-    an error heat map per case."""
-    from . import scenes
-    out = Path(out_dir)
-    table_md, table_json = out / "compare.md", out / "compare.json"
-    for p in (table_md, table_json):
-        if p.exists() and not overwrite:
-            raise CompareError(f"{p} exists; pass --overwrite to replace it")
-    (out / "heat").mkdir(parents=True, exist_ok=True)
-    objects = scenes.new_scene()
-    cases = compare_cases()
-    for method in METHODS:
-        if unavailable_reason(method) is not None:
-            log(f"skipped {method}: {unavailable_reason(method)}")
-    reports = []
-    total = len(cases) * len(objects)
-    for i, (method, variant) in enumerate(cases):
-        for name, obj in objects.items():
-            report, heat = compare_object(obj, method, resolution, variant=variant,
-                                          log=lambda *_: None)
-            reports.append(report)
-            label = method + (f"-{variant}" if len(METHODS[method].variants) > 1 else "")
-            write_heat_map(out / "heat" / f"{label}_{name}.png", heat, overwrite=True)
-            log(f"[{len(reports)}/{total}] {label:22s} {name:12s} p99 "
-                f"{report['p99_deg']:.4f} max {report['max_deg']:.4f} deg, bake "
-                f"{report['bake_seconds']:.3f} s, reference {report['reference_seconds']:.3f} s")
-    table_json.write_text(json.dumps(reports, indent=2))
-    lines = [f"# Bakes against the reference at {resolution}^2",
-             "", "Angular error (degrees) between the Cycles bake of each method's node groups "
-             "and the numpy reference, over every texel both cover (contested texels of "
-             "overlapping UVs included: the reference follows the bake's rule); excluded "
-             "texels counted by reason (edge: within float32 rounding of a triangle edge; "
-             "outside: covered by one side only).", "",
-             "| method | scene | texels | contested | excluded | edge | outside | mean | p99 | "
-             "max | bake s | reference s |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in reports:
-        label = r["method"] + (f" ({r['variant']})" if r["variant"] else "")
-        lines.append(f"| {label} | {r['object']} | {r['texels_compared']} | "
-                     f"{r['texels_contested']} | {100 * r['excluded_fraction']:.2f}% | "
-                     f"{r['excluded']['edge']} | {r['excluded']['outside']} | "
-                     f"{r['mean_deg']:.5f} | "
-                     f"{r['p99_deg']:.4f} | {r['max_deg']:.4f} | {r['bake_seconds']:.3f} | "
-                     f"{r['reference_seconds']:.3f} |")
-    worst = max(reports, key=lambda r: r["max_deg"])
-    lines += ["", f"Worst case: {worst['method']} on {worst['object']}, max "
-                  f"{worst['max_deg']:.4f} deg (bar: p99 0.1, max 0.5)."]
-    table_md.write_text("\n".join(lines) + "\n")
-    log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
-    return reports

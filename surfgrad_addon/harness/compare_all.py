@@ -1,0 +1,172 @@
+"""compare-all: every method on every object of the procedural test scene, on both cores.
+
+    python -m surfgrad_addon compare-all --out DIR [--resolution N] [--workers N]
+
+The cases (method, variant, object) are dealt round-robin to `workers` processes (default:
+one per core, at most 2): this process runs share 0, child processes (this Python with the
+bpy module, `python -m surfgrad_addon.harness.compare_all --shard ...`) the others, each in
+its own fresh test scene, writing its heat maps and its reports (a JSON file in the output
+folder, removed after). The table and compare.json list the cases in the serial order, so
+they are the same for any number of workers. Inside a Blender binary one process runs all.
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from .compare import CompareError, compare_object, write_heat_map
+from .methods import METHODS, cases, unavailable_reason
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARD_FILE = ".compare_shard_{}.json"
+
+
+def compare_cases(methods=None):
+    """(method, variant) for every method this Blender can run (methods.cases()), or for
+    those of `methods`."""
+    return [(m, v) for m, v in cases() if not methods or m in methods]
+
+
+def default_workers():
+    """One process per core (at most 2), when a child can import bpy as this process does."""
+    if not _bpy_module():
+        return 1
+    return max(1, min(2, os.cpu_count() or 1))
+
+
+def _bpy_module():
+    """True when bpy is the pip module in this Python (not a Blender binary's)."""
+    import bpy
+    binary = getattr(bpy.app, "binary_path", "") or ""
+    return not (binary and Path(binary).name.lower().startswith("blender")
+                and Path(binary).is_file())
+
+
+def _label(method, variant):
+    return method + (f"-{variant}" if len(METHODS[method].variants) > 1 else "")
+
+
+def run_shard(out, resolution, shard, shards, log=print, methods=None):
+    """Cases shard, shard + shards, ... of the serial order: {index: report}."""
+    from . import scenes
+    objects = scenes.new_scene()
+    jobs = [(m, v, name) for m, v in compare_cases(methods) for name in objects]
+    reports = {}
+    for index in range(shard, len(jobs), shards):
+        method, variant, name = jobs[index]
+        report, heat = compare_object(objects[name], method, resolution, variant=variant,
+                                      log=lambda *_: None)
+        reports[index] = report
+        label = _label(method, variant)
+        write_heat_map(Path(out) / "heat" / f"{label}_{name}.png", heat, overwrite=True)
+        log(f"[{index + 1}/{len(jobs)}] {label:22s} {name:12s} p99 "
+            f"{report['p99_deg']:.4f} max {report['max_deg']:.4f} deg, bake "
+            f"{report['bake_seconds']:.3f} s, reference {report['reference_seconds']:.3f} s")
+    return reports
+
+
+def _start_worker(out, resolution, shard, shards, methods):
+    """A child running one shard; its errors go to a file (a pipe nobody reads while this
+    process runs its own share could fill and stall it)."""
+    cmd = [sys.executable, "-m", "surfgrad_addon.harness.compare_all", "--out", str(out),
+           "--resolution", str(resolution), "--shard", str(shard), "--shards", str(shards)]
+    cmd += ["--methods", *methods] if methods else []
+    errors = tempfile.TemporaryFile(mode="w+")
+    child = subprocess.Popen(cmd, cwd=ROOT, stderr=errors, text=True)
+    child.errors = errors
+    return child
+
+
+def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, methods=None):
+    """Every method (or those of `methods`) on every object of the procedural test scene:
+    JSON, a Markdown table and an error heat map per case."""
+    out = Path(out_dir)
+    table_md, table_json = out / "compare.md", out / "compare.json"
+    for p in (table_md, table_json):
+        if p.exists() and not overwrite:
+            raise CompareError(f"{p} exists; pass --overwrite to replace it")
+    unknown = sorted(set(methods or ()) - set(METHODS))
+    if unknown:
+        raise CompareError(f"no method {unknown[0]!r}; use some of {sorted(METHODS)}")
+    (out / "heat").mkdir(parents=True, exist_ok=True)
+    for method in METHODS:
+        if unavailable_reason(method) is not None:
+            log(f"skipped {method}: {unavailable_reason(method)}")
+    workers = default_workers() if workers is None else max(1, int(workers))
+    if workers > 1 and not _bpy_module():
+        log("compare-all: inside a Blender binary one process runs every case")
+        workers = 1
+    children = [_start_worker(out, resolution, k, workers, methods) for k in range(1, workers)]
+    try:
+        reports = run_shard(out, resolution, 0, workers, log, methods)
+        for k, child in enumerate(children, start=1):
+            child.wait()
+            child.errors.seek(0)
+            err = child.errors.read()
+            shard_file = out / SHARD_FILE.format(k)
+            if child.returncode != 0 or not shard_file.is_file():
+                lines = (err or "").strip().splitlines()
+                raise CompareError(f"compare-all worker {k} failed (exit {child.returncode}): "
+                                   f"{lines[-1] if lines else 'no output'}")
+            reports.update({int(i): r for i, r in json.loads(shard_file.read_text()).items()})
+    finally:
+        for k, child in enumerate(children, start=1):
+            if child.poll() is None:
+                child.kill()
+                child.wait()
+            child.errors.close()
+            (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
+    reports = [reports[i] for i in sorted(reports)]
+    table_json.write_text(json.dumps(reports, indent=2))
+    table_md.write_text(table_markdown(reports, resolution))
+    log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
+    return reports
+
+
+def table_markdown(reports, resolution):
+    lines = [f"# Bakes against the reference at {resolution}^2",
+             "", "Angular error (degrees) between the Cycles bake of each method's node groups "
+             "and the numpy reference, over every texel both cover (contested texels of "
+             "overlapping UVs included: the reference follows the bake's rule); excluded "
+             "texels counted by reason (edge: within float32 rounding of a triangle edge; "
+             "outside: covered by one side only).", "",
+             "| method | scene | texels | contested | excluded | edge | outside | mean | p99 | "
+             "max | bake s | reference s |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in reports:
+        label = r["method"] + (f" ({r['variant']})" if r["variant"] else "")
+        lines.append(f"| {label} | {r['object']} | {r['texels_compared']} | "
+                     f"{r['texels_contested']} | {100 * r['excluded_fraction']:.2f}% | "
+                     f"{r['excluded']['edge']} | {r['excluded']['outside']} | "
+                     f"{r['mean_deg']:.5f} | "
+                     f"{r['p99_deg']:.4f} | {r['max_deg']:.4f} | {r['bake_seconds']:.3f} | "
+                     f"{r['reference_seconds']:.3f} |")
+    worst = max(reports, key=lambda r: r["max_deg"])
+    lines += ["", f"Worst case: {worst['method']} on {worst['object']}, max "
+                  f"{worst['max_deg']:.4f} deg (bar: p99 0.1, max 0.5)."]
+    return "\n".join(lines) + "\n"
+
+
+def _main():
+    """A worker: one shard's heat maps, and its reports in the output folder."""
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--resolution", type=int, required=True)
+    parser.add_argument("--shard", type=int, required=True)
+    parser.add_argument("--shards", type=int, required=True)
+    parser.add_argument("--methods", nargs="*", default=None)
+    args = parser.parse_args()
+    reports = run_shard(args.out, args.resolution, args.shard, args.shards,
+                        log=lambda line: print(line, flush=True), methods=args.methods)
+    path = Path(args.out) / SHARD_FILE.format(args.shard)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(reports))
+    tmp.replace(path)
+
+
+if __name__ == "__main__":
+    _main()
