@@ -11,6 +11,8 @@ import pytest
 
 from surfgrad_addon.harness import bench_compare as BC
 
+pytestmark = pytest.mark.tier("numpy")
+
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = ("compare_over_bake_alone", "compare_over_bake_operator")
 
@@ -48,6 +50,7 @@ def test_the_readme_quotes_the_json():
                 assert data["sizes"][size][key] == float(np.median([p[key] for p in pairs]))
 
 
+@pytest.mark.tier("child")
 def test_a_tiny_run_times_real_children(tmp_path):
     pytest.importorskip("bpy")
     out = tmp_path / "bench.json"

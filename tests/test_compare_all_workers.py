@@ -14,6 +14,8 @@ pytest.importorskip("bpy")
 
 from surfgrad_addon.harness import compare_all as CA      # noqa: E402
 
+pytestmark = pytest.mark.tier("child")
+
 METHODS = ["normal-map", "decal"]
 TIMINGS = {"bake_seconds", "reference_seconds", "compiled_load_seconds"}
 ANGLE_TOL = 2e-4            # degrees: far above a float32 step's 3e-6, far below the bar 0.1

@@ -9,6 +9,8 @@ import pytest
 from surfgrad_addon.reference import agreement as A
 from surfgrad_addon.reference import compiled
 
+pytestmark = pytest.mark.tier("numpy")
+
 
 def _unit(v):
     return v / np.linalg.norm(v, axis=-1, keepdims=True)

@@ -16,6 +16,8 @@ from surfgrad_addon.harness import bench_compare as BC          # noqa: E402
 from surfgrad_addon.harness import compare_all as CA            # noqa: E402
 from surfgrad_addon.harness.compare import CompareError         # noqa: E402
 
+pytestmark = pytest.mark.tier("child")
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
