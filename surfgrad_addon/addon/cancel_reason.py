@@ -22,7 +22,7 @@ def cancel_reason(obj, depsgraph=None):
                     f"Blender cancels a bake with an empty slot: give every slot a material "
                     f"(a Set Material node also needs the object to hold that material "
                     f"in its own slots), or apply the modifiers")
-        nodes = material.node_tree.nodes if material.use_nodes and material.node_tree else ()
+        nodes = material.node_tree.nodes if material.node_tree else ()
         if not any(n.type == "TEX_IMAGE" for n in nodes):
             return (f"material {material.name!r} (slot {i + 1}) of the evaluated {obj.name!r} "
                     f"has no Image Texture node to bake into{where}; add one or remove the "
