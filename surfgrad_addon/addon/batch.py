@@ -23,9 +23,11 @@ import json
 import os
 import queue
 import re
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -373,6 +375,11 @@ class Worker:
     reader thread takes its output so that a request can time out."""
 
     def __init__(self, command, env=None):
+        # Its own temp folder: Blender's session folder (TMPDIR/blender_XXXXXX) of a worker
+        # that is killed (stop, timeout) is removed with it (interrupts.py).
+        self.tempdir = tempfile.mkdtemp(prefix="surfgrad-worker-")
+        env = dict(os.environ if env is None else env)
+        env.update(TMPDIR=self.tempdir, TEMP=self.tempdir, TMP=self.tempdir)
         self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, bufsize=1, env=env,
                                      start_new_session=True)
@@ -426,13 +433,22 @@ class Worker:
             self.proc.kill()
         except OSError:
             pass
-        return self.proc.wait()
+        code = self.proc.wait()
+        self.remove_tempdir()
+        return code
+
+    def remove_tempdir(self):
+        """Remove the worker's temp folder once its process has ended."""
+        if self.proc.poll() is not None:
+            shutil.rmtree(self.tempdir, ignore_errors=True)
 
     def exit_code(self):
         try:
-            return self.proc.wait(timeout=10)
+            code = self.proc.wait(timeout=10)
         except subprocess.TimeoutExpired:
             return self.kill()
+        self.remove_tempdir()
+        return code
 
     def close(self):
         if self.proc.poll() is None:
@@ -521,6 +537,8 @@ class Pool:
     def _call(self, slot, req, lock):
         worker = self.procs[slot]
         if worker is None or worker.proc.poll() is not None:
+            if worker is not None:
+                worker.remove_tempdir()
             worker = self.procs[slot] = Worker(self.command or worker_command(), self.env)
         with lock:
             self.current[slot] = (worker, req)
