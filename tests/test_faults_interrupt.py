@@ -276,6 +276,21 @@ def test_signal_stops_compare(assets, tmp_path, signum):
     assert _sha(blend) == before and alive(run.seen) == []
 
 
+def test_sigint_stops_compare_all_and_removes_its_heat_maps(tmp_path):
+    """compare-all writes a heat map per case as it goes: a stop takes back this run's."""
+    out = tmp_path / "cmp"
+    temp = _fresh_tmpdir(tmp_path)
+    run = Run(["compare-all", "--out", out, "--resolution", "32"], tmp_path,
+              env={"TMPDIR": str(temp)})
+    run.wait_for(lambda: len(list((out / "heat").glob("*.png"))) >= 2, timeout=240)
+    code, elapsed = run.stop(signal.SIGINT)
+    assert code == 130 and elapsed < STOP_WITHIN_S, (code, elapsed, run.stderr[-2000:])
+    assert "surfgrad: interrupted by SIGINT: stopped compare-all" in run.stderr
+    assert "Traceback" not in run.stdout + run.stderr
+    assert not out.exists()                       # the folders it made, and their maps, gone
+    assert list(temp.iterdir()) == [] and alive(run.seen) == []
+
+
 def test_a_hung_worker_times_out_without_retry_and_the_rest_bakes(assets, tmp_path):
     a, b = assets
     out = tmp_path / "maps"

@@ -594,13 +594,32 @@ def compare_cases():
 def run_all(out_dir, resolution=64, overwrite=False, log=print):
     """Every method on every object of the procedural test scene: JSON, a Markdown table and
     an error heat map per case."""
-    from . import scenes
     out = Path(out_dir)
     table_md, table_json = out / "compare.md", out / "compare.json"
     for p in (table_md, table_json):
         check_output_path(p, overwrite)
     if (out / "heat").exists() and not (out / "heat").is_dir():
         raise CompareError(f"{out / 'heat'} is a file; the heat maps need a folder there")
+    from ..addon import interrupts
+    created = [d for d in (out, out / "heat") if not d.exists()]
+    written = []
+
+    def forget(_signal_name):
+        """A stop (Ctrl-C / SIGTERM) leaves no half set: this run's heat maps go."""
+        for f in written:
+            f.unlink(missing_ok=True)
+        for d in reversed(created):
+            try:
+                d.rmdir()
+            except OSError:
+                pass
+
+    with interrupts.on_stop(forget):
+        return _run_all(out, table_md, table_json, resolution, log, written)
+
+
+def _run_all(out, table_md, table_json, resolution, log, written):
+    from . import scenes
     (out / "heat").mkdir(parents=True, exist_ok=True)
     objects = scenes.new_scene()
     cases = compare_cases()
@@ -615,10 +634,12 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print):
                                           log=lambda *_: None)
             reports.append(report)
             label = method + (f"-{variant}" if len(METHODS[method].variants) > 1 else "")
-            write_heat_map(out / "heat" / f"{label}_{name}.png", heat, overwrite=True)
+            written.append(out / "heat" / f"{label}_{name}.png")
+            write_heat_map(written[-1], heat, overwrite=True)
             log(f"[{len(reports)}/{total}] {label:22s} {name:12s} p99 "
                 f"{report['p99_deg']:.4f} max {report['max_deg']:.4f} deg, bake "
                 f"{report['bake_seconds']:.3f} s, reference {report['reference_seconds']:.3f} s")
+    written.append(table_json)
     table_json.write_text(json.dumps(reports, indent=2))
     lines = [f"# Bakes against the reference at {resolution}^2",
              "", "Angular error (degrees) between the Cycles bake of each method's node groups "
@@ -640,6 +661,7 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print):
     worst = max(reports, key=lambda r: r["max_deg"])
     lines += ["", f"Worst case: {worst['method']} on {worst['object']}, max "
                   f"{worst['max_deg']:.4f} deg (bar: p99 0.1, max 0.5)."]
+    written.append(table_md)
     table_md.write_text("\n".join(lines) + "\n")
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
     return reports
