@@ -161,10 +161,12 @@ def test_signal_stops_bake_normal_map(assets, tmp_path, signum):
     before = _sha(blend)
     out = tmp_path / "out"
     out.mkdir()
+    temp = _fresh_tmpdir(tmp_path)
     run = Run(["bake-normal-map", "--blend", blend, "--object", "Rock", "--output",
-               out / "rock.png", *BIG], tmp_path)
+               out / "rock.png", *BIG], tmp_path, env={"TMPDIR": str(temp)})
     run.wait_for(lambda: "[2/3] baking" in run.stdout)
     time.sleep(1.0)                               # inside Cycles' bake
+    assert [p.name[:8] for p in temp.iterdir()] == ["blender_"]      # Blender's session one
     code, elapsed = run.stop(signum)
     print(f"{signum.name}: bake-normal-map stopped in {elapsed:.2f} s")
     assert code == interrupts.exit_code(signum) == {signal.SIGINT: 130,
@@ -176,14 +178,23 @@ def test_signal_stops_bake_normal_map(assets, tmp_path, signum):
     assert _files(out) == []                          # ... not even a temporary file
     assert _sha(blend) == before
     assert alive(run.seen) == []
+    assert list(temp.iterdir()) == []                 # its temp folder went too
+
+
+def _fresh_tmpdir(tmp_path):
+    """An empty folder for the command's TMPDIR: what a stop leaves there is seen."""
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    return temp
 
 
 def test_sigint_stops_a_batch_of_worker_processes(assets, tmp_path):
     a, b = assets
     before = {p: _sha(p) for p in assets}
     out = tmp_path / "maps"
+    temp = _fresh_tmpdir(tmp_path)
     run = Run(["bake-batch", a, b, "--output", out / "{file}_{object}.png", "--workers", "2",
-               *BIG], tmp_path)
+               *BIG], tmp_path, env={"TMPDIR": str(temp)})
     manifest = out / batch.MANIFEST_NAME
     # Both files scanned (the manifest is written after each scan), two workers baking.
     run.wait_for(lambda: manifest.is_file() and
@@ -191,6 +202,10 @@ def test_sigint_stops_a_batch_of_worker_processes(assets, tmp_path):
                  len(descendants(run.proc.pid)) >= 2)
     time.sleep(2.0)
     workers = set(run.seen)
+    # Blender's session folders: the batch's own, one inside each worker's folder.
+    assert sorted(p.name[:8] for p in temp.iterdir()) == ["blender_", "surfgrad", "surfgrad"]
+    assert all(any(q.name.startswith("blender_") for q in p.iterdir())
+               for p in temp.iterdir() if p.name.startswith("surfgrad-worker-"))
     code, elapsed = run.stop(signal.SIGINT)
     print(f"SIGINT: bake-batch --workers 2 stopped in {elapsed:.2f} s; workers {workers}")
     assert code == 130 and elapsed < STOP_WITHIN_S, (code, elapsed, run.stderr[-2000:])
@@ -207,6 +222,7 @@ def test_sigint_stops_a_batch_of_worker_processes(assets, tmp_path):
     assert sorted((e["object"], e["status"]) for e in m["assets"].values()) == [
         ("Rock", "interrupted"), ("Stone", "interrupted"), ("Tree", "interrupted")]
     assert {p: _sha(p) for p in assets} == before
+    assert list(temp.iterdir()) == []                 # no temp folder left, workers' neither
     # A rerun bakes them (nothing is taken as done).
     code = Run(["bake-batch", a, "--output", out / "{file}_{object}.png", "--workers", "0",
                 "--resolution", "16"], tmp_path).finish()
@@ -233,6 +249,46 @@ def test_sigterm_stops_a_farm_task_baking_in_its_own_process(assets, tmp_path):
     m = json.loads(manifest.read_text())
     assert sorted(e["status"] for e in m["assets"].values()) == ["interrupted"] * 2
     assert _sha(a) == before and alive(run.seen) == []
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_signal_stops_compare(assets, tmp_path, signum):
+    """compare's bake used to swallow Ctrl-C (Cycles logs the KeyboardInterrupt and goes on):
+    it now stops like bake-normal-map, writing no report, no heat map, no temp folder."""
+    blend = assets[0]
+    before = _sha(blend)
+    out = tmp_path / "out"
+    out.mkdir()
+    temp = _fresh_tmpdir(tmp_path)
+    run = Run(["compare", "--blend", blend, "--object", "Rock", "--method", "layered",
+               "--resolution", "2048", "--json", out / "c.json"], tmp_path,
+              env={"TMPDIR": str(temp)})
+    run.wait_for(lambda: "Read blend" in run.stdout + run.stderr)
+    time.sleep(2.0)                               # baking or comparing, far from done
+    assert [p.name[:8] for p in temp.iterdir()] == ["blender_"]
+    code, elapsed = run.stop(signum)
+    print(f"{signum.name}: compare stopped in {elapsed:.2f} s")
+    assert code == {signal.SIGINT: 130, signal.SIGTERM: 143}[signum], run.stderr[-2000:]
+    assert elapsed < STOP_WITHIN_S, elapsed
+    assert f"surfgrad: interrupted by {signum.name}: stopped compare" in run.stderr
+    assert "Traceback" not in run.stdout + run.stderr
+    assert _files(out) == [] and list(temp.iterdir()) == []
+    assert _sha(blend) == before and alive(run.seen) == []
+
+
+def test_sigint_stops_compare_all_and_removes_its_heat_maps(tmp_path):
+    """compare-all writes a heat map per case as it goes: a stop takes back this run's."""
+    out = tmp_path / "cmp"
+    temp = _fresh_tmpdir(tmp_path)
+    run = Run(["compare-all", "--out", out, "--resolution", "32"], tmp_path,
+              env={"TMPDIR": str(temp)})
+    run.wait_for(lambda: len(list((out / "heat").glob("*.png"))) >= 2, timeout=240)
+    code, elapsed = run.stop(signal.SIGINT)
+    assert code == 130 and elapsed < STOP_WITHIN_S, (code, elapsed, run.stderr[-2000:])
+    assert "surfgrad: interrupted by SIGINT: stopped compare-all" in run.stderr
+    assert "Traceback" not in run.stdout + run.stderr
+    assert not out.exists()                       # the folders it made, and their maps, gone
+    assert list(temp.iterdir()) == [] and alive(run.seen) == []
 
 
 def test_a_hung_worker_times_out_without_retry_and_the_rest_bakes(assets, tmp_path):

@@ -23,9 +23,11 @@ import json
 import os
 import queue
 import re
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -64,8 +66,13 @@ def blend_problem(path):
         return f"{path} is a folder: give .blend files"
     if path.suffix.lower() != ".blend":
         return f"{path} is not a .blend file (give Blender files)"
-    with open(path, "rb") as fh:
-        head = fh.read(8)
+    if not path.is_file():      # a named pipe or device would block the read below forever
+        return f"{path} is not a regular file (a pipe or device?): give .blend files"
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError as err:
+        return f"{path} cannot be read ({err.strerror}): check its permissions"
     if not head.startswith(BLEND_MAGIC):
         return f"{path} is named .blend but is not a Blender file (damaged, or another format)"
     return None
@@ -82,10 +89,21 @@ def sha256_file(path, chunk=1 << 20):
 def load_settings_file(path):
     """{"defaults": {...}, "assets": {PATTERN: {...}}}: PATTERN matches "file.blend:Object",
     "file.blend" or "Object" (shell wildcards); later matches override earlier ones."""
+    if Path(path).is_dir():
+        raise BatchError(f"settings file {path} is a folder; give the JSON settings file")
+    if Path(path).exists() and not Path(path).is_file():
+        raise BatchError(f"settings file {path} is not a regular file; give the JSON settings "
+                         f"file")
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise BatchError(f"settings file {path}: no such file") from None
+    except UnicodeDecodeError as err:
+        raise BatchError(f"settings file {path} is not UTF-8 text ({err.reason} at byte "
+                         f"{err.start}); save it as UTF-8 JSON") from None
+    except OSError as err:
+        raise BatchError(f"settings file {path} cannot be read ({err.strerror}); check its "
+                         f"permissions") from None
     except json.JSONDecodeError as err:
         raise BatchError(f"settings file {path} is not valid JSON ({err})") from None
     if not isinstance(data, dict) or set(data) - {"defaults", "assets"}:
@@ -357,6 +375,11 @@ class Worker:
     reader thread takes its output so that a request can time out."""
 
     def __init__(self, command, env=None):
+        # Its own temp folder: Blender's session folder (TMPDIR/blender_XXXXXX) of a worker
+        # that is killed (stop, timeout) is removed with it (interrupts.py).
+        self.tempdir = tempfile.mkdtemp(prefix="surfgrad-worker-")
+        env = dict(os.environ if env is None else env)
+        env.update(TMPDIR=self.tempdir, TEMP=self.tempdir, TMP=self.tempdir)
         self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, bufsize=1, env=env,
                                      start_new_session=True)
@@ -410,13 +433,22 @@ class Worker:
             self.proc.kill()
         except OSError:
             pass
-        return self.proc.wait()
+        code = self.proc.wait()
+        self.remove_tempdir()
+        return code
+
+    def remove_tempdir(self):
+        """Remove the worker's temp folder once its process has ended."""
+        if self.proc.poll() is not None:
+            shutil.rmtree(self.tempdir, ignore_errors=True)
 
     def exit_code(self):
         try:
-            return self.proc.wait(timeout=10)
+            code = self.proc.wait(timeout=10)
         except subprocess.TimeoutExpired:
             return self.kill()
+        self.remove_tempdir()
+        return code
 
     def close(self):
         if self.proc.poll() is None:
@@ -505,6 +537,8 @@ class Pool:
     def _call(self, slot, req, lock):
         worker = self.procs[slot]
         if worker is None or worker.proc.poll() is not None:
+            if worker is not None:
+                worker.remove_tempdir()
             worker = self.procs[slot] = Worker(self.command or worker_command(), self.env)
         with lock:
             self.current[slot] = (worker, req)
@@ -636,12 +670,24 @@ class Progress:
                  f"{self.counts['failed']} failed | {elapsed:.1f} s elapsed, {eta}")
 
 
+def _manifest_problem(path):
+    """None if the manifest path can be read and replaced, else what is wrong with it."""
+    if path.is_dir():
+        return f"is a folder; give a file path (e.g. {path / MANIFEST_NAME})"
+    if path.exists() and not path.is_file():
+        return "is not a regular file; give a file path"
+    return None
+
+
 def _read_manifest(path):
     try:
-        data = json.loads(Path(path).read_text())
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
         return data if isinstance(data, dict) and isinstance(data.get("assets"), dict) else None
     except (FileNotFoundError, json.JSONDecodeError):
         return None
+    except UnicodeDecodeError:
+        raise BatchError(f"manifest {path} is not UTF-8 text (not a surfgrad manifest); give "
+                         f"another --manifest path or remove that file") from None
 
 
 def write_json_atomic(path, data):
@@ -680,7 +726,15 @@ def read_asset_list(path):
     if not path.is_file():
         raise BatchError(f"asset list {path}: no such file")
     entries = []
-    for raw in path.read_text().splitlines():
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise BatchError(f"asset list {path} is not UTF-8 text ({err.reason} at byte "
+                         f"{err.start}); save it as UTF-8, one .blend path a line") from None
+    except OSError as err:
+        raise BatchError(f"asset list {path} cannot be read ({err.strerror}); check its "
+                         f"permissions") from None
+    for raw in text.splitlines():
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
@@ -759,7 +813,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             whole.add(blend)
     blends = list(per_file)
     manifest_path = Path(manifest) if manifest else default_manifest(output)
-    problem = BR.folder_problem(manifest_path.parent)
+    problem = BR.folder_problem(manifest_path.parent) or _manifest_problem(manifest_path)
     if problem:
         raise BatchError(f"manifest {manifest_path}: {problem}")
     previous = _read_manifest(manifest_path) or {"assets": {}}

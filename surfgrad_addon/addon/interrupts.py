@@ -120,9 +120,35 @@ def stop(signum):
         sys.stdout.flush()
     except Exception:                             # noqa: BLE001
         pass
+    remove_blender_tempdir()
     say(f"surfgrad: interrupted by {name}: stopped {_state['what']}; exit code "
         f"{exit_code(signum)}")
     os._exit(exit_code(signum))
+
+
+def remove_blender_tempdir():
+    """os._exit skips Blender's own exit, which removes its session folder
+    ($TMPDIR/blender_XXXXXX, bpy.app.tempdir): remove it here, but only a blender_* folder
+    directly inside the system temp folder (never a user-set temp path)."""
+    import shutil
+    import tempfile
+    bpy = sys.modules.get("bpy")
+    try:
+        folder = Path(bpy.app.tempdir) if bpy is not None else None
+    except Exception:                             # noqa: BLE001 - bpy half torn down
+        return None
+    if folder is None or not str(folder).strip():
+        return None
+    try:
+        system = Path(tempfile.gettempdir()).resolve()
+        folder = folder.resolve()
+    except OSError:
+        return None
+    if folder.parent != system or not folder.name.startswith("blender_") \
+            or not folder.is_dir():
+        return None
+    shutil.rmtree(folder, ignore_errors=True)
+    return folder
 
 
 @contextmanager

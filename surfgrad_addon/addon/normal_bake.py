@@ -248,7 +248,8 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
                     o.select_set(o in selection)
                 bpy.context.view_layer.objects.active = active_obj
         if outcome != {"FINISHED"}:
-            raise BakeFailed(f"the bake of {obj.name!r} did not finish ({outcome})")
+            from .cancel_reason import cancelled_text
+            raise BakeFailed(cancelled_text(obj, outcome))
         t0 = time.perf_counter()
         temp = output.parent / f".{output.stem}.part{os.getpid()}{output.suffix}"
         temps = {t: tile_path(temp, t) for t in tiles}

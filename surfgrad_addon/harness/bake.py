@@ -16,6 +16,7 @@ from ..addon.compat import new_material
 from ..addon.node_builder import running_line  # noqa: F401 (the line whose bakes we model)
 from ..addon.scene_state import SCENE_SETTINGS, restored
 from ..addon.bake_target import bake_target_problem, visible_for_bake
+from ..addon.exit_codes import BakeFailed
 
 
 def exact_cycles(scene):
@@ -33,6 +34,10 @@ def exact_cycles(scene):
 
 class BakeError(RuntimeError):
     """A bake could not run; the message names the object or setting and the fix."""
+
+
+class BakeCancelled(BakeError, BakeFailed):
+    """Blender's bake started and cancelled: a bake failure (exit code 1), not a refusal."""
 
 
 @contextmanager
@@ -295,7 +300,8 @@ def _bake_into(obj, build, image, uv_map, displacement, log):
             result = bpy.ops.object.bake(**kwargs)
             seconds = time.perf_counter() - t0
             if result != {"FINISHED"}:
-                raise BakeError(f"Cycles bake of {obj.name!r} did not finish ({result})")
+                from ..addon.cancel_reason import cancelled_text
+                raise BakeCancelled("Cycles: " + cancelled_text(obj, result))
         if log:
             log(f"baked {obj.name} {image.size[0]}x{image.size[1]} in {seconds:.2f} s")
         return seconds

@@ -158,6 +158,16 @@ def main(argv=None, in_blender=False):
     db.add_argument("--closures", action="store_true", help="the Sampler exhibit alone "
                     "(Blender 5.0+; the repository's demo_closures.blend)")
     args = parser.parse_args(argv)
+    # Ctrl-C / SIGTERM stop every command at once, exit 130 / 143, nothing written
+    # (addon/interrupts.py); bake-normal-map and bake-batch install their own.
+    from ..addon import interrupts
+    if args.command in ("bake-normal-map", "bake-batch"):
+        return _dispatch(args, in_blender)
+    with interrupts.stoppable(f"{args.command}"):
+        return _dispatch(args, in_blender)
+
+
+def _dispatch(args, in_blender):
     try:
         if args.command == "demo":
             from . import main_job

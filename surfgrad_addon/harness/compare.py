@@ -19,6 +19,7 @@ faces outside counted.
 """
 
 import json
+import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -533,6 +534,28 @@ def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
     return (report, heat) if with_heat_map else report
 
 
+def check_output_path(path, overwrite, what="output"):
+    """Refuse, before anything is baked, an output path that cannot be written: a folder,
+    an existing file without --overwrite, a parent that is a file or not writable."""
+    p = Path(path)
+    if p.is_dir():
+        raise CompareError(f"{what} {str(p)!r} is a folder; give a file path (e.g. "
+                           f"{str(p / 'report.json')!r})")
+    if p.exists() and not overwrite:
+        raise CompareError(f"{p} exists; pass --overwrite to replace it")
+    if p.exists() and not p.is_file():
+        raise CompareError(f"{what} {str(p)!r} is not a regular file; give a file path")
+    parent = p.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise CompareError(f"cannot write {what} {str(p)!r}: {str(parent)!r} is a file, not a "
+                           f"folder; give a path inside a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise CompareError(f"cannot write {what} {str(p)!r}: folder {str(parent)!r} is not "
+                           f"writable; choose another folder")
+
+
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
         variant=None, overwrite=False, log=print, from_open_file=False, tiles=None):
     """The command: load, bake, compare, write the JSON and the heat map, print a summary."""
@@ -540,8 +563,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     json_out = Path(json_out)
     heat_path = json_out.with_name(json_out.stem + "_error.png")
     for p in (json_out, heat_path):
-        if p.exists() and not overwrite:
-            raise CompareError(f"{p} exists; pass --overwrite to replace it")
+        check_output_path(p, overwrite)
     if blend:
         if not Path(blend).is_file():
             raise CompareError(f".blend file {blend!r} does not exist")

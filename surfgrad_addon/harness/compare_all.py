@@ -13,6 +13,7 @@ they are the same for any number of workers. Inside a Blender binary one process
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -69,62 +70,98 @@ def run_shard(out, resolution, shard, shards, log=print, methods=None):
     return reports
 
 
-def _start_worker(out, resolution, shard, shards, methods):
+def _start_worker(out, resolution, shard, shards, methods, temp):
     """A child running one shard; its errors go to a file (a pipe nobody reads while this
-    process runs its own share could fill and stall it)."""
+    process runs its own share could fill and stall it). Its temporary files go to `temp`,
+    which this process removes: a child killed on a stop cannot clean up after itself."""
     cmd = [sys.executable, "-m", "surfgrad_addon.harness.compare_all", "--out", str(out),
            "--resolution", str(resolution), "--shard", str(shard), "--shards", str(shards)]
     cmd += ["--methods", *methods] if methods else []
     errors = tempfile.TemporaryFile(mode="w+")
-    child = subprocess.Popen(cmd, cwd=ROOT, stderr=errors, text=True)
+    env = dict(os.environ, TMPDIR=str(temp), TEMP=str(temp), TMP=str(temp))
+    child = subprocess.Popen(cmd, cwd=ROOT, stderr=errors, text=True, env=env)
     child.errors = errors
     return child
 
 
 def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, methods=None):
     """Every method (or those of `methods`) on every object of the procedural test scene:
-    JSON, a Markdown table and an error heat map per case."""
+    JSON, a Markdown table and an error heat map per case. A stop (Ctrl-C / SIGTERM) kills
+    the workers and takes back what this run wrote (heat maps, the folders it made)."""
+    from ..addon import interrupts
+    from .compare import check_output_path
     out = Path(out_dir)
     table_md, table_json = out / "compare.md", out / "compare.json"
     for p in (table_md, table_json):
-        if p.exists() and not overwrite:
-            raise CompareError(f"{p} exists; pass --overwrite to replace it")
+        check_output_path(p, overwrite)
+    if (out / "heat").exists() and not (out / "heat").is_dir():
+        raise CompareError(f"{out / 'heat'} is a file; the heat maps need a folder there")
     unknown = sorted(set(methods or ()) - set(METHODS))
     if unknown:
         raise CompareError(f"no method {unknown[0]!r}; use some of {sorted(METHODS)}")
+    created = [d for d in (out, out / "heat") if not d.exists()]
+    before = set((out / "heat").glob("*.png")) if (out / "heat").is_dir() else set()
     (out / "heat").mkdir(parents=True, exist_ok=True)
-    for method in METHODS:
-        if unavailable_reason(method) is not None:
-            log(f"skipped {method}: {unavailable_reason(method)}")
-    workers = default_workers() if workers is None else max(1, int(workers))
-    if workers > 1 and not _bpy_module():
-        log("compare-all: inside a Blender binary one process runs every case")
-        workers = 1
-    children = [_start_worker(out, resolution, k, workers, methods) for k in range(1, workers)]
-    try:
-        reports = run_shard(out, resolution, 0, workers, log, methods)
-        for k, child in enumerate(children, start=1):
-            child.wait()
-            child.errors.seek(0)
-            err = child.errors.read()
-            shard_file = out / SHARD_FILE.format(k)
-            if child.returncode != 0 or not shard_file.is_file():
-                lines = (err or "").strip().splitlines()
-                raise CompareError(f"compare-all worker {k} failed (exit {child.returncode}): "
-                                   f"{lines[-1] if lines else 'no output'}")
-            reports.update({int(i): r for i, r in json.loads(shard_file.read_text()).items()})
-    finally:
-        for k, child in enumerate(children, start=1):
+    temp = Path(tempfile.mkdtemp(prefix="surfgrad-compare-all-"))
+    children = []
+
+    def forget(_signal_name):
+        """Kill the workers, remove their temporary files and this run's new heat maps."""
+        for child in children:
             if child.poll() is None:
                 child.kill()
                 child.wait()
-            child.errors.close()
+        shutil.rmtree(temp, ignore_errors=True)
+        for f in set((out / "heat").glob("*.png")) - before:
+            f.unlink(missing_ok=True)
+        for k in range(1, len(children) + 1):
             (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
-    reports = [reports[i] for i in sorted(reports)]
-    table_json.write_text(json.dumps(reports, indent=2))
-    table_md.write_text(table_markdown(reports, resolution))
+        for d in reversed(created):
+            try:
+                d.rmdir()
+            except OSError:
+                pass
+
+    with interrupts.on_stop(forget):
+        try:
+            for method in METHODS:
+                if unavailable_reason(method) is not None:
+                    log(f"skipped {method}: {unavailable_reason(method)}")
+            workers = default_workers() if workers is None else max(1, int(workers))
+            if workers > 1 and not _bpy_module():
+                log("compare-all: inside a Blender binary one process runs every case")
+                workers = 1
+            children += [_start_worker(out, resolution, k, workers, methods, temp)
+                         for k in range(1, workers)]
+            reports = _collect(out, resolution, workers, methods, children, log)
+        finally:
+            for k, child in enumerate(children, start=1):
+                if child.poll() is None:
+                    child.kill()
+                    child.wait()
+                child.errors.close()
+                (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
+            shutil.rmtree(temp, ignore_errors=True)
+        table_json.write_text(json.dumps(reports, indent=2))
+        table_md.write_text(table_markdown(reports, resolution))
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
     return reports
+
+
+def _collect(out, resolution, workers, methods, children, log):
+    """This process's shard, then each worker's: the reports in the serial order."""
+    reports = run_shard(out, resolution, 0, workers, log, methods)
+    for k, child in enumerate(children, start=1):
+        child.wait()
+        child.errors.seek(0)
+        err = child.errors.read()
+        shard_file = out / SHARD_FILE.format(k)
+        if child.returncode != 0 or not shard_file.is_file():
+            lines = (err or "").strip().splitlines()
+            raise CompareError(f"compare-all worker {k} failed (exit {child.returncode}): "
+                               f"{lines[-1] if lines else 'no output'}")
+        reports.update({int(i): r for i, r in json.loads(shard_file.read_text()).items()})
+    return [reports[i] for i in sorted(reports)]
 
 
 def table_markdown(reports, resolution):
