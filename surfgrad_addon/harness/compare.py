@@ -33,8 +33,9 @@ from ..addon.precise_bake import precise_far
 from ..reference import methods as M
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
-from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, cases, resolve_sg,
-                      unavailable_reason)
+from . import scale_limits
+from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, cases,
+                      resolve_sg, unavailable_reason)
 from .pictures import write_png
 
 DETAIL_UV = "Detail"
@@ -57,6 +58,7 @@ class Inputs:
     variant: str = "hq"
     projector: object = None                         # a temporary decal projector (an empty)
     modifier: object = None                          # a temporary SG Displace modifier
+    parallax_scale: float = None                     # None: methods.PARALLAX_SCALE
 
     def pixels(self, name):
         return self.images[name][0]
@@ -180,12 +182,20 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         raise CompareError(f"method {method!r} has no variant {variant!r}; use one of "
                            f"{list(m.variants)}")
     inp = prepare_inputs(obj, uv_map, image, variant)
+    inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
+    if depth_note and m.reference is METHODS["parallax"].reference and log:
+        log(f"note: {depth_note}")
     import bpy
     try:
         # Far out: a second user keeps the mesh in object space (before the mesh is read).
         with m.scene(obj, inp), precise_far(obj, log):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
                                          tiles=tiles)
+        limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
+        if limit:
+            report["warnings"].append(limit)
+            if log:
+                log(f"warning: {limit}")
         report["method"] = method
         report["variant"] = inp.variant if len(m.variants) > 1 else None
         return report, heat
