@@ -183,8 +183,10 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
                            f"{list(m.variants)}")
     inp = prepare_inputs(obj, uv_map, image, variant)
     inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
-    if depth_note and m.reference is METHODS["parallax"].reference and log:
-        log(f"note: {depth_note}")
+    notes = [depth_note] if depth_note and m.reference is METHODS["parallax"].reference else []
+    for note in notes:
+        if log:
+            log(f"note: {note}")
     import bpy
     try:
         # Far out: a second user keeps the mesh in object space (before the mesh is read).
@@ -196,6 +198,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
             report["warnings"].append(limit)
             if log:
                 log(f"warning: {limit}")
+        report["notes"] = notes
         report["method"] = method
         report["variant"] = inp.variant if len(m.variants) > 1 else None
         return report, heat
@@ -567,6 +570,8 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
             f"{t['max_deg']} deg; excluded {t['excluded']}")
     for w in report["warnings"]:
         log(f"warning: {w}")
+    for note in report.get("notes", []):
+        log(f"note: {note}")
     return report
 
 
