@@ -36,7 +36,8 @@ from ..reference.agreement import COUNTS as AGREEMENT_COUNTS, texel_agreement
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
-from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, resolve_sg,
+from . import scale_limits
+from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
 from .pictures import write_png
 
@@ -60,6 +61,7 @@ class Inputs:
     variant: str = "hq"
     projector: object = None                         # a temporary decal projector (an empty)
     modifier: object = None                          # a temporary SG Displace modifier
+    parallax_scale: float = None                     # None: methods.PARALLAX_SCALE
 
     def pixels(self, name):
         return self.images[name][0]
@@ -171,12 +173,23 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         raise CompareError(f"method {method!r} has no variant {variant!r}; use one of "
                            f"{list(m.variants)}")
     inp = prepare_inputs(obj, uv_map, image, variant)
+    inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
+    notes = [depth_note] if depth_note and m.reference is METHODS["parallax"].reference else []
+    for note in notes:
+        if log:
+            log(f"note: {note}")
     import bpy
     try:
         # Far out: a second user keeps the mesh in object space (before the mesh is read).
         with m.scene(obj, inp), precise_far(obj, log):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
                                          tiles=tiles)
+        limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
+        if limit:
+            report["warnings"].append(limit)
+            if log:
+                log(f"warning: {limit}")
+        report["notes"] = notes
         report["method"] = method
         report["variant"] = inp.variant if len(m.variants) > 1 else None
         return report, heat
@@ -590,6 +603,8 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
             f"{t['max_deg']} deg; excluded {t['excluded']}")
     for w in report["warnings"]:
         log(f"warning: {w}")
+    for note in report.get("notes", []):
+        log(f"note: {note}")
     return report
 
 

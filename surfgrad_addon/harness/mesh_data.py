@@ -127,10 +127,12 @@ def triangle_mikktspace(arrays, flat=None):
     """MikkTSpace tangents and signs per triangle corner for every UV map, computed as Cycles
     does: on the triangulated mesh (Cycles' own triangles) with the corner normals. Blender's
     calc_tangents on the original quads splits some quads differently (their UV diagonals tie)
-    and can differ by degrees. Triangles in `flat` (T,) are flat faces of the temporary mesh,
-    so MikkTSpace sees each one's own float32 normal as Cycles' does (as custom normals they
-    would be quantised, and nearly coplanar neighbours would weld: up to 1.1 degrees). Works on
-    a temporary mesh that is removed afterwards."""
+    and can differ by degrees. Triangles in `flat` (T,) are flat faces of the temporary mesh
+    without custom normals, so MikkTSpace sees each one's own float32 triangle normal as
+    Cycles' does (as custom normals they would be quantised, nearly coplanar neighbours would
+    weld: up to 1.1 degrees; as the face's corner normals, a flat quad's normal, they were up
+    to 33 degrees off on flat faces mixed with smooth ones). Works on a temporary mesh that is
+    removed afterwards."""
     import bpy
 
     tmp = bpy.data.meshes.new(".surfgrad_tangents")
@@ -138,7 +140,13 @@ def triangle_mikktspace(arrays, flat=None):
         tmp.from_pydata(arrays.positions.tolist(), [], arrays.triangles.tolist())
         smooth = np.ones(len(tmp.polygons), dtype=bool) if flat is None else ~np.asarray(flat)
         tmp.polygons.foreach_set("use_smooth", smooth)
-        tmp.normals_split_custom_set(arrays.corner_normals.reshape(-1, 3).tolist())
+        # Cycles feeds MikkTSpace a flat triangle's own normal (Mesh::Triangle::compute_normal),
+        # not its face's corner normals; a custom normal would override the flat face's own
+        # normal on the temporary mesh, so flat corners get none (zero = Blender's default).
+        custom = arrays.corner_normals
+        if flat is not None and np.any(flat):
+            custom = np.where(np.asarray(flat)[:, None, None], 0.0, custom)
+        tmp.normals_split_custom_set(custom.reshape(-1, 3).tolist())
         for name, uv in arrays.uv_maps.items():
             tmp.uv_layers.new(name=name)
             tmp.uv_layers[name].uv.foreach_set("vector", uv.reshape(-1))

@@ -280,10 +280,16 @@ PARALLAX_SCALE = 0.15
 VIEW_TILT = (0.45, -0.3, 0.2)      # view = normalize(n + VIEW_TILT): oblique, front-facing
 
 
+def parallax_depth(inp):
+    """The comparison's parallax depth: PARALLAX_SCALE, or what compare set for a small object
+    (scale_limits.parallax_depth)."""
+    return getattr(inp, "parallax_scale", None) or PARALLAX_SCALE
+
+
 def _normal_map_at_parallax(inp, nodes, links, par):
     """A parallax group's view and scale set, and SG Normal Map read at its offset UV."""
     links.new(_parallax_view(nodes, links), par.inputs["View"])
-    par.inputs["Bump Scale"].default_value = PARALLAX_SCALE
+    par.inputs["Bump Scale"].default_value = parallax_depth(inp)
     color = image_node(nodes, links, inp.bpy_image("normal"), par.outputs["UV"])
     nm = group_node(nodes, G.normal_map_group(inp.uv_map))
     links.new(color, nm.inputs["Color"])
@@ -299,7 +305,7 @@ def _parallax_graph(inp, nodes, links):
 def _parallax_reference(inp, td):
     n = M.unit_base_normal(td)
     view = R.vecmath.normalize(n + np.array(VIEW_TILT))
-    offs = M.parallax_offset(td, inp.pixels("height"), view, PARALLAX_SCALE, G.POM_STEPS,
+    offs = M.parallax_offset(td, inp.pixels("height"), view, parallax_depth(inp), G.POM_STEPS,
                              inp.uv_map)
     return M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map,
                                  st=td.uv(inp.uv_map) + offs)
