@@ -262,7 +262,8 @@ def open_blend(path):
             str(Path(bpy.data.filepath).resolve()) == path:
         return 0.0
     t0 = time.perf_counter()
-    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
+    from .open_blend import open_mainfile
+    open_mainfile(path)                  # scripts off, whatever the Preferences say
     _OPENED[0] = path
     return time.perf_counter() - t0
 

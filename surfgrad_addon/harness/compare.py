@@ -534,7 +534,8 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     if blend:
         if not Path(blend).is_file():
             raise CompareError(f".blend file {blend!r} does not exist")
-        bpy.ops.wm.open_mainfile(filepath=str(blend))
+        from ..addon.open_blend import open_mainfile
+        open_mainfile(blend)               # scripts off, whatever the Preferences say
     elif not from_open_file:
         from . import scenes
         scenes.new_scene()
