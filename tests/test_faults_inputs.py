@@ -95,3 +95,123 @@ def test_a_blend_scripts_do_not_run_with_auto_run_on(tmp_path, auto_run_on):
     assert not driver_mark.exists() and not text_mark.exists()
     assert _listing(out) == [] and not (tmp_path / "c.json").exists()
     assert _sha(blend) == before
+
+
+# 2. inputs that would bake magenta or a flat map with exit 0 ---------------------------------
+
+def _write_png(path, size=8):
+    img = bpy.data.images.new("tmp_png", size, size)
+    img.pixels.foreach_set(np.tile(np.float32([0.5, 0.5, 1.0, 1.0]), size * size))
+    img.filepath_raw = str(path)
+    img.file_format = "PNG"
+    img.save()
+    bpy.data.images.remove(img)
+
+
+def _material(obj, image=None, name="Mat"):
+    """Image Texture -> Normal Map -> Diffuse -> Material Output (returns the tree)."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    nm = tree.nodes.new("ShaderNodeNormalMap")
+    tree.links.new(nm.outputs[0], bsdf.inputs["Normal"])
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.name = "Bumps"
+    tex.image = image
+    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
+    obj.data.materials.append(mat)
+    return tree
+
+
+def _fault_blend(tmp_path, fault):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    tex = tmp_path / "tex.png"
+    _write_png(tex)
+    if fault == "udim":                         # UVs in 1001 and 1002, the image lists 1001
+        obj = _plane(uvs=[(0, 0), (2, 0), (2, 1), (0, 1)])
+        _write_png(tmp_path / "t.1001.png")
+        image = bpy.data.images.load(str(tmp_path / "t.1001.png"))
+        image.source = "TILED"
+        _material(obj, image)
+    elif fault == "sequence":                   # frame 1 read at frame 1; only seq_002 exists
+        obj = _plane()
+        _write_png(tmp_path / "seq_002.png")
+        image = bpy.data.images.load(str(tmp_path / "seq_002.png"))
+        image.source = "SEQUENCE"
+        tree = _material(obj, image)
+        tree.nodes["Bumps"].image_user.frame_start = 1
+        tree.nodes["Bumps"].image_user.frame_duration = 10
+        tree.nodes["Bumps"].image_user.frame_offset = 0
+        bpy.context.scene.frame_current = 1
+    elif fault == "cycles_output":              # active output for EEVEE, Cycles' reads a
+        obj = _plane()                          # missing file
+        tree = _material(obj, bpy.data.images.load(str(tex)))
+        tree.nodes["Material Output"].target = "EEVEE"
+        cyc = tree.nodes.new("ShaderNodeOutputMaterial")
+        cyc.target = "CYCLES"
+        gone = tmp_path / "gone.png"
+        _write_png(gone)
+        tex2 = tree.nodes.new("ShaderNodeTexImage")
+        tex2.name = "CyclesBumps"
+        tex2.image = bpy.data.images.load(str(gone))
+        bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
+        tree.links.new(tex2.outputs["Color"], bsdf.inputs["Color"])
+        tree.links.new(bsdf.outputs[0], cyc.inputs["Surface"])
+        tree.nodes["Material Output"].is_active_output = True
+    elif fault == "library":                    # the material from lib.blend, then it goes
+        obj = _plane()
+        mat = new_material("LibMat")
+        bpy.data.libraries.write(str(tmp_path / "lib.blend"), {mat})
+        bpy.data.materials.remove(mat)
+        with bpy.data.libraries.load(str(tmp_path / "lib.blend"), link=True) as (src, dst):
+            dst.materials = ["LibMat"]
+        obj.data.materials.append(dst.materials[0])
+    elif fault in ("normal_map_uv", "uv_node"):
+        obj = _plane()
+        tree = _material(obj, bpy.data.images.load(str(tex)))
+        if fault == "normal_map_uv":
+            tree.nodes["Normal Map"].uv_map = "UVMap.001"
+        else:
+            uvn = tree.nodes.new("ShaderNodeUVMap")
+            uvn.uv_map = "UVMap.001"
+            tree.links.new(uvn.outputs[0], tree.nodes["Bumps"].inputs["Vector"])
+    blend = _save(tmp_path / "scene.blend")
+    if fault == "cycles_output":
+        gone.unlink()
+    if fault == "library":
+        (tmp_path / "lib.blend").unlink()
+    return blend
+
+
+MAGENTA_FAULTS = [
+    ("udim", ["tiled image 't.1001.png' has no tile 1002", "tiles: [1001]", "Add Tile"]),
+    ("sequence", ["image sequence 'seq_002.png' reads frame 1 at scene frame 1",
+                  "seq_001.png", "does not exist", "Start Frame / Offset"]),
+    ("cycles_output", ["gone.png", "does not exist", "'CyclesBumps'"]),
+    ("library", ["material 'LibMat' is linked from library", "lib.blend", "is missing",
+                 "relink it"]),
+    ("normal_map_uv", ["node 'Normal Map' (material 'Mat') reads UV map 'UVMap.001'",
+                       "UV maps: ['UVMap']"]),
+    ("uv_node", ["node 'UV Map' (material 'Mat') reads UV map 'UVMap.001'",
+                 "UV maps: ['UVMap']"]),
+]
+
+
+@pytest.mark.parametrize("fault,words", MAGENTA_FAULTS, ids=[f for f, _ in MAGENTA_FAULTS])
+def test_an_input_that_would_bake_magenta_or_flat_is_refused(tmp_path, fault, words, capsys):
+    blend = _fault_blend(tmp_path, fault)
+    before = _sha(blend)
+    out = tmp_path / "maps"
+    out.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out / "n.<UDIM>.png"), "--resolution", "32"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err[-2000:]
+    for word in words:
+        assert word in err, (word, err[-2000:])
+    assert "Traceback" not in err
+    assert _listing(out) == []
+    assert _sha(blend) == before

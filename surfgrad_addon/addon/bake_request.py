@@ -30,6 +30,7 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
+from . import material_inputs as MI
 from . import normal_bake as NB
 from .exit_codes import BakeFailed
 
@@ -199,7 +200,7 @@ def check(request, obj=None, warn=warn_stderr):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
-    problems += image_problems(obj)
+    problems += image_problems(obj, with_uvs)
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)
@@ -311,19 +312,23 @@ def overlap_warnings(uv, tiles, resolution, what):
 
 def material_images(obj):
     """[(material, node path, node, image or None)] for every image node the object's
-    materials read: reached from the active Material Output through links, into node groups."""
+    materials read: reached from the Material Output Cycles uses (material_inputs.py) through
+    links, into node groups."""
     found, memo = [], {}
     for slot in obj.material_slots:
         mat = slot.material
         if mat is None or mat.node_tree is None:      # (a tree without use_nodes: checked too)
             continue
-        tree = mat.node_tree
-        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
-        active = [n for n in outputs if n.is_active_output] or outputs
-        for node, path in _reached(tree, active, memo):
+        for node, path in material_nodes(mat, memo):
             if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
                 found.append((mat, path, node, node.image))
     return found
+
+
+def material_nodes(mat, memo):
+    """(node, path) of every node `mat` reads through the output Cycles renders."""
+    output = MI.cycles_output(mat.node_tree)
+    return _reached(mat.node_tree, [output] if output else [], memo)
 
 
 def _reached(tree, starts, memo):
@@ -351,9 +356,18 @@ def _reached(tree, starts, memo):
     return out
 
 
-def image_problems(obj):
-    """Every image the object's materials read: set, present, loadable, finite pixels."""
+def image_problems(obj, covered=()):
+    """Every image the object's materials read: set, present, loadable, finite pixels; the
+    frame file a sequence reads now, the tiles (`covered`, the UDIM tiles the UVs cover) of a
+    tiled image; linked materials whose library is missing; UV map names nodes refer to."""
+    import bpy
     out, checked = [], set()
+    for slot in obj.material_slots:
+        if slot.material is not None:
+            problem = MI.library_problem(slot.material)
+            if problem and problem not in out:
+                out.append(problem)
+    out += uv_reference_problems(obj)
     for mat, path, node, image in material_images(obj):
         if image is None:
             out.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
@@ -364,8 +378,36 @@ def image_problems(obj):
             continue
         checked.add(image.name)
         problem = one_image_problem(image)
+        if not problem and image.packed_file is None and image.filepath:
+            if image.source == "SEQUENCE" and hasattr(node, "image_user"):
+                problem = MI.sequence_problem(
+                    image, node, bpy.path.abspath(image.filepath, library=image.library),
+                    bpy.context.scene)
+            elif image.source == "TILED" and covered:
+                problem = MI.missing_tiles_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
+    return out
+
+
+def uv_reference_problems(obj):
+    """Nodes naming a UV map (or attribute) the evaluated mesh does not have."""
+    import bpy
+    eval_obj = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = eval_obj.to_mesh()
+    out, memo = [], {}
+    try:
+        for slot in obj.material_slots:
+            mat = slot.material
+            if mat is None or mat.node_tree is None:
+                continue
+            for node, path in material_nodes(mat, memo):
+                problem = MI.uv_name_problem(mat, path, node, mesh)
+                if problem:
+                    out.append(problem.replace(f"mesh {mesh.name!r}",
+                                               f"mesh {obj.data.name!r}"))
+    finally:
+        eval_obj.to_mesh_clear()
     return out
 
 
