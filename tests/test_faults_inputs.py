@@ -215,3 +215,80 @@ def test_an_input_that_would_bake_magenta_or_flat_is_refused(tmp_path, fault, wo
     assert "Traceback" not in err
     assert _listing(out) == []
     assert _sha(blend) == before
+
+
+# 3. a zero scale axis; 4. reversed tiles, threads 0, the far-from-origin distance ------------
+
+def _good_blend(tmp_path, location=(0, 0, 0), scale=(1, 1, 1)):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    tex = tmp_path / "tex.png"
+    _write_png(tex)
+    obj = _plane()
+    obj.location, obj.scale = location, scale
+    _material(obj, bpy.data.images.load(str(tex)))
+    return _save(tmp_path / "scene.blend")
+
+
+def test_a_zero_scale_axis_is_refused_by_the_bake_and_compare(tmp_path, capsys):
+    blend = _good_blend(tmp_path, scale=(1, 1, 0))
+    before = _sha(blend)
+    out = tmp_path / "maps"
+    out.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out / "n.png"), "--resolution", "32"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err[-2000:]
+    assert "object 'Plane': its scale has a zero axis (scale (1.0, 1.0, 0.0)" in err
+    assert "apply a non-zero scale" in err
+    from surfgrad_addon.harness import compare
+    with pytest.raises(compare.CompareError, match="its scale has a zero axis") as exc:
+        compare.run(blend, "Plane", "normal-map", 32, out / "c.json")
+    assert "Singular" not in str(exc.value)
+    assert _listing(out) == [] and _sha(blend) == before
+
+
+@pytest.mark.parametrize("tiles,words", [
+    ("1011-1002", "the range '1011-1002' runs backwards (no tiles); write it low to high, "
+                  "like 1002-1011"),
+    (",", "tiles ',': no tile given"),
+])
+def test_reversed_or_empty_tiles_are_refused(tmp_path, capsys, tiles, words):
+    blend = _good_blend(tmp_path)
+    before = _sha(blend)
+    out = tmp_path / "maps"
+    out.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out / "n.<UDIM>.png"), "--resolution", "32",
+                           "--tiles", tiles])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST and words in err, err[-2000:]
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(out / "{object}.png"),
+                           "--resolution", "32", "--workers", "0", "--tiles", tiles])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST and words in err, err[-2000:]
+    assert _listing(out) == [] and _sha(blend) == before
+
+
+@pytest.mark.parametrize("threads", ["0", "-3"])
+def test_threads_below_one_are_refused_up_front(tmp_path, capsys, threads):
+    blend = _good_blend(tmp_path)
+    before = _sha(blend)
+    out = tmp_path / "out"
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(out / "{object}.png"),
+                           "--resolution", "32", "--workers", "0", "--threads", threads])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err[-2000:]
+    assert f"threads {threads}: use a whole number from 1 to 1024" in err
+    assert not out.exists() and _sha(blend) == before
+
+
+def test_far_from_origin_warning_names_the_euclidean_distance(tmp_path):
+    from surfgrad_addon.addon import bake_request as BR
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj = _plane()
+    obj.location = (6000.0, 6000.0, 6000.0)       # the far corner (6001, 6001, 6000)
+    bpy.context.view_layer.update()
+    warnings = []
+    assert BR.mesh_problems(obj, "UVMap", warnings) == []
+    expected = np.linalg.norm([6001.0, 6001.0, 6000.0])          # 10393 m, not 6001
+    assert any(f"reaches {expected:.0f} m from the origin" in w for w in warnings), warnings

@@ -269,6 +269,9 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
         return [problem]
     if nt == 0:
         return [f"{what} has no faces to bake; add geometry"]
+    problem = zero_scale_problem(obj, matrix)
+    if problem:
+        return [problem]
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     if IC.zero_area_mask(world, tris).all():
         out.append(f"every face of {what} has zero area (collapsed to a point or a line, or "
@@ -283,7 +286,7 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
             out.append(f"UV map {uv_map!r} of object {obj.name!r} has no area (every face "
                        f"collapsed to a point or a line in UV space), so the bake would "
                        f"cover no texel: unwrap it (UV > Unwrap)")
-    far = float(np.max(np.abs(world))) if len(world) else 0.0
+    far = float(np.max(np.linalg.norm(world, axis=1))) if len(world) else 0.0  # Euclidean
     if far > FAR_FROM_ORIGIN_M:
         warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: the bake "
                         f"keeps its mesh in object space for precision (addon/precise_bake.py), "
@@ -293,6 +296,19 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
         warnings += overlap_warnings(uv, tiles, resolution, f"UV map {uv_map!r} of object "
                                                             f"{obj.name!r}")
     return out
+
+
+def zero_scale_problem(obj, matrix):
+    """An object whose world matrix squashes an axis to nothing (a zero scale axis): its
+    normals cannot be transformed (a singular matrix), the map would be garbage."""
+    m = np.asarray(matrix, dtype=np.float64)[:3, :3]
+    lengths = np.linalg.norm(m, axis=0)
+    sv = np.linalg.svd(m, compute_uv=False)
+    if lengths.min() > 0 and sv.min() > 1e-12 * max(sv.max(), 1e-300):
+        return None
+    return (f"object {obj.name!r}: its scale has a zero axis (scale "
+            f"{tuple(round(float(v), 6) for v in obj.scale)}, its world matrix is singular), "
+            f"so its normals cannot be baked: apply a non-zero scale on every axis")
 
 
 def overlap_warnings(uv, tiles, resolution, what):

@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import reference as R
 from ..addon import groups as G
+from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.normal_bake import resolution_problem
 from ..addon.precise_bake import precise_far
@@ -111,7 +112,8 @@ def _load_image(path):
 
 def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
     import bpy
-    problem = bake_target_problem(obj, bpy.context.view_layer)
+    problem = bake_target_problem(obj, bpy.context.view_layer) or \
+        zero_scale_problem(obj, obj.matrix_world)      # the same words as the bake's check
     if problem:
         raise CompareError(problem)
     names = [uv.name for uv in obj.data.uv_layers]
