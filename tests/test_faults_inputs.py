@@ -292,3 +292,56 @@ def test_far_from_origin_warning_names_the_euclidean_distance(tmp_path):
     assert BR.mesh_problems(obj, "UVMap", warnings) == []
     expected = np.linalg.norm([6001.0, 6001.0, 6000.0])          # 10393 m, not 6001
     assert any(f"reaches {expected:.0f} m from the origin" in w for w in warnings), warnings
+
+
+# 5. messages that name what is wrong ----------------------------------------------------------
+
+def test_a_file_that_is_not_a_blend_is_named_once(tmp_path, capsys):
+    bad = tmp_path / "notes.txt"
+    bad.write_text("not a blend")
+    before = _sha(bad)
+    out = tmp_path / "maps"
+    out.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(bad), "--object", "Plane",
+                           "--output", str(out / "n.png"), "--resolution", "32"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err[-2000:]
+    assert f".blend file {str(bad)!r} could not be opened (File format is not supported" in err
+    assert "Error: Error" not in err and "error: Error" not in err
+    assert _listing(out) == [] and _sha(bad) == before
+
+
+def test_folder_where_a_file_belongs_and_a_curve_object_are_named(tmp_path, capsys):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    folder_image = tmp_path / "tex.png"
+    _write_png(folder_image)
+    obj = _plane()
+    _material(obj, bpy.data.images.load(str(folder_image)))
+    curve = bpy.data.objects.new("Path", bpy.data.curves.new("Path", "CURVE"))
+    bpy.context.scene.collection.objects.link(curve)
+    blend = _save(tmp_path / "scene.blend")
+    folder_image.unlink()
+    folder_image.mkdir()                         # the image's path is now a folder
+    before = _sha(blend)
+    out = tmp_path / "maps"
+    out.mkdir()
+
+    def bake(obj_name, output):
+        rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", obj_name,
+                               "--output", str(output), "--resolution", "32"])
+        return rc, capsys.readouterr().err
+
+    rc, err = bake("Plane", out / "n.png")
+    assert rc == exit_codes.BAD_REQUEST
+    assert f"reads {str(folder_image)!r}, which is a folder, not an image file" in err, err
+    (out / "afile").write_text("x")
+    rc, err = bake("Plane", out / "afile" / "n.png")
+    assert rc == exit_codes.BAD_REQUEST
+    assert f"output folder {str(out / 'afile')!r} is a file, not a folder" in err, err
+    rc, err = bake("Path", out / "n.png")
+    assert rc == exit_codes.BAD_REQUEST
+    assert "object 'Path' is a curve, not a mesh: pick a mesh object" in err, err
+    assert _listing(out) == ["afile"] and _sha(blend) == before
+    from surfgrad_addon.harness import compare
+    with pytest.raises(compare.CompareError, match="is a folder, not an image file"):
+        compare._load_image(folder_image)

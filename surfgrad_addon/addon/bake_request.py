@@ -447,6 +447,11 @@ def one_image_problem(image):
     if not packed:
         if not image.filepath:
             return f"{what} has no file path and is not packed: pick its file, or pack it"
+        folders = [str(p) for p in _image_files(image) if p.is_dir()]
+        if folders:
+            return (f"{what} reads {folders[0]!r}, which is a folder, not an image file: "
+                    f"Cycles would bake its magenta 'missing' colour; point the image at its "
+                    f"file (File > External Data > Find Missing Files), or pack it")
         missing = [str(p) for p in _image_files(image) if not p.is_file()]
         if missing:
             return (f"{what} reads {missing[0]!r}, which does not exist: Cycles would bake "

@@ -87,6 +87,9 @@ def _load_image(path):
     """An image file as Cycles will read it (Non-Color), and its pixels for the reference."""
     import bpy
     path = Path(path)
+    if path.is_dir():
+        raise CompareError(f"image {str(path)!r} is a folder, not an image file; give an "
+                           f"image file to --image")
     if not path.is_file():
         raise CompareError(f"image {str(path)!r} does not exist; give an existing file to "
                            f"--image")
