@@ -345,3 +345,29 @@ def test_folder_where_a_file_belongs_and_a_curve_object_are_named(tmp_path, caps
     from surfgrad_addon.harness import compare
     with pytest.raises(compare.CompareError, match="is a folder, not an image file"):
         compare._load_image(folder_image)
+
+
+def test_a_sequence_whose_current_frame_exists_is_not_refused(tmp_path):
+    """The check follows the frame the bake reads: the path's own frame (001) missing does not
+    matter when the scene's frame (3, offset 0) reads seq_003.png, which exists."""
+    from surfgrad_addon.addon import bake_request as BR
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    _write_png(tmp_path / "seq_003.png")
+    _write_png(tmp_path / "seq_001.png")
+    obj = _plane()
+    image = bpy.data.images.load(str(tmp_path / "seq_001.png"))
+    image.source = "SEQUENCE"
+    tree = _material(obj, image)
+    user = tree.nodes["Bumps"].image_user
+    user.frame_start, user.frame_duration, user.frame_offset = 1, 10, 0
+    (tmp_path / "seq_001.png").unlink()
+    bpy.context.scene.frame_current = 3
+    assert BR.image_problems(obj) == []
+    bpy.context.scene.frame_current = 2                 # seq_002.png: missing
+    problems = BR.image_problems(obj)
+    assert len(problems) == 1 and "reads frame 2 at scene frame 2" in problems[0], problems
+    user.frame_offset = 1                               # frame 2 + 1 = seq_003.png
+    assert BR.image_problems(obj) == []
+    user.use_cyclic, user.frame_duration, user.frame_offset = True, 2, 1
+    bpy.context.scene.frame_current = 4                 # (4 % 2 -> 2) + 1 = 3
+    assert BR.image_problems(obj) == []

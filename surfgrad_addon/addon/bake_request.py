@@ -393,14 +393,16 @@ def image_problems(obj, covered=()):
         if image.name in checked:
             continue
         checked.add(image.name)
-        problem = one_image_problem(image)
-        if not problem and image.packed_file is None and image.filepath:
-            if image.source == "SEQUENCE" and hasattr(node, "image_user"):
-                problem = MI.sequence_problem(
-                    image, node, bpy.path.abspath(image.filepath, library=image.library),
-                    bpy.context.scene)
-            elif image.source == "TILED" and covered:
-                problem = MI.missing_tiles_problem(image, covered)
+        on_disk = image.packed_file is None and image.filepath
+        if on_disk and image.source == "SEQUENCE" and hasattr(node, "image_user"):
+            # the frame the bake reads now, not the file the path names
+            problem = MI.sequence_problem(
+                image, node, bpy.path.abspath(image.filepath, library=image.library),
+                bpy.context.scene)
+        else:
+            problem = one_image_problem(image)
+        if not problem and on_disk and image.source == "TILED" and covered:
+            problem = MI.missing_tiles_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
     return out

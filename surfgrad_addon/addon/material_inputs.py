@@ -7,6 +7,8 @@ import re
 from pathlib import Path
 
 MAGENTA = "Cycles would bake its magenta 'missing' colour"
+# Geometry attributes Cycles provides without a mesh layer of that name.
+BUILT_IN = {"position", "normal", "generated", "orco", "tangent", "uv"}
 
 
 def cycles_output(tree):
@@ -93,7 +95,7 @@ def uv_name_problem(mat, path, node, mesh):
         name, what = node.uv_map, "UV map"
     elif kind == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
         name, what = node.attribute_name, "attribute"
-        if not name or name in maps or name in mesh.attributes or \
+        if not name or name in maps or name in mesh.attributes or name in BUILT_IN or \
                 name in {a.name for a in getattr(mesh, "color_attributes", ())}:
             return None
     else:
