@@ -371,3 +371,15 @@ def test_a_sequence_whose_current_frame_exists_is_not_refused(tmp_path):
     user.use_cyclic, user.frame_duration, user.frame_offset = True, 2, 1
     bpy.context.scene.frame_current = 4                 # (4 % 2 -> 2) + 1 = 3
     assert BR.image_problems(obj) == []
+
+
+def test_a_tiled_image_is_checked_for_the_tiles_the_bake_writes(tmp_path, capsys):
+    """--tiles 1001 of a layout in 1001 and 1002: the image's missing 1002 is not read by this
+    bake (a farm task per tile), so it is not refused; the whole layout is."""
+    from surfgrad_addon.addon import bake_request as BR
+    blend = _fault_blend(tmp_path, "udim")
+    bpy.ops.wm.open_mainfile(filepath=str(blend), use_scripts=False)
+    obj = bpy.data.objects["Plane"]
+    assert BR.image_problems(obj, [1001]) == []
+    problems = BR.image_problems(obj, [1001, 1002])
+    assert len(problems) == 1 and "has no tile 1002" in problems[0], problems

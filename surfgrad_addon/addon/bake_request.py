@@ -200,7 +200,7 @@ def check(request, obj=None, warn=warn_stderr):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
-    problems += image_problems(obj, with_uvs)
+    problems += image_problems(obj, tiles)          # the tiles this bake writes
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)
@@ -374,7 +374,7 @@ def _reached(tree, starts, memo):
 
 def image_problems(obj, covered=()):
     """Every image the object's materials read: set, present, loadable, finite pixels; the
-    frame file a sequence reads now, the tiles (`covered`, the UDIM tiles the UVs cover) of a
+    frame file a sequence reads now, the tiles (`covered`, the UDIM tiles the bake writes) of a
     tiled image; linked materials whose library is missing; UV map names nodes refer to."""
     import bpy
     out, checked = [], set()
