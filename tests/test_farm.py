@@ -184,6 +184,7 @@ def test_flamenco_job_type_compiles_to_one_blender_task_per_object_and_tile(farm
         assert p["exe"] == "{blender}" and p["exeArgs"] == "{blenderArgs}"
         # An uncaught Python error must fail the task: the exit code flag comes first.
         assert p["blendfile"] == str(farm)
+        assert p["argsBefore"] == ["--disable-autoexec"]     # the file's scripts stay off
         assert p["args"][:3] == ["--python-exit-code", "1", "--python-expr"]
         args = p["args"][p["args"].index("--") + 1:]
         assert args[:3] == ["bake-batch", "--open-file", f"--objects={task['name'].split()[1]}"]

@@ -30,6 +30,7 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
+from . import material_inputs as MI
 from . import normal_bake as NB
 from .exit_codes import BakeFailed
 
@@ -199,7 +200,7 @@ def check(request, obj=None, warn=warn_stderr):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
-    problems += image_problems(obj)
+    problems += image_problems(obj, tiles)          # the tiles this bake writes
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)
@@ -268,6 +269,9 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
         return [problem]
     if nt == 0:
         return [f"{what} has no faces to bake; add geometry"]
+    problem = zero_scale_problem(obj, matrix)
+    if problem:
+        return [problem]
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     if IC.zero_area_mask(world, tris).all():
         out.append(f"every face of {what} has zero area (collapsed to a point or a line, or "
@@ -282,7 +286,7 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
             out.append(f"UV map {uv_map!r} of object {obj.name!r} has no area (every face "
                        f"collapsed to a point or a line in UV space), so the bake would "
                        f"cover no texel: unwrap it (UV > Unwrap)")
-    far = float(np.max(np.abs(world))) if len(world) else 0.0
+    far = float(np.max(np.linalg.norm(world, axis=1))) if len(world) else 0.0  # Euclidean
     if far > FAR_FROM_ORIGIN_M:
         warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: the bake "
                         f"keeps its mesh in object space for precision (addon/precise_bake.py), "
@@ -292,6 +296,19 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
         warnings += overlap_warnings(uv, tiles, resolution, f"UV map {uv_map!r} of object "
                                                             f"{obj.name!r}")
     return out
+
+
+def zero_scale_problem(obj, matrix):
+    """An object whose world matrix squashes an axis to nothing (a zero scale axis): its
+    normals cannot be transformed (a singular matrix), the map would be garbage."""
+    m = np.asarray(matrix, dtype=np.float64)[:3, :3]
+    lengths = np.linalg.norm(m, axis=0)
+    sv = np.linalg.svd(m, compute_uv=False)
+    if lengths.min() > 0 and sv.min() > 1e-12 * max(sv.max(), 1e-300):
+        return None
+    return (f"object {obj.name!r}: its scale has a zero axis (scale "
+            f"{tuple(round(float(v), 6) for v in obj.scale)}, its world matrix is singular), "
+            f"so its normals cannot be baked: apply a non-zero scale on every axis")
 
 
 def overlap_warnings(uv, tiles, resolution, what):
@@ -311,19 +328,23 @@ def overlap_warnings(uv, tiles, resolution, what):
 
 def material_images(obj):
     """[(material, node path, node, image or None)] for every image node the object's
-    materials read: reached from the active Material Output through links, into node groups."""
+    materials read: reached from the Material Output Cycles uses (material_inputs.py) through
+    links, into node groups."""
     found, memo = [], {}
     for slot in obj.material_slots:
         mat = slot.material
         if mat is None or mat.node_tree is None:      # (a tree without use_nodes: checked too)
             continue
-        tree = mat.node_tree
-        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
-        active = [n for n in outputs if n.is_active_output] or outputs
-        for node, path in _reached(tree, active, memo):
+        for node, path in material_nodes(mat, memo):
             if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
                 found.append((mat, path, node, node.image))
     return found
+
+
+def material_nodes(mat, memo):
+    """(node, path) of every node `mat` reads through the output Cycles renders."""
+    output = MI.cycles_output(mat.node_tree)
+    return _reached(mat.node_tree, [output] if output else [], memo)
 
 
 def _reached(tree, starts, memo):
@@ -351,9 +372,18 @@ def _reached(tree, starts, memo):
     return out
 
 
-def image_problems(obj):
-    """Every image the object's materials read: set, present, loadable, finite pixels."""
+def image_problems(obj, covered=()):
+    """Every image the object's materials read: set, present, loadable, finite pixels; the
+    frame file a sequence reads now, the tiles (`covered`, the UDIM tiles the bake writes) of a
+    tiled image; linked materials whose library is missing; UV map names nodes refer to."""
+    import bpy
     out, checked = [], set()
+    for slot in obj.material_slots:
+        if slot.material is not None:
+            problem = MI.library_problem(slot.material)
+            if problem and problem not in out:
+                out.append(problem)
+    out += uv_reference_problems(obj)
     for mat, path, node, image in material_images(obj):
         if image is None:
             out.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
@@ -363,9 +393,39 @@ def image_problems(obj):
         if image.name in checked:
             continue
         checked.add(image.name)
-        problem = one_image_problem(image)
+        on_disk = image.packed_file is None and image.filepath
+        if on_disk and image.source == "SEQUENCE" and hasattr(node, "image_user"):
+            # the frame the bake reads now, not the file the path names
+            problem = MI.sequence_problem(
+                image, node, bpy.path.abspath(image.filepath, library=image.library),
+                bpy.context.scene)
+        else:
+            problem = one_image_problem(image)
+        if not problem and on_disk and image.source == "TILED" and covered:
+            problem = MI.missing_tiles_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
+    return out
+
+
+def uv_reference_problems(obj):
+    """Nodes naming a UV map (or attribute) the evaluated mesh does not have."""
+    import bpy
+    eval_obj = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = eval_obj.to_mesh()
+    out, memo = [], {}
+    try:
+        for slot in obj.material_slots:
+            mat = slot.material
+            if mat is None or mat.node_tree is None:
+                continue
+            for node, path in material_nodes(mat, memo):
+                problem = MI.uv_name_problem(mat, path, node, mesh)
+                if problem:
+                    out.append(problem.replace(f"mesh {mesh.name!r}",
+                                               f"mesh {obj.data.name!r}"))
+    finally:
+        eval_obj.to_mesh_clear()
     return out
 
 
@@ -389,6 +449,11 @@ def one_image_problem(image):
     if not packed:
         if not image.filepath:
             return f"{what} has no file path and is not packed: pick its file, or pack it"
+        folders = [str(p) for p in _image_files(image) if p.is_dir()]
+        if folders:
+            return (f"{what} reads {folders[0]!r}, which is a folder, not an image file: "
+                    f"Cycles would bake its magenta 'missing' colour; point the image at its "
+                    f"file (File > External Data > Find Missing Files), or pack it")
         missing = [str(p) for p in _image_files(image) if not p.is_file()]
         if missing:
             return (f"{what} reads {missing[0]!r}, which does not exist: Cycles would bake "

@@ -280,7 +280,8 @@ def open_blend(path):
             str(Path(bpy.data.filepath).resolve()) == path:
         return 0.0
     t0 = time.perf_counter()
-    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
+    from .open_blend import open_mainfile
+    open_mainfile(path)                  # scripts off, whatever the Preferences say
     _OPENED[0] = path
     return time.perf_counter() - t0
 
@@ -772,6 +773,8 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                                        not isinstance(worker_timeout, (int, float)) or
                                        not worker_timeout > 0):
         raise BatchError(f"worker timeout {worker_timeout!r}: give seconds, more than 0")
+    if threads is not None and BR._whole("threads", threads, 1, 1024):
+        raise BatchError(BR._whole("threads", threads, 1, 1024))   # before any file opens
     if empty_tiles not in ("error", "skip"):
         raise BatchError("empty tiles: use 'error' or 'skip'")
     tiles = _tile_list(tiles)

@@ -168,7 +168,8 @@ def _bake_normal_map(args):
     if args.blend:
         if not Path(args.blend).is_file():
             raise ValueError(f".blend file {args.blend!r} does not exist")
-        bpy.ops.wm.open_mainfile(filepath=args.blend)
+        from .open_blend import open_mainfile
+        open_mainfile(args.blend)          # scripts off, whatever the Preferences say
     request = BakeRequest(args.object, args.output, args.space, args.resolution, args.uv_map,
                           args.margin, args.samples, args.depth, args.tiles,
                           overwrite=args.overwrite, allow_partial=args.allow_partial)

@@ -83,6 +83,9 @@ def check_output(output, overwrite_check=True):
         raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     if output.suffix.lower() not in FORMATS:
         raise NormalBakeError(f"output {str(output)!r}: use a .png or .exr file name")
+    if output.parent.exists() and not output.parent.is_dir():
+        raise NormalBakeError(f"output folder {str(output.parent)!r} is a file, not a folder: "
+                              f"give an output in a folder")
     if not output.parent.is_dir():
         raise NormalBakeError(f"output folder {str(output.parent)!r} does not exist: create it "
                               f"first")
@@ -105,8 +108,11 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     NormalBakeError naming what is wrong. empty_tiles='skip' drops asked-for tiles that hold
     no UVs (a farm's asset x tile task) instead of refusing them."""
     import bpy
-    if obj is None or obj.type != "MESH":
+    if obj is None:
         raise NormalBakeError("pick a mesh object to bake (--object NAME)")
+    if obj.type != "MESH":
+        raise NormalBakeError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh: pick "
+                              f"a mesh object to bake (--object NAME)")
     problem = bake_target_problem(obj, bpy.context.view_layer)
     if problem:
         raise NormalBakeError(problem)

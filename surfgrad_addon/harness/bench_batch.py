@@ -124,7 +124,8 @@ def run(out="out/bench_batch", assets=50, resolution=512, workers=(1, 2), overwr
     task["overhead_s"] = task["median_wall_s"] - task["median_bake_s"]
 
     log("[4/4] bake time against size (one asset, 2 tiles)")
-    bpy.ops.wm.open_mainfile(filepath=str(blends[0]), load_ui=False)
+    from ..addon.open_blend import open_mainfile
+    open_mainfile(blends[0])
     obj = bpy.data.objects["Asset000"]
     sizes = {}
     for size, samples in ((512, 1), (1024, 1), (2048, 1), (1024, 4)):

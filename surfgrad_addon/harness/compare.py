@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference as R
+from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.normal_bake import resolution_problem
 from ..addon.precise_bake import precise_far
@@ -91,6 +92,9 @@ def _load_image(path):
     """An image file as Cycles will read it (Non-Color), and its pixels for the reference."""
     import bpy
     path = Path(path)
+    if path.is_dir():
+        raise CompareError(f"image {str(path)!r} is a folder, not an image file; give an "
+                           f"image file to --image")
     if not path.is_file():
         raise CompareError(f"image {str(path)!r} does not exist; give an existing file to "
                            f"--image")
@@ -116,7 +120,8 @@ def _load_image(path):
 
 def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
     import bpy
-    problem = bake_target_problem(obj, bpy.context.view_layer)
+    problem = bake_target_problem(obj, bpy.context.view_layer) or \
+        zero_scale_problem(obj, obj.matrix_world)      # the same words as the bake's check
     if problem:
         raise CompareError(problem)
     names = [uv.name for uv in obj.data.uv_layers]
@@ -580,7 +585,8 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     if blend:
         if not Path(blend).is_file():
             raise CompareError(f".blend file {blend!r} does not exist")
-        bpy.ops.wm.open_mainfile(filepath=str(blend))
+        from ..addon.open_blend import open_mainfile
+        open_mainfile(blend)               # scripts off, whatever the Preferences say
     elif not from_open_file:
         from . import scenes
         scenes.new_scene()

@@ -85,13 +85,19 @@ def parse_tiles(value):
             continue
         try:
             if "-" in part:
-                a, b = part.split("-", 1)
-                tiles.update(range(int(a), int(b) + 1))
+                a, b = (int(x) for x in part.split("-", 1))
             else:
-                tiles.add(int(part))
+                a = b = int(part)
         except ValueError:
             raise ValueError(f"tiles {value!r}: give UDIM numbers like 1001,1002 or "
                              f"1001-1010") from None
+        if b < a:
+            raise ValueError(f"tiles {value!r}: the range {part!r} runs backwards (no "
+                             f"tiles); write it low to high, like {b}-{a}")
+        tiles.update(range(a, b + 1))
+    if not tiles:                     # ',' alone: no tile at all, not "every tile"
+        raise ValueError(f"tiles {value!r}: no tile given; give UDIM numbers like 1001,1002 "
+                         f"or 1001-1010")
     return sorted(tiles)
 
 

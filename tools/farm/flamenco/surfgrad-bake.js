@@ -115,7 +115,9 @@ function compileJob(job) {
       task.addCommand(author.Command("blender-render", {
         exe: "{blender}",
         exeArgs: "{blenderArgs}",
-        argsBefore: [],
+        // Before the file: Blender opens it with its scripts off, whatever the farm
+        // worker's Preferences say (a .blend's drivers and text blocks never run).
+        argsBefore: ["--disable-autoexec"],
         blendfile: blendfile,
         args: [
           // --python-exit-code 1 before --python-expr: a Python error exits 1, not 0 (failed).

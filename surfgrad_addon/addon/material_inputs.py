@@ -1,0 +1,107 @@
+"""What a Cycles bake reads from an object's materials, beyond "the image file exists": the
+Material Output Cycles uses, the frame file of an image sequence, the tiles of a tiled image,
+linked materials whose library is missing, and UV map names nodes refer to. Each problem is a
+sentence naming the thing and the fix (bake_request.py gathers them before anything bakes)."""
+
+import re
+from pathlib import Path
+
+MAGENTA = "Cycles would bake its magenta 'missing' colour"
+# Geometry attributes Cycles provides without a mesh layer of that name.
+BUILT_IN = {"position", "normal", "generated", "orco", "tangent", "uv"}
+
+
+def cycles_output(tree):
+    """The Material Output node Cycles renders through: of the outputs targeted at All or
+    Cycles, the active one, else the first (Blender's ntreeShaderOutputNode rule)."""
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
+               and getattr(n, "target", "ALL") in ("ALL", "CYCLES")]
+    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+def sequence_frame(image_user, scene_frame):
+    """The frame number an Image Sequence's image user reads at `scene_frame` (Blender's
+    BKE_image_user_frame_get: start, duration, cyclic, then the offset)."""
+    n = image_user.frame_duration
+    if n == 0:
+        return 0
+    f = scene_frame - image_user.frame_start + 1
+    if image_user.use_cyclic:
+        f %= n
+        if f == 0:
+            f = n
+    return max(0, min(f, n)) + image_user.frame_offset
+
+
+def sequence_frame_path(path, frame):
+    """`path` with its file name's last run of digits (or of '#') replaced by `frame`,
+    padded to the same width, as Blender names a sequence's frame file."""
+    p = Path(path)
+    m = None
+    for m in re.finditer(r"\d+|#+", p.name):
+        pass
+    if m is None:
+        return p
+    digits = m.group(0)
+    return p.with_name(p.name[:m.start()] + str(frame).zfill(len(digits)) + p.name[m.end():])
+
+
+def sequence_problem(image, node, path, scene):
+    """The frame file the bake reads at the scene's current frame, when it is missing."""
+    frame = sequence_frame(node.image_user, scene.frame_current)
+    wanted = sequence_frame_path(path, frame)
+    if wanted.is_file():
+        return None
+    return (f"image sequence {image.name!r} reads frame {frame} at scene frame "
+            f"{scene.frame_current}, file {str(wanted)!r}, which does not exist: {MAGENTA}; "
+            f"add that frame's file, or set the Image Texture node's Start Frame / Offset (or "
+            f"the scene's current frame) to a frame that exists")
+
+
+def missing_tiles_problem(image, covered):
+    """A tiled image lacking a tile the bake's UVs cover (Cycles bakes magenta there)."""
+    have = {t.number for t in image.tiles}
+    lacking = [t for t in covered if t not in have]
+    if not lacking:
+        return None
+    return (f"tiled image {image.name!r} has no tile {lacking[0]} (tiles: {sorted(have)}), but "
+            f"the UVs cover it: {MAGENTA} there; add the tile with its file (Image > Add Tile), "
+            f"or move those UVs into tiles the image has")
+
+
+def library_problem(mat):
+    """A material linked from a library file that is missing (Blender keeps an empty
+    placeholder, which bakes a flat map)."""
+    import bpy
+    lib = mat.library
+    if lib is None:
+        return None
+    path = bpy.path.abspath(lib.filepath)
+    if getattr(mat, "is_missing", False) or not Path(path).is_file():
+        return (f"material {mat.name!r} is linked from library {lib.filepath!r} ({path}), "
+                f"which is missing: the bake would use an empty placeholder; put the library "
+                f"file there or relink it (File > External Data > Find Missing Files)")
+    return None
+
+
+def uv_name_problem(mat, path, node, mesh):
+    """A Normal Map (tangent space), UV Map or Attribute (Geometry) node naming a UV map or
+    attribute the (evaluated) mesh does not have."""
+    maps = [uv.name for uv in mesh.uv_layers]
+    kind = node.bl_idname
+    if kind == "ShaderNodeNormalMap" and node.space == "TANGENT":
+        name, what = node.uv_map, "UV map"
+    elif kind == "ShaderNodeUVMap":
+        name, what = node.uv_map, "UV map"
+    elif kind == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
+        name, what = node.attribute_name, "attribute"
+        if not name or name in maps or name in mesh.attributes or name in BUILT_IN or \
+                name in {a.name for a in getattr(mesh, "color_attributes", ())}:
+            return None
+    else:
+        return None
+    if not name or name in maps:
+        return None
+    return (f"node {path!r} (material {mat.name!r}) reads {what} {name!r}, which mesh "
+            f"{mesh.name!r} does not have (UV maps: {maps}): the bake would read nothing "
+            f"there; pick one of its UV maps in the node, or rename the UV map")
