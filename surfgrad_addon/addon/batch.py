@@ -691,7 +691,18 @@ def _read_manifest(path):
                          f"another --manifest path or remove that file") from None
 
 
+# One manifest write at a time. A stop (stop_batch) takes it for good before its own write:
+# the process then ends, and no write of the main thread is left half done (a temporary) or
+# lands after the stop's (a manifest without the interrupted assets).
+_WRITE_LOCK = threading.Lock()
+
+
 def write_json_atomic(path, data):
+    with _WRITE_LOCK:
+        _write_json(path, data)
+
+
+def _write_json(path, data):
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temp = path.with_name(f".{path.name}.part{os.getpid()}")
@@ -872,7 +883,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                 e.update(status="interrupted", error=f"stopped by {signal_name} before it "
                                                      f"was baked")
             report["interrupted"] = signal_name
-            write_json_atomic(manifest_path, _merged(previous, report, files))
+            # Kept: the process ends after this, and no other write may follow or overlap.
+            _WRITE_LOCK.acquire(timeout=5)
+            _write_json(manifest_path, _merged(previous, report, files))
             interrupts.say(f"[batch] {signal_name}: stopped {n} worker process(es); "
                            f"{len(left)} asset(s) not baked, recorded as interrupted in "
                            f"{manifest_path}")

@@ -21,7 +21,6 @@ faces outside counted.
 import json
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -339,9 +338,10 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     facts = B.running_line()
 
     def prepare():
-        """bpy-free work that needs no bake: runs beside it (Cycles releases the GIL).
-        Compiled kernels load once per process (like an import), reported apart from the
-        timing; each tile's rasterisation counts as reference time."""
+        """bpy-free work that needs no bake. Compiled kernels load once per process (like an
+        import), reported apart from the timing; each tile's rasterisation counts as
+        reference time. Not in a thread beside the bake: numba compiling its kernels (a cold
+        cache) while Cycles bakes crashed Blender 4.5 (segfault, 1 run in 4 or 5)."""
         load = R.raster.load_compiled()
         rasters = {}
         for number in tiles:
@@ -356,18 +356,15 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
         # Graphs return a surface gradient to resolve against the shading normal, or (post-
         # resolve) an already resolved normal.
         return out if out.name == "Normal" else resolve_sg(nodes, links, out)
-    with ThreadPoolExecutor(1) as pool:
-        prepared = pool.submit(prepare)
-        if tiles == [R.tiles.UDIM_FIRST]:
-            # RGBA as read back (no copy): the comparison reads channels 0-2.
-            pixels, covered, bake_seconds = B.bake_vector_in_pieces(
-                obj, build, resolution, resolution, uv_map=inp.uv_map, rgba=True)
-            baked_tiles = {tiles[0]: (pixels, covered)}
-        else:
-            baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution,
-                                                            resolution, tiles,
-                                                            uv_map=inp.uv_map)
-        load_seconds, rasters = prepared.result()
+    load_seconds, rasters = prepare()
+    if tiles == [R.tiles.UDIM_FIRST]:
+        # RGBA as read back (no copy): the comparison reads channels 0-2.
+        pixels, covered, bake_seconds = B.bake_vector_in_pieces(
+            obj, build, resolution, resolution, uv_map=inp.uv_map, rgba=True)
+        baked_tiles = {tiles[0]: (pixels, covered)}
+    else:
+        baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
+                                                        tiles, uv_map=inp.uv_map)
     reference_seconds = 0.0
     tile_reports, heats, tds = [], [], []
     for number in tiles:
