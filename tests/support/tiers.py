@@ -290,7 +290,7 @@ def pytest_sessionfinish(session, exitstatus):
             "markexpr": session.config.getoption("markexpr", "") or "",
             "args": [str(a) for a in session.config.args],
             "wall_seconds": round(time.perf_counter() - _START[0], 1),
-            "tiers": {t: {**v, "seconds": round(v["seconds"], 1)}
+            "tiers": {t: {**v, "seconds": round(v["seconds"], 3)}
                       for t in TIERS if (v := _TIMES.get(t))}}
     path = Path(folder) / f"durations-{line or 'no-bpy'}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
