@@ -14,6 +14,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
 
@@ -110,12 +111,7 @@ def _write_png(path, size=8):
 
 def _material(obj, image=None, name="Mat"):
     """Image Texture -> Normal Map -> Diffuse -> Material Output (returns the tree)."""
-    mat = new_material(name)
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
-    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    mat, tree, bsdf = diffuse_material(name)
     nm = tree.nodes.new("ShaderNodeNormalMap")
     tree.links.new(nm.outputs[0], bsdf.inputs["Normal"])
     tex = tree.nodes.new("ShaderNodeTexImage")

@@ -16,8 +16,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import exit_codes  # noqa: E402
-from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from support.child import run_python  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 
 pytestmark = pytest.mark.tier("child")
 
@@ -73,12 +73,7 @@ def _plane(verts=None, uvs=None, quads=1):
 def _material(obj, image=None, in_group=False, no_image=False):
     """Image Texture (UV) -> Normal Map -> Diffuse BSDF Normal; the texture inside a node
     group with in_group."""
-    mat = new_material("Mat")
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
-    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    mat, tree, bsdf = diffuse_material("Mat")
     nm = tree.nodes.new("ShaderNodeNormalMap")
     tree.links.new(nm.outputs[0], bsdf.inputs["Normal"])
     if image is not None or no_image:

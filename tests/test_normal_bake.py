@@ -15,6 +15,7 @@ from surfgrad_addon.addon import groups as G, normal_bake
 from surfgrad_addon.harness import compare, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.reference import images as T  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -23,12 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _sg_material(obj, image):
-    mat = new_material("SG")
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
-    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    mat, tree, bsdf = diffuse_material("SG")
     uv = tree.nodes.new("ShaderNodeUVMap")
     uv.uv_map = "UVMap"
     tex = tree.nodes.new("ShaderNodeTexImage")

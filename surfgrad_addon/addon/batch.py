@@ -86,6 +86,18 @@ def sha256_file(path, chunk=1 << 20):
     return h.hexdigest()
 
 
+def _read_text(path, what, fix):
+    """A UTF-8 text file's text, or a BatchError naming `what` it is and the fix."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        raise BatchError(f"{what} {path} is not UTF-8 text ({err.reason} at byte "
+                         f"{err.start}); {fix}") from None
+    except OSError as err:
+        raise BatchError(f"{what} {path} cannot be read ({err.strerror}); check its "
+                         f"permissions") from None
+
+
 def load_settings_file(path):
     """{"defaults": {...}, "assets": {PATTERN: {...}}}: PATTERN matches "file.blend:Object",
     "file.blend" or "Object" (shell wildcards); later matches override earlier ones."""
@@ -94,16 +106,11 @@ def load_settings_file(path):
     if Path(path).exists() and not Path(path).is_file():
         raise BatchError(f"settings file {path} is not a regular file; give the JSON settings "
                          f"file")
+    if not Path(path).exists():
+        raise BatchError(f"settings file {path}: no such file")
+    text = _read_text(path, "settings file", "save it as UTF-8 JSON")
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise BatchError(f"settings file {path}: no such file") from None
-    except UnicodeDecodeError as err:
-        raise BatchError(f"settings file {path} is not UTF-8 text ({err.reason} at byte "
-                         f"{err.start}); save it as UTF-8 JSON") from None
-    except OSError as err:
-        raise BatchError(f"settings file {path} cannot be read ({err.strerror}); check its "
-                         f"permissions") from None
+        data = json.loads(text)
     except json.JSONDecodeError as err:
         raise BatchError(f"settings file {path} is not valid JSON ({err})") from None
     if not isinstance(data, dict) or set(data) - {"defaults", "assets"}:
@@ -738,14 +745,7 @@ def read_asset_list(path):
     if not path.is_file():
         raise BatchError(f"asset list {path}: no such file")
     entries = []
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as err:
-        raise BatchError(f"asset list {path} is not UTF-8 text ({err.reason} at byte "
-                         f"{err.start}); save it as UTF-8, one .blend path a line") from None
-    except OSError as err:
-        raise BatchError(f"asset list {path} cannot be read ({err.strerror}); check its "
-                         f"permissions") from None
+    text = _read_text(path, "asset list", "save it as UTF-8, one .blend path a line")
     for raw in text.splitlines():
         line = raw.strip()
         if not line or line.startswith("#"):
