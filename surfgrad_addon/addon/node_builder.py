@@ -17,6 +17,8 @@ from contextlib import contextmanager
 
 import bpy
 
+from .node_vocabulary import VALUE_OPS, Math, VMath
+
 VERSION_KEY = "surfgrad_version"
 # The Blender line a group was built for: a few interiors differ by line (the interface never
 # does), so a file saved on one line gets its groups rebuilt when used on another.
@@ -144,10 +146,13 @@ class NodeOps:
 
     # Vector Math (outputs[0] is the vector, outputs[1] the value).
     def vmath(self, op, *inputs):
-        return self._op("ShaderNodeVectorMath", op, inputs, 1 if op in ("DOT_PRODUCT", "LENGTH", "DISTANCE") else 0)
+        """Vector Math `op` (a VMath) on sockets or constants."""
+        op = VMath(op)
+        return self._op("ShaderNodeVectorMath", op.value, inputs, 1 if op in VALUE_OPS else 0)
 
     def math(self, op, *inputs):
-        return self._op("ShaderNodeMath", op, inputs)
+        """Math `op` (a Math) on sockets or constants."""
+        return self._op("ShaderNodeMath", Math(op).value, inputs)
 
     def add(self, a, b):
         return self.vmath("ADD", a, b)
