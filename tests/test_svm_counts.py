@@ -3,10 +3,12 @@ constant folding, read from its compilation summary in a child, on every line th
 
 The graphs are built here (build_materials runs in the child): a 60-node Vector Math chain on
 the position (the branch), put behind a Mix whose factor is a constant 0 or 1, a per-sample
-value, a Boolean or Float group input left at a constant, or a Math COMPARE of constants; and
-chains of Math and Vector Math nodes whose inputs are all constants. Each count is checked
-against the same graph without the branch (or with the constant typed in), so the facts hold
-in whatever unit the line counts in (int4 records up to 5.1, 32-bit words from 5.2).
+value, a Boolean or Float group input left at a constant, or a Math COMPARE of constants;
+chains of Math and Vector Math nodes whose inputs are all constants; products by 1 and by -1.
+Each count is checked against the same graph without the branch (or with the constant typed
+in), so the facts hold in whatever unit the line counts in (int4 records up to 5.1, 32-bit
+words from 5.2). Every line (4.2, 4.5, 5.0, 5.2) reports counts; a line that could not would
+fail here with svm_counts' SvmCountError saying why, never skip.
 """
 
 import pytest
@@ -96,6 +98,11 @@ MATERIALS = {
     "math_typed": lambda g, p: g.scale(p, 2.5),
     "vmath_chain": _vmath_chain,
     "vmath_typed": lambda g, p: g.add(p, (0.7, 0.8, 0.9)),
+    "scale_x": lambda g, p: g.scale(p, g.separate(p)[0]),
+    "scale_x_times_1": lambda g, p: g.scale(p, g.math(Math.MULTIPLY, g.separate(p)[0], 1.0)),
+    "scale_x_times_-1": lambda g, p: g.scale(p, g.math(Math.MULTIPLY, g.separate(p)[0], -1.0)),
+    "times_111": lambda g, p: g.vmath(VMath.MULTIPLY, p, (1.0, 1.0, 1.0)),
+    "times_1-11": lambda g, p: g.vmath(VMath.MULTIPLY, p, (1.0, -1.0, 1.0)),
 }
 
 
@@ -163,6 +170,14 @@ def test_compare_of_constants_folds(counts):
 def test_math_and_vector_math_of_constants_fold(counts):
     assert counts["math_chain"].nodes == counts["math_typed"].nodes
     assert counts["vmath_chain"].nodes == counts["vmath_typed"].nodes
+
+
+def test_a_product_by_one_folds_and_by_minus_one_does_not(counts):
+    """A Strength of exactly 1 costs nothing; a sign flip (DirectX's green) is a node."""
+    assert counts["scale_x_times_1"].nodes == counts["scale_x"].nodes
+    assert counts["scale_x_times_-1"].nodes > counts["scale_x"].nodes
+    assert counts["times_111"].nodes == counts["plain"].nodes
+    assert counts["times_1-11"].nodes > counts["plain"].nodes
 
 
 def test_a_saved_file_counts_the_same(counts, tmp_path):

@@ -70,7 +70,7 @@ def svm_counts(materials, blend=None, build=None, paths=(), python=None, timeout
         raise ValueError("give exactly one of blend= and build=")
     if not materials or len(set(materials)) != len(materials):
         raise ValueError(f"give distinct material names, not {materials!r}")
-    request = {"materials": materials, "blend": str(blend) if blend else None,
+    request = {"materials": materials, "blend": str(Path(blend).resolve()) if blend else None,
                "build": build, "paths": [str(p) for p in paths]}
     inherited = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
     # GLOG_*: 4.x's glog reads them at start-up (5.x ignores them; see the module doc).
@@ -97,12 +97,12 @@ def parse(output, materials, returncode=0):
     result = json.loads(results[-1])
     if result.get("error"):
         raise SvmCountError(result["error"])
-    found = {}
+    found, names = {}, {TOKEN.format(i): name for i, name in enumerate(materials)}
     for token, nodes, stack in _SUMMARY.findall(output):
         summary = (int(nodes), int(stack))
         if found.setdefault(token, summary) != summary:
-            raise SvmCountError(f"Cycles compiled {token} twice with different counts: "
-                                f"{found[token]} and {summary}")
+            raise SvmCountError(f"Cycles compiled {names.get(token, token)!r} twice with "
+                                f"different counts: {found[token]} and {summary}")
     unit = unit_for(result["version"])
     counts = {}
     for i, name in enumerate(materials):
@@ -118,7 +118,8 @@ def parse(output, materials, returncode=0):
 # The child ---------------------------------------------------------------------------------
 
 def _elf_symbol(path, name):
-    """(st_value, st_size) of the data symbol `name` in the ELF64 file `path`'s .symtab."""
+    """(offset from the load address, size) of the data symbol `name` in the ELF64 shared
+    library `path`'s .symtab (local symbols included: the ones a module does not export)."""
     import mmap
 
     import numpy as np
