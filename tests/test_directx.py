@@ -39,18 +39,19 @@ def _switched(nodes, links, sg, directx):
     return C.resolve_sg(nodes, links, sg)
 
 
-def _image_graph(graph):
-    """(inp, image, directx) -> a builder of `graph` (a harness method graph) on `image`."""
-    def make(inp, image, directx):
-        def build(nodes, links):
-            return _switched(nodes, links, graph(inp, nodes, links, image=image), directx)
-        return build
-    make.__name__ = graph.__name__      # the test prints it
-    return make
+def _image_graph(graph, inp, image, directx):
+    """A builder of `graph` (a harness method's graph) on `image`, DirectX set."""
+    def build(nodes, links):
+        return _switched(nodes, links, graph(inp, nodes, links, image=image), directx)
+    return build
 
 
-_normal_map = _image_graph(methods.normal_map_graph)
-_triplanar = _image_graph(methods.triplanar_graph)
+def _normal_map(inp, image, directx):
+    return _image_graph(methods.normal_map_graph, inp, image, directx)
+
+
+def _triplanar(inp, image, directx):
+    return _image_graph(methods.triplanar_graph, inp, image, directx)
 
 
 def _tangent_normal(inp, image, directx):
