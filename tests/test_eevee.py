@@ -51,14 +51,12 @@ BPY_OK = "SG_EEVEE_BPY_OK"
 TIMEOUT = 600
 TRIPLANAR_SCALE = 0.5         # the triplanar images repeat every 2 units (sphere radius 1)
 
-# Exhibits: (name, compare.METHODS key or a special, height-map variant, tolerance family).
-
-
 def _named_after(family, *methods):
     """Exhibits named after their method, with no variant."""
     return [(method, method, None, family) for method in methods]
 
 
+# Exhibits: (name, compare.METHODS key or a special, height-map variant, tolerance family).
 EXHIBITS = [
     *_named_after("exact", "base", "uv-gradients"),
     *_named_after("image", "normal-map", "procedural-basis", "object-normal"),

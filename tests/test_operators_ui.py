@@ -339,7 +339,8 @@ def session(work):
             for n in tree.nodes:
                 n.select = n.name == name
             tree.nodes.active = tree.nodes[name]
-            return _undoable(bpy, "surfgrad.convert_node", _shader_editor(bpy, tree)[0])()
+            override = _shader_editor(bpy, tree)[0]
+            return _call(bpy, "surfgrad.convert_node", override, 'EXEC_DEFAULT', True)
         return call
 
     n_done = len(results["surfgrad.convert_node"])
