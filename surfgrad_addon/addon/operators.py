@@ -10,6 +10,7 @@ import textwrap
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
+from ..reference.decals import DECAL_SHAPES
 from . import groups as G
 from .all_or_nothing import all_or_nothing
 
@@ -180,7 +181,6 @@ def _move_input(tree, old, new):
             pass
 
 
-DECAL_SHAPES = ("box", "sphere", "cylinder", "cone")     # SG Decal's Shape input: 0 .. 3
 # The projector's own display, and outline empties parented to it where Blender has no such
 # display: its empties draw a circle in their XZ plane and a cone along +Y (apex at y = 2), so
 # rotated +90 degrees about X they outline the cylinder's ends and the cone (apex at z = +1,

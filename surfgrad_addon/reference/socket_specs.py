@@ -8,7 +8,7 @@ Bump Scale -> bump_scale). A group that needs its own tooltip for a kind derives
 `spec.but(tooltip=...)` (dataclasses.replace): the kind itself is declared here only.
 
 type is the interface socket kind: VECTOR, FLOAT, COLOR, BOOLEAN, INT, GEOMETRY or CLOSURE
-(addon/node_builder.SOCKET_TYPES turns it into a Blender socket type). None for default, min,
+(SOCKET_TYPES names its Blender socket type). None for default, min,
 max or subtype leaves Blender's own (the fill-ins are in group_interfaces.BLENDER_UNSET).
 """
 
@@ -18,6 +18,10 @@ from typing import Any, Optional
 VECTOR, FLOAT, COLOR, BOOLEAN, INT = "VECTOR", "FLOAT", "COLOR", "BOOLEAN", "INT"
 GEOMETRY, CLOSURE = "GEOMETRY", "CLOSURE"     # Closure: Blender 5.0 and later
 TYPES = (VECTOR, FLOAT, COLOR, BOOLEAN, INT, GEOMETRY, CLOSURE)
+# The Blender interface socket type of each (addon/node_builder creates them).
+SOCKET_TYPES = {VECTOR: "NodeSocketVector", FLOAT: "NodeSocketFloat", COLOR: "NodeSocketColor",
+                BOOLEAN: "NodeSocketBool", INT: "NodeSocketInt",
+                GEOMETRY: "NodeSocketGeometry", CLOSURE: "NodeSocketClosure"}
 
 
 @dataclass(frozen=True)
