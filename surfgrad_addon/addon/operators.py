@@ -12,6 +12,7 @@ from bpy.props import EnumProperty, StringProperty
 
 from ..reference.decals import DECAL_SHAPES
 from . import groups as G
+from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 
 NORMAL_SOCKET = "Normal"
@@ -142,7 +143,7 @@ def convert_node(tree, node):
         distance = node.inputs["Distance"]
         if distance.is_linked and node.invert:
             flip = tree.nodes.new("ShaderNodeMath")
-            flip.operation = "MULTIPLY"
+            flip.operation = Math.MULTIPLY.value
             flip.location = (x - 180, y - 200)
             tree.links.new(distance.links[0].from_socket, flip.inputs[0])
             flip.inputs[1].default_value = -1.0

@@ -185,13 +185,19 @@ def listing2_z(b, mx, my, mz):
                                                b.math(Math.ABSOLUTE, my))))
 
 
+def unpack_normal(b, color):
+    """m = 2 c - 1: a tangent-space normal from its colour."""
+    return b.vmath(VMath.SUBTRACT, b.vmath(VMath.MULTIPLY, color, (2.0, 2.0, 2.0)),
+                   (1.0, 1.0, 1.0))
+
+
 def decode_tangent_normal(b, color, directx=None):
     """m = 2 c - 1 (m.y negated for a DirectX map) and Listing 2's derivative (abs z, 1/128
     clamp), as two float sockets."""
-    m = b.vmath(VMath.SUBTRACT, b.vmath(VMath.MULTIPLY, color, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
-    mx, my, mz = b.separate(m)
+    mx, my, mz = b.separate(unpack_normal(b, color))
     if directx is not None:
-        my = b.math(Math.MULTIPLY, my, b.math(Math.SUBTRACT, 1.0, b.math(Math.MULTIPLY, directx, 2.0)))
+        my = b.math(Math.MULTIPLY, my,
+                    b.math(Math.SUBTRACT, 1.0, b.math(Math.MULTIPLY, directx, 2.0)))
     inv = b.math(Math.DIVIDE, -1.0, b.math(Math.MAXIMUM, listing2_z(b, mx, my, mz), DIVIDE_FLOOR))
     return b.math(Math.MULTIPLY, mx, inv), b.math(Math.MULTIPLY, my, inv)
 
@@ -288,7 +294,8 @@ def _fraction_of_product(b, t, s):
     s_lo = b.math(Math.SUBTRACT, s, s_hi)
     i = b.vmath(VMath.FLOOR, t)
     f = b.sub(t, i)
-    i_hi = b.vmath(VMath.MULTIPLY, b.vmath(VMath.FLOOR, b.vmath(VMath.MULTIPLY, i, (1 / 4096,) * 3)),
+    i_hi = b.vmath(VMath.MULTIPLY,
+                   b.vmath(VMath.FLOOR, b.vmath(VMath.MULTIPLY, i, (1 / 4096,) * 3)),
                    (4096.0,) * 3)
     i_lo = b.sub(i, i_hi)
     total = b.vmath(VMath.FRACTION, b.scale(f, s))

@@ -47,10 +47,10 @@ def _height_derivatives(b, taps, uv, w, h, variant):
         bx, by = b.math(Math.SUBTRACT, 1.0, ty), ty
 
         def weights(p, q):
-            smooth = [b.math(Math.MULTIPLY, p, 0.25),
-                      b.math(Math.MULTIPLY, b.math(Math.ADD, b.math(Math.MULTIPLY, p, 2.0), q), 0.25),
-                      b.math(Math.MULTIPLY, b.math(Math.ADD, p, b.math(Math.MULTIPLY, q, 2.0)), 0.25),
-                      b.math(Math.MULTIPLY, q, 0.25)]
+            def quarter(x):
+                return b.math(Math.MULTIPLY, x, 0.25)
+            smooth = [quarter(p), quarter(b.math(Math.ADD, b.math(Math.MULTIPLY, p, 2.0), q)),
+                      quarter(b.math(Math.ADD, p, b.math(Math.MULTIPLY, q, 2.0))), quarter(q)]
             diff = [b.math(Math.MULTIPLY, p, -0.5), b.math(Math.MULTIPLY, q, -0.5),
                     b.math(Math.MULTIPLY, p, 0.5), b.math(Math.MULTIPLY, q, 0.5)]
             return smooth, diff
@@ -62,7 +62,8 @@ def _height_derivatives(b, taps, uv, w, h, variant):
             for j in range(4):      # columns (u)
                 # Texel centres: Closest taps of a per-image group; a sampler's Linear
                 # interpolation returns the texel's own value there.
-                centre = b.vmath(VMath.MULTIPLY, b.vmath(VMath.ADD, fl, (j - 0.5, i - 0.5, 0.0)), inv)
+                centre = b.vmath(VMath.MULTIPLY, b.vmath(VMath.ADD, fl, (j - 0.5, i - 0.5, 0.0)),
+                                 inv)
                 q = taps.height(centre, "Closest")
                 du = b.math(Math.ADD, du, b.math(Math.MULTIPLY, b.math(
                     Math.MULTIPLY, smooth_v[i], diff_u[j]), q))

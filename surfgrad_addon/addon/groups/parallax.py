@@ -43,8 +43,9 @@ def _parallax_body(b, taps_for):
     with b.frame("Listing 11: dir to texture space"):
         dir_tex = b.combine(b.dot(gs, view), b.dot(gt, view), 0.0)
         limited_v = b.scale(dir_tex, scale)
-        proj = b.math(Math.DIVIDE, scale, b.math(Math.MAXIMUM, b.math(Math.ABSOLUTE, b.dot(n, view)),
-                                              FLT_EPSILON))
+        proj = b.math(Math.DIVIDE, scale, b.math(Math.MAXIMUM,
+                                                 b.math(Math.ABSOLUTE, b.dot(n, view)),
+                                                 FLT_EPSILON))
         v = b.scale(dir_tex, proj)
     with b.frame("Welsh: offset limiting, H(st) v"):
         h0 = taps.height(uv, "Linear")

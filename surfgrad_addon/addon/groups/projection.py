@@ -141,8 +141,8 @@ def decal_weight(b, q, shape, falloff):
     depth = _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(Math.ABSOLUTE, qz)), falloff)
     rho = b.length(b.combine(qx, qy))
     with b.frame("Box: inside |x|, |y| <= 1, faded along depth"):
-        inside = b.math(Math.MULTIPLY, b.math(Math.LESS_THAN, b.math(Math.ABSOLUTE, qx), 1.000001),
-                        b.math(Math.LESS_THAN, b.math(Math.ABSOLUTE, qy), 1.000001))
+        inside = b.math(Math.MULTIPLY, *(b.math(Math.LESS_THAN, b.math(Math.ABSOLUTE, c), 1.000001)
+                                         for c in (qx, qy)))
         box = b.math(Math.MULTIPLY, inside, depth)
     with b.frame("Sphere: faded toward |q| = 1"):
         sphere = _ramp(b, b.math(Math.SUBTRACT, 1.0, b.length(q)), falloff)

@@ -6,7 +6,8 @@ from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from ...reference.vecmath import DIVIDE_FLOOR
 from .common import (directx_input, ensure, listing2_z, normal_input, sign_nonneg, sub_group,
-                     surfgrad_reaching, tangent_normal_to_surfgrad, uv_gradients_group, uv_input)
+                     surfgrad_reaching, tangent_normal_to_surfgrad, unpack_normal,
+                     uv_gradients_group, uv_input)
 
 
 def procedural_basis_group():
@@ -111,14 +112,13 @@ def blend_normals_group():
         # DirectX maps blend into the DirectX map of the blend (set DirectX downstream).
         ca, cb, method = b.input("Color A"), b.input("Color B"), b.input("Method")
         with b.frame("Decode: m = 2 c - 1"):
-            a = b.vmath(VMath.SUBTRACT, b.vmath(VMath.MULTIPLY, ca, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
-            bb = b.vmath(VMath.SUBTRACT, b.vmath(VMath.MULTIPLY, cb, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
+            a, bb = unpack_normal(b, ca), unpack_normal(b, cb)
             ax, ay, az = b.separate(a)
             bx, by, bz = b.separate(bb)
         with b.frame("PD: a.xy b.z + b.xy a.z, a.z b.z"):
-            pd = b.combine(b.math(Math.ADD, b.math(Math.MULTIPLY, ax, bz), b.math(Math.MULTIPLY, bx, az)),
-                           b.math(Math.ADD, b.math(Math.MULTIPLY, ay, bz), b.math(Math.MULTIPLY, by, az)),
-                           b.math(Math.MULTIPLY, az, bz))
+            def cross_term(p, q):          # p b.z + q a.z
+                return b.math(Math.ADD, b.math(Math.MULTIPLY, p, bz), b.math(Math.MULTIPLY, q, az))
+            pd = b.combine(cross_term(ax, bx), cross_term(ay, by), b.math(Math.MULTIPLY, az, bz))
         with b.frame("Whiteout: a.xy + b.xy, a.z b.z"):
             sx, sy = b.math(Math.ADD, ax, bx), b.math(Math.ADD, ay, by)
             wo = b.combine(sx, sy, b.math(Math.MULTIPLY, az, bz))
