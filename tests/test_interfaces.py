@@ -82,3 +82,18 @@ def test_interfaces_are_the_same_on_every_line():
     # Every socket has a tooltip, and the menu groups are all there.
     assert all(s["description"] for sig in got.values() for s in sig["sockets"])
     assert {name for name, _ in G.MENU_GROUPS if G.unavailable_reason(name) is None} <= set(got)
+
+
+@pytest.mark.tier("numpy")
+def test_every_keyword_is_a_parameter_of_the_reference():
+    """A spec's keyword names a parameter the reference takes, so a registry can pass one value
+    to the socket and to the reference."""
+    import inspect
+    from surfgrad_addon.reference import methods, noise
+    params = {p for module in (methods, noise) for _, fn in inspect.getmembers(module,
+                                                                               inspect.isfunction)
+              for p in inspect.signature(fn).parameters}
+    specs = {s for iface in GI.INTERFACES.values() for s in (*iface.inputs, *iface.outputs)}
+    keywords = {s.keyword for s in specs if s.keyword}
+    assert {"strength", "bump_scale", "k", "directx", "amount"} <= keywords
+    assert keywords <= params, keywords - params

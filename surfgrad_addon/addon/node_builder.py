@@ -21,6 +21,7 @@ from contextlib import contextmanager
 
 import bpy
 
+from ..reference.group_interfaces import plain_value
 from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
 from .node_vocabulary import VALUE_OPS, Math, VMath
 
@@ -442,12 +443,6 @@ def interface_signature(tree):
     across Blender lines: per socket its name, direction, type, subtype, default, range,
     tooltip and whether its value is hidden (5.1 and later report a subtyped vector as e.g.
     NodeSocketVectorDirection in bl_socket_idname; socket_type stays the base type)."""
-    def plain(value):
-        if hasattr(value, "__len__") and not isinstance(value, str):
-            return [round(float(x), 6) for x in value]
-        if isinstance(value, float):
-            return round(value, 6)
-        return value
     out = []
     for it in tree.interface.items_tree:
         if it.item_type != "SOCKET":
@@ -456,6 +451,6 @@ def interface_signature(tree):
                "description": it.description, "hide_value": it.hide_value}
         for key in ("subtype", "default_value", "min_value", "max_value"):
             if hasattr(it, key):
-                row[key] = plain(getattr(it, key))
+                row[key] = plain_value(getattr(it, key))
         out.append(row)
     return {"description": tree.description, "sockets": out}

@@ -243,15 +243,15 @@ class _GroupMenu:
         space = context.space_data
         return space is not None and getattr(space, "tree_type", None) == cls.editor_tree
 
-    def draw_groups(self, names):
-        layout = self.layout
-        layout.operator_context = 'INVOKE_REGION_WIN'
-        for name in names:
-            props = layout.operator(SURFGRAD_OT_add_group.bl_idname, text=name,
-                                    translate=False, icon='NODETREE')
-            props.group = name
-            props.use_transform = True
-        return layout
+
+def _draw_groups(layout, names):
+    """An Add-menu entry per group name (the group placed under the mouse, as Add does)."""
+    layout.operator_context = 'INVOKE_REGION_WIN'
+    for name in names:
+        props = layout.operator(SURFGRAD_OT_add_group.bl_idname, text=name,
+                                translate=False, icon='NODETREE')
+        props.group = name
+        props.use_transform = True
 
 
 class NODE_MT_surfgrad_add(_GroupMenu, bpy.types.Menu):
@@ -260,7 +260,8 @@ class NODE_MT_surfgrad_add(_GroupMenu, bpy.types.Menu):
     editor_tree = 'ShaderNodeTree'
 
     def draw(self, _context):
-        layout = self.draw_groups(menu_group_names())
+        layout = self.layout
+        _draw_groups(layout, menu_group_names())
         layout.separator()
         for op in (operators.SURFGRAD_OT_add_layer_stack, operators.SURFGRAD_OT_convert_node,
                    operators.SURFGRAD_OT_add_decal_projector):
@@ -273,7 +274,7 @@ class NODE_MT_surfgrad_geometry_add(_GroupMenu, bpy.types.Menu):
     editor_tree = 'GeometryNodeTree'
 
     def draw(self, _context):
-        self.draw_groups([name for name, _ in groups.GEOMETRY_MENU_GROUPS])
+        _draw_groups(self.layout, [name for name, _ in groups.GEOMETRY_MENU_GROUPS])
 
 
 def draw_geometry_add_menu(self, context):

@@ -298,9 +298,9 @@ INTERFACES = {
 }
 
 
-def _plain(value):
-    """As node_builder.interface_signature rounds what Blender reports."""
-    if isinstance(value, (tuple, list)):
+def plain_value(value):
+    """A setting as plain data that compares equal across Blender lines (floats to 6 places)."""
+    if hasattr(value, "__len__") and not isinstance(value, str):      # Blender's arrays too
         return [round(float(x), 6) for x in value]
     if isinstance(value, float):
         return round(value, 6)
@@ -316,7 +316,7 @@ def signature_row(spec, in_out):
                       ("min_value", "min"), ("max_value", "max")):
         if attr in unset:
             value = getattr(spec, attr)
-            row[key] = _plain(unset[attr] if value is None else value)
+            row[key] = plain_value(unset[attr] if value is None else value)
     return row
 
 
