@@ -13,6 +13,8 @@ import pytest
 from surfgrad_addon.reference import group_interfaces as GI
 from surfgrad_addon.reference import socket_specs as S
 
+pytestmark = pytest.mark.tier("blender")      # the specs' own tests are numpy
+
 GOLDEN = Path(__file__).with_name("interfaces.json")
 
 
@@ -65,7 +67,6 @@ def _signatures(bpy, G, interface_signature):
             for tree in sorted(bpy.data.node_groups, key=lambda t: t.name)}
 
 
-@pytest.mark.tier("blender")
 def test_interfaces_are_the_same_on_every_line():
     bpy = pytest.importorskip("bpy")
     from conftest import write_report
