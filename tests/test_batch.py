@@ -12,6 +12,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import batch, normal_bake as NB  # noqa: E402
+from surfgrad_addon.addon.batch import session  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import run_python  # noqa: E402
 
@@ -220,7 +221,7 @@ def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
         assert np.abs(_pixels(p, 32) - _pixels(tmp_path / "w2" / p.name, 32)).max() < 1e-6
     assert len(two["process_start_s"]) == 2 and all(s > 0 for s in two["process_start_s"])
 
-    env = dict(os.environ, **{batch.FAULT_ENV: "die-once:Tree1"})
+    env = dict(os.environ, **{session.FAULT_ENV: "die-once:Tree1"})
     r = _run(three, tmp_path / "r1" / "{file}_{object}.<UDIM>.png",
              defaults={"resolution": 16}, workers=2, worker_env=env)
     tree1 = r["assets"][f"{three[1].resolve()}:Tree1"]
@@ -228,7 +229,7 @@ def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
     assert "worker process died (exit code 70)" in tree1["attempts"][0]["error"]
     assert r["counts"] == {"baked": 6, "skipped": 0, "failed": 0}
 
-    env = dict(os.environ, **{batch.FAULT_ENV: "die:Tree1"})
+    env = dict(os.environ, **{session.FAULT_ENV: "die:Tree1"})
     r = _run(three, tmp_path / "r2" / "{file}_{object}.<UDIM>.png",
              defaults={"resolution": 16}, workers=2, worker_env=env)
     tree1 = r["assets"][f"{three[1].resolve()}:Tree1"]

@@ -84,9 +84,9 @@ def test_a_blend_scripts_do_not_run_with_auto_run_on(tmp_path, auto_run_on):
     bpy.context.view_layer.update()                          # drivers would evaluate here
     assert not driver_mark.exists() and not text_mark.exists()
     assert bpy.app.driver_namespace.get("__import__") is None
-    from surfgrad_addon.addon import batch
-    batch._OPENED[0] = None
-    batch.open_blend(blend)
+    from surfgrad_addon.addon.batch import session
+    session._OPENED[0] = None
+    session.open_blend(blend)
     bpy.context.view_layer.update()
     assert not driver_mark.exists() and not text_mark.exists()
     from surfgrad_addon.harness import compare
