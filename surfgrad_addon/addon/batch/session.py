@@ -8,6 +8,7 @@ from pathlib import Path
 
 from .. import bake_request as BR
 from .. import interrupts
+from ..image_checks import image_problems
 from .. import normal_bake as NB
 
 FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT", "die-once:OBJECT", "hang:OBJECT"
@@ -66,7 +67,7 @@ def _input_problems(obj):
     so the planner refuses the asset before any bake."""
     if len(obj.data.polygons) == 0:
         return []                          # the bake's own check names it
-    return BR.mesh_problems(obj, None, []) + BR.image_problems(obj)
+    return BR.mesh_problems(obj, None, []) + image_problems(obj)
 
 
 def dependencies_of_open_file():
