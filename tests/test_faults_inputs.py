@@ -98,9 +98,9 @@ def test_a_blend_scripts_do_not_run_with_auto_run_on(tmp_path, auto_run_on):
     bpy.context.view_layer.update()                          # drivers would evaluate here
     assert not driver_mark.exists() and not text_mark.exists()
     assert bpy.app.driver_namespace.get("__import__") is None
-    from surfgrad_addon.addon import batch
-    batch._OPENED[0] = None
-    batch.open_blend(blend)
+    from surfgrad_addon.addon.batch import session
+    session._OPENED[0] = None
+    session.open_blend(blend)
     bpy.context.view_layer.update()
     assert not driver_mark.exists() and not text_mark.exists()
     from surfgrad_addon.harness import compare
@@ -340,7 +340,7 @@ def test_folder_where_a_file_belongs_and_a_curve_object_are_named(tmp_path, caps
 def test_a_sequence_whose_current_frame_exists_is_not_refused(tmp_path):
     """The check follows the frame the bake reads: the path's own frame (001) missing does not
     matter when the scene's frame (3, offset 0) reads seq_003.png, which exists."""
-    from surfgrad_addon.addon import bake_request as BR
+    from surfgrad_addon.addon.image_checks import image_problems
     bpy.ops.wm.read_factory_settings(use_empty=True)
     _write_png(tmp_path / "seq_003.png")
     _write_png(tmp_path / "seq_001.png")
@@ -352,24 +352,24 @@ def test_a_sequence_whose_current_frame_exists_is_not_refused(tmp_path):
     user.frame_start, user.frame_duration, user.frame_offset = 1, 10, 0
     (tmp_path / "seq_001.png").unlink()
     bpy.context.scene.frame_current = 3
-    assert BR.image_problems(obj) == []
+    assert image_problems(obj) == []
     bpy.context.scene.frame_current = 2                 # seq_002.png: missing
-    problems = BR.image_problems(obj)
+    problems = image_problems(obj)
     assert len(problems) == 1 and "reads frame 2 at scene frame 2" in problems[0], problems
     user.frame_offset = 1                               # frame 2 + 1 = seq_003.png
-    assert BR.image_problems(obj) == []
+    assert image_problems(obj) == []
     user.use_cyclic, user.frame_duration, user.frame_offset = True, 2, 1
     bpy.context.scene.frame_current = 4                 # (4 % 2 -> 2) + 1 = 3
-    assert BR.image_problems(obj) == []
+    assert image_problems(obj) == []
 
 
 def test_a_tiled_image_is_checked_for_the_tiles_the_bake_writes(tmp_path, capsys):
     """--tiles 1001 of a layout in 1001 and 1002: the image's missing 1002 is not read by this
     bake (a farm task per tile), so it is not refused; the whole layout is."""
-    from surfgrad_addon.addon import bake_request as BR
+    from surfgrad_addon.addon.image_checks import image_problems
     blend = _fault_blend(tmp_path, "udim")
     bpy.ops.wm.open_mainfile(filepath=str(blend), use_scripts=False)
     obj = bpy.data.objects["Plane"]
-    assert BR.image_problems(obj, [1001]) == []
-    problems = BR.image_problems(obj, [1001, 1002])
+    assert image_problems(obj, [1001]) == []
+    problems = image_problems(obj, [1001, 1002])
     assert len(problems) == 1 and "has no tile 1002" in problems[0], problems
