@@ -43,7 +43,7 @@ def _commands(out):
 
 def _reason_names():
     from .compare import CONTESTED, EXCLUSION_REASONS
-    names = {CONTESTED: "contested: overlapping UV islands (compared; in the table)"}
+    names = {CONTESTED: "contested: overlapping UV islands (error in the table)"}
     names.update({code: f"excluded: {name}" for code, (name, _) in EXCLUSION_REASONS.items()})
     return names
 

@@ -5,7 +5,7 @@ machine."""
 from html import escape
 from pathlib import Path
 
-from .inputs import json_provenance, load_json, need
+from .inputs import json_provenance, load_json, need, png_provenance
 from .sections import figure, link, missing, provenance_text, section
 
 
@@ -88,7 +88,6 @@ def cost_section(docs, page_dir, repo_root, command):
         parts.append(missing("The render-cost table (docs/render_cost.json)", command))
     chart = docs / "render_cost.png"
     if chart.is_file():
-        from .inputs import png_provenance
         parts.append(figure(chart, page_dir, "Render cost chart (committed): "
                             + provenance_text(*png_provenance(chart, repo_root))))
     for path in files:

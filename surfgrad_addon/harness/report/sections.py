@@ -10,7 +10,7 @@ from urllib.parse import quote
 
 from PIL import Image
 
-from .inputs import json_provenance, need, png_provenance
+from .inputs import need, png_provenance
 
 HEAT_DISPLAY = 192           # px: a heat map drawn at least this wide, whole pixels per texel
 
@@ -155,7 +155,8 @@ def heat_section(reports, bar, page_dir, heat, label_of, command):
                     'reference</span>')
     legend = (f'<div class="legend"><div class="scale">'
               f'{image(heat["legend"], page_dir, "the shared error scale")}'
-              f'{_ticks(bar, heat["position"])}</div>{"".join(swatches)}</div>')
+              f'{_ticks(bar, heat["position"])}</div>'
+              f'<div class="swatches">{"".join(swatches)}</div></div>')
     rows, objects, at = grid(reports, label_of)
     cells = ['<div></div>'] + [f'<div class="col-name">{escape(o)}</div>' for o in objects]
     for label in rows:
@@ -170,9 +171,10 @@ def heat_section(reports, bar, page_dir, heat, label_of, command):
             w, h = Image.open(path).size
             k = max(1, -(-HEAT_DISPLAY // max(w, h)))
             bad = "" if passes(r, bar) else ' class="fail"'
-            cells.append(f'<figure>{image(path, page_dir, f"{label} on {obj}", f" width={k * w} height={k * h}")}'
-                         f'<figcaption{bad}>max {_degrees(r["max_deg"])}&deg;, {k}x</figcaption>'
-                         f'</figure>')
+            picture = image(path, page_dir, f"{label} on {obj}",
+                            f" width={k * w} height={k * h}")
+            cells.append(f'<figure>{picture}<figcaption{bad}>max {_degrees(r["max_deg"])}'
+                         f'&deg; &middot; {k} px a texel</figcaption></figure>')
     body = (legend + f'<div class="heat" style="--cols:{len(objects)}">{"".join(cells)}</div>'
             + f'<p class="source">Decoded from compare-all\'s own heat maps (each on its own '
               f'scale) with each case\'s max error from compare.json.</p>')
@@ -229,9 +231,9 @@ def exhibits_section(folder, page_dir, repo_root, this_run, command):
         if folder is not None and Path(folder).is_dir() else []
     if not pictures:
         return section("exhibits", "Exhibits", what, missing("The exhibit pictures", command))
-    parts = [f'<p class="source">{"Rendered by this run" if this_run else "The last committed pictures"}'
-             f' ({link(folder, page_dir, str(Path(folder).name) + "/")}); to render them anew: '
-             f'<code>{escape(command)}</code></p>']
+    whose = "Rendered by this run" if this_run else "The last committed pictures"
+    parts = [f'<p class="source">{whose} ({link(folder, page_dir, Path(folder).name + "/")}); '
+             f'to render them anew: <code>{escape(command)}</code></p>']
     for p in pictures:
         date, machine = png_provenance(p, repo_root)
         crop = p.with_name(p.stem + "_crop.png")

@@ -39,8 +39,9 @@ td.none { color: var(--muted); }
 .figure img { max-width: 100%; height: auto; border: 1px solid var(--line); background: #fff; }
 .figure .caption { font-size: 13px; color: var(--muted); margin: 2px 0 14px; }
 .pair { display: grid; grid-template-columns: 1fr 1fr; gap: 16px; }
-.legend { display: flex; align-items: center; gap: 18px; flex-wrap: wrap; margin: 6px 0 12px; }
-.scale { position: relative; width: 520px; padding-bottom: 34px; }
+.legend { display: flex; align-items: flex-start; gap: 40px; margin: 10px 0 16px; }
+.scale { position: relative; width: 520px; margin-left: 28px; padding-bottom: 30px; }
+.swatches { display: grid; grid-template-columns: auto auto; gap: 3px 22px; font-size: 13px; }
 .scale img { display: block; width: 520px; height: 18px; border: 1px solid #999;
              image-rendering: pixelated; }
 .tick { position: absolute; top: 20px; font-size: 12px; transform: translateX(-50%);
