@@ -159,15 +159,22 @@ def test_sections_and_pass_marks_match_the_numbers(built):
     assert "render-cost table" in dom and "bash run.sh bench-render" in dom
 
 
-def test_screenshot_reads(built):
-    shot = built.tmp / "report_page.png"
-    run_chromium(built.tmp, "--window-size=1280,2400", f"--screenshot={shot}",
-                 built.page.as_uri())
+def screenshot(page, shot, tmp):
+    run_chromium(tmp, "--window-size=1280,2400", f"--screenshot={shot}", page.as_uri())
     img = np.asarray(Image.open(shot).convert("RGB")).astype(float)
     assert img.shape == (2400, 1280, 3)
     assert img.std() > 20                    # text, tables and heat maps, not a blank page
+
+
+def test_screenshot_reads(built):
+    """The page's top at 1280 x 2400. With SURFGRAD_WRITE_SCREENSHOT=1 also the main job's
+    real page (out/demo/index.html, after `bash run.sh main`) into docs/report_page.png: this
+    test's page has made-up failures and bench rows, no picture for the docs."""
+    screenshot(built.page, built.tmp / "report_page.png", built.tmp)
     if os.environ.get("SURFGRAD_WRITE_SCREENSHOT"):
-        shutil.copyfile(shot, ROOT / "docs" / "report_page.png")
+        real = ROOT / "out" / "demo" / "index.html"
+        assert real.is_file(), f"{real} is missing: run `bash run.sh main` first"
+        screenshot(real, ROOT / "docs" / "report_page.png", built.tmp)
 
 
 def _png(path, size, text=None):
@@ -217,12 +224,12 @@ def test_missing_inputs_show_their_command_and_bad_json_names_its_file(tmp_path)
 
     (repo / "docs" / "bench_broken.json").write_text('{"runs": ')
     with pytest.raises(ReportInputError, match=r"bench_broken\.json .* is not valid JSON"):
-        write_report_page(out, repo_root=repo, log=lambda *_: None)
+        write_report_page(out, repo_root=repo, overwrite=True, log=lambda *_: None)
     (repo / "docs" / "bench_broken.json").unlink()
     (out / "compare").mkdir()
     (out / "compare" / "compare.json").write_text(json.dumps([{"method": "normal-map"}]))
     with pytest.raises(ReportInputError, match=r"compare\.json has no 0/object"):
-        write_report_page(out, repo_root=repo, log=lambda *_: None)
+        write_report_page(out, repo_root=repo, overwrite=True, log=lambda *_: None)
 
 
 @pytest.mark.tier("blender")

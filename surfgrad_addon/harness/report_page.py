@@ -55,11 +55,12 @@ def _machine():
             f"{platform.python_version()}{blender}")
 
 
-def write_report_page(out_dir, repo_root=None, job_seconds=None, overwrite=True, log=print):
+def write_report_page(out_dir, repo_root=None, job_seconds=None, overwrite=False, log=print):
     """Write out_dir/index.html from what out_dir holds (compare/compare.json and its heat
     maps, bench/bench.json and its chart, pictures/ if this run rendered any) and the
-    committed figures under repo_root/docs; returns the page's path. job_seconds: the main
-    job's time, shown in the header when given."""
+    committed figures under repo_root/docs (default: this checkout's); returns the page's path.
+    job_seconds: the main job's time, shown in the header when given. Refuses to replace an
+    existing page unless overwrite."""
     from .far import BAR
     out = Path(out_dir)
     repo_root = Path(repo_root) if repo_root is not None else ROOT
@@ -95,20 +96,26 @@ def write_report_page(out_dir, repo_root=None, job_seconds=None, overwrite=True,
         cost,
     ]
     read = [p for p in (paths["compare_json"], paths["bench_json"]) if p.is_file()] + cost_files
-    page.write_text(_page(sections, read, out, job_seconds))
+    also = [out / n for n in ALSO if (out / n).exists()]
+    page.write_text(_page(sections, read, also, out, job_seconds))
     log(f"wrote {page}")
     return page
 
 
+# The run's other outputs, linked from the footer when they are there.
+ALSO = ("summary.md", "summary.json", "overview.png", "compare/compare.md", "bench/bench.md",
+        "demo.blend")
 NAV = (("proof", "Proof"), ("heat", "Heat maps"), ("speed", "Speed and accuracy"),
        ("exhibits", "Exhibits"), ("cost", "Render cost"))
 
 
-def _page(sections, read, out, job_seconds):
+def _page(sections, read, also, out, job_seconds):
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     took = f"; the main job took {job_seconds:.0f} s" if job_seconds is not None else ""
     nav = "".join(f'<a href="#{a}">{escape(t)}</a>' for a, t in NAV)
     files = ", ".join(link(p, out) for p in read) or "none"
+    others = ", ".join(link(p, out, p.relative_to(out).as_posix()) for p in also)
+    others = f"<br>Also written by this run: {others}." if others else ""
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -127,7 +134,7 @@ reference. Written {escape(now)} on {escape(_machine())}{escape(took)}.</p>
 <main>
 {"".join(sections)}
 </main>
-<footer>The JSON this page was built from: {files}.</footer>
+<footer>The JSON this page was built from: {files}.{others}</footer>
 </body>
 </html>
 """
