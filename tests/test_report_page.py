@@ -219,6 +219,12 @@ def test_missing_inputs_show_their_command_and_bad_json_names_its_file(tmp_path)
     assert "1.20x</td><td>&le; 1.10x missed" in text and "1.02x</td><td>&le; 1.05x met" in text
     dom, check = open_page(page, tmp_path)
     assert check["errors"] == [] and all(w > 0 for _, w in check["images"])
+    # The check sees a picture that does not load (so the passes above can fail).
+    page.write_text(text.replace("</main>", '<img src="gone.png" alt="gone"></main>'))
+    _, check = open_page(page, tmp_path)
+    assert ["gone.png", 0] in check["images"]
+    assert any(e.startswith("failed to load") and e.endswith("gone.png")
+               for e in check["errors"])
     with pytest.raises(FileExistsError, match="overwrite"):
         write_report_page(out, repo_root=repo, overwrite=False, log=lambda *_: None)
 
