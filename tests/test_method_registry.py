@@ -59,6 +59,17 @@ def test_every_parameter_names_a_keyword_and_a_socket_that_exist(method, paramet
         assert socket["min_value"] <= changed(parameter.default) <= socket["max_value"]
 
 
+@pytest.mark.parametrize("method,parameter", PARAMETERS,
+                         ids=[f"{m}-{p.name}" for m, p in PARAMETERS])
+def test_every_parameter_keyword_is_its_socket_specs(method, parameter):
+    """Where the groups' sockets are declared as data (reference/group_interfaces.py, issue 23
+    deliverable 1), each parameter's socket there carries the parameter's reference keyword."""
+    gi = pytest.importorskip("surfgrad_addon.reference.group_interfaces")
+    for group in parameter.groups:
+        specs = {s.name: s for s in gi.INTERFACES[group].inputs}
+        assert specs[parameter.socket].keyword == parameter.reference_keyword, (group, parameter)
+
+
 def test_unknown_parameters_are_refused_by_name():
     with pytest.raises(ValueError, match="method 'normal-map' has no parameter 'strenght'; "
                                          "its parameters: strength"):
