@@ -36,13 +36,26 @@ def inputs():
         bpy.data.images.remove(img)
 
 
-def _normal_map(inp, image, directx):
+def _switched(g, sg, directx):
+    """The group node of `sg` with its DirectX switch set, resolved."""
+    g.set(sg.node, DirectX=directx)
+    return g.resolve(sg)
+
+
+def _image_graph(graph, inp, image, directx):
+    """A builder of `graph` (a harness method graph) on `image`, DirectX set."""
     def build(nodes, links):
         g = Graph(nodes, links)
-        sg = normal_map_graph(inp, g, image=image)
-        g.set(sg.node, DirectX=directx)
-        return g.resolve(sg)
+        return _switched(g, graph(inp, g, image=image), directx)
     return build
+
+
+def _normal_map(inp, image, directx):
+    return _image_graph(normal_map_graph, inp, image, directx)
+
+
+def _triplanar(inp, image, directx):
+    return _image_graph(triplanar_graph, inp, image, directx)
 
 
 def _tangent_normal(inp, image, directx):
@@ -51,18 +64,8 @@ def _tangent_normal(inp, image, directx):
         uv = g.uv(inp.uv_map)
         basis = g.group(G.procedural_basis_group(), UV=uv)
         node = g.group(G.tangent_normal_group(), Color=g.image(inp.bpy_image(image), uv),
-                       Tangent=basis.outputs["Tangent"], Bitangent=basis.outputs["Bitangent"],
-                       DirectX=directx)
-        return g.resolve(surface_gradient(node))
-    return build
-
-
-def _triplanar(inp, image, directx):
-    def build(nodes, links):
-        g = Graph(nodes, links)
-        sg = triplanar_graph(inp, g, image=image)
-        g.set(sg.node, DirectX=directx)
-        return g.resolve(sg)
+                       Tangent=basis.outputs["Tangent"], Bitangent=basis.outputs["Bitangent"])
+        return _switched(g, surface_gradient(node), directx)
     return build
 
 
@@ -75,8 +78,7 @@ def _decal(inp, image, directx):
             sg = decal_graph(inp, g)
         finally:
             inp.images["normal"] = saved
-        g.set(sg.node, DirectX=directx)
-        return g.resolve(sg)
+        return _switched(g, sg, directx)
     return build
 
 

@@ -12,6 +12,7 @@ import pytest
 
 from surfgrad_addon.harness.methods import METHODS
 from surfgrad_addon.reference import method_registry as MR
+from surfgrad_addon.reference.group_interfaces import INTERFACES
 from surfgrad_addon.reference import methods as M
 
 pytestmark = pytest.mark.tier("numpy")
@@ -24,9 +25,6 @@ FX = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(FX)
 
 PARAMETERS = [(m.name, p) for m in METHODS.values() for p in m.parameters]
-# SG Height Map One-Texel is built from the same body as SG Height Map HQ but is not among
-# the menu's groups that tests/interfaces.json records; the Blender test below builds it.
-UNRECORDED_GROUPS = {"SG Height Map One-Texel"}
 
 
 def changed(value):
@@ -47,14 +45,11 @@ def test_the_registry_has_parameters_where_a_socket_feeds_the_reference():
                          ids=[f"{m}-{p.name}" for m, p in PARAMETERS])
 def test_every_parameter_names_a_keyword_and_a_socket_that_exist(method, parameter):
     assert MR.accepts(parameter.function, parameter.reference_keyword), parameter
-    recorded = [g for g in parameter.groups if g in GOLDEN]
-    assert recorded, parameter.groups
-    assert set(parameter.groups) - set(recorded) <= UNRECORDED_GROUPS
-    for group in recorded:
+    for group in parameter.groups:
         inputs = {s["name"]: s for s in GOLDEN[group]["sockets"] if s["in_out"] == "INPUT"}
         assert parameter.socket in inputs, (group, parameter.socket, sorted(inputs))
         socket = inputs[parameter.socket]
-        # The default fits the socket (a group node clamps to nothing, the range is the UI's).
+        # The default and the changed value the tests below use lie in the socket's range.
         assert socket["min_value"] <= parameter.default <= socket["max_value"], socket
         assert socket["min_value"] <= changed(parameter.default) <= socket["max_value"]
 
@@ -62,11 +57,10 @@ def test_every_parameter_names_a_keyword_and_a_socket_that_exist(method, paramet
 @pytest.mark.parametrize("method,parameter", PARAMETERS,
                          ids=[f"{m}-{p.name}" for m, p in PARAMETERS])
 def test_every_parameter_keyword_is_its_socket_specs(method, parameter):
-    """Where the groups' sockets are declared as data (reference/group_interfaces.py, issue 23
-    deliverable 1), each parameter's socket there carries the parameter's reference keyword."""
-    gi = pytest.importorskip("surfgrad_addon.reference.group_interfaces")
+    """The socket a parameter sets is declared (reference/group_interfaces.py) with the
+    parameter's reference keyword: a socket and its keyword are named once each."""
     for group in parameter.groups:
-        specs = {s.name: s for s in gi.INTERFACES[group].inputs}
+        specs = {s.name: s for s in INTERFACES[group].inputs}
         assert specs[parameter.socket].keyword == parameter.reference_keyword, (group, parameter)
 
 
@@ -121,10 +115,10 @@ def test_the_strength_keyword_is_the_reference_functions_own():
 
 
 @pytest.mark.tier("blender")
-def test_the_add_ons_constants_are_the_registrys():
+def test_the_parallax_groups_steps_are_the_registrys():
     pytest.importorskip("bpy")
     from surfgrad_addon.addon import groups as G
-    assert G.POM_STEPS == MR.POM_STEPS and G.REST_ATTRIBUTE == MR.REST_ATTRIBUTE
+    assert G.POM_STEPS == MR.POM_STEPS
 
 
 @pytest.mark.tier("blender")

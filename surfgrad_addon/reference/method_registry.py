@@ -20,6 +20,7 @@ import numpy as np
 from . import methods as M
 from .compositing import surfgrad_blend, surfgrad_blend_rnm
 from .decals import DECAL_SHAPES
+from .group_interfaces import REST_ATTRIBUTE
 from .image_sampling import sample_image
 from .listings import resolve_normal_from_surface_gradient, surfgrad_from_perturbed_normal
 from .vecmath import normalize
@@ -35,10 +36,9 @@ PARALLAX_SCALE = 0.15
 VIEW_TILT = (0.45, -0.3, 0.2)      # view = normalize(n + VIEW_TILT): oblique, front-facing
 BUMP_ON_TOP = (8.0, 0.02, 2)       # displace-bump: scale, amount, octaves of the finer bump
 BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
-# The add-on's own values, needed here without it (tests/test_method_registry.py holds them
-# equal): SG Parallax's march steps and the attribute SG Displace stores the rest position in.
+# SG Parallax's march steps (addon/groups/parallax.py's POM_STEPS, needed here without the
+# add-on; tests/test_method_registry.py holds them equal).
 POM_STEPS = 8
-REST_ATTRIBUTE = "sg_rest_position"
 
 
 @dataclass(frozen=True)
