@@ -215,23 +215,24 @@ def test_projector_coordinates_routes(objects):
     """SG Projector Coordinates: near the origin its linked Texture Coordinate passes through
     bit for bit; unlinked, the precise route gives the same coordinates (to 1e-5); 10 km out
     the precise route holds where the Texture Coordinate node is off by more than 1e-4."""
-    from surfgrad_addon.harness import methods
+    from surfgrad_addon.harness.graph import Graph
+    from surfgrad_addon.harness.method_graphs.projection import projector_coordinates
+    from surfgrad_addon.harness.method_scene import decal_projector
     obj = objects["Transformed"]
 
     def chain(proj, link_tc, only_tc=False):
         def build(nodes, links):
+            g = Graph(nodes, links)
             if only_tc:
-                tc = nodes.new("ShaderNodeTexCoord")
-                tc.object = proj
-                return tc.outputs["Object"]
-            q = methods.projector_coordinates(nodes, proj)
+                return g.node("ShaderNodeTexCoord", object=proj).outputs["Object"]
+            q = projector_coordinates(g, proj)
             if not link_tc:
                 links.remove(q.node.inputs["Decal Coordinates"].links[0])
             return q
         return build
     for distance in (0.0, FAR):
         with moved(obj, distance):
-            proj = methods.decal_projector(obj)
+            proj = decal_projector(obj)
             try:
                 m = np.linalg.inv(np.array(proj.matrix_world, dtype=np.float64))
                 linked, td, k = _bake(obj, chain(proj, True))

@@ -17,6 +17,7 @@ from ..addon.node_builder import running_line  # noqa: F401 (the line whose bake
 from ..addon.scene_state import SCENE_SETTINGS, restored
 from ..addon.bake_target import bake_target_problem, visible_for_bake
 from ..addon.exit_codes import BakeFailed
+from .graph import Graph
 
 
 def exact_cycles(scene):
@@ -263,19 +264,16 @@ def _bake_into(obj, build, image, uv_map, displacement, log):
         tree = material.node_tree
         nodes, links = tree.nodes, tree.links
         nodes.clear()
-        out = nodes.new("ShaderNodeOutputMaterial")
-        emit = nodes.new("ShaderNodeEmission")
-        emit.inputs["Strength"].default_value = 1.0
-        links.new(build(nodes, links), emit.inputs["Color"])
-        links.new(emit.outputs["Emission"], out.inputs["Surface"])
+        g = Graph(nodes, links)
+        # Cycles' true displacement: the vector from `displacement` moves the surface.
+        g.emission_material(build(nodes, links),
+                            displacement(nodes, links) if displacement is not None else None)
         if displacement is not None:
-            # Cycles' true displacement: the vector from `displacement` moves the surface.
-            links.new(displacement(nodes, links), out.inputs["Displacement"])
             if hasattr(material, "displacement_method"):
                 material.displacement_method = "DISPLACEMENT"
             else:                                           # before 4.x's move
                 material.cycles.displacement_method = "DISPLACEMENT"
-        target = nodes.new("ShaderNodeTexImage")
+        target = g.node("ShaderNodeTexImage")
         target.image = image
         nodes.active = target
         with restored(scene, SCENE_SETTINGS), _selection_kept(context), \
