@@ -27,16 +27,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import reference as R
-from ..reference import methods as M
-from ..reference.raster import BLOCK_TEXELS
+from ... import reference as R
+from ...reference import methods as M
+from ...reference.raster import BLOCK_TEXELS
 
 SIZES = (256, 512, 1024, 2048)
 METHOD_SIZES = (256, 1024, 2048, 4096)
 COMPARE_SIZES = (1024, 2048)
 MEMORY_SIZES = (1024, 2048, 4096)
 TEXEL_BYTES = 64            # position, normal, tangent + sign, UV in; the result out
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 # 1. Listings ------------------------------------------------------------------------------------
@@ -122,7 +122,7 @@ class ReferenceInputs:
     uv_map, detail_uv = "UVMap", "Detail"
 
     def __init__(self, variant="hq"):
-        from .methods import HEIGHT_IMAGE_SIZE, NORMAL_IMAGE_SIZE
+        from ..methods import HEIGHT_IMAGE_SIZE, NORMAL_IMAGE_SIZE
         r32 = lambda a: a.astype(np.float32).astype(np.float64)
         self.variant = variant
         self.images = {"normal": r32(R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)),
@@ -149,7 +149,7 @@ def test_sphere():
 def method_seconds(method, variant, size, mesh=None):
     """Wall seconds of rasterize + the method's reference + resolve, block by block, as
     compare does it; the seconds without the rasteriser; and the number of texels."""
-    from .methods import METHODS
+    from ..methods import METHODS
     mesh = mesh or test_sphere()
     inp = ReferenceInputs(variant)
     t0 = time.perf_counter()
@@ -240,7 +240,7 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
     out_path = Path(out_path)
     if out_path.exists() and not overwrite:
         raise FileExistsError(f"{out_path} exists; pass --overwrite to replace it")
-    from .methods import METHODS, cases
+    from ..methods import METHODS, cases
     rng = np.random.default_rng(0)
     bandwidth = copy_bandwidth()
     results = {"machine": {"python": platform.python_version(), "numpy": np.__version__,
