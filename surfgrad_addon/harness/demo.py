@@ -8,6 +8,8 @@ the Cycles renders of every exhibit for the README: demo_pictures.py).
 import math
 from pathlib import Path
 
+import numpy as np
+
 from . import demo_scene as S
 from ..reference import images as T
 from ..addon import compat
@@ -33,7 +35,6 @@ def _decal_shapes(x, hemi_small, detail):
     way on top (the projector's normal blended over), surface gradients below (add mode for box
     and sphere: the detail continues through the decal; overwrite for cylinder and cone: the
     decal replaces it)."""
-    import numpy as np
     from .bench import baseline_groups as BG
     from ..reference.decals import DECAL_SHAPES
     rows = (("usual", 2.3), ("surface gradient", 0.15))
