@@ -8,18 +8,14 @@ from .bake_request import BakeRequest
 FIELDS = {f.name: f for f in fields(BakeRequest)}
 
 
-def default(name):
-    """The request's default for field `name`."""
-    return FIELDS[name].default
-
-
 def option_name(name):
     return FIELDS[name].metadata.get("option") or "--" + name.replace("_", "-")
 
 
 def _help(f, text):
-    said = [f"default {f.default}"] if f.default not in (None, False, MISSING) and \
-        f"default {f.default}" not in text else []
+    """The help with the request's default (unless None or a flag's False) and range."""
+    shown = not any(f.default is v for v in (None, False, MISSING))
+    said = [f"default {f.default}"] if shown and f"default {f.default}" not in text else []
     if "range" in f.metadata:
         said.append("{} to {}".format(*f.metadata["range"]))
     return f"{text} ({'; '.join(said)})" if said else text

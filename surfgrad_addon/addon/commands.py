@@ -10,9 +10,9 @@ Blender's own `bpy.utils.register_cli_command` (4.2 and later).
 
 Bad input prints one line naming the thing and the fix and returns a non-zero exit code
 (addon/exit_codes.py: 2 refused before baking, 1 a bake or a batch asset failed), no
-traceback. The two subcommands (SHIPPED) are also `python -m surfgrad_addon`'s; their bake
-options come from the bake request's fields (bake_options.py). The proving harness's commands (compare, bench, demo) run from a checkout:
-`python -m surfgrad_addon ...`.
+traceback. The two subcommands (SHIPPED) are also `python -m surfgrad_addon`'s, where the
+proving harness's commands (compare, bench, demo) run from a checkout; their bake options come
+from the bake request's fields (bake_options.py).
 """
 
 import sys
