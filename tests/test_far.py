@@ -23,7 +23,7 @@ from support.child import run_python  # noqa: E402
 from surfgrad_addon import reference as R  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
-from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
+from surfgrad_addon.harness.bench.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")

@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import bake as B
-from . import compare as C
-from . import scenes
-from .graph import Graph
-from .methods import DECAL_FALLOFF, HEIGHT_BUMP_SCALE, NOISE_AMOUNT, NOISE_SCALE, METHODS
-from .methods import cases, decal_projector
+from .. import bake as B
+from .. import compare as C
+from .. import scenes
+from ..graph import Graph
+from ..methods import DECAL_FALLOFF, HEIGHT_BUMP_SCALE, NOISE_AMOUNT, NOISE_SCALE, METHODS
+from ..methods import cases, decal_projector
 
 DISTANCES = (0.0, 1000.0, 10000.0)
 DIRECTION = np.array([1.0, 0.6, 0.3]) / np.linalg.norm([1.0, 0.6, 0.3])   # off every axis
