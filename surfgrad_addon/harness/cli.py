@@ -70,18 +70,47 @@ def demo_arguments(p):
                    help="bake size of the bake-vs-reference stage")
     p.add_argument("--no-bake", action="store_true",
                    help="skip the Cycles bake stage (reference only)")
+    p.add_argument("--pictures", action="store_true",
+                   help="also render the exhibits (minutes; the page otherwise shows the "
+                        "committed ones in docs/exhibits)")
 
 
 def demo_run(args):
+    """The main job in stages, each announced with its number and time, ending with the
+    report page (out/demo/index.html) that shows what the run proved."""
+    import time
     from . import main_job
+    from .report_page import write_report_page
+    start = time.perf_counter()
+    stages = ["reference maps and summary"]
+    if not args.no_bake:
+        stages += ["bake every method and compare (compare-all)", "quick bench",
+                   "demo.blend"] + (["exhibit pictures"] if args.pictures else [])
+    stages.append("report page")
+    done = iter(range(1, len(stages) + 1))
+
+    def stage(name):
+        print(f"surfgrad: [{next(done)}/{len(stages)}] {name} "
+              f"({time.perf_counter() - start:.0f} s so far)", flush=True)
+
+    stage(stages[0])
     main_job.run(args.out, args.resolution, args.overwrite)
     if not args.no_bake:
         from . import compare_all, demo, demo_pictures
         from .bench import run as bench_run
+        stage(stages[1])
         compare_all.run_all(f"{args.out}/compare", args.compare_resolution, args.overwrite)
+        stage(stages[2])
         bench_run.run(f"{args.out}/bench", quick=True, overwrite=args.overwrite)
+        stage(stages[3])
         cams = demo.save_demo(f"{args.out}/demo.blend", overwrite=args.overwrite)
-        demo_pictures.render_pictures(cams, f"{args.out}/pictures")
+        if args.pictures:
+            stage(stages[4])
+            demo_pictures.render_pictures(cams, f"{args.out}/pictures")
+    stage(stages[-1])
+    page = write_report_page(args.out, job_seconds=time.perf_counter() - start,
+                             overwrite=args.overwrite)
+    print(f"surfgrad: done in {time.perf_counter() - start:.0f} s; open {page}", flush=True)
 
 
 # bench-reference ----------------------------------------------------------------------------

@@ -61,7 +61,7 @@ def write_report_page(out_dir, repo_root=None, job_seconds=None, overwrite=False
     committed figures under repo_root/docs (default: this checkout's); returns the page's path.
     job_seconds: the main job's time, shown in the header when given. Refuses to replace an
     existing page unless overwrite."""
-    from .far import BAR
+    from .bench.far import BAR
     out = Path(out_dir)
     repo_root = Path(repo_root) if repo_root is not None else ROOT
     page = out / PAGE

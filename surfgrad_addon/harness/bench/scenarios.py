@@ -9,6 +9,7 @@ A method's `build(g, ctx)` returns the socket of the final world-space normal; `
 """
 
 from ...addon import groups as G
+from ...addon.node_vocabulary import Math, VMath
 from ...reference import listings as L
 from ...reference import methods as M
 from ...reference import images as T
@@ -128,11 +129,11 @@ def _noise_methods(ctx):
             last = [None]
 
             def value_at(offset):
-                q = g.vmath("ADD", p, offset)
+                q = g.vmath(VMath.ADD, p, offset)
                 if last[0] is not None:
                     # Serialise the evaluations (q + (v - v) is exactly q) so Cycles' SVM
                     # compiler never holds two noise evaluations' temporaries at once.
-                    q = g.vmath("ADD", q, g.math("SUBTRACT", last[0], last[0]))
+                    q = g.vmath(VMath.ADD, q, g.math(Math.SUBTRACT, last[0], last[0]))
                 last[0] = _noise_value(g, q).outputs["Value"]
                 return last[0]
             comps = []
@@ -143,9 +144,9 @@ def _noise_methods(ctx):
                 plus = value_at(tuple(e))
                 if central:
                     minus = value_at(tuple(-x for x in e))
-                    comps.append(g.math("DIVIDE", g.math("SUBTRACT", plus, minus), 2 * FD_STEP))
+                    comps.append(g.math(Math.DIVIDE, g.math(Math.SUBTRACT, plus, minus), 2 * FD_STEP))
                 else:
-                    comps.append(g.math("DIVIDE", g.math("SUBTRACT", plus, centre), FD_STEP))
+                    comps.append(g.math(Math.DIVIDE, g.math(Math.SUBTRACT, plus, centre), FD_STEP))
             comb = g.node("ShaderNodeCombineXYZ")
             for slot, v in zip(comb.inputs, comps):
                 g.link(v, slot)
@@ -249,7 +250,7 @@ def _screen_methods(ctx):
     def lx(g, c):
         res = c.params["resolution"]
         uv = g.uv(c.uv_map)
-        taps = [g.first(g.image(c.img("height"), g.vmath("ADD", uv, off)))
+        taps = [g.first(g.image(c.img("height"), g.vmath(VMath.ADD, uv, off)))
                 for off in ((0.0, 0.0, 0.0), (1.0 / res, 0.0, 0.0), (0.0, 1.0 / res, 0.0))]
         node = g.group(BG.lxengine_group(), UV=uv, Height=taps[0], **{"Height +X": taps[1], "Height +Y": taps[2]},
                        Bump_Scale=HEIGHT_SCALE)

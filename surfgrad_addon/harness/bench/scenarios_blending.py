@@ -4,6 +4,7 @@ decal across two objects, detail on a second UV map, two tangent normals layered
 import numpy as np
 
 from ...addon import groups as G
+from ...addon.node_vocabulary import VMath
 from ...reference import listings as L
 from ...reference import methods as M
 from ...reference import images as T
@@ -142,8 +143,8 @@ def _layer_methods(ctx):
         sb = g.group(G.normal_map_group(c.uv_map), Color=g.image(c.img("b"), uv)).outputs[0]
         # Each SG Normal Map carries the (n - n_frame) correction; count it once.
         frame_n = g.group(G.mikktspace_frame_group(c.uv_map)).outputs[2]
-        correction = g.vmath("SUBTRACT", g.geometry("Normal"), frame_n)
-        return g.resolve(g.vmath("SUBTRACT", g.vmath("ADD", sa, sb), correction))
+        correction = g.vmath(VMath.SUBTRACT, g.geometry("Normal"), frame_n)
+        return g.resolve(g.vmath(VMath.SUBTRACT, g.vmath(VMath.ADD, sa, sb), correction))
     return [Method("UDN", "baseline", blend(2)), Method("Whiteout", "baseline", blend(1)),
             Method("RNM", "baseline", blend(3)), Method("PD", "baseline", blend(0)),
             Method("SG addition", "sg", addition)]
