@@ -14,6 +14,7 @@ import numpy as np
 
 from ..addon.compat import new_material
 from ..addon.node_builder import running_line  # noqa: F401 (the line whose bakes we model)
+from ..addon.bake_console import quiet_bake
 from ..addon.scene_state import SCENE_SETTINGS, restored
 from ..addon.bake_target import bake_target_problem, visible_for_bake
 from ..addon.exit_codes import BakeFailed
@@ -295,7 +296,8 @@ def _bake_into(obj, build, image, uv_map, displacement, log):
             kwargs = {"type": "EMIT", "margin": 0, "use_clear": False}
             if uv_map is not None:
                 kwargs["uv_layer"] = uv_map
-            result = bpy.ops.object.bake(**kwargs)
+            with quiet_bake():
+                result = bpy.ops.object.bake(**kwargs)
             seconds = time.perf_counter() - t0
             if result != {"FINISHED"}:
                 from ..addon.cancel_reason import cancelled_text
