@@ -1,4 +1,4 @@
-"""bench-compare (harness/bench/compare.py): the README's ratios are the ones in the JSON it
+"""bench-compare (harness/bench/compare.py): the docs' ratios (docs/proof.md) are the ones in the JSON it
 quotes (docs/bench_compare.json, docs/bench_compare_before.json), and a tiny run measures real
 child processes (no timing bar: a shared machine's timings are not a test's business)."""
 
@@ -18,9 +18,9 @@ KEYS = ("compare_over_bake_alone", "compare_over_bake_operator")
 
 
 def _readme_rows():
-    """{size: (before alone, now alone, before operator, now operator)} from the README."""
+    """{size: (before alone, now alone, before operator, now operator)} from docs/proof.md."""
     rows = {}
-    for line in (ROOT / "README.md").read_text().splitlines():
+    for line in (ROOT / "docs" / "proof.md").read_text().splitlines():
         m = re.match(r"\| (\d+)² \| ([\d.]+) \| \*\*([\d.]+)\*\* \| ([\d.]+) \| "
                      r"\*\*([\d.]+)\*\* \|$", line)
         if m:

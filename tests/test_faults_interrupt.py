@@ -405,8 +405,8 @@ def _documented_lines():
 def test_every_blender_command_line_exits_non_zero_on_a_python_error():
     lines = list(_documented_lines())
     where = {w.split(":")[0] for w, _ in lines}
-    # The lines this covers: README, the scripts' docstrings, the worker and Flamenco commands.
-    assert {"README.md", "surfgrad_addon/addon/batch/workers.py",
+    # The lines this covers: the docs, the scripts' docstrings, the worker and Flamenco commands.
+    assert {"docs/pipelines.md", "surfgrad_addon/addon/batch/workers.py",
             "surfgrad_addon/bake_normal_map.py", "tools/farm/flamenco/surfgrad-bake.js"} <= where, \
         where
     for w, line in lines:

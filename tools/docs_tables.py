@@ -1,0 +1,119 @@
+"""The docs' tables that quote the benches' committed JSON (docs/*.json), written from it so
+that a table cannot go stale. A page marks each such table as a block:
+
+    <!-- generated: bench-batch -->
+    | run | wall | ... |
+    <!-- end -->
+
+and this tool rewrites the lines between the markers from the JSON (tests/test_docs_figures.py
+fails while a block differs from what the tool would write):
+
+    python tools/docs_tables.py            # rewrite every block in README.md and docs/*.md
+    python tools/docs_tables.py --check    # exit 1 naming each stale or unknown block
+"""
+
+import json
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+BLOCK = re.compile(r"(<!-- generated: (?P<name>[\w-]+) -->\n)(?P<body>.*?)(<!-- end -->)", re.S)
+
+
+def load(docs, name):
+    return json.loads((docs / name).read_text())
+
+
+def bench_compare_table(docs):
+    """`bench-compare`'s ratios: commit b229acf's compare (before) against this code's (now),
+    each over the same bake-alone child."""
+    before = load(docs, "bench_compare_before.json")["sizes"]
+    now = load(docs, "bench_compare.json")["sizes"]
+    rows = ["| size | compare / bake alone, before | compare / bake alone, now "
+            "| compare / bake operator, before | compare / bake operator, now |",
+            "|---|---|---|---|---|"]
+    for size in sorted(now, key=int):
+        b, n = before[size], now[size]
+        rows.append(f"| {size}² | {b['compare_over_bake_alone']:.2f} "
+                    f"| **{n['compare_over_bake_alone']:.2f}** "
+                    f"| {b['compare_over_bake_operator']:.2f} "
+                    f"| **{n['compare_over_bake_operator']:.2f}** |")
+    return rows
+
+
+BATCH_RUNS = (("shared_w1", "1 worker, all threads"),
+              ("shared_w2", "2 workers, threads shared (1 each)"),
+              ("one_w1", "1 worker, 1 thread"),
+              ("one_w2", "2 workers, 1 thread each"))
+# The run the 1.7x target is about: two single-threaded workers against one.
+BATCH_TARGET_RUN = "one_w2"
+
+
+def bench_batch_table(docs):
+    """`bench-batch`'s four runs (docs/bench_batch.json)."""
+    data = load(docs, "bench_batch.json")
+    rows = [f"| run | wall | assets/s | vs 1 worker | median bake ({data['tiles_per_asset']} tiles) "
+            "| CPU s per asset | cores used |",
+            "|---|---|---|---|---|---|---|"]
+    for key, label in BATCH_RUNS:
+        r = data["runs"][key]
+        speedup = f"{r['speedup_vs_first']:.2f}"
+        if key == BATCH_TARGET_RUN:
+            speedup = f"**{speedup}**"
+        rows.append(f"| {label} | {r['wall_s']:.1f} s | {r['assets_per_s']:.2f} | {speedup} "
+                    f"| {r['median_bake_s']:.2f} s | {r['median_asset_cpu_s']:.3f} "
+                    f"| {r['cores_used']:.2f} |")
+    return rows
+
+
+TABLES = {"bench-compare": bench_compare_table, "bench-batch": bench_batch_table}
+# The committed JSON each table reads (every docs/*.json must be read by one: a test checks).
+SOURCES = {"bench-compare": ("bench_compare.json", "bench_compare_before.json"),
+           "bench-batch": ("bench_batch.json",)}
+
+
+def pages(root=ROOT):
+    return [root / "README.md"] + sorted((root / "docs").glob("*.md"))
+
+
+def render(text, docs):
+    """text with every generated block rewritten; KeyError names an unknown block."""
+    def one(m):
+        body = "\n".join(TABLES[m["name"]](docs)) + "\n"
+        return m.group(1) + body + m.group(4)
+    return BLOCK.sub(one, text)
+
+
+def stale(root=ROOT):
+    """[(page, block name, why)] for every block that differs from its JSON or is unknown."""
+    found = []
+    for page in pages(root):
+        for m in BLOCK.finditer(page.read_text()):
+            if m["name"] not in TABLES:
+                found.append((page, m["name"], "no such table in tools/docs_tables.py"))
+            elif m["body"] != "\n".join(TABLES[m["name"]](root / "docs")) + "\n":
+                found.append((page, m["name"], "differs from the JSON"))
+    return found
+
+
+def main(argv):
+    if argv == ["--check"]:
+        problems = stale()
+        for page, name, why in problems:
+            print(f"{page.relative_to(ROOT)}: block {name}: {why}")
+        return 1 if problems else 0
+    if argv:
+        print(__doc__)
+        return 2
+    for page in pages():
+        text = page.read_text()
+        new = render(text, ROOT / "docs")
+        if new != text:
+            page.write_text(new)
+            print(f"rewrote {page.relative_to(ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
