@@ -133,6 +133,30 @@ def test_every_docs_json_is_read_by_a_generated_table():
     assert {f.name for f in DOCS.glob("*.json")} <= read
 
 
+# --- lists the docs give of the code's tables ---------------------------------------------
+
+NUMBER_WORDS = {12: "twelve", 13: "thirteen", 14: "fourteen", 15: "fifteen", 16: "sixteen"}
+
+
+def test_the_readme_lists_every_subcommand():
+    from surfgrad_addon.harness.cli import SUBCOMMANDS
+    text = (ROOT / "README.md").read_text()
+    start = text.index("The command line underneath")
+    listed = text[start:text.index("It never overwrites", start)]
+    names = [c.name for c in SUBCOMMANDS]
+    assert f"{NUMBER_WORDS.get(len(names), len(names))} subcommands" in listed
+    assert sorted(re.findall(r"`([a-z][a-z-]*)`", listed)) == sorted(names)
+
+
+def test_the_proof_lists_every_method():
+    from surfgrad_addon.reference.method_registry import SPECS
+    text = (DOCS / "proof.md").read_text()
+    start = text.index("Methods (the one registry")
+    listed = text[start:text.index(" in all.", start)]
+    assert listed.endswith(f" {len(SPECS)}")
+    assert set(SPECS) <= set(re.findall(r"`([a-z-]+)`", listed))
+
+
 # --- links and paths -----------------------------------------------------------------------
 
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)\)")
