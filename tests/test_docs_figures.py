@@ -42,7 +42,14 @@ def _loads_1min():
 
 # (page, text as printed with {} fields, the JSON values that fill them). Each is a figure the
 # prose quotes from a committed bench JSON; the tables are generated blocks instead.
+def _compare_loads_5min():
+    return [_json(f)["machine"][k][1] for f in ("bench_compare.json", "bench_compare_before.json")
+            for k in ("load_average", "load_average_after")]
+
+
 QUOTES = [
+    ("docs/proof.md", "(load average about {:.0f})",
+     lambda: [sorted(_compare_loads_5min())[len(_compare_loads_5min()) // 2]]),
     ("docs/performance.md", "bakes {} procedural assets", lambda: [_batch()["assets"]]),
     ("docs/performance.md", "tiles, an SG material) at {}^2, {} sample",
      lambda: [_batch()["resolution"], _batch()["samples"]]),
@@ -199,8 +206,9 @@ def _resolve(token):
 def _named_paths(text):
     prose = FENCE.sub("", text)
     names = [t for t in TICKS.findall(prose)]
-    for block in FENCE.findall(text):
-        names += re.findall(r"(?<![\w/.$])((?:surfgrad_addon|tests|tools|docs|\.ci)/[\w./-]+)", block)
+    # Paths from the repo's top folders anywhere: in code blocks and in plain prose too.
+    names += re.findall(r"(?<![\w/.$-])((?:surfgrad_addon|tests|tools|docs|\.ci)/[\w./-]*[\w/])(?![\w*<])",
+                        text)
     return names
 
 
