@@ -106,6 +106,11 @@ def main(argv):
     if argv:
         print(__doc__)
         return 2
+    unknown = [(page, name) for page, name, why in stale() if name not in TABLES]
+    for page, name in unknown:
+        print(f"{page.relative_to(ROOT)}: block {name}: no such table in tools/docs_tables.py")
+    if unknown:
+        return 1
     for page in pages():
         text = page.read_text()
         new = render(text, ROOT / "docs")
