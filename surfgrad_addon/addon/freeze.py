@@ -110,9 +110,13 @@ def _check_file(filepath, overwrite):
         NB.check_output(path)
     except NB.NormalBakeError as err:
         raise FreezeError(str(err)) from None
-    if not os.access(path.parent, os.W_OK):
-        raise FreezeError(f"folder {str(path.parent)!r} is not writable: choose a folder you "
-                          f"can write to, or pack the image into the .blend")
+    try:                          # a real write: permission bits do not bind root
+        with tempfile.NamedTemporaryFile(dir=path.parent, prefix=".surfgrad_probe"):
+            pass
+    except OSError as err:
+        raise FreezeError(f"folder {str(path.parent)!r} is not writable ({err.strerror}): "
+                          f"choose a folder you can write to, or pack the image into the "
+                          f".blend") from None
     if path.exists() and not overwrite:
         raise FreezeError(f"{str(path)!r} exists: tick Overwrite to replace it, or choose "
                           f"another file name")
@@ -157,7 +161,8 @@ def check(obj, resolution=1024, uv_map="", filepath="", overwrite=False):
 def freeze_steps(obj, resolution=1024, uv_map="", filepath="", overwrite=False, samples=1,
                  log=lambda *_: None):
     """Freeze obj's active material (see the module doc), yielding "checked", "baked" and
-    "wired"; the generator's return value is the record. Throw FreezeCancelled in to cancel."""
+    "wired" (the file is written after it); the generator's return value is the record.
+    Throw FreezeCancelled in at a stage to cancel."""
     import bpy
     mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite)
     yield "checked"
@@ -179,13 +184,18 @@ def freeze_steps(obj, resolution=1024, uv_map="", filepath="", overwrite=False, 
             image.filepath_raw = f"//{image.name}"    # where File > Unpack would put it
         record = _wire(mat, tree, end, fed, uv_map, image)
         try:
+            yield "wired"                         # the last chance to cancel: nothing written
             if path is not None:
-                NB._publish(baked, path, overwrite)
+                try:
+                    NB._publish(baked, path, overwrite)
+                except NB.NormalBakeError:
+                    raise FreezeError(f"{str(path)!r} appeared during the bake: tick "
+                                      f"Overwrite to replace it, or choose another file "
+                                      f"name") from None
                 image.filepath_raw = str(path) if not filepath.startswith("//") else filepath
                 image.reload()
                 record["file"] = str(path)
                 mat[RECORD] = json.dumps(record)
-            yield "wired"
         except BaseException:
             thaw(mat)
             image = None                              # thaw removed it
