@@ -1,10 +1,11 @@
 """The Freeze and Thaw operators (the work is in freeze.py).
 
-Freeze runs modal in the interface: a timer steps freeze.freeze_steps one stage at a time
+Freeze runs modal when invoked from the interface (sidebar, Add menu: a dialog for its
+options first): a timer steps freeze.freeze_steps one stage at a time
 (checked, baked, wired) with the window's progress shown, and Esc cancels at the next stage
 boundary (a Cycles bake is one blocking call; an Esc pressed during it is seen when it
-returns, and the material is put back). From scripts and in the background it runs to the end
-in execute. Both are undoable and report what they did or why not.
+returns, and the material is put back). From scripts, a redo and in the background it runs to
+the end in execute. Both are undoable and report what they did or why not.
 """
 
 import bpy
@@ -35,14 +36,21 @@ unlinked, in a frame (Thaw brings it back)"""
     samples: IntProperty(name="Samples", description="Cycles samples per texel (more "
                          "anti-alias detail finer than a texel)", default=1, min=1, max=4096)
 
+    # Set by invoke, cleared when the modal run ends: a redo (Adjust Last Operation) or a
+    # script runs execute to the end instead of starting a modal run.
+    interactive: BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'})
+
     def invoke(self, context, _event):
+        self.interactive = True
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
         self._steps = F.freeze_steps(context.object, self.resolution, self.uv_map,
                                      self.filepath, self.overwrite, self.samples)
-        if context.window is None or bpy.app.background:
+        if not self.interactive or context.window is None or bpy.app.background:
+            self.interactive = False
             return self._finish(self._run_all)
+        self.interactive = False
         return self._finish(self._start_modal, context)
 
     def _run_all(self):
@@ -60,7 +68,7 @@ unlinked, in a frame (Thaw brings it back)"""
         return {'RUNNING_MODAL'}
 
     def modal(self, context, event):
-        if event.type == 'ESC':
+        if event.type == 'ESC' and event.value == 'PRESS':
             self._cancel = True
         if event.type != 'TIMER':
             return {'RUNNING_MODAL'}
