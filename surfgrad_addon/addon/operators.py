@@ -399,6 +399,8 @@ class NODE_PT_surfgrad(bpy.types.Panel):
         col.operator(SURFGRAD_OT_add_layer_stack.bl_idname, icon="NODETREE")
         col.operator(SURFGRAD_OT_convert_node.bl_idname, icon="FILE_REFRESH")
         col.operator(SURFGRAD_OT_add_decal_projector.bl_idname, icon="MOD_UVPROJECT")
+        col.operator("surfgrad.freeze_stack", icon="FREEZE")      # freeze_operators.py
+        col.operator("surfgrad.thaw_stack", icon="FILE_REFRESH")
         draw_far_warning(self.layout, context)
 
 

@@ -9,7 +9,7 @@ then adds a group node like Blender's own Add menu entries do.
 import bpy
 from bpy.props import BoolProperty, StringProperty
 
-from . import groups, operators
+from . import freeze_operators, groups, operators
 from .all_or_nothing import all_or_nothing
 
 MENU_IDNAME = "NODE_MT_surfgrad_add"
@@ -264,7 +264,8 @@ class NODE_MT_surfgrad_add(_GroupMenu, bpy.types.Menu):
         _draw_groups(layout, menu_group_names())
         layout.separator()
         for op in (operators.SURFGRAD_OT_add_layer_stack, operators.SURFGRAD_OT_convert_node,
-                   operators.SURFGRAD_OT_add_decal_projector):
+                   operators.SURFGRAD_OT_add_decal_projector,
+                   *freeze_operators.CLASSES):
             layout.operator(op.bl_idname, text=op.bl_label)
 
 
@@ -297,7 +298,7 @@ def draw_add_menu(self, context):
 
 
 CLASSES = (SURFGRAD_OT_add_group, NODE_MT_surfgrad_add, NODE_MT_surfgrad_geometry_add,
-           *operators.CLASSES)
+           *operators.CLASSES, *freeze_operators.CLASSES)
 MENU_HOOKS = ((ADD_MENU, draw_add_menu), (GEOMETRY_ADD_MENU, draw_geometry_add_menu))
 
 

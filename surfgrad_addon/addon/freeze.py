@@ -1,0 +1,322 @@
+"""Freeze a material's surface-gradient stack into a tangent-space normal map, and thaw it back.
+
+Freezing bakes what reaches the BSDF Normal input(s) through SG groups with the same code as
+`bake-normal-map` (normal_bake.bake_normal_tiles, tangent space, the chosen UV map), then wires
+UV Map -> Image Texture -> Normal Map (tangent, same UV map) into those inputs: the built-in
+twin's render cost. The live stack stays in the material, unlinked, inside a frame; what thaw
+needs (the links it replaced, the nodes it added and moved, the image) is kept as JSON in the
+material's custom property RECORD. Thawing relinks the stack exactly and removes what freezing
+added; the image too when freezing made it and nothing else uses it. No file is ever deleted.
+
+Both are all-or-nothing: every check runs before anything changes, and a failure or a cancel
+after the bake puts the material back as it was. freeze_steps is a generator that yields
+between its stages (checked, baked, wired) so a modal operator can cancel between them by
+throwing FreezeCancelled into it; freeze() runs it to the end.
+"""
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from . import normal_bake as NB
+
+RECORD = "surfgrad_freeze"
+FRAME_LABEL = "surfgrad: live stack (frozen into {})"
+SG_PREFIX = "SG "
+NORMAL = "Normal"
+
+
+class FreezeError(ValueError):
+    """A freeze or thaw that cannot be done: the message names the thing and the fix."""
+
+
+class FreezeCancelled(FreezeError):
+    """The user cancelled; the material is as it was."""
+
+
+def _output(tree):
+    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+def _upstream(socket):
+    """Every node that feeds `socket`, at any depth (by name)."""
+    seen, todo = set(), [lk.from_node for lk in socket.links]
+    while todo:
+        node = todo.pop()
+        if node.name in seen:
+            continue
+        seen.add(node.name)
+        todo += [lk.from_node for s in node.inputs for lk in s.links]
+    return seen
+
+
+def _is_sg(node):
+    tree = getattr(node, "node_tree", None) if node.bl_idname == "ShaderNodeGroup" else None
+    return tree is not None and tree.name.startswith(SG_PREFIX)
+
+
+def find_stack(tree):
+    """(the socket the stack ends in, [(shader node, Normal input)] it feeds) for the shaders
+    reaching the active Material Output's Surface. Raises FreezeError naming the fix."""
+    output = _output(tree)
+    if output is None or not output.inputs["Surface"].is_linked:
+        raise FreezeError("the material has no shader linked to its Material Output's Surface: "
+                          "link a BSDF first")
+    shaders = [tree.nodes[n] for n in _upstream(output.inputs["Surface"])]
+    fed = [(node, node.inputs[NORMAL]) for node in shaders
+           if NORMAL in node.inputs and node.inputs[NORMAL].is_linked and
+           any(_is_sg(tree.nodes[n]) for n in _upstream(node.inputs[NORMAL]) |
+               {node.inputs[NORMAL].links[0].from_node.name})]
+    if not fed:
+        raise FreezeError("no surface-gradient stack feeds a BSDF Normal input: add one "
+                          "(Add > Surface Gradient > Add Surface-Gradient Layer Stack) first")
+    ends = {(s.links[0].from_node.name, s.links[0].from_socket.identifier) for _, s in fed}
+    if len(ends) > 1:
+        raise FreezeError(f"{len(ends)} different surface-gradient stacks feed the BSDF Normal "
+                          f"inputs; one normal map holds one: feed them all from one SG "
+                          f"Resolve, or freeze a material with one stack")
+    return fed[0][1].links[0].from_socket, fed
+
+
+def _stack_nodes(tree, fed):
+    """The nodes that feed the stack and nothing else, not in a frame already: they go into
+    the freeze's frame (a node that also feeds the shader elsewhere stays where it is)."""
+    normals = {(node.name, s.identifier) for node, s in fed}
+    inside = set()
+    for _, s in fed:
+        inside |= _upstream(s)
+    changed = True
+    while changed:
+        changed = False
+        for name in list(inside):
+            outs = [lk for o in tree.nodes[name].outputs for lk in o.links]
+            if any(lk.to_node.name not in inside and
+                   (lk.to_node.name, lk.to_socket.identifier) not in normals for lk in outs):
+                inside.discard(name)
+                changed = True
+    return sorted(n for n in inside if tree.nodes[n].parent is None)
+
+
+def _check_file(filepath, overwrite):
+    """The absolute Path for a save path, or a FreezeError naming the fix."""
+    import bpy
+    if filepath.startswith("//") and not bpy.data.filepath:
+        raise FreezeError(f"{filepath!r} is relative to the .blend file, which is not saved "
+                          f"yet: save the file first, or give an absolute path (or pack)")
+    path = Path(bpy.path.abspath(filepath))
+    try:
+        NB.check_output(path)
+    except NB.NormalBakeError as err:
+        raise FreezeError(str(err)) from None
+    try:                          # a real write: permission bits do not bind root
+        with tempfile.NamedTemporaryFile(dir=path.parent, prefix=".surfgrad_probe"):
+            pass
+    except OSError as err:
+        raise FreezeError(f"folder {str(path.parent)!r} is not writable ({err.strerror}): "
+                          f"choose a folder you can write to, or pack the image into the "
+                          f".blend") from None
+    if path.exists() and not overwrite:
+        raise FreezeError(f"{str(path)!r} exists: tick Overwrite to replace it, or choose "
+                          f"another file name")
+    return path
+
+
+def check(obj, resolution=1024, uv_map="", filepath="", overwrite=False):
+    """Everything freeze needs, checked before anything changes: (material, tree, stack end,
+    fed Normal inputs, uv_map, output Path or None for pack)."""
+    if obj is None:
+        raise FreezeError("no active object: select the mesh whose material to freeze")
+    if obj.type != "MESH":
+        raise FreezeError(f"{obj.name!r} is a {obj.type.lower()}, not a mesh: select a mesh "
+                          f"object")
+    mat = obj.active_material
+    if mat is None or mat.node_tree is None:
+        raise FreezeError(f"{obj.name!r} has no active material with nodes: add a material "
+                          f"with a surface-gradient stack first")
+    if mat.library is not None or getattr(mat, "override_library", None) is not None:
+        raise FreezeError(f"material {mat.name!r} is linked from a library: make it local "
+                          f"first")
+    if RECORD in mat:
+        raise FreezeError(f"material {mat.name!r} is frozen already: thaw it first")
+    tree = mat.node_tree
+    end, fed = find_stack(tree)
+    problem = NB.resolution_problem(resolution, *NB.RESOLUTION_RANGE)
+    if problem:
+        raise FreezeError(problem)
+    try:
+        uv_map, _, _, _ = NB.plan_tiles(obj, "freeze.png", uv_map or None)
+    except NB.NormalBakeError as err:
+        text = str(err).replace(" (--object NAME)", "")
+        if NB.UDIM_TOKEN in text:                 # one image: the 0-1 square alone
+            text = (f"UV map {uv_map or 'the active render UV map'!r} of {obj.name!r} has "
+                    f"faces outside the 0-1 UV square: a frozen stack is one image of that "
+                    f"square; pick (or unwrap) a UV map inside it")
+        raise FreezeError(text) from None
+    path = _check_file(filepath, overwrite) if filepath else None
+    return mat, tree, end, fed, uv_map, path
+
+
+def freeze_steps(obj, resolution=1024, uv_map="", filepath="", overwrite=False, samples=1,
+                 log=lambda *_: None):
+    """Freeze obj's active material (see the module doc), yielding "checked", "baked" and
+    "wired" (the file is written after it); the generator's return value is the record.
+    Throw FreezeCancelled in at a stage to cancel."""
+    import bpy
+    mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite)
+    yield "checked"
+    suffix = path.suffix.lower() if path else ".png"
+    depth = "16" if suffix == ".png" else "float"         # 8 bits would cost ~0.3 degrees
+    folder = path.parent if path else Path(tempfile.mkdtemp(prefix="surfgrad_freeze_"))
+    stem = path.stem if path else f"{mat.name}_frozen_normal"
+    baked = folder / f".{stem}.freeze{os.getpid()}{suffix}"
+    image = None
+    try:
+        NB.bake_normal_tiles(obj, baked, "tangent", resolution, uv_map, samples=samples,
+                             depth=depth, overwrite=True, log=log)
+        yield "baked"
+        image = bpy.data.images.load(str(baked), check_existing=False)
+        image.name = path.name if path else f"{stem}{suffix}"
+        image.colorspace_settings.name = "Non-Color"
+        if path is None:
+            image.pack()
+            image.filepath_raw = f"//{image.name}"    # where File > Unpack would put it
+        record = _wire(mat, tree, end, fed, uv_map, image)
+        try:
+            yield "wired"                         # the last chance to cancel: nothing written
+            if path is not None:
+                try:
+                    NB._publish(baked, path, overwrite)
+                except NB.NormalBakeError:
+                    raise FreezeError(f"{str(path)!r} appeared during the bake: tick "
+                                      f"Overwrite to replace it, or choose another file "
+                                      f"name") from None
+                image.filepath_raw = str(path) if not filepath.startswith("//") else filepath
+                image.reload()
+                record["file"] = str(path)
+                mat[RECORD] = json.dumps(record)
+        except BaseException:
+            thaw(mat)
+            image = None                              # thaw removed it
+            raise
+        return record
+    except BaseException:
+        if image is not None:
+            bpy.data.images.remove(image)
+        raise
+    finally:
+        if baked.exists():
+            baked.unlink()
+        if path is None and folder.exists() and not any(folder.iterdir()):
+            os.rmdir(folder)
+
+
+def freeze(obj, resolution=1024, uv_map="", filepath="", overwrite=False, samples=1,
+           log=lambda *_: None, cancel=lambda stage: False):
+    """Run freeze_steps to the end; `cancel(stage)` True after a stage cancels the freeze."""
+    steps = freeze_steps(obj, resolution, uv_map, filepath, overwrite, samples, log)
+    stage = next(steps)
+    try:
+        while True:
+            if cancel(stage):
+                steps.throw(FreezeCancelled(f"freeze cancelled after stage {stage!r}: the "
+                                            f"material is as it was"))
+            stage = steps.send(None)
+    except StopIteration as done:
+        return done.value
+
+
+def _wire(mat, tree, end, fed, uv_map, image):
+    """Add the frozen chain, link it into the fed Normal inputs, frame the stack; returns the
+    record (also stored on the material). Undone in full if anything fails."""
+    x = min(node.location.x for node, _ in fed)
+    y = min(node.location.y for node, _ in fed)
+    record = {"image": image.name, "image_created": True, "file": "",
+              "links": [[end.node.name, end.identifier, node.name, s.identifier]
+                        for node, s in fed],
+              "added": [], "moved": {}, "frame": ""}
+    stack = _stack_nodes(tree, fed)          # before the frozen chain takes their place
+    try:
+        nodes = tree.nodes
+        uv = nodes.new("ShaderNodeUVMap")
+        uv.uv_map = uv_map
+        tex = nodes.new("ShaderNodeTexImage")
+        tex.image = image
+        nmap = nodes.new("ShaderNodeNormalMap")
+        nmap.space = "TANGENT"
+        nmap.uv_map = uv_map
+        frame = nodes.new("NodeFrame")
+        frame.label = FRAME_LABEL.format(image.name)
+        record["added"] = [n.name for n in (uv, tex, nmap, frame)]
+        record["frame"] = frame.name
+        for i, node in enumerate((uv, tex, nmap)):
+            node.location = (x - 760 + 260 * i, y - 420)
+            node.label = f"surfgrad: frozen ({node.bl_label})"
+        tree.links.new(uv.outputs["UV"], tex.inputs["Vector"])
+        tree.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+        for node, s in fed:
+            tree.links.new(nmap.outputs["Normal"], s)
+        for name in stack:
+            node = nodes[name]
+            record["moved"][name] = list(node.location)
+            node.parent = frame
+        mat[RECORD] = json.dumps(record)
+    except BaseException:
+        _undo(mat, tree, record)
+        raise
+    return record
+
+
+def _undo(mat, tree, record):
+    """Put the stack back as the record says, remove the added nodes and the record."""
+    nodes = tree.nodes
+    for name in record["added"]:
+        if name in nodes and nodes[name].bl_idname != "NodeFrame":
+            nodes.remove(nodes[name])
+    for name, location in record["moved"].items():
+        if name in nodes:
+            nodes[name].parent = None
+            nodes[name].location = location
+    if record["frame"] in nodes:
+        nodes.remove(nodes[record["frame"]])
+    for from_node, from_id, to_node, to_id in record["links"]:
+        tree.links.new(_socket(nodes[from_node].outputs, from_id),
+                       _socket(nodes[to_node].inputs, to_id))
+    if RECORD in mat:
+        del mat[RECORD]
+
+
+def _socket(sockets, identifier):
+    return next(s for s in sockets if s.identifier == identifier)
+
+
+def frozen_record(mat):
+    """The freeze record of `mat`, or None when it is not frozen."""
+    return json.loads(mat[RECORD]) if mat is not None and RECORD in mat else None
+
+
+def thaw(mat):
+    """Relink the live stack of a frozen material exactly as it was and remove what the
+    freeze added (the image only if the freeze made it and nothing else uses it; never a
+    file). Returns the record. Checks everything first: on a FreezeError nothing changed."""
+    import bpy
+    if mat is None:
+        raise FreezeError("no active material: select the object whose frozen material to "
+                          "thaw")
+    record = frozen_record(mat)
+    if record is None:
+        raise FreezeError(f"material {mat.name!r} is not frozen: nothing to thaw")
+    tree = mat.node_tree
+    for from_node, from_id, to_node, to_id in record["links"]:
+        for name, side, ident in ((from_node, "outputs", from_id), (to_node, "inputs", to_id)):
+            node = tree.nodes.get(name)
+            if node is None or not any(s.identifier == ident for s in getattr(node, side)):
+                raise FreezeError(f"node {name!r} of the live stack is gone or changed, so "
+                                  f"the stack cannot be relinked: undo to before its removal, "
+                                  f"or remove the property {RECORD!r} and relink by hand")
+    image = bpy.data.images.get(record["image"])
+    _undo(mat, tree, record)
+    if image is not None and record["image_created"] and image.users == 0:
+        bpy.data.images.remove(image)
+    return record

@@ -1,0 +1,132 @@
+"""The Freeze and Thaw operators (the work is in freeze.py).
+
+Freeze runs modal when invoked from the interface (sidebar, Add menu: a dialog for its
+options first): a timer steps freeze.freeze_steps one stage at a time
+(checked, baked, wired) with the window's progress shown, and Esc cancels at the next stage
+boundary (a Cycles bake is one blocking call; an Esc pressed during it is seen when it
+returns, and the material is put back). From scripts, a redo and in the background it runs to
+the end in execute. Both are undoable and report what they did or why not.
+"""
+
+import bpy
+from bpy.props import BoolProperty, IntProperty, StringProperty
+
+from . import freeze as F
+
+STAGES = ("checked", "baked", "wired")
+
+
+class SURFGRAD_OT_freeze_stack(bpy.types.Operator):
+    """Bake the active material's surface-gradient stack into a tangent-space normal map and \
+wire it through a Normal Map node into the BSDF; the live stack stays in the material, \
+unlinked, in a frame (Thaw brings it back)"""
+    bl_idname = "surfgrad.freeze_stack"
+    bl_label = "Freeze Surface Gradient Stack"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    resolution: IntProperty(name="Resolution", description="Texels per side of the normal map",
+                            default=1024, min=4, max=16384)
+    uv_map: StringProperty(name="UV Map", description="UV map to bake on and to sample the map "
+                           "with (empty: the active render UV map)", default="")
+    filepath: StringProperty(name="Save As", description="PNG (16-bit) or OpenEXR file to save "
+                             "the map to (empty: pack it into the .blend)", default="",
+                             subtype='FILE_PATH')
+    overwrite: BoolProperty(name="Overwrite", description="Replace an existing file",
+                            default=False)
+    samples: IntProperty(name="Samples", description="Cycles samples per texel (more "
+                         "anti-alias detail finer than a texel)", default=1, min=1, max=4096)
+
+    # Set by invoke, cleared when the modal run ends: a redo (Adjust Last Operation) or a
+    # script runs execute to the end instead of starting a modal run.
+    interactive: BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'})
+
+    def invoke(self, context, _event):
+        self.interactive = True
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        self._steps = F.freeze_steps(context.object, self.resolution, self.uv_map,
+                                     self.filepath, self.overwrite, self.samples)
+        if not self.interactive or context.window is None or bpy.app.background:
+            self.interactive = False
+            return self._finish(self._run_all)
+        self.interactive = False
+        return self._finish(self._start_modal, context)
+
+    def _run_all(self):
+        for _ in self._steps:
+            pass
+        return {'FINISHED'}
+
+    def _start_modal(self, context):
+        next(self._steps)                                   # the checks: refused at once
+        wm = context.window_manager
+        wm.progress_begin(0, len(STAGES))
+        self._timer = wm.event_timer_add(0.05, window=context.window)
+        self._cancel = False
+        wm.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        if event.type == 'ESC' and event.value == 'PRESS':
+            self._cancel = True
+        if event.type != 'TIMER':
+            return {'RUNNING_MODAL'}
+        wm = context.window_manager
+        if self._cancel:
+            outcome = self._finish(self._steps.throw, F.FreezeCancelled(
+                "Freeze cancelled: the material is as it was"))
+        else:
+            outcome = self._finish(self._step, wm)
+        if outcome != {'RUNNING_MODAL'}:
+            wm.event_timer_remove(self._timer)
+            wm.progress_end()
+        return outcome
+
+    def _step(self, wm):
+        try:
+            stage = next(self._steps)
+        except StopIteration:
+            return {'FINISHED'}
+        wm.progress_update(STAGES.index(stage) + 1)
+        return {'RUNNING_MODAL'}
+
+    def _finish(self, step, *args):
+        try:
+            outcome = step(*args)
+        except StopIteration:
+            outcome = {'FINISHED'}
+        except F.FreezeCancelled as err:
+            self.report({'WARNING'}, str(err))
+            return {'CANCELLED'}
+        except (ValueError, RuntimeError) as err:      # FreezeError, BakeFailed, a bad file
+            self.report({'ERROR'}, str(err))
+            return {'CANCELLED'}
+        if outcome == {'FINISHED'}:
+            record = F.frozen_record(bpy.context.object.active_material)
+            where = record["file"] or "packed into the .blend"
+            self.report({'INFO'}, f"Froze the stack into {record['image']!r} ({where}); "
+                                  f"Thaw Surface Gradient Stack brings it back")
+        return outcome
+
+
+class SURFGRAD_OT_thaw_stack(bpy.types.Operator):
+    """Relink the active material's frozen surface-gradient stack exactly as it was and \
+remove the normal map nodes (and image, if the freeze made it and nothing else uses it)"""
+    bl_idname = "surfgrad.thaw_stack"
+    bl_label = "Thaw Surface Gradient Stack"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        obj = context.object
+        try:
+            record = F.thaw(obj.active_material if obj is not None else None)
+        except F.FreezeError as err:
+            self.report({'ERROR'}, str(err))
+            return {'CANCELLED'}
+        note = f"; the file {record['file']!r} is kept" if record["file"] else ""
+        self.report({'INFO'}, f"Thawed: the live stack is linked again{note}")
+        return {'FINISHED'}
+
+
+CLASSES = (SURFGRAD_OT_freeze_stack, SURFGRAD_OT_thaw_stack)
