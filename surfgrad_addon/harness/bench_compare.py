@@ -9,16 +9,20 @@ order alternating, so the load of a shared machine falls on both alike):
   back into memory (`python -m surfgrad_addon.harness.bench_compare --bake-alone ...`);
 - **compare**: `python -m surfgrad_addon compare --object Sphere ...`, start to JSON and heat
   map written.
-Each child is timed from launch to exit. Per pair two ratios, then the median over the pairs:
+Each child is timed from launch to exit, wall and CPU (user + system, all its threads). Per
+pair three ratios, then the median over the pairs:
 - `compare / bake alone`: the two processes' walls;
 - `compare / bake operator`: compare's wall over the bake alone child's Cycles bake
-  (bpy.ops.object.bake) seconds: the stricter figure, every start-up cost on compare's side.
+  (bpy.ops.object.bake) seconds: the stricter figure, every start-up cost on compare's side;
+- `compare CPU / bake alone CPU`: the work each did, which other processes on a shared
+  machine change much less than the walls (they stretch a wall by the time they hold a core).
 """
 
 import argparse
 import json
 import os
 import platform
+import resource
 import subprocess
 import sys
 import tempfile
@@ -31,36 +35,48 @@ SIZES = (2048, 4096)
 METHOD = "normal-map"
 OBJECT = "Sphere"
 ROOT = Path(__file__).resolve().parents[2]
+RATIOS = ("compare_over_bake_alone", "compare_over_bake_operator",
+          "compare_cpu_over_bake_alone_cpu")
+
+
+def _children_cpu():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _timed(cmd, root):
-    """(wall seconds, stdout) of a child; raises RuntimeError with its last error line."""
+    """(wall seconds, CPU seconds, stdout) of a child; raises RuntimeError with its last error
+    line."""
+    cpu0 = _children_cpu()
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=root, capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    cpu = _children_cpu() - cpu0              # the waited-for child's (and its children's)
     if proc.returncode != 0:
         lines = (proc.stderr or proc.stdout).strip().splitlines()
         raise RuntimeError(f"{' '.join(cmd[1:4])} failed (exit {proc.returncode}): "
                            f"{lines[-1] if lines else 'no output'}")
-    return wall, proc.stdout
+    return wall, cpu, proc.stdout
 
 
 def bake_alone_child(method, size, python=None, root=ROOT):
-    """{wall_seconds, bake_seconds} of a child that only bakes."""
-    wall, out = _timed([python or sys.executable, "-m", "surfgrad_addon.harness.bench_compare",
+    """{wall_seconds, cpu_seconds, bake_seconds} of a child that only bakes."""
+    wall, cpu, out = _timed([python or sys.executable, "-m", "surfgrad_addon.harness.bench_compare",
                         "--bake-alone", method, str(size)], root)
-    return {"wall_seconds": wall, "bake_seconds": json.loads(out.strip().splitlines()[-1])}
+    return {"wall_seconds": wall, "cpu_seconds": cpu,
+            "bake_seconds": json.loads(out.strip().splitlines()[-1])}
 
 
 def compare_child(method, size, python=None, root=ROOT):
-    """{wall_seconds, bake_seconds, reference_seconds, max_deg} of a compare child."""
+    """{wall_seconds, cpu_seconds, bake_seconds, reference_seconds, max_deg} of a compare
+    child."""
     with tempfile.TemporaryDirectory() as tmp:
         report = Path(tmp) / "report.json"
-        wall, _ = _timed([python or sys.executable, "-m", "surfgrad_addon", "compare",
+        wall, cpu, _ = _timed([python or sys.executable, "-m", "surfgrad_addon", "compare",
                           "--object", OBJECT, "--method", method, "--resolution", str(size),
                           "--json", str(report)], root)
         r = json.loads(report.read_text())
-    return {"wall_seconds": wall, "bake_seconds": r["bake_seconds"],
+    return {"wall_seconds": wall, "cpu_seconds": cpu, "bake_seconds": r["bake_seconds"],
             "reference_seconds": r["reference_seconds"], "max_deg": r["max_deg"]}
 
 
@@ -79,14 +95,16 @@ def measure(size, method=METHOD, repeats=3, python=None, root=ROOT, compare_root
         b, c = got["bake"], got["compare"]
         pairs.append({"bake_alone": b, "compare": c,
                       "compare_over_bake_alone": c["wall_seconds"] / b["wall_seconds"],
-                      "compare_over_bake_operator": c["wall_seconds"] / b["bake_seconds"]})
+                      "compare_over_bake_operator": c["wall_seconds"] / b["bake_seconds"],
+                      "compare_cpu_over_bake_alone_cpu": c["cpu_seconds"] / b["cpu_seconds"]})
         log(f"{size}^2 pair {i + 1}/{repeats}: compare {c['wall_seconds']:.2f} s, bake alone "
             f"{b['wall_seconds']:.2f} s (operator {b['bake_seconds']:.2f} s): "
             f"{pairs[-1]['compare_over_bake_alone']:.2f}x / "
-            f"{pairs[-1]['compare_over_bake_operator']:.2f}x")
+            f"{pairs[-1]['compare_over_bake_operator']:.2f}x; CPU {c['cpu_seconds']:.2f} s "
+            f"against {b['cpu_seconds']:.2f} s: "
+            f"{pairs[-1]['compare_cpu_over_bake_alone_cpu']:.2f}x")
     med = lambda key: float(np.median([p[key] for p in pairs]))
-    return {"compare_over_bake_alone": med("compare_over_bake_alone"),
-            "compare_over_bake_operator": med("compare_over_bake_operator"), "pairs": pairs}
+    return {key: med(key) for key in RATIOS} | {"pairs": pairs}
 
 
 def run(out_path, sizes=SIZES, method=METHOD, repeats=3, overwrite=False, python=None,
@@ -103,7 +121,8 @@ def run(out_path, sizes=SIZES, method=METHOD, repeats=3, overwrite=False, python
                                               compare_root, log)
         r = results["sizes"][str(size)]
         log(f"{size}^2: compare / bake alone {r['compare_over_bake_alone']:.2f}x, compare / "
-            f"bake operator {r['compare_over_bake_operator']:.2f}x (median of {repeats})")
+            f"bake operator {r['compare_over_bake_operator']:.2f}x, CPU "
+            f"{r['compare_cpu_over_bake_alone_cpu']:.2f}x (median of {repeats})")
     results["machine"]["load_average_after"] = os.getloadavg()
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text(json.dumps(results, indent=2))
