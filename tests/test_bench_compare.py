@@ -1,6 +1,7 @@
 """bench-compare (harness/bench_compare.py): the README's ratios are the ones in the JSON it
-quotes (docs/bench_compare.json, docs/bench_compare_before.json), and a tiny run measures real
-child processes (no timing bar: a shared machine's timings are not a test's business)."""
+quotes (docs/bench_compare.json: this code's compare and, in the same rounds, the one before
+it), and a tiny run measures real child processes (no timing bar: a shared machine's timings
+are not a test's business)."""
 
 import json
 import os
@@ -31,9 +32,10 @@ def _readme_rows():
 
 def test_the_readme_quotes_the_json():
     now = json.loads((ROOT / "docs" / "bench_compare.json").read_text())
-    before = json.loads((ROOT / "docs" / "bench_compare_before.json").read_text())
+    before = {"sizes": {k: v["before"] for k, v in now["sizes"].items()},
+              "repeats": now["repeats"]}
     rows = _readme_rows()
-    assert set(rows) == {"2048", "4096"} == set(now["sizes"]) == set(before["sizes"])
+    assert set(rows) == {"2048", "4096"} == set(now["sizes"])
     for size, quoted in rows.items():
         want = (before["sizes"][size][KEYS[0]], now["sizes"][size][KEYS[0]],
                 before["sizes"][size][KEYS[1]], now["sizes"][size][KEYS[1]])
@@ -56,9 +58,16 @@ def test_a_tiny_run_times_real_children(tmp_path):
     pytest.importorskip("bpy")
     out = tmp_path / "bench.json"
     lines = []
-    data = BC.run(out, sizes=(64,), repeats=1, log=lines.append)
+    data = BC.run(out, sizes=(64,), repeats=1, log=lines.append, before_root=ROOT)
     assert json.loads(out.read_text()) == json.loads(json.dumps(data))
     pair = data["sizes"]["64"]["pairs"][0]
+    # The before checkout's compare ran in the same round, against the same bake alone child.
+    before = data["sizes"]["64"]["before"]
+    assert before["compare_root"] == str(ROOT) and before["pairs"][0]["bake_alone"] == \
+        pair["bake_alone"]
+    assert before["pairs"][0]["compare"]["max_deg"] < 0.5
+    assert before[KEYS[0]] == before["pairs"][0]["compare"]["wall_seconds"] / \
+        pair["bake_alone"]["wall_seconds"]
     b, c = pair["bake_alone"], pair["compare"]
     # The bake alone child baked (its operator ran inside its wall), compare compared.
     assert 0 < b["bake_seconds"] < b["wall_seconds"]
