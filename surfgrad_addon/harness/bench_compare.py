@@ -6,7 +6,7 @@ For each size, `repeats` pairs of child processes run one after the other (inter
 order alternating, so the load of a shared machine falls on both alike):
 - **bake alone**: a child that does what compare does up to its bake and nothing after: the
   test scene, the method's images and node graph, the same bake (bake_vector_in_pieces) read
-  back into memory (`python -m surfgrad_addon.harness.bench_compare --bake-alone ...`);
+  back into memory (`python -m <this module> --bake-alone ...`);
 - **compare**: `python -m surfgrad_addon compare --object Sphere ...`, start to JSON and heat
   map written.
 Each child is timed from launch to exit, wall and CPU (user + system, all its threads). Per
@@ -34,7 +34,8 @@ import numpy as np
 SIZES = (2048, 4096)
 METHOD = "normal-map"
 OBJECT = "Sphere"
-ROOT = Path(__file__).resolve().parents[2]
+# The checkout: the folder holding the package (wherever in it this module lives).
+ROOT = next(p.parent for p in Path(__file__).resolve().parents if p.name == "surfgrad_addon")
 MODULE = __spec__.name if __spec__ else __name__       # this module, wherever it lives
 RATIOS = ("compare_over_bake_alone", "compare_over_bake_operator",
           "compare_cpu_over_bake_alone_cpu")
@@ -158,10 +159,9 @@ def _bake_alone(method, size):
     operator's seconds (JSON)."""
     import bpy
 
-    from . import bake as B
-    from . import compare as C
-    from . import scenes
-    from .methods import METHODS, resolve_sg
+    # Absolute: the same wherever in the harness this module lives.
+    from surfgrad_addon.harness import bake as B, compare as C, scenes
+    from surfgrad_addon.harness.methods import METHODS, resolve_sg
     scenes.new_scene()
     obj = bpy.data.objects[OBJECT]
     m = METHODS[method]
