@@ -153,3 +153,119 @@ def test_angle_deg_against_arccos_and_its_rules():
     assert A.angle_deg([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]) == 180.0
     assert A.angle_deg([np.nan, 0.0, 1.0], [0.0, 0.0, 1.0]) == 180.0
     assert A.angle_deg([0.0, 0.0, 2.0], [0.0, 0.0, 1.0]) == 0.0
+
+
+# The heat map (harness/heat_map.py) ------------------------------------------------------------
+
+def random_heat(seed, h=37, w=53):
+    """An error image with every kind of texel: errors from 0 to past the top, NaN (not
+    compared), infinities, and every reason code, known or not."""
+    from surfgrad_addon.harness.texel_report import ErrorImage
+    rng = np.random.default_rng(seed)
+    heat = rng.random((h, w)) * 3.0
+    heat[rng.random((h, w)) < 0.2] = np.nan
+    heat[0, :3] = [np.inf, -np.inf, 0.0]
+    codes = rng.choice(np.array([0, 0, 0, 1, 2, 3, 4, 7, -1], dtype=np.int8), size=(h, w))
+    return ErrorImage(heat, codes)
+
+
+@pytest.mark.skipif(not compiled.AVAILABLE, reason="numba is not installed")
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_compiled_heat_map_is_its_numpy_definition_byte_for_byte(monkeypatch, seed):
+    from surfgrad_addon.harness import heat_map as H
+    heat = random_heat(seed)
+    monkeypatch.setenv(compiled.ENV, "1")
+    fast, fast_down = H.heat_map_rgb(heat), H.heat_map_rgb(heat, top_down=True)
+    monkeypatch.setenv(compiled.ENV, "0")
+    plain = H.heat_map_rgb(heat)
+    assert np.array_equal(fast, plain) and np.array_equal(fast_down, plain[::-1])
+    assert np.array_equal(H.heat_map_rgb(heat, top_down=True), plain[::-1])
+    # Without reasons (a plain array) and with no finite error at all.
+    bare = np.array(heat)
+    assert np.array_equal(H.heat_map_rgb_numpy(bare), _with_env(monkeypatch, H.heat_map_rgb,
+                                                                 bare))
+    empty = np.full((3, 4), np.nan)
+    assert np.array_equal(H.heat_map_rgb_numpy(empty), _with_env(monkeypatch, H.heat_map_rgb,
+                                                                  empty))
+
+
+def _with_env(monkeypatch, fn, *args):
+    monkeypatch.setenv(compiled.ENV, "1")
+    return fn(*args)
+
+
+@pytest.mark.parametrize("enabled", [False, True] if compiled.AVAILABLE else [False])
+def test_heat_map_colours_by_hand(monkeypatch, enabled):
+    """Black at 0, white-ish (255, 204, 255) at the top, the reasons' colours, dark blue where
+    nothing was compared; the top is at least 0.5 degrees."""
+    from surfgrad_addon.harness import heat_map as H
+    from surfgrad_addon.harness.texel_report import ErrorImage
+    monkeypatch.setenv(compiled.ENV, "1" if enabled else "0")
+    heat = ErrorImage([[0.0, 0.25, 2.0, np.nan, 1.0, np.nan]], [[0, 0, 0, 3, 1, 0]])
+    rgb = H.heat_map_rgb(heat)
+    # v = e / 2: (255 v, 204 sqrt(v), 255 v^2) rounded half up.
+    assert rgb[0, 0].tolist() == [0, 0, 0]
+    assert rgb[0, 1].tolist() == [32, 72, 4]           # v = 0.125
+    assert rgb[0, 2].tolist() == [255, 204, 255]
+    assert rgb[0, 3].tolist() == [0, 204, 204]         # outside: cyan
+    assert rgb[0, 4].tolist() == [230, 26, 204]        # contested: magenta, whatever its error
+    assert rgb[0, 5].tolist() == [13, 13, 51]          # not compared: dark blue
+    small = H.heat_map_rgb(ErrorImage([[0.25]], [[0]]))
+    assert small[0, 0].tolist() == [128, 144, 64]      # v = 0.25 / 0.5
+
+
+# The statistics on the block threads (harness/texel_report.py) --------------------------------
+
+def _quad_texels(size):
+    from surfgrad_addon.reference import raster
+    corners = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    tris = np.array([[0, 1, 2], [0, 2, 3]])
+    mesh = raster.MeshArrays(positions=np.c_[corners, np.zeros(4)], triangles=tris,
+                             corner_normals=np.tile([0.0, 0.0, 1.0], (2, 3, 1)),
+                             uv_maps={"UV": corners[tris]})
+    return raster.rasterize(mesh, "UV", size, size)
+
+
+def _field(x, y):
+    v = np.stack([np.sin(x * 0.01), np.cos(y * 0.013), np.full(np.shape(x), 2.0)], -1)
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def test_statistics_on_block_threads_are_those_of_one_thread_and_of_the_whole_image(
+        monkeypatch):
+    """A 640^2 quad (25 blocks: two threads share them) whose bake is a known field a little
+    off the reference's: every figure is the same on one thread and on two, and the errors
+    are the angles between the two fields, texel by texel."""
+    from surfgrad_addon.harness import texel_report as TR
+    size = 640
+    td = _quad_texels(size)
+    y, x = np.mgrid[0:size, 0:size]
+    pixels = np.zeros((size, size, 4), dtype=np.float32)
+    pixels[..., :3] = _field(x + 0.3 * np.sin(y * 0.05), y)
+    covered = td.covered.copy()
+    covered[:5, :7] = False                             # baked by one side only: outside
+    reference = lambda block: _field(block.pixel[:, 0], block.pixel[:, 1])
+    got = {}
+    for threads in ("1", "2"):
+        monkeypatch.setenv("SURFGRAD_REFERENCE_THREADS", threads)
+        r, heat, seconds = TR.compare_tile(td, reference, pixels, covered)
+        got[threads] = (TR.merge([r]), heat, seconds)
+    (one, heat_one, s1), (two, heat_two, s2) = got["1"], got["2"]
+    assert one == two and s1 > 0 and s2 > 0
+    assert np.array_equal(heat_one, heat_two, equal_nan=True)
+    assert np.array_equal(heat_one.reasons, heat_two.reasons)
+    compared = covered & td.covered & ~(td.on_edge & ~td.contested)
+    want = A.angle_deg(pixels[..., :3][compared], _field(x, y)[compared])
+    assert one["texels_compared"] == compared.sum() > 0.95 * size * size
+    assert one["excluded"]["outside"] == 35 and one["excluded"]["backfacing"] == 0
+    np.testing.assert_allclose(heat_one[compared], want, rtol=1e-12, atol=1e-12)
+    assert np.isnan(heat_one[~compared]).all()
+    assert one["max_deg"] == pytest.approx(want.max(), rel=1e-12)
+    assert one["mean_deg"] == pytest.approx(want.mean(), rel=1e-9)
+    assert one["p99_deg"] == pytest.approx(np.percentile(want, 99), rel=1e-12)
+    # The tilts: both fields against the shading normal (the quad's, as the renderer packs it).
+    normal = np.zeros((size, size, 3))
+    normal[td.pixel[:, 1], td.pixel[:, 0]] = td.shading_normal
+    for key, vectors in (("tilt_mean_deg", _field(x, y)), ("bake_tilt_mean_deg", pixels)):
+        tilt = A.angle_deg(vectors[..., :3][compared], normal[compared])
+        assert one[key] == pytest.approx(tilt.mean(), rel=1e-9), key

@@ -25,6 +25,7 @@ bpy = pytest.importorskip("bpy")
 from support.child import run_python  # noqa: E402
 from surfgrad_addon.addon import normal_bake as NB  # noqa: E402
 from surfgrad_addon.harness import asset_scenes as A, bake as B, compare  # noqa: E402
+from surfgrad_addon.harness import texel_report as TR  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 import surfgrad_addon.reference as R  # noqa: E402
 from surfgrad_addon.reference import methods as M  # noqa: E402
@@ -180,7 +181,7 @@ def _independent_backfacing(obj, res):
         if inside.any():
             normal = bary[inside] @ n[i]
             normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-            away[inside] = normal @ ng[i] < compare.BACKFACING_DOT
+            away[inside] = normal @ ng[i] < TR.BACKFACING_DOT
             won |= inside
     return away.reshape(res, res), int(np.sum(np.einsum("tki,ti->tk", n, ng) < 0, axis=1)
                                          .astype(bool).sum())
@@ -200,7 +201,7 @@ def test_suzanne_as_shipped_backfacing_texels_are_excluded_and_counted(empty_fil
         assert named.sum() == report["excluded"]["backfacing"] > 0
         np.testing.assert_array_equal(named, expected & ~other)
         assert 0 < len(report["backfacing_triangles"]) <= 16
-        assert compare.EXCLUSION_REASONS[4][0] == "backfacing"
+        assert TR.EXCLUSION_REASONS[4][0] == "backfacing"
         text = [w for w in report["warnings"] if "(backfacing)" in w]
         assert len(text) == 1 and f"{report['excluded']['backfacing']} texels of " in text[0]
         assert any(line.startswith("warning: ") and "(backfacing)" in line for line in logged)
@@ -396,7 +397,7 @@ def test_mixed_smooth_and_flat_normal_map_node_on_a_flat_colour(empty_file):
     v = m[0] * t + m[1] * bt + m[2] * n
     expected = v / np.linalg.norm(v, axis=1, keepdims=True)
     x, y = td.pixel[:, 0], td.pixel[:, 1]
-    facing = np.sum(td.shading_normal * td.geometric_normal, axis=1) > compare.BACKFACING_DOT
+    facing = np.sum(td.shading_normal * td.geometric_normal, axis=1) > TR.BACKFACING_DOT
     use = cov[y, x] & ~td.on_edge[y, x] & facing
     flat = ~np.asarray([p.use_smooth for p in obj.data.polygons])[mesh.triangle_faces[td.tri]]
     assert (use & flat).sum() > 300 and (use & ~flat).sum() > 300

@@ -154,13 +154,16 @@ def bench_compare_arguments(p):
     p.add_argument("--compare-root", default=None,
                    help="checkout whose compare command to time (default this one; e.g. an "
                         "earlier commit's, for before/after figures)")
+    p.add_argument("--before-root", default=None,
+                   help="a second checkout whose compare is timed in the same rounds, against "
+                        "the same bake-alone child (the 'before' figures)")
     _overwrite(p, "replace an existing JSON")
 
 
 def bench_compare_run(args):
     from .bench import compare as bc
     bc.run(args.out, tuple(args.sizes or bc.SIZES), args.method or bc.METHOD, args.repeats,
-           args.overwrite, compare_root=args.compare_root)
+           args.overwrite, compare_root=args.compare_root, before_root=args.before_root)
 
 
 # compare, compare-all -----------------------------------------------------------------------

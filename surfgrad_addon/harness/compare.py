@@ -18,6 +18,7 @@ grid (tiling UVs) on the 0..1 square a plain image bakes, or on the tiles asked 
 faces outside counted.
 """
 
+import gc
 import json
 import os
 import time
@@ -32,14 +33,17 @@ from ..addon.bake_target import bake_target_problem
 from ..addon.normal_bake import resolution_problem
 from ..addon.precise_bake import precise_far
 from ..reference import methods as M
-from ..reference.agreement import COUNTS as AGREEMENT_COUNTS, texel_agreement
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 from . import scale_limits
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
-from .pictures import write_png
+from .heat_map import write_heat_map
+# EXCLUSION_REASONS and CONTESTED (texel_report's) named here too for the tests that read them
+# as compare's (tests/test_bake_compare.py, tests/test_real_assets.py).
+from .texel_report import CONTESTED, EXCLUSION_REASONS  # noqa: F401
+from .texel_report import ErrorImage, compare_tile, merge
 
 DETAIL_UV = "Detail"
 
@@ -202,43 +206,6 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
             bpy.data.images.remove(img)
 
 
-# Why a covered texel is not compared (codes in ErrorImage.reasons, keys in the report's
-# "excluded"). Code 1 marks contested texels (overlapping UV islands): they ARE compared,
-# since the reference gives each to the triangle the bake gives it (the last in mesh order),
-# and are counted in "texels_contested", with their own error in "contested_max_deg".
-CONTESTED = 1
-EXCLUSION_REASONS = {
-    2: ("edge", "within float32 rounding of a triangle edge: Blender's float32 scan "
-                "conversion decides the side, and on an island border Cycles moves a sample it "
-                "finds outside its triangle by a hashed jitter (bake_jitter_barycentric)"),
-    3: ("outside", "covered by the bake or by the reference but not by both"),
-    4: ("backfacing", "the shading normal (the interpolated vertex or corner normals) faces "
-                      "away from its triangle (or within rounding of it): a bake's ray comes "
-                      "in along -N (integrator/init_from_bake.h), so Cycles finds the back "
-                      "face and flips N, Ng, dPdu and dPdv there (geom/shader_data.h), and "
-                      "every node shades the back side; the references model the front side"),
-}
-HEAT_COLOURS = {0: (0.05, 0.05, 0.2), 1: (0.9, 0.1, 0.8), 2: (1.0, 0.55, 0.0),
-                3: (0.0, 0.8, 0.8), 4: (0.2, 0.9, 0.2)}
-# dot(shading normal, geometric normal) below this is "backfacing": the bake's float32 sign
-# test can go either way within the rounding of the (packed) stored normals.
-BACKFACING_DOT = 1e-4
-
-
-class ErrorImage(np.ndarray):
-    """The per-texel error (H, W) in degrees, NaN where not compared, with `reasons` (H, W):
-    the EXCLUSION_REASONS code of an excluded texel, CONTESTED for a compared contested one,
-    else 0."""
-
-    def __new__(cls, error, reasons):
-        obj = np.asarray(error, dtype=np.float64).view(cls)
-        obj.reasons = np.asarray(reasons, dtype=np.int8)
-        return obj
-
-    def __array_finalize__(self, obj):
-        self.reasons = getattr(obj, "reasons", None)
-
-
 def target_tiles(mesh, uv_map, name, tiles=None):
     """What a bake of `uv_map` fills, as Blender's bake does it: (tiles, faces outside, note).
     [1001] is the
@@ -326,6 +293,20 @@ def backfacing_warning(mesh, report):
             f"Recalculate Outside) or fix the custom normals.")
 
 
+_HEAP_FROZEN = []
+
+
+def _freeze_loaded_heap():
+    """Once per process, once the kernels are loaded: every object alive then (the modules,
+    Blender's and numba's typing and target tables, which last as long as the process) goes
+    to the collector's permanent generation, so no later collection walks them again. The
+    last collection at exit spent about 0.3 s of CPU on them (a 2048^2 compare on 5.2: a
+    third of what compare adds to its bake)."""
+    if not _HEAP_FROZEN:
+        gc.freeze()
+        _HEAP_FROZEN.append(True)
+
+
 def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
     and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""
@@ -343,6 +324,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
         reference time. Not in a thread beside the bake: numba compiling its kernels (a cold
         cache) while Cycles bakes crashed Blender 4.5 (segfault, 1 run in 4 or 5)."""
         load = R.raster.load_compiled()
+        _freeze_loaded_heap()
         rasters = {}
         for number in tiles:
             t0 = time.perf_counter()
@@ -374,8 +356,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
         tds.append(td)
-        r, heat, seconds = _compare_tile(td, lambda block: M.resolve(reference(inp, block)),
-                                         pixels, covered)
+        r, heat, seconds = compare_tile(td, lambda block: M.resolve(reference(inp, block)),
+                                        pixels, covered)
         reference_seconds += seconds
         r["tile"] = number
         tile_reports.append(r)
@@ -384,7 +366,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
         raise CompareError(f"UV map {inp.uv_map!r} of {obj.name!r} covers no texel centre at "
                            f"{resolution}^2 (its islands are thinner than a texel or outside "
                            f"the UV square); raise --resolution or unwrap again")
-    report = _merge(tile_reports)
+    report = merge(tile_reports)
     if report["texels_compared"] == 0:
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
                            f"(excluded: {report['excluded']}); raise --resolution")
@@ -400,137 +382,11 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
                    "compiled_kernels": R.compiled.enabled(),
                    "compiled_load_seconds": load_seconds,
                    "tiles": tile_reports if len(tile_reports) > 1 or tiles != [1001] else None})
-    error = np.concatenate([h for h in heats], axis=1)
+    if len(heats) == 1:
+        return report, heats[0]             # one image: no copy of it
+    error = np.concatenate(heats, axis=1)
     reasons = np.concatenate([h.reasons for h in heats], axis=1)
     return report, ErrorImage(error, reasons)
-
-
-def _compare_tile(td, reference, pixels, covered):
-    """One image's comparison, block by block (reference/raster.py: the reference's working
-    memory and the comparison's are one block's; the errors and the error image are whole):
-    the report fields, its ErrorImage and the seconds reference(block) took."""
-    h, w = covered.shape
-    reasons = np.zeros((h, w), dtype=np.int8)
-    reasons[covered ^ td.covered] = 3
-    heat = np.full((h, w), np.nan)
-    errs = np.empty(td.texel_count)            # the compared texels' errors, block after block
-    n_errs = 0
-    contested_errs = []
-    sums = dict.fromkeys(("compared", "contested", "tilt_bake", "tilt_ref", "finite_unit",
-                          "both", "finite_unit_all", "away", "truth_away", "away_wrong"), 0)
-    sums["backfacing_triangles"] = set()
-    seconds = [0.0]
-    for _, _, block, ref in M.evaluated_blocks(reference, td, seconds=seconds):
-        # One pass per block (reference/agreement.py): classes, reasons, atan2 arguments.
-        a = texel_agreement(block.pixel, pixels, covered, td.contested, td.on_edge, ref,
-                            block.shading_normal, block.geometric_normal,
-                            M.unit_base_normal(block), BACKFACING_DOT, reasons)
-        err = a.error()
-        errs[n_errs:n_errs + len(err)] = err
-        n_errs += len(err)
-        heat.ravel()[a.flat[:a.n]] = err
-        contested_errs.append(err[a.marked[:a.n]])
-        sums["backfacing_triangles"] |= set(np.unique(block.tri[a.backfacing]).tolist())
-        tilt_bake, tilt_ref = a.tilts()
-        sums["tilt_bake"] += float(tilt_bake.sum())
-        sums["tilt_ref"] += float(tilt_ref.sum())
-        for name, count in zip(AGREEMENT_COUNTS, a.counts.tolist()):
-            sums[name] += count
-    contested_err = np.concatenate(contested_errs) if contested_errs else np.zeros(0)
-    excluded = {name: int((reasons == code).sum())
-                for code, (name, _) in EXCLUSION_REASONS.items()}
-    r = {
-        "texels_covered": int((covered | td.covered).sum()),
-        "texels_compared": sums["compared"],
-        "texels_contested": sums["contested"],
-        "excluded": excluded,
-        "contested_max_deg": float(contested_err.max()) if len(contested_err) else None,
-        "_err": errs[:n_errs], "_sums": sums,
-    }
-    return r, ErrorImage(heat, reasons), seconds[0]
-
-
-def _stats(err):
-    if len(err) == 0:
-        return {"mean_deg": None, "p99_deg": None, "max_deg": None}
-    return {"mean_deg": float(err.mean()), "p99_deg": float(np.percentile(err, 99)),
-            "max_deg": float(err.max())}
-
-
-def _merge(tile_reports):
-    """The report over every tile (per-tile figures stay in each tile's dict)."""
-    err = (tile_reports[0]["_err"] if len(tile_reports) == 1 else
-           np.concatenate([t["_err"] for t in tile_reports]))
-    backfacing = set().union(*(t["_sums"].pop("backfacing_triangles") for t in tile_reports))
-    sums = {k: sum(t["_sums"][k] for t in tile_reports) for k in tile_reports[0]["_sums"]}
-    covered = sum(t["texels_covered"] for t in tile_reports)
-    compared = sums["compared"]
-    contested = sum(t["texels_contested"] for t in tile_reports)
-    excluded = {k: sum(t["excluded"][k] for t in tile_reports)
-                for k in tile_reports[0]["excluded"]}
-    cmax = [t["contested_max_deg"] for t in tile_reports if t["contested_max_deg"] is not None]
-    n_excl = sum(excluded.values())
-    both = sums["both"]
-    report = {
-        "finite_unit_fraction_all": sums["finite_unit_all"] / both if both else 0.0,
-        "facing_away_fraction": sums["away"] / both if both else 0.0,
-        "truth_facing_away_fraction": sums["truth_away"] / both if both else 0.0,
-        "faces_away_where_truth_does_not": int(sums["away_wrong"]),
-        "tilt_mean_deg": sums["tilt_ref"] / compared if compared else None,
-        "bake_tilt_mean_deg": sums["tilt_bake"] / compared if compared else None,
-        "texels_covered": covered, "texels_compared": compared,
-        "texels_contested": contested,
-        "texels_excluded": n_excl, "excluded": excluded,
-        "backfacing_triangles": sorted(int(t) for t in backfacing),
-        "excluded_fraction": n_excl / max(1, covered),
-        **_stats(err),
-        "contested_max_deg": max(cmax) if cmax else None,
-        "finite_unit_fraction": sums["finite_unit"] / compared if compared else 0.0,
-    }
-    for t in tile_reports:
-        # One tile: its errors are the report's (no second pass over them).
-        err = t.pop("_err")
-        t.update(_stats(err) if len(tile_reports) > 1 else
-                 {k: report[k] for k in ("mean_deg", "p99_deg", "max_deg")})
-        del t["_sums"]
-    return report
-
-
-def write_heat_map(path, heat, overwrite):
-    """Error in degrees as a picture: black 0, white at the max (or 0.5 deg, whichever is
-    larger), uncovered texels dark blue; contested texels magenta (their error is in the
-    report), excluded ones in their reason's colour (edge orange, outside cyan: HEAT_COLOURS)."""
-    return write_png(path, heat_map_rgb(heat), overwrite=overwrite)
-
-
-def _byte(value):
-    """A [0, 1] colour channel as the PNG's byte: round half up, as write_png rounds floats."""
-    return np.minimum(np.asarray(value) * 255.0 + 0.5, 255.0).astype(np.uint8)
-
-
-def heat_map_rgb(heat):
-    """write_heat_map's picture, (H, W, 3) uint8: channel by channel into one byte image,
-    the reason colours through a table (no float RGB image, no mask per colour)."""
-    codes = getattr(heat, "reasons", None)
-    heat = np.asarray(heat, dtype=np.float64)
-    finite = np.isfinite(heat)
-    top = max(0.5, float(np.nanmax(heat)) if finite.any() else 0.5)
-    v = np.clip(np.nan_to_num(heat, nan=0.0) / top, 0, 1)
-    rgb = np.empty(heat.shape + (3,), dtype=np.uint8)
-    rgb[..., 0] = _byte(v)
-    rgb[..., 1] = _byte(np.sqrt(v) * 0.8)
-    rgb[..., 2] = _byte(np.square(v))
-    table = np.zeros((256, 3), dtype=np.uint8)      # int8 code -> colour (index code & 255)
-    known = np.zeros(256, dtype=bool)
-    for code, colour in HEAT_COLOURS.items():
-        table[code & 255], known[code & 255] = _byte(colour), True
-    index = (np.zeros(heat.shape, dtype=np.uint8) if codes is None
-             else np.asarray(codes, dtype=np.int8).view(np.uint8))
-    # A reason's colour wins; any other texel without an error is HEAT_COLOURS[0].
-    reason = known[index] & (index != 0)
-    special = reason | ~finite
-    rgb[special] = table[np.where(reason, index, 0)[special]]
-    return rgb
 
 
 def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,

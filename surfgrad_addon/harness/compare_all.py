@@ -19,7 +19,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from .compare import CompareError, compare_object, write_heat_map
+from .compare import CompareError, compare_object
+from .heat_map import write_heat_map
 from .methods import METHODS, cases, unavailable_reason
 
 ROOT = Path(__file__).resolve().parents[2]

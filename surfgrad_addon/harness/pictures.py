@@ -12,17 +12,18 @@ from PIL import Image
 _CHANNELS = (1, 3, 4)      # grey (L), RGB, RGBA
 
 
-def write_png(path, pixels, bottom_up=True, overwrite=False):
+def write_png(path, pixels, bottom_up=True, overwrite=False, compress_level=6):
     """Write 8-bit pixels (H, W), (H, W, 3) or (H, W, 4): [0, 1] floats or 0-255 integers.
     bottom_up: row 0 is the bottom of the picture (Blender's order). Refuses to replace an
-    existing file unless overwrite."""
+    existing file unless overwrite. compress_level: zlib's 0-9 (Pillow's default 6); the
+    pixels are the same at any level."""
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True (--overwrite) to replace it")
     a = np.asarray(pixels)
     if a.dtype.kind == "f":
         a = np.clip(np.nan_to_num(a, nan=0.0) * 255.0 + 0.5, 0, 255)
-    a = a.astype(np.uint8)
+    a = a.astype(np.uint8, copy=False)
     channels = 1 if a.ndim == 2 else a.shape[-1]
     if a.ndim not in (2, 3) or channels not in _CHANNELS:
         raise ValueError(f"PNG needs 1, 3 or 4 channels, got shape {a.shape}")
@@ -31,5 +32,5 @@ def write_png(path, pixels, bottom_up=True, overwrite=False):
     if bottom_up:
         a = a[::-1]
     image = Image.fromarray(np.ascontiguousarray(a))      # uint8: L, RGB or RGBA by shape
-    image.save(path, format="PNG")
+    image.save(path, format="PNG", compress_level=compress_level)
     return path

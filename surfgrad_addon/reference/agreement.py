@@ -140,7 +140,18 @@ def _length3(x, y, z):
 
 
 @kernel(inline=True)
-def _atan2_row(a0, a1, a2, b0, b1, b2, args, valid, k, i):
+def _squared3(x, y, z):
+    return (x * x + y * y) + z * z
+
+
+@kernel(inline=True)
+def _has_direction(x, y, z):
+    """np.isfinite(v).all() and np.linalg.norm(v) > 0 (sqrt(s) > 0 exactly when s > 0)."""
+    return _finite3(x, y, z) and _squared3(x, y, z) > 0
+
+
+@kernel(inline=True)
+def _atan2_row(a0, a1, a2, b0, b1, b2, pair_valid, args, valid, k, i):
     """args[2k, i], args[2k + 1, i], valid[k, i] = |a x b|, a . b, valid (numpy's order:
     cross(a, b) = (a1 b2 - a2 b1, a2 b0 - a0 b2, a0 b1 - a1 b0), sums left to right)."""
     c0 = a1 * b2 - a2 * b1
@@ -148,8 +159,7 @@ def _atan2_row(a0, a1, a2, b0, b1, b2, args, valid, k, i):
     c2 = a0 * b1 - a1 * b0
     args[2 * k, i] = _length3(c0, c1, c2)
     args[2 * k + 1, i] = (a0 * b0 + a1 * b1) + a2 * b2
-    valid[k, i] = (_finite3(a0, a1, a2) and _finite3(b0, b1, b2)
-                   and _length3(a0, a1, a2) > 0 and _length3(b0, b1, b2) > 0)
+    valid[k, i] = pair_valid
 
 
 @kernel()
@@ -157,9 +167,12 @@ def agreement_texels(pixel, pixels, covered, contested, on_edge, ref, shading, g
                      base, backfacing_dot, reasons, args, valid, flat, marked, backfacing,
                      counts):
     """Compiled twin of _agreement_numpy (ref, shading, geometric, base as (3, n) rows);
-    returns the number of compared texels."""
+    returns the number of compared texels. Each vector's length and validity is taken once
+    (the numpy code takes them per pair): the same booleans and floats."""
     width = pixels.shape[1]
     n = 0
+    n_both = n_unit_all = n_away = n_truth_away = n_away_wrong = 0
+    n_contested = n_unit = 0
     for i in range(pixel.shape[0]):
         x, y = pixel[i, 0], pixel[i, 1]
         backfacing[i] = False
@@ -170,17 +183,19 @@ def agreement_texels(pixel, pixels, covered, contested, on_edge, ref, shading, g
         b2 = np.float64(pixels[y, x, 2])
         r0, r1, r2 = ref[0, i], ref[1, i], ref[2, i]
         g0, g1, g2 = geometric[0, i], geometric[1, i], geometric[2, i]
-        counts[3] += 1
-        if _finite3(b0, b1, b2) and abs(_length3(b0, b1, b2) - 1) < 1e-3:
-            counts[4] += 1
+        n_both += 1
+        b_finite = _finite3(b0, b1, b2)
+        b_off = abs(_length3(b0, b1, b2) - 1)           # |length - 1| of the bake
+        if b_finite and b_off < 1e-3:
+            n_unit_all += 1
         away = (b0 * g0 + b1 * g1) + b2 * g2 < -1e-3
         truth_dot = (r0 * g0 + r1 * g1) + r2 * g2
         if away:
-            counts[5] += 1
+            n_away += 1
         if truth_dot < 0:
-            counts[6] += 1
+            n_truth_away += 1
         if away and not truth_dot < 1e-3:
-            counts[7] += 1
+            n_away_wrong += 1
         if on_edge[y, x] and not contested[y, x]:
             reasons[y, x] = 2                               # EDGE
             continue
@@ -192,16 +207,26 @@ def agreement_texels(pixel, pixels, covered, contested, on_edge, ref, shading, g
         marked[n] = contested[y, x]
         if marked[n]:
             reasons[y, x] = 1                               # CONTESTED
-            counts[1] += 1
-        if _finite3(b0, b1, b2) and abs(_length3(b0, b1, b2) - 1) < 1e-4:
-            counts[2] += 1
+            n_contested += 1
+        if b_finite and b_off < 1e-4:
+            n_unit += 1
         s0, s1, s2 = base[0, i], base[1, i], base[2, i]
-        _atan2_row(b0, b1, b2, r0, r1, r2, args, valid, 0, n)
-        _atan2_row(b0, b1, b2, s0, s1, s2, args, valid, 1, n)
-        _atan2_row(r0, r1, r2, s0, s1, s2, args, valid, 2, n)
+        b_ok = b_finite and _squared3(b0, b1, b2) > 0
+        r_ok = _has_direction(r0, r1, r2)
+        s_ok = _has_direction(s0, s1, s2)
+        _atan2_row(b0, b1, b2, r0, r1, r2, b_ok and r_ok, args, valid, 0, n)
+        _atan2_row(b0, b1, b2, s0, s1, s2, b_ok and s_ok, args, valid, 1, n)
+        _atan2_row(r0, r1, r2, s0, s1, s2, r_ok and s_ok, args, valid, 2, n)
         flat[n] = y * width + x
         n += 1
-    counts[0] = n
+    counts[0] += n
+    counts[1] += n_contested
+    counts[2] += n_unit
+    counts[3] += n_both
+    counts[4] += n_unit_all
+    counts[5] += n_away
+    counts[6] += n_truth_away
+    counts[7] += n_away_wrong
     return n
 
 

@@ -6,19 +6,23 @@ For each size, `repeats` pairs of child processes run one after the other (inter
 order alternating, so the load of a shared machine falls on both alike):
 - **bake alone**: a child that does what compare does up to its bake and nothing after: the
   test scene, the method's images and node graph, the same bake (bake_vector_in_pieces) read
-  back into memory (`python -m surfgrad_addon.harness.bench.compare --bake-alone ...`);
+  back into memory (`python -m <this module> --bake-alone ...`);
 - **compare**: `python -m surfgrad_addon compare --object Sphere ...`, start to JSON and heat
   map written.
-Each child is timed from launch to exit. Per pair two ratios, then the median over the pairs:
+Each child is timed from launch to exit, wall and CPU (user + system, all its threads). Per
+pair three ratios, then the median over the pairs:
 - `compare / bake alone`: the two processes' walls;
 - `compare / bake operator`: compare's wall over the bake alone child's Cycles bake
-  (bpy.ops.object.bake) seconds: the stricter figure, every start-up cost on compare's side.
+  (bpy.ops.object.bake) seconds: the stricter figure, every start-up cost on compare's side;
+- `compare CPU / bake alone CPU`: the work each did, which other processes on a shared
+  machine change much less than the walls (they stretch a wall by the time they hold a core).
 """
 
 import argparse
 import json
 import os
 import platform
+import resource
 import subprocess
 import sys
 import tempfile
@@ -30,67 +34,102 @@ import numpy as np
 SIZES = (2048, 4096)
 METHOD = "normal-map"
 OBJECT = "Sphere"
-ROOT = Path(__file__).resolve().parents[3]
+# The checkout: the folder holding the package (wherever in it this module lives).
+ROOT = next(p.parent for p in Path(__file__).resolve().parents if p.name == "surfgrad_addon")
+MODULE = __spec__.name if __spec__ else __name__       # this module, wherever it lives
+RATIOS = ("compare_over_bake_alone", "compare_over_bake_operator",
+          "compare_cpu_over_bake_alone_cpu")
+
+
+def _children_cpu():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _timed(cmd, root):
-    """(wall seconds, stdout) of a child; raises RuntimeError with its last error line."""
+    """(wall seconds, CPU seconds, stdout) of a child; raises RuntimeError with its last error
+    line."""
+    cpu0 = _children_cpu()
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=root, capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    cpu = _children_cpu() - cpu0              # the waited-for child's (and its children's)
     if proc.returncode != 0:
         lines = (proc.stderr or proc.stdout).strip().splitlines()
         raise RuntimeError(f"{' '.join(cmd[1:4])} failed (exit {proc.returncode}): "
                            f"{lines[-1] if lines else 'no output'}")
-    return wall, proc.stdout
+    return wall, cpu, proc.stdout
 
 
 def bake_alone_child(method, size, python=None, root=ROOT):
-    """{wall_seconds, bake_seconds} of a child that only bakes."""
-    wall, out = _timed([python or sys.executable, "-m", "surfgrad_addon.harness.bench.compare",
-                        "--bake-alone", method, str(size)], root)
-    return {"wall_seconds": wall, "bake_seconds": json.loads(out.strip().splitlines()[-1])}
+    """{wall_seconds, cpu_seconds, bake_seconds} of a child that only bakes."""
+    wall, cpu, out = _timed([python or sys.executable, "-m", MODULE, "--bake-alone", method,
+                             str(size)], root)
+    return {"wall_seconds": wall, "cpu_seconds": cpu,
+            "bake_seconds": json.loads(out.strip().splitlines()[-1])}
 
 
 def compare_child(method, size, python=None, root=ROOT):
-    """{wall_seconds, bake_seconds, reference_seconds, max_deg} of a compare child."""
+    """{wall_seconds, cpu_seconds, bake_seconds, reference_seconds, max_deg} of a compare
+    child."""
     with tempfile.TemporaryDirectory() as tmp:
         report = Path(tmp) / "report.json"
-        wall, _ = _timed([python or sys.executable, "-m", "surfgrad_addon", "compare",
-                          "--object", OBJECT, "--method", method, "--resolution", str(size),
-                          "--json", str(report)], root)
+        wall, cpu, _ = _timed([python or sys.executable, "-m", "surfgrad_addon", "compare",
+                               "--object", OBJECT, "--method", method, "--resolution",
+                               str(size), "--json", str(report)], root)
         r = json.loads(report.read_text())
-    return {"wall_seconds": wall, "bake_seconds": r["bake_seconds"],
+    return {"wall_seconds": wall, "cpu_seconds": cpu, "bake_seconds": r["bake_seconds"],
             "reference_seconds": r["reference_seconds"], "max_deg": r["max_deg"]}
 
 
+def _pair(b, c):
+    """One pair's children and ratios."""
+    return {"bake_alone": b, "compare": c,
+            "compare_over_bake_alone": c["wall_seconds"] / b["wall_seconds"],
+            "compare_over_bake_operator": c["wall_seconds"] / b["bake_seconds"],
+            "compare_cpu_over_bake_alone_cpu": c["cpu_seconds"] / b["cpu_seconds"]}
+
+
+def _medians(pairs):
+    return {key: float(np.median([p[key] for p in pairs])) for key in RATIOS} | \
+        {"pairs": pairs}
+
+
 def measure(size, method=METHOD, repeats=3, python=None, root=ROOT, compare_root=None,
-            log=print):
-    """The interleaved pairs at one size and their median ratios."""
-    pairs = []
+            log=print, before_root=None):
+    """The interleaved pairs at one size and their median ratios. before_root: a second
+    checkout whose compare runs in the same rounds (the order rotating), each timed against
+    the same bake alone child: before and now under the same load ("before")."""
+    kinds = ("bake", "compare") + (("before",) if before_root else ())
+    roots = {"compare": compare_root or root, "before": before_root}
+    pairs, before = [], []
     for i in range(repeats):
-        order = ("bake", "compare") if i % 2 == 0 else ("compare", "bake")
+        order = kinds[i % len(kinds):] + kinds[:i % len(kinds)]
+        if len(kinds) == 2 and i % 2:
+            order = ("compare", "bake")
+        load = os.getloadavg()[0]
         got = {}
         for kind in order:
-            if kind == "bake":
-                got[kind] = bake_alone_child(method, size, python, root)
-            else:
-                got[kind] = compare_child(method, size, python, compare_root or root)
-        b, c = got["bake"], got["compare"]
-        pairs.append({"bake_alone": b, "compare": c,
-                      "compare_over_bake_alone": c["wall_seconds"] / b["wall_seconds"],
-                      "compare_over_bake_operator": c["wall_seconds"] / b["bake_seconds"]})
-        log(f"{size}^2 pair {i + 1}/{repeats}: compare {c['wall_seconds']:.2f} s, bake alone "
-            f"{b['wall_seconds']:.2f} s (operator {b['bake_seconds']:.2f} s): "
-            f"{pairs[-1]['compare_over_bake_alone']:.2f}x / "
-            f"{pairs[-1]['compare_over_bake_operator']:.2f}x")
-    med = lambda key: float(np.median([p[key] for p in pairs]))
-    return {"compare_over_bake_alone": med("compare_over_bake_alone"),
-            "compare_over_bake_operator": med("compare_over_bake_operator"), "pairs": pairs}
+            got[kind] = (bake_alone_child(method, size, python, root) if kind == "bake" else
+                         compare_child(method, size, python, roots[kind]))
+        for kind, out in (("compare", pairs), ("before", before)):
+            if kind not in got:
+                continue
+            out.append(_pair(got["bake"], got[kind]) | {"load_average": load})
+            p, c, b = out[-1], got[kind], got["bake"]
+            log(f"{size}^2 {kind} {i + 1}/{repeats}: compare {c['wall_seconds']:.2f} s, bake "
+                f"alone {b['wall_seconds']:.2f} s (operator {b['bake_seconds']:.2f} s): "
+                f"{p['compare_over_bake_alone']:.2f}x / {p['compare_over_bake_operator']:.2f}x;"
+                f" CPU {c['cpu_seconds']:.2f} s against {b['cpu_seconds']:.2f} s: "
+                f"{p['compare_cpu_over_bake_alone_cpu']:.2f}x (load {load:.1f})")
+    result = _medians(pairs)
+    if before:
+        result["before"] = _medians(before) | {"compare_root": str(before_root)}
+    return result
 
 
 def run(out_path, sizes=SIZES, method=METHOD, repeats=3, overwrite=False, python=None,
-        root=ROOT, compare_root=None, log=print):
+        root=ROOT, compare_root=None, log=print, before_root=None):
     out_path = Path(out_path)
     if out_path.exists() and not overwrite:
         raise FileExistsError(f"{out_path} exists; pass --overwrite to replace it")
@@ -100,10 +139,14 @@ def run(out_path, sizes=SIZES, method=METHOD, repeats=3, overwrite=False, python
                "compare_root": str(compare_root or root), "sizes": {}}
     for size in sizes:
         results["sizes"][str(size)] = measure(size, method, repeats, python, root,
-                                              compare_root, log)
+                                              compare_root, log, before_root)
         r = results["sizes"][str(size)]
-        log(f"{size}^2: compare / bake alone {r['compare_over_bake_alone']:.2f}x, compare / "
-            f"bake operator {r['compare_over_bake_operator']:.2f}x (median of {repeats})")
+        for name, figures in (("now", r), ("before", r.get("before"))):
+            if figures:
+                log(f"{size}^2 {name}: compare / bake alone "
+                    f"{figures['compare_over_bake_alone']:.2f}x, compare / bake operator "
+                    f"{figures['compare_over_bake_operator']:.2f}x, CPU "
+                    f"{figures['compare_cpu_over_bake_alone_cpu']:.2f}x (median of {repeats})")
     results["machine"]["load_average_after"] = os.getloadavg()
     out_path.parent.mkdir(parents=True, exist_ok=True)
     out_path.write_text(json.dumps(results, indent=2))
@@ -116,10 +159,9 @@ def _bake_alone(method, size):
     operator's seconds (JSON)."""
     import bpy
 
-    from .. import bake as B
-    from .. import compare as C
-    from .. import scenes
-    from ..methods import METHODS, resolve_sg
+    # Absolute: the same wherever in the harness this module lives.
+    from surfgrad_addon.harness import bake as B, compare as C, scenes
+    from surfgrad_addon.harness.methods import METHODS, resolve_sg
     scenes.new_scene()
     obj = bpy.data.objects[OBJECT]
     m = METHODS[method]
@@ -134,8 +176,24 @@ def _bake_alone(method, size):
     print(json.dumps(seconds))
 
 
-if __name__ == "__main__":
+def _main():
+    """The bake alone child (--bake-alone), or the bench with a before checkout timed in the
+    same rounds (--before-root, also on the command line's bench-compare)."""
     parser = argparse.ArgumentParser()
-    parser.add_argument("--bake-alone", nargs=2, metavar=("METHOD", "SIZE"), required=True)
+    parser.add_argument("--bake-alone", nargs=2, metavar=("METHOD", "SIZE"))
+    parser.add_argument("--out", default="out/bench_compare.json")
+    parser.add_argument("--sizes", type=int, nargs="+", default=list(SIZES))
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--before-root", default=None,
+                        help="an earlier checkout whose compare runs in the same rounds")
+    parser.add_argument("--overwrite", action="store_true")
     args = parser.parse_args()
-    _bake_alone(args.bake_alone[0], int(args.bake_alone[1]))
+    if args.bake_alone:
+        _bake_alone(args.bake_alone[0], int(args.bake_alone[1]))
+    else:
+        run(args.out, tuple(args.sizes), repeats=args.repeats, overwrite=args.overwrite,
+            before_root=args.before_root)
+
+
+if __name__ == "__main__":
+    _main()
