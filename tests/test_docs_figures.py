@@ -42,14 +42,7 @@ def _loads_1min():
 
 # (page, text as printed with {} fields, the JSON values that fill them). Each is a figure the
 # prose quotes from a committed bench JSON; the tables are generated blocks instead.
-def _compare_loads_5min():
-    return [_json(f)["machine"][k][1] for f in ("bench_compare.json", "bench_compare_before.json")
-            for k in ("load_average", "load_average_after")]
-
-
 QUOTES = [
-    ("docs/proof.md", "(load average about {:.0f})",
-     lambda: [sorted(_compare_loads_5min())[len(_compare_loads_5min()) // 2]]),
     ("docs/performance.md", "bakes {} procedural assets", lambda: [_batch()["assets"]]),
     ("docs/performance.md", "tiles, an SG material) at {}^2, {} sample",
      lambda: [_batch()["resolution"], _batch()["samples"]]),
