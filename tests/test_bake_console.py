@@ -54,3 +54,32 @@ def test_a_real_bake_prints_its_progress_but_not_the_note(tmp_path):
     assert (tmp_path / "n.png").stat().st_size > 0
     assert "baking with Cycles" in out.stdout + out.stderr       # our progress is still shown
     assert "Baking map saved to internal image" not in out.stdout + out.stderr
+
+
+def test_the_heartbeat_says_the_time_while_the_block_runs_and_stops_after():
+    import time
+    from surfgrad_addon.addon.bake_console import heartbeat
+    said = []
+    with heartbeat(said.append, "baking", every=0.05):
+        time.sleep(0.28)
+    count = len(said)
+    time.sleep(0.15)
+    assert 3 <= count <= 6, said                 # about 0.28 / 0.05 beats
+    assert len(said) == count                    # none after the block
+    assert all(s.startswith("baking: ") and s.endswith(" s so far") for s in said)
+
+
+def test_a_short_block_says_nothing():
+    from surfgrad_addon.addon.bake_console import heartbeat
+    said = []
+    with heartbeat(said.append, "baking", every=5.0):
+        pass
+    assert said == []
+
+
+def test_say_reaches_the_real_stdout_at_once_while_the_rest_is_held(capfd):
+    with quiet_bake() as say:
+        os.write(1, b"held\n")
+        say("progress")
+        assert capfd.readouterr().out == "progress\n"      # before the block ends
+    assert capfd.readouterr().out == "held\n"
