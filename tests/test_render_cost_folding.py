@@ -1,0 +1,71 @@
+"""folded_cost (harness/bench/folded_cost.py): what each SG material runs after Cycles' constant
+folding, read from Cycles' own SVM count (svm_counts) in a child, on every line.
+
+The options: one left at its default must cost nothing, so its route is gone from the program;
+one switched on costs what its nodes cost. Counts compare within the line only (int4 records up
+to 5.1, 32-bit words from 5.2)."""
+
+import pytest
+
+pytestmark = pytest.mark.tier("child")
+
+pytest.importorskip("bpy")
+
+from surfgrad_addon.harness.bench import folded_cost  # noqa: E402
+from surfgrad_addon.harness.bench import svm_counts as S  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def svm():
+    return {r["key"]: r for r in folded_cost.counts()}
+
+
+def test_every_material_is_counted_in_the_lines_unit(svm):
+    import bpy
+    assert set(svm) == {key for key, *_ in folded_cost.materials()}
+    assert {r["unit"] for r in svm.values()} == {S.unit_for(bpy.app.version)}
+    for key, row in svm.items():
+        if "against" in row:
+            assert row["ratio"] == row["svm"] / svm[row["against"]]["svm"], key
+    # each twin bends the normal: more than the unperturbed material
+    for twin in ("nm-builtin", "bump-builtin", "tri-builtin", "uv2-builtin"):
+        assert svm[twin]["svm"] > svm["none"]["svm"], twin
+
+
+def test_a_node_input_costs_nothing(svm):
+    """SG Normal Map's Strength is the Normal Map node's own input: any value is free; with the
+    Base Gradient unlinked (zero) SG Decal's Overwrite folds away."""
+    assert svm["nm-sg:strength"]["svm"] == svm["nm-sg"]["svm"]
+    assert svm["decal:overwrite"]["svm"] == svm["decal"]["svm"]
+
+
+def test_directx_off_folds_and_on_is_a_node(svm):
+    """The flip is a product by -1 (it does not fold); off, the product by 1 is gone."""
+    for key in ("nm-sg", "tri-sg", "uv2-sg"):
+        assert svm[f"{key}:directx"]["svm"] > svm[key]["svm"], key
+
+
+def test_unused_octaves_vanish(svm):
+    """Octaves 1 to 4: each octave the same gradient-noise group, so the program grows by the
+    same amount per octave; an unused octave costs nothing."""
+    counts = [svm[f"noise:octaves{k}"]["svm"] for k in (1, 2, 3)] + [svm["noise"]["svm"]]
+    steps = {b - a for a, b in zip(counts, counts[1:])}
+    assert len(steps) == 1 and steps.pop() > 0, counts
+
+
+def test_only_the_chosen_decal_shape_runs(svm):
+    """Each shape alone: the sphere (one length and a ramp) is the cheapest, the box (two
+    tests, a depth ramp) next, the cylinder (a ramp on the radius and the depth ramp) and the
+    cone (the cylinder's with a divide by its radius) the dearest. Were the four computed
+    everywhere, all four counts would be one."""
+    box, sphere, cylinder, cone = (svm["decal"]["svm"],
+                                   *(svm[f"decal:shape{k}"]["svm"] for k in (1, 2, 3)))
+    assert sphere < box < cylinder < cone
+
+
+def test_an_unlinked_input_is_free_and_a_linked_one_pays_its_test(svm):
+    """'Unlinked' is decided by a vector's length: left unlinked (zero) the test folds; linked,
+    it runs per sample."""
+    for option, base in (("nm-sg:normal", "nm-sg"), ("bump-sg:normal", "bump-sg"),
+                         ("noise:vector", "noise")):
+        assert svm[option]["svm"] > svm[base]["svm"], option
