@@ -5,6 +5,9 @@ failing its own asset while the rest go on."""
 import json
 import os
 import struct
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,6 +15,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import batch, normal_bake as NB  # noqa: E402
+from surfgrad_addon.addon.batch import session, worker_main, workers  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import run_python  # noqa: E402
 
@@ -220,7 +224,7 @@ def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
         assert np.abs(_pixels(p, 32) - _pixels(tmp_path / "w2" / p.name, 32)).max() < 1e-6
     assert len(two["process_start_s"]) == 2 and all(s > 0 for s in two["process_start_s"])
 
-    env = dict(os.environ, **{batch.FAULT_ENV: "die-once:Tree1"})
+    env = dict(os.environ, **{session.FAULT_ENV: "die-once:Tree1"})
     r = _run(three, tmp_path / "r1" / "{file}_{object}.<UDIM>.png",
              defaults={"resolution": 16}, workers=2, worker_env=env)
     tree1 = r["assets"][f"{three[1].resolve()}:Tree1"]
@@ -228,7 +232,7 @@ def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
     assert "worker process died (exit code 70)" in tree1["attempts"][0]["error"]
     assert r["counts"] == {"baked": 6, "skipped": 0, "failed": 0}
 
-    env = dict(os.environ, **{batch.FAULT_ENV: "die:Tree1"})
+    env = dict(os.environ, **{session.FAULT_ENV: "die:Tree1"})
     r = _run(three, tmp_path / "r2" / "{file}_{object}.<UDIM>.png",
              defaults={"resolution": 16}, workers=2, worker_env=env)
     tree1 = r["assets"][f"{three[1].resolve()}:Tree1"]
@@ -237,6 +241,28 @@ def test_workers_bake_the_same_files_and_retry_a_dead_worker(three, tmp_path):
     assert r["counts"] == {"baked": 5, "skipped": 0, "failed": 1}
     assert not (tmp_path / "r2" / "a1_Tree1.1001.png").exists()
     assert not list((tmp_path / "r2").glob(".*"))                 # nothing half-written
+
+
+@pytest.mark.tier("child")
+def test_the_worker_is_a_file_that_loads_surfgrad_from_its_own_folder(three, tmp_path):
+    """The worker command runs worker_main.py as a file (no code string), here from a folder
+    outside the checkout: it loads the package it sits in, says ready, answers a scan with
+    the file's assets, and ends at the end of its input. Imported, the file loads nothing."""
+    cmd = workers.worker_command()
+    assert cmd[1:] == ["-P", str(Path(worker_main.__file__).resolve())]
+    assert worker_main.PACKAGE not in sys.modules
+    request = {"op": "scan", "id": 7, "blend": str(three[1]), "objects": None}
+    res = subprocess.run(cmd, input=json.dumps(request) + "\n", capture_output=True,
+                         text=True, cwd=tmp_path, timeout=300)
+    assert res.returncode == 0, res.stderr[-3000:]
+    mark = worker_main.RESULT_MARK
+    replies = [json.loads(line[len(mark):]) for line in res.stdout.splitlines()
+               if line.startswith(mark)]
+    assert [(r["op"], r.get("id")) for r in replies] == [("ready", None), ("scan", 7)]
+    scan = replies[1]
+    assert scan["status"] == "ok" and scan["errors"] == []
+    assert sorted(a["object"] for a in scan["assets"]) == ["Rock1", "Tree1"]
+    assert all(a["uv_maps"] == {"UVMap": [1001, 1002]} for a in scan["assets"]), scan["assets"]
 
 
 @pytest.mark.tier("child")

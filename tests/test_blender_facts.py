@@ -223,7 +223,7 @@ def test_bump_copies_do_not_shift_geometry_normal_but_shift_texcoord_normal():
 # 2. The default of a "Normal" group input
 
 def _normal_group(name, via_bump):
-    bpy = base._bpy()
+    bpy = base.bpy
     ng = bpy.data.node_groups.new(name, "ShaderNodeTree")
     ng.interface.new_socket("Normal", in_out="INPUT", socket_type="NodeSocketVector")
     ng.interface.new_socket("Out", in_out="OUTPUT", socket_type="NodeSocketVector")
@@ -259,7 +259,7 @@ def test_group_normal_input_unlinked_and_linked(via_bump):
 
 @pytest.mark.tier("blender")
 def test_default_input_normal_is_geometry_nodes_only():
-    bpy = base._bpy()
+    bpy = base.bpy
     base.new_scene()
     ng = bpy.data.node_groups.new("G", "ShaderNodeTree")
     sock = ng.interface.new_socket("Normal", in_out="INPUT", socket_type="NodeSocketVector")
@@ -287,7 +287,7 @@ def test_geometry_normal(smooth):
         # the interpolation. Interpolating in object space is degrees off under this scale.
         assert fp.angle_deg(got, fp.shading_normal(td, True, False)).max() > 2.0
         # A mesh shared by two objects keeps its object space: then it is the other model.
-        bpy = base._bpy()
+        bpy = base.bpy
         twin = bpy.data.objects.new("Twin", obj.data)
         twin.location = (5.0, 0.0, 0.0)
         bpy.context.scene.collection.objects.link(twin)

@@ -28,7 +28,7 @@ from surfgrad_addon.reference.image_sampling import bake_sample_points, sample_i
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
 from surfgrad_addon.reference.noise import white_noise_color  # noqa: E402
 
-LINE = facts_for(probe._bpy().app.version)
+LINE = facts_for(probe.bpy.app.version)
 
 BAKE = 32                      # bake target is BAKE x BAKE texels
 MODES = [(i, e) for i in ("Closest", "Linear") for e in ("REPEAT", "EXTEND")]

@@ -33,12 +33,25 @@ def inputs():
         bpy.data.images.remove(img)
 
 
-def _normal_map(inp, image, directx):
+def _switched(nodes, links, sg, directx):
+    """The group node of `sg` with its DirectX switch set, resolved."""
+    sg.node.inputs["DirectX"].default_value = directx
+    return C.resolve_sg(nodes, links, sg)
+
+
+def _image_graph(graph, inp, image, directx):
+    """A builder of `graph` (a harness method's graph) on `image`, DirectX set."""
     def build(nodes, links):
-        sg = methods.normal_map_graph(inp, nodes, links, image=image)
-        sg.node.inputs["DirectX"].default_value = directx
-        return C.resolve_sg(nodes, links, sg)
+        return _switched(nodes, links, graph(inp, nodes, links, image=image), directx)
     return build
+
+
+def _normal_map(inp, image, directx):
+    return _image_graph(methods.normal_map_graph, inp, image, directx)
+
+
+def _triplanar(inp, image, directx):
+    return _image_graph(methods.triplanar_graph, inp, image, directx)
 
 
 def _tangent_normal(inp, image, directx):
@@ -50,16 +63,7 @@ def _tangent_normal(inp, image, directx):
         links.new(methods.image_node(nodes, links, inp.bpy_image(image), uv), node.inputs["Color"])
         links.new(basis.outputs["Tangent"], node.inputs["Tangent"])
         links.new(basis.outputs["Bitangent"], node.inputs["Bitangent"])
-        node.inputs["DirectX"].default_value = directx
-        return C.resolve_sg(nodes, links, node.outputs[0])
-    return build
-
-
-def _triplanar(inp, image, directx):
-    def build(nodes, links):
-        sg = methods.triplanar_graph(inp, nodes, links, image=image)
-        sg.node.inputs["DirectX"].default_value = directx
-        return C.resolve_sg(nodes, links, sg)
+        return _switched(nodes, links, node.outputs[0], directx)
     return build
 
 
@@ -71,8 +75,7 @@ def _decal(inp, image, directx):
             sg = methods.decal_graph(inp, nodes, links)
         finally:
             inp.images["normal"] = saved
-        sg.node.inputs["DirectX"].default_value = directx
-        return C.resolve_sg(nodes, links, sg)
+        return _switched(nodes, links, sg, directx)
     return build
 
 

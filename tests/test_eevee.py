@@ -51,41 +51,31 @@ BPY_OK = "SG_EEVEE_BPY_OK"
 TIMEOUT = 600
 TRIPLANAR_SCALE = 0.5         # the triplanar images repeat every 2 units (sphere radius 1)
 
+def _named_after(family, *methods):
+    """Exhibits named after their method, with no variant."""
+    return [(method, method, None, family) for method in methods]
+
+
 # Exhibits: (name, compare.METHODS key or a special, height-map variant, tolerance family).
 EXHIBITS = [
-    ("base", "base", None, "exact"),
-    ("uv-gradients", "uv-gradients", None, "exact"),
-    ("normal-map", "normal-map", None, "image"),
-    ("procedural-basis", "procedural-basis", None, "image"),
-    ("object-normal", "object-normal", None, "image"),
-    ("volume-noise", "volume-noise", None, "exact"),
+    *_named_after("exact", "base", "uv-gradients"),
+    *_named_after("image", "normal-map", "procedural-basis", "object-normal"),
+    *_named_after("exact", "volume-noise"),
     ("height-map-hq", "height-map", "hq", "exact"),
     ("height-map-one-texel", "height-map", "one-texel", "image"),
     ("height-map-forward", "height-map", "forward", "screen-derivative"),
-    ("triplanar", "triplanar", None, "image"),
-    ("triplanar-height", "triplanar-height", None, "image"),
-    ("decal", "decal", None, "image"),
-    ("parallax", "parallax", None, "image"),
-    ("post-resolve", "post-resolve", None, "image"),
-    ("displace-bump", "displace-bump", None, "exact"),
-    ("layered", "layered", None, "image"),
-    ("blend-pd", "blend-pd", None, "image"),
-    ("blend-whiteout", "blend-whiteout", None, "image"),
-    ("blend-udn", "blend-udn", None, "image"),
-    ("blend-rnm", "blend-rnm", None, "image"),
-    # Back faces (a plane turned away from the camera): Cycles and EEVEE flip the shading
-    # normal there, and nodes differ in how they treat it.
+    *_named_after("image", "triplanar", "triplanar-height", "decal", "parallax", "post-resolve"),
+    *_named_after("exact", "displace-bump"),
+    *_named_after("image", "layered", "blend-pd", "blend-whiteout", "blend-udn", "blend-rnm"),
     # Sampler groups (5.0+; skipped before): the image as a closure, 'Linear' taps.
     ("height-map-hq-sampler", "height-map-sampler", "hq", "image"),
     ("height-map-one-texel-sampler", "height-map-sampler", "one-texel", "image"),
-    ("triplanar-sampler", "triplanar-sampler", None, "image"),
-    ("triplanar-height-sampler", "triplanar-height-sampler", None, "image"),
-    ("parallax-sampler", "parallax-sampler", None, "image"),
+    *_named_after("image", "triplanar-sampler", "triplanar-height-sampler", "parallax-sampler"),
     # Decal shapes and the overwrite mode.
-    ("decal-sphere", "decal", "sphere", "image"),
-    ("decal-cylinder", "decal", "cylinder", "image"),
-    ("decal-cone", "decal", "cone", "image"),
-    ("decal-overwrite", "decal-overwrite", None, "image"),
+    *[(f"decal-{shape}", "decal", shape, "image") for shape in ("sphere", "cylinder", "cone")],
+    *_named_after("image", "decal-overwrite"),
+    # Back faces (a plane turned away from the camera): Cycles and EEVEE flip the shading
+    # normal there, and nodes differ in how they treat it.
     ("back-normal-map", "normal-map", None, "image"),
     ("back-triplanar", "triplanar", None, "image"),
     ("back-volume-noise", "volume-noise", None, "exact"),

@@ -38,6 +38,7 @@ from surfgrad_addon.addon.render_mesh import read_in_render_mode  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
 from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
+from surfgrad_addon.harness.graph import Graph  # noqa: E402
 from surfgrad_addon.harness.methods import cases  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -284,20 +285,14 @@ def _asset_material(obj):
     """Principled BSDF whose Normal is SG Resolve of SG Height Map Forward (the Bump node's
     differentials) of a noise on the UV map: a far-sensitive material."""
     mat = new_material("Far Asset")
-    tree = mat.node_tree
-    bsdf = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
-    uv = tree.nodes.new("ShaderNodeTexCoord")
-    noise = tree.nodes.new("ShaderNodeTexNoise")
-    noise.inputs["Scale"].default_value = 6.0
-    tree.links.new(uv.outputs["UV"], noise.inputs["Vector"])
-    height = tree.nodes.new("ShaderNodeGroup")
-    height.node_tree = G.height_map_forward_group()
-    tree.links.new(noise.outputs["Fac"], height.inputs["Height"])
-    height.inputs["Bump Scale"].default_value = 0.2
-    resolve = tree.nodes.new("ShaderNodeGroup")
-    resolve.node_tree = G.resolve_group()
-    tree.links.new(height.outputs[0], resolve.inputs["Surface Gradient"])
-    tree.links.new(resolve.outputs[0], bsdf.inputs["Normal"])
+    g = Graph(mat.node_tree.nodes, mat.node_tree.links)
+    bsdf = next(n for n in g.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    uv = g.node("ShaderNodeTexCoord").outputs["UV"]
+    noise = g.node("ShaderNodeTexNoise")
+    g.link(6.0, noise.inputs["Scale"])
+    g.link(uv, noise.inputs["Vector"])
+    height = g.group(G.height_map_forward_group(), Height=noise.outputs["Fac"], Bump_Scale=0.2)
+    g.link(g.resolve(height.outputs[0]), bsdf.inputs["Normal"])
     obj.data.materials.append(mat)
     return mat
 

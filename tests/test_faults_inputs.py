@@ -38,6 +38,20 @@ def _plane(name="Plane", uvs=None):
     return obj
 
 
+def _bake(capsys, blend, output, *options, obj="Plane"):
+    """bake-normal-map at 32^2, in this process: (exit code, what it wrote to stderr)."""
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", obj,
+                           "--output", str(output), "--resolution", "32", *options])
+    return rc, capsys.readouterr().err
+
+
+def _empty_folder(tmp_path):
+    """Where the refused command was to write: it must stay empty."""
+    out = tmp_path / "maps"
+    out.mkdir()
+    return out
+
+
 def _save(path):
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=False)
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -84,9 +98,9 @@ def test_a_blend_scripts_do_not_run_with_auto_run_on(tmp_path, auto_run_on):
     bpy.context.view_layer.update()                          # drivers would evaluate here
     assert not driver_mark.exists() and not text_mark.exists()
     assert bpy.app.driver_namespace.get("__import__") is None
-    from surfgrad_addon.addon import batch
-    batch._OPENED[0] = None
-    batch.open_blend(blend)
+    from surfgrad_addon.addon.batch import session
+    session._OPENED[0] = None
+    session.open_blend(blend)
     bpy.context.view_layer.update()
     assert not driver_mark.exists() and not text_mark.exists()
     from surfgrad_addon.harness import compare
@@ -200,11 +214,8 @@ MAGENTA_FAULTS = [
 def test_an_input_that_would_bake_magenta_or_flat_is_refused(tmp_path, fault, words, capsys):
     blend = _fault_blend(tmp_path, fault)
     before = _sha(blend)
-    out = tmp_path / "maps"
-    out.mkdir()
-    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
-                           "--output", str(out / "n.<UDIM>.png"), "--resolution", "32"])
-    err = capsys.readouterr().err
+    out = _empty_folder(tmp_path)
+    rc, err = _bake(capsys, blend, out / "n.<UDIM>.png")
     assert rc == exit_codes.BAD_REQUEST, err[-2000:]
     for word in words:
         assert word in err, (word, err[-2000:])
@@ -228,11 +239,8 @@ def _good_blend(tmp_path, location=(0, 0, 0), scale=(1, 1, 1)):
 def test_a_zero_scale_axis_is_refused_by_the_bake_and_compare(tmp_path, capsys):
     blend = _good_blend(tmp_path, scale=(1, 1, 0))
     before = _sha(blend)
-    out = tmp_path / "maps"
-    out.mkdir()
-    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
-                           "--output", str(out / "n.png"), "--resolution", "32"])
-    err = capsys.readouterr().err
+    out = _empty_folder(tmp_path)
+    rc, err = _bake(capsys, blend, out / "n.png")
     assert rc == exit_codes.BAD_REQUEST, err[-2000:]
     assert "object 'Plane': its scale has a zero axis (scale (1.0, 1.0, 0.0)" in err
     assert "apply a non-zero scale" in err
@@ -251,12 +259,8 @@ def test_a_zero_scale_axis_is_refused_by_the_bake_and_compare(tmp_path, capsys):
 def test_reversed_or_empty_tiles_are_refused(tmp_path, capsys, tiles, words):
     blend = _good_blend(tmp_path)
     before = _sha(blend)
-    out = tmp_path / "maps"
-    out.mkdir()
-    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
-                           "--output", str(out / "n.<UDIM>.png"), "--resolution", "32",
-                           "--tiles", tiles])
-    err = capsys.readouterr().err
+    out = _empty_folder(tmp_path)
+    rc, err = _bake(capsys, blend, out / "n.<UDIM>.png", "--tiles", tiles)
     assert rc == exit_codes.BAD_REQUEST and words in err, err[-2000:]
     rc = commands.execute(["bake-batch", str(blend), "--output", str(out / "{object}.png"),
                            "--resolution", "32", "--workers", "0", "--tiles", tiles])
@@ -296,11 +300,8 @@ def test_a_file_that_is_not_a_blend_is_named_once(tmp_path, capsys):
     bad = tmp_path / "notes.txt"
     bad.write_text("not a blend")
     before = _sha(bad)
-    out = tmp_path / "maps"
-    out.mkdir()
-    rc = commands.execute(["bake-normal-map", "--blend", str(bad), "--object", "Plane",
-                           "--output", str(out / "n.png"), "--resolution", "32"])
-    err = capsys.readouterr().err
+    out = _empty_folder(tmp_path)
+    rc, err = _bake(capsys, bad, out / "n.png")
     assert rc == exit_codes.BAD_REQUEST, err[-2000:]
     assert f".blend file {str(bad)!r} could not be opened (File format is not supported" in err
     assert "Error: Error" not in err and "error: Error" not in err
@@ -319,22 +320,15 @@ def test_folder_where_a_file_belongs_and_a_curve_object_are_named(tmp_path, caps
     folder_image.unlink()
     folder_image.mkdir()                         # the image's path is now a folder
     before = _sha(blend)
-    out = tmp_path / "maps"
-    out.mkdir()
-
-    def bake(obj_name, output):
-        rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", obj_name,
-                               "--output", str(output), "--resolution", "32"])
-        return rc, capsys.readouterr().err
-
-    rc, err = bake("Plane", out / "n.png")
+    out = _empty_folder(tmp_path)
+    rc, err = _bake(capsys, blend, out / "n.png")
     assert rc == exit_codes.BAD_REQUEST
     assert f"reads {str(folder_image)!r}, which is a folder, not an image file" in err, err
     (out / "afile").write_text("x")
-    rc, err = bake("Plane", out / "afile" / "n.png")
+    rc, err = _bake(capsys, blend, out / "afile" / "n.png")
     assert rc == exit_codes.BAD_REQUEST
     assert f"output folder {str(out / 'afile')!r} is a file, not a folder" in err, err
-    rc, err = bake("Path", out / "n.png")
+    rc, err = _bake(capsys, blend, out / "n.png", obj="Path")
     assert rc == exit_codes.BAD_REQUEST
     assert "object 'Path' is a curve, not a mesh: pick a mesh object" in err, err
     assert _listing(out) == ["afile"] and _sha(blend) == before
@@ -346,7 +340,7 @@ def test_folder_where_a_file_belongs_and_a_curve_object_are_named(tmp_path, caps
 def test_a_sequence_whose_current_frame_exists_is_not_refused(tmp_path):
     """The check follows the frame the bake reads: the path's own frame (001) missing does not
     matter when the scene's frame (3, offset 0) reads seq_003.png, which exists."""
-    from surfgrad_addon.addon import bake_request as BR
+    from surfgrad_addon.addon.image_checks import image_problems
     bpy.ops.wm.read_factory_settings(use_empty=True)
     _write_png(tmp_path / "seq_003.png")
     _write_png(tmp_path / "seq_001.png")
@@ -358,24 +352,24 @@ def test_a_sequence_whose_current_frame_exists_is_not_refused(tmp_path):
     user.frame_start, user.frame_duration, user.frame_offset = 1, 10, 0
     (tmp_path / "seq_001.png").unlink()
     bpy.context.scene.frame_current = 3
-    assert BR.image_problems(obj) == []
+    assert image_problems(obj) == []
     bpy.context.scene.frame_current = 2                 # seq_002.png: missing
-    problems = BR.image_problems(obj)
+    problems = image_problems(obj)
     assert len(problems) == 1 and "reads frame 2 at scene frame 2" in problems[0], problems
     user.frame_offset = 1                               # frame 2 + 1 = seq_003.png
-    assert BR.image_problems(obj) == []
+    assert image_problems(obj) == []
     user.use_cyclic, user.frame_duration, user.frame_offset = True, 2, 1
     bpy.context.scene.frame_current = 4                 # (4 % 2 -> 2) + 1 = 3
-    assert BR.image_problems(obj) == []
+    assert image_problems(obj) == []
 
 
 def test_a_tiled_image_is_checked_for_the_tiles_the_bake_writes(tmp_path, capsys):
     """--tiles 1001 of a layout in 1001 and 1002: the image's missing 1002 is not read by this
     bake (a farm task per tile), so it is not refused; the whole layout is."""
-    from surfgrad_addon.addon import bake_request as BR
+    from surfgrad_addon.addon.image_checks import image_problems
     blend = _fault_blend(tmp_path, "udim")
     bpy.ops.wm.open_mainfile(filepath=str(blend), use_scripts=False)
     obj = bpy.data.objects["Plane"]
-    assert BR.image_problems(obj, [1001]) == []
-    problems = BR.image_problems(obj, [1001, 1002])
+    assert image_problems(obj, [1001]) == []
+    problems = image_problems(obj, [1001, 1002])
     assert len(problems) == 1 and "has no tile 1002" in problems[0], problems

@@ -23,6 +23,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import batch, interrupts  # noqa: E402
+from surfgrad_addon.addon.batch import session  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import ROOT  # noqa: E402
 
@@ -297,7 +298,7 @@ def test_a_hung_worker_times_out_without_retry_and_the_rest_bakes(assets, tmp_pa
     t0 = time.monotonic()
     run = Run(["bake-batch", a, b, "--output", out / "{file}_{object}.png", "--workers", "2",
                "--resolution", "16", "--worker-timeout", "20"], tmp_path,
-              env={batch.FAULT_ENV: "hang:Stone"})
+              env={session.FAULT_ENV: "hang:Stone"})
     run.wait_for(lambda: run.proc.poll() is not None, timeout=180)
     code = run.finish()
     elapsed = time.monotonic() - t0
@@ -323,7 +324,7 @@ def test_a_worker_stopped_from_outside_fails_its_asset_without_retry(assets, tmp
     a, b = assets
     out = tmp_path / "maps"
     run = Run(["bake-batch", a, b, "--output", out / "{file}_{object}.png", "--workers", "1",
-               "--resolution", "16"], tmp_path, env={batch.FAULT_ENV: "hang:Stone"})
+               "--resolution", "16"], tmp_path, env={session.FAULT_ENV: "hang:Stone"})
     run.wait_for(lambda: "baked a.blend:Rock" in run.stdout)
     time.sleep(1.0)                                # the worker is on Stone, hanging
     (worker,) = descendants(run.proc.pid)
@@ -405,8 +406,9 @@ def test_every_blender_command_line_exits_non_zero_on_a_python_error():
     lines = list(_documented_lines())
     where = {w.split(":")[0] for w, _ in lines}
     # The lines this covers: README, the scripts' docstrings, the worker and Flamenco commands.
-    assert {"README.md", "surfgrad_addon/addon/batch.py", "surfgrad_addon/bake_normal_map.py",
-            "tools/farm/flamenco/surfgrad-bake.js"} <= where, where
+    assert {"README.md", "surfgrad_addon/addon/batch/workers.py",
+            "surfgrad_addon/bake_normal_map.py", "tools/farm/flamenco/surfgrad-bake.js"} <= where, \
+        where
     for w, line in lines:
         assert "--python-exit-code" in line, f"{w}: {line.strip()}"
         # Blender applies it to the --python arguments after it.

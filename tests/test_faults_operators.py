@@ -16,12 +16,12 @@ The session runs the registered extension in a subprocess (this file run as a sc
 the operators through bpy.ops in a Shader Editor override, as tests/test_operators_ui.py does.
 """
 
-import json
 import sys
-import time
 from pathlib import Path
 
 import pytest
+
+from support.operator_session import run_session, write_report  # noqa: E402
 
 pytestmark = pytest.mark.tier("child")
 
@@ -190,8 +190,7 @@ def session(work):
 
     report["cases"] = cases
     surfgrad_addon.unregister()
-    (work / "report.json").write_text(json.dumps(report, indent=1))
-    print("SG_FAULTS_OPERATORS_DONE", flush=True)
+    write_report(work, report, "SG_FAULTS_OPERATORS_DONE")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -200,18 +199,8 @@ def session(work):
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    pytest.importorskip("bpy")
-    user = tmp_path_factory.mktemp("user_faults_operators")
-    work = tmp_path_factory.mktemp("faults_operators")
-    from support.child import run_python
-    t0 = time.perf_counter()
-    out = run_python([Path(__file__).resolve(), work], cwd=work, timeout=300,
-                     env={"BLENDER_USER_RESOURCES": str(user)})
-    assert out.returncode == 0 and "SG_FAULTS_OPERATORS_DONE" in out.stdout, \
-        f"session failed:\n{out.stdout[-3000:]}\n{out.stderr[-5000:]}"
-    data = json.loads((work / "report.json").read_text())
-    data["stderr"], data["seconds"] = out.stderr, time.perf_counter() - t0
-    return data
+    return run_session(__file__, tmp_path_factory, "faults_operators",
+                       "SG_FAULTS_OPERATORS_DONE")
 
 
 def _refused(case, *words):

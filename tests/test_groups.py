@@ -57,6 +57,38 @@ def test_every_group_is_documented_with_frames(fresh):
         assert any(n.bl_idname == "NodeFrame" and n.label for n in tree.nodes), name
 
 
+def test_a_builder_uses_exactly_its_declared_sockets(fresh):
+    """A group's sockets come from its GroupInterface: a builder that asks for a socket the
+    interface lacks, or of another type, or leaves one unused, is refused."""
+    from surfgrad_addon.addon.node_builder import BuildError, ensure_group, interface_signature
+    from surfgrad_addon.reference import socket_specs as S
+    from surfgrad_addon.reference.group_interfaces import GroupInterface, signature_row
+    iface = GroupInterface("A test group", (S.SURFACE_GRADIENT_OUT,), (S.NORMAL, S.BUMP_SCALE))
+
+    def undeclared(b):
+        b.input(S.STRENGTH)
+
+    def wrong_type(b):
+        b.input(S.NORMAL_COLOR.but(name="Normal"))
+
+    def unused(b):
+        b.output(S.SURFACE_GRADIENT_OUT, b.scale(b.input(S.NORMAL), 2.0))
+
+    def complete(b):
+        b.output(S.SURFACE_GRADIENT_OUT, b.scale(b.input(S.NORMAL), b.input(S.BUMP_SCALE)))
+    for name, build, message in ((".SG Test 1", undeclared, "not in the group's declared"),
+                                 (".SG Test 2", wrong_type, "declared as a VECTOR"),
+                                 (".SG Test 3", unused, "never used")):
+        with pytest.raises(BuildError, match=message):
+            ensure_group(name, 1, build, interface=iface)
+    tree = ensure_group(".SG Test 4", 1, complete, interface=iface)
+    assert interface_signature(tree) == {
+        "description": "A test group",
+        "sockets": [signature_row(S.SURFACE_GRADIENT_OUT, "OUTPUT"),
+                    signature_row(S.NORMAL, "INPUT"), signature_row(S.BUMP_SCALE, "INPUT")]}
+    assert [s["max_value"] for s in interface_signature(tree)["sockets"]][-1] == 1000.0
+
+
 @pytest.mark.tier("bake")
 def test_sg_noise_value_and_gradient_equal_the_reference(fresh):
     """SG Noise's Value (baked through the emission's red channel) and Gradient, against

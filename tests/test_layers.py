@@ -74,18 +74,15 @@ def test_registering_the_addon_loads_no_harness_module():
 def test_the_method_registry_and_the_main_jobs_reference_stage_need_no_bpy():
     """The registry's names and references, and the main job's table built from it, import in
     an interpreter that refuses bpy (its graphs and gates import the add-on when used)."""
-    from support.child import run_python
-    from support.child import NO_BPY
-    code = (NO_BPY +
-            "import numpy as np\n"
-            "from surfgrad_addon.harness import main_job, methods\n"
-            "table = main_job.method_table(np.zeros((8, 8, 3)) + 0.5, np.zeros((8, 8, 3)) + 0.5,"
-            " np.zeros((8, 8)))\n"
-            "assert 'bpy' not in sys.modules\n"
-            "print('METHODS', len(methods.METHODS), 'TABLE', ' '.join(table))\n")
-    out = run_python(["-c", code], timeout=120)
-    assert out.returncode == 0, out.stderr
-    line = next(x for x in out.stdout.splitlines() if x.startswith("METHODS"))
+    from support.child import run_without_bpy
+    stdout = run_without_bpy(
+        "import numpy as np\n"
+        "from surfgrad_addon.harness import main_job, methods\n"
+        "table = main_job.method_table(np.zeros((8, 8, 3)) + 0.5, np.zeros((8, 8, 3)) + 0.5,"
+        " np.zeros((8, 8)))\n"
+        "assert 'bpy' not in sys.modules\n"
+        "print('METHODS', len(methods.METHODS), 'TABLE', ' '.join(table))\n")
+    line = next(x for x in stdout.splitlines() if x.startswith("METHODS"))
     names = line.split()[3:]
     assert line.split()[1] == "21"
     # Every registry method with a scene-free reference, each variant, then the baselines;

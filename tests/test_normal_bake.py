@@ -13,6 +13,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import groups as G, normal_bake
 from surfgrad_addon.harness import compare, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.harness.graph import Graph  # noqa: E402
 from surfgrad_addon.reference import images as T  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
@@ -25,18 +26,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def _sg_material(obj, image):
     mat, tree, bsdf = diffuse_material("SG")
-    uv = tree.nodes.new("ShaderNodeUVMap")
-    uv.uv_map = "UVMap"
-    tex = tree.nodes.new("ShaderNodeTexImage")
-    tex.image = image
-    tree.links.new(uv.outputs[0], tex.inputs["Vector"])
-    nm = tree.nodes.new("ShaderNodeGroup")
-    nm.node_tree = G.normal_map_group("UVMap")
-    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
-    res = tree.nodes.new("ShaderNodeGroup")
-    res.node_tree = G.resolve_group()
-    tree.links.new(nm.outputs[0], res.inputs["Surface Gradient"])
-    tree.links.new(res.outputs[0], bsdf.inputs["Normal"])
+    g = Graph(tree.nodes, tree.links)
+    nm = g.group(G.normal_map_group("UVMap"), Color=g.image(image, g.uv("UVMap")))
+    g.link(g.resolve(nm.outputs[0]), bsdf.inputs["Normal"])
     obj.data.materials.append(mat)
     return mat
 

@@ -7,7 +7,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import operators as O
-from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.harness import bake, compare, methods, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.reference import images as T  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
@@ -61,17 +61,18 @@ def _bake_converted(obj, make_node, convert):
     return px[cov]
 
 
+def _image_color(nodes, links, img):
+    """An Image Texture of `img` on the UV map "UVMap": its Color."""
+    return methods.image_node(nodes, links, img, methods.uv_node(nodes, "UVMap"))
+
+
 def _normal_map_node(img, strength):
     def make(nodes, links):
-        uv = nodes.new("ShaderNodeUVMap")
-        uv.uv_map = "UVMap"
-        tex = nodes.new("ShaderNodeTexImage")
-        tex.image = img
-        links.new(uv.outputs[0], tex.inputs["Vector"])
+        color = _image_color(nodes, links, img)
         nm = nodes.new("ShaderNodeNormalMap")
         nm.uv_map = "UVMap"
         nm.inputs["Strength"].default_value = strength
-        links.new(tex.outputs["Color"], nm.inputs["Color"])
+        links.new(color, nm.inputs["Color"])
         return nm
     return make
 
@@ -94,13 +95,9 @@ def test_normal_map_conversion_keeps_the_look(sphere, strength):
 
 def _bump_node(img, strength, distance, invert=False):
     def make(nodes, links):
-        uv = nodes.new("ShaderNodeUVMap")
-        uv.uv_map = "UVMap"
-        tex = nodes.new("ShaderNodeTexImage")
-        tex.image = img
-        links.new(uv.outputs[0], tex.inputs["Vector"])
+        color = _image_color(nodes, links, img)
         sep = nodes.new("ShaderNodeSeparateXYZ")
-        links.new(tex.outputs["Color"], sep.inputs[0])
+        links.new(color, sep.inputs[0])
         bump = nodes.new("ShaderNodeBump")
         bump.inputs["Distance"].default_value = distance
         bump.inputs["Strength"].default_value = strength

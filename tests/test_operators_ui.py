@@ -20,15 +20,14 @@ How the session sees what an operator did:
   again by name after every undo/redo (memfile undo reloads them).
 """
 
-import json
 import sys
-import time
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 
 from support.blender import new_material  # noqa: E402 (a sibling: this file also runs as a script)
+from support.operator_session import run_session, write_report  # noqa: E402
 
 pytestmark = pytest.mark.tier("child")
 
@@ -137,23 +136,24 @@ def _principled_material(bpy, name, obj):
     return mat
 
 
-def _undo_twice(bpy, op_id, override, check, kw_first=None, kw_second=None):
-    """Two undoable calls of op_id, then undo, undo, redo, redo; `check()` summarises the
-    state after each. Returns the summaries and what each call returned."""
+def _undoable(bpy, op_id, override, **kw):
+    """A call of op_id that pushes its own undo step, as the UI makes it."""
+    return lambda: _call(bpy, op_id, override, 'EXEC_DEFAULT', True, **kw)
+
+
+def _undo_twice(bpy, check, first, second):
+    """The calls first() and second() (each returns what _call does), then undo, undo, redo,
+    redo; `check()` summarises the state after each. Returns the summaries and the calls."""
     states = {"start": check()}
-    first = _call(bpy, op_id, override, 'EXEC_DEFAULT', True, **(kw_first or {}))
+    calls = [first()]
     states["first"] = check()
-    second = _call(bpy, op_id, override, 'EXEC_DEFAULT', True, **(kw_second or {}))
+    calls.append(second())
     states["second"] = check()
-    bpy.ops.ed.undo()
-    states["undo_1"] = check()
-    bpy.ops.ed.undo()
-    states["undo_2"] = check()
-    bpy.ops.ed.redo()
-    states["redo_1"] = check()
-    bpy.ops.ed.redo()
-    states["redo_2"] = check()
-    return {"states": states, "calls": [first, second]}
+    for step, op in (("undo_1", bpy.ops.ed.undo), ("undo_2", bpy.ops.ed.undo),
+                     ("redo_1", bpy.ops.ed.redo), ("redo_2", bpy.ops.ed.redo)):
+        op()
+        states[step] = check()
+    return {"states": states, "calls": calls}
 
 
 def session(work):
@@ -237,8 +237,9 @@ def session(work):
         return {"chain": chain, "group_nodes": sorted(groups), "n_nodes": len(tree.nodes),
                 "node_groups": sorted(g.name for g in bpy.data.node_groups)}
     n_done = len(results["surfgrad.add_layer_stack"])
-    report["layer_stack"] = _undo_twice(bpy, "surfgrad.add_layer_stack", override,
-                                        layer_stack_state)
+    add_layer_stack = _undoable(bpy, "surfgrad.add_layer_stack", override)
+    report["layer_stack"] = _undo_twice(bpy, layer_stack_state, add_layer_stack,
+                                        add_layer_stack)
     report["layer_stack"]["executed"] = results["surfgrad.add_layer_stack"][n_done:]
 
     # Misuse: a material whose output has no BSDF with a Normal input.
@@ -330,31 +331,22 @@ def session(work):
                 "coat_normal": upstream(bsdf.inputs["Coat Normal"]),
                 "node_names": sorted(n.name for n in tree.nodes)}
 
-    def activate(name):
-        tree = _tree(bpy)
-        for n in tree.nodes:
-            n.select = n.name == name
-        tree.nodes.active = tree.nodes[name]
+    def convert(name):
+        """Convert the node `name`, made active, in a Shader Editor showing the tree as it is
+        now (the first call's undo step reloads it)."""
+        def call():
+            tree = _tree(bpy)
+            for n in tree.nodes:
+                n.select = n.name == name
+            tree.nodes.active = tree.nodes[name]
+            override = _shader_editor(bpy, tree)[0]
+            return _call(bpy, "surfgrad.convert_node", override, 'EXEC_DEFAULT', True)
+        return call
 
     n_done = len(results["surfgrad.convert_node"])
-    states = {"start": convert_state()}
-    activate("SG Normal Map node")
-    calls = [_call(bpy, "surfgrad.convert_node", override, 'EXEC_DEFAULT', True)]
-    states["first"] = convert_state()
-    override, space = _shader_editor(bpy, _tree(bpy))
-    activate("SG Bump node")
-    calls.append(_call(bpy, "surfgrad.convert_node", override, 'EXEC_DEFAULT', True))
-    states["second"] = convert_state()
-    bpy.ops.ed.undo()
-    states["undo_1"] = convert_state()
-    bpy.ops.ed.undo()
-    states["undo_2"] = convert_state()
-    bpy.ops.ed.redo()
-    states["redo_1"] = convert_state()
-    bpy.ops.ed.redo()
-    states["redo_2"] = convert_state()
-    report["convert"] = {"states": states, "calls": calls,
-                         "executed": results["surfgrad.convert_node"][n_done:]}
+    report["convert"] = _undo_twice(bpy, convert_state, convert("SG Normal Map node"),
+                                    convert("SG Bump node"))
+    report["convert"]["executed"] = results["surfgrad.convert_node"][n_done:]
 
     # 3. Decal projector --------------------------------------------------------------------
     override, space = _shader_editor(bpy, _tree(bpy))
@@ -424,9 +416,8 @@ def session(work):
     bpy.context.scene.cursor.location = (0.5, -0.25, 1.5)
     n_done = len(results["surfgrad.add_decal_projector"])
     image_name = "SG Normal Image"
-    report["decal"] = _undo_twice(
-        bpy, "surfgrad.add_decal_projector", override, decal_state,
-        kw_first={"image": image_name}, kw_second={"image": image_name})
+    add_decal = _undoable(bpy, "surfgrad.add_decal_projector", override, image=image_name)
+    report["decal"] = _undo_twice(bpy, decal_state, add_decal, add_decal)
     report["decal"]["executed"] = results["surfgrad.add_decal_projector"][n_done:]
     scene = bpy.context.scene                 # fetched again: undo reloads IDs
     report["decal"]["cursor"] = list(scene.cursor.location)
@@ -455,8 +446,7 @@ def session(work):
     surfgrad_addon.unregister()
     report["unregistered"] = {op: op.split(".")[1] in dir(bpy.ops.surfgrad) for op in OPERATORS}
     report["unregistered"]["panel"] = hasattr(bpy.types, "NODE_PT_surfgrad")
-    (work / "report.json").write_text(json.dumps(report, indent=1))
-    print("SG_OPERATORS_DONE", flush=True)
+    write_report(work, report, "SG_OPERATORS_DONE")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -465,19 +455,7 @@ def session(work):
 
 @pytest.fixture(scope="module")
 def session_report(tmp_path_factory):
-    pytest.importorskip("bpy")
-    user = tmp_path_factory.mktemp("user_operators")
-    work = tmp_path_factory.mktemp("operators")
-    from support.child import run_python
-    t0 = time.perf_counter()
-    out = run_python([Path(__file__).resolve(), work], cwd=work, timeout=300,
-                     env={"BLENDER_USER_RESOURCES": str(user)})
-    assert out.returncode == 0 and "SG_OPERATORS_DONE" in out.stdout, \
-        f"operator session failed:\n{out.stdout[-3000:]}\n{out.stderr[-5000:]}"
-    report = json.loads((work / "report.json").read_text())
-    report["stdout"] = out.stdout
-    report["seconds"] = time.perf_counter() - t0
-    return report
+    return run_session(__file__, tmp_path_factory, "operators", "SG_OPERATORS_DONE")
 
 
 def test_operators_are_registered_with_undo(session_report):
@@ -498,6 +476,13 @@ def test_sidebar_panel_polls_only_in_a_shader_editor(session_report):
     assert p["draws"] == list(OPERATORS)
 
 
+def _finished_twice(r):
+    """Both calls finished, as bpy.ops returned and as execute returned; their states."""
+    assert [c["returned"] for c in r["calls"]] == [["FINISHED"], ["FINISHED"]], r["calls"]
+    assert r["executed"] == [["FINISHED"], ["FINISHED"]]
+    return r["states"]
+
+
 def _check_undo(states, equal=lambda a, b: a == b):
     s = states
     assert not equal(s["start"], s["first"]) and not equal(s["first"], s["second"])
@@ -508,9 +493,7 @@ def _check_undo(states, equal=lambda a, b: a == b):
 
 def test_layer_stack_wires_the_bsdf_normal_and_undoes(session_report):
     r = session_report["layer_stack"]
-    assert [c["returned"] for c in r["calls"]] == [["FINISHED"], ["FINISHED"]], r["calls"]
-    assert r["executed"] == [["FINISHED"], ["FINISHED"]]
-    s = r["states"]
+    s = _finished_twice(r)
     assert s["start"]["chain"] == [] and s["start"]["n_nodes"] == 2
     # SG Normal Map -> SG Combine (A) -> SG Resolve -> the BSDF's Normal.
     for key in ("first", "second"):
@@ -530,9 +513,7 @@ def test_layer_stack_wires_the_bsdf_normal_and_undoes(session_report):
 
 def test_convert_replaces_normal_map_and_bump_and_undoes(session_report):
     r = session_report["convert"]
-    assert [c["returned"] for c in r["calls"]] == [["FINISHED"], ["FINISHED"]], r["calls"]
-    assert r["executed"] == [["FINISHED"], ["FINISHED"]]
-    s = r["states"]
+    s = _finished_twice(r)
     assert s["start"]["normal"] == [["ShaderNodeNormalMap", {}]]
     assert s["start"]["coat_normal"] == [["ShaderNodeBump", {}]]
     # The Normal Map node becomes SG Normal Map -> SG Resolve, its image and Strength kept.
@@ -553,9 +534,7 @@ def test_convert_replaces_normal_map_and_bump_and_undoes(session_report):
 
 def test_decal_projector_adds_a_driven_chain_and_undoes(session_report):
     r = session_report["decal"]
-    assert [c["returned"] for c in r["calls"]] == [["FINISHED"], ["FINISHED"]], r["calls"]
-    assert r["executed"] == [["FINISHED"], ["FINISHED"]]
-    s = r["states"]
+    s = _finished_twice(r)
     assert s["start"]["empties"] == [] and s["start"]["n_decals"] == 0
     assert len(s["first"]["empties"]) == 1 and s["first"]["n_decals"] == 1
     assert len(s["second"]["empties"]) == 2 and s["second"]["n_decals"] == 2

@@ -47,7 +47,7 @@ from support import bake_probe as base  # noqa: E402
 from support import facts_probe as fp  # noqa: E402
 from surfgrad_addon.reference.cycles_bake import make_orthonormals  # noqa: E402
 
-bpy = base._bpy()
+bpy = base.bpy
 
 RES = 32
 ORTHO_SCALE = 2.0

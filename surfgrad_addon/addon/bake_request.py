@@ -10,7 +10,7 @@ files and the bake-batch planner) builds a BakeRequest and runs the same checks 
 - the UV map and its tiles (reference.tiles): finite UVs with area, a layout the output covers;
   faces outside the UDIM range are an error unless allow_partial, then a printed warning;
 - every image the object's materials read (from the active Material Output, into node
-  groups): packed or on disk, loadable, and with finite pixels when float;
+  groups): packed or on disk, loadable, and with finite pixels when float (image_checks.py);
 - the output: format and bit depth, a folder that exists and takes a file (a probe file is
   created and removed), no file replaced unless overwrite.
 
@@ -30,9 +30,9 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
-from . import material_inputs as MI
 from . import normal_bake as NB
 from .exit_codes import BakeFailed
+from .image_checks import image_problems
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -324,158 +324,6 @@ def overlap_warnings(uv, tiles, resolution, what):
                        f"halves stacked); the map keeps only the face last in mesh order "
                        f"there: give each island its own UV space if both sides differ")
     return out
-
-
-def material_images(obj):
-    """[(material, node path, node, image or None)] for every image node the object's
-    materials read: reached from the Material Output Cycles uses (material_inputs.py) through
-    links, into node groups."""
-    found, memo = [], {}
-    for slot in obj.material_slots:
-        mat = slot.material
-        if mat is None or mat.node_tree is None:      # (a tree without use_nodes: checked too)
-            continue
-        for node, path in material_nodes(mat, memo):
-            if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
-                found.append((mat, path, node, node.image))
-    return found
-
-
-def material_nodes(mat, memo):
-    """(node, path) of every node `mat` reads through the output Cycles renders."""
-    output = MI.cycles_output(mat.node_tree)
-    return _reached(mat.node_tree, [output] if output else [], memo)
-
-
-def _reached(tree, starts, memo):
-    """(node, path of node names) of every node `starts` read in `tree` through links that
-    are not muted, and inside the node groups they use (each group walked once: memo)."""
-    links_to = {}
-    for link in tree.links:
-        if link.is_valid and not getattr(link, "is_muted", False):
-            links_to.setdefault(link.to_node.name, []).append(link.from_node)
-    out, todo, seen = [], list(starts), set()
-    while todo:
-        node = todo.pop()
-        if node.name in seen:
-            continue
-        seen.add(node.name)
-        out.append((node, node.name))
-        todo += links_to.get(node.name, [])
-        group = getattr(node, "node_tree", None) if node.type == "GROUP" else None
-        if group is not None:
-            if group.name not in memo:
-                memo[group.name] = []           # a group that holds itself stops here
-                inner = [n for n in group.nodes if n.bl_idname == "NodeGroupOutput"]
-                memo[group.name] = _reached(group, inner, memo)
-            out += [(n, f"{node.name} > {p}") for n, p in memo[group.name]]
-    return out
-
-
-def image_problems(obj, covered=()):
-    """Every image the object's materials read: set, present, loadable, finite pixels; the
-    frame file a sequence reads now, the tiles (`covered`, the UDIM tiles the bake writes) of a
-    tiled image; linked materials whose library is missing; UV map names nodes refer to."""
-    import bpy
-    out, checked = [], set()
-    for slot in obj.material_slots:
-        if slot.material is not None:
-            problem = MI.library_problem(slot.material)
-            if problem and problem not in out:
-                out.append(problem)
-    out += uv_reference_problems(obj)
-    for mat, path, node, image in material_images(obj):
-        if image is None:
-            out.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
-                       f"would bake its magenta 'missing' colour; pick an image or remove the "
-                       f"node")
-            continue
-        if image.name in checked:
-            continue
-        checked.add(image.name)
-        on_disk = image.packed_file is None and image.filepath
-        if on_disk and image.source == "SEQUENCE" and hasattr(node, "image_user"):
-            # the frame the bake reads now, not the file the path names
-            problem = MI.sequence_problem(
-                image, node, bpy.path.abspath(image.filepath, library=image.library),
-                bpy.context.scene)
-        else:
-            problem = one_image_problem(image)
-        if not problem and on_disk and image.source == "TILED" and covered:
-            problem = MI.missing_tiles_problem(image, covered)
-        if problem:
-            out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
-    return out
-
-
-def uv_reference_problems(obj):
-    """Nodes naming a UV map (or attribute) the evaluated mesh does not have."""
-    import bpy
-    eval_obj = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = eval_obj.to_mesh()
-    out, memo = [], {}
-    try:
-        for slot in obj.material_slots:
-            mat = slot.material
-            if mat is None or mat.node_tree is None:
-                continue
-            for node, path in material_nodes(mat, memo):
-                problem = MI.uv_name_problem(mat, path, node, mesh)
-                if problem:
-                    out.append(problem.replace(f"mesh {mesh.name!r}",
-                                               f"mesh {obj.data.name!r}"))
-    finally:
-        eval_obj.to_mesh_clear()
-    return out
-
-
-def _image_files(image):
-    """The files an unpacked file image reads (one per UDIM tile for a tiled one)."""
-    import bpy
-    path = bpy.path.abspath(image.filepath, library=image.library)
-    if image.source == "TILED":
-        return [T.tile_path(path, t.number) for t in image.tiles]
-    return [Path(path)]
-
-
-def one_image_problem(image):
-    """None when `image` can be read as Cycles will read it, else what is wrong and the fix.
-    An image this check loads is freed again (it stays as unloaded as it was)."""
-    if image.source in ("GENERATED", "VIEWER"):
-        return None
-    packed = bool(getattr(image, "packed_files", None) and len(image.packed_files)) or \
-        image.packed_file is not None
-    what = f"image {image.name!r}"
-    if not packed:
-        if not image.filepath:
-            return f"{what} has no file path and is not packed: pick its file, or pack it"
-        folders = [str(p) for p in _image_files(image) if p.is_dir()]
-        if folders:
-            return (f"{what} reads {folders[0]!r}, which is a folder, not an image file: "
-                    f"Cycles would bake its magenta 'missing' colour; point the image at its "
-                    f"file (File > External Data > Find Missing Files), or pack it")
-        missing = [str(p) for p in _image_files(image) if not p.is_file()]
-        if missing:
-            return (f"{what} reads {missing[0]!r}, which does not exist: Cycles would bake "
-                    f"its magenta 'missing' colour; put the file there, fix the path "
-                    f"(File > External Data > Find Missing Files), or pack it")
-        if image.source in ("MOVIE", "SEQUENCE"):
-            return None                         # frames: present is what can be checked
-    had_data = image.has_data
-    try:
-        w, h = image.size
-        if w == 0 or h == 0:
-            return (f"{what} ({'packed' if packed else repr(image.filepath)}) could not be "
-                    f"read (damaged, or a format Blender does not open): re-save it as PNG "
-                    f"or EXR")
-        if image.is_float:                      # only float buffers can hold NaN / Inf
-            px = np.empty(w * h * image.channels, dtype=np.float32)
-            image.pixels.foreach_get(px)
-            return IC.pixels_problem(what, px)
-        return None
-    finally:
-        if not had_data and image.has_data:
-            image.buffers_free()
 
 
 def output_problems(output, finals, overwrite):

@@ -1,12 +1,16 @@
 """A small layer for building shader node groups by code, so that a builder reads like the
 listing it implements:
 
-    b = GroupBuilder(tree)
-    n = b.input_normal()
-    sg = b.input("Surface Gradient", "VECTOR", description="...")
-    with b.frame("Listing 1: resolve"):
-        b.output("Normal", "VECTOR", b.normalize(b.sub(n, sg)), description="...")
+    def build(b):                       # the interface comes from reference/group_interfaces
+        n = b.input(S.NORMAL)
+        sg = b.input(S.SURFACE_GRADIENT)
+        with b.frame("Listing 1: resolve"):
+            b.output(S.NORMAL_OUT, b.normalize(b.sub(n, sg)))
+    ensure_group("SG Resolve", VERSION, build, interface=INTERFACES["SG Resolve"])
 
+Sockets are SocketSpecs (reference/socket_specs.py); a group with a declared interface gets all
+its sockets created from it, in its order, and the builder only looks them up (an input or
+output the interface lacks, or one it declares and the builder never uses, is a BuildError).
 Arithmetic helpers take sockets or constants and return output sockets. `ensure_group` makes
 building idempotent and versioned: a group that already has the current version is reused; an
 older one is rebuilt in place (same datablock, same interface socket identifiers where the
@@ -17,6 +21,8 @@ from contextlib import contextmanager
 
 import bpy
 
+from ..reference.group_interfaces import plain_value
+from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
 from .node_vocabulary import VALUE_OPS, Math, VMath
 
 VERSION_KEY = "surfgrad_version"
@@ -34,16 +40,16 @@ def running_line():
 class BuildError(RuntimeError):
     """A socket, node, property or link that this Blender refused or changed: the message
     names the group and the part, so nothing is lost silently on any Blender line."""
-SOCKET_TYPES = {"VECTOR": "NodeSocketVector", "FLOAT": "NodeSocketFloat",
-                "COLOR": "NodeSocketColor", "BOOLEAN": "NodeSocketBool",
-                "INT": "NodeSocketInt", "GEOMETRY": "NodeSocketGeometry",
-                "CLOSURE": "NodeSocketClosure"}       # Closure: Blender 5.0 and later
 
 
-def ensure_group(name, version, build, description, stale=None, tree_type="ShaderNodeTree"):
+def ensure_group(name, version, build, description=None, stale=None, tree_type="ShaderNodeTree",
+                 interface=None):
     """Return node group `name`, (re)building it with build(GroupBuilder) unless it already
     carries `version` (and `stale(tree)`, if given, is false: e.g. an image it references is
-    gone). tree_type: "ShaderNodeTree" or "GeometryNodeTree"."""
+    gone). tree_type: "ShaderNodeTree" or "GeometryNodeTree". interface: the group's
+    GroupInterface (its sockets, and the description unless one is given)."""
+    if description is None:
+        description = interface.describe()
     tree = bpy.data.node_groups.get(name)
     if tree is not None and tree.bl_idname != tree_type:
         raise ValueError(f"a {tree.bl_idname} named {name!r} already exists; rename it so the "
@@ -61,6 +67,8 @@ def ensure_group(name, version, build, description, stale=None, tree_type="Shade
     tree.nodes.clear()
     tree.description = description
     builder = GroupBuilder(tree)
+    if interface is not None:
+        builder.declare(interface)
     build(builder)
     builder.finish()
     tree[VERSION_KEY] = version
@@ -155,28 +163,59 @@ class NodeOps:
         return self._op("ShaderNodeMath", Math(op).value, inputs)
 
     def add(self, a, b):
-        return self.vmath("ADD", a, b)
+        return self.vmath(VMath.ADD, a, b)
 
     def sub(self, a, b):
-        return self.vmath("SUBTRACT", a, b)
+        return self.vmath(VMath.SUBTRACT, a, b)
 
     def scale(self, v, s):
-        n = self.node("ShaderNodeVectorMath", operation="SCALE")
+        n = self.node("ShaderNodeVectorMath", operation=VMath.SCALE.value)
         self.link(v, n.inputs[0])
         self.link(s, n.inputs["Scale"])
         return n.outputs[0]
 
     def dot(self, a, b):
-        return self.vmath("DOT_PRODUCT", a, b)
+        return self.vmath(VMath.DOT_PRODUCT, a, b)
 
     def cross(self, a, b):
-        return self.vmath("CROSS_PRODUCT", a, b)
+        return self.vmath(VMath.CROSS_PRODUCT, a, b)
 
     def normalize(self, v):
-        return self.vmath("NORMALIZE", v)
+        return self.vmath(VMath.NORMALIZE, v)
 
     def length(self, v):
-        return self.vmath("LENGTH", v)
+        return self.vmath(VMath.LENGTH, v)
+
+    def is_zero(self, v):
+        """1 where vector v is (0, 0, 0), else 0: how a group tells an unlinked vector input
+        (it reads zero) from a linked one."""
+        return self.math(Math.COMPARE, self.length(v), 0.0, 0.0)
+
+    def geometry(self, output):
+        """An output of a new Geometry node ("Normal", "Position", "Incoming", ...)."""
+        return self.node("ShaderNodeNewGeometry").outputs[output]
+
+    def bump(self, height, normal, filter_width=None, strength=1.0, distance=1.0):
+        """The Bump node's normal for `height` over `normal` (Filter Width where the line has
+        it, else the node's own)."""
+        node = self.node("ShaderNodeBump")
+        node.inputs["Strength"].default_value = strength
+        node.inputs["Distance"].default_value = distance
+        if filter_width is not None and "Filter Width" in node.inputs:
+            node.inputs["Filter Width"].default_value = filter_width
+        self.link(height, node.inputs["Height"])
+        self.link(normal, node.inputs["Normal"])
+        return node.outputs[0]
+
+    def normal_map(self, color, space, strength=1.0, uv_map=""):
+        """A Normal Map node's Normal; its colour read as OpenGL (5.2's Convention)."""
+        props = {"uv_map": uv_map} if space == "TANGENT" else {}
+        node = self.node("ShaderNodeNormalMap", space=space, **props)
+        if space == "TANGENT" and hasattr(node, "convention"):
+            node.convention = "OPENGL"
+        self.link(strength, node.inputs["Strength"])
+        self.link(color, node.inputs["Color"])
+        return node.outputs["Normal"]
 
     def separate(self, v):
         n = self.node("ShaderNodeSeparateXYZ")
@@ -210,6 +249,9 @@ class GroupBuilder(NodeOps):
         self.links = tree.links
         self._frame = None
         self._wanted = []          # interface items in order, to prune stale ones at the end
+        self._specs = {}           # (in_out, name) -> (SocketSpec, identifier)
+        self._used = set()
+        self._fixed = False        # True once an interface is declared: nothing may be added
         self.group_in = self.nodes.new("NodeGroupInput")
         self.group_out = self.nodes.new("NodeGroupOutput")
 
@@ -269,16 +311,58 @@ class GroupBuilder(NodeOps):
         self._wanted.append(identifier)
         return item
 
-    def input(self, name, kind, description, default=None, min_value=None, max_value=None,
-              subtype=None, hide_value=False):
-        """A group input; returns its socket on the Group Input node."""
-        item = self._socket(name, "INPUT", kind, description, default, min_value, max_value,
-                            subtype, hide_value)
-        return self._group_socket(self.group_in.outputs, item)
+    def declare(self, interface):
+        """Create every socket of `interface` (a GroupInterface), outputs then inputs; from
+        then on input() and output() only look them up."""
+        for spec in interface.outputs:
+            self._declare(spec, "OUTPUT")
+        for spec in interface.inputs:
+            self._declare(spec, "INPUT")
+        self._fixed = True
 
-    def output(self, name, kind, source, description):
-        """A group output fed by `source`."""
-        item = self._socket(name, "OUTPUT", kind, description)
+    def _declare(self, spec, in_out):
+        item = self._socket(spec.name, in_out, spec.type, spec.tooltip, spec.default, spec.min,
+                            spec.max, spec.subtype, spec.hide_value)
+        self._specs[(in_out, spec.name)] = (spec, item.identifier)
+
+    def _declared(self, spec, in_out):
+        """The interface item of `spec` (a SocketSpec, or the name of a declared socket). With
+        a declared interface a spec is found by name and must have its type (its tooltip may be
+        the group's variant); without one, the spec is added."""
+        name = spec if isinstance(spec, str) else spec.name
+        found = self._specs.get((in_out, name))
+        if found is None:
+            if self._fixed or isinstance(spec, str):
+                raise BuildError(f"{self.where}: {in_out.lower()} {name!r} is not in the "
+                                 f"group's declared interface")
+            self._declare(spec, in_out)
+            found = self._specs[(in_out, name)]
+        elif not isinstance(spec, str) and found[0].type != spec.type:
+            raise BuildError(f"{self.where}: {in_out.lower()} {name!r} used as a {spec.type}, "
+                             f"declared as a {found[0].type}")
+        self._used.add((in_out, name))
+        return self._item(found[1])
+
+    def input(self, spec, kind=None, description=None, default=None, min_value=None,
+              max_value=None, subtype=None, hide_value=False):
+        """The Group Input socket of `spec`: a SocketSpec, or the name of a declared input. A
+        group without a declared interface may instead give name, kind, description and
+        settings."""
+        if kind is not None:
+            spec = SocketSpec(spec, kind, description, default, min_value, max_value, subtype,
+                              hide_value)
+        return self._group_socket(self.group_in.outputs, self._declared(spec, "INPUT"))
+
+    def output(self, spec, *source_or_kind):
+        """Feed the group output `spec` (a SocketSpec or a declared output's name) from a socket
+        or constant: output(spec, source); or output(name, kind, source, description) in a
+        group without a declared interface."""
+        if len(source_or_kind) == 1:
+            (source,) = source_or_kind
+        else:
+            kind, source, description = source_or_kind
+            spec = SocketSpec(spec, kind, description)
+        item = self._declared(spec, "OUTPUT")
         self.link(source, self._group_socket(self.group_out.inputs, item))
 
     def _group_socket(self, sockets, item):
@@ -288,6 +372,9 @@ class GroupBuilder(NodeOps):
         raise BuildError(f"{self.where}: the group node has no socket for {item.name!r}")
 
     def finish(self):
+        unused = sorted(set(self._specs) - self._used)
+        if unused:
+            raise BuildError(f"{self.where}: declared but never used: {unused}")
         iface = self.tree.interface
         for it in list(iface.items_tree):
             if it.item_type == "SOCKET" and it.identifier not in self._wanted:
@@ -356,12 +443,6 @@ def interface_signature(tree):
     across Blender lines: per socket its name, direction, type, subtype, default, range,
     tooltip and whether its value is hidden (5.1 and later report a subtyped vector as e.g.
     NodeSocketVectorDirection in bl_socket_idname; socket_type stays the base type)."""
-    def plain(value):
-        if hasattr(value, "__len__") and not isinstance(value, str):
-            return [round(float(x), 6) for x in value]
-        if isinstance(value, float):
-            return round(value, 6)
-        return value
     out = []
     for it in tree.interface.items_tree:
         if it.item_type != "SOCKET":
@@ -370,6 +451,6 @@ def interface_signature(tree):
                "description": it.description, "hide_value": it.hide_value}
         for key in ("subtype", "default_value", "min_value", "max_value"):
             if hasattr(it, key):
-                row[key] = plain(getattr(it, key))
+                row[key] = plain_value(getattr(it, key))
         out.append(row)
     return {"description": tree.description, "sockets": out}

@@ -10,7 +10,9 @@ import textwrap
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
+from ..reference.decals import DECAL_SHAPES
 from . import groups as G
+from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 
 NORMAL_SOCKET = "Normal"
@@ -141,7 +143,7 @@ def convert_node(tree, node):
         distance = node.inputs["Distance"]
         if distance.is_linked and node.invert:
             flip = tree.nodes.new("ShaderNodeMath")
-            flip.operation = "MULTIPLY"
+            flip.operation = Math.MULTIPLY.value
             flip.location = (x - 180, y - 200)
             tree.links.new(distance.links[0].from_socket, flip.inputs[0])
             flip.inputs[1].default_value = -1.0
@@ -180,7 +182,6 @@ def _move_input(tree, old, new):
             pass
 
 
-DECAL_SHAPES = ("box", "sphere", "cylinder", "cone")     # SG Decal's Shape input: 0 .. 3
 # The projector's own display, and outline empties parented to it where Blender has no such
 # display: its empties draw a circle in their XZ plane and a cone along +Y (apex at y = 2), so
 # rotated +90 degrees about X they outline the cylinder's ends and the cone (apex at z = +1,

@@ -93,15 +93,7 @@ def add_group_node(tree, name, location=(0.0, 0.0)):
         if tree.bl_idname != "GeometryNodeTree":
             raise ValueError(f"{name!r} is a Geometry Nodes group: add it in a Geometry "
                              f"Nodes editor (e.g. on a Geometry Nodes modifier)")
-        group = geometry[name]()
-        for node in tree.nodes:
-            node.select = False
-        node = tree.nodes.new("GeometryNodeGroup")
-        node.node_tree = group
-        node.location = location
-        node.select = True
-        tree.nodes.active = node
-        return node
+        return _place_group_node(tree, "GeometryNodeGroup", geometry[name](), location)
     builders = dict(groups.MENU_GROUPS)
     if name not in builders:
         raise KeyError(f"unknown surface-gradient group {name!r}; the menu has "
@@ -120,9 +112,14 @@ def add_group_node(tree, name, location=(0.0, 0.0)):
         group = builder()             # idempotent: reuses a current group, updates an old one
     if _uses_tree(group, tree):
         raise ValueError(f"{name!r} cannot be added inside itself")
+    return _place_group_node(tree, "ShaderNodeGroup", group, location)
+
+
+def _place_group_node(tree, kind, group, location):
+    """A new group node for `group` at `location`, selected and active alone, as Add does."""
     for node in tree.nodes:
         node.select = False
-    node = tree.nodes.new("ShaderNodeGroup")
+    node = tree.nodes.new(kind)
     node.node_tree = group
     node.location = location
     node.select = True
@@ -138,11 +135,7 @@ def _add_sampler_group(tree, name, group, location):
     from .sampler_zone import sampler_zone
     tex = tree.nodes.active
     tex = tex if tex is not None and tex.bl_idname == "ShaderNodeTexImage" else None
-    for node in tree.nodes:
-        node.select = False
-    node = tree.nodes.new("ShaderNodeGroup")
-    node.node_tree = group
-    node.location = location
+    node = _place_group_node(tree, "ShaderNodeGroup", group, location)
     zone, _, vector = sampler_zone(tree.nodes, tree.links, tex,
                                    (location[0] - 220, location[1] - 80))
     tree.links.new(zone.outputs[0], node.inputs["Sampler"])
@@ -240,48 +233,48 @@ in this file first if needed"""
         return {'FINISHED'}
 
 
-class NODE_MT_surfgrad_add(bpy.types.Menu):
-    """Surface-gradient bump mapping node groups (Mikkelsen 2020)"""
-    bl_idname = MENU_IDNAME
+class _GroupMenu:
+    """An Add menu of surfgrad groups, shown in editors of `editor_tree`."""
     bl_label = "Surface Gradient"
+    editor_tree = ""
 
     @classmethod
     def poll(cls, context):
         space = context.space_data
-        return space is not None and getattr(space, "tree_type", None) == 'ShaderNodeTree'
+        return space is not None and getattr(space, "tree_type", None) == cls.editor_tree
+
+
+def _draw_groups(layout, names):
+    """An Add-menu entry per group name (the group placed under the mouse, as Add does)."""
+    layout.operator_context = 'INVOKE_REGION_WIN'
+    for name in names:
+        props = layout.operator(SURFGRAD_OT_add_group.bl_idname, text=name,
+                                translate=False, icon='NODETREE')
+        props.group = name
+        props.use_transform = True
+
+
+class NODE_MT_surfgrad_add(_GroupMenu, bpy.types.Menu):
+    """Surface-gradient bump mapping node groups (Mikkelsen 2020)"""
+    bl_idname = MENU_IDNAME
+    editor_tree = 'ShaderNodeTree'
 
     def draw(self, _context):
         layout = self.layout
-        layout.operator_context = 'INVOKE_REGION_WIN'
-        for name in menu_group_names():
-            props = layout.operator(SURFGRAD_OT_add_group.bl_idname, text=name,
-                                    translate=False, icon='NODETREE')
-            props.group = name
-            props.use_transform = True
+        _draw_groups(layout, menu_group_names())
         layout.separator()
         for op in (operators.SURFGRAD_OT_add_layer_stack, operators.SURFGRAD_OT_convert_node,
                    operators.SURFGRAD_OT_add_decal_projector):
             layout.operator(op.bl_idname, text=op.bl_label)
 
 
-class NODE_MT_surfgrad_geometry_add(bpy.types.Menu):
+class NODE_MT_surfgrad_geometry_add(_GroupMenu, bpy.types.Menu):
     """Gustavson's procedural displacement with analytic normals (surfgrad)"""
     bl_idname = GEOMETRY_MENU_IDNAME
-    bl_label = "Surface Gradient"
-
-    @classmethod
-    def poll(cls, context):
-        space = context.space_data
-        return space is not None and getattr(space, "tree_type", None) == 'GeometryNodeTree'
+    editor_tree = 'GeometryNodeTree'
 
     def draw(self, _context):
-        layout = self.layout
-        layout.operator_context = 'INVOKE_REGION_WIN'
-        for name, _ in groups.GEOMETRY_MENU_GROUPS:
-            props = layout.operator(SURFGRAD_OT_add_group.bl_idname, text=name,
-                                    translate=False, icon='NODETREE')
-            props.group = name
-            props.use_transform = True
+        _draw_groups(self.layout, [name for name, _ in groups.GEOMETRY_MENU_GROUPS])
 
 
 def draw_geometry_add_menu(self, context):

@@ -25,7 +25,9 @@ from .noise import (dented, fractal_sum, gradient_noise, hash_uint3, hash_uint4,
 from .displacement import displace_along_normal, displaced_normal
 from .baselines import (bump_screen_derivative_lxengine, decal_projector_normal,
                         perturb_normal_perlin1985, triplanar_derivative_perlin, triplanar_geiss)
-from .raster import MeshArrays, TexelData, rasterize
+from .mesh_arrays import MeshArrays
+from .raster import rasterize
+from .texels import TexelData
 from .decals import (DECAL_SHAPES, decal_weight_box, decal_weight_cone,  # noqa: F401
                      decal_weight_cylinder, decal_weight_sphere, surfgrad_from_decal_box,
                      surfgrad_from_decal_cone, surfgrad_from_decal_cylinder,

@@ -10,11 +10,13 @@ import numpy as np
 
 from .listings import surfgrad_from_decal
 
-DECAL_SHAPES = ("box", "sphere", "cylinder", "cone")
+DECAL_SHAPES = ("box", "sphere", "cylinder", "cone")     # SG Decal's Shape input: 0 .. 3
+# Floor of a falloff and of the cone's radius, so a hard edge (0) divides by it, not by zero.
+SHAPE_FLOOR = 1e-6
 
 
 def _ramp(distance, falloff):
-    return np.clip(distance / max(falloff, 1e-6), 0.0, 1.0)
+    return np.clip(distance / max(falloff, SHAPE_FLOOR), 0.0, 1.0)
 
 
 def decal_weight_box(q, falloff):
@@ -38,7 +40,7 @@ def decal_weight_cone(q, falloff):
     """A cone with its apex at the projector (z = +1) and radius 1 at the far end (z = -1):
     radius (1 - z) / 2, faded toward its side and its ends."""
     rho = np.linalg.norm(q[:, :2], axis=-1)
-    radius = np.maximum((1.0 - q[:, 2]) * 0.5, 1e-6)
+    radius = np.maximum((1.0 - q[:, 2]) * 0.5, SHAPE_FLOOR)
     return _ramp(1.0 - rho / radius, falloff) * _ramp(1.0 - np.abs(q[:, 2]), falloff)
 
 

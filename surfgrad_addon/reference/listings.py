@@ -7,7 +7,7 @@ first. Vectors are arrays of shape (..., 3); derivatives and texture coordinates
 
 import numpy as np
 
-from .vecmath import (DET_EPSILON, FLT_EPSILON, as_float, cross, dot, safe_normalize,
+from .vecmath import (DET_EPSILON, FLT_EPSILON, TSPACE_Z_CLAMP, as_float, cross, dot, safe_normalize,
                       sign_nonneg, normalize, stack_last)
 
 
@@ -29,7 +29,7 @@ def tspace_normal_to_derivative(m, flip_vertical=False):
     matters for m = 0, which then gives a zero derivative instead of 0/0.
     """
     (m,) = as_float(m)
-    scale = 1.0 / 128.0
+    scale = TSPACE_Z_CLAMP
     ma = np.abs(m)
     z_ma = np.maximum(ma[..., 2], scale * np.maximum(ma[..., 0], ma[..., 1]))
     z_ma = np.maximum(z_ma, np.finfo(m.dtype).tiny)

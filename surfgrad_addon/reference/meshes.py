@@ -10,7 +10,7 @@ bake pipeline takes Blender's exact MikkTSpace tangents instead.
 
 import numpy as np
 
-from .raster import MeshArrays
+from .mesh_arrays import MeshArrays
 from .vecmath import cross, dot, normalize
 
 DETAIL_ROTATION_DEG = 30.0

@@ -22,7 +22,7 @@ from .height_map import deriv_from_height_map, deriv_three_tap
 from .image_sampling import images_unchanged, sample_image
 from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .noise import fractal_sum
-from .vecmath import FLT_EPSILON, cross, dot, length, normalize, stack_last, transform
+from .vecmath import FLT_EPSILON, TSPACE_Z_CLAMP, cross, dot, length, normalize, stack_last, transform
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 # Filter Width of the Forward variant's Bump node. Camera differentials in a render and a
@@ -229,7 +229,7 @@ def normal_map_strength(m, strength):
     derivative of Eq. 15 linearly."""
     m = np.array(m, dtype=np.float64 if np.asarray(m).dtype != np.float32 else np.float32)
     ma = np.abs(m)
-    z = np.maximum(np.maximum(ma[..., 2], np.maximum(ma[..., 0], ma[..., 1]) / 128.0),
+    z = np.maximum(np.maximum(ma[..., 2], np.maximum(ma[..., 0], ma[..., 1]) * TSPACE_Z_CLAMP),
                    np.finfo(m.dtype).tiny)
     k = np.clip(strength, 0.0, 1.0)
     m[..., 0] *= strength

@@ -11,6 +11,7 @@ import numpy as np
 from . import compiled
 from .compiled import kernel
 from .compiled import nan_maximum as _maximum
+from .vecmath import TSPACE_Z_CLAMP
 
 TINY = np.finfo(np.float64).tiny
 FLT_EPSILON = 1.192092896e-07          # vecmath.FLT_EPSILON (Listings 5 and 10)
@@ -69,7 +70,7 @@ def normal_map_node_derivative(rgb, strength, k, flip, out):
         mx = 2.0 * np.float64(rgb[0, i]) - 1.0
         my = 2.0 * np.float64(rgb[1, i]) - 1.0
         mz = 2.0 * np.float64(rgb[2, i]) - 1.0
-        z = _maximum(_maximum(abs(mz), _maximum(abs(mx), abs(my)) / 128.0), TINY)
+        z = _maximum(_maximum(abs(mz), _maximum(abs(mx), abs(my)) * TSPACE_Z_CLAMP), TINY)
         mx *= strength
         my *= strength
         mz = 1.0 + k * (z - 1.0)
@@ -82,7 +83,7 @@ def normal_map_node_derivative(rgb, strength, k, flip, out):
 def colour_to_listing2_derivative(rgb, sign, out):
     """Listing 2 (listings.tspace_normal_to_derivative) on m = 2 rgb - 1: -(x, s y) / z' with
     z' = max(|z|, |x| / 128, |y| / 128, tiny); s = -1 flips the green channel."""
-    scale = 1.0 / 128.0
+    scale = TSPACE_Z_CLAMP
     for i in range(rgb.shape[1]):
         mx = 2.0 * np.float64(rgb[0, i]) - 1.0
         my = 2.0 * np.float64(rgb[1, i]) - 1.0

@@ -1,5 +1,5 @@
-"""Compiled loops of raster.py (see compiled.py): rasterize's scan conversion and the corner
-interpolation of TexelData. Each computes what the numpy code in raster.py computes, in the
+"""Compiled loops of raster.py and texels.py (see compiled.py): rasterize's scan conversion
+and the corner interpolation of TexelData. Each computes what their numpy code computes, in the
 same order of operations, so both give identical arrays (tests/test_compiled_kernels.py).
 
 Blocks of texels already run on several threads (methods.evaluated_blocks), so these loops are

@@ -19,6 +19,9 @@ DET_EPSILON = 1.192093e-15
 # A denominator floor that keeps 0/0 finite where the numerator is then 0 too (the node
 # groups' max(x, DIVIDE_FLOOR); float32 nodes, so far above float32's denormals).
 DIVIDE_FLOOR = 1e-30
+# Listing 2's clamp: z = max(|z|, max(|x|, |y|) / 128) bounds a tangent-space normal's
+# derivative to [-128, 128] (89.55 degrees).
+TSPACE_Z_CLAMP = 1.0 / 128.0
 
 
 def float_type(*arrays):

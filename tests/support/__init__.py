@@ -1,3 +1,4 @@
 """Public helpers of the test suite: scene and bake probes (bake_probe, facts_probe), what a test
-file that also runs as a script may import (blender), and the one runner for child interpreters
-(child). Nothing here is part of the product."""
+file that also runs as a script may import (blender), the one runner for child interpreters
+(child), the operator tests' child sessions (operator_session) and the bake tests' materials
+(materials). Nothing here is part of the product."""

@@ -10,25 +10,16 @@ RE_bake_pixels_populate) maps UVs to pixels as `uv * size - (0.5f + 0.001f)` in 
 ((i + 0.501) / width, (j + 0.502) / height). `bake_sample_uv` gives those points.
 """
 
+import bpy
 import numpy as np
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
-
-bpy = None
-
-
-def _bpy():
-    global bpy
-    if bpy is None:
-        import bpy as _b  # noqa: PLC0415 (lazy: importing bpy costs about a second)
-        bpy = _b
-    return bpy
+from surfgrad_addon.addon.node_builder import NodeOps  # noqa: E402
 
 
 def new_scene():
     """A fresh empty scene set up for exact Cycles CPU bakes."""
-    b = _bpy()
-    b.ops.wm.read_factory_settings(use_empty=True)
-    scene = b.context.scene
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
     from surfgrad_addon.harness.bake import exact_cycles
     cy = exact_cycles(scene)
     # None of these touch bake output (the bake writes raw pass values), but make it explicit
@@ -48,8 +39,7 @@ def new_scene():
 
 def add_uv_plane(name="ProbePlane"):
     """A 2 x 2 plane at the origin (normal +Z) with one quad whose UVs are the unit square."""
-    b = _bpy()
-    mesh = b.data.meshes.new(name)
+    mesh = bpy.data.meshes.new(name)
     verts = [(-1.0, -1.0, 0.0), (1.0, -1.0, 0.0), (1.0, 1.0, 0.0), (-1.0, 1.0, 0.0)]
     mesh.from_pydata(verts, [], [(0, 1, 2, 3)])
     uv = mesh.uv_layers.new(name="UVMap")
@@ -57,9 +47,9 @@ def add_uv_plane(name="ProbePlane"):
     for loop in mesh.loops:
         uv.data[loop.index].uv = corners[loop.vertex_index]
     mesh.update()
-    obj = b.data.objects.new(name, mesh)
-    b.context.scene.collection.objects.link(obj)
-    b.context.view_layer.objects.active = obj
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
     obj.select_set(True)
     return obj
 
@@ -67,8 +57,7 @@ def add_uv_plane(name="ProbePlane"):
 def new_float_image(name, width, height, pixels=None):
     """A 32-bit float RGBA image tagged Non-Color. `pixels` is (height, width, 4), row 0 at the
     bottom (Image.pixels order)."""
-    b = _bpy()
-    img = b.data.images.new(name, width, height, alpha=True, float_buffer=True)
+    img = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
     img.colorspace_settings.name = "Non-Color"
     img.alpha_mode = "STRAIGHT"
     if pixels is not None:
@@ -87,8 +76,11 @@ def image_pixels(img):
     return out.reshape(h, w, 4)
 
 
-class EmissionProbe:
-    """A material on the probe plane: build a graph with `nodes`/`links`, then `bake(socket)`."""
+class EmissionProbe(NodeOps):
+    """A material on the probe plane: build a graph with NodeOps (the add-on's node vocabulary:
+    node, math, vmath, combine, separate; sockets or constants in), then `bake(socket)`."""
+
+    where = "a bake probe"      # named in NodeOps' errors
 
     def __init__(self, obj, name="ProbeMat"):
         self.obj = obj
@@ -107,54 +99,9 @@ class EmissionProbe:
         self.target_node = self.nodes.new("ShaderNodeTexImage")
         self.target_node.label = "bake target"
 
-    def node(self, kind, **props):
-        n = self.nodes.new(kind)
-        for key, value in props.items():
-            setattr(n, key, value)
-        return n
-
-    def math(self, op, a, b=None):
-        """Scalar Math node; a, b are sockets or numbers."""
-        n = self.node("ShaderNodeMath", operation=op)
-        for i, x in enumerate((a, b)):
-            if x is None:
-                continue
-            if isinstance(x, (int, float)):
-                n.inputs[i].default_value = float(x)
-            else:
-                self.links.new(x, n.inputs[i])
-        return n.outputs[0]
-
-    def vmath(self, op, a, b=None):
-        """Vector Math node; a, b are sockets or 3-tuples."""
-        n = self.node("ShaderNodeVectorMath", operation=op)
-        for i, x in enumerate((a, b)):
-            if x is None:
-                continue
-            if isinstance(x, (tuple, list)):
-                n.inputs[i].default_value = tuple(float(c) for c in x)
-            else:
-                self.links.new(x, n.inputs[i])
-        return n.outputs["Vector"]
-
-    def combine(self, x, y, z):
-        n = self.node("ShaderNodeCombineXYZ")
-        for i, s in enumerate((x, y, z)):
-            if isinstance(s, (int, float)):
-                n.inputs[i].default_value = float(s)
-            else:
-                self.links.new(s, n.inputs[i])
-        return n.outputs[0]
-
-    def separate(self, vec):
-        n = self.node("ShaderNodeSeparateXYZ")
-        self.links.new(vec, n.inputs[0])
-        return n.outputs[0], n.outputs[1], n.outputs[2]
-
     def bake(self, color_socket, width, height, name="BakeTarget"):
         """Bake `color_socket` (through Emission, strength 1) into a fresh float image and
         return its pixels, float32 (height, width, 4), row 0 at v ~ 0."""
-        b = _bpy()
         self.links.new(color_socket, self.emission.inputs["Color"])
         img = new_float_image(name, width, height)
         self.target_node.image = img
@@ -162,10 +109,10 @@ class EmissionProbe:
             n.select = False
         self.target_node.select = True
         self.nodes.active = self.target_node
-        b.context.view_layer.objects.active = self.obj
+        bpy.context.view_layer.objects.active = self.obj
         self.obj.select_set(True)
-        result = b.ops.object.bake(type="EMIT", margin=0, use_clear=True,
-                                   target="IMAGE_TEXTURES")
+        result = bpy.ops.object.bake(type="EMIT", margin=0, use_clear=True,
+                                     target="IMAGE_TEXTURES")
         assert result == {"FINISHED"}, result
         return image_pixels(img)
 

@@ -29,3 +29,11 @@ NO_BPY = ("import sys\n"
           "        if name.split('.')[0] in ('bpy', 'mathutils', 'bmesh'):\n"
           "            raise ImportError('blocked: ' + name)\n"
           "sys.meta_path.insert(0, Block())\n")
+
+
+def run_without_bpy(code, timeout=120):
+    """Run `code` in a child that refuses bpy (NO_BPY first); returns its stdout, and fails the
+    test unless it exited 0."""
+    out = run_python(["-c", NO_BPY + code], timeout=timeout)
+    assert out.returncode == 0, out.stderr
+    return out.stdout

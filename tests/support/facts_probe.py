@@ -155,7 +155,7 @@ def add_mesh_object(name, positions, triangles, corner_uv, smooth=True, matrix_w
                     extra_uv_maps=None):
     """Link a triangle mesh into the scene. corner_uv (T, 3, 2) becomes "UVMap" (active for
     baking and rendering); extra_uv_maps {name: (T, 3, 2)} are added after it."""
-    bpy = base._bpy()
+    bpy = base.bpy
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata([tuple(map(float, p)) for p in positions], [],
                      [tuple(map(int, t)) for t in triangles])
@@ -396,13 +396,6 @@ class Graph(base.EmissionProbe):
     def attribute(self, name, output="Vector"):
         return self.node("ShaderNodeAttribute", attribute_type="GEOMETRY",
                          attribute_name=name).outputs[output]
-
-    def dot(self, a, b):
-        """Vector Math Dot Product of two sockets: the scalar output."""
-        d = self.node("ShaderNodeVectorMath", operation="DOT_PRODUCT")
-        self.links.new(a, d.inputs[0])
-        self.links.new(b, d.inputs[1])
-        return d.outputs["Value"]
 
     def bump(self, height=None, normal=None, distance=1.0, filter_width=0.1, strength=1.0):
         b = self.node("ShaderNodeBump")

@@ -4,11 +4,14 @@ shading-normal fallback (.SG Safe Normal), the Bump-node surface gradient (.SG S
 
 import bpy
 
+from ..node_vocabulary import Math, VMath
 from ..node_builder import ensure_group, running_line
-from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
+from ...reference import socket_specs as S
+from ...reference.group_interfaces import INTERFACES
+from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, TSPACE_Z_CLAMP
 
 
-VERSION = 17
+VERSION = 18
 
 
 class FeatureUnavailable(ValueError):
@@ -58,17 +61,32 @@ def require(name):
         raise FeatureUnavailable(reason)
 
 
-def normal_input(b, description="Base normal to perturb (world space). Leave unlinked for "
-                                "the shading normal; link a resolved normal for post-resolve "
-                                "bump mapping"):
+def ensure(key, build, name=None, stale=None, tree_type="ShaderNodeTree", **fields):
+    """ensure_group for the group INTERFACES[key] (named `name`, default `key`), at VERSION;
+    `fields` fill its description (an image's or UV map's name)."""
+    iface = INTERFACES[key]
+    return ensure_group(name or key, VERSION, build, iface.describe(**fields), stale, tree_type,
+                        iface)
+
+
+def normal_input(b, spec=S.NORMAL):
     """The group's Normal input: unlinked (zero) it is the shading normal; normalised. A NaN or
     Inf is not caught here but once, by SG Resolve's final guard (.SG Safe Normal): one guard
-    per stack, not one per socket."""
-    raw = b.input("Normal", "VECTOR", description, hide_value=True)
+    per stack, not one per socket. `spec` may be a tooltip, for a group without a declared
+    interface."""
+    raw = b.input(S.NORMAL.but(tooltip=spec) if isinstance(spec, str) else spec)
     with b.frame("Base normal: the shading normal where unlinked (zero), normalised"):
-        geo = b.node("ShaderNodeNewGeometry").outputs["Normal"]
-        unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
-        return b.normalize(b.add(raw, b.scale(geo, unlinked)))
+        return b.normalize(add_where_zero(b, raw, b.geometry("Normal")))
+
+
+def add_where_zero(b, v, fallback):
+    """v + fallback where v is (0, 0, 0) (an unlinked vector input), else v."""
+    return b.add(v, b.scale(fallback, b.is_zero(v)))
+
+
+def where_zero(b, v, fallback):
+    """fallback where v is (0, 0, 0) (an unlinked vector input), else v (a Mix node)."""
+    return b.mix_vector(b.is_zero(v), v, fallback)
 
 
 def sub_group(b, tree, label, **inputs):
@@ -81,22 +99,22 @@ def sub_group(b, tree, label, **inputs):
 
 def sign_nonneg(b, x):
     """The listings' `x < 0 ? -1 : 1`."""
-    return b.math("SUBTRACT", 1.0, b.math("MULTIPLY", 2.0, b.math("LESS_THAN", x, 0.0)))
+    return b.math(Math.SUBTRACT, 1.0, b.math(Math.MULTIPLY, 2.0, b.math(Math.LESS_THAN, x, 0.0)))
 
 
 def zero_unless_finite(b, v):
     """v where every component is finite, else (0, 0, 0): Maximum/Minimum drop a NaN
     (fmaxf) and clamp an Inf, and x - x < 0.5 is false exactly for NaN and Inf."""
     comps = b.separate(v)
-    finite = [b.math("LESS_THAN", b.math("SUBTRACT", c, c), 0.5) for c in comps]
-    clamped = [b.math("MINIMUM", b.math("MAXIMUM", c, -1e30), 1e30) for c in comps]
-    every = b.math("MULTIPLY", b.math("MULTIPLY", finite[0], finite[1]), finite[2])
+    finite = [b.math(Math.LESS_THAN, b.math(Math.SUBTRACT, c, c), 0.5) for c in comps]
+    clamped = [b.math(Math.MINIMUM, b.math(Math.MAXIMUM, c, -1e30), 1e30) for c in comps]
+    every = b.math(Math.MULTIPLY, b.math(Math.MULTIPLY, finite[0], finite[1]), finite[2])
     return b.scale(b.combine(*clamped), every)
 
 
 def safe_normal_group():
     def build(b):
-        v = b.input("Vector", "VECTOR", "A direction of any length, or nothing", hide_value=True)
+        v = b.input(S.NOISE_VECTOR)
         if not running_line().normal_map_replaces_non_finite:
             with b.frame("Blender 4.2/4.5: NaN or Inf to zero (their Normal Map node lets "
                          "non-finite values through)"):
@@ -108,38 +126,29 @@ def safe_normal_group():
             # zero becomes the shading normal before the node (for EEVEE), and the node's
             # result u is turned back where it points against v (a back face in Cycles); a
             # NaN v compares false and keeps u, the shading normal.
-            geo = b.node("ShaderNodeNewGeometry").outputs["Normal"]
-            zero = b.math("COMPARE", b.length(v), 0.0, 0.0)
-            v = b.add(v, b.scale(geo, zero))
-            nm = b.node("ShaderNodeNormalMap", space="WORLD")
-            nm.inputs["Strength"].default_value = 1.0
-            b.link(b.vmath("MULTIPLY_ADD", v, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5)),
-                   nm.inputs["Color"])
-            u = nm.outputs[0]
-            turn = b.math("MULTIPLY_ADD", b.math("LESS_THAN", b.dot(u, v), 0.0), -2.0, 1.0)
-        b.output("Normal", "VECTOR", b.scale(u, turn), "Unit normal, always finite")
-    return ensure_group(".SG Safe Normal", VERSION, build,
-                        "normalize(v) with the shading normal as fallback")
+            v = add_where_zero(b, v, b.geometry("Normal"))
+            u = b.normal_map(b.vmath(VMath.MULTIPLY_ADD, v, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5)),
+                             "WORLD")
+            turn = b.math(Math.MULTIPLY_ADD, b.math(Math.LESS_THAN, b.dot(u, v), 0.0), -2.0, 1.0)
+        b.output(S.NORMAL_OUT, b.scale(u, turn))
+    return ensure(".SG Safe Normal", build)
 
 
 def surface_gradient_group():
     def build(b):
-        value = b.input("Value", "FLOAT", "Scalar whose surface gradient is wanted (linear on "
-                        "each triangle for an exact result, e.g. a UV coordinate)")
-        n = b.input("Normal", "VECTOR", "Unit base normal", hide_value=True)
+        value = b.input("Value")
+        n = b.input(S.UNIT_NORMAL)
         with b.frame("Bump node inverted: g = N - n / (n . N)"):
-            bump = b.node("ShaderNodeBump")
-            bump.inputs["Strength"].default_value = 1.0
-            bump.inputs["Distance"].default_value = 1.0
-            if "Filter Width" in bump.inputs:
-                bump.inputs["Filter Width"].default_value = BUMP_FILTER_WIDTH
-            b.link(value, bump.inputs["Height"])
-            b.link(n, bump.inputs["Normal"])
-            nb = bump.outputs[0]
-            g = b.sub(n, b.scale(nb, b.math("DIVIDE", 1.0, b.dot(nb, n))))
-        b.output("Gradient", "VECTOR", g, "Surface gradient of Value")
-    return ensure_group(".SG Surface Gradient", VERSION, build,
-                        "Surface gradient of a scalar through the Bump node")
+            g = bump_surface_gradient(b, value, n, BUMP_FILTER_WIDTH)
+        b.output(S.GRADIENT_OUT, g)
+    return ensure(".SG Surface Gradient", build)
+
+
+def bump_surface_gradient(b, height, n, filter_width):
+    """The Bump node inverted: its normal nb = normalize(N - grad_S h) (Strength 1, Distance 1)
+    gives back g = N - nb / (nb . N)."""
+    nb = b.bump(height, n, filter_width)
+    return b.sub(n, b.scale(nb, b.math(Math.DIVIDE, 1.0, b.dot(nb, n))))
 
 
 # Shifted copies see UV + fw * dUV: for linear attributes any step is exact, and a large one
@@ -152,40 +161,45 @@ FORWARD_FILTER_WIDTH = 2.0      # = reference.methods.FORWARD_FILTER_WIDTH
 
 def uv_gradients_group():
     def build(b):
-        uv = b.input("UV", "VECTOR", "Texture coordinate (link a UV Map node for any UV map)",
-                     hide_value=True)
-        n = b.input("Normal", "VECTOR", "Unit base normal", hide_value=True)
+        uv = b.input(S.UV)
+        n = b.input(S.UNIT_NORMAL)
         s, t, _ = b.separate(uv)
         sg = surface_gradient_group()
         with b.frame("Surface gradients of s and t (Eq. 7 with H = s, H = t)"):
             gs = sub_group(b, sg, "grad s", Value=s, Normal=n).outputs[0]
             gt = sub_group(b, sg, "grad t", Value=t, Normal=n).outputs[0]
-        b.output("Gradient S", "VECTOR", gs, "Surface gradient of s")
-        b.output("Gradient T", "VECTOR", gt, "Surface gradient of t")
-    return ensure_group(".SG UV Gradients", VERSION, build, "Surface gradients of a UV map")
-
-
-DIRECTX_TOOLTIP = ("The map is in DirectX convention (green points down, -Y: Unreal, 3ds Max, "
-                   "Substance's DirectX preset): its green channel is flipped. Off: OpenGL "
-                   "(+Y), Blender's own. Blender 5.2's Normal Map node calls this Convention")
+        b.output("Gradient S", gs)
+        b.output("Gradient T", gt)
+    return ensure(".SG UV Gradients", build)
 
 
 def directx_input(b):
     """The DirectX/OpenGL switch of every group that decodes a tangent-space colour."""
-    return b.input("DirectX", "BOOLEAN", DIRECTX_TOOLTIP, default=False)
+    return b.input(S.DIRECTX)
+
+
+def listing2_z(b, mx, my, mz):
+    """Listing 2's z = max(|z|, max(|x|, |y|) / 128): the derivative stays within 128."""
+    return b.math(Math.MAXIMUM, b.math(Math.ABSOLUTE, mz), b.math(
+        Math.MULTIPLY, TSPACE_Z_CLAMP, b.math(Math.MAXIMUM, b.math(Math.ABSOLUTE, mx),
+                                               b.math(Math.ABSOLUTE, my))))
+
+
+def unpack_normal(b, color):
+    """m = 2 c - 1: a tangent-space normal from its colour."""
+    return b.vmath(VMath.SUBTRACT, b.vmath(VMath.MULTIPLY, color, (2.0, 2.0, 2.0)),
+                   (1.0, 1.0, 1.0))
 
 
 def decode_tangent_normal(b, color, directx=None):
     """m = 2 c - 1 (m.y negated for a DirectX map) and Listing 2's derivative (abs z, 1/128
     clamp), as two float sockets."""
-    m = b.vmath("SUBTRACT", b.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)), (1.0, 1.0, 1.0))
-    mx, my, mz = b.separate(m)
+    mx, my, mz = b.separate(unpack_normal(b, color))
     if directx is not None:
-        my = b.math("MULTIPLY", my, b.math("SUBTRACT", 1.0, b.math("MULTIPLY", directx, 2.0)))
-    z_ma = b.math("MAXIMUM", b.math("ABSOLUTE", mz), b.math(
-        "MULTIPLY", 1.0 / 128.0, b.math("MAXIMUM", b.math("ABSOLUTE", mx), b.math("ABSOLUTE", my))))
-    inv = b.math("DIVIDE", -1.0, b.math("MAXIMUM", z_ma, DIVIDE_FLOOR))
-    return b.math("MULTIPLY", mx, inv), b.math("MULTIPLY", my, inv)
+        my = b.math(Math.MULTIPLY, my,
+                    b.math(Math.SUBTRACT, 1.0, b.math(Math.MULTIPLY, directx, 2.0)))
+    inv = b.math(Math.DIVIDE, -1.0, b.math(Math.MAXIMUM, listing2_z(b, mx, my, mz), DIVIDE_FLOOR))
+    return b.math(Math.MULTIPLY, mx, inv), b.math(Math.MULTIPLY, my, inv)
 
 
 def tangent_normal_to_surfgrad(b, color, strength, t, bt, directx=None):
@@ -196,17 +210,6 @@ def tangent_normal_to_surfgrad(b, color, strength, t, bt, directx=None):
         return b.scale(b.add(b.scale(t, dx), b.scale(bt, dy)), strength)
 
 
-def position_input(b, description):
-    """A Position input; unlinked (zero) it is the world position of the shading point."""
-    raw = b.input("Position", "VECTOR", description, hide_value=True)
-    world = b.node("ShaderNodeNewGeometry").outputs["Position"]
-    unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
-    return b.mix_vector(unlinked, raw, world)
-
-
-SAMPLER_TOOLTIP = ("Your image as a closure: an Image Texture inside a Closure Zone (Vector in, "
-                   "Color out), its Closure linked here. Linear or Closest interpolation; the "
-                   "group evaluates it at the coordinates it needs")
 
 
 class ImageTaps:
@@ -233,7 +236,7 @@ class SamplerTaps(ImageTaps):
 
     def __init__(self, b):
         super().__init__(b, None, None)
-        self.sampler = b.input("Sampler", "CLOSURE", SAMPLER_TOOLTIP)
+        self.sampler = b.input(S.SAMPLER)
 
     def color(self, vector, interpolation=None):
         ev = self.b.node(CLOSURE_NODE, label="Sampler")
@@ -246,18 +249,13 @@ class SamplerTaps(ImageTaps):
 
 def texel_count_inputs(b):
     """Width and Height of a sampler group's image (the Add menu fills them from the image)."""
-    w = b.input("Width", "INT", "Width of the sampled image in pixels (the Add menu sets it "
-                "from the active Image Texture's image)", default=1024, min_value=1,
-                max_value=65536)
-    h = b.input("Height", "INT", "Height of the sampled image in pixels", default=1024,
-                min_value=1, max_value=65536)
-    return w, h
+    return b.input(S.IMAGE_WIDTH), b.input(S.IMAGE_HEIGHT)
 
 
 def select(b, pick, a, v):
     """a where pick is 0, v where it is 1, exactly: a (1 - pick) + v pick as separate products
     (an interpolation a + pick (v - a) would round v to a's precision)."""
-    return b.add(b.scale(a, b.math("SUBTRACT", 1.0, pick)), b.scale(v, pick))
+    return b.add(b.scale(a, b.math(Math.SUBTRACT, 1.0, pick)), b.scale(v, pick))
 
 
 POSITION_ATTRIBUTE = "position"
@@ -272,8 +270,7 @@ def object_position(b):
         attr = b.node("ShaderNodeAttribute", attribute_type="GEOMETRY",
                       attribute_name=POSITION_ATTRIBUTE).outputs["Vector"]
         coords = b.node("ShaderNodeTexCoord").outputs["Object"]
-        missing = b.math("COMPARE", b.length(attr), 0.0, 0.0)
-        return select(b, missing, attr, coords)
+        return select(b, b.is_zero(attr), attr, coords)
 
 
 # Beyond this distance from the origin (metres) float32 world positions step by 7.6e-6 m or
@@ -292,41 +289,41 @@ def _fraction_of_product(b, t, s):
     of t s: t = i_hi + i_lo + f (integers of 12 bits each times 4096 and 1, and f in [0, 1)),
     s = s_hi + s_lo (Veltkamp's split into 12-bit halves), so every integer product is exact and
     its fraction too; only f s rounds, relative to s, not to t s."""
-    c = b.math("MULTIPLY", s, 4097.0)
-    s_hi = b.math("SUBTRACT", c, b.math("SUBTRACT", c, s))
-    s_lo = b.math("SUBTRACT", s, s_hi)
-    i = b.vmath("FLOOR", t)
+    c = b.math(Math.MULTIPLY, s, 4097.0)
+    s_hi = b.math(Math.SUBTRACT, c, b.math(Math.SUBTRACT, c, s))
+    s_lo = b.math(Math.SUBTRACT, s, s_hi)
+    i = b.vmath(VMath.FLOOR, t)
     f = b.sub(t, i)
-    i_hi = b.vmath("MULTIPLY", b.vmath("FLOOR", b.vmath("MULTIPLY", i, (1 / 4096,) * 3)),
+    i_hi = b.vmath(VMath.MULTIPLY,
+                   b.vmath(VMath.FLOOR, b.vmath(VMath.MULTIPLY, i, (1 / 4096,) * 3)),
                    (4096.0,) * 3)
     i_lo = b.sub(i, i_hi)
-    total = b.vmath("FRACTION", b.scale(f, s))
+    total = b.vmath(VMath.FRACTION, b.scale(f, s))
     for part, half in ((i_hi, s_hi), (i_hi, s_lo), (i_lo, s_hi), (i_lo, s_lo)):
-        total = b.add(total, b.vmath("FRACTION", b.scale(part, half)))
-    return b.vmath("FRACTION", total)
+        total = b.add(total, b.vmath(VMath.FRACTION, b.scale(part, half)))
+    return b.vmath(VMath.FRACTION, total)
 
 
-def scaled_position_inputs(b, description):
+def scaled_position_inputs(b):
     """The Position and Scale inputs of a projection: returns (Position x Scale, Scale).
     Linked, the Position as given. Unlinked, the world position; where the object's origin is
     more than FAR_REPEATS repeats out, rebuilt from precise parts: frac(origin x Scale) (exact,
     _fraction_of_product) plus the object-space position turned to world axes (a small offset,
     precise) x Scale. The same modulo one repeat, which a Repeat image cannot tell apart."""
-    raw = b.input("Position", "VECTOR", description, hide_value=True)
-    scale = b.input("Scale", "FLOAT", "Texture repeats per unit", default=1.0,
-                    min_value=0.0, max_value=1e4)
-    unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
+    raw = b.input(S.POSITION)
+    scale = b.input(S.TEXTURE_SCALE)
+    unlinked = b.is_zero(raw)
     with b.frame("Unlinked: world position x Scale; far out, modulo one repeat from precise "
                  "parts (object origin, object-space offset)"):
-        world = b.scale(b.node("ShaderNodeNewGeometry").outputs["Position"], scale)
+        world = b.scale(b.geometry("Position"), scale)
         origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
         turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
                       convert_from="OBJECT", convert_to="WORLD")
         b.link(object_position(b), turn.inputs[0])
         precise = b.add(_fraction_of_product(b, origin, scale), b.scale(turn.outputs[0], scale))
-        ox, oy, oz = b.separate(b.vmath("ABSOLUTE", origin))
-        reach = b.math("MULTIPLY", b.math("MAXIMUM", b.math("MAXIMUM", ox, oy), oz), scale)
-        far = b.math("GREATER_THAN", reach, FAR_REPEATS)
+        ox, oy, oz = b.separate(b.vmath(VMath.ABSOLUTE, origin))
+        reach = b.math(Math.MULTIPLY, b.math(Math.MAXIMUM, b.math(Math.MAXIMUM, ox, oy), oz), scale)
+        far = b.math(Math.GREATER_THAN, reach, FAR_REPEATS)
         world = select(b, far, world, precise)
     return select(b, unlinked, b.scale(raw, scale), world), scale
 
@@ -336,21 +333,18 @@ def surfgrad_reaching(b, n, v, against):
     (the normal v is measured from), and n - v (v unit) where v faces away from a, which still
     resolves to v. A surface gradient that adds to others."""
     k = b.dot(against, v)
-    inv = b.math("DIVIDE", 1.0, b.math("MAXIMUM", k, FLT_EPSILON))
-    away = b.math("LESS_THAN", k, FLT_EPSILON)
-    w = b.math("MULTIPLY_ADD", away, b.math("SUBTRACT", 1.0, inv), inv)
+    inv = b.math(Math.DIVIDE, 1.0, b.math(Math.MAXIMUM, k, FLT_EPSILON))
+    away = b.math(Math.LESS_THAN, k, FLT_EPSILON)
+    w = b.math(Math.MULTIPLY_ADD, away, b.math(Math.SUBTRACT, 1.0, inv), inv)
     return b.sub(n, b.scale(v, w))
 
 
-def uv_input(b, description):
+def uv_input(b):
     """A UV input; unlinked (zero) it is the active render UV map, as Blender's own texture
     nodes take it."""
-    raw = b.input("UV", "VECTOR", description + " (unlinked: the active render UV map)",
-                  hide_value=True)
+    raw = b.input(S.UV)
     with b.frame("UV: the active render UV map where unlinked (zero)"):
-        active = b.node("ShaderNodeUVMap", uv_map="").outputs["UV"]
-        unlinked = b.math("COMPARE", b.length(raw), 0.0, 0.0)
-        return b.mix_vector(unlinked, raw, active)
+        return where_zero(b, raw, b.node("ShaderNodeUVMap", uv_map="").outputs["UV"])
 
 
 def images_stale(expected):

@@ -1,13 +1,12 @@
 """Gustavson's displacement in Geometry Nodes (his Eq. 3-8): noise along the normal with
 analytic normals, and the rest position for bump on top."""
 
-from ..node_builder import ensure_group
-from . import common
-from .common import FeatureUnavailable, sub_group, unavailable_reason
-from .volume import NOISE_OCTAVES, gradient_noise_group
-
-
-REST_ATTRIBUTE = "sg_rest_position"
+from ..node_vocabulary import Math, VMath
+from ...reference import socket_specs as S
+from ...reference.group_interfaces import REST_ATTRIBUTE
+from ...reference.socket_specs import NOISE_OCTAVES
+from .common import FeatureUnavailable, ensure, sub_group, unavailable_reason
+from .volume import gradient_noise_group
 
 
 def displace_group():
@@ -20,18 +19,9 @@ def displace_group():
         raise FeatureUnavailable(reason)
 
     def build(b):
-        geo = b.input("Geometry", "GEOMETRY", "Mesh to displace")
-        amount = b.input("Amount", "FLOAT", "Displacement along the normal per unit of noise "
-                         "(object units)", default=0.1, min_value=-100.0, max_value=100.0)
-        scale = b.input("Scale", "FLOAT", "Frequency of the first octave", default=2.0,
-                        min_value=0.0, max_value=1e4)
-        octaves = b.input("Octaves", "INT", f"Octaves of the fractal sum (1 to {NOISE_OCTAVES})",
-                          default=1, min_value=1, max_value=NOISE_OCTAVES)
-        gain = b.input("Gain", "FLOAT", "Amplitude ratio between octaves", default=0.5,
-                       min_value=0.0, max_value=1.0)
-        analytic = b.input("Analytic Normals", "BOOLEAN", "Set the normals from the noise's "
-                           "gradient (Eq. 4-8); off: Blender recomputes them from the "
-                           "displaced geometry, which needs a dense mesh", default=True)
+        geo, amount = b.input("Geometry"), b.input("Amount")
+        scale, octaves, gain = b.input(S.NOISE_SCALE), b.input(S.OCTAVES), b.input(S.GAIN)
+        analytic = b.input("Analytic Normals")
         p0 = b.node("GeometryNodeInputPosition").outputs[0]
         n0 = b.normalize(b.node("GeometryNodeInputNormal").outputs[0])
         p = b.scale(p0, scale)
@@ -42,10 +32,10 @@ def displace_group():
                 freq = 2.0 ** i
                 node = sub_group(b, octave_tree, f"octave {i + 1}",
                                  Vector=b.scale(p, freq) if i else p)
-                on = b.math("LESS_THAN", float(i), octaves)
-                amp = b.math("MULTIPLY", on, b.math("POWER", gain, float(i)))
-                value = b.math("ADD", value, b.math("MULTIPLY", amp, node.outputs[0]))
-                grad = b.add(grad, b.scale(node.outputs[1], b.math("MULTIPLY", amp, freq)))
+                on = b.math(Math.LESS_THAN, float(i), octaves)
+                amp = b.math(Math.MULTIPLY, on, b.math(Math.POWER, gain, float(i)))
+                value = b.math(Math.ADD, value, b.math(Math.MULTIPLY, amp, node.outputs[0]))
+                grad = b.add(grad, b.scale(node.outputs[1], b.math(Math.MULTIPLY, amp, freq)))
             grad = b.scale(grad, scale)
         with b.frame("Eq. 4-8: N = normalize(N0 - amount (g - (g . N0) N0))"):
             g_perp = b.sub(grad, b.scale(n0, b.dot(grad, n0)))
@@ -63,7 +53,7 @@ def displace_group():
         with b.frame("Eq. 3: P = P0 + amount h N0, then the analytic normals"):
             setpos = b.node("GeometryNodeSetPosition")
             b.link(capture.outputs["Geometry"], setpos.inputs["Geometry"])
-            b.link(b.scale(n0, b.math("MULTIPLY", value, amount)), setpos.inputs["Offset"])
+            b.link(b.scale(n0, b.math(Math.MULTIPLY, value, amount)), setpos.inputs["Offset"])
             setn = b.node("GeometryNodeSetMeshNormal", mode="FREE", domain="POINT")
             b.link(setpos.outputs["Geometry"], setn.inputs["Mesh"])
             b.link(capture.outputs["Normal"], setn.inputs["Custom Normal"])
@@ -71,11 +61,8 @@ def displace_group():
             b.link(analytic, switch.inputs["Switch"])
             b.link(setpos.outputs["Geometry"], switch.inputs["False"])
             b.link(setn.outputs[0], switch.inputs["True"])
-        b.output("Geometry", "GEOMETRY", switch.outputs[0], "Displaced mesh with analytic normals "
-                 f"and its rest position in the '{REST_ATTRIBUTE}' attribute")
-    return ensure_group("SG Displace", common.VERSION, build,
-                        "Gustavson's procedural displacement: noise along the normal, normals "
-                        "recomputed analytically (Eq. 3-8)", tree_type="GeometryNodeTree")
+        b.output("Geometry", switch.outputs[0])
+    return ensure("SG Displace", build, tree_type="GeometryNodeTree")
 
 
 def rest_position_group():
@@ -83,7 +70,5 @@ def rest_position_group():
         with b.frame(f"Attribute '{REST_ATTRIBUTE}' written by SG Displace"):
             attr = b.node("ShaderNodeAttribute", attribute_type="GEOMETRY",
                           attribute_name=REST_ATTRIBUTE)
-        b.output("Rest Position", "VECTOR", attr.outputs["Vector"], "Object-space position "
-                 "before SG Displace moved it: feed SG Noise's Vector for bump on top")
-    return ensure_group("SG Rest Position", common.VERSION, build,
-                        "The undisplaced object coordinates stored by SG Displace")
+        b.output("Rest Position", attr.outputs["Vector"])
+    return ensure("SG Rest Position", build)

@@ -2,12 +2,13 @@
 image (Listing 16, Eq. 20-21: HQ and one-texel) or forward differences (Listing 7), and the
 triplanar projection of a height image."""
 
-from ..node_builder import ensure_group
+from ..node_vocabulary import Math, VMath
+from ...reference import socket_specs as S
 from . import common
-from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, images_stale, normal_input,
-                     scaled_position_inputs, sub_group, surfgrad_reaching, texel_count_inputs,
-                     uv_gradients_group, uv_input)
-from .projection import sharpness_input, triplanar_surface_gradient, triplanar_weights
+from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, bump_surface_gradient, ensure,
+                     images_stale, normal_input, scaled_position_inputs, sub_group,
+                     surfgrad_reaching, texel_count_inputs, uv_gradients_group, uv_input)
+from .projection import triplanar_surface_gradient, triplanar_weights
 
 
 def height_image_node(b, image, vector, interpolation, extension):
@@ -17,41 +18,41 @@ def height_image_node(b, image, vector, interpolation, extension):
 def _texel_offset(b, uv, du, dv):
     """uv + (du, dv): constants fold into one Vector Math node, sockets into a Combine XYZ."""
     if isinstance(du, float) and isinstance(dv, float):
-        return b.vmath("ADD", uv, (du, dv, 0.0))
+        return b.vmath(VMath.ADD, uv, (du, dv, 0.0))
     return b.add(uv, b.combine(du, dv))
 
 
 def _per_texel(b, x, size):
-    return b.math("MULTIPLY", x, size)
+    return b.math(Math.MULTIPLY, x, size)
 
 
 def _height_derivatives(b, taps, uv, w, h, variant):
     """dH/du and dH/dv (per texel) of Listing 16 at level 0; w, h floats (per-image groups)
     or sockets (sampler groups)."""
     const = isinstance(w, float)
-    inv_w = 1.0 / w if const else b.math("DIVIDE", 1.0, w)
-    inv_h = 1.0 / h if const else b.math("DIVIDE", 1.0, h)
+    inv_w = 1.0 / w if const else b.math(Math.DIVIDE, 1.0, w)
+    inv_h = 1.0 / h if const else b.math(Math.DIVIDE, 1.0, h)
     if variant == "one-texel":
         with b.frame("Listing 16 (level 0): forward differences one texel apart"):
             hc = taps.height(uv, "Linear")
             hr = taps.height(_texel_offset(b, uv, inv_w, 0.0), "Linear")
             hu = taps.height(_texel_offset(b, uv, 0.0, inv_h), "Linear")
-            return b.math("SUBTRACT", hr, hc), b.math("SUBTRACT", hu, hc)
+            return b.math(Math.SUBTRACT, hr, hc), b.math(Math.SUBTRACT, hu, hc)
     with b.frame("Eq. 20/21: Sobel derivatives of the 4x4 block, bilinearly blended"):
         size = (w, h, 0.0) if const else b.combine(w, h, 0.0)
-        f = b.vmath("SUBTRACT", b.vmath("MULTIPLY", uv, size), (0.5, 0.5, 0.0))
-        fl = b.vmath("FLOOR", f)
+        f = b.vmath(VMath.SUBTRACT, b.vmath(VMath.MULTIPLY, uv, size), (0.5, 0.5, 0.0))
+        fl = b.vmath(VMath.FLOOR, f)
         tx, ty, _ = b.separate(b.sub(f, fl))
-        ax, ay = b.math("SUBTRACT", 1.0, tx), tx
-        bx, by = b.math("SUBTRACT", 1.0, ty), ty
+        ax, ay = b.math(Math.SUBTRACT, 1.0, tx), tx
+        bx, by = b.math(Math.SUBTRACT, 1.0, ty), ty
 
         def weights(p, q):
-            smooth = [b.math("MULTIPLY", p, 0.25),
-                      b.math("MULTIPLY", b.math("ADD", b.math("MULTIPLY", p, 2.0), q), 0.25),
-                      b.math("MULTIPLY", b.math("ADD", p, b.math("MULTIPLY", q, 2.0)), 0.25),
-                      b.math("MULTIPLY", q, 0.25)]
-            diff = [b.math("MULTIPLY", p, -0.5), b.math("MULTIPLY", q, -0.5),
-                    b.math("MULTIPLY", p, 0.5), b.math("MULTIPLY", q, 0.5)]
+            def quarter(x):
+                return b.math(Math.MULTIPLY, x, 0.25)
+            smooth = [quarter(p), quarter(b.math(Math.ADD, b.math(Math.MULTIPLY, p, 2.0), q)),
+                      quarter(b.math(Math.ADD, p, b.math(Math.MULTIPLY, q, 2.0))), quarter(q)]
+            diff = [b.math(Math.MULTIPLY, p, -0.5), b.math(Math.MULTIPLY, q, -0.5),
+                    b.math(Math.MULTIPLY, p, 0.5), b.math(Math.MULTIPLY, q, 0.5)]
             return smooth, diff
         smooth_u, diff_u = weights(ax, ay)
         smooth_v, diff_v = weights(bx, by)
@@ -61,21 +62,21 @@ def _height_derivatives(b, taps, uv, w, h, variant):
             for j in range(4):      # columns (u)
                 # Texel centres: Closest taps of a per-image group; a sampler's Linear
                 # interpolation returns the texel's own value there.
-                centre = b.vmath("MULTIPLY", b.vmath("ADD", fl, (j - 0.5, i - 0.5, 0.0)), inv)
+                centre = b.vmath(VMath.MULTIPLY, b.vmath(VMath.ADD, fl, (j - 0.5, i - 0.5, 0.0)),
+                                 inv)
                 q = taps.height(centre, "Closest")
-                du = b.math("ADD", du, b.math("MULTIPLY", b.math(
-                    "MULTIPLY", smooth_v[i], diff_u[j]), q))
-                dv = b.math("ADD", dv, b.math("MULTIPLY", b.math(
-                    "MULTIPLY", diff_v[i], smooth_u[j]), q))
+                du = b.math(Math.ADD, du, b.math(Math.MULTIPLY, b.math(
+                    Math.MULTIPLY, smooth_v[i], diff_u[j]), q))
+                dv = b.math(Math.ADD, dv, b.math(Math.MULTIPLY, b.math(
+                    Math.MULTIPLY, diff_v[i], smooth_u[j]), q))
         return du, dv
 
 
 def _height_map_body(b, taps_for, variant, size):
     """The interface and interior shared by the per-image and the sampler height maps."""
     n = normal_input(b)
-    uv = uv_input(b, "Texture coordinate of the height image (link a UV Map node for another map)")
-    scale = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
-                    default=0.05, min_value=-1000.0, max_value=1000.0)
+    uv = uv_input(b)
+    scale = b.input(S.BUMP_SCALE)
     taps = taps_for(b)
     w, h = size(b)
     grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
@@ -83,7 +84,7 @@ def _height_map_body(b, taps_for, variant, size):
     with b.frame("Listing 6 in surface gradients: W dH/du grad s + H dH/dv grad t"):
         sg = b.add(b.scale(grads.outputs[0], _per_texel(b, du, w)),
                    b.scale(grads.outputs[1], _per_texel(b, dv, h)))
-    b.output("Surface Gradient", "VECTOR", b.scale(sg, scale), "Surface gradient")
+    b.output(S.SURFACE_GRADIENT_OUT, b.scale(sg, scale))
 
 
 def _check_variant(variant):
@@ -111,12 +112,10 @@ def height_map_group(image=None, variant="hq", extension="REPEAT"):
         # Rebuild when the image it samples was replaced or removed, or changed size.
         return same_image(tree) or tree.get("surfgrad_size") != [w, h]
 
-    label = HEIGHT_LABELS[variant]
-    name = f"SG Height Map {label}" + (f" [{image.name}]" if image is not None else "")
-    tree = ensure_group(name, common.VERSION, build,
-                        f"Scale-dependent bump from a height image ({label}, Listing 16 and "
-                        f"Listing 6); image {image.name if image else '(none: use Add Height Map)'}",
-                        stale=stale)
+    key = f"SG Height Map {HEIGHT_LABELS[variant]}"
+    name = key + (f" [{image.name}]" if image is not None else "")
+    fields = {"image": image.name} if image is not None else {}
+    tree = ensure(key, build, name, stale=stale, **fields)
     tree["surfgrad_size"] = [w, h]
     return tree
 
@@ -125,13 +124,9 @@ def height_map_sampler_group(variant="hq"):
     """SG Height Map HQ / One-Texel (Sampler), Blender 5.0+: the same derivatives as
     height_map_group from any image, given as a Sampler closure with its Width and Height."""
     _check_variant(variant)
-    label = HEIGHT_LABELS[variant]
-    name = f"SG Height Map {label} (Sampler)"
+    name = f"SG Height Map {HEIGHT_LABELS[variant]} (Sampler)"
     common.require(name)
-    return ensure_group(name, common.VERSION,
-                        lambda b: _height_map_body(b, SamplerTaps, variant, texel_count_inputs),
-                        f"Scale-dependent bump from a height image ({label}, Listing 16 and "
-                        f"Listing 6), the image given as a Sampler closure")
+    return ensure(name, lambda b: _height_map_body(b, SamplerTaps, variant, texel_count_inputs))
 
 
 def height_map_forward_group(filter_width=None):
@@ -141,26 +136,13 @@ def height_map_forward_group(filter_width=None):
     fw = FORWARD_FILTER_WIDTH if filter_width is None else float(filter_width)
     def build(b):
         n = normal_input(b)
-        height = b.input("Height", "FLOAT", "Height (link an Image Texture or any scalar "
-                         "graph)", default=0.0, hide_value=True)
-        scale = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
-                        default=0.05, min_value=-1000.0, max_value=1000.0)
+        height, scale = b.input("Height"), b.input(S.BUMP_SCALE)
         with b.frame("Listing 7: forward differences along the render's differentials "
                      "(the Bump node, inverted: g = N - n / (n . N))"):
-            bump = b.node("ShaderNodeBump")
-            bump.inputs["Strength"].default_value = 1.0
-            bump.inputs["Distance"].default_value = 1.0
-            if "Filter Width" in bump.inputs:
-                bump.inputs["Filter Width"].default_value = fw
-            b.link(height, bump.inputs["Height"])
-            b.link(n, bump.inputs["Normal"])
-            nb = bump.outputs[0]
-            g = b.sub(n, b.scale(nb, b.math("DIVIDE", 1.0, b.dot(nb, n))))
-        b.output("Surface Gradient", "VECTOR", b.scale(g, scale), "Surface gradient")
-    name = "SG Height Map Forward" + ("" if fw == FORWARD_FILTER_WIDTH else f" (filter {fw:g})")
-    return ensure_group(name, common.VERSION, build,
-                        "Scale-dependent bump from any height by forward differences "
-                        "(Listing 7, Listing 6)")
+            g = bump_surface_gradient(b, height, n, fw)
+        b.output(S.SURFACE_GRADIENT_OUT, b.scale(g, scale))
+    key = "SG Height Map Forward"
+    return ensure(key, build, key + ("" if fw == FORWARD_FILTER_WIDTH else f" (filter {fw:g})"))
 
 
 def bump_strength_group():
@@ -169,31 +151,22 @@ def bump_strength_group():
     s) N) with nb = normalize(N - g), which is no linear scale of g. Listing 5 turns the blend
     back into a surface gradient; N - v where it faces away from N (s > 1 can tip it over)."""
     def build(b):
-        n = normal_input(b, "Base normal, as the converted Bump node's Normal (leave unlinked: "
-                            "the shading normal)")
-        g = b.input("Surface Gradient", "VECTOR", "Surface gradient at Strength 1 (SG Height "
-                    "Map Forward)", hide_value=True)
-        s = b.input("Strength", "FLOAT", "As the Bump node's Strength: 1 keeps the gradient, "
-                    "0 is flat, between them the bumped normal is blended toward the base",
-                    default=1.0, min_value=0.0, max_value=10.0)
+        n = normal_input(b)
+        g, s = b.input(S.SURFACE_GRADIENT), b.input(S.NODE_STRENGTH)
         with b.frame("The Bump node's blend: v = normalize(s normalize(N - g) + (1 - s) N)"):
-            s = b.math("MAXIMUM", s, 0.0)
+            s = b.math(Math.MAXIMUM, s, 0.0)
             nb = b.normalize(b.sub(n, g))
-            v = b.normalize(b.add(b.scale(nb, s), b.scale(n, b.math("SUBTRACT", 1.0, s))))
+            v = b.normalize(b.add(b.scale(nb, s), b.scale(n, b.math(Math.SUBTRACT, 1.0, s))))
         with b.frame("Listing 5: N - v / (N . v); N - v where v faces away from N"):
             sg = surfgrad_reaching(b, n, v, n)
-        b.output("Surface Gradient", "VECTOR", sg, "Surface gradient with the Bump node's "
-                 "Strength applied")
-    return ensure_group(".SG Bump Strength", common.VERSION, build,
-                        "The Bump node's Strength (a blend of normals) on a surface gradient")
+        b.output(S.SURFACE_GRADIENT_OUT, sg)
+    return ensure(".SG Bump Strength", build)
 
 
 def _triplanar_height_body(b, taps_for, sizes):
     n = normal_input(b)
-    p, scale = scaled_position_inputs(b, "Where to project from (unlinked: world position)")
-    k = sharpness_input(b)
-    bump = b.input("Bump Scale", "FLOAT", "World units of displacement per unit of height",
-                   default=0.05, min_value=-1000.0, max_value=1000.0)
+    p, scale = scaled_position_inputs(b)
+    k, bump = b.input(S.SHARPNESS), b.input(S.BUMP_SCALE)
     plane_taps = taps_for(b)
     plane_sizes = sizes(b)
     weights = triplanar_weights(b, n, k)
@@ -204,10 +177,10 @@ def _triplanar_height_body(b, taps_for, sizes):
         with b.frame(f"Plane {label}: Listing 16 one-texel derivative, per world unit"):
             uv = b.combine(u, v)
             du, dv = _height_derivatives(b, taps, uv, w, h, "one-texel")
-            derivs.append((b.math("MULTIPLY", du, b.math("MULTIPLY", scale, w)),
-                           b.math("MULTIPLY", dv, b.math("MULTIPLY", scale, h))))
+            derivs.append((b.math(Math.MULTIPLY, du, b.math(Math.MULTIPLY, scale, w)),
+                           b.math(Math.MULTIPLY, dv, b.math(Math.MULTIPLY, scale, h))))
     sg = triplanar_surface_gradient(b, n, weights, derivs)
-    b.output("Surface Gradient", "VECTOR", b.scale(sg, bump), "Surface gradient")
+    b.output(S.SURFACE_GRADIENT_OUT, b.scale(sg, bump))
 
 
 def triplanar_height_group(image=None, extension="REPEAT", images=None):
@@ -230,10 +203,8 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
 
     named = [im.name for im in plane_images if im is not None]
     label = named[0] if len(set(named)) == 1 and len(named) == 3 else " | ".join(named)
-    name = "SG Triplanar Height" + (f" [{label}]" if label else "")
-    return ensure_group(name, common.VERSION, build,
-                        "Listings 13 and 14 from a height image on all three planes",
-                        stale=stale)
+    key = "SG Triplanar Height"
+    return ensure(key, build, key + (f" [{label}]" if label else ""), stale=stale)
 
 
 def triplanar_height_sampler_group():
@@ -245,6 +216,4 @@ def triplanar_height_sampler_group():
     def build(b):
         _triplanar_height_body(b, lambda b: [SamplerTaps(b)] * 3,
                                lambda b: [texel_count_inputs(b)] * 3)
-    return ensure_group(name, common.VERSION, build,
-                        "Listings 13 and 14 from a height image on all three planes, the "
-                        "image given as a Sampler closure")
+    return ensure(name, build)

@@ -1,11 +1,11 @@
 """Section 4.3: parallax mapping through UV surface gradients (Listings 11 and 12), with
 offset limiting and parallax occlusion."""
 
-from ..node_builder import ensure_group
+from ..node_vocabulary import Math, VMath
+from ...reference import socket_specs as S
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
-from . import common
-from .common import (ImageTaps, SamplerTaps, images_stale, normal_input, require, sub_group,
-                     uv_gradients_group, uv_input)
+from .common import (ImageTaps, SamplerTaps, ensure, images_stale, normal_input, require,
+                     sub_group, uv_gradients_group, uv_input, where_zero)
 
 
 POM_STEPS = 8
@@ -17,11 +17,9 @@ def parallax_group(image=None, extension="REPEAT"):
     grad t . dir)), Welsh's offset limiting, a POM_STEPS-step parallax-occlusion march with
     linear refinement (reference/parallax.py), and Listing 12 for the surface offset."""
     stale = images_stale(lambda count: [image] * count)
-    name = "SG Parallax" + (f" [{image.name}]" if image is not None else "")
-    return ensure_group(name, common.VERSION,
-                        lambda b: _parallax_body(b, lambda b: ImageTaps(b, image, extension)),
-                        "Listings 11 and 12: parallax mapping with offset limiting and "
-                        "parallax occlusion", stale=stale)
+    key = "SG Parallax"
+    return ensure(key, lambda b: _parallax_body(b, lambda b: ImageTaps(b, image, extension)),
+                  key + (f" [{image.name}]" if image is not None else ""), stale=stale)
 
 
 def parallax_sampler_group():
@@ -29,31 +27,25 @@ def parallax_sampler_group():
     Sampler closure."""
     name = "SG Parallax (Sampler)"
     require(name)
-    return ensure_group(name, common.VERSION, lambda b: _parallax_body(b, SamplerTaps),
-                        "Listings 11 and 12: parallax mapping with offset limiting and "
-                        "parallax occlusion, the height image given as a Sampler closure")
+    return ensure(name, lambda b: _parallax_body(b, SamplerTaps))
 
 
 def _parallax_body(b, taps_for):
     """The interface and interior shared by the per-image and the sampler parallax."""
     n = normal_input(b)
-    uv = uv_input(b, "Texture coordinate of the height image (link a UV Map node for another map)")
-    view = b.input("View", "VECTOR", "Unit direction toward the viewer, world space "
-                   "(unlinked: the Geometry node's Incoming)", hide_value=True)
-    scale = b.input("Bump Scale", "FLOAT", "World distance of height 1 above the surface",
-                    default=0.05, min_value=0.0, max_value=100.0)
+    uv = uv_input(b)
+    view, scale = b.input("View"), b.input(S.BUMP_SCALE)
     taps = taps_for(b)
     with b.frame("Unlinked View: Incoming"):
-        incoming = b.node("ShaderNodeNewGeometry").outputs["Incoming"]
-        unlinked = b.math("COMPARE", b.length(view), 0.0, 0.0)
-        view = b.mix_vector(unlinked, view, incoming)
+        view = where_zero(b, view, b.geometry("Incoming"))
     grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
     gs, gt = grads.outputs[0], grads.outputs[1]
     with b.frame("Listing 11: dir to texture space"):
         dir_tex = b.combine(b.dot(gs, view), b.dot(gt, view), 0.0)
         limited_v = b.scale(dir_tex, scale)
-        proj = b.math("DIVIDE", scale, b.math("MAXIMUM", b.math("ABSOLUTE", b.dot(n, view)),
-                                              FLT_EPSILON))
+        proj = b.math(Math.DIVIDE, scale, b.math(Math.MAXIMUM,
+                                                 b.math(Math.ABSOLUTE, b.dot(n, view)),
+                                                 FLT_EPSILON))
         v = b.scale(dir_tex, proj)
     with b.frame("Welsh: offset limiting, H(st) v"):
         h0 = taps.height(uv, "Linear")
@@ -64,30 +56,27 @@ def _parallax_body(b, taps_for):
         for k in range(POM_STEPS + 1):
             level = 1.0 - k / POM_STEPS
             hk = taps.height(b.add(uv, b.scale(v, level)), "Linear")
-            gap = b.math("SUBTRACT", level, hk)
-            below = b.math("LESS_THAN", gap, DIVIDE_FLOOR)          # gap <= 0
-            cross = b.math("MULTIPLY", below, b.math("SUBTRACT", 1.0, found))
+            gap = b.math(Math.SUBTRACT, level, hk)
+            below = b.math(Math.LESS_THAN, gap, DIVIDE_FLOOR)          # gap <= 0
+            cross = b.math(Math.MULTIPLY, below, b.math(Math.SUBTRACT, 1.0, found))
             if prev_gap is None:
                 refined = level
             else:
-                t = b.math("DIVIDE", prev_gap, b.math("SUBTRACT", prev_gap, gap))
-                refined = b.math("ADD", prev_level, b.math("MULTIPLY", level - prev_level, t))
-            hit = b.math("ADD", hit, b.math("MULTIPLY", cross, refined))
-            found = b.math("MAXIMUM", found, cross)
+                t = b.math(Math.DIVIDE, prev_gap, b.math(Math.SUBTRACT, prev_gap, gap))
+                refined = b.math(Math.ADD, prev_level, b.math(Math.MULTIPLY, level - prev_level, t))
+            hit = b.math(Math.ADD, hit, b.math(Math.MULTIPLY, cross, refined))
+            found = b.math(Math.MAXIMUM, found, cross)
             prev_level, prev_gap = level, gap
         offset = b.scale(v, hit)
     with b.frame("Listing 12: texture offset back onto the surface"):
         # The dual basis of (grad s, grad t) in the tangent plane: dP/ds, dP/dt.
         es = b.cross(gt, n)
-        es = b.scale(es, b.math("DIVIDE", 1.0, b.dot(gs, es)))
+        es = b.scale(es, b.math(Math.DIVIDE, 1.0, b.dot(gs, es)))
         et = b.cross(n, gs)
-        et = b.scale(et, b.math("DIVIDE", 1.0, b.dot(gt, et)))
+        et = b.scale(et, b.math(Math.DIVIDE, 1.0, b.dot(gt, et)))
         ox, oy, _ = b.separate(offset)
         surface = b.add(b.scale(es, ox), b.scale(et, oy))
-    b.output("UV", "VECTOR", b.add(uv, offset), "Parallax-occlusion corrected texture "
-             "coordinate: sample the material's other maps here")
-    b.output("UV Limited", "VECTOR", b.add(uv, limited), "Parallax with offset limiting "
-             "(cheaper, one height sample)")
-    b.output("Surface Offset", "VECTOR", surface, "World offset of the corrected point "
-             "along the surface (Listing 12)")
-    b.output("Height", "FLOAT", hit, "Height where the view ray meets the height field")
+    b.output("UV", b.add(uv, offset))
+    b.output("UV Limited", b.add(uv, limited))
+    b.output("Surface Offset", surface)
+    b.output("Height", hit)

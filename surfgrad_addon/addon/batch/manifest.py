@@ -1,0 +1,101 @@
+"""The batch's manifest (JSON, beside the outputs): where it goes, reading it back, and
+writing it whole, one write at a time."""
+
+import json
+import os
+import threading
+from pathlib import Path
+
+from .. import bake_request as BR
+from .. import normal_bake as NB
+from .plan import BatchError
+
+MANIFEST_NAME = "surfgrad-bake-manifest.json"
+
+
+def default_manifest(pattern):
+    """The manifest beside the outputs: in the pattern's folder before its first token."""
+    parts = Path(pattern).parent.parts
+    fixed = []
+    for part in parts:
+        if "{" in part or NB.UDIM_TOKEN in part:
+            break
+        fixed.append(part)
+    return Path(*fixed) / MANIFEST_NAME if fixed else Path(MANIFEST_NAME)
+
+
+def checked_path(manifest, pattern):
+    """The manifest's path (`manifest`, else default_manifest(pattern)), or BatchError if it
+    cannot be written there."""
+    path = Path(manifest) if manifest else default_manifest(pattern)
+    problem = BR.folder_problem(path.parent) or _manifest_problem(path)
+    if problem:
+        raise BatchError(f"manifest {path}: {problem}")
+    return path
+
+
+def _manifest_problem(path):
+    """None if the manifest path can be read and replaced, else what is wrong with it."""
+    if path.is_dir():
+        return f"is a folder; give a file path (e.g. {path / MANIFEST_NAME})"
+    if path.exists() and not path.is_file():
+        return "is not a regular file; give a file path"
+    return None
+
+
+def read(path):
+    """The manifest at `path`, or None if there is none (or it is no manifest)."""
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        return data if isinstance(data, dict) and isinstance(data.get("assets"), dict) else None
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
+    except UnicodeDecodeError:
+        raise BatchError(f"manifest {path} is not UTF-8 text (not a surfgrad manifest); give "
+                         f"another --manifest path or remove that file") from None
+
+
+# One manifest write at a time. A stop (write_last) takes it for good before its own write:
+# the process then ends, and no write of the main thread is left half done (a temporary) or
+# lands after the stop's (a manifest without the interrupted assets).
+_WRITE_LOCK = threading.Lock()
+
+
+def write(path, data):
+    """Write the manifest whole: a temporary file, then renamed over the old one."""
+    with _WRITE_LOCK:
+        _write_json(path, data)
+
+
+def write_last(path, data):
+    """The stop's write: holds the write lock for good (the process ends after this, and no
+    other write may follow or overlap)."""
+    _WRITE_LOCK.acquire(timeout=5)
+    _write_json(path, data)
+
+
+def _write_json(path, data):
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temp = path.with_name(f".{path.name}.part{os.getpid()}")
+    temp.write_text(json.dumps(data, indent=1, sort_keys=False))
+    os.replace(temp, path)
+
+
+def asset_key(blend, obj):
+    """An asset's key in the manifest: "file:object" ("file:*" for the file itself)."""
+    return f"{blend}:{obj}"
+
+
+def merged(previous, report, files):
+    """The manifest: this run's report, with earlier runs' assets and files kept."""
+    out = dict(report)
+    out["assets"] = dict(previous.get("assets", {}))
+    out["assets"].update(report["assets"])
+    out["files"] = dict(previous.get("files", {}))
+    for blend, f in files.items():
+        out["files"][blend] = {"input_hash": f["input_hash"],
+                               "dependencies": f["dependencies"], "selection": f["selection"],
+                               "load_s": f.get("scan_load_s"),
+                               **({"scan": f["scan"]} if "scan" in f else {})}
+    return out

@@ -1,0 +1,259 @@
+"""One batch run (bake_batch): check the plan, scan every file, plan and check the whole batch,
+then bake, recording each asset in the manifest as it finishes (see the package docstring)."""
+
+import os
+import time
+from pathlib import Path
+
+from .. import bake_request as BR
+from .. import interrupts
+from .. import normal_bake as NB
+from . import manifest as M
+from . import plan as P
+from .progress import Progress
+from .workers import InProcess, Pool
+
+
+def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, collections=None,
+               defaults=None, settings_file=None, workers=1, force=False, overwrite=False,
+               manifest=None, tiles=None, empty_tiles="error", open_file=False, worker_env=None,
+               worker_command_override=None, log=print, threads=None, warn=BR.warn_stderr,
+               worker_timeout=None):
+    """Bake every asset of `blends` (paths; or the open file with open_file) selected by
+    `objects` / `collections` into files named by `output`. threads: Cycles threads per bake
+    (default: all cores in this process or one worker, their share with several). Returns the
+    run's report (also written, merged with earlier runs, to the manifest): per asset its
+    status (baked, skipped, failed), settings, hashes, timings, warnings (also passed to
+    `warn`: stderr), files.
+    The whole plan is checked before any bake: BatchError (nothing baked, nothing written)
+    for bad input of the whole run (settings values, output collisions, folders that cannot
+    be written); an asset whose own input is bad (mesh, images, UV layout) fails alone.
+    worker_timeout: seconds a scan or bake may take in a worker before it is taken as hung
+    (default: SCAN_TIMEOUT_S for a scan, bake_timeout() for a bake). Entries naming the same
+    file are merged: `a.blend` with `a.blend:Obj` bakes the file's assets and Obj."""
+    import bpy
+    from ..groups.common import VERSION
+
+    tiles, base, overrides = P.checked_options(output, workers, worker_timeout, threads,
+                                               empty_tiles, tiles, settings_file, defaults)
+    if open_file:
+        if not bpy.data.filepath:
+            raise P.BatchError("the open file has never been saved: save it, or give .blend "
+                               "files")
+        blends = [bpy.data.filepath]
+        workers = 0                               # the open session is the one to bake
+        force = force or bpy.data.is_dirty        # unsaved changes: the file's hash says nothing
+    if not blends:
+        raise P.BatchError("give .blend files to bake (or bake the open file)")
+    per_file, whole = P.grouped_entries(blends)
+    blends = list(per_file)
+    manifest_path = M.checked_path(manifest, output)
+    previous = M.read(manifest_path) or {"assets": {}}
+    blender_version = bpy.app.version_string
+    t_start = time.perf_counter()
+    report = {"surfgrad": VERSION, "blender": blender_version,
+              "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "output": str(output),
+              "workers": workers, "force": force, "assets": {}, "files": {}}
+
+    # 1. The files: bad ones fail here; unchanged ones reuse their earlier scan.
+    files, to_scan = {}, []
+    prev_files = previous.get("files", {})
+    for blend in blends:
+        selection = {"objects": (objects or []) + per_file[blend],
+                     "collections": collections or []}
+        if blend in whole and per_file[blend] and not objects and not collections:
+            selection["everything"] = True      # `a.blend a.blend:Obj`: the union
+        problem = P.blend_problem(blend)
+        if problem:
+            report["assets"][M.asset_key(blend, "*")] = {
+                "file": blend, "object": None, "status": "failed", "kind": "input",
+                "error": problem}
+            continue
+        prev = prev_files.get(blend)
+        deps = prev.get("dependencies", []) if prev else []
+        ihash = P.input_hash(blend, deps)
+        files[blend] = {"input_hash": ihash, "dependencies": deps, "selection": selection}
+        if prev and prev.get("input_hash") == ihash and prev.get("selection") == selection \
+                and "scan" in prev:
+            files[blend]["scan"] = prev["scan"]
+            files[blend]["scan_reused"] = True
+        else:
+            to_scan.append(blend)
+    pool = InProcess(log) if workers == 0 else \
+        Pool(workers, worker_command_override, worker_env)
+    progress = Progress(log)
+    progress.known = len(report["assets"])          # the files refused already
+    progress.unscanned = len(to_scan)
+    outputs_seen, collisions, folders = {}, [], set()
+    how = "this process" if workers == 0 else f"{workers} worker process(es)"
+    # Cycles takes every core by default: several worker processes share them out.
+    if threads is None:
+        threads = None if workers <= 1 else max(1, (os.cpu_count() or 1) // workers)
+
+    def stop_batch(signal_name):
+        """On Ctrl-C / SIGTERM (interrupts.py): stop the workers, record every asset not
+        finished as interrupted (a rerun bakes it), write the manifest."""
+        held = pool.lock.acquire(timeout=5)      # not while a reply is being recorded
+        try:
+            n = pool.stop()
+            left = [e for e in report["assets"].values() if "status" not in e]
+            for e in left:
+                e.update(status="interrupted", error=f"stopped by {signal_name} before it "
+                                                     f"was baked")
+            report["interrupted"] = signal_name
+            M.write_last(manifest_path, M.merged(previous, report, files))
+            interrupts.say(f"[batch] {signal_name}: stopped {n} worker process(es); "
+                           f"{len(left)} asset(s) not baked, recorded as interrupted in "
+                           f"{manifest_path}")
+        finally:
+            if held:
+                pool.lock.release()
+
+    def step_entry(entry):
+        what = f"{Path(entry['file']).name}:{entry.get('object') or '*'}"
+        progress.step(entry["status"], what,
+                      f": {entry['error']}" if entry["status"] == "failed" else "")
+
+    def plan_file(blend):
+        """The bake requests of one scanned file; its failed and skipped assets reported."""
+        f, name = files[blend], Path(blend).name
+        entries, jobs = [], []
+        if "scan_error" in f:
+            entries.append({"file": blend, "object": None, "status": "failed",
+                            "kind": "input", "error": f"could not read {name}: "
+                                                      f"{f['scan_error']}"})
+        else:
+            for err in f["scan"]["errors"]:
+                entries.append({"file": blend, "object": err["object"], "status": "failed",
+                                "kind": "input", "error": err["error"]})
+            if not f["scan"]["assets"] and not f["scan"]["errors"]:
+                entries.append({"file": blend, "object": None, "status": "failed",
+                                "kind": "input",
+                                "error": f"{name} has no mesh object with a material to bake"})
+        for a in f.get("scan", {}).get("assets", []):
+            key = M.asset_key(blend, a["object"])
+            s = P.asset_settings(base, overrides, name, a["object"])
+            entry = {"file": blend, "object": a["object"], "settings": s}
+            entries.append(entry)
+            problem = P.asset_problem(a, s, name)
+            if problem:
+                entry.update(status="failed", kind="input", error=problem)
+                continue
+            uv = s["uv_map"] or a["active_uv"] or next(iter(a["uv_maps"]))
+            s = dict(s, uv_map=uv)
+            entry["settings"] = s
+            out = P.expand(output, name, a["object"], uv)
+            entry["output"] = out
+            if out in outputs_seen:
+                collisions.append(f"{name}:{a['object']} and {outputs_seen[out]} would both "
+                                  f"write {out}: make the output pattern tell them apart "
+                                  f"({', '.join(P.TOKENS)})")
+                continue
+            outputs_seen[out] = f"{name}:{a['object']}"
+            entry["input_hash"] = f["input_hash"]
+            entry["settings_hash"] = P.settings_hash(s, out, blender_version, VERSION)
+            prev = previous["assets"].get(key, {})
+            ours = P.unchanged_outputs(prev)
+            if not force and prev.get("status") in ("baked", "skipped") and ours and \
+                    prev.get("input_hash") == entry["input_hash"] and \
+                    prev.get("settings_hash") == entry["settings_hash"] and \
+                    (tiles is None or set(map(str, tiles)) <= set(prev["files"])):
+                entry.update(status="skipped", files=prev["files"], tiles=prev.get("tiles"),
+                             warnings=prev.get("warnings", []),
+                             note="inputs, settings and outputs unchanged (--force bakes "
+                                  "again)")
+                continue
+            folders.add(Path(out).parent)
+            n_tiles = len(tiles) if tiles else len(a["uv_maps"].get(uv) or [1])
+            jobs.append({"op": "bake", "id": key, "file": blend,
+                         "timeout": worker_timeout or P.bake_timeout(s, n_tiles),
+                         "blend": None if open_file else blend, "object": a["object"],
+                         "output": str(Path(out).resolve()), "settings": s, "tiles": tiles,
+                         "empty_tiles": empty_tiles, "threads": threads,
+                         # our own earlier, unmodified outputs may be replaced
+                         "overwrite": overwrite or bool(ours)})
+        for entry in entries:
+            report["assets"][M.asset_key(blend, entry.get("object") or "*")] = entry
+        progress.known += len(entries)
+        for entry in entries:
+            if entry.get("status") in ("failed", "skipped"):
+                step_entry(entry)
+        return jobs
+
+    def on_reply(req, reply, retry):
+        if req["op"] == "scan":
+            if retry:
+                return []
+            f = files[req["file"]]
+            f["scan_load_s"] = reply.get("load_s")
+            if reply["status"] == "ok":
+                f["scan"] = {"assets": reply["assets"], "errors": reply["errors"]}
+                if reply["dependencies"] != f["dependencies"]:
+                    f["dependencies"] = reply["dependencies"]
+                    f["input_hash"] = P.input_hash(req["file"], f["dependencies"])
+            else:
+                f["scan_error"] = reply["error"]
+            progress.unscanned -= 1
+            progress.scanned_files += 1
+            progress.scanned_assets += len(f.get("scan", {}).get("assets", [])) or 1
+            return []                           # bakes are planned once every file is read
+        entry = report["assets"][req["id"]]
+        what = f"{Path(req['file']).name}:{req['object']}"
+        entry.setdefault("attempts", []).append(
+            {k: reply.get(k) for k in ("status", "kind", "error", "load_s", "bake_s",
+                                       "save_s", "total_s") if k in reply})
+        if retry:
+            log(f"[batch] {what}: {reply['error']} - retrying once in a fresh process")
+            return []
+        if reply["status"] == "ok":
+            entry.update(status="baked", tiles=reply["tiles"], uv_map=reply["uv_map"],
+                         depth=reply["depth"], warnings=reply["warnings"],
+                         timings={k: reply.get(k) for k in ("load_s", "bake_s", "save_s",
+                                                            "total_s", "cpu_s")},
+                         files={t: {"path": p, "sha256": P.sha256_file(p)}
+                                for t, p in reply["paths"].items()})
+            f = files[req["file"]]
+            if reply["dependencies"] != f["dependencies"]:
+                f["dependencies"] = reply["dependencies"]
+                f["input_hash"] = P.input_hash(req["file"], f["dependencies"])
+                entry["input_hash"] = f["input_hash"]
+            progress.step("baked", what, f": tile(s) {NB._tiles_text(reply['tiles'])}"
+                                         f" in {reply['total_s']:.1f} s")
+            for w in reply["warnings"]:
+                warn(f"{what}: {w}")
+        else:
+            entry.update(status="failed", kind=reply.get("kind"), error=reply["error"])
+            progress.step("failed", what, f": {reply['error']}")
+        M.write(manifest_path, M.merged(previous, report, files))
+        return []
+
+    try:
+        for entry in list(report["assets"].values()):
+            step_entry(entry)
+        log(f"[batch] {len(files)} file(s), {len(to_scan)} to scan; baking with {how}")
+        # 1. Read every file, 2. plan and check the whole batch, 3. only then bake.
+        with interrupts.on_stop(stop_batch):
+            pool.map([{"op": "scan", "file": b, "blend": None if open_file else b,
+                       "timeout": worker_timeout or P.SCAN_TIMEOUT_S,
+                       **files[b]["selection"]} for b in to_scan], on_reply)
+            requests = []
+            for blend in files:
+                requests += plan_file(blend)
+            problems = collisions + sorted({p for p in map(BR.folder_problem, folders) if p})
+            if problems:
+                raise P.BatchError(P.joined(problems) + "\n(nothing was baked)")
+            for folder in sorted(folders):
+                folder.mkdir(parents=True, exist_ok=True)
+            M.write(manifest_path, M.merged(previous, report, files))
+            pool.map(requests, on_reply)
+        report["process_start_s"] = pool.start_times()
+    finally:
+        pool.close()
+    report["total_s"] = time.perf_counter() - t_start
+    report["counts"] = dict(progress.counts)
+    report["manifest"] = str(manifest_path)
+    M.write(manifest_path, M.merged(previous, report, files))
+    c = progress.counts
+    log(f"[batch] {c['baked']} baked, {c['skipped']} skipped, {c['failed']} failed in "
+        f"{report['total_s']:.1f} s; manifest {manifest_path}")
+    return report

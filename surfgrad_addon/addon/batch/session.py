@@ -1,0 +1,150 @@
+"""What a batch does in one Blender session (a worker process, or this one with workers=0):
+scan a .blend for its assets, or open it and bake one asset; run_request answers one request."""
+
+import fnmatch
+import os
+import time
+from pathlib import Path
+
+from .. import bake_request as BR
+from .. import interrupts
+from ..image_checks import image_problems
+from .. import normal_bake as NB
+
+FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT", "die-once:OBJECT", "hang:OBJECT"
+
+
+def scan_open_file(objects=None, collections=None, everything=False):
+    """The assets of the open file: with `objects` (names or wildcards) and/or `collections`
+    (names, their objects and child collections), those; with neither, or with everything,
+    (also) every mesh object with a material. Returns {"assets": [...], "errors": [...]}: per
+    asset its name, UV maps with the tiles each holds, the active render UV map, and its
+    material count."""
+    import bpy
+    chosen, errors = [], []
+    mesh_objects = [o for o in bpy.data.objects if o.type == "MESH"]
+    if objects:
+        for pattern in objects:
+            exact = bpy.data.objects.get(pattern)       # a name with * or [ in it is a name
+            hits = [exact] if exact else \
+                [o for o in bpy.data.objects if fnmatch.fnmatchcase(o.name, pattern)]
+            if not hits:
+                errors.append({"object": pattern, "error": f"no object named {pattern!r} in "
+                               f"{Path(bpy.data.filepath).name}"})
+            chosen += hits
+    for name in collections or ():
+        coll = bpy.data.collections.get(name)
+        if coll is None:
+            errors.append({"object": f"collection:{name}", "error": f"no collection named "
+                           f"{name!r} in {Path(bpy.data.filepath).name}; collections: "
+                           f"{sorted(c.name for c in bpy.data.collections)}"})
+            continue
+        chosen += [o for o in coll.all_objects if o.type == "MESH"]
+    if everything or (not objects and not collections):
+        chosen += [o for o in mesh_objects if any(s.material for s in o.material_slots)]
+    seen, assets = set(), []
+    for obj in chosen:
+        if obj.name in seen:
+            continue
+        seen.add(obj.name)
+        entry = {"object": obj.name, "type": obj.type, "uv_maps": {}, "active_uv": None,
+                 "materials": 0}
+        if obj.type == "MESH":
+            entry["materials"] = sum(1 for s in obj.material_slots if s.material)
+            entry["outside"] = {}
+            for uv in obj.data.uv_layers:
+                entry["uv_maps"][uv.name], entry["outside"][uv.name] = \
+                    NB.uv_tiles(obj.data, uv.name)
+                if uv.active_render:
+                    entry["active_uv"] = uv.name
+            entry["problems"] = _input_problems(obj)
+        assets.append(entry)
+    return {"assets": assets, "errors": errors}
+
+
+def _input_problems(obj):
+    """What bake_request finds wrong with obj's mesh and images (no setting changes these),
+    so the planner refuses the asset before any bake."""
+    if len(obj.data.polygons) == 0:
+        return []                          # the bake's own check names it
+    return BR.mesh_problems(obj, None, []) + image_problems(obj)
+
+
+def dependencies_of_open_file():
+    """Absolute paths of the external files the open file uses (not packed)."""
+    import bpy
+    try:
+        paths = bpy.utils.blend_paths(absolute=True, packed=False, local=False)
+    except TypeError:
+        paths = bpy.utils.blend_paths(absolute=True)
+    return sorted({str(Path(p).resolve()) for p in paths if p and "<UDIM>" not in p})
+
+
+_OPENED = [None]        # the file this session opened last (a bake leaves it as it was)
+
+
+def open_blend(path):
+    """Open `path` unless this session opened it last and it is still the open file (every
+    bake puts back what it touched); returns the seconds it took."""
+    import bpy
+    path = str(Path(path).resolve())
+    if _OPENED[0] == path and bpy.data.filepath and \
+            str(Path(bpy.data.filepath).resolve()) == path:
+        return 0.0
+    t0 = time.perf_counter()
+    from ..open_blend import open_mainfile
+    open_mainfile(path)                  # scripts off, whatever the Preferences say
+    _OPENED[0] = path
+    return time.perf_counter() - t0
+
+
+def run_request(request, log=lambda *_: None):
+    """Do one request in this session: {"op": "scan", blend, objects, collections} or
+    {"op": "bake", blend, object, output, settings, tiles, empty_tiles, overwrite}. Returns the
+    reply dict (status "ok", or "error" with kind "input" / "crash" and the message)."""
+    t0, cpu0 = time.perf_counter(), time.process_time()
+    reply = {"op": request["op"], "id": request.get("id")}
+    try:
+        load_s = open_blend(request["blend"]) if request.get("blend") else 0.0
+        reply["load_s"] = load_s
+        if request["op"] == "scan":
+            reply.update(scan_open_file(request.get("objects"), request.get("collections"),
+                                        request.get("everything", False)))
+            reply["dependencies"] = dependencies_of_open_file()
+        else:
+            import bpy
+            _fault(request)
+            obj = bpy.data.objects.get(request["object"])
+            if obj is None:
+                raise NB.NormalBakeError(f"no object named {request['object']!r}")
+            bake_request = BR.BakeRequest.from_settings(
+                obj.name, request["output"], request["settings"], tiles=request.get("tiles"),
+                empty_tiles=request.get("empty_tiles", "error"),
+                overwrite=request.get("overwrite", False), threads=request.get("threads"))
+            # warnings travel in the reply: the parent prints them once
+            with interrupts.partials_of(request["output"]):     # a stop removes its temps
+                res = BR.bake(bake_request, obj, log=log, warn=lambda *_: None)
+            reply.update({"paths": {str(t): str(p) for t, p in res["paths"].items()},
+                          "tiles": res["tiles"], "uv_map": res["uv_map"], "depth": res["depth"],
+                          "warnings": res["warnings"], "bake_s": res["bake_s"],
+                          "save_s": res["save_s"], "dependencies": dependencies_of_open_file()})
+        reply["status"] = "ok"
+    except NB.NormalBakeError as err:
+        reply.update(status="error", kind="input", error=str(err))
+    except Exception as err:                    # noqa: BLE001 - reported, retried once
+        reply.update(status="error", kind="crash", error=f"{type(err).__name__}: {err}")
+    reply["total_s"] = time.perf_counter() - t0
+    reply["cpu_s"] = time.process_time() - cpu0      # every thread of this process (Cycles')
+    return reply
+
+
+def _fault(request):
+    """Test hook (SURFGRAD_BATCH_FAULT): make this worker process die or hang on an asset."""
+    fault = os.environ.get(FAULT_ENV, "")
+    if ":" in fault and request.get("in_worker"):
+        kind, name = fault.split(":", 1)
+        if name == request["object"] and (kind == "die" or
+                                          (kind == "die-once" and request.get("attempt") == 1)):
+            os._exit(70)
+        if name == request["object"] and kind == "hang":
+            time.sleep(24 * 3600)

@@ -1,0 +1,66 @@
+"""One batch worker process, run as a file by workers.worker_command:
+
+    blender -b --factory-startup --python-exit-code 1 --python worker_main.py   (a Blender)
+    python -P worker_main.py                                      (the bpy module's Python)
+
+It reads requests, one JSON object a line, on stdin; does each in this session
+(session.run_request: scan a .blend, or open it and bake one asset); writes each reply as one
+line starting with RESULT_MARK on stdout. Anything else on stdout is the worker's log. It ends
+at the end of its input.
+
+Run as a file, it is no module of a package yet: it loads the package it sits in from its
+folder under a private name, so a checkout and an installed extension (whose package is named
+by Blender, and is not enabled in a --factory-startup worker) both work. Imported as a module
+(by workers.py, for RESULT_MARK and its path) it does nothing.
+"""
+
+import importlib
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+RESULT_MARK = "@@surfgrad-batch "          # a worker's reply line (other output is its log)
+PACKAGE = "_surfgrad_batch"                 # the name the worker loads surfgrad under
+PACKAGE_ROOT = Path(__file__).resolve().parents[2]     # surfgrad's folder (its __init__.py)
+
+
+def load_package(root=PACKAGE_ROOT, name=PACKAGE):
+    """Import the package in folder `root` as `name` (its relative imports then resolve)."""
+    spec = importlib.util.spec_from_file_location(name, Path(root) / "__init__.py",
+                                                  submodule_search_locations=[str(root)])
+    package = importlib.util.module_from_spec(spec)
+    sys.modules[name] = package
+    spec.loader.exec_module(package)
+    return package
+
+
+def reply(data):
+    sys.stdout.write(RESULT_MARK + json.dumps(data) + "\n")
+    sys.stdout.flush()
+
+
+def serve(run_request, stoppable):
+    """Answer requests from stdin until it ends; returns the exit code."""
+    import bpy  # noqa: F401 - loaded before "ready": the process start includes it
+    reply({"op": "ready"})
+    # SIGTERM / SIGINT sent to this worker: its temporary files go, exit 143 / 130 (the batch
+    # then fails that asset without a retry); the batch itself stops workers with SIGKILL.
+    with stoppable("the worker"):
+        for line in sys.stdin:
+            line = line.strip()
+            if not line:
+                continue
+            reply(run_request(json.loads(line), log=lambda *a: print(*a, flush=True)))
+    return 0
+
+
+def main():
+    load_package()
+    session = importlib.import_module(f"{PACKAGE}.addon.batch.session")
+    interrupts = importlib.import_module(f"{PACKAGE}.addon.interrupts")
+    return serve(session.run_request, interrupts.stoppable)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
