@@ -61,6 +61,18 @@ def add_layer_stack(material, uv_map=""):
     return operators.add_layer_stack(material.node_tree, uv_map)
 
 
+def update_precise_far(obj):
+    """Switch the Precise Far From Origin input of every surfgrad group node in obj's materials
+    on where obj reaches farther than 64 m from the origin, off nearer (off, the groups' precise
+    route costs nothing at render time). Returns how many group nodes were set."""
+    from .addon.far_precision import needs_precise_far, set_precise_far
+    if obj is None or not hasattr(obj, "material_slots"):
+        raise ValueError("give an object with material slots")
+    on = needs_precise_far(obj)
+    return sum(set_precise_far(slot.material.node_tree, on) for slot in obj.material_slots
+               if slot.material is not None and slot.material.node_tree is not None)
+
+
 def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
                     overwrite=False, log=print, samples=1, depth=None, tiles=None,
                     allow_partial=False):

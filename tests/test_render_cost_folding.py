@@ -2,8 +2,10 @@
 folding, read from Cycles' own SVM count (svm_counts) in a child, on every line.
 
 The options: one left at its default must cost nothing, so its route is gone from the program;
-one switched on costs what its nodes cost. Counts compare within the line only (int4 records up
-to 5.1, 32-bit words from 5.2)."""
+one switched on costs what its nodes cost. The proof builds the groups a second time without
+the route (a child whose builders have the route's helper replaced by its plain side) and
+compares the same materials' counts. Counts compare within the line only (int4 records up to
+5.1, 32-bit words from 5.2)."""
 
 import pytest
 
@@ -18,6 +20,71 @@ from surfgrad_addon.harness.bench import svm_counts as S  # noqa: E402
 @pytest.fixture(scope="module")
 def svm():
     return {r["key"]: r for r in folded_cost.counts()}
+
+
+# The child's side: the groups built without a route, then folded_cost's materials ----------
+
+def _without_far():
+    """precise_far_route(b, plain, precise) -> plain: the groups as if the route never existed."""
+    from surfgrad_addon.addon.groups import common, volume
+    from surfgrad_addon.reference.socket_specs import PRECISE_FAR
+
+    def plain_only(b, plain, precise):
+        b.input(PRECISE_FAR)            # declared, so looked up; its value goes nowhere
+        return plain
+    common.precise_far_route = volume.precise_far_route = plain_only
+
+
+def _without_directx():
+    """No DirectX switch: decode and SG Normal Map build no flip at all."""
+    from surfgrad_addon.addon.groups import common, projection, tangent_space
+    from surfgrad_addon.reference.socket_specs import DIRECTX
+
+    def no_switch(b):
+        b.input(DIRECTX)                # declared, so looked up; its value goes nowhere
+    common.directx_input = projection.directx_input = tangent_space.directx_input = no_switch
+
+
+def build_without_far():
+    _without_far()
+    folded_cost.build_materials()
+
+
+def build_without_directx():
+    _without_directx()
+    folded_cost.build_materials()
+
+
+def _counts_without(route, keys):
+    found = S.svm_counts(keys, build=f"test_render_cost_folding:build_without_{route}",
+                         paths=[S.ROOT / "tests"])
+    return {k: v.nodes for k, v in found.items()}
+
+
+def _present(svm, keys):
+    return [k for k in keys if k in svm]          # the Sampler materials from 5.0
+
+
+FAR_KEYS = ["tri-sg", "tri-sampler", "triheight-image", "triheight-sampler", "decal",
+            "decal:shape1", "decal:overwrite", "noise", "noise:octaves1", "noise:turbulence"]
+DIRECTX_KEYS = ["nm-sg", "tri-sg", "tri-sampler", "uv2-sg", "decal", "layers4-sg"]
+
+
+def test_precise_far_off_is_the_group_without_the_route(svm):
+    """Precise Far From Origin off (the default): every material with SG Triplanar (three
+    images, Sampler, height), SG Projector Coordinates or SG Noise compiles to exactly the
+    program of the same groups built without the precise route; on, the route runs."""
+    keys = _present(svm, FAR_KEYS)
+    assert _counts_without("far", keys) == {k: svm[k]["svm"] for k in keys}
+    for key in ("tri-sg", "decal", "noise"):
+        assert svm[f"{key}:precise"]["svm"] > svm[key]["svm"], key
+
+
+def test_directx_off_is_the_group_without_the_switch(svm):
+    """DirectX off (the default): SG Normal Map, SG Triplanar, SG Tangent Normal and SG Decal
+    compile to the program of the groups built with no flip; on, the flip is a node."""
+    keys = _present(svm, DIRECTX_KEYS)
+    assert _counts_without("directx", keys) == {k: svm[k]["svm"] for k in keys}
 
 
 def test_every_material_is_counted_in_the_lines_unit(svm):
@@ -39,8 +106,8 @@ def test_a_node_input_costs_nothing(svm):
     assert svm["decal:overwrite"]["svm"] == svm["decal"]["svm"]
 
 
-def test_directx_off_folds_and_on_is_a_node(svm):
-    """The flip is a product by -1 (it does not fold); off, the product by 1 is gone."""
+def test_directx_on_is_a_node(svm):
+    """The flip is a product by -1 (it does not fold)."""
     for key in ("nm-sg", "tri-sg", "uv2-sg"):
         assert svm[f"{key}:directx"]["svm"] > svm[key]["svm"], key
 

@@ -17,6 +17,7 @@ from ..addon.node_builder import running_line  # noqa: F401 (the line whose bake
 from ..addon.scene_state import SCENE_SETTINGS, restored
 from ..addon.bake_target import bake_target_problem, visible_for_bake
 from ..addon.exit_codes import BakeFailed
+from ..addon.far_precision import needs_precise_far, set_precise_far
 
 
 def exact_cycles(scene):
@@ -268,6 +269,10 @@ def _bake_into(obj, build, image, uv_map, displacement, log):
         emit.inputs["Strength"].default_value = 1.0
         links.new(build(nodes, links), emit.inputs["Color"])
         links.new(emit.outputs["Emission"], out.inputs["Surface"])
+        # As the operators do for the object they add groups for: the precise route far out
+        # (never switched off here: a build may want it on near the origin too).
+        if needs_precise_far(obj):
+            set_precise_far(tree, True)
         if displacement is not None:
             # Cycles' true displacement: the vector from `displacement` moves the surface.
             links.new(displacement(nodes, links), out.inputs["Displacement"])

@@ -98,22 +98,26 @@ def projector_coordinates_group():
         near_q = b.input(S.DECAL_COORDINATES)
         location = b.input("Projector Location")
         rows = [b.input(f"To Projector {a}") for a in "XYZ"]
-        with b.frame("Offset from the projector in world axes, from precise parts: "
-                     "(object origin - projector) + object-space position turned to world"):
-            origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
-            turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
-                          convert_from="OBJECT", convert_to="WORLD")
-            b.link(object_position(b), turn.inputs[0])
-            offset = b.add(b.sub(origin, location), turn.outputs[0])
-        with b.frame("To the projector's space: one row per axis"):
-            precise = b.combine(*(b.dot(row, offset) for row in rows))
-        with b.frame(f"Near the origin (< {common.FAR_METRES:g} m) the linked Texture "
-                     "Coordinate, as it always was; far out or unlinked, the precise route"):
-            ox, oy, oz = b.separate(b.vmath(VMath.ABSOLUTE, origin))
-            reach = b.math(Math.MAXIMUM, b.math(Math.MAXIMUM, ox, oy), oz)
-            use = b.math(Math.MAXIMUM, b.math(Math.GREATER_THAN, reach, common.FAR_METRES),
-                         b.is_zero(near_q))
-            q = common.select(b, use, near_q, precise)
+
+        def precise():
+            with b.frame("Offset from the projector in world axes, from precise parts: "
+                         "(object origin - projector) + object-space position turned to world"):
+                origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
+                turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
+                              convert_from="OBJECT", convert_to="WORLD")
+                b.link(object_position(b), turn.inputs[0])
+                offset = b.add(b.sub(origin, location), turn.outputs[0])
+            with b.frame("To the projector's space: one row per axis"):
+                parts = b.combine(*(b.dot(row, offset) for row in rows))
+            with b.frame(f"Near the origin (< {common.FAR_METRES:g} m) the linked Texture "
+                         "Coordinate, as it always was; far out or unlinked, the precise route"):
+                ox, oy, oz = b.separate(b.vmath(VMath.ABSOLUTE, origin))
+                reach = b.math(Math.MAXIMUM, b.math(Math.MAXIMUM, ox, oy), oz)
+                use = b.math(Math.MAXIMUM, b.math(Math.GREATER_THAN, reach, common.FAR_METRES),
+                             b.is_zero(near_q))
+                return common.select(b, use, near_q, parts)
+        with b.frame("Precise Far From Origin off: the linked Texture Coordinate as given"):
+            q = common.precise_far_route(b, near_q, precise)
         b.output(S.DECAL_COORDINATES, q)
     return ensure("SG Projector Coordinates", build)
 

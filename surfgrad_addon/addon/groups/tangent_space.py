@@ -5,8 +5,8 @@ Basis, SG Tangent Normal), and the classic blends of two tangent-space normals (
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from ...reference.vecmath import DIVIDE_FLOOR
-from .common import (directx_input, ensure, listing2_z, normal_input, sign_nonneg, sub_group,
-                     surfgrad_reaching, tangent_normal_to_surfgrad, unpack_normal,
+from .common import (directx_input, ensure, flip_green, listing2_z, normal_input, sign_nonneg,
+                     sub_group, surfgrad_reaching, tangent_normal_to_surfgrad, unpack_normal,
                      uv_gradients_group, uv_input)
 
 
@@ -89,8 +89,7 @@ def normal_map_group(uv_map=""):
         with b.frame("Listing 2 as a colour: c - 0.5 with the DirectX flip on y, "
                      "z = max(|z|, max(|x|, |y|) / 128)"):
             dx, dy, dz = b.separate(b.vmath(VMath.SUBTRACT, color, (0.5, 0.5, 0.5)))
-            flip = b.math(Math.MULTIPLY_ADD, directx, -2.0, 1.0)
-            processed = b.combine(dx, b.math(Math.MULTIPLY, dy, flip), listing2_z(b, dx, dy, dz))
+            processed = b.combine(dx, flip_green(b, dy, directx), listing2_z(b, dx, dy, dz))
         with b.frame("Listings 3 and 9: Blender's Normal Map node in the MikkTSpace frame, "
                      "with its own Strength"):
             # The node applies Strength itself (x, y scaled, z blended toward 1); on 5.2 the

@@ -3,13 +3,15 @@ built-in twin: Cycles' own SVM count (svm_counts.py), deterministic where render
 
 Every bench-render material is counted, and beside it its options one at a time (DirectX on,
 a Strength other than 1, an input linked instead of left at its default, each decal shape, the
-noise's octaves and turbulence): an option left at its default should cost nothing, so the
-count of "option off" is the count of the material without that route. The counts are in the
+noise's octaves and turbulence, Precise Far From Origin): an option left at its default should
+cost nothing, so the count of "option off" is the count of the material without that route
+(tests/test_render_cost_folding.py builds the groups without it to check). The counts are in the
 running line's unit (int4 records up to 5.1, 32-bit words from 5.2): compare within a line.
 """
 
 from ...addon import groups as G
-from ...addon.groups.projection import DECAL_SHAPES
+from ...reference.decals import DECAL_SHAPES
+from ...reference.socket_specs import PRECISE_FAR
 from . import render_materials as M
 from . import svm_counts as S
 
@@ -80,6 +82,8 @@ def _noise(g, ctx, up):
     return g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"])
 
 
+PRECISE = PRECISE_FAR.name
+_PROJECTED = {"Decal Coordinates": LINKED}       # as the Add Decal Projector operator links it
 # (key, label, layer, settings of the feeding group, settings of the layer's node, the key it
 # is compared with): options against their material at the defaults.
 _OPTIONS = [
@@ -92,21 +96,27 @@ _OPTIONS = [
     ("tri-sg:strength", "SG Triplanar, Strength 0.5", _tri, {}, {"Strength": 0.5}, "tri-sg"),
     ("tri-sg:position", "SG Triplanar, Position linked", _tri, {"Position": LINKED}, {},
      "tri-sg"),
+    ("tri-sg:precise", "SG Triplanar, Precise Far From Origin on", _tri, {PRECISE: True}, {},
+     "tri-sg"),
     ("uv2-sg:directx", "SG Tangent Normal, DirectX on", _uv2, {}, {"DirectX": True}, "uv2-sg"),
     ("uv2-sg:strength", "SG Tangent Normal, Strength 0.5", _uv2, {}, {"Strength": 0.5},
      "uv2-sg"),
-    ("decal", "SG Projector + Decal Coordinates + SG Decal (box)", _decal, {}, {}, None),
-    ("decal:linked", "SG Decal, projector's Decal Coordinates linked", _decal,
-     {"Decal Coordinates": LINKED}, {}, "decal"),
-    *[(f"decal:shape{k}", f"SG Decal, Shape {k} ({DECAL_SHAPES[k]})", _decal, {}, {"Shape": k},
-       "decal") for k in (1, 2, 3)],
-    ("decal:overwrite", "SG Decal, Overwrite on", _decal, {}, {"Overwrite": True}, "decal"),
+    ("decal", "Texture Coordinate -> SG Projector + Decal Coordinates -> SG Decal (box)", _decal,
+     _PROJECTED, {}, None),
+    ("decal:precise", "SG Decal, Precise Far From Origin on", _decal,
+     {**_PROJECTED, PRECISE: True}, {}, "decal"),
+    *[(f"decal:shape{k}", f"SG Decal, Shape {k} ({DECAL_SHAPES[k]})", _decal, _PROJECTED,
+       {"Shape": k}, "decal") for k in (1, 2, 3)],
+    ("decal:overwrite", "SG Decal, Overwrite on", _decal, _PROJECTED, {"Overwrite": True},
+     "decal"),
     ("noise", "SG Noise (4 octaves) -> SG Volume Gradient", _noise, {}, {}, None),
     *[(f"noise:octaves{k}", f"SG Noise, {k} octave{'s' * (k > 1)}", _noise, {"Octaves": k}, {},
        "noise") for k in (1, 2, 3)],
     ("noise:turbulence", "SG Noise, Turbulence on", _noise, {"Turbulence": True}, {}, "noise"),
     ("noise:world", "SG Noise, Object Space off", _noise, {"Object Space": False}, {}, "noise"),
     ("noise:vector", "SG Noise, Vector linked", _noise, {"Vector": LINKED}, {}, "noise"),
+    ("noise:precise", "SG Noise, Precise Far From Origin on", _noise, {PRECISE: True}, {},
+     "noise"),
 ]
 OPTIONS = [(key, label, _material(layer, up, **opts), against)
            for key, label, layer, up, opts, against in _OPTIONS]
