@@ -55,6 +55,57 @@ def build_without_directx():
     folded_cost.build_materials()
 
 
+def build_listings():
+    """Materials made of the listings' nodes alone, with the groups' named extras (Listing 2's
+    clamp before the Normal Map node, Listing 5's facing-away branch, SG Resolve's guard) and
+    nothing else: what the SG materials should fold down to."""
+    from surfgrad_addon.addon import groups as G
+    from surfgrad_addon.addon.groups import common as C
+    from surfgrad_addon.harness.bench import render_materials as M
+    from surfgrad_addon.addon.node_vocabulary import Math, VMath
+
+    def guard(g, v):
+        return g.group(G.safe_normal_group(), Vector=v).outputs[0]
+
+    def nm(g, ctx):
+        dx, dy, dz = g.separate(g.vmath(VMath.SUBTRACT, g.image(ctx["normal"], g.uv("UVMap")),
+                                        (0.5, 0.5, 0.5)))
+        color = g.vmath(VMath.ADD, g.combine(dx, dy, C.listing2_z(g, dx, dy, dz)),
+                        (0.5, 0.5, 0.5))
+        n, ns = g.normalize(g.geometry("Normal")), g.geometry("Normal")
+        v = g.normal_map(color, "TANGENT", 1.0, "UVMap")
+        return guard(g, g.sub(n, C.surfgrad_reaching(g, n, v, ns)))
+
+    def forward(g, ctx):
+        n = g.normalize(g.geometry("Normal"))
+        nb = g.bump(M.noise_texture(g), n, G.FORWARD_FILTER_WIDTH)
+        sg = g.scale(g.sub(n, g.scale(nb, g.math(Math.DIVIDE, 1.0, g.dot(nb, n)))),
+                     M.BUMP_DISTANCE)
+        return guard(g, g.sub(n, sg))
+
+    def triplanar(g, ctx):
+        x, y, z = g.separate(g.geometry("Position"))
+        tri = g.group(G.triplanar_group())
+        for axis, (u, v) in zip("XYZ", ((z, y), (x, z), (x, y))):
+            g.link(g.image(ctx["normal"], g.combine(u, v)), tri.inputs[f"Color {axis}"])
+        return g.resolve(tri.outputs[0])
+    ctx = M.images(normal_size=16, height_size=16)
+    for key, build in (("nm-listing", nm), ("bump-listing", forward), ("tri-listing", triplanar)):
+        M.material(key, build, ctx)
+
+
+def test_the_sg_materials_fold_to_their_listings(svm):
+    """SG Normal Map + SG Resolve, SG Height Map Forward + SG Resolve and SG Coordinates + SG
+    Triplanar + SG Resolve (Precise Far From Origin off) compile to exactly their listings'
+    nodes with the named extras: the unlinked Normal's fallback, DirectX off, Strength 1 and
+    the far route leave nothing behind."""
+    found = S.svm_counts(["nm-listing", "bump-listing", "tri-listing"],
+                         build="test_render_cost_folding:build_listings",
+                         paths=[S.ROOT / "tests"])
+    assert {k: found[f"{k}-listing"].nodes for k in ("nm", "bump", "tri")} == \
+        {k: svm[f"{k}-sg"]["svm"] for k in ("nm", "bump", "tri")}
+
+
 def _counts_without(route, keys):
     found = S.svm_counts(keys, build=f"test_render_cost_folding:build_without_{route}",
                          paths=[S.ROOT / "tests"])
