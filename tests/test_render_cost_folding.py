@@ -7,6 +7,8 @@ the route (a child whose builders have the route's helper replaced by its plain 
 compares the same materials' counts. Counts compare within the line only (int4 records up to
 5.1, 32-bit words from 5.2)."""
 
+import os
+
 import pytest
 
 pytestmark = pytest.mark.tier("child")
@@ -43,6 +45,28 @@ def _without_directx():
     def no_switch(b):
         b.input(DIRECTX)                # declared, so looked up; its value goes nowhere
     common.directx_input = projection.directx_input = tangent_space.directx_input = no_switch
+
+
+ONLY_SHAPE = "SURFGRAD_TEST_ONLY_SHAPE"
+
+
+def build_one_shape():
+    """SG Decal built with only the shape that the environment names."""
+    from surfgrad_addon.addon.groups import projection
+    full, only = projection.decal_weight, int(os.environ[ONLY_SHAPE])
+    projection.decal_weight = lambda b, q, shape, falloff: full(b, q, shape, falloff, (only,))
+    folded_cost.build_materials()
+
+
+ONLY_BLEND = "SURFGRAD_TEST_ONLY_BLEND"
+
+
+def build_one_blend():
+    """SG Blend Normals built with only the method that the environment names."""
+    from surfgrad_addon.addon.groups import tangent_space
+    only = int(os.environ[ONLY_BLEND])
+    tangent_space.select_blend = lambda b, method, candidates: candidates[only]
+    folded_cost.build_materials()
 
 
 def build_without_far():
@@ -129,6 +153,28 @@ def test_precise_far_off_is_the_group_without_the_route(svm):
     assert _counts_without("far", keys) == {k: svm[k]["svm"] for k in keys}
     for key in ("tri-sg", "decal", "noise"):
         assert svm[f"{key}:precise"]["svm"] > svm[key]["svm"], key
+
+
+@pytest.mark.parametrize("shape", [0, 1, 2, 3])
+def test_a_decal_shape_is_the_group_with_that_shape_alone(svm, shape, monkeypatch):
+    """SG Decal's Shape (a constant on the node): the material compiles to the program of SG
+    Decal built with that one shape's nodes."""
+    key = "decal" if shape == 0 else f"decal:shape{shape}"
+    monkeypatch.setenv(ONLY_SHAPE, str(shape))
+    found = S.svm_counts([key], build="test_render_cost_folding:build_one_shape",
+                         paths=[S.ROOT / "tests"])
+    assert found[key].nodes == svm[key]["svm"]
+
+
+@pytest.mark.parametrize("method", [0, 1, 2, 3])
+def test_a_blend_method_is_the_group_with_that_blend_alone(svm, method, monkeypatch):
+    """SG Blend Normals' Method (a constant on the node): the material compiles to the program
+    of SG Blend Normals built with that one blend."""
+    key = "blend" if method == 0 else f"blend:method{method}"
+    monkeypatch.setenv(ONLY_BLEND, str(method))
+    found = S.svm_counts([key], build="test_render_cost_folding:build_one_blend",
+                         paths=[S.ROOT / "tests"])
+    assert found[key].nodes == svm[key]["svm"]
 
 
 def test_directx_off_is_the_group_without_the_switch(svm):

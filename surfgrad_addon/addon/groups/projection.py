@@ -137,31 +137,42 @@ def _ramp(b, distance, falloff):
     return b.math(Math.MINIMUM, b.math(Math.MAXIMUM, fade, 0.0), 1.0)
 
 
-def decal_weight(b, q, shape, falloff):
+def decal_weight(b, q, shape, falloff, shapes=range(len(DECAL_SHAPES))):
     """Each shape's weight in [0, 1] (reference/decals.py has the same four), selected by
     `shape`; every one is a bump scale (the paper's footnote 2), so the result stays a
-    surface gradient."""
+    surface gradient. A constant `shape` leaves only its own nodes after Cycles' folding (the
+    same as building only that one: `shapes`, tests/test_render_cost_folding.py)."""
     qx, qy, qz = b.separate(q)
     depth = _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(Math.ABSOLUTE, qz)), falloff)
     rho = b.length(b.combine(qx, qy))
-    with b.frame("Box: inside |x|, |y| <= 1, faded along depth"):
-        inside = b.math(Math.MULTIPLY, *(b.math(Math.LESS_THAN, b.math(Math.ABSOLUTE, c), 1.000001)
-                                         for c in (qx, qy)))
-        box = b.math(Math.MULTIPLY, inside, depth)
-    with b.frame("Sphere: faded toward |q| = 1"):
-        sphere = _ramp(b, b.math(Math.SUBTRACT, 1.0, b.length(q)), falloff)
-    with b.frame("Cylinder: faded toward rho = 1 and the ends"):
-        cylinder = b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, rho), falloff), depth)
-    with b.frame("Cone: radius (1 - z) / 2, faded toward its side and the ends"):
-        radius = b.math(Math.MAXIMUM, b.math(Math.MULTIPLY, b.math(Math.SUBTRACT, 1.0, qz),
-                                                   0.5), SHAPE_FLOOR)
-        cone = b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(
-            Math.DIVIDE, rho, radius)), falloff), depth)
+
+    def box():
+        with b.frame("Box: inside |x|, |y| <= 1, faded along depth"):
+            inside = b.math(Math.MULTIPLY, *(b.math(Math.LESS_THAN, b.math(Math.ABSOLUTE, c),
+                                                    1.000001) for c in (qx, qy)))
+            return b.math(Math.MULTIPLY, inside, depth)
+
+    def sphere():
+        with b.frame("Sphere: faded toward |q| = 1"):
+            return _ramp(b, b.math(Math.SUBTRACT, 1.0, b.length(q)), falloff)
+
+    def cylinder():
+        with b.frame("Cylinder: faded toward rho = 1 and the ends"):
+            return b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, rho), falloff),
+                          depth)
+
+    def cone():
+        with b.frame("Cone: radius (1 - z) / 2, faded toward its side and the ends"):
+            radius = b.math(Math.MAXIMUM, b.math(Math.MULTIPLY, b.math(Math.SUBTRACT, 1.0, qz),
+                                                 0.5), SHAPE_FLOOR)
+            return b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(
+                Math.DIVIDE, rho, radius)), falloff), depth)
+    weights = (box, sphere, cylinder, cone)          # in DECAL_SHAPES' order
     with b.frame("The chosen shape"):
         total = 0.0
-        for index, weight in enumerate((box, sphere, cylinder, cone)):
+        for index in shapes:
             pick = b.math(Math.COMPARE, shape, float(index), 0.5)
-            total = b.math(Math.ADD, total, b.math(Math.MULTIPLY, pick, weight))
+            total = b.math(Math.ADD, total, b.math(Math.MULTIPLY, pick, weights[index]()))
         return total
 
 

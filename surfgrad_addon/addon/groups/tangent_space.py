@@ -105,6 +105,16 @@ def normal_map_group(uv_map=""):
     return ensure("SG Normal Map", build, name, **fields)
 
 
+def select_blend(b, method, candidates):
+    """candidates[method] (PD, whiteout, UDN, RNM): a chain of Mix nodes on Method = index. A
+    constant Method folds it to that one blend, the others' nodes gone
+    (tests/test_render_cost_folding.py)."""
+    out = candidates[0]
+    for index, candidate in enumerate(candidates[1:], start=1):
+        out = b.mix_vector(b.math(Math.COMPARE, method, float(index), 0.5), out, candidate)
+    return out
+
+
 def blend_normals_group():
     def build(b):
         # No DirectX switch: every blend commutes with flipping green on both inputs, so two
@@ -129,10 +139,7 @@ def blend_normals_group():
             k = b.math(Math.DIVIDE, b.dot(ap, bp), b.math(Math.ADD, az, 1.0))
             rnm = b.sub(b.scale(ap, k), bp)
         with b.frame("Select the method, encode as colour"):
-            out = pd
-            for index, candidate in ((1, wo), (2, udn), (3, rnm)):
-                pick = b.math(Math.COMPARE, method, float(index), 0.5)
-                out = b.mix_vector(pick, out, candidate)
+            out = select_blend(b, method, (pd, wo, udn, rnm))
             color = b.vmath(VMath.ADD, b.vmath(VMath.MULTIPLY, b.normalize(out), (0.5, 0.5, 0.5)),
                             (0.5, 0.5, 0.5))
         b.output("Color", color)

@@ -2,11 +2,12 @@
 built-in twin: Cycles' own SVM count (svm_counts.py), deterministic where render times are not.
 
 Every bench-render material is counted, and beside it its options one at a time (DirectX on,
-a Strength other than 1, an input linked instead of left at its default, each decal shape, the
-noise's octaves and turbulence, Precise Far From Origin): an option left at its default should
-cost nothing, so the count of "option off" is the count of the material without that route
-(tests/test_render_cost_folding.py builds the groups without it to check). The counts are in the
-running line's unit (int4 records up to 5.1, 32-bit words from 5.2): compare within a line.
+a Strength other than 1, an input linked instead of left at its default, each decal shape and
+blend method, the noise's octaves and turbulence, Precise Far From Origin): an option left at
+its default should cost nothing, so the count of "option off" is the count of the material
+without that route (tests/test_render_cost_folding.py builds the groups without it to check).
+The counts are in the running line's unit (int4 records up to 5.1, 32-bit words from 5.2):
+compare within a line.
 """
 
 from ...addon import groups as G
@@ -76,6 +77,15 @@ def _decal(g, ctx, up):
     return g.group(G.decal_group(), Decal_Coordinates=q, Color=g.image(ctx["normal"], uv))
 
 
+def _blend(g, ctx, up):
+    """Two normal maps (on the two UV maps, so Cycles cannot merge them) through SG Blend
+    Normals (`up` on it) into SG Normal Map."""
+    blend = g.group(G.blend_normals_group(), Color_A=g.image(ctx["normal"], g.uv("UVMap")),
+                    Color_B=g.image(ctx["normal"], g.uv("Detail")))
+    _settle(g, blend, up)
+    return g.group(G.normal_map_group(), Color=blend.outputs["Color"])
+
+
 def _noise(g, ctx, up):
     noise = g.group(G.noise_group())
     _settle(g, noise, up)
@@ -109,6 +119,9 @@ _OPTIONS = [
        {"Shape": k}, "decal") for k in (1, 2, 3)],
     ("decal:overwrite", "SG Decal, Overwrite on", _decal, _PROJECTED, {"Overwrite": True},
      "decal"),
+    ("blend", "SG Blend Normals (PD) -> SG Normal Map", _blend, {}, {}, None),
+    *[(f"blend:method{k}", f"SG Blend Normals, Method {k} ({name})", _blend, {"Method": k}, {},
+       "blend") for k, name in ((1, "whiteout"), (2, "UDN"), (3, "RNM"))],
     ("noise", "SG Noise (4 octaves) -> SG Volume Gradient", _noise, {}, {}, None),
     *[(f"noise:octaves{k}", f"SG Noise, {k} octave{'s' * (k > 1)}", _noise, {"Octaves": k}, {},
        "noise") for k in (1, 2, 3)],
