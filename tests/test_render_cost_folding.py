@@ -74,6 +74,13 @@ def build_without_far():
     folded_cost.build_materials()
 
 
+def build_without_strength():
+    """No Strength product: the groups' by_strength returns the gradient as it is."""
+    from surfgrad_addon.addon.groups import common, projection
+    common.by_strength = projection.by_strength = lambda b, v, strength: v
+    folded_cost.build_materials()
+
+
 def build_without_directx():
     _without_directx()
     folded_cost.build_materials()
@@ -175,6 +182,15 @@ def test_a_blend_method_is_the_group_with_that_blend_alone(svm, method, monkeypa
     found = S.svm_counts([key], build="test_render_cost_folding:build_one_blend",
                          paths=[S.ROOT / "tests"])
     assert found[key].nodes == svm[key]["svm"]
+
+
+def test_strength_one_is_the_group_without_the_product(svm):
+    """Strength 1 (the default) on SG Triplanar, SG Tangent Normal and SG Decal: the program
+    of the groups built with no Strength product; another Strength is one node more."""
+    keys = _present(svm, ["tri-sg", "tri-sampler", "uv2-sg", "decal"])
+    assert _counts_without("strength", keys) == {k: svm[k]["svm"] for k in keys}
+    for key in ("tri-sg", "uv2-sg"):
+        assert svm[f"{key}:strength"]["svm"] > svm[key]["svm"], key
 
 
 def test_directx_off_is_the_group_without_the_switch(svm):

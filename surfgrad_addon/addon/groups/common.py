@@ -208,12 +208,18 @@ def decode_tangent_normal(b, color, directx=None):
     return b.math(Math.MULTIPLY, mx, inv), b.math(Math.MULTIPLY, my, inv)
 
 
+def by_strength(b, v, strength):
+    """v x Strength: at the default 1 (a constant) the product folds away in Cycles
+    (tests/test_render_cost_folding.py)."""
+    return b.scale(v, strength)
+
+
 def tangent_normal_to_surfgrad(b, color, strength, t, bt, directx=None):
     """Listing 2 (abs z, 1/128 clamp) then Listing 3, scaled by strength."""
     with b.frame("Listing 2: derivative from a tangent-space normal"):
         dx, dy = decode_tangent_normal(b, color, directx)
     with b.frame("Listing 3: deriv.x t + deriv.y b"):
-        return b.scale(b.add(b.scale(t, dx), b.scale(bt, dy)), strength)
+        return by_strength(b, b.add(b.scale(t, dx), b.scale(bt, dy)), strength)
 
 
 

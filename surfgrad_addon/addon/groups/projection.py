@@ -6,8 +6,8 @@ from ...reference import socket_specs as S
 from ...reference.decals import DECAL_SHAPES, SHAPE_FLOOR  # noqa: F401
 from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
-from .common import (SamplerTaps, decode_tangent_normal, directx_input, ensure, normal_input,
-                     object_position, require, scaled_position_inputs)
+from .common import (SamplerTaps, by_strength, decode_tangent_normal, directx_input, ensure,
+                     normal_input, object_position, require, scaled_position_inputs)
 
 
 def triplanar_blend_inputs(b):
@@ -56,7 +56,7 @@ def plane_coordinates(b, p):
 def triplanar_outputs(b, n, weights, derivs, strength):
     """Listing 13 on the planes' derivatives, scaled by strength, and the blend weights."""
     sg = triplanar_surface_gradient(b, n, weights, derivs)
-    b.output(S.SURFACE_GRADIENT_OUT, b.scale(sg, strength))
+    b.output(S.SURFACE_GRADIENT_OUT, by_strength(b, sg, strength))
     b.output(S.WEIGHTS_OUT, b.combine(*weights))
 
 
@@ -191,7 +191,7 @@ def decal_group():
             dx, dy = decode_tangent_normal(b, color, directx)
         with b.frame("Listing 15: grad = deriv.x X + deriv.y Y, then Listing 8"):
             grad = b.add(b.scale(axis_x, dx), b.scale(axis_y, dy))
-            sg = b.scale(b.sub(grad, b.scale(n, b.dot(n, grad))), strength)
+            sg = by_strength(b, b.sub(grad, b.scale(n, b.dot(n, grad))), strength)
         with b.frame("Add: base + a sg; Overwrite: base + a (sg - base) = lerp(base, sg, a)"):
             out = b.add(base, b.scale(b.sub(sg, b.scale(base, overwrite)), weight))
         b.output(S.SURFACE_GRADIENT_OUT, out)
