@@ -3,6 +3,7 @@
     from surfgrad_addon import api          # from a checkout
     tree = api.node_group("SG Normal Map", uv_map="Detail")
     nodes = api.add_layer_stack(bpy.data.materials["Rock"], uv_map="UVMap")
+    api.update_precise_far(bpy.data.objects["Rock"])   # Precise Far From Origin by distance
     api.bake_normal_map(bpy.data.objects["Rock"], "rock_nrm.exr", space="tangent")
     api.bake_normal_map(rock, "rock_nrm.<UDIM>.png", samples=16, depth="16")   # UDIM tiles
     report = api.bake_batch(["a.blend", "b.blend"], "maps/{file}/{object}.<UDIM>.png",
