@@ -74,6 +74,7 @@ setup_line() {   # $1 = line; prints the venv's python once it has the pinned re
 run_tests() {
   local lines=${LINES:-$ALL_LINES} line py start status=0 rc
   bash tools/install_eevee_deps.sh || true      # Mesa EGL for the EEVEE tests
+  bash tools/install_chromium.sh || true        # headless Chromium for the report page test
   mkdir -p out/lines
   rm -f out/lines/*.json
   for line in $lines; do

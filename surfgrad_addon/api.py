@@ -16,6 +16,7 @@ ValueError (or a subclass) with a message that names the problem and the fix.
 """
 
 from .addon import groups as _groups
+from .addon.bake_request import BakeRequest as _Request
 
 # Options of the groups that take them: name -> the builder's keyword arguments.
 _OPTIONS = {
@@ -74,9 +75,12 @@ def update_precise_far(obj):
                if slot.material is not None and slot.material.node_tree is not None)
 
 
-def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
-                    overwrite=False, log=print, samples=1, depth=None, tiles=None,
-                    allow_partial=False):
+# The defaults are the bake request's (addon/bake_request.py), written once there.
+def bake_normal_map(obj, output, space=_Request.space, resolution=_Request.resolution,
+                    uv_map=_Request.uv_map, margin=_Request.margin,
+                    overwrite=_Request.overwrite, log=print, samples=_Request.samples,
+                    depth=_Request.depth, tiles=_Request.tiles,
+                    allow_partial=_Request.allow_partial):
     """Bake obj's own materials into a tangent- or object-space normal map (.png or .exr),
     restoring every setting it touches. With <UDIM> in the output name: one file per tile that
     holds UVs (or per tile of `tiles`). samples: per texel (anti-aliasing); depth: '8'/'16'
@@ -85,10 +89,10 @@ def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, 
     (addon/bake_request.py): a BakeRequestError (a ValueError) names every problem, and
     nothing is written. Returns the written path (the name with <UDIM> for tiles)."""
     from pathlib import Path
-    from .addon.bake_request import BakeRequest, bake
+    from .addon.bake_request import bake
     if obj is None or not hasattr(obj, "name"):
         raise ValueError("give a mesh object to bake")
-    request = BakeRequest(obj.name, str(output), space, resolution, uv_map, margin, samples,
+    request = _Request(obj.name, str(output), space, resolution, uv_map, margin, samples,
                           depth, tiles, overwrite=overwrite, allow_partial=allow_partial)
     bake(request, obj=obj, log=log)
     return Path(output)

@@ -14,8 +14,9 @@ from conftest import write_report  # noqa: E402
 from support.child import run_python  # noqa: E402
 from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa: E402
 from surfgrad_addon.harness import methods  # noqa: E402
+from surfgrad_addon.harness.graph import Graph  # noqa: E402
+from surfgrad_addon.harness.method_graphs.images import normal_map_graph  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
-from surfgrad_addon.reference import methods as M  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -71,15 +72,13 @@ def test_sg_normal_map_matches_blenders_normal_map_node(scene):
         inp = compare.prepare_inputs(obj)
         try:
             def sg(nodes, links):
-                return compare.resolve_sg(nodes, links, methods.normal_map_graph(inp, nodes, links))
+                return Graph(nodes, links).resolve(normal_map_graph(inp, Graph(nodes, links)))
 
             def blender(nodes, links):
-                color = methods.image_node(nodes, links, inp.bpy_image("normal"),
-                                            methods.uv_node(nodes, inp.uv_map))
-                nm = nodes.new("ShaderNodeNormalMap")
-                nm.uv_map = inp.uv_map
-                links.new(color, nm.inputs["Color"])
-                return nm.outputs["Normal"]
+                g = Graph(nodes, links)
+                color = g.image(inp.bpy_image("normal"), g.uv(inp.uv_map))
+                nm = g.node("ShaderNodeNormalMap", uv_map=inp.uv_map)
+                return g.set(nm, Color=color).outputs["Normal"]
             a, cov_a, _ = bake.bake_vector(obj, sg, RESOLUTION, RESOLUTION, inp.uv_map)
             b, cov_b, _ = bake.bake_vector(obj, blender, RESOLUTION, RESOLUTION, inp.uv_map)
         finally:
@@ -212,12 +211,8 @@ def test_normal_map_strength_matches_the_reference(scene, strength):
     obj = bpy.data.objects["Sphere"]
     inp = compare.prepare_inputs(obj)
     try:
-        report, _ = compare.compare_graph(
-            inp, obj,
-            lambda i, n, l: methods.normal_map_graph(i, n, l, strength=strength),
-            lambda i, td: M.normal_map_surfgrad(td, i.pixels("normal"), i.uv_map,
-                                                strength=strength),
-            RESOLUTION)
+        method = methods.METHODS["normal-map"].at(strength=strength)
+        report, _ = compare.compare_graph(inp, obj, method.graph, method.reference, RESOLUTION)
     finally:
         for _, img in inp.images.values():
             bpy.data.images.remove(img)

@@ -10,7 +10,8 @@ from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.harness import bake as B  # noqa: E402
 from surfgrad_addon.harness import compare as C  # noqa: E402
 from surfgrad_addon.harness import scenes  # noqa: E402
-from surfgrad_addon.harness.methods import METHODS, resolve_sg  # noqa: E402
+from surfgrad_addon.harness.graph import Graph  # noqa: E402
+from surfgrad_addon.harness.methods import METHODS  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -28,7 +29,7 @@ def test_pieces_bake_what_one_bake_does(obj_name, method):
     m = METHODS[method]
 
     def build(nodes, links):
-        return resolve_sg(nodes, links, m.graph(inp, nodes, links))
+        return Graph(nodes, links).resolve(m.graph(inp, nodes, links))
     before = uv_state(obj)
     whole, covered, _ = B.bake_vector(obj, build, 128, 128, uv_map="UVMap")
     pieces, covered_p, seconds = B.bake_vector_in_pieces(obj, build, 128, 128, uv_map="UVMap",

@@ -1,4 +1,4 @@
-"""bench-compare (harness/bench_compare.py): the README's ratios are the ones in the JSON it
+"""bench-compare (harness/bench/compare.py): the README's ratios are the ones in the JSON it
 quotes (docs/bench_compare.json, docs/bench_compare_before.json), and a tiny run measures real
 child processes (no timing bar: a shared machine's timings are not a test's business)."""
 
@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from surfgrad_addon.harness import bench_compare as BC
+from surfgrad_addon.harness.bench import compare as BC
 
 pytestmark = pytest.mark.tier("numpy")
 

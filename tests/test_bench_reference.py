@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from surfgrad_addon.harness import bench_reference as BR
+from surfgrad_addon.harness.bench import reference as BR
 from surfgrad_addon.reference import compiled
 
 pytestmark = pytest.mark.tier("child")      # bench-reference runs a compare child

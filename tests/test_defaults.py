@@ -167,7 +167,7 @@ def _sampler(builder):
     """A Sampler group (5.0+) with only its Sampler zone and the image size set, as the Add menu
     leaves it."""
     def chain(nodes, links, nm, h):
-        from surfgrad_addon.harness.methods import sampler_socket
+        from surfgrad_addon.harness.method_graphs.samplers import sampler_socket
         image = nm if builder is G.triplanar_sampler_group else h
         node = _group(nodes, builder())
         links.new(sampler_socket(nodes, links, image), node.inputs["Sampler"])

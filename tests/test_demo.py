@@ -7,7 +7,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import groups as G
-from surfgrad_addon.harness import demo  # noqa: E402
+from surfgrad_addon.harness import demo, demo_scene  # noqa: E402
 from surfgrad_addon.addon.sampler_zone import has_closures  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -55,7 +55,7 @@ def test_demo_file_is_small_self_contained_and_complete(tmp_path):
     # Every exhibit camera has its crop spots, on objects of the file.
     for cam in (o for o in bpy.data.objects if o.name.startswith("Camera ")
                 and o.name != "Camera overview"):
-        spots = json.loads(cam[demo.CROPS_KEY])
+        spots = json.loads(cam[demo_scene.CROPS_KEY])
         assert len(spots) >= 2 and all(s["object"] in bpy.data.objects for s in spots)
 
 

@@ -11,7 +11,10 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon import reference as R  # noqa: E402
 from surfgrad_addon.addon import groups as G
 from surfgrad_addon.harness import bake, compare as C, scenes as test_scenes  # noqa: E402
-from surfgrad_addon.harness import methods  # noqa: E402
+from surfgrad_addon.harness.graph import Graph, surface_gradient  # noqa: E402
+from surfgrad_addon.harness.method_graphs.images import normal_map_graph  # noqa: E402
+from surfgrad_addon.harness.method_graphs.projection import decal_graph, triplanar_graph  # noqa: E402,E501
+from surfgrad_addon.harness.method_scene import decal_projector  # noqa: E402
 from surfgrad_addon.reference import methods as M  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -33,49 +36,49 @@ def inputs():
         bpy.data.images.remove(img)
 
 
-def _switched(nodes, links, sg, directx):
+def _switched(g, sg, directx):
     """The group node of `sg` with its DirectX switch set, resolved."""
-    sg.node.inputs["DirectX"].default_value = directx
-    return C.resolve_sg(nodes, links, sg)
+    g.set(sg.node, DirectX=directx)
+    return g.resolve(sg)
 
 
 def _image_graph(graph, inp, image, directx):
-    """A builder of `graph` (a harness method's graph) on `image`, DirectX set."""
+    """A builder of `graph` (a harness method graph) on `image`, DirectX set."""
     def build(nodes, links):
-        return _switched(nodes, links, graph(inp, nodes, links, image=image), directx)
+        g = Graph(nodes, links)
+        return _switched(g, graph(inp, g, image=image), directx)
     return build
 
 
 def _normal_map(inp, image, directx):
-    return _image_graph(methods.normal_map_graph, inp, image, directx)
+    return _image_graph(normal_map_graph, inp, image, directx)
 
 
 def _triplanar(inp, image, directx):
-    return _image_graph(methods.triplanar_graph, inp, image, directx)
+    return _image_graph(triplanar_graph, inp, image, directx)
 
 
 def _tangent_normal(inp, image, directx):
     def build(nodes, links):
-        uv = methods.uv_node(nodes, inp.uv_map)
-        basis = methods.group_node(nodes, G.procedural_basis_group())
-        links.new(uv, basis.inputs["UV"])
-        node = methods.group_node(nodes, G.tangent_normal_group())
-        links.new(methods.image_node(nodes, links, inp.bpy_image(image), uv), node.inputs["Color"])
-        links.new(basis.outputs["Tangent"], node.inputs["Tangent"])
-        links.new(basis.outputs["Bitangent"], node.inputs["Bitangent"])
-        return _switched(nodes, links, node.outputs[0], directx)
+        g = Graph(nodes, links)
+        uv = g.uv(inp.uv_map)
+        basis = g.group(G.procedural_basis_group(), UV=uv)
+        node = g.group(G.tangent_normal_group(), Color=g.image(inp.bpy_image(image), uv),
+                       Tangent=basis.outputs["Tangent"], Bitangent=basis.outputs["Bitangent"])
+        return _switched(g, surface_gradient(node), directx)
     return build
 
 
 def _decal(inp, image, directx):
     def build(nodes, links):
+        g = Graph(nodes, links)
         saved = inp.images["normal"]
         inp.images["normal"] = inp.images[image]
         try:
-            sg = methods.decal_graph(inp, nodes, links)
+            sg = decal_graph(inp, g)
         finally:
             inp.images["normal"] = saved
-        return _switched(nodes, links, sg, directx)
+        return _switched(g, sg, directx)
     return build
 
 
@@ -88,7 +91,7 @@ def _bake(obj, inp, build):
 def test_directx_map_with_switch_equals_opengl_map(inputs, graph):
     obj, inp = inputs
     if graph is _decal:
-        inp.projector = methods.decal_projector(obj)
+        inp.projector = decal_projector(obj)
     try:
         opengl = _bake(obj, inp, graph(inp, "normal", False))
         directx = _bake(obj, inp, graph(inp, "normal_dx", True))
@@ -103,8 +106,7 @@ def test_directx_map_with_switch_equals_opengl_map(inputs, graph):
     assert len(err) > 0.5 * RES * RES
     assert err.max() < 1e-3, err.max()                  # same map: float rounding only
     # ... the map really bends the normals, and ignoring the convention is visibly wrong.
-    geo = _bake(obj, inp, lambda nodes, links: nodes.new("ShaderNodeNewGeometry")
-                .outputs["Normal"])
+    geo = _bake(obj, inp, lambda nodes, links: Graph(nodes, links).geometry("Normal"))
     assert C.angle_deg(opengl, geo).mean() > 3.0
     assert C.angle_deg(wrong, opengl).max() > 10.0
 
@@ -126,12 +128,10 @@ def test_sg_directx_matches_blenders_directx_normal_map_node(inputs):
     obj, inp = inputs
 
     def blender(nodes, links):
-        color = methods.image_node(nodes, links, inp.bpy_image("normal_dx"), methods.uv_node(nodes, inp.uv_map))
-        nm = nodes.new("ShaderNodeNormalMap")
-        nm.uv_map = inp.uv_map
-        nm.convention = "DIRECTX"
-        links.new(color, nm.inputs["Color"])
-        return nm.outputs["Normal"]
+        g = Graph(nodes, links)
+        color = g.image(inp.bpy_image("normal_dx"), g.uv(inp.uv_map))
+        nm = g.node("ShaderNodeNormalMap", uv_map=inp.uv_map, convention="DIRECTX")
+        return g.set(nm, Color=color).outputs["Normal"]
     sg = _bake(obj, inp, _normal_map(inp, "normal_dx", True))
     node = _bake(obj, inp, blender)
     assert C.angle_deg(sg, node).max() < 0.05

@@ -9,7 +9,7 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon import reference as R  # noqa: E402
 from surfgrad_addon.addon import groups as G
 from surfgrad_addon.harness import compare, scenes as test_scenes  # noqa: E402
-from surfgrad_addon.harness import methods  # noqa: E402
+from surfgrad_addon.harness.method_scene import add_displace_modifier  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
@@ -39,7 +39,7 @@ def _vertex_data(mesh):
 def test_displaced_positions_and_normals_equal_the_reference(obj_name, settings):
     obj = test_scenes.new_scene([obj_name])[obj_name]
     p0, n0 = _vertex_data(obj.data)
-    methods.add_displace_modifier(obj, settings)
+    add_displace_modifier(obj, settings)
     dg = bpy.context.evaluated_depsgraph_get()
     ev = obj.evaluated_get(dg)
     mesh = ev.to_mesh()

@@ -150,18 +150,12 @@ def _group_names(tree, seen=None):
 
 def _uv_gradients_graph(inp, nodes, links):
     """.SG UV Gradients alone: resolve 2 (grad s + grad t) against the shading normal."""
-    from surfgrad_addon.harness import methods
+    from surfgrad_addon.harness.graph import Graph
     from surfgrad_addon.addon import groups as G
-    grads = methods.group_node(nodes, G.uv_gradients_group())
-    links.new(methods.uv_node(nodes, inp.uv_map), grads.inputs["UV"])
-    geo = nodes.new("ShaderNodeNewGeometry")
-    links.new(geo.outputs["Normal"], grads.inputs["Normal"])
-    total = methods.add_vectors(nodes, links, grads.outputs[0], grads.outputs[1])
-    scaled = nodes.new("ShaderNodeVectorMath")
-    scaled.operation = "SCALE"
-    links.new(total, scaled.inputs[0])
-    scaled.inputs["Scale"].default_value = 2.0
-    return scaled.outputs[0]
+    from surfgrad_addon.addon.node_vocabulary import VMath
+    g = Graph(nodes, links)
+    grads = g.group(G.uv_gradients_group(), UV=g.uv(inp.uv_map), Normal=g.geometry("Normal"))
+    return g.scale(g.vmath(VMath.ADD, grads.outputs[0], grads.outputs[1]), 2.0)
 
 
 def probe_gpu_context(out_dir):
@@ -203,7 +197,7 @@ def _child(out_dir):
     t_probe = time.perf_counter() - t_start
 
     from surfgrad_addon.harness import compare as C
-    from surfgrad_addon.harness import methods
+    from surfgrad_addon.harness.method_scene import add_displace_modifier, decal_projector
     from surfgrad_addon.addon import groups as G
     from surfgrad_addon.harness import scenes as test_scenes
     from surfgrad_addon.reference.images import wave_height_image
@@ -252,9 +246,9 @@ def _child(out_dir):
             inp = C.Inputs(obj=obj, uv_map="UVMap", detail_uv="Detail", images=images,
                            variant=variant or "hq")
             if method.startswith("decal"):
-                inp.projector = methods.decal_projector(obj)
+                inp.projector = decal_projector(obj)
             if method == "displace-bump":
-                methods.add_displace_modifier(obj)
+                add_displace_modifier(obj)
             graph = _uv_gradients_graph if method == "uv-gradients" else C.METHODS[method].graph
             out = graph(inp, nodes, links)
             for node in nodes:                    # magnify the triplanar projections

@@ -368,6 +368,19 @@ def session_installed(zip_path, work):
     report["batch_files"] = sorted(p.name for p in maps.glob("*.png"))
     report["batch_manifest"] = (maps / "surfgrad-bake-manifest.json").is_file()
     report["batch_object"] = bake_obj
+    # The installed extension's api: what the extension does, and no harness behind it.
+    import importlib
+    api = importlib.import_module(EXT_MODULE + ".api")
+    report["api_groups"] = api.group_names()
+    report["api_group"] = api.node_group("SG Resolve").name
+    api_map = work / "api_normal.png"
+    report["api_bake"] = str(api.bake_normal_map(bpy.data.objects[bake_obj], api_map,
+                                                 resolution=16, log=lambda *_: None))
+    report["api_bake_file"] = api_map.is_file() and api_map.stat().st_size > 100
+    try:
+        api.compare
+    except AttributeError as err:
+        report["api_compare"] = str(err)
     report["harness_loaded"] = sorted(m for m in sys.modules if ".harness" in m
                                       or m.startswith("surfgrad_addon"))
 
@@ -527,6 +540,10 @@ def test_install_menu_operator_and_clean_disable(installed):
     assert r["batch_rc"] == 0 and r["batch_manifest"]
     assert r["batch_files"] and all(n.startswith(f"surfgrad_scene_{r['batch_object']}.10")
                                     for n in r["batch_files"]), r["batch_files"]
+    assert set(r["menu_groups"]) <= set(r["api_groups"]) and "SG Displace" in r["api_groups"]
+    assert r["api_group"] == "SG Resolve"
+    assert r["api_bake"] == str(installed.work / "api_normal.png") and r["api_bake_file"]
+    assert "moved to surfgrad_addon.harness.api.compare" in r["api_compare"]
     assert r["harness_loaded"] == []
     # Every group added at the cursor, selected and active.
     assert [a["group"] for a in r["added"]] == r["menu_groups"]

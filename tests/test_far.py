@@ -23,7 +23,7 @@ from support.child import run_python  # noqa: E402
 from surfgrad_addon import reference as R  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
-from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
+from surfgrad_addon.harness.bench.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -217,16 +217,17 @@ def test_projector_coordinates_routes(objects):
     coordinates (to 1e-5); 10 km out (where the bake switches Precise Far From Origin on, as the
     operators do) the precise route holds where the Texture Coordinate node is off by more than
     1e-4."""
-    from surfgrad_addon.harness import methods
+    from surfgrad_addon.harness.graph import Graph
+    from surfgrad_addon.harness.method_graphs.projection import projector_coordinates
+    from surfgrad_addon.harness.method_scene import decal_projector
     obj = objects["Transformed"]
 
     def chain(proj, link_tc, only_tc=False):
         def build(nodes, links):
+            g = Graph(nodes, links)
             if only_tc:
-                tc = nodes.new("ShaderNodeTexCoord")
-                tc.object = proj
-                return tc.outputs["Object"]
-            q = methods.projector_coordinates(nodes, proj)
+                return g.node("ShaderNodeTexCoord", object=proj).outputs["Object"]
+            q = projector_coordinates(g, proj)
             if not link_tc:         # the precise route, which Precise Far From Origin enables
                 links.remove(q.node.inputs["Decal Coordinates"].links[0])
                 q.node.inputs["Precise Far From Origin"].default_value = True
@@ -234,7 +235,7 @@ def test_projector_coordinates_routes(objects):
         return build
     for distance in (0.0, FAR):
         with moved(obj, distance):
-            proj = methods.decal_projector(obj)
+            proj = decal_projector(obj)
             try:
                 m = np.linalg.inv(np.array(proj.matrix_world, dtype=np.float64))
                 linked, td, k = _bake(obj, chain(proj, True))

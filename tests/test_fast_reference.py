@@ -48,12 +48,12 @@ def test_methods_match_the_unoptimised_values(key, case):
     td = saved_texels(key)
     fn = FX.H.METHODS[method].reference
     # A small odd block size puts block seams inside triangles and rows.
-    got = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(variant), b)), td, texels=97)
+    got = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.inputs(variant), b)), td, texels=97)
     if case in FX.NEW_CASES:
         # No before-values (newer than the recorded commit): blocks agree with one block, and
         # on the sphere (the fixture's small projector misses the torus's tube) the round
         # decals really bend normals.
-        whole = M.resolve(fn(FX.Inputs(variant), saved_texels(key)))
+        whole = M.resolve(fn(FX.inputs(variant), saved_texels(key)))
         np.testing.assert_allclose(got, whole, rtol=0, atol=TOL)
         assert np.isfinite(got).all()
         if method == "decal" and key == "sphere":
@@ -64,7 +64,7 @@ def test_methods_match_the_unoptimised_values(key, case):
     assert got.dtype == np.float64 and got.shape == want.shape
     assert np.isfinite(want).all()
     np.testing.assert_allclose(got, want, rtol=0, atol=TOL)
-    whole = M.resolve(fn(FX.Inputs(variant), saved_texels(key)))
+    whole = M.resolve(fn(FX.inputs(variant), saved_texels(key)))
     np.testing.assert_allclose(whole, want, rtol=0, atol=TOL)
 
 
@@ -76,12 +76,12 @@ def test_noise_sampling_and_height_derivatives_match_the_unoptimised_values():
         v, g = fn(p)
         np.testing.assert_allclose(v, SAVED[f"points/{name}/value"], rtol=0, atol=TOL)
         np.testing.assert_allclose(g, SAVED[f"points/{name}/gradient"], rtol=0, atol=TOL)
-    image = FX.Inputs().pixels("normal")
+    image = FX.inputs().pixels("normal")
     for interp in ("Linear", "Closest"):
         for ext in ("REPEAT", "EXTEND"):
             np.testing.assert_allclose(R.sample_image(image, st, interp, ext),
                                        SAVED[f"points/sample/{interp}/{ext}"], rtol=0, atol=TOL)
-    height = FX.Inputs().pixels("height")
+    height = FX.inputs().pixels("height")
     for hq in (False, True):
         np.testing.assert_allclose(R.deriv_from_height_map(height, st, hq=hq),
                                    SAVED[f"points/height_deriv/{hq}"], rtol=0, atol=TOL)
@@ -165,10 +165,10 @@ def test_span_rasteriser_matches_a_brute_force_scan(mesh_name, w, h):
 def test_threaded_blocks_give_the_same_values(monkeypatch):
     td = saved_texels("torus")
     fn = FX.H.METHODS["layered"].reference
-    one = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(), b)), td, texels=50, threads=1)
+    one = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.inputs(), b)), td, texels=50, threads=1)
     monkeypatch.setenv("SURFGRAD_REFERENCE_THREADS", "3")
     assert M.reference_threads() == 3
-    three = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.Inputs(), b)), td, texels=50,
+    three = M.evaluate_in_blocks(lambda b: M.resolve(fn(FX.inputs(), b)), td, texels=50,
                                  threads=3)
     np.testing.assert_array_equal(one, three)
     seconds = [0.0]

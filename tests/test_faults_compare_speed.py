@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from surfgrad_addon.harness import bench_compare as BC          # noqa: E402
+from surfgrad_addon.harness.bench import compare as BC          # noqa: E402
 from surfgrad_addon.harness import compare_all as CA            # noqa: E402
 from surfgrad_addon.harness.compare import CompareError         # noqa: E402
 

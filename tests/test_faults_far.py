@@ -37,7 +37,7 @@ from surfgrad_addon.addon import operators as O, precise_bake as P  # noqa: E402
 from surfgrad_addon.addon.render_mesh import read_in_render_mode  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.harness import bake as B, compare as C, scenes  # noqa: E402
-from surfgrad_addon.harness.far import DIRECTION  # noqa: E402
+from surfgrad_addon.harness.bench.far import DIRECTION  # noqa: E402
 from surfgrad_addon.harness.graph import Graph  # noqa: E402
 from surfgrad_addon.harness.methods import cases  # noqa: E402
 

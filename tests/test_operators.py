@@ -7,7 +7,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import operators as O
-from surfgrad_addon.harness import bake, compare, methods, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.harness import bake, compare, scenes as test_scenes  # noqa: E402
+from surfgrad_addon.harness.graph import Graph  # noqa: E402
 from surfgrad_addon.reference import images as T  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 
@@ -63,7 +64,8 @@ def _bake_converted(obj, make_node, convert):
 
 def _image_color(nodes, links, img):
     """An Image Texture of `img` on the UV map "UVMap": its Color."""
-    return methods.image_node(nodes, links, img, methods.uv_node(nodes, "UVMap"))
+    g = Graph(nodes, links)
+    return g.image(img, g.uv("UVMap"))
 
 
 def _normal_map_node(img, strength):

@@ -11,23 +11,14 @@ rows built once (images_unchanged, as evaluate_in_blocks runs it).
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
+from surfgrad_addon.harness.bench.reference import run_seconds
 from surfgrad_addon.reference import compiled, image_sampling as IS
 
 SIZES = (256, 1024, 2048)
-
-
-def best_seconds(fn, repeats):
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def lookups_per_second(image, st, interpolation, flag, repeats):
@@ -35,7 +26,7 @@ def lookups_per_second(image, st, interpolation, flag, repeats):
     with IS.images_unchanged():
         fn = lambda: IS.sample_image(image, st, interpolation, "REPEAT")  # noqa: E731
         fn()
-        return len(st) / best_seconds(fn, repeats)
+        return len(st) / min(run_seconds(fn, repeats))
 
 
 def run(log=print):

@@ -16,6 +16,7 @@ import numpy as np
 from surfgrad_addon import reference as R
 from surfgrad_addon.reference import blender_lines
 from surfgrad_addon.harness import methods as H
+from surfgrad_addon.harness.bench.reference import reference_inputs
 
 
 def transformed():
@@ -39,24 +40,9 @@ def rasters():
             "torus42": (torus_na, 24, blender_lines.LINES["4.2"])}
 
 
-class Inputs:
-    uv_map, detail_uv = "UVMap", "Detail"
-
-    def __init__(self, variant="hq"):
-        self.variant = variant
-        self.images = {
-            "normal": R.images.hemisphere_tile_image(128).astype(np.float32).astype(np.float64),
-            "detail": R.images.hemisphere_tile_image(128, tiles=8, radius=0.6)
-            .astype(np.float32).astype(np.float64),
-            "height": R.images.wave_height_image(32).astype(np.float32).astype(np.float64)}
-
-        class Projector:
-            matrix_world = np.array([[0.5, -0.1, 0.0, 0.1], [0.1, 0.4, -0.2, 0.0],
-                                     [0.05, 0.2, 1.2, 0.2], [0, 0, 0, 1.0]])
-        self.projector = Projector()
-
-    def pixels(self, name):
-        return self.images[name]
+def inputs(variant="hq"):
+    """The methods' reference inputs at the sizes the values were recorded with."""
+    return reference_inputs(variant, normal_size=128, height_size=32)
 
 
 def cases():
@@ -91,11 +77,11 @@ def record(out):
         data[f"{key}/pixel"] = td.pixel
         data[f"{key}/barycentric"] = td.barycentric
         for method, variant in cases():
-            ref = H.METHODS[method].reference(Inputs(variant), td)
+            ref = H.METHODS[method].reference(inputs(variant), td)
             data[f"{key}/{method}/{variant}"] = R.methods.resolve(ref)
     pts = points(np.random.default_rng(13))
     p, st = pts["p"], pts["st"]
-    inp = Inputs()
+    inp = inputs()
     for name, fn in (("gradient_noise", R.gradient_noise), ("fractal_sum", R.fractal_sum),
                      ("turbulence", R.turbulence)):
         v, g = fn(p)

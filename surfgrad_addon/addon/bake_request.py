@@ -104,22 +104,36 @@ def settings_problems(settings, where=""):
     return out
 
 
+def _option(default, help, **argument):
+    """A request field: its default, and for the command line (addon/bake_options.py) its
+    help, its range or choices, and the option's name where it is not the field's."""
+    return field(default=default, metadata={"help": help, **argument})
+
+
 @dataclass
 class BakeRequest:
     """What to bake: one object into one output name (with <UDIM>: one file per tile)."""
     object: str
     output: str
-    space: str = "tangent"
-    resolution: int = 1024
-    uv_map: str = None
-    margin: int = 16
-    samples: int = 1
-    depth: str = None
-    tiles: list = None
-    empty_tiles: str = "error"      # a tile asked for without UVs: "error" or "skip"
-    overwrite: bool = False
-    allow_partial: bool = False     # bake a layout with faces outside the UDIM range
-    threads: int = None
+    space: str = _option("tangent", "the normal map's space", choices=tuple(NB.SPACES))
+    resolution: int = _option(1024, "texels per side", range=NB.RESOLUTION_RANGE)
+    uv_map: str = _option(None, "UV map (default: the active render one)")
+    margin: int = _option(16, "texels to extend past UV borders", range=MARGIN_RANGE)
+    samples: int = _option(1, "Cycles samples per texel: more anti-alias detail finer than a "
+                              "texel", range=SAMPLES_RANGE)
+    depth: str = _option(None, "bit depth: 8 or 16 for .png (default 8), half or float for "
+                               ".exr (default float)", choices=DEPTHS)
+    tiles: list = _option(None, "UDIM tiles to bake, e.g. 1001,1002 or 1001-1010 (default: "
+                                "every tile the UV map has faces in; needs <UDIM> in --output "
+                                "for more than 1001)", type=str)
+    empty_tiles: str = _option("error", "a tile asked for with no UVs of the object: refuse "
+                                        "or skip", choices=("error", "skip"),
+                               option="--if-tile-empty")
+    overwrite: bool = _option(False, "replace an existing file")
+    allow_partial: bool = _option(False, "bake a UV layout with faces outside the UDIM range "
+                                         "(u 0..10, v >= 0); those faces are left out, with a "
+                                         "warning (default: refused)")
+    threads: int = _option(None, "Cycles threads per bake (default: every core)")
 
     @classmethod
     def from_settings(cls, obj_name, output, settings, **more):

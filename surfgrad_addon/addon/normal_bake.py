@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 from ..reference import tiles as T
+from .bake_console import quiet_bake
 from .bake_target import bake_target_problem, visible_for_bake
 from .exit_codes import BakeFailed
 from .precise_bake import precise_far
@@ -244,8 +245,10 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None
                 bpy.context.view_layer.objects.active = obj
                 log("[2/3] baking with Cycles (CPU) ...")
                 t0 = time.perf_counter()
-                outcome = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
-                                              uv_layer=uv_map, margin=margin, use_clear=True)
+                with quiet_bake():
+                    outcome = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
+                                                  uv_layer=uv_map, margin=margin,
+                                                  use_clear=True)
                 result["bake_s"] = time.perf_counter() - t0
                 log(f"      baked in {result['bake_s']:.2f} s")
             finally:

@@ -14,10 +14,12 @@ import numpy as np
 
 from ..addon.compat import new_material
 from ..addon.node_builder import running_line  # noqa: F401 (the line whose bakes we model)
+from ..addon.bake_console import quiet_bake
 from ..addon.scene_state import SCENE_SETTINGS, restored
 from ..addon.bake_target import bake_target_problem, visible_for_bake
 from ..addon.exit_codes import BakeFailed
 from ..addon.far_precision import needs_precise_far, set_precise_far
+from .graph import Graph
 
 
 def exact_cycles(scene):
@@ -264,23 +266,20 @@ def _bake_into(obj, build, image, uv_map, displacement, log):
         tree = material.node_tree
         nodes, links = tree.nodes, tree.links
         nodes.clear()
-        out = nodes.new("ShaderNodeOutputMaterial")
-        emit = nodes.new("ShaderNodeEmission")
-        emit.inputs["Strength"].default_value = 1.0
-        links.new(build(nodes, links), emit.inputs["Color"])
-        links.new(emit.outputs["Emission"], out.inputs["Surface"])
+        g = Graph(nodes, links)
+        # Cycles' true displacement: the vector from `displacement` moves the surface.
+        g.emission_material(build(nodes, links),
+                            displacement(nodes, links) if displacement is not None else None)
         # As the operators do for the object they add groups for: the precise route far out
         # (never switched off here: a build may want it on near the origin too).
         if needs_precise_far(obj):
             set_precise_far(tree, True)
         if displacement is not None:
-            # Cycles' true displacement: the vector from `displacement` moves the surface.
-            links.new(displacement(nodes, links), out.inputs["Displacement"])
             if hasattr(material, "displacement_method"):
                 material.displacement_method = "DISPLACEMENT"
             else:                                           # before 4.x's move
                 material.cycles.displacement_method = "DISPLACEMENT"
-        target = nodes.new("ShaderNodeTexImage")
+        target = g.node("ShaderNodeTexImage")
         target.image = image
         nodes.active = target
         with restored(scene, SCENE_SETTINGS), _selection_kept(context), \
@@ -302,7 +301,8 @@ def _bake_into(obj, build, image, uv_map, displacement, log):
             kwargs = {"type": "EMIT", "margin": 0, "use_clear": False}
             if uv_map is not None:
                 kwargs["uv_layer"] = uv_map
-            result = bpy.ops.object.bake(**kwargs)
+            with quiet_bake():
+                result = bpy.ops.object.bake(**kwargs)
             seconds = time.perf_counter() - t0
             if result != {"FINISHED"}:
                 from ..addon.cancel_reason import cancelled_text

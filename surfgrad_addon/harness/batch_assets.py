@@ -10,6 +10,7 @@ import numpy as np
 from ..addon import groups as G
 from ..addon.compat import new_material
 from ..reference import images as T
+from .graph import Graph, surface_gradient
 
 
 def _normal_image(bpy, name, size, kind, seed):
@@ -35,22 +36,13 @@ def sg_material(bpy, name, image, uv_map="UVMap"):
     mat = new_material(name)
     tree = mat.node_tree
     tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
-    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
-    uv = tree.nodes.new("ShaderNodeUVMap")
-    uv.uv_map = uv_map
-    tex = tree.nodes.new("ShaderNodeTexImage")
-    tex.image = image
-    tex.interpolation = "Closest"
-    tree.links.new(uv.outputs[0], tex.inputs["Vector"])
-    nm = tree.nodes.new("ShaderNodeGroup")
-    nm.node_tree = G.normal_map_group(uv_map)
-    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
-    res = tree.nodes.new("ShaderNodeGroup")
-    res.node_tree = G.resolve_group()
-    tree.links.new(nm.outputs[0], res.inputs["Surface Gradient"])
-    tree.links.new(res.outputs[0], bsdf.inputs["Normal"])
+    g = Graph(tree.nodes, tree.links)
+    out = g.node("ShaderNodeOutputMaterial")
+    bsdf = g.node("ShaderNodeBsdfDiffuse")
+    g.link(bsdf.outputs["BSDF"], out.inputs["Surface"])
+    color = g.image(image, g.uv(uv_map), interpolation="Closest")
+    normal_map = g.group(G.normal_map_group(uv_map), Color=color)
+    g.link(g.resolve(surface_gradient(normal_map)), bsdf.inputs["Normal"])
     return mat
 
 

@@ -1,158 +1,24 @@
 """demo.blend, built by code: one labelled exhibit per idea, the usual way on the left and the
-surface-gradient way on the right, textures generated and packed; and small Cycles renders of
-every exhibit (before/after pictures for the README).
+surface-gradient way on the right, textures generated and packed (the pieces: demo_scene.py;
+the Cycles renders of every exhibit for the README: demo_pictures.py).
 
     python -m surfgrad_addon demo-blend --out demo.blend [--pictures DIR]
 """
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 
-from .graph import Graph
+from . import demo_scene as S
 from ..reference import images as T
-from ..addon import groups as G
 from ..addon import compat
+from ..addon import groups as G
 from ..addon.sampler_zone import has_closures
 
 EXHIBIT_SPACING = 8.0          # wider than any exhibit camera sees of its neighbours
 HEIGHT_BUMP = 0.35
 NOISE_AMOUNT = 0.16          # strong enough that Perlin's unprojected addition shows
-
-
-def _image(name, pixels):
-    """A float image packed into the file (as OpenEXR: generated images need a format and a
-    path before pack() keeps their pixels)."""
-    import bpy
-    px = np.asarray(pixels, dtype=np.float32)
-    if px.ndim == 2:
-        px = np.repeat(px[..., None], 3, axis=-1)
-    h, w = px.shape[:2]
-    px = np.concatenate([px[..., :3], np.ones((h, w, 1), np.float32)], axis=-1)
-    img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True)
-    img.colorspace_settings.name = "Non-Color"
-    img.pixels.foreach_set(px.ravel())
-    img.file_format = "OPEN_EXR"
-    img.filepath_raw = f"//{name}.exr"
-    img.pack()
-    return img
-
-
-def _material(name, build):
-    """A Principled BSDF material whose Normal is build(g) (None: the plain normal)."""
-    import bpy
-    mat = compat.new_material(name)
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
-    bsdf.inputs["Base Color"].default_value = (0.62, 0.6, 0.58, 1.0)
-    bsdf.inputs["Roughness"].default_value = 0.45
-    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
-    g = Graph(tree.nodes, tree.links)
-    normal = build(g)
-    if normal is not None:
-        tree.links.new(normal, bsdf.inputs["Normal"])
-    return mat
-
-
-def _label(text, location, size=0.32):
-    import bpy
-    curve = bpy.data.curves.new(text, "FONT")
-    curve.body = text
-    curve.size = size
-    curve.align_x = "CENTER"
-    obj = bpy.data.objects.new(f"Label: {text}", curve)
-    obj.location = location
-    obj.rotation_euler = (math.radians(90), 0, 0)
-    bpy.context.scene.collection.objects.link(obj)
-    curve.materials.append(_label_material())
-    return obj
-
-
-def _label_material():
-    """Near-black matte text on the grey sky, in the renders (its node tree's Principled BSDF:
-    every line makes one from 5.0) and in the viewport (diffuse_color)."""
-    import bpy
-    mat = bpy.data.materials.get("Label")
-    if mat is None:
-        mat = compat.new_material("Label")
-        bsdf = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
-        bsdf.inputs["Base Color"].default_value = (0.012, 0.012, 0.014, 1.0)
-        bsdf.inputs["Roughness"].default_value = 1.0
-        mat.diffuse_color = (0.05, 0.05, 0.05, 1)
-    return mat
-
-
-def _mesh(kind, location, name, **kw):
-    import bpy
-    from . import scenes
-    ops = bpy.ops.mesh
-    if kind == "sphere":
-        ops.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.0, location=location)
-    elif kind == "rock":          # a dense UV sphere; SG Displace makes it a rock
-        ops.primitive_uv_sphere_add(segments=96, ring_count=48, radius=1.0, location=location)
-    elif kind == "plane":
-        ops.primitive_plane_add(size=2.2, location=location, rotation=(math.radians(70), 0, 0))
-    elif kind == "torus":
-        ops.primitive_torus_add(major_radius=0.8, minor_radius=0.3, location=location,
-                                rotation=(1.1, 0, 0), generate_uvs=True)
-    obj = bpy.context.active_object
-    return scenes._finish(obj, name)
-
-
-def _pair(x, title, left, right, kind="sphere", left_label="usual", right_label="surface "
-          "gradient", extra=None):
-    """Two objects at x +- 1.2 with their materials and a label; returns the objects."""
-    a = _mesh(kind, (x - 1.25, 0, 1.1), f"{title} | {left_label}")
-    b = _mesh(kind, (x + 1.25, 0, 1.1), f"{title} | {right_label}")
-    a.data.materials.append(_material(f"{title}: {left_label}", left))
-    b.data.materials.append(_material(f"{title}: {right_label}", right))
-    _label(title, (x, 0, 2.65))
-    _label(left_label, (x - 1.25, 0, -0.25), 0.2)
-    _label(right_label, (x + 1.25, 0, -0.25), 0.2)
-    return a, b
-
-
-PAIR_DISTANCE = 8.4          # a pair with its title and labels in a 16:9 frame
-
-
-def _camera(name, x, z=1.2, distance=PAIR_DISTANCE, crops=()):
-    """An exhibit camera looking along +Y. crops: (label, object, world offset from its centre)
-    spots that render_pictures enlarges side by side (kept on the camera as JSON, so the saved
-    file has them too)."""
-    import bpy
-    cam = bpy.data.cameras.new(name)
-    cam.lens = 50
-    obj = bpy.data.objects.new(name, cam)
-    obj.location = (x, -distance, z)
-    obj.rotation_euler = (math.radians(90), 0, 0)
-    bpy.context.scene.collection.objects.link(obj)
-    if crops:
-        obj[CROPS_KEY] = json.dumps([{"label": label, "object": o.name, "offset": list(off)}
-                                     for label, o, off in crops])
-    return obj
-
-
-CROPS_KEY = "surfgrad_crops"
-# A spot on the front of a unit sphere (camera at -Y), up and to the left, where the sun rakes.
-FRONT_SPOT = (-0.38, -0.8, 0.42)
-
-
-def _pair_crops(a, b, offset, labels=("usual", "surface gradient")):
-    return [(labels[0], a, offset), (labels[1], b, offset)]
-
-
-def _decal_projector(name, location, rotation, scale):
-    import bpy
-    from mathutils import Euler, Matrix
-    empty = bpy.data.objects.new(name, None)
-    bpy.context.scene.collection.objects.link(empty)
-    empty.matrix_world = (Matrix.Translation(location) @ Euler(rotation).to_matrix().to_4x4()
-                          @ Matrix.Diagonal((*scale, 1.0)))
-    return empty
 
 
 # Decal shapes: (shape, SG mode label, overwrite, centre distance in front of the sphere's centre,
@@ -169,7 +35,6 @@ def _decal_shapes(x, hemi_small, detail):
     way on top (the projector's normal blended over), surface gradients below (add mode for box
     and sphere: the detail continues through the decal; overwrite for cylinder and cone: the
     decal replaces it)."""
-    import numpy as np
     from .bench import baseline_groups as BG
     from ..reference.decals import DECAL_SHAPES
     rows = (("usual", 2.3), ("surface gradient", 0.15))
@@ -178,7 +43,7 @@ def _decal_shapes(x, hemi_small, detail):
         cx = x + (i - 1.5) * 2.2
         for row, z in rows:
             # Projection axis toward the camera (-Y), tilted: a decal across the curved front.
-            proj = _decal_projector(f"Decal {shape} ({row})",
+            proj = S.decal_projector(f"Decal {shape} ({row})",
                                     (cx - 0.12 * ahead, -ahead, z + 0.1 * ahead),
                                     (math.radians(105), math.radians(12), math.radians(8)),
                                     (size, size, size))
@@ -207,17 +72,17 @@ def _decal_shapes(x, hemi_small, detail):
                                Shape=DECAL_SHAPES.index(shape), Overwrite=overwrite,
                                Base_Gradient=under.outputs[0])
                 return g.resolve(node.outputs[0])
-            obj = _mesh("sphere", (cx, 0, z), f"Decal shapes | {shape} | {row}")
+            obj = S.mesh("sphere", (cx, 0, z), f"Decal shapes | {shape} | {row}")
             obj.scale = (SHAPE_RADIUS,) * 3
-            obj.data.materials.append(_material(f"Decal shapes: {shape} {row}", build))
+            obj.data.materials.append(S.material(f"Decal shapes: {shape} {row}", build))
             label = "usual" if row == "usual" else f"SG, {mode}"
-            _label(label, (cx, 0, z - SHAPE_RADIUS - 0.3), 0.22)
+            S.label(label, (cx, 0, z - SHAPE_RADIUS - 0.3), 0.22)
             crops.append((f"{shape}: {label}", obj, (0.0, -SHAPE_RADIUS, 0.12)))
-        _label(shape, (cx, 0, 3.22), 0.28)
-    _label("Decal shapes: usual (top) against surface gradients (bottom)", (x, 0, 3.8), 0.26)
+        S.label(shape, (cx, 0, 3.22), 0.28)
+    S.label("Decal shapes: usual (top) against surface gradients (bottom)", (x, 0, 3.8), 0.26)
     # Crops: each shape's usual against its surface-gradient sphere.
     order = [crops[k] for i in range(4) for k in (2 * i, 2 * i + 1)]
-    return _camera("Camera decal-shapes", x, z=1.55, distance=13.0, crops=order)
+    return S.camera("Camera decal-shapes", x, z=1.55, distance=13.0, crops=order)
 
 
 SAMPLER_IMAGES = (("waves", lambda: T.wave_height_image(32, (4.0, 2.0))),
@@ -232,8 +97,8 @@ def _sampler_exhibit(x):
     crops = []
     bump_scale = SAMPLER_BUMP
     for i, (name, pixels) in enumerate(SAMPLER_IMAGES):
-        _label(f"{name}, 32 x 32 px", (x + (2 * i - 1) * 2.5, 0, 2.35), 0.26)
-        image = _image(f"Height {name} 32", pixels())
+        S.label(f"{name}, 32 x 32 px", (x + (2 * i - 1) * 2.5, 0, 2.35), 0.26)
+        image = S.image(f"Height {name} 32", pixels())
         for j, side in enumerate(("usual", "surface gradient")):
             cx = x + (2 * i + j - 1.5) * 2.5
 
@@ -251,13 +116,13 @@ def _sampler_exhibit(x):
                                Sampler=zone.outputs[0], Width=image.size[0],
                                Height=image.size[1])
                 return g.resolve(node.outputs[0])
-            obj = _mesh("sphere", (cx, 0, 1.1), f"Sampler | {name} | {side}")
-            obj.data.materials.append(_material(f"Sampler: {name}, {side}", build))
+            obj = S.mesh("sphere", (cx, 0, 1.1), f"Sampler | {name} | {side}")
+            obj.data.materials.append(S.material(f"Sampler: {name}, {side}", build))
             label = "usual: Bump node" if side == "usual" else "SG Height Map HQ\n(Sampler)"
-            _label(label, (cx, 0, -0.22), 0.22)
-            crops.append((f"{name}: {label.replace(chr(10), ' ')}", obj, FRONT_SPOT))
-    _label("One Sampler group for both images (Blender 5.0+)", (x, 0, 3.0))
-    return _camera("Camera sampler", x, distance=14.5, crops=crops)
+            S.label(label, (cx, 0, -0.22), 0.22)
+            crops.append((f"{name}: {label.replace(chr(10), ' ')}", obj, S.FRONT_SPOT))
+    S.label("One Sampler group for both images (Blender 5.0+)", (x, 0, 3.0))
+    return S.camera("Camera sampler", x, distance=14.5, crops=crops)
 
 
 def build_closure_demo(log=print):
@@ -267,35 +132,11 @@ def build_closure_demo(log=print):
         raise G.FeatureUnavailable(
             f"the Sampler exhibit needs Blender 5.0 or newer (Closure zones), and Blender "
             f"{bpy.app.version_string} has none; open demo.blend for the other exhibits")
-    _new_file()
+    S.new_file()
     cams = {"sampler": _sampler_exhibit(0.0)}
     bpy.context.scene.camera = cams["sampler"]
     log("built the sampler exhibit")
     return cams
-
-
-def _new_file():
-    """A fresh file: Cycles on the CPU, a grey sky and a raking sun."""
-    import bpy
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    world = bpy.data.worlds.new("World")
-    world.use_nodes = True if world.node_tree is None else world.use_nodes
-    bg = world.node_tree.nodes.get("Background") if world.node_tree else None
-    if bg is not None:
-        bg.inputs["Color"].default_value = (0.55, 0.58, 0.62, 1.0)
-        bg.inputs["Strength"].default_value = 0.9
-    world.color = (0.55, 0.58, 0.62)
-    scene.world = world
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 4.0
-    sun.data.angle = math.radians(3)
-    # Light from the camera's side, high and to the left: it rakes across the bumps.
-    sun.rotation_euler = (math.radians(52), 0.0, math.radians(-48))
-    scene.collection.objects.link(sun)
-    return scene
 
 
 def build_demo(log=print):
@@ -304,11 +145,11 @@ def build_demo(log=print):
     import bpy
     from mathutils import Euler, Matrix
     from .bench import baseline_groups as BG
-    scene = _new_file()
-    hemi = _image("Hemispheres", T.hemisphere_tile_image(256))
-    detail = _image("Detail tile", T.hemisphere_tile_image(256, 8, 0.6))
-    height = _image("Height 64", T.wave_height_image(64, (4.0, 2.0)))
-    domes = _image("Dome heights", T.hemisphere_tile_height_image(256))
+    scene = S.new_file()
+    hemi = S.image("Hemispheres", T.hemisphere_tile_image(256))
+    detail = S.image("Detail tile", T.hemisphere_tile_image(256, 8, 0.6))
+    height = S.image("Height 64", T.wave_height_image(64, (4.0, 2.0)))
+    domes = S.image("Dome heights", T.hemisphere_tile_height_image(256))
     cams = {}
 
     def uv(g, name="UVMap"):
@@ -332,9 +173,9 @@ def build_demo(log=print):
                      Tangent=basis.outputs[0], Bitangent=basis.outputs[1])
         comb = g.group(G.combine_group(), A=nm(g, hemi), B=tn.outputs[0], Scale_B=1.0)
         return g.resolve(comb.outputs[0])
-    a, b = _pair(x, "Detail on a second, rotated UV map", layered_usual, layered_sg)
-    cams["layered"] = _camera("Camera layered", x,
-                              crops=_pair_crops(a, b, FRONT_SPOT))
+    a, b = S.pair(x, "Detail on a second, rotated UV map", layered_usual, layered_sg)
+    cams["layered"] = S.camera("Camera layered", x,
+                              crops=S.pair_crops(a, b, S.FRONT_SPOT))
 
     # 2. Triplanar on a rock (Figure 5), and post-resolve triplanar on a normal map (7b).
     x += EXHIBIT_SPACING
@@ -365,16 +206,16 @@ def build_demo(log=print):
         for axis, color in zip("XYZ", tri_colors(g)):
             g.link(color, node.inputs[f"Color {axis}"])
         return g.resolve(node.outputs[0], normal=first)
-    macro = _image("Macro normal map", T.hemisphere_tile_image(128, 2, 0.95))
-    a, b = _pair(x, "Triplanar on a rock", tri_usual, tri_sg, kind="rock")
-    c = _mesh("rock", (x + 3.75, 0, 1.1), "Triplanar on a rock | post-resolve")
-    c.data.materials.append(_material("Triplanar: post-resolve on a normal map",
+    macro = S.image("Macro normal map", T.hemisphere_tile_image(128, 2, 0.95))
+    a, b = S.pair(x, "Triplanar on a rock", tri_usual, tri_sg, kind="rock")
+    c = S.mesh("rock", (x + 3.75, 0, 1.1), "Triplanar on a rock | post-resolve")
+    c.data.materials.append(S.material("Triplanar: post-resolve on a normal map",
                                       tri_post_resolve))
-    _label("post-resolve (7b)", (x + 3.75, 0, -0.25), 0.2)
+    S.label("post-resolve (7b)", (x + 3.75, 0, -0.25), 0.2)
     for obj in (a, b, c):
         from .methods import add_displace_modifier
         add_displace_modifier(obj, {"Amount": 0.18, "Scale": 1.6, "Octaves": 3})
-    cams["triplanar"] = _camera("Camera triplanar", x + 1.25, distance=10.6, crops=[
+    cams["triplanar"] = S.camera("Camera triplanar", x + 1.25, distance=10.6, crops=[
         ("usual", a, (0.0, -1.0, 0.1)), ("surface gradient", b, (0.0, -1.0, 0.1)),
         ("post-resolve (7b)", c, (0.0, -1.0, 0.1))])
 
@@ -404,12 +245,12 @@ def build_demo(log=print):
                            Color=color, Axis_X=ax, Axis_Y=ay)
             return g.resolve(node.outputs[0])
         return build
-    a, b = _pair(x, "Decal across a torus and a plane", decal(projectors[0], False),
+    a, b = S.pair(x, "Decal across a torus and a plane", decal(projectors[0], False),
                  decal(projectors[1], True), kind="torus")
     for obj, proj, side in ((a, projectors[0], "usual"), (b, projectors[1], "surface gradient")):
-        plane = _mesh("plane", obj.location, f"Decal plane ({side})")
+        plane = S.mesh("plane", obj.location, f"Decal plane ({side})")
         plane.data.materials.append(obj.data.materials[0])
-    cams["decal"] = _camera("Camera decal", x, crops=_pair_crops(a, b, (0.0, -0.3, 0.0)))
+    cams["decal"] = S.camera("Camera decal", x, crops=S.pair_crops(a, b, (0.0, -0.3, 0.0)))
 
     # 4. Volume noise bump (Figure 4).
     x += EXHIBIT_SPACING
@@ -423,8 +264,8 @@ def build_demo(log=print):
         vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
                      Strength=NOISE_AMOUNT)
         return g.resolve(vg.outputs[0])
-    a, b = _pair(x, "Volume noise bump", noise_usual, noise_sg, left_label="Perlin 1985")
-    cams["noise"] = _camera("Camera noise", x, crops=_pair_crops(a, b, FRONT_SPOT,
+    a, b = S.pair(x, "Volume noise bump", noise_usual, noise_sg, left_label="Perlin 1985")
+    cams["noise"] = S.camera("Camera noise", x, crops=S.pair_crops(a, b, S.FRONT_SPOT,
                                                                  ("Perlin 1985",
                                                                   "surface gradient")))
 
@@ -438,27 +279,27 @@ def build_demo(log=print):
             G.height_map_group(height, v), UV=uv(g), Bump_Scale=HEIGHT_BUMP).outputs[0])))
     height_objs = []
     for i, (label, build) in enumerate(variants):
-        obj = _mesh("sphere", (x - 2.4 + 1.6 * i, 0, 1.1), f"Height map | {label}")
+        obj = S.mesh("sphere", (x - 2.4 + 1.6 * i, 0, 1.1), f"Height map | {label}")
         height_objs.append((label, obj))
         obj.scale = (0.72, 0.72, 0.72)
-        obj.data.materials.append(_material(f"Height map: {label}", build))
-        _label(label, (x - 2.4 + 1.6 * i, 0, 0.05), 0.2)
-    obj = _mesh("sphere", (x + 2.4, 0, 1.1), "Height map | normal map")
+        obj.data.materials.append(S.material(f"Height map: {label}", build))
+        S.label(label, (x - 2.4 + 1.6 * i, 0, 0.05), 0.2)
+    obj = S.mesh("sphere", (x + 2.4, 0, 1.1), "Height map | normal map")
     obj.scale = (0.72, 0.72, 0.72)
-    from .bench.scenarios import bake_normal_map_from_truth, exact_height_surfgrad
+    from .bench.scenario import bake_normal_map_from_truth, exact_height_surfgrad
     from ..reference import methods as M
     from .mesh_data import mesh_arrays_from_object
     bpy.context.view_layer.update()
     arrays = mesh_arrays_from_object(obj)
-    nmap = _image("Normal map from height", bake_normal_map_from_truth(
+    nmap = S.image("Normal map from height", bake_normal_map_from_truth(
         arrays, "UVMap", 128, lambda td: M.resolve(exact_height_surfgrad(
             td, T.wave_height(td.uv(), (4.0, 2.0))[1], HEIGHT_BUMP))))
-    obj.data.materials.append(_material("Height map: normal map", lambda g: g.resolve(
+    obj.data.materials.append(S.material("Height map: normal map", lambda g: g.resolve(
         g.group(G.normal_map_group("UVMap"), Color=g.image(nmap, uv(g))).outputs[0])))
-    _label("normal map", (x + 2.4, 0, 0.05), 0.2)
-    _label("Height-map derivatives", (x, 0, 2.65))
-    spot = tuple(0.72 * c for c in FRONT_SPOT)
-    cams["height"] = _camera("Camera height", x, distance=9.8,
+    S.label("normal map", (x + 2.4, 0, 0.05), 0.2)
+    S.label("Height-map derivatives", (x, 0, 2.65))
+    spot = tuple(0.72 * c for c in S.FRONT_SPOT)
+    cams["height"] = S.camera("Camera height", x, distance=9.8,
                              crops=[(label, o, spot) for label, o in height_objs])
 
     # 6. Gustavson's displacement with bump on top.
@@ -470,14 +311,14 @@ def build_demo(log=print):
         vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
                      Strength=0.015)
         return g.resolve(vg.outputs[0])
-    a, b = _pair(x, "Displacement with bump on top", lambda g: None, bump_on_top,
+    a, b = S.pair(x, "Displacement with bump on top", lambda g: None, bump_on_top,
                  left_label="displaced, normals recomputed", right_label="analytic + bump")
     from .methods import add_displace_modifier
     for obj, analytic in ((a, False), (b, True)):
         mod = add_displace_modifier(obj, {"Amount": 0.15, "Scale": 1.8, "Octaves": 2})
         compat.set_input(mod, "Analytic Normals", analytic)
-    cams["displacement"] = _camera("Camera displacement", x, crops=_pair_crops(
-        a, b, FRONT_SPOT, ("normals recomputed", "analytic + bump")))
+    cams["displacement"] = S.camera("Camera displacement", x, crops=S.pair_crops(
+        a, b, S.FRONT_SPOT, ("normals recomputed", "analytic + bump")))
 
     # 7. Parallax with post-resolve detail (Figure 7c).
     x += EXHIBIT_SPACING
@@ -495,14 +336,14 @@ def build_demo(log=print):
                          Strength=0.01, Normal=base)
             return g.resolve(vg.outputs[0], normal=base)
         return build
-    a, b = _pair(x, "Parallax with post-resolve detail", parallax(False), parallax(True),
+    a, b = S.pair(x, "Parallax with post-resolve detail", parallax(False), parallax(True),
                  kind="plane", left_label="parallax occlusion", right_label="+ detail on top")
-    cams["parallax"] = _camera("Camera parallax", x, crops=_pair_crops(
+    cams["parallax"] = S.camera("Camera parallax", x, crops=S.pair_crops(
         a, b, (-0.3, -0.1, 0.3), ("parallax occlusion", "+ detail on top")))
 
     # 8. Decal shapes and modes on curved surfaces.
     x += EXHIBIT_SPACING + 4.0         # a wide exhibit: out of its neighbours' views
-    cams["decal-shapes"] = _decal_shapes(x, hemi_small=_image(
+    cams["decal-shapes"] = _decal_shapes(x, hemi_small=S.image(
         "Domes 128", T.hemisphere_tile_image(DECAL_SHAPES_IMAGE, 2, 0.9)), detail=detail)
 
     # 9. Sampler closures (Blender 5.0+): one group, any image.
@@ -513,7 +354,7 @@ def build_demo(log=print):
         log("Blender < 5.0: no closures, the sampler exhibit is left out (demo_closures.blend "
             "has it)")
 
-    overview = _camera("Camera overview", x / 2, z=3.0, distance=40.0)
+    overview = S.camera("Camera overview", x / 2, z=3.0, distance=40.0)
     scene.camera = overview
     log(f"built {len(cams)} exhibits")
     return cams
@@ -537,92 +378,3 @@ def save_demo(path, overwrite=False, log=print, closures=False):
     bpy.ops.wm.save_as_mainfile(filepath=str(path.resolve()), compress=True)
     log(f"wrote {path} ({path.stat().st_size / 1e6:.1f} MB)")
     return cams
-
-
-PICTURE_SIZE = (1280, 720)
-PICTURE_SAMPLES = 16         # with the denoiser: clean enough, and 2 shared cores can afford it
-CROP_PIXELS = 150            # the square cut around each spot, shown about twice as large
-
-
-def render_pictures(cams, out_dir, width=PICTURE_SIZE[0], height=PICTURE_SIZE[1],
-                    samples=PICTURE_SAMPLES, log=print):
-    """A Cycles CPU render of every exhibit (PNG, 1280 x 720 by default: the labels are
-    readable at that size) into out_dir, and beside it <name>_crop.png: the camera's crop spots
-    enlarged side by side, labelled (needs matplotlib; skipped with a note without it)."""
-    import bpy
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = width, height
-    scene.render.resolution_percentage = 100
-    scene.cycles.samples = samples
-    scene.cycles.use_adaptive_sampling = False
-    # The denoiser (guided by the albedo and normal passes, so bumps stay) where this Cycles
-    # build has one; otherwise plain samples.
-    scene.cycles.use_denoising = bool(getattr(bpy.app.build_options, "openimagedenoise", False))
-    scene.render.image_settings.file_format = "PNG"
-    paths = []
-    for i, (name, cam) in enumerate(cams.items()):
-        scene.camera = cam
-        path = out / f"{name}.png"
-        scene.render.filepath = str(path.resolve())
-        bpy.ops.render.render(write_still=True)
-        paths.append(path)
-        crop = _crop_picture(scene, cam, path, out / f"{name}_crop.png", log)
-        if crop:
-            paths.append(crop)
-        log(f"  rendered {i + 1}/{len(cams)}: {path}" + (f" and {crop.name}" if crop else ""))
-    return paths
-
-
-def crop_boxes(scene, cam, width, height, size=CROP_PIXELS):
-    """[(label, (x0, y0)) ...]: each crop spot's square in pixels (x from the left, y from the
-    bottom, Blender's pixel order), kept inside the picture."""
-    from bpy_extras.object_utils import world_to_camera_view
-    import bpy
-    from mathutils import Vector
-    spots = json.loads(cam.get(CROPS_KEY, "[]"))
-    boxes = []
-    for spot in spots:
-        obj = bpy.data.objects[spot["object"]]
-        p = world_to_camera_view(scene, cam, obj.location + Vector(spot["offset"]))
-        x0 = int(round(p.x * width - size / 2))
-        y0 = int(round(p.y * height - size / 2))
-        boxes.append((spot["label"], (min(max(x0, 0), width - size),
-                                      min(max(y0, 0), height - size))))
-    return boxes
-
-
-def _crop_picture(scene, cam, picture, path, log, size=CROP_PIXELS):
-    if CROPS_KEY not in cam:
-        return None
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        log("  matplotlib is not installed: no enlarged crops")
-        return None
-    import bpy
-    img = bpy.data.images.load(str(picture), check_existing=False)
-    w, h = img.size
-    px = np.empty(w * h * 4, dtype=np.float32)
-    img.pixels.foreach_get(px)
-    bpy.data.images.remove(img)
-    px = px.reshape(h, w, 4)[..., :3]
-    boxes = crop_boxes(scene, cam, w, h, size)
-    cols = min(len(boxes), 4)
-    rows = math.ceil(len(boxes) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.75 * rows), dpi=100,
-                             squeeze=False)
-    for ax in axes.ravel():
-        ax.axis("off")
-    for ax, (label, (x0, y0)) in zip(axes.ravel(), boxes):
-        ax.imshow(np.clip(px[y0:y0 + size, x0:x0 + size], 0, 1), origin="lower",
-                  interpolation="nearest")
-        ax.set_title(label, fontsize=13)
-    fig.suptitle(f"{cam.name.replace('Camera ', '')}: enlarged crops", fontsize=14)
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.94))
-    fig.savefig(path)
-    plt.close(fig)
-    return path

@@ -3,6 +3,14 @@ the material helpers every method, bench scenario and demo exhibit uses."""
 
 from ..addon import groups as G
 from ..addon.node_builder import NodeOps
+from ..addon.node_vocabulary import VMath
+
+SURFACE_GRADIENT = "Surface Gradient"     # the output every SG group hands on
+
+
+def surface_gradient(node):
+    """A group node's Surface Gradient output."""
+    return node.outputs[SURFACE_GRADIENT]
 
 
 class Graph(NodeOps):
@@ -12,11 +20,18 @@ class Graph(NodeOps):
         self.nodes, self.links = nodes, links
 
     def group(self, tree, **inputs):
+        """A group node of `tree`, its inputs linked or set by keyword (Bump_Scale: "Bump
+        Scale")."""
         n = self.node("ShaderNodeGroup")
         n.node_tree = tree
+        return self.set(n, **inputs)
+
+    def set(self, node, **inputs):
+        """Link sockets to, or set constants on, node's inputs by keyword; returns node."""
         for name, value in inputs.items():
-            self.link(value, n.inputs[name if name in n.inputs else name.replace("_", " ")])
-        return n
+            self.link(value, node.inputs[name if name in node.inputs
+                                         else name.replace("_", " ")])
+        return node
 
     def uv(self, name):
         return self.node("ShaderNodeUVMap", uv_map=name).outputs["UV"]
@@ -44,9 +59,20 @@ class Graph(NodeOps):
 
     def decode(self, color):
         """m = 2 c - 1."""
-        return self.vmath("SUBTRACT", self.vmath("MULTIPLY", color, (2.0, 2.0, 2.0)),
+        return self.vmath(VMath.SUBTRACT, self.vmath(VMath.MULTIPLY, color, (2.0, 2.0, 2.0)),
                           (1.0, 1.0, 1.0))
 
     def perlin(self, normal, grad):
         """normalize(n - grad): Perlin's unprojected addition."""
-        return self.vmath("NORMALIZE", self.vmath("SUBTRACT", normal, grad))
+        return self.vmath(VMath.NORMALIZE, self.vmath(VMath.SUBTRACT, normal, grad))
+
+    def emission_material(self, color, displacement=None):
+        """Material Output <- Emission(color, Strength 1) [and <- displacement]: what a bake
+        reads back."""
+        out = self.node("ShaderNodeOutputMaterial")
+        emit = self.node("ShaderNodeEmission")
+        self.set(emit, Color=color, Strength=1.0)
+        self.link(emit.outputs["Emission"], out.inputs["Surface"])
+        if displacement is not None:
+            self.link(displacement, out.inputs["Displacement"])
+        return out

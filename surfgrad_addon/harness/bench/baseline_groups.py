@@ -3,6 +3,7 @@ never in the Add menu). Each mirrors its function in reference/baselines.py."""
 
 from ...addon import groups as G
 from ...addon.node_builder import ensure_group
+from ...addon.node_vocabulary import Math, VMath
 from ...addon.groups.projection import decal_weight
 
 VERSION = 2
@@ -21,9 +22,9 @@ def _triplanar_grad(b, weights, derivs):
     w0, w1, w2 = weights
     (dxx, dxy), (dyx, dyy), (dzx, dzy) = derivs
     return b.combine(
-        b.math("ADD", b.math("MULTIPLY", w2, dzx), b.math("MULTIPLY", w1, dyx)),
-        b.math("ADD", b.math("MULTIPLY", w2, dzy), b.math("MULTIPLY", w0, dxy)),
-        b.math("ADD", b.math("MULTIPLY", w0, dxx), b.math("MULTIPLY", w1, dyy)))
+        b.math(Math.ADD, b.math(Math.MULTIPLY, w2, dzx), b.math(Math.MULTIPLY, w1, dyx)),
+        b.math(Math.ADD, b.math(Math.MULTIPLY, w2, dzy), b.math(Math.MULTIPLY, w0, dxy)),
+        b.math(Math.ADD, b.math(Math.MULTIPLY, w0, dxx), b.math(Math.MULTIPLY, w1, dyy)))
 
 
 def triplanar_geiss_group():
@@ -35,9 +36,9 @@ def triplanar_geiss_group():
         weights = G.triplanar_weights(b, n, 3.0)
         derivs = []
         for c in colors:
-            mx, my, _ = b.separate(b.vmath("SUBTRACT", b.vmath("MULTIPLY", c, (2.0, 2.0, 2.0)),
+            mx, my, _ = b.separate(b.vmath(VMath.SUBTRACT, b.vmath(VMath.MULTIPLY, c, (2.0, 2.0, 2.0)),
                                            (1.0, 1.0, 1.0)))
-            derivs.append((b.math("MULTIPLY", mx, -1.0), b.math("MULTIPLY", my, -1.0)))
+            derivs.append((b.math(Math.MULTIPLY, mx, -1.0), b.math(Math.MULTIPLY, my, -1.0)))
         grad = _triplanar_grad(b, weights, derivs)
         b.output("Normal", "VECTOR", b.normalize(b.sub(n, grad)), "Perturbed normal")
     return ensure_group(".SGB Triplanar Geiss", VERSION, build, "Geiss's traditional triplanar")
@@ -93,9 +94,9 @@ def lxengine_group():
         dpdx = b.cross(grads.outputs[1], n)
         y = b.normalize(b.cross(n, dpdx))
         x = b.normalize(b.cross(y, n))
-        dhdx = b.math("MULTIPLY", b.math("SUBTRACT", h_x, h_c), scale)
-        dhdy = b.math("MULTIPLY", b.math("SUBTRACT", h_y, h_c), scale)
-        out = b.add(b.sub(b.scale(x, b.math("MULTIPLY", dhdx, -1.0)), b.scale(y, dhdy)), n)
+        dhdx = b.math(Math.MULTIPLY, b.math(Math.SUBTRACT, h_x, h_c), scale)
+        dhdy = b.math(Math.MULTIPLY, b.math(Math.SUBTRACT, h_y, h_c), scale)
+        out = b.add(b.sub(b.scale(x, b.math(Math.MULTIPLY, dhdx, -1.0)), b.scale(y, dhdy)), n)
         b.output("Normal", "VECTOR", b.normalize(out), "Perturbed normal")
     return ensure_group(".SGB LxEngine", VERSION, build,
                         "Screen-derivative bump with ad-hoc re-orthonormalisation")

@@ -20,7 +20,7 @@ import numpy as np
 from ... import reference as R
 from ...addon import compat
 from ..compare import angle_deg
-from .. import methods
+from ..method_scene import add_displace_modifier
 
 CONVERGENCE = {"Amount": 0.1, "Scale": 2.0, "Octaves": 3}
 BUMP_SCALE, BUMP_OCTAVES = 2.0, 1
@@ -40,7 +40,7 @@ def convergence(levels=range(7), repeats=3, log=print):
     obj = bpy.context.active_object
     obj.data.polygons.foreach_set("use_smooth", np.ones(len(obj.data.polygons), dtype=bool))
     sub = obj.modifiers.new("Subdivision", "SUBSURF")
-    mod = methods.add_displace_modifier(obj, CONVERGENCE)
+    mod = add_displace_modifier(obj, CONVERGENCE)
 
     def evaluate(analytic):
         compat.set_input(mod, "Analytic Normals", analytic)
@@ -126,15 +126,13 @@ def bump_vs_cycles_displacement(amplitudes=AMPLITUDES, resolution=128, subdivisi
             return g.resolve(vg.outputs[0])
 
         def geometry_normal(nodes, links):
-            return nodes.new("ShaderNodeNewGeometry").outputs["Normal"]
+            return Graph(nodes, links).geometry("Normal")
 
         def displacement(nodes, links, a=a):
             g = Graph(nodes, links)
             noise = g.group(G.noise_group(), Scale=BUMP_SCALE, Octaves=BUMP_OCTAVES)
-            disp = g.node("ShaderNodeDisplacement")
-            disp.inputs["Midlevel"].default_value = 0.0
-            disp.inputs["Scale"].default_value = a
-            g.link(noise.outputs["Value"], disp.inputs["Height"])
+            disp = g.set(g.node("ShaderNodeDisplacement"), Midlevel=0.0, Scale=a,
+                         Height=noise.outputs["Value"])
             return disp.outputs[0]
         px_bump, cov_b, _ = B.bake_vector(obj, bump, resolution, resolution, "UVMap")
         px_true, cov_t, seconds = B.bake_vector(obj, geometry_normal, resolution, resolution,

@@ -106,7 +106,7 @@ HEIGHT_BUMP = 0.05
 
 
 def _sampler(g, image):
-    from ..methods import sampler_socket
+    from ..method_graphs.samplers import sampler_socket
     return sampler_socket(g.nodes, g.links, image)
 
 

@@ -1,87 +1,21 @@
 """The bench's scenarios: each a scene, its methods (node graphs baked by Cycles), and an
-analytic ground truth computed by the reference in float64 from the continuous definition.
+analytic ground truth computed by the reference in float64 from the continuous definition
+(what a scenario is: scenario.py). Here the height, noise, triplanar and screen-derivative
+scenarios and the list of all; the ones that blend detail with other frames are in
+scenarios_blending.py.
 
 A method's `build(g, ctx)` returns the socket of the final world-space normal; `reference`
 (optional) evaluates the same method with the numpy reference, for the reference's timing.
 """
 
-from dataclasses import dataclass, field
-from typing import Callable, Optional
-
-import numpy as np
-
-from ... import reference as R
 from ...addon import groups as G
+from ...addon.node_vocabulary import Math, VMath
 from ...reference import listings as L
 from ...reference import methods as M
 from ...reference import images as T
-
-
-@dataclass
-class Method:
-    label: str
-    family: str                                   # "sg" (ours), "blender", "baseline"
-    build: Callable
-    reference: Optional[Callable] = None
-    memory_note: str = ""
-
-
-@dataclass
-class Context:
-    objects: dict
-    uv_map: str = "UVMap"
-    images: dict = field(default_factory=dict)   # name -> (pixels, bpy image)
-    params: dict = field(default_factory=dict)
-    cleanup: list = field(default_factory=list)   # datablocks to remove afterwards
-
-    def img(self, name):
-        return self.images[name][1]
-
-    def px(self, name):
-        return self.images[name][0]
-
-
-@dataclass
-class Scenario:
-    name: str
-    title: str
-    setup: Callable                               # (quick) -> Context
-    methods: Callable                             # (ctx) -> [Method]
-    truth: Callable                               # (ctx, td) -> unit normals (N, 3)
-
-
-def float_image(ctx, name, pixels):
-    """A Non-Color float image Cycles reads exactly, and the same pixels for the reference."""
-    from ..compare import bpy_float_image
-    img = bpy_float_image(name, pixels)
-    ctx.cleanup.append(img)
-    px = np.asarray(pixels, dtype=np.float32).astype(np.float64)
-    ctx.images[name] = (px, img)
-    return img
-
-
-def exact_height_surfgrad(td, deriv_st, scale):
-    """Blinn's perturbed normal of a continuous height given its exact (dH/ds, dH/dt), in
-    surface-gradient form (Eq. 7 through Listing 6), on the shading normal."""
-    n = M.unit_base_normal(td)
-    dpdx, dpdy, dst_dx, dst_dy = td.texel_steps()
-    return n, scale * L.surfgrad_scale_dependent(n, dpdx, dpdy, deriv_st, dst_dx, dst_dy,
-                                                 (1.0, 1.0))
-
-
-def bake_normal_map_from_truth(mesh, uv_map, size, truth):
-    """A tangent-space normal map of `size`^2 that encodes `truth(td)` (unit world normals) in
-    the mesh's MikkTSpace frame at each texel centre: what a perfect bake from the detailed
-    surface would store (float, not quantised). Texels off the mesh hold (0, 0, 1)."""
-    td = R.rasterize(mesh, uv_map, size, size, sample_offset=(0.5, 0.5))
-    n_f, t, b = M.mikktspace_frame(td, uv_map)
-    v = truth(td)
-    frame = np.stack([t, b, n_f], axis=-1)                    # columns t', b', n'
-    m = np.linalg.solve(frame, v[..., None])[..., 0]
-    m = m / np.linalg.norm(m, axis=-1, keepdims=True)
-    out = np.tile([0.0, 0.0, 1.0], (size, size, 1))
-    out[td.pixel[:, 1], td.pixel[:, 0]] = m
-    return 0.5 * out + 0.5
+from . import scenarios_blending as B
+from .scenario import (Context, Method, Scenario, bake_normal_map_from_truth,
+                       exact_height_surfgrad, float_image, hemi_deriv, sphere_context)
 
 
 # Scenario 1: height detail on a curved mesh --------------------------------------------------
@@ -162,16 +96,6 @@ def _height_truth(ctx, td):
                                            HEIGHT_SCALE))
 
 
-def hemi_deriv(st, tiles=4, radius=0.85):
-    """Listing 2 of the continuous hemisphere-tile normal: the exact derivative at st."""
-    return L.tspace_normal_to_derivative(T.hemisphere_tile_normal(st, tiles, radius))
-
-
-def _sphere_context(quick):
-    from .. import scenes
-    return Context(objects=scenes.new_scene(["Sphere"]))
-
-
 # Scenario 2: volume noise bump ----------------------------------------------------------------
 
 NOISE_SCALE, NOISE_AMOUNT, FD_STEP = 4.0, 0.05, 2e-3
@@ -205,11 +129,11 @@ def _noise_methods(ctx):
             last = [None]
 
             def value_at(offset):
-                q = g.vmath("ADD", p, offset)
+                q = g.vmath(VMath.ADD, p, offset)
                 if last[0] is not None:
                     # Serialise the evaluations (q + (v - v) is exactly q) so Cycles' SVM
                     # compiler never holds two noise evaluations' temporaries at once.
-                    q = g.vmath("ADD", q, g.math("SUBTRACT", last[0], last[0]))
+                    q = g.vmath(VMath.ADD, q, g.math(Math.SUBTRACT, last[0], last[0]))
                 last[0] = _noise_value(g, q).outputs["Value"]
                 return last[0]
             comps = []
@@ -220,9 +144,9 @@ def _noise_methods(ctx):
                 plus = value_at(tuple(e))
                 if central:
                     minus = value_at(tuple(-x for x in e))
-                    comps.append(g.math("DIVIDE", g.math("SUBTRACT", plus, minus), 2 * FD_STEP))
+                    comps.append(g.math(Math.DIVIDE, g.math(Math.SUBTRACT, plus, minus), 2 * FD_STEP))
                 else:
-                    comps.append(g.math("DIVIDE", g.math("SUBTRACT", plus, centre), FD_STEP))
+                    comps.append(g.math(Math.DIVIDE, g.math(Math.SUBTRACT, plus, centre), FD_STEP))
             comb = g.node("ShaderNodeCombineXYZ")
             for slot, v in zip(comb.inputs, comps):
                 g.link(v, slot)
@@ -259,7 +183,7 @@ TRI_SCALE = 1.0
 
 
 def _triplanar_setup(quick):
-    ctx = _sphere_context(quick)
+    ctx = sphere_context(quick)
     float_image(ctx, "hemi", T.hemisphere_tile_image(128 if quick else 256))
     return ctx
 
@@ -312,157 +236,10 @@ def _triplanar_truth(ctx, td):
     return M.resolve((n, L.surfgrad_from_triplanar_projection(n, w, *d)))
 
 
-# Scenario 4: decal on a torus crossing a plane ---------------------------------------------------
-
-DECAL_FALLOFF = 0.2
-
-
-def _decal_setup(quick):
-    import bpy
-    from mathutils import Euler, Matrix
-    from .. import scenes
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    ctx = Context(objects=scenes.decal_stage())
-    empty = bpy.data.objects.new("Projector", None)
-    bpy.context.scene.collection.objects.link(empty)
-    empty.matrix_world = (Matrix.Translation((0.1, 0.05, 0.1)) @ Euler((0.3, -0.2, 0.4))
-                          .to_matrix().to_4x4() @ Matrix.Diagonal((0.9, 0.7, 1.2, 1.0)))
-    bpy.context.view_layer.update()
-    ctx.params["projector"] = empty
-    float_image(ctx, "hemi", T.hemisphere_tile_image(128 if quick else 256))
-    return ctx
-
-
-def _decal_inputs(g, c):
-    tc = g.node("ShaderNodeTexCoord", object=c.params["projector"])
-    coords = g.group(G.decal_coordinates_group())
-    g.link(tc.outputs["Object"], coords.inputs[0])
-    color = g.image(c.img("hemi"), coords.outputs[0])
-    ax, ay, az, _ = M.decal_frame(np.array(c.params["projector"].matrix_world))
-    return tc.outputs["Object"], color, ax, ay, az
-
-
-def _decal_methods(ctx):
-    from . import baseline_groups as BG
-
-    def engine(g, c):
-        q, color, ax, ay, az = _decal_inputs(g, c)
-        node = g.group(BG.decal_engine_group(), Decal_Coordinates=q, Color=color,
-                       Axis_X=tuple(ax), Axis_Y=tuple(ay), Axis_Z=tuple(az),
-                       Falloff=DECAL_FALLOFF)
-        return node.outputs[0]
-
-    def sg(g, c):
-        q, color, ax, ay, az = _decal_inputs(g, c)
-        node = g.group(G.decal_group(), Decal_Coordinates=q, Color=color, Axis_X=tuple(ax),
-                       Axis_Y=tuple(ay), Falloff=DECAL_FALLOFF)
-        return g.resolve(node.outputs[0])
-    return [
-        Method("Engine decal (projector normal)", "baseline", engine),
-        Method("SG Decal", "sg", sg, lambda c, td: M.resolve(M.decal_surfgrad(
-            td, c.px("hemi"), np.array(c.params["projector"].matrix_world),
-            falloff=DECAL_FALLOFF))),
-    ]
-
-
-def _decal_truth(ctx, td):
-    n = M.unit_base_normal(td)
-    ax, ay, _, to_local = M.decal_frame(np.array(ctx.params["projector"].matrix_world))
-    q = td.position @ to_local[:3, :3].T + to_local[:3, 3]
-    inside = np.all(np.abs(q[:, :2]) <= 1.0, axis=-1)
-    fade = np.clip((1.0 - np.abs(q[:, 2])) / DECAL_FALLOFF, 0.0, 1.0)
-    sg = L.surfgrad_from_decal(n, hemi_deriv(q[:, :2] * 0.5 + 0.5), ax, ay)
-    return M.resolve((n, (inside * fade)[:, None] * sg))
-
-
-# Scenario 5: detail on a second UV map -------------------------------------------------------------
-
-def _second_uv_setup(quick):
-    ctx = _sphere_context(quick)
-    float_image(ctx, "hemi", T.hemisphere_tile_image(128 if quick else 256))
-    return ctx
-
-
-def _second_uv_methods(ctx):
-    def normal_map_node(tangent_map):
-        def build(g, c):
-            nm = g.node("ShaderNodeNormalMap", uv_map=tangent_map)
-            g.link(g.image(c.img("hemi"), g.uv("Detail")), nm.inputs["Color"])
-            return nm.outputs["Normal"]
-        return build
-
-    def sg(g, c):
-        uv = g.uv("Detail")
-        basis = g.group(G.procedural_basis_group(), UV=uv)
-        tn = g.group(G.tangent_normal_group(), Color=g.image(c.img("hemi"), uv),
-                     Tangent=basis.outputs[0], Bitangent=basis.outputs[1])
-        return g.resolve(tn.outputs[0])
-    corners = 3 * sum(len(p.vertices) - 2 for p in ctx.objects["Sphere"].data.polygons)
-    return [
-        Method("First UV map's tangents", "baseline", normal_map_node("UVMap")),
-        Method("Blender Normal Map (per-UV tangents)", "blender", normal_map_node("Detail"),
-               memory_note=f"+{16 * corners / 1024:.0f} KiB: tangent and sign per corner "
-                           f"for the second UV map ({corners} corners)"),
-        Method("SG Procedural Basis", "sg", sg, lambda c, td: M.resolve(
-            M.procedural_basis_surfgrad(td, c.px("hemi"), "Detail"))),
-    ]
-
-
-def _second_uv_truth(ctx, td):
-    n = M.unit_base_normal(td)
-    dpdx, dpdy, dst_dx, dst_dy = td.texel_steps("Detail")
-    t, b = L.gen_basis_tb(n, dpdx, dpdy, dst_dx, dst_dy)
-    return M.resolve((n, L.surfgrad_from_tbn(hemi_deriv(td.uv("Detail")), t, b)))
-
-
-# Scenario 6: layering two tangent normals ----------------------------------------------------------
-
-DETAIL_TILES, DETAIL_RADIUS = 12, 0.6
-
-
-def _layer_setup(quick):
-    ctx = _sphere_context(quick)
-    size = 128 if quick else 256
-    float_image(ctx, "a", T.hemisphere_tile_image(size))
-    float_image(ctx, "b", T.hemisphere_tile_image(size, DETAIL_TILES, DETAIL_RADIUS))
-    return ctx
-
-
-def _layer_methods(ctx):
-    def blend(mode):
-        def build(g, c):
-            uv = g.uv(c.uv_map)
-            bl = g.group(G.blend_normals_group(), Color_A=g.image(c.img("a"), uv),
-                         Color_B=g.image(c.img("b"), uv), Method=mode)
-            nm = g.group(G.normal_map_group(c.uv_map), Color=bl.outputs[0])
-            return g.resolve(nm.outputs[0])
-        return build
-
-    def addition(g, c):
-        uv = g.uv(c.uv_map)
-        sa = g.group(G.normal_map_group(c.uv_map), Color=g.image(c.img("a"), uv)).outputs[0]
-        sb = g.group(G.normal_map_group(c.uv_map), Color=g.image(c.img("b"), uv)).outputs[0]
-        # Each SG Normal Map carries the (n - n_frame) correction; count it once.
-        frame_n = g.group(G.mikktspace_frame_group(c.uv_map)).outputs[2]
-        correction = g.vmath("SUBTRACT", g.geometry("Normal"), frame_n)
-        return g.resolve(g.vmath("SUBTRACT", g.vmath("ADD", sa, sb), correction))
-    return [Method("UDN", "baseline", blend(2)), Method("Whiteout", "baseline", blend(1)),
-            Method("RNM", "baseline", blend(3)), Method("PD", "baseline", blend(0)),
-            Method("SG addition", "sg", addition)]
-
-
-def _layer_truth(ctx, td):
-    n = M.unit_base_normal(td)
-    n_f, t, b = M.mikktspace_frame(td, ctx.uv_map)
-    uv = td.uv(ctx.uv_map)
-    d = hemi_deriv(uv) + hemi_deriv(uv, DETAIL_TILES, DETAIL_RADIUS)
-    return M.resolve((n, L.surfgrad_from_tbn(d, t, b) + (n - n_f)))
-
-
 # Scenario 7: screen-derivative bump -----------------------------------------------------------------
 
 def _screen_setup(quick):
-    ctx = _sphere_context(quick)
+    ctx = sphere_context(quick)
     float_image(ctx, "height", T.wave_height_image(64, HEIGHT_FREQ))
     return ctx
 
@@ -473,7 +250,7 @@ def _screen_methods(ctx):
     def lx(g, c):
         res = c.params["resolution"]
         uv = g.uv(c.uv_map)
-        taps = [g.first(g.image(c.img("height"), g.vmath("ADD", uv, off)))
+        taps = [g.first(g.image(c.img("height"), g.vmath(VMath.ADD, uv, off)))
                 for off in ((0.0, 0.0, 0.0), (1.0 / res, 0.0, 0.0), (0.0, 1.0 / res, 0.0))]
         node = g.group(BG.lxengine_group(), UV=uv, Height=taps[0], **{"Height +X": taps[1], "Height +Y": taps[2]},
                        Bump_Scale=HEIGHT_SCALE)
@@ -500,16 +277,13 @@ def _screen_methods(ctx):
 SCENARIOS = [
     Scenario("height", "1. Height detail on a curved mesh (Figure 8)", _height_setup,
              _height_methods, _height_truth),
-    Scenario("noise", "2. Volume noise bump (Figure 4)", _sphere_context, _noise_methods,
+    Scenario("noise", "2. Volume noise bump (Figure 4)", sphere_context, _noise_methods,
              _noise_truth),
     Scenario("triplanar", "3. Triplanar hemispheres (Figure 5)", _triplanar_setup,
              _triplanar_methods, _triplanar_truth),
-    Scenario("decal", "4. Decal on a torus crossing a plane (Figure 6)", _decal_setup,
-             _decal_methods, _decal_truth),
-    Scenario("second-uv", "5. Detail on a second, rotated UV map (Figure 1)", _second_uv_setup,
-             _second_uv_methods, _second_uv_truth),
-    Scenario("layering", "6. Layering two tangent normals (Table 1)", _layer_setup,
-             _layer_methods, _layer_truth),
+    B.DECAL,
+    B.SECOND_UV,
+    B.LAYERING,
     Scenario("screen-derivative", "7. Screen-derivative bump (LxEngine)", _screen_setup,
              _screen_methods, _height_truth),
 ]

@@ -11,11 +11,14 @@ from typing import Callable
 
 import numpy as np
 
-from ... import reference as R
 from .. import compare as C
 from .. import methods
+from ..graph import Graph, surface_gradient
+from ..method_scene import decal_projector
 from ...addon import groups as G
+from ...addon.node_vocabulary import Math
 from ...reference import methods as M
+from ...reference.method_registry import NOISE_AMOUNT, NOISE_OCTAVES, NOISE_SCALE
 from ...reference import images as T
 
 
@@ -129,44 +132,47 @@ CASES = [
 
 SG_METHODS = [m.name for m in methods.METHODS.values() if m.stability]
 HUGE = 200.0
+# "huge bump scales": the parameters each method runs at in that case.
+HUGE_VALUES = {"volume-noise": {"amount": HUGE}, "normal-map": {"strength": 10.0}}
 
 
 def _blender_normal_map(inp, nodes, links):
-    color = methods.image_node(nodes, links, inp.bpy_image("normal"), methods.uv_node(nodes, inp.uv_map))
-    nm = nodes.new("ShaderNodeNormalMap")
-    nm.uv_map = inp.uv_map
-    links.new(color, nm.inputs["Color"])
-    return nm.outputs["Normal"]
+    g = Graph(nodes, links)
+    color = g.image(inp.bpy_image("normal"), g.uv(inp.uv_map))
+    return g.set(g.node("ShaderNodeNormalMap", uv_map=inp.uv_map), Color=color).outputs["Normal"]
 
 
 def _perlin(amount):
     def graph(inp, nodes, links):
-        from ..graph import Graph
         g = Graph(nodes, links)
-        noise = g.group(G.noise_group(), Scale=methods.NOISE_SCALE)
+        noise = g.group(G.noise_group(), Scale=NOISE_SCALE)
         return g.perlin(g.geometry("Normal"), g.scale(noise.outputs["Gradient"], amount))
     return graph
 
 
 def _methods(overrides):
     """(label, family, graph, reference) for a case."""
-    amount = HUGE if overrides.get("huge") else methods.NOISE_AMOUNT
+    amount = HUGE if overrides.get("huge") else NOISE_AMOUNT
     out = []
     for name in SG_METHODS:
-        graph, ref = C.METHODS[name].graph, C.METHODS[name].reference
-        if overrides.get("huge") and name == "volume-noise":
-            graph = lambda inp, n, l: methods._volume_noise_graph(inp, n, l, amount=HUGE)  # noqa: E731
-            ref = lambda inp, td: M.volume_noise_surfgrad(td, methods.NOISE_SCALE, HUGE, 4)  # noqa: E731
-        if overrides.get("huge") and name == "normal-map":
-            graph = lambda inp, n, l: methods.normal_map_graph(inp, n, l, strength=10.0)  # noqa: E731
-            ref = lambda inp, td: M.normal_map_surfgrad(  # noqa: E731
-                td, inp.pixels("normal"), inp.uv_map, strength=10.0)
-        out.append((name, "sg", graph, ref))
+        m = methods.METHODS[name]
+        if overrides.get("huge"):
+            m = m.at(**HUGE_VALUES.get(name, {}))
+        out.append((name, "sg", m.graph, m.reference))
     out.append(("Blender Normal Map", "blender", _blender_normal_map,
-                C.METHODS["normal-map"].reference))
+                methods.METHODS["normal-map"].reference))
     out.append(("Perlin 1985 noise", "baseline", _perlin(amount),
-                lambda inp, td: M.volume_noise_surfgrad(td, methods.NOISE_SCALE, amount, 4)))
+                lambda inp, td: M.volume_noise_surfgrad(td, NOISE_SCALE, amount,
+                                                            NOISE_OCTAVES)))
     return out
+
+
+def _non_finite(g, kind):
+    """A vector socket (x, 0, 0) with x zero, NaN (inf - inf) or inf (exp(1000))."""
+    if kind == "zero":
+        return g.combine(0.0, 0.0)
+    inf = g.math(Math.EXPONENT, 1000.0)
+    return g.combine(g.math(Math.SUBTRACT, inf, inf) if kind == "nan" else inf, 0.0)
 
 
 def _group_input_cases(resolution):
@@ -174,15 +180,6 @@ def _group_input_cases(resolution):
     import bpy
     obj = _scene()["Sphere"]
     rows = []
-
-    def nan(nodes):
-        e = nodes.new("ShaderNodeMath")
-        e.operation = "EXPONENT"
-        e.inputs[0].default_value = 1000.0          # inf
-        d = nodes.new("ShaderNodeMath")
-        d.operation = "SUBTRACT"
-        return e, d
-
     specs = [("SG Resolve", G.resolve_group, ["Normal", "Surface Gradient"]),
              ("SG Volume Gradient", G.volume_gradient_group, ["Normal", "Gradient"]),
              ("SG Object Normal", G.object_normal_group, ["Normal", "Perturbed Normal"]),
@@ -193,30 +190,17 @@ def _group_input_cases(resolution):
     for label, tree_fn, sockets in specs:
         for kind in ("zero", "nan", "inf"):
             def graph(inp, nodes, links, tree_fn=tree_fn, sockets=sockets, kind=kind):
-                node = nodes.new("ShaderNodeGroup")
-                node.node_tree = tree_fn()
-                src = nodes.new("ShaderNodeCombineXYZ")
-                if kind != "zero":
-                    e, d = nan(nodes)
-                    if kind == "nan":
-                        links.new(e.outputs[0], d.inputs[0])
-                        links.new(e.outputs[0], d.inputs[1])
-                        links.new(d.outputs[0], src.inputs[0])
-                    else:
-                        links.new(e.outputs[0], src.inputs[0])
-                for s in sockets:
-                    links.new(src.outputs[0], node.inputs[s])
+                g = Graph(nodes, links)
+                src = _non_finite(g, kind)
+                node = g.group(tree_fn(), **{s: src for s in sockets})
                 out = node.outputs[0]
                 if out.name == "Normal":
                     return out
                 if label == "SG Procedural Basis":      # a frame: feed it to a normal map
-                    tn = nodes.new("ShaderNodeGroup")
-                    tn.node_tree = G.tangent_normal_group()
-                    tn.inputs["Color"].default_value = (0.8, 0.3, 0.9, 1.0)
-                    links.new(node.outputs[0], tn.inputs["Tangent"])
-                    links.new(node.outputs[1], tn.inputs["Bitangent"])
-                    out = tn.outputs[0]
-                return C.resolve_sg(nodes, links, out)
+                    out = surface_gradient(g.group(
+                        G.tangent_normal_group(), Color=(0.8, 0.3, 0.9, 1.0),
+                        Tangent=node.outputs[0], Bitangent=node.outputs[1]))
+                return g.resolve(out)
             inp = C.prepare_inputs(obj)
             try:
                 report, _ = C.compare_graph(
@@ -250,7 +234,7 @@ def run(quick=False, log=print, resolution=None):
             inp = C.prepare_inputs(obj, image=pixels)
             try:
                 if label == "decal":
-                    inp.projector = methods.decal_projector(obj)
+                    inp.projector = decal_projector(obj)
                 # NaN pixels make the reference's own output NaN: expected, not a warning.
                 with np.errstate(invalid="ignore", divide="ignore"):
                     report, _ = C.compare_graph(inp, obj, graph, ref, resolution)

@@ -18,12 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import bake as B
-from . import compare as C
-from . import scenes
-from .graph import Graph
-from .methods import DECAL_FALLOFF, HEIGHT_BUMP_SCALE, NOISE_AMOUNT, NOISE_SCALE, METHODS
-from .methods import cases, decal_projector
+from .. import bake as B
+from .. import compare as C
+from .. import scenes
+from ...addon.node_vocabulary import VMath
+from ..graph import Graph
+from ..methods import DECAL_FALLOFF, HEIGHT_BUMP_SCALE, NOISE_AMOUNT, NOISE_SCALE, METHODS
+from ..methods import cases, decal_projector
 
 DISTANCES = (0.0, 1000.0, 10000.0)
 DIRECTION = np.array([1.0, 0.6, 0.3]) / np.linalg.norm([1.0, 0.6, 0.3])   # off every axis
@@ -90,7 +91,7 @@ def _builtin_box_bump(inp, g):
 
 def _builtin_projector_normal_map(inp, g):
     q = g.node("ShaderNodeTexCoord", object=inp.projector).outputs["Object"]
-    uv = g.vmath("MULTIPLY_ADD", q, (0.5, 0.5, 0.0), (0.5, 0.5, 0.0))
+    uv = g.vmath(VMath.MULTIPLY_ADD, q, (0.5, 0.5, 0.0), (0.5, 0.5, 0.0))
     return _normal_map_node(g, g.image(inp.bpy_image("normal"), uv, extension="CLIP"),
                             inp.uv_map)
 

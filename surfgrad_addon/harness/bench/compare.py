@@ -6,7 +6,7 @@ For each size, `repeats` pairs of child processes run one after the other (inter
 order alternating, so the load of a shared machine falls on both alike):
 - **bake alone**: a child that does what compare does up to its bake and nothing after: the
   test scene, the method's images and node graph, the same bake (bake_vector_in_pieces) read
-  back into memory (`python -m surfgrad_addon.harness.bench_compare --bake-alone ...`);
+  back into memory (`python -m surfgrad_addon.harness.bench.compare --bake-alone ...`);
 - **compare**: `python -m surfgrad_addon compare --object Sphere ...`, start to JSON and heat
   map written.
 Each child is timed from launch to exit. Per pair two ratios, then the median over the pairs:
@@ -30,7 +30,7 @@ import numpy as np
 SIZES = (2048, 4096)
 METHOD = "normal-map"
 OBJECT = "Sphere"
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _timed(cmd, root):
@@ -47,7 +47,7 @@ def _timed(cmd, root):
 
 def bake_alone_child(method, size, python=None, root=ROOT):
     """{wall_seconds, bake_seconds} of a child that only bakes."""
-    wall, out = _timed([python or sys.executable, "-m", "surfgrad_addon.harness.bench_compare",
+    wall, out = _timed([python or sys.executable, "-m", "surfgrad_addon.harness.bench.compare",
                         "--bake-alone", method, str(size)], root)
     return {"wall_seconds": wall, "bake_seconds": json.loads(out.strip().splitlines()[-1])}
 
@@ -116,10 +116,10 @@ def _bake_alone(method, size):
     operator's seconds (JSON)."""
     import bpy
 
-    from . import bake as B
-    from . import compare as C
-    from . import scenes
-    from .methods import METHODS, resolve_sg
+    from .. import bake as B
+    from .. import compare as C
+    from .. import scenes
+    from ..methods import METHODS, resolve_sg
     scenes.new_scene()
     obj = bpy.data.objects[OBJECT]
     m = METHODS[method]

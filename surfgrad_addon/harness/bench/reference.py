@@ -27,16 +27,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import reference as R
-from ..reference import methods as M
-from ..reference.raster import BLOCK_TEXELS
+from ... import reference as R
+from ...reference import methods as M
+from ...reference.raster import BLOCK_TEXELS
 
 SIZES = (256, 512, 1024, 2048)
 METHOD_SIZES = (256, 1024, 2048, 4096)
 COMPARE_SIZES = (1024, 2048)
 MEMORY_SIZES = (1024, 2048, 4096)
 TEXEL_BYTES = 64            # position, normal, tangent + sign, UV in; the result out
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 # 1. Listings ------------------------------------------------------------------------------------
@@ -105,38 +105,38 @@ def _blocked(fn, inputs, n):
             fn({k: v[start:start + BLOCK_TEXELS] for k, v in inputs.items()})
 
 
-def _median_time(fn, repeats):
+def run_seconds(fn, repeats):
+    """Wall seconds of each of `repeats` calls of fn() (tools/bench_sampling.py too)."""
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
         fn()
         times.append(time.perf_counter() - t0)
-    return float(np.median(times))
+    return times
+
+
+def _median_time(fn, repeats):
+    return float(np.median(run_seconds(fn, repeats)))
 
 
 # 2. Whole methods in process ----------------------------------------------------------------------
 
-class ReferenceInputs:
+# A fixed decal projector, skewed so that no axis lines up with the mesh.
+PROJECTOR = np.array([[0.5, -0.1, 0.0, 0.1], [0.1, 0.4, -0.2, 0.0], [0.05, 0.2, 1.2, 0.2],
+                      [0, 0, 0, 1.0]])
+
+
+def reference_inputs(variant="hq", normal_size=None, height_size=None):
     """What compare's prepare_inputs gives a method's reference, without bpy: the same test
-    images (float32-rounded) and a fixed decal projector."""
-    uv_map, detail_uv = "UVMap", "Detail"
-
-    def __init__(self, variant="hq"):
-        from .methods import HEIGHT_IMAGE_SIZE, NORMAL_IMAGE_SIZE
-        r32 = lambda a: a.astype(np.float32).astype(np.float64)
-        self.variant = variant
-        self.images = {"normal": r32(R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE)),
-                       "detail": r32(R.images.hemisphere_tile_image(NORMAL_IMAGE_SIZE, tiles=8,
-                                                                    radius=0.6)),
-                       "height": r32(R.images.wave_height_image(HEIGHT_IMAGE_SIZE))}
-
-        class Projector:
-            matrix_world = np.array([[0.5, -0.1, 0.0, 0.1], [0.1, 0.4, -0.2, 0.0],
-                                     [0.05, 0.2, 1.2, 0.2], [0, 0, 0, 1.0]])
-        self.projector = Projector()
-
-    def pixels(self, name):
-        return self.images[name]
+    images (float32-rounded; sizes: the registry's, harness/methods.py) and PROJECTOR."""
+    from ..main_job import ReferenceInputs
+    from ..methods import HEIGHT_IMAGE_SIZE, NORMAL_IMAGE_SIZE
+    normal_size, height_size = normal_size or NORMAL_IMAGE_SIZE, height_size or HEIGHT_IMAGE_SIZE
+    r32 = lambda a: a.astype(np.float32).astype(np.float64)  # noqa: E731
+    images = {"normal": r32(R.images.hemisphere_tile_image(normal_size)),
+              "detail": r32(R.images.hemisphere_tile_image(normal_size, tiles=8, radius=0.6)),
+              "height": r32(R.images.wave_height_image(height_size))}
+    return ReferenceInputs(images, variant, PROJECTOR)
 
 
 def test_sphere():
@@ -149,9 +149,9 @@ def test_sphere():
 def method_seconds(method, variant, size, mesh=None):
     """Wall seconds of rasterize + the method's reference + resolve, block by block, as
     compare does it; the seconds without the rasteriser; and the number of texels."""
-    from .methods import METHODS
+    from ..methods import METHODS
     mesh = mesh or test_sphere()
-    inp = ReferenceInputs(variant)
+    inp = reference_inputs(variant)
     t0 = time.perf_counter()
     td = R.rasterize(mesh, "UVMap", size, size)
     t1 = time.perf_counter()
@@ -240,7 +240,7 @@ def run(out_path, sizes=SIZES, log=print, overwrite=False, method_sizes=METHOD_S
     out_path = Path(out_path)
     if out_path.exists() and not overwrite:
         raise FileExistsError(f"{out_path} exists; pass --overwrite to replace it")
-    from .methods import METHODS, cases
+    from ..methods import METHODS, cases
     rng = np.random.default_rng(0)
     bandwidth = copy_bandwidth()
     results = {"machine": {"python": platform.python_version(), "numpy": np.__version__,

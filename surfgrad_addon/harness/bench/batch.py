@@ -21,7 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import batch_assets
+from .. import batch_assets
 
 
 def _median(values):
@@ -33,7 +33,7 @@ def _median(values):
 def _fresh_task(blend, out_dir, resolution):
     """One farm-like task: a new process bakes one asset; returns (wall s, bake s, load s)."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2])
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[3])
     manifest = out_dir / "task_manifest.json"
     manifest.unlink(missing_ok=True)
     t0 = time.perf_counter()
@@ -54,7 +54,7 @@ def _fresh_task(blend, out_dir, resolution):
 def run(out="out/bench_batch", assets=50, resolution=512, workers=(1, 2), overwrite=False,
         log=print, thread_modes=("shared", "one")):
     import bpy
-    from ..addon import batch, normal_bake
+    from ...addon import batch, normal_bake
 
     out = Path(out)
     report_path = out / "bench_batch.json"
@@ -124,7 +124,7 @@ def run(out="out/bench_batch", assets=50, resolution=512, workers=(1, 2), overwr
     task["overhead_s"] = task["median_wall_s"] - task["median_bake_s"]
 
     log("[4/4] bake time against size (one asset, 2 tiles)")
-    from ..addon.open_blend import open_mainfile
+    from ...addon.open_blend import open_mainfile
     open_mainfile(blends[0])
     obj = bpy.data.objects["Asset000"]
     sizes = {}

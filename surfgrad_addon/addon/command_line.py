@@ -1,0 +1,54 @@
+"""A command line from a table of subcommands: both `python -m surfgrad_addon` (the harness's
+table, harness/cli.py) and `blender -c surfgrad` (the extension's own, commands.py) are built
+here, so they parse, report errors and exit the same way.
+
+Bad input prints one line, `surfgrad: error: ...`, naming the thing and the fix, and gives the
+exit code of exit_codes.py (2 refused before anything ran, 1 a bake failed); no traceback."""
+
+import argparse
+import sys
+from dataclasses import dataclass
+from typing import Callable
+
+from .exit_codes import OK, code_for
+
+
+@dataclass(frozen=True)
+class Subcommand:
+    """One subcommand: its name and help, what adds its options to its parser, and what runs
+    it with the parsed options (returns the exit code; None means 0). Unless it stops itself
+    (installs its own Ctrl-C / SIGTERM handling), it runs inside interrupts.stoppable."""
+    name: str
+    help: str
+    arguments: Callable
+    run: Callable
+    stops_itself: bool = False
+
+
+def parser(subcommands, prog, description, raw_description=False):
+    p = argparse.ArgumentParser(prog=prog, description=description, formatter_class=(
+        argparse.RawDescriptionHelpFormatter if raw_description else argparse.HelpFormatter))
+    sub = p.add_subparsers(dest="command", required=True)
+    for command in subcommands:
+        command.arguments(sub.add_parser(command.name, help=command.help))
+    return p
+
+
+def run(subcommands, args):
+    """Run the parsed command: its exit code, errors reported as one line."""
+    command = next(c for c in subcommands if c.name == args.command)
+    if command.stops_itself:
+        return _run(command, args)
+    from . import interrupts
+    # Ctrl-C / SIGTERM stop the command at once, exit 130 / 143, nothing written.
+    with interrupts.stoppable(command.name):
+        return _run(command, args)
+
+
+def _run(command, args):
+    try:
+        code = command.run(args)
+    except (FileExistsError, ValueError, KeyError, RuntimeError) as err:
+        print(f"surfgrad: error: {err}", file=sys.stderr)
+        return code_for(err)
+    return OK if code is None else code

@@ -1,0 +1,285 @@
+"""The registry's bpy-free half: every method's name, variants, parameters (with defaults) and
+reference, which the harness joins to the method's node graph (harness/methods.py).
+
+A Parameter names the group socket it drives and the reference keyword it feeds, so one value
+sets both: `SPECS["normal-map"].values(strength=0.3)` checks the names, and the harness sets
+Strength on the method's SG Normal Map node while the reference receives strength=0.3.
+
+A reference is reference(inputs, td, **values) -> (base normal, surface gradient) on the texels
+of td; `inputs` gives pixels(name), uv_map, detail_uv, variant and projector.matrix_world (the
+harness's compare inputs, or main_job.ReferenceInputs without Blender).
+"""
+
+import functools
+import inspect
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+import numpy as np
+
+from . import methods as M
+from .compositing import surfgrad_blend, surfgrad_blend_rnm
+from .decals import DECAL_SHAPES
+from .group_interfaces import REST_ATTRIBUTE
+from .image_sampling import sample_image
+from .listings import resolve_normal_from_surface_gradient, surfgrad_from_perturbed_normal
+from .vecmath import normalize
+
+# The comparison's settings, shared by graphs (harness/method_graphs) and references.
+NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES = 4.0, 0.05, 4
+HEIGHT_BUMP_SCALE = 0.05
+DECAL_FALLOFF = 0.2
+OVERWRITE_OPACITY = 0.7            # decal-overwrite: a cylinder decal over the detail map
+LAYER_DETAIL, LAYER_NOISE = 0.5, 0.02
+POST_RESOLVE_STRENGTH = 0.5        # the triplanar detail on top of the resolved normal map
+PARALLAX_SCALE = 0.15
+VIEW_TILT = (0.45, -0.3, 0.2)      # view = normalize(n + VIEW_TILT): oblique, front-facing
+BUMP_ON_TOP = (8.0, 0.02, 2)       # displace-bump: scale, amount, octaves of the finer bump
+BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 3}
+# SG Parallax's march steps (addon/groups/parallax.py's POM_STEPS, needed here without the
+# add-on; tests/test_method_registry.py holds them equal).
+POM_STEPS = 8
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One setting of a method: `name` in method.at(name=...) and in the method's reference,
+    its default, the group input `socket` it sets on every node of `groups` in the method's
+    graph, and the keyword (default: the name) the reference passes it to `function` (a
+    reference/methods.py function) as."""
+    name: str
+    default: object
+    socket: str
+    groups: tuple
+    function: Callable
+    keyword: Optional[str] = None
+
+    @property
+    def reference_keyword(self):
+        return self.keyword or self.name
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    name: str
+    reference: Callable                # reference(inputs, td, **values)
+    variants: tuple = ("hq",)          # height-map: the three derivative variants
+    parameters: tuple = ()
+    group: Optional[str] = None        # a group behind a feature gate (groups.REQUIRES)
+    adds: Optional[str] = None         # "projector" or "modifier": the scene set-up it needs
+    stability: bool = True             # run by the stability suite (bench/stability.py)
+    scene_only: bool = False           # its reference needs Blender's evaluated scene
+    mikktspace: bool = False           # it reads the MikkTSpace frame (SG Normal Map)
+    same_reference_as: Optional[str] = None   # another method's reference (a Sampler group's)
+
+    def values(self, **given):
+        """Every parameter's value, as (name, value) pairs in declaration order: the defaults
+        with `given` in their place. An unknown name is a ValueError naming the known ones."""
+        known = [p.name for p in self.parameters]
+        unknown = sorted(set(given) - set(known))
+        if unknown:
+            raise ValueError(f"method {self.name!r} has no parameter {unknown[0]!r}; its "
+                             f"parameters: {', '.join(known) if known else 'none'}")
+        return tuple((p.name, given.get(p.name, p.default)) for p in self.parameters)
+
+    def bound_reference(self, values):
+        """reference(inputs, td) with `values` (from values()) passed by name; the reference
+        hands each on to its function as the parameter's keyword."""
+        return _bind(self.reference, tuple(values))
+
+
+@functools.lru_cache(maxsize=None)
+def _bind(reference, keywords):
+    """One callable per (reference, keywords): methods sharing a reference and its values (a
+    Sampler method and its twin) share the bound reference itself."""
+    if not keywords:
+        return reference
+    return functools.partial(reference, **dict(keywords))
+
+
+def accepts(function, keyword):
+    """Whether `function` takes `keyword` as a keyword argument."""
+    return keyword in inspect.signature(function).parameters
+
+
+def parallax_depth(inp):
+    """The comparison's parallax depth: PARALLAX_SCALE, or what compare set for a small object
+    (harness/scale_limits.parallax_depth)."""
+    return getattr(inp, "parallax_scale", None) or PARALLAX_SCALE
+
+
+# References: the reference/methods.py functions on a method's inputs ----------------------------
+
+def _normal_map(inp, td, strength):
+    return M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map, strength=strength)
+
+
+def _procedural_basis(inp, td, strength):
+    return M.procedural_basis_surfgrad(td, inp.pixels("detail"), inp.detail_uv,
+                                       strength=strength)
+
+
+def _object_normal(inp, td):
+    n = M.unit_base_normal(td)
+    v = M.decode_normal_map(sample_image(inp.pixels("normal"), td.uv(inp.uv_map))) + 2 * n
+    return n, surfgrad_from_perturbed_normal(n, v)
+
+
+def _volume_noise(inp, td, scale, amount, octaves):
+    return M.volume_noise_surfgrad(td, scale, amount, octaves)
+
+
+def _height_map(inp, td, bump_scale):
+    return M.height_map_surfgrad(td, inp.pixels("height"), inp.variant, bump_scale, inp.uv_map)
+
+
+def _triplanar(inp, td, strength):
+    return M.triplanar_surfgrad(td, inp.pixels("normal"), strength=strength)
+
+
+def _triplanar_height(inp, td, bump_scale):
+    return M.triplanar_height_surfgrad(td, inp.pixels("height"), bump_scale=bump_scale)
+
+
+def decal_shape(inp):
+    """The decal's shape: the method's variant, box for plain "decal"."""
+    return inp.variant if inp.variant in DECAL_SHAPES else "box"
+
+
+def _decal(inp, td, strength, falloff, opacity):
+    return M.decal_surfgrad(td, inp.pixels("normal"), np.array(inp.projector.matrix_world),
+                            strength=strength, falloff=falloff, shape=decal_shape(inp),
+                            opacity=opacity)
+
+
+def _decal_overwrite(inp, td, falloff, opacity):
+    n, base = M.procedural_basis_surfgrad(td, inp.pixels("detail"), inp.detail_uv)
+    return M.decal_surfgrad(td, inp.pixels("normal"), np.array(inp.projector.matrix_world),
+                            falloff=falloff, shape="cylinder", overwrite=True,
+                            opacity=opacity, base_sg=base)
+
+
+def _layered(inp, td, detail_strength, noise_amount):
+    n, sg1 = M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map)
+    _, sg2 = M.procedural_basis_surfgrad(td, inp.pixels("detail"), inp.detail_uv,
+                                         strength=detail_strength)
+    _, sg3 = M.volume_noise_surfgrad(td, NOISE_SCALE, noise_amount, NOISE_OCTAVES)
+    return n, sg1 + sg2 + sg3
+
+
+def _parallax(inp, td):
+    n = M.unit_base_normal(td)
+    view = normalize(n + np.array(VIEW_TILT))
+    offs = M.parallax_offset(td, inp.pixels("height"), view, parallax_depth(inp), POM_STEPS,
+                             inp.uv_map)
+    return M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map,
+                                 st=td.uv(inp.uv_map) + offs)
+
+
+def _post_resolve(inp, td, strength):
+    n, sg = M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map)
+    n1 = resolve_normal_from_surface_gradient(n, sg)
+    _, sg2 = M.triplanar_surfgrad(td, inp.pixels("detail"), strength=strength, base_normal=n1)
+    return n1, sg2
+
+
+def _displace_bump(inp, td, scale, amount, octaves):
+    return M.volume_noise_surfgrad(td, scale, amount, octaves,
+                                   coords=td.point_attribute(REST_ATTRIBUTE))
+
+
+def _blend(mode):
+    method = {"blend-pd": "pd", "blend-whiteout": "whiteout", "blend-udn": "udn"}.get(mode)
+
+    def reference(inp, td):
+        n, t, bt = M.mikktspace_frame(td, inp.uv_map)
+        uv = td.uv(inp.uv_map)
+        a = M.decode_normal_map(sample_image(inp.pixels("normal"), uv))
+        b = M.decode_normal_map(sample_image(inp.pixels("detail"), uv))
+        if method is None:
+            return n, surfgrad_blend_rnm(a, b, t, bt)
+        return n, surfgrad_blend(method, a, t, bt, b, t, bt)
+    return reference
+
+
+# Parameters ---------------------------------------------------------------------------------------
+
+def _strength(groups, function, default=1.0, name="strength"):
+    return Parameter(name, default, "Strength", groups, function, "strength")
+
+
+def _bump_scale(groups, function):
+    return Parameter("bump_scale", HEIGHT_BUMP_SCALE, "Bump Scale", groups, function)
+
+
+def _noise(default_scale, default_amount, default_octaves):
+    f = M.volume_noise_surfgrad
+    return (Parameter("scale", default_scale, "Scale", ("SG Noise",), f),
+            Parameter("amount", default_amount, "Strength", ("SG Volume Gradient",), f),
+            Parameter("octaves", default_octaves, "Octaves", ("SG Noise",), f))
+
+
+def _decal_settings(opacity):
+    f = M.decal_surfgrad
+    return (Parameter("falloff", DECAL_FALLOFF, "Falloff", ("SG Decal",), f),
+            Parameter("opacity", opacity, "Opacity", ("SG Decal",), f))
+
+
+_NORMAL_MAP = _strength(("SG Normal Map",), M.normal_map_surfgrad)
+_TRIPLANAR = _strength(("SG Triplanar",), M.triplanar_surfgrad)
+_HEIGHT = _bump_scale(("SG Height Map Forward", "SG Height Map HQ", "SG Height Map One-Texel"),
+                      M.height_map_surfgrad)
+_TRIPLANAR_HEIGHT = _bump_scale(("SG Triplanar Height",), M.triplanar_height_surfgrad)
+
+
+_SPECS = (
+    MethodSpec("normal-map", _normal_map, parameters=(_NORMAL_MAP,), mikktspace=True),
+    MethodSpec("procedural-basis", _procedural_basis,
+               parameters=(_strength(("SG Tangent Normal",), M.procedural_basis_surfgrad),)),
+    MethodSpec("object-normal", _object_normal),
+    MethodSpec("volume-noise", _volume_noise,
+               parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
+    MethodSpec("height-map", _height_map, variants=M.HEIGHT_VARIANTS, parameters=(_HEIGHT,)),
+    MethodSpec("triplanar", _triplanar, parameters=(_TRIPLANAR,)),
+    MethodSpec("triplanar-height", _triplanar_height, parameters=(_TRIPLANAR_HEIGHT,),
+               stability=False),          # the triplanar Listings, covered by "triplanar"
+    MethodSpec("decal", _decal, variants=DECAL_SHAPES, adds="projector",
+               parameters=(_strength(("SG Decal",), M.decal_surfgrad), *_decal_settings(1.0))),
+    MethodSpec("decal-overwrite", _decal_overwrite, adds="projector", stability=False,
+               parameters=_decal_settings(OVERWRITE_OPACITY)),
+    MethodSpec("parallax", _parallax, mikktspace=True),
+    # Two resolves of the methods the suite already runs.
+    MethodSpec("post-resolve", _post_resolve, stability=False, mikktspace=True,
+               parameters=(_strength(("SG Triplanar",), M.triplanar_surfgrad,
+                                     POST_RESOLVE_STRENGTH),)),
+    # Its hostile cases are the mesh's, not a texture's; its reference reads the displaced
+    # mesh's rest positions.
+    MethodSpec("displace-bump", _displace_bump, group="SG Displace", adds="modifier",
+               stability=False, scene_only=True, parameters=_noise(*BUMP_ON_TOP)),
+    MethodSpec("layered", _layered, mikktspace=True, parameters=(
+        _strength(("SG Tangent Normal",), M.procedural_basis_surfgrad, LAYER_DETAIL,
+                  name="detail_strength"),
+        Parameter("noise_amount", LAYER_NOISE, "Strength", ("SG Volume Gradient",),
+                  M.volume_noise_surfgrad, "amount"))),
+    # The Sampler groups (5.0+): the per-image methods' references, the image as a closure.
+    MethodSpec("height-map-sampler", _height_map, variants=("one-texel", "hq"),
+               group="SG Height Map HQ (Sampler)", stability=False,
+               same_reference_as="height-map",
+               parameters=(_bump_scale(("SG Height Map HQ (Sampler)",
+                                        "SG Height Map One-Texel (Sampler)"),
+                                       M.height_map_surfgrad),)),
+    MethodSpec("triplanar-sampler", _triplanar, group="SG Triplanar (Sampler)",
+               stability=False, same_reference_as="triplanar",
+               parameters=(_strength(("SG Triplanar (Sampler)",), M.triplanar_surfgrad),)),
+    MethodSpec("triplanar-height-sampler", _triplanar_height,
+               group="SG Triplanar Height (Sampler)", stability=False,
+               same_reference_as="triplanar-height",
+               parameters=(_bump_scale(("SG Triplanar Height (Sampler)",),
+                                       M.triplanar_height_surfgrad),)),
+    MethodSpec("parallax-sampler", _parallax, group="SG Parallax (Sampler)", stability=False,
+               mikktspace=True, same_reference_as="parallax"),
+    # RNM stands for the four blends in the stability suite (same decode, same SG Normal Map).
+    *(MethodSpec(mode, _blend(mode), stability=mode == "blend-rnm", mikktspace=True)
+      for mode in BLEND_MODES),
+)
+SPECS = {s.name: s for s in _SPECS}
