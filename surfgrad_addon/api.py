@@ -3,6 +3,7 @@
     from surfgrad_addon import api          # from a checkout
     tree = api.node_group("SG Normal Map", uv_map="Detail")
     nodes = api.add_layer_stack(bpy.data.materials["Rock"], uv_map="UVMap")
+    api.update_precise_far(bpy.data.objects["Rock"])   # Precise Far From Origin by distance
     api.bake_normal_map(bpy.data.objects["Rock"], "rock_nrm.exr", space="tangent")
     api.bake_normal_map(rock, "rock_nrm.<UDIM>.png", samples=16, depth="16")   # UDIM tiles
     report = api.bake_batch(["a.blend", "b.blend"], "maps/{file}/{object}.<UDIM>.png",
@@ -60,6 +61,18 @@ def add_layer_stack(material, uv_map=""):
     if material is None or getattr(material, "node_tree", None) is None:
         raise ValueError("give a material that uses nodes")
     return operators.add_layer_stack(material.node_tree, uv_map)
+
+
+def update_precise_far(obj):
+    """Switch the Precise Far From Origin input of every surfgrad group node in obj's materials
+    on where obj reaches farther than 64 m from the origin, off nearer (off, the groups' precise
+    route costs nothing at render time). Returns how many group nodes were set."""
+    from .addon.far_precision import needs_precise_far, set_precise_far
+    if obj is None or not hasattr(obj, "material_slots"):
+        raise ValueError("give an object with material slots")
+    on = needs_precise_far(obj)
+    return sum(set_precise_far(slot.material.node_tree, on) for slot in obj.material_slots
+               if slot.material is not None and slot.material.node_tree is not None)
 
 
 # The defaults are the bake request's (addon/bake_request.py), written once there.

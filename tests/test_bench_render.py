@@ -1,17 +1,19 @@
 """The render-cost bench in its quick form: every SG material and its twin render, the table and
 chart are written, the look checks hold (SG against its twin where both mean the same thing,
-against the reference otherwise), and the node counts trace the cost. Timings are printed and
-written by the bench (bash run.sh bench-render), never asserted here."""
+against the reference otherwise), and the node counts trace the cost, Cycles' own SVM count after
+folding among them (a child compiles the materials: tier child). Timings are printed and written
+by the bench (bash run.sh bench-render), never asserted here."""
 
 import json
 
 import pytest
 
-pytestmark = pytest.mark.tier("bake")
+pytestmark = pytest.mark.tier("child")
 
 pytest.importorskip("bpy")
 
-from surfgrad_addon.harness.bench import render_cost  # noqa: E402
+from surfgrad_addon.harness.bench import folded_cost, render_cost  # noqa: E402
+from surfgrad_addon.harness.bench import render_materials as M  # noqa: E402
 
 
 def test_quick_render_cost_bench(tmp_path):
@@ -19,11 +21,20 @@ def test_quick_render_cost_bench(tmp_path):
     assert {p.name for p in tmp_path.iterdir()} >= {"render_cost.json", "render_cost.md",
                                                     "render_cost.png"}
     rows = {r["key"]: r for r in json.loads((tmp_path / "render_cost.json").read_text())["rows"]}
-    assert set(rows) == {key for key, *_ in render_cost.cases()}
+    assert set(rows) == {key for key, *_ in M.cases()}
     for key, row in rows.items():
         assert row["seconds"] > 0, key
         if "twin" in row:
             assert 0.2 < row["ratio"] < 20, (key, row["ratio"])
+            assert row["svm_ratio"] == row["svm"] / rows[row["twin"]]["svm"]
+    # The after-folding table: every material and option, the rows' counts taken from it, each
+    # perturbation costing more than the unperturbed material.
+    folded = {r["key"]: r for r in result["folded"]}
+    assert set(folded) == {key for key, *_ in folded_cost.materials()}
+    assert all(rows[k]["svm"] == folded[k]["svm"] for k in rows)
+    assert all(r["svm"] > folded["none"]["svm"] for k, r in folded.items() if k != "none")
+    assert "SVM program size after Cycles' constant folding" in \
+        (tmp_path / "render_cost.md").read_text()
     # Same look: SG Normal Map resolves to Blender's node, SG Height Map Forward to the Bump
     # node at the same Filter Width; triplanar and the procedural basis match the reference.
     for key in ("nm-sg", "bump-sg"):

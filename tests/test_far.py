@@ -213,8 +213,10 @@ def test_bench_far_command(tmp_path):
 
 def test_projector_coordinates_routes(objects):
     """SG Projector Coordinates: near the origin its linked Texture Coordinate passes through
-    bit for bit; unlinked, the precise route gives the same coordinates (to 1e-5); 10 km out
-    the precise route holds where the Texture Coordinate node is off by more than 1e-4."""
+    bit for bit; unlinked with Precise Far From Origin on, the precise route gives the same
+    coordinates (to 1e-5); 10 km out (where the bake switches Precise Far From Origin on, as the
+    operators do) the precise route holds where the Texture Coordinate node is off by more than
+    1e-4."""
     from surfgrad_addon.harness.graph import Graph
     from surfgrad_addon.harness.method_graphs.projection import projector_coordinates
     from surfgrad_addon.harness.method_scene import decal_projector
@@ -226,8 +228,9 @@ def test_projector_coordinates_routes(objects):
             if only_tc:
                 return g.node("ShaderNodeTexCoord", object=proj).outputs["Object"]
             q = projector_coordinates(g, proj)
-            if not link_tc:
+            if not link_tc:         # the precise route, which Precise Far From Origin enables
                 links.remove(q.node.inputs["Decal Coordinates"].links[0])
+                q.node.inputs["Precise Far From Origin"].default_value = True
             return q
         return build
     for distance in (0.0, FAR):

@@ -14,6 +14,7 @@ from ..reference.decals import DECAL_SHAPES
 from . import groups as G
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
+from .far_precision import needs_precise_far, set_precise_far_on_node
 
 NORMAL_SOCKET = "Normal"
 
@@ -195,9 +196,9 @@ DECAL_DISPLAY = {"box": ("CUBE", ()), "sphere": ("SPHERE", ()),
 def add_decal_projector(context, tree, image=None, name="SG Decal Projector", shape="box"):
     """An empty at the 3D cursor whose display shows the projector's volume (`shape`: box,
     sphere, cylinder or cone), and in `tree` the decal chain: Texture Coordinate (object = the
-    empty) -> SG Projector Coordinates (driven by the empty: precise far from the origin) -> SG
-    Decal Coordinates -> Image Texture -> SG Decal (its Shape set), whose Axis X/Y are driven by
-    the empty's rotation. Returns (empty, decal node)."""
+    empty) -> SG Projector Coordinates (driven by the empty; Precise Far From Origin on where the
+    active object is far) -> SG Decal Coordinates -> Image Texture -> SG Decal (its Shape set),
+    whose Axis X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
     if shape not in DECAL_SHAPES:
         raise SurfgradError(f"decal shape {shape!r}: use one of {', '.join(DECAL_SHAPES)}")
     _prebuild(G.projector_coordinates_group, G.decal_coordinates_group, G.decal_group)
@@ -221,6 +222,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
                                                            texco.location.y))
     tree.links.new(texco.outputs["Object"], tc.inputs["Decal Coordinates"])
     drive_projector(tc, empty)
+    set_precise_far_on_node(tc, needs_precise_far(getattr(context, "object", None)))
     coords = _group_node(tree, G.decal_coordinates_group, (tc.location.x + 200, tc.location.y))
     tex = tree.nodes.new("ShaderNodeTexImage")
     tex.image = image

@@ -18,6 +18,7 @@ from ..addon.bake_console import quiet_bake
 from ..addon.scene_state import SCENE_SETTINGS, restored
 from ..addon.bake_target import bake_target_problem, visible_for_bake
 from ..addon.exit_codes import BakeFailed
+from ..addon.far_precision import needs_precise_far, set_precise_far
 from .graph import Graph
 
 
@@ -269,6 +270,10 @@ def _bake_into(obj, build, image, uv_map, displacement, log):
         # Cycles' true displacement: the vector from `displacement` moves the surface.
         g.emission_material(build(nodes, links),
                             displacement(nodes, links) if displacement is not None else None)
+        # As the operators do for the object they add groups for: the precise route far out
+        # (never switched off here: a build may want it on near the origin too).
+        if needs_precise_far(obj):
+            set_precise_far(tree, True)
         if displacement is not None:
             if hasattr(material, "displacement_method"):
                 material.displacement_method = "DISPLACEMENT"

@@ -214,7 +214,7 @@ INTERFACES = {
          SocketSpec("Turbulence", BOOLEAN, "Sum |noise| (Perlin's turbulence) instead of noise "
                     "(fractal sum)", default=False),
          SocketSpec("Object Space", BOOLEAN, "Vector is in object space: return the gradient "
-                    "in world space (for SG Volume Gradient)", default=True))),
+                    "in world space (for SG Volume Gradient)", default=True), S.PRECISE_FAR)),
     "SG Normal Map": _g(
         "Tangent-space normal map to surface gradient, MikkTSpace compliant (Listings 2, 3, 9 "
         "through the Normal Map node, then 5) on UV map {uv_map}",
@@ -247,14 +247,16 @@ INTERFACES = {
         (S.DECAL_COORDINATES.but(tooltip="Position in the projector's space, for SG Decal "
                                  "Coordinates and SG Decal", hide_value=False),),
         (S.DECAL_COORDINATES.but(tooltip="A Texture Coordinate node's Object output with the "
-                                 "projector as its object: used near the origin (unlinked: the "
-                                 "precise route everywhere)"),
+                                 "projector as its object, used as given; with Precise Far From "
+                                 "Origin on, near the origin only (far out or unlinked: the "
+                                 "precise route)"),
          SocketSpec("Projector Location", VECTOR, "The projector's world location (the Add "
                     "Decal Projector operator drives it)", default=(0.0, 0.0, 0.0)),
          *(SocketSpec(f"To Projector {a}", VECTOR, f"Row {a} of the projector's world-to-local "
                       "3 x 3 matrix, the inverse of its rotation and scale (driven by the "
                       "operator)", default=e)
-           for a, e in zip("XYZ", ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))))),
+           for a, e in zip("XYZ", ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)))),
+         S.PRECISE_FAR)),
     "SG Resolve": _g(
         "Listing 1: the perturbed normal from the base normal and the summed surface gradient",
         (S.NORMAL_OUT,), (S.NORMAL, S.SURFACE_GRADIENT)),
@@ -274,18 +276,19 @@ INTERFACES = {
     "SG Triplanar (Sampler)": _g(
         TRIPLANAR + ", the normal map given as a Sampler closure",
         (S.SURFACE_GRADIENT_OUT, S.WEIGHTS_OUT),
-        (S.NORMAL, S.POSITION, S.TEXTURE_SCALE, S.SAMPLER, S.DIRECTX, S.SHARPNESS, S.STRENGTH)),
+        (S.NORMAL, S.POSITION, S.TEXTURE_SCALE, S.SAMPLER, S.DIRECTX, S.SHARPNESS, S.STRENGTH,
+         S.PRECISE_FAR)),
     "SG Triplanar Coordinates": _g(
         "The three planar projections of triplanar mapping (Eq. 19): feed three Image Texture "
         "nodes, then SG Triplanar",
         tuple(SocketSpec(f"UV {a}", VECTOR, f"Coordinates for the image projected along {a}")
               for a in "XYZ"),
-        (S.POSITION, S.TEXTURE_SCALE)),
+        (S.POSITION, S.TEXTURE_SCALE, S.PRECISE_FAR)),
     "SG Triplanar Height": _g(TRIPLANAR_HEIGHT, (S.SURFACE_GRADIENT_OUT,),
-                              TRIPLANAR_HEIGHT_INPUTS),
+                              (*TRIPLANAR_HEIGHT_INPUTS, S.PRECISE_FAR)),
     "SG Triplanar Height (Sampler)": _g(
         TRIPLANAR_HEIGHT + ", the image given as a Sampler closure", (S.SURFACE_GRADIENT_OUT,),
-        (*TRIPLANAR_HEIGHT_INPUTS, *SAMPLED_SIZE)),
+        (*TRIPLANAR_HEIGHT_INPUTS, *SAMPLED_SIZE, S.PRECISE_FAR)),
     "SG Volume Gradient": _g(
         "Listing 8: surface gradient of a volume bump map",
         (S.SUMMABLE_GRADIENT_OUT,),

@@ -100,6 +100,14 @@ IMAGE_WIDTH = SocketSpec("Width", INT, "Width of the sampled image in pixels (th
 IMAGE_HEIGHT = SocketSpec("Height", INT, "Height of the sampled image in pixels", default=1024,
                           min=1, max=65536)
 
+# -- inputs: far from the origin -----------------------------------------------------------------
+# Off (a constant), Cycles folds the precise route away: the group costs what it did without it.
+PRECISE_FAR = SocketSpec("Precise Far From Origin", BOOLEAN, "Rebuild positions from precise "
+                         "parts (the object's origin and its own coordinates) where the object "
+                         "is far from the origin, where float32 world positions step visibly. "
+                         "Off: the plain route, free. surfgrad's operators and api switch it on "
+                         "for objects farther than 64 m", default=False)
+
 # -- inputs: gradient noise ----------------------------------------------------------------------
 NOISE_OCTAVES = 4      # the most octaves a noise group sums
 NOISE_VECTOR = _vector("Vector", "Position to evaluate")

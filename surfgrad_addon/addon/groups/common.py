@@ -11,7 +11,7 @@ from ...reference.group_interfaces import INTERFACES
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, TSPACE_Z_CLAMP
 
 
-VERSION = 18
+VERSION = 19
 
 
 class FeatureUnavailable(ValueError):
@@ -178,6 +178,14 @@ def directx_input(b):
     return b.input(S.DIRECTX)
 
 
+def flip_green(b, y, directx):
+    """y, negated where the DirectX switch is on: y (1 - 2 DirectX). Off (a constant) the product
+    by 1 folds away in Cycles; None builds no switch at all (what the off switch folds to)."""
+    if directx is None:
+        return y
+    return b.math(Math.MULTIPLY, y, b.math(Math.MULTIPLY_ADD, directx, -2.0, 1.0))
+
+
 def listing2_z(b, mx, my, mz):
     """Listing 2's z = max(|z|, max(|x|, |y|) / 128): the derivative stays within 128."""
     return b.math(Math.MAXIMUM, b.math(Math.ABSOLUTE, mz), b.math(
@@ -195,11 +203,15 @@ def decode_tangent_normal(b, color, directx=None):
     """m = 2 c - 1 (m.y negated for a DirectX map) and Listing 2's derivative (abs z, 1/128
     clamp), as two float sockets."""
     mx, my, mz = b.separate(unpack_normal(b, color))
-    if directx is not None:
-        my = b.math(Math.MULTIPLY, my,
-                    b.math(Math.SUBTRACT, 1.0, b.math(Math.MULTIPLY, directx, 2.0)))
+    my = flip_green(b, my, directx)
     inv = b.math(Math.DIVIDE, -1.0, b.math(Math.MAXIMUM, listing2_z(b, mx, my, mz), DIVIDE_FLOOR))
     return b.math(Math.MULTIPLY, mx, inv), b.math(Math.MULTIPLY, my, inv)
+
+
+def by_strength(b, v, strength):
+    """v x Strength: at the default 1 (a constant) the product folds away in Cycles
+    (tests/test_render_cost_folding.py)."""
+    return b.scale(v, strength)
 
 
 def tangent_normal_to_surfgrad(b, color, strength, t, bt, directx=None):
@@ -207,7 +219,7 @@ def tangent_normal_to_surfgrad(b, color, strength, t, bt, directx=None):
     with b.frame("Listing 2: derivative from a tangent-space normal"):
         dx, dy = decode_tangent_normal(b, color, directx)
     with b.frame("Listing 3: deriv.x t + deriv.y b"):
-        return b.scale(b.add(b.scale(t, dx), b.scale(bt, dy)), strength)
+        return by_strength(b, b.add(b.scale(t, dx), b.scale(bt, dy)), strength)
 
 
 
@@ -313,19 +325,29 @@ def scaled_position_inputs(b):
     raw = b.input(S.POSITION)
     scale = b.input(S.TEXTURE_SCALE)
     unlinked = b.is_zero(raw)
-    with b.frame("Unlinked: world position x Scale; far out, modulo one repeat from precise "
-                 "parts (object origin, object-space offset)"):
-        world = b.scale(b.geometry("Position"), scale)
-        origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
-        turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
-                      convert_from="OBJECT", convert_to="WORLD")
-        b.link(object_position(b), turn.inputs[0])
-        precise = b.add(_fraction_of_product(b, origin, scale), b.scale(turn.outputs[0], scale))
-        ox, oy, oz = b.separate(b.vmath(VMath.ABSOLUTE, origin))
-        reach = b.math(Math.MULTIPLY, b.math(Math.MAXIMUM, b.math(Math.MAXIMUM, ox, oy), oz), scale)
-        far = b.math(Math.GREATER_THAN, reach, FAR_REPEATS)
-        world = select(b, far, world, precise)
+    world = b.scale(b.geometry("Position"), scale)
+    with b.frame("Precise Far From Origin: where the object's origin is far, modulo one repeat "
+                 "from precise parts (object origin, object-space offset)"):
+        def precise():
+            origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
+            turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
+                          convert_from="OBJECT", convert_to="WORLD")
+            b.link(object_position(b), turn.inputs[0])
+            parts = b.add(_fraction_of_product(b, origin, scale),
+                          b.scale(turn.outputs[0], scale))
+            ox, oy, oz = b.separate(b.vmath(VMath.ABSOLUTE, origin))
+            reach = b.math(Math.MULTIPLY, b.math(Math.MAXIMUM, b.math(Math.MAXIMUM, ox, oy), oz),
+                           scale)
+            return select(b, b.math(Math.GREATER_THAN, reach, FAR_REPEATS), world, parts)
+        world = precise_far_route(b, world, precise)
     return select(b, unlinked, b.scale(raw, scale), world), scale
+
+
+def precise_far_route(b, plain, precise):
+    """plain, or precise() where the group's Precise Far From Origin input is on. Off by
+    default, a constant: Cycles folds the precise route away (tests/test_render_cost_folding.py
+    counts it), so a group near the origin costs what it did before the route existed."""
+    return select(b, b.input(S.PRECISE_FAR), plain, precise())
 
 
 def surfgrad_reaching(b, n, v, against):

@@ -6,8 +6,8 @@ from ...reference import socket_specs as S
 from ...reference.decals import DECAL_SHAPES, SHAPE_FLOOR  # noqa: F401
 from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
-from .common import (SamplerTaps, decode_tangent_normal, directx_input, ensure, normal_input,
-                     object_position, require, scaled_position_inputs)
+from .common import (SamplerTaps, by_strength, decode_tangent_normal, directx_input, ensure,
+                     normal_input, object_position, require, scaled_position_inputs)
 
 
 def triplanar_blend_inputs(b):
@@ -56,7 +56,7 @@ def plane_coordinates(b, p):
 def triplanar_outputs(b, n, weights, derivs, strength):
     """Listing 13 on the planes' derivatives, scaled by strength, and the blend weights."""
     sg = triplanar_surface_gradient(b, n, weights, derivs)
-    b.output(S.SURFACE_GRADIENT_OUT, b.scale(sg, strength))
+    b.output(S.SURFACE_GRADIENT_OUT, by_strength(b, sg, strength))
     b.output(S.WEIGHTS_OUT, b.combine(*weights))
 
 
@@ -98,22 +98,26 @@ def projector_coordinates_group():
         near_q = b.input(S.DECAL_COORDINATES)
         location = b.input("Projector Location")
         rows = [b.input(f"To Projector {a}") for a in "XYZ"]
-        with b.frame("Offset from the projector in world axes, from precise parts: "
-                     "(object origin - projector) + object-space position turned to world"):
-            origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
-            turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
-                          convert_from="OBJECT", convert_to="WORLD")
-            b.link(object_position(b), turn.inputs[0])
-            offset = b.add(b.sub(origin, location), turn.outputs[0])
-        with b.frame("To the projector's space: one row per axis"):
-            precise = b.combine(*(b.dot(row, offset) for row in rows))
-        with b.frame(f"Near the origin (< {common.FAR_METRES:g} m) the linked Texture "
-                     "Coordinate, as it always was; far out or unlinked, the precise route"):
-            ox, oy, oz = b.separate(b.vmath(VMath.ABSOLUTE, origin))
-            reach = b.math(Math.MAXIMUM, b.math(Math.MAXIMUM, ox, oy), oz)
-            use = b.math(Math.MAXIMUM, b.math(Math.GREATER_THAN, reach, common.FAR_METRES),
-                         b.is_zero(near_q))
-            q = common.select(b, use, near_q, precise)
+
+        def precise():
+            with b.frame("Offset from the projector in world axes, from precise parts: "
+                         "(object origin - projector) + object-space position turned to world"):
+                origin = b.node("ShaderNodeObjectInfo").outputs["Location"]
+                turn = b.node("ShaderNodeVectorTransform", vector_type="VECTOR",
+                              convert_from="OBJECT", convert_to="WORLD")
+                b.link(object_position(b), turn.inputs[0])
+                offset = b.add(b.sub(origin, location), turn.outputs[0])
+            with b.frame("To the projector's space: one row per axis"):
+                parts = b.combine(*(b.dot(row, offset) for row in rows))
+            with b.frame(f"Near the origin (< {common.FAR_METRES:g} m) the linked Texture "
+                         "Coordinate, as it always was; far out or unlinked, the precise route"):
+                ox, oy, oz = b.separate(b.vmath(VMath.ABSOLUTE, origin))
+                reach = b.math(Math.MAXIMUM, b.math(Math.MAXIMUM, ox, oy), oz)
+                use = b.math(Math.MAXIMUM, b.math(Math.GREATER_THAN, reach, common.FAR_METRES),
+                             b.is_zero(near_q))
+                return common.select(b, use, near_q, parts)
+        with b.frame("Precise Far From Origin off: the linked Texture Coordinate as given"):
+            q = common.precise_far_route(b, near_q, precise)
         b.output(S.DECAL_COORDINATES, q)
     return ensure("SG Projector Coordinates", build)
 
@@ -133,31 +137,42 @@ def _ramp(b, distance, falloff):
     return b.math(Math.MINIMUM, b.math(Math.MAXIMUM, fade, 0.0), 1.0)
 
 
-def decal_weight(b, q, shape, falloff):
+def decal_weight(b, q, shape, falloff, shapes=range(len(DECAL_SHAPES))):
     """Each shape's weight in [0, 1] (reference/decals.py has the same four), selected by
     `shape`; every one is a bump scale (the paper's footnote 2), so the result stays a
-    surface gradient."""
+    surface gradient. A constant `shape` leaves only its own nodes after Cycles' folding (the
+    same as building only that one: `shapes`, tests/test_render_cost_folding.py)."""
     qx, qy, qz = b.separate(q)
     depth = _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(Math.ABSOLUTE, qz)), falloff)
     rho = b.length(b.combine(qx, qy))
-    with b.frame("Box: inside |x|, |y| <= 1, faded along depth"):
-        inside = b.math(Math.MULTIPLY, *(b.math(Math.LESS_THAN, b.math(Math.ABSOLUTE, c), 1.000001)
-                                         for c in (qx, qy)))
-        box = b.math(Math.MULTIPLY, inside, depth)
-    with b.frame("Sphere: faded toward |q| = 1"):
-        sphere = _ramp(b, b.math(Math.SUBTRACT, 1.0, b.length(q)), falloff)
-    with b.frame("Cylinder: faded toward rho = 1 and the ends"):
-        cylinder = b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, rho), falloff), depth)
-    with b.frame("Cone: radius (1 - z) / 2, faded toward its side and the ends"):
-        radius = b.math(Math.MAXIMUM, b.math(Math.MULTIPLY, b.math(Math.SUBTRACT, 1.0, qz),
-                                                   0.5), SHAPE_FLOOR)
-        cone = b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(
-            Math.DIVIDE, rho, radius)), falloff), depth)
+
+    def box():
+        with b.frame("Box: inside |x|, |y| <= 1, faded along depth"):
+            inside = b.math(Math.MULTIPLY, *(b.math(Math.LESS_THAN, b.math(Math.ABSOLUTE, c),
+                                                    1.000001) for c in (qx, qy)))
+            return b.math(Math.MULTIPLY, inside, depth)
+
+    def sphere():
+        with b.frame("Sphere: faded toward |q| = 1"):
+            return _ramp(b, b.math(Math.SUBTRACT, 1.0, b.length(q)), falloff)
+
+    def cylinder():
+        with b.frame("Cylinder: faded toward rho = 1 and the ends"):
+            return b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, rho), falloff),
+                          depth)
+
+    def cone():
+        with b.frame("Cone: radius (1 - z) / 2, faded toward its side and the ends"):
+            radius = b.math(Math.MAXIMUM, b.math(Math.MULTIPLY, b.math(Math.SUBTRACT, 1.0, qz),
+                                                 0.5), SHAPE_FLOOR)
+            return b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(
+                Math.DIVIDE, rho, radius)), falloff), depth)
+    weights = (box, sphere, cylinder, cone)          # in DECAL_SHAPES' order
     with b.frame("The chosen shape"):
         total = 0.0
-        for index, weight in enumerate((box, sphere, cylinder, cone)):
+        for index in shapes:
             pick = b.math(Math.COMPARE, shape, float(index), 0.5)
-            total = b.math(Math.ADD, total, b.math(Math.MULTIPLY, pick, weight))
+            total = b.math(Math.ADD, total, b.math(Math.MULTIPLY, pick, weights[index]()))
         return total
 
 
@@ -176,7 +191,7 @@ def decal_group():
             dx, dy = decode_tangent_normal(b, color, directx)
         with b.frame("Listing 15: grad = deriv.x X + deriv.y Y, then Listing 8"):
             grad = b.add(b.scale(axis_x, dx), b.scale(axis_y, dy))
-            sg = b.scale(b.sub(grad, b.scale(n, b.dot(n, grad))), strength)
+            sg = by_strength(b, b.sub(grad, b.scale(n, b.dot(n, grad))), strength)
         with b.frame("Add: base + a sg; Overwrite: base + a (sg - base) = lerp(base, sg, a)"):
             out = b.add(base, b.scale(b.sub(sg, b.scale(base, overwrite)), weight))
         b.output(S.SURFACE_GRADIENT_OUT, out)

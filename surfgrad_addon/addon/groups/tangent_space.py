@@ -5,8 +5,8 @@ Basis, SG Tangent Normal), and the classic blends of two tangent-space normals (
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from ...reference.vecmath import DIVIDE_FLOOR
-from .common import (directx_input, ensure, listing2_z, normal_input, sign_nonneg, sub_group,
-                     surfgrad_reaching, tangent_normal_to_surfgrad, unpack_normal,
+from .common import (directx_input, ensure, flip_green, listing2_z, normal_input, sign_nonneg,
+                     sub_group, surfgrad_reaching, tangent_normal_to_surfgrad, unpack_normal,
                      uv_gradients_group, uv_input)
 
 
@@ -89,8 +89,7 @@ def normal_map_group(uv_map=""):
         with b.frame("Listing 2 as a colour: c - 0.5 with the DirectX flip on y, "
                      "z = max(|z|, max(|x|, |y|) / 128)"):
             dx, dy, dz = b.separate(b.vmath(VMath.SUBTRACT, color, (0.5, 0.5, 0.5)))
-            flip = b.math(Math.MULTIPLY_ADD, directx, -2.0, 1.0)
-            processed = b.combine(dx, b.math(Math.MULTIPLY, dy, flip), listing2_z(b, dx, dy, dz))
+            processed = b.combine(dx, flip_green(b, dy, directx), listing2_z(b, dx, dy, dz))
         with b.frame("Listings 3 and 9: Blender's Normal Map node in the MikkTSpace frame, "
                      "with its own Strength"):
             # The node applies Strength itself (x, y scaled, z blended toward 1); on 5.2 the
@@ -104,6 +103,16 @@ def normal_map_group(uv_map=""):
     name = "SG Normal Map" + (f" [{uv_map}]" if uv_map else "")
     fields = {"uv_map": uv_map} if uv_map else {}
     return ensure("SG Normal Map", build, name, **fields)
+
+
+def select_blend(b, method, candidates):
+    """candidates[method] (PD, whiteout, UDN, RNM): a chain of Mix nodes on Method = index. A
+    constant Method folds it to that one blend, the others' nodes gone
+    (tests/test_render_cost_folding.py)."""
+    out = candidates[0]
+    for index, candidate in enumerate(candidates[1:], start=1):
+        out = b.mix_vector(b.math(Math.COMPARE, method, float(index), 0.5), out, candidate)
+    return out
 
 
 def blend_normals_group():
@@ -130,10 +139,7 @@ def blend_normals_group():
             k = b.math(Math.DIVIDE, b.dot(ap, bp), b.math(Math.ADD, az, 1.0))
             rnm = b.sub(b.scale(ap, k), bp)
         with b.frame("Select the method, encode as colour"):
-            out = pd
-            for index, candidate in ((1, wo), (2, udn), (3, rnm)):
-                pick = b.math(Math.COMPARE, method, float(index), 0.5)
-                out = b.mix_vector(pick, out, candidate)
+            out = select_blend(b, method, (pd, wo, udn, rnm))
             color = b.vmath(VMath.ADD, b.vmath(VMath.MULTIPLY, b.normalize(out), (0.5, 0.5, 0.5)),
                             (0.5, 0.5, 0.5))
         b.output("Color", color)

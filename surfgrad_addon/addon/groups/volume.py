@@ -5,7 +5,8 @@ from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from ...reference.socket_specs import NOISE_OCTAVES
 from ...reference.vecmath import FLT_EPSILON
-from .common import ensure, normal_input, object_position, sign_nonneg, sub_group, where_zero
+from .common import (ensure, normal_input, object_position, precise_far_route, sign_nonneg,
+                     sub_group, where_zero)
 
 
 def volume_gradient_group():
@@ -88,8 +89,11 @@ def noise_group():
         vec, scale = b.input(S.NOISE_VECTOR), b.input(S.NOISE_SCALE)
         octaves, gain = b.input(S.OCTAVES), b.input(S.GAIN)
         turb, obj_space = b.input("Turbulence"), b.input("Object Space")
-        with b.frame("Unlinked Vector: object coordinates"):
-            p = b.scale(where_zero(b, vec, object_position(b)), scale)
+        with b.frame("Unlinked Vector: object coordinates (precise far from the origin where "
+                     "Precise Far From Origin is on)"):
+            coords = precise_far_route(b, b.node("ShaderNodeTexCoord").outputs["Object"],
+                                 lambda: object_position(b))
+            p = b.scale(where_zero(b, vec, coords), scale)
         value, grad = 0.0, (0.0, 0.0, 0.0)
         octave_tree = gradient_noise_group()
         with b.frame("Fractal sum / turbulence: sum gain^i noise(2^i p), chain rule"):
