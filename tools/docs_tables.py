@@ -57,6 +57,30 @@ def bench_compare_before_table(docs):
     return rows
 
 
+def render_cost_folded_table(docs):
+    """Cycles' SVM program size after constant folding, per bench-render material, before and
+    after the Precise Far From Origin input, on each line the JSON holds (units differ by line:
+    4.x and 5.0 count int4 records, 5.2 32-bit words; compare within a column only)."""
+    data = load(docs, "render_cost_folded.json")
+    lines = sorted(data["after"], key=lambda v: tuple(int(x) for x in v.split(".")),
+                   reverse=True)
+    head = "| material | " + " | ".join(f"{line} before | {line} after" for line in lines) + \
+        " | twin |"
+    rows = [head, "|" + "---|" * (2 + 2 * len(lines))]
+    by = {(when, line): {r["key"]: r for r in data[when][line]["rows"]}
+          for when in ("before", "after") for line in lines}
+    labels = {r["key"]: r["label"] for r in data["after"][lines[0]]["rows"]}
+    for row in data["after"][lines[0]]["rows"]:
+        key = row["key"]
+        cells = []
+        for line in lines:
+            b = by[("before", line)].get(key, {}).get("svm")
+            a = by[("after", line)].get(key, {}).get("svm")
+            cells += [str(b) if b is not None else "-", f"**{a}**" if a is not None else "-"]
+        rows.append(f"| {row['label']} | " + " | ".join(cells) + f" | {labels.get(row.get('against'), '')} |")
+    return rows
+
+
 BATCH_RUNS = (("shared_w1", "1 worker, all threads"),
               ("shared_w2", "2 workers, threads shared (1 each)"),
               ("one_w1", "1 worker, 1 thread"),
@@ -84,11 +108,13 @@ def bench_batch_table(docs):
 
 TABLES = {"bench-compare": bench_compare_table,
           "bench-compare-before": bench_compare_before_table,
-          "bench-batch": bench_batch_table}
+          "bench-batch": bench_batch_table,
+          "render-cost-folded": render_cost_folded_table}
 # The committed JSON each table reads (every docs/*.json must be read by one: a test checks).
 SOURCES = {"bench-compare": ("bench_compare.json",),
            "bench-compare-before": ("bench_compare_before.json",),
-           "bench-batch": ("bench_batch.json",)}
+           "bench-batch": ("bench_batch.json",),
+           "render-cost-folded": ("render_cost_folded.json",)}
 
 
 def pages(root=ROOT):
