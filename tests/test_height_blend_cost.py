@@ -76,16 +76,11 @@ MATERIALS = {"builtin": _builtin, "sg_height_blend": _sg_height_blend,
 
 
 def build_materials():
-    """In the child: one material per MATERIALS entry, named after it."""
-    from surfgrad_addon.addon.compat import new_material
-    from surfgrad_addon.harness.graph import Graph
+    """In the child: one material per MATERIALS entry, named after it (a Principled BSDF
+    whose Normal is the entry's graph on the position)."""
+    from surfgrad_addon.harness.demo_scene import material
     for name, build in MATERIALS.items():
-        mat = new_material(name)
-        g = Graph(mat.node_tree.nodes, mat.node_tree.links)
-        g.nodes.clear()
-        bsdf = g.node("ShaderNodeBsdfDiffuse")
-        g.link(bsdf.outputs["BSDF"], g.node("ShaderNodeOutputMaterial").inputs["Surface"])
-        g.link(build(g, g.geometry("Position")), bsdf.inputs["Normal"])
+        material(name, lambda g, build=build: build(g, g.geometry("Position")))
 
 
 def test_height_blend_costs_against_the_built_in_way():

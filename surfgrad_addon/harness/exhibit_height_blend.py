@@ -16,7 +16,7 @@ PICTURE = Path("docs") / "exhibits" / "height-blend.png"
 SIZE, SAMPLES = (1280, 720), 8
 ROCK_COLOR, SAND_COLOR = (0.17, 0.165, 0.16, 1.0), (0.55, 0.38, 0.18, 1.0)
 SAND_LEVEL = 0.55         # Offset B: how high the sand fills between the stones
-SAND_RELIEF = 0.25        # the sand's own height: SG Noise's Value times this
+SAND_RELIEF = 0.1         # the sand's own height: SG Noise's Value times this
 COBBLE_SCALE = 3.5
 
 
@@ -32,7 +32,7 @@ def _layers(g):
     # Rounded stones with flat tops (the distance to the cell's edge, saturated), each stone
     # its own height (the cell's random colour), and some grain on top.
     dome = g.math(Math.POWER, g.math(Math.MINIMUM, g.math(Math.MULTIPLY, edge.outputs[
-        "Distance"], 9.0), 1.0), 0.5)
+        "Distance"], 7.0), 1.0), 0.5)
     stone = g.math(Math.MULTIPLY_ADD, g.first(cell.outputs["Color"]), 0.5, 0.5)
     rock_h = g.math(Math.MULTIPLY_ADD, grain.outputs["Fac"], 0.2, g.math(Math.MULTIPLY, dome,
                                                                         stone))
@@ -86,14 +86,14 @@ def build_height_blend_exhibit():
     return S.camera("Camera height blend", 0.0)
 
 
-def render_height_blend(path=PICTURE, samples=SAMPLES, log=print):
-    """Build the exhibit and render it with Cycles on the CPU to `path` (PNG, 1280 x 720);
-    returns the path. Replaces the open file."""
+def render_height_blend(path=PICTURE, samples=SAMPLES, size=SIZE, log=print):
+    """Build the exhibit and render it with Cycles on the CPU to `path` (PNG, 1280 x 720 by
+    default); returns the path. Replaces the open file."""
     import bpy
     cam = build_height_blend_exhibit()
     scene = bpy.context.scene
     scene.camera = cam
-    scene.render.resolution_x, scene.render.resolution_y = SIZE
+    scene.render.resolution_x, scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
     scene.cycles.samples = samples
     scene.cycles.use_adaptive_sampling = False
