@@ -5,6 +5,7 @@ planes carry the same two layers: cobbles (a Voronoi distance-to-edge height thr
 Map Forward) and fine sand (SG Noise through SG Volume Gradient); the colour follows each
 blend's weight."""
 
+import math
 from pathlib import Path
 
 from ..addon import groups as G
@@ -78,12 +79,25 @@ def height_blend(g):
     return g.resolve(blend.outputs[0])
 
 
+# A spot on a plane of the pair (demo_scene.mesh "plane": 2.2 wide, tilted 70 degrees toward
+# the camera), up and to the right of its centre: its local (0.25, 0.3) in world offsets.
+PLANE_SPOT = (0.25, 0.3 * math.cos(math.radians(70)), 0.3 * math.sin(math.radians(70)))
+
+
+def add_height_blend_exhibit(x):
+    """The two planes, their labels and a camera (with a crop spot on each plane, for
+    demo_pictures) at x in the open file; returns the camera."""
+    a, b = S.pair(x, "Sand on cobbles", masked_mix, height_blend, kind="plane",
+                  left_label="masked mix (SG Combine)",
+                  right_label="height blend (SG Height Blend)")
+    return S.camera("Camera height blend", x, crops=S.pair_crops(
+        a, b, PLANE_SPOT, labels=("masked mix", "height blend")))
+
+
 def build_height_blend_exhibit():
-    """A fresh file with the two planes, their labels and camera; returns the camera."""
+    """A fresh file with the exhibit alone; returns its camera."""
     S.new_file()
-    S.pair(0.0, "Sand on cobbles", masked_mix, height_blend, kind="plane",
-           left_label="masked mix (SG Combine)", right_label="height blend (SG Height Blend)")
-    return S.camera("Camera height blend", 0.0)
+    return add_height_blend_exhibit(0.0)
 
 
 def render_height_blend(path=PICTURE, samples=SAMPLES, size=SIZE, log=print):
