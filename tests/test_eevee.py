@@ -67,6 +67,7 @@ EXHIBITS = [
     *_named_after("image", "triplanar", "triplanar-height", "decal", "parallax", "post-resolve"),
     *_named_after("exact", "displace-bump"),
     *_named_after("image", "layered", "blend-pd", "blend-whiteout", "blend-udn", "blend-rnm"),
+    *_named_after("image", "height-blend"),
     # Sampler groups (5.0+; skipped before): the image as a closure, 'Linear' taps.
     ("height-map-hq-sampler", "height-map-sampler", "hq", "image"),
     ("height-map-one-texel-sampler", "height-map-sampler", "one-texel", "image"),

@@ -90,9 +90,9 @@ def test_every_keyword_is_a_parameter_of_the_reference():
     """A spec's keyword names a parameter the reference takes, so a registry can pass one value
     to the socket and to the reference."""
     import inspect
-    from surfgrad_addon.reference import methods, noise
-    params = {p for module in (methods, noise) for _, fn in inspect.getmembers(module,
-                                                                               inspect.isfunction)
+    from surfgrad_addon.reference import height_blend, methods, noise
+    params = {p for module in (methods, noise, height_blend)
+              for _, fn in inspect.getmembers(module, inspect.isfunction)
               for p in inspect.signature(fn).parameters}
     specs = {s for iface in GI.INTERFACES.values() for s in (*iface.inputs, *iface.outputs)}
     keywords = {s.keyword for s in specs if s.keyword}

@@ -185,6 +185,25 @@ INTERFACES = {
          SocketSpec("Analytic Normals", BOOLEAN, "Set the normals from the noise's gradient "
                     "(Eq. 4-8); off: Blender recomputes them from the displaced geometry, which "
                     "needs a dense mesh", default=True))),
+    "SG Height Blend": _g(
+        "Height-blended layers: the higher layer shows through, the lower settles into the "
+        "hollows (w_i = max(h_i + o_i - max_j(h_j + o_j) + c, 0), normalised)",
+        (S.SUMMABLE_GRADIENT_OUT.but(tooltip="A and B weighted by their heights: add to "
+                                     "others, then SG Resolve"),
+         SocketSpec("Height", FLOAT, "Blended height: link it to the next SG Height Blend's "
+                    "Height A to stack another layer"),
+         SocketSpec("Weight B", FLOAT, "How much of B shows (0 to 1): mix the layers' colours "
+                    "and roughness by it")),
+        (S.SURFACE_GRADIENT.but(name="A", tooltip="Surface gradient of layer A (e.g. the "
+                                "rock)"),
+         S.LAYER_HEIGHT.but(name="Height A"),
+         S.SURFACE_GRADIENT.but(name="B", tooltip="Surface gradient of layer B (e.g. sand or "
+                                "moss)"),
+         S.LAYER_HEIGHT.but(name="Height B"),
+         SocketSpec("Offset B", FLOAT, "Added to B's height before the blend: raise it to fill "
+                    "more of A's hollows, or link a painted mask", default=0.0, min=-10.0,
+                    max=10.0),
+         S.CONTRAST)),
     "SG Height Map Forward": _g(
         "Scale-dependent bump from any height by forward differences (Listing 7, Listing 6)",
         (S.SURFACE_GRADIENT_OUT,),

@@ -21,6 +21,7 @@ from . import methods as M
 from .compositing import surfgrad_blend, surfgrad_blend_rnm
 from .decals import DECAL_SHAPES
 from .group_interfaces import REST_ATTRIBUTE
+from .height_blend import HEIGHT_BLEND_CONTRAST, surfgrad_height_blend
 from .image_sampling import sample_image
 from .listings import resolve_normal_from_surface_gradient, surfgrad_from_perturbed_normal
 from .vecmath import normalize
@@ -39,6 +40,9 @@ BLEND_MODES = {"blend-pd": 0, "blend-whiteout": 1, "blend-udn": 2, "blend-rnm": 
 # SG Parallax's march steps (addon/groups/parallax.py's POM_STEPS, needed here without the
 # add-on; tests/test_method_registry.py holds them equal).
 POM_STEPS = 8
+# height-blend: SG Noise's Value (about -0.5 .. 0.5) raised by this, against the wave height
+# image (0 .. 1): the sand fills about half of the rock's hollows.
+SAND_LEVEL = 0.45
 
 
 @dataclass(frozen=True)
@@ -202,6 +206,19 @@ def _blend(mode):
     return reference
 
 
+def _height_blend(inp, td, contrast):
+    """Rock (SG Height Map HQ of the height image, its height the image's Linear sample) and
+    sand (SG Noise through SG Volume Gradient, its height the noise's value) by height."""
+    n, rock = M.height_map_surfgrad(td, inp.pixels("height"), "hq", HEIGHT_BUMP_SCALE,
+                                    inp.uv_map)
+    rock_height = sample_image(inp.pixels("height"), td.uv(inp.uv_map))
+    _, sand = M.volume_noise_surfgrad(td, NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)
+    sand_height, _ = M.noise_gradient_world(td, NOISE_SCALE, NOISE_OCTAVES)
+    sg, _, _ = surfgrad_height_blend((rock, sand), (rock_height, sand_height), contrast,
+                                     offsets=(0.0, SAND_LEVEL))
+    return n, sg
+
+
 # Parameters ---------------------------------------------------------------------------------------
 
 def _strength(groups, function, default=1.0, name="strength"):
@@ -278,6 +295,10 @@ _SPECS = (
                                        M.triplanar_height_surfgrad),)),
     MethodSpec("parallax-sampler", _parallax, group="SG Parallax (Sampler)", stability=False,
                mikktspace=True, same_reference_as="parallax"),
+    # Layers blended by height (reference/height_blend.py), over methods the suite runs.
+    MethodSpec("height-blend", _height_blend, stability=False, parameters=(
+        Parameter("contrast", HEIGHT_BLEND_CONTRAST, "Contrast", ("SG Height Blend",),
+                  surfgrad_height_blend),)),
     # RNM stands for the four blends in the stability suite (same decode, same SG Normal Map).
     *(MethodSpec(mode, _blend(mode), stability=mode == "blend-rnm", mikktspace=True)
       for mode in BLEND_MODES),

@@ -118,6 +118,14 @@ OCTAVES = SocketSpec("Octaves", INT, f"Octaves of the fractal sum (1 to {NOISE_O
 GAIN = SocketSpec("Gain", FLOAT, "Amplitude ratio between octaves (frequency doubles)",
                   default=0.5, min=0.0, max=1.0, keyword="gain")
 
+# -- inputs: height-blended layers (reference/height_blend.py) -----------------------------------
+LAYER_HEIGHT = SocketSpec("Height", FLOAT, "Height of the layer (the height its bump comes "
+                          "from, e.g. the same Image Texture or SG Noise's Value)", default=0.0)
+CONTRAST = SocketSpec("Contrast", FLOAT, "Height-blend contrast: 0 blends softly over a whole "
+                      "unit of height, 1 switches hard to the higher layer (transition width "
+                      "1 - Contrast)", default=0.8, min=0.0, max=1.0, subtype="FACTOR",
+                      keyword="contrast")
+
 # -- inputs: decals ------------------------------------------------------------------------------
 DECAL_COORDINATES = _vector("Decal Coordinates", "Position in the projector's space (a Texture "
                             "Coordinate node's Object output, the projector as its object)")

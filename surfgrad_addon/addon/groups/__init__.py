@@ -22,6 +22,7 @@ from .common import (SAMPLER_GROUPS, BUMP_FILTER_WIDTH, FORWARD_FILTER_WIDTH, GA
                      normal_input, safe_normal_group, sub_group, surface_gradient_group,
                      unavailable_reason, uv_gradients_group, zero_unless_finite)
 from .displacement import REST_ATTRIBUTE, displace_group, rest_position_group  # noqa: F401
+from .height_blend import height_blend_group
 from .height import (bump_strength_group, height_map_forward_group, height_map_group,  # noqa: F401
                      height_map_sampler_group, triplanar_height_group,
                      triplanar_height_sampler_group)
@@ -65,6 +66,7 @@ GROUPS = (
     GroupEntry("SG Decal Coordinates", decal_coordinates_group),
     GroupEntry("SG Decal", decal_group),
     GroupEntry("SG Combine", combine_group),
+    GroupEntry("SG Height Blend", height_blend_group),
     GroupEntry("SG Height Map HQ", height_map_group, image_bound=True,
                superseded_by="SG Height Map HQ (Sampler)"),
     GroupEntry("SG Height Map HQ (Sampler)", height_map_sampler_group, min_line="5.0"),

@@ -3,6 +3,7 @@ reference/method_registry.py): GRAPHS[name](inp, g) -> a surface-gradient socket
 resolved "Normal" socket, built on a harness Graph of the bake material."""
 
 from ...reference.method_registry import BLEND_MODES
+from .height_blend import height_blend_graph
 from .images import (blend_graph, height_map_graph, normal_map_graph, object_normal_graph,
                      parallax_graph, procedural_basis_graph)
 from .projection import (decal_graph, decal_overwrite_graph, triplanar_graph,
@@ -29,5 +30,6 @@ GRAPHS = {
     "triplanar-sampler": triplanar_sampler_graph,
     "triplanar-height-sampler": triplanar_height_sampler_graph,
     "parallax-sampler": parallax_sampler_graph,
+    "height-blend": height_blend_graph,
     **{mode: blend_graph(mode) for mode in BLEND_MODES},
 }
