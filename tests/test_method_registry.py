@@ -96,7 +96,7 @@ def texels():
                          ids=[f"{m}-{p.name}" for m, p in PARAMETERS])
 def test_a_value_given_to_at_reaches_the_reference(texels, method, parameter):
     m = METHODS[method]
-    inp = FX.Inputs(m.variants[0])
+    inp = FX.inputs(m.variants[0])
     plain = M.resolve(m.reference(inp, texels))
     same = M.resolve(m.at(**{parameter.name: parameter.default}).reference(inp, texels))
     other = M.resolve(m.at(**{parameter.name: changed(parameter.default)}).reference(inp,
@@ -110,7 +110,7 @@ def test_the_strength_keyword_is_the_reference_functions_own():
     mesh, _, facts = FX.rasters()["sphere"]
     import surfgrad_addon.reference as R
     td = R.rasterize(mesh, "UVMap", 16, 16, facts=facts)
-    n, sg = METHODS["normal-map"].at(strength=0.0).reference(FX.Inputs(), td)
+    n, sg = METHODS["normal-map"].at(strength=0.0).reference(FX.inputs(), td)
     np.testing.assert_allclose(M.resolve((n, sg)), n, atol=1e-12)
 
 
