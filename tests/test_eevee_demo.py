@@ -1,6 +1,6 @@
 """The demo's exhibits render the same normals in EEVEE as in Cycles.
 
-demo.build_demo() builds the seven exhibits in a child interpreter (this file run as a script,
+demo.build_demo() builds every exhibit in a child interpreter (this file run as a script,
 like tests/test_eevee.py, whose context probe, skip reason and helpers this reuses: a GPU
 context that cannot be made aborts the process inside Blender's GL loader). Every exhibit
 material's Principled BSDF is replaced by an Emission of the normal that fed its Normal input,
@@ -108,9 +108,12 @@ TOLERANCES = {
     # SG Height Map Forward takes forward differences along the render's differentials
     # (Cycles: ray differentials; EEVEE: dFdx/dFdy of its 2 x 2 pixel quad), so the engines
     # sample the height at different points and differ by the method's discretisation error
-    # at this pixel size: 1.44 / 1.08 / 5.5 / 11.6 / 0.53 (test_eevee.py: 0.75 / 3.3 / 6.2
-    # at its size). Bounds: twice the measured.
-    "screen-derivative": {"mean": 3.0, "p99": 11.0, "max": 25.0},
+    # at this pixel size. On the exhibit's magnified 16 px height image at Bump Scale 1.0 the
+    # slope jumps at every texel edge, and each engine steps across an edge at its own
+    # points (bpy 5.2.3): 2.0 / 0.70 / 17.1 / 32.7 / 0.35 (on the earlier 64 px image at 0.35:
+    # 1.44 / 1.08 / 5.5 / 11.6 / 0.53; test_eevee.py: 0.75 / 3.3 / 6.2 at its size). Bounds:
+    # twice the measured.
+    "screen-derivative": {"mean": 4.0, "p99": 35.0, "max": 66.0},
     # The sampler exhibit's usual side: Blender's Bump node on 32 px height images. On the
     # waves it is the Forward height map's case above (0.26 / 0.08 / 5.8 / 11.5 / 0.043);
     # on the domes its forward differences straddle the domes' rims, where the height's slope
