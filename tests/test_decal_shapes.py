@@ -34,10 +34,11 @@ F = 0.2        # falloff
     ("wedge", (0.0, -0.5, -0.95), 0.25),        # the far end: depth fade
     ("capsule", (0.0, 0.0, 0.0), 1.0),
     ("capsule", (0.0, 0.9, 0.0), 0.5),          # 0.9 from the segment
-    ("capsule", (0.6, 0.0, 1.0), 1.0),          # 0.6 from the segment's end: no depth fade
-    ("capsule", (0.0, 0.0, 1.95), 0.25),        # in the cap, 0.95 beyond the end
-    ("capsule", (0.0, 0.6, -1.6), 0.757359313), # in the cap: sqrt(0.72) from the end
-    ("capsule", (0.48, 0.64, -1.6), 0.0),       # on the cap's surface: distance 1
+    ("capsule", (0.6, 0.0, 0.5), 1.0),          # 0.6 from the segment's end
+    ("capsule", (0.0, 0.0, 1.45), 0.25),        # in the cap, 0.95 beyond the end
+    ("capsule", (0.0, 0.6, -1.1), 0.757359313), # in the cap: sqrt(0.72) from the end
+    ("capsule", (0.48, 0.64, -1.1), 0.0),       # on the cap's surface: distance 1
+    ("capsule", (0.95, 0.0, 0.9), 0.0),         # inside the cylinder, outside the capsule
 ])
 def test_shape_weights(shape, point, want):
     got = D.WEIGHTS[shape](np.array([point]), F)[0]
@@ -85,7 +86,8 @@ def test_the_operator_offers_every_shape_and_displays_it(fresh):
             "cylinder": ("SINGLE_ARROW", [("CIRCLE", up, (0, 0, 1)), ("CIRCLE", up, (0, 0, -1))]),
             "cone": ("SINGLE_ARROW", [("CONE", up, (0, 0, -1))]),
             "wedge": ("CUBE", [("CONE", ahead, (0, -1, 0))]),
-            "capsule": ("SINGLE_ARROW", [("SPHERE", up, (0, 0, 1)), ("SPHERE", up, (0, 0, -1))])}
+            "capsule": ("SINGLE_ARROW", [("SPHERE", up, (0, 0, 0.5)),
+                                         ("SPHERE", up, (0, 0, -0.5))])}
     for shape in D.DECAL_SHAPES:
         empty, decal = O.add_decal_projector(bpy.context, mat.node_tree, shape=shape)
         assert decal.inputs["Shape"].default_value == D.DECAL_SHAPES.index(shape)

@@ -10,7 +10,7 @@ import textwrap
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
-from ..reference.decals import DECAL_SHAPES
+from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
@@ -195,8 +195,8 @@ DECAL_DISPLAY = {"box": ("CUBE", ()), "sphere": ("SPHERE", ()),
                                                ("CIRCLE", (0.0, 0.0, -1.0)))),
                  "cone": ("SINGLE_ARROW", (("CONE", (0.0, 0.0, -1.0)),)),
                  "wedge": ("CUBE", (("CONE", (0.0, -1.0, 0.0), 0.0),)),
-                 "capsule": ("SINGLE_ARROW", (("SPHERE", (0.0, 0.0, 1.0)),
-                                              ("SPHERE", (0.0, 0.0, -1.0))))}
+                 "capsule": ("SINGLE_ARROW", (("SPHERE", (0.0, 0.0, CAPSULE_HALF_LENGTH)),
+                                              ("SPHERE", (0.0, 0.0, -CAPSULE_HALF_LENGTH))))}
 
 
 def add_decal_projector(context, tree, image=None, name="SG Decal Projector", shape="box"):

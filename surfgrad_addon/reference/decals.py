@@ -14,6 +14,10 @@ from .listings import surfgrad_from_decal
 DECAL_SHAPES = ("box", "sphere", "cylinder", "cone", "wedge", "capsule")
 # Floor of a falloff and of the cone's radius, so a hard edge (0) divides by it, not by zero.
 SHAPE_FLOOR = 1e-6
+# Half the capsule's axis segment: its round ends begin at mid-depth, where a surface that
+# crosses the projector meets them (a segment to the cube's ends would make it the cylinder
+# there).
+CAPSULE_HALF_LENGTH = 0.5
 
 
 def _ramp(distance, falloff):
@@ -59,9 +63,10 @@ def decal_weight_wedge(q, falloff):
 
 def decal_weight_capsule(q, falloff):
     """The unit-radius capsule around the projection axis: the points within 1 of the segment
-    from (0, 0, -1) to (0, 0, 1) (a cylinder of radius 1 with hemispherical caps reaching
-    z = +-2), faded toward its surface by the distance to that segment."""
-    along = np.maximum(np.abs(q[:, 2]) - 1.0, 0.0)
+    |z| <= CAPSULE_HALF_LENGTH on it (a cylinder of radius 1 whose hemispherical caps begin
+    inside the cube and reach z = +-1.5), faded toward its surface by the distance to that
+    segment."""
+    along = np.maximum(np.abs(q[:, 2]) - CAPSULE_HALF_LENGTH, 0.0)
     distance = np.sqrt(q[:, 0] ** 2 + q[:, 1] ** 2 + along ** 2)
     return _ramp(1.0 - distance, falloff)
 

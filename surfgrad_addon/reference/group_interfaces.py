@@ -161,8 +161,8 @@ INTERFACES = {
                     "cone with its apex at the projector (+z) and radius 1 at the far end (fades "
                     "toward its side and ends), 4 wedge: a prism along the projection axis "
                     "whose footprint is a triangle, apex at +y, base at y = -1 (fades toward its "
-                    "sloped faces and ends), 5 capsule: within 1 of the axis from z = -1 to 1 "
-                    "(fades toward its surface)", default=0, min=0, max=5, keyword="shape"),
+                    "sloped faces and ends), 5 capsule: within 1 of the axis from z = -0.5 to "
+                    "0.5 (fades toward its surface)", default=0, min=0, max=5, keyword="shape"),
          S.SURFACE_GRADIENT.but(name="Base Gradient", tooltip="The surface gradient underneath "
                                 "(the sum of the layers below). Add mode adds the decal to it; "
                                 "Overwrite replaces it where the decal is, faded by Opacity and "

@@ -3,7 +3,7 @@
 
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
-from ...reference.decals import DECAL_SHAPES, SHAPE_FLOOR  # noqa: F401
+from ...reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES, SHAPE_FLOOR  # noqa: F401
 from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
 from .common import (SamplerTaps, by_strength, decode_tangent_normal, directx_input, ensure,
@@ -178,9 +178,9 @@ def decal_weight(b, q, shape, falloff, shapes=range(len(DECAL_SHAPES))):
             return b.math(Math.MULTIPLY, b.math(Math.MULTIPLY, inside, across), depth)
 
     def capsule():
-        with b.frame("Capsule: faded toward distance 1 from the segment |z| <= 1 on the axis"):
-            along = b.math(Math.MAXIMUM, b.math(Math.SUBTRACT, b.math(Math.ABSOLUTE, qz), 1.0),
-                           0.0)
+        with b.frame("Capsule: faded toward distance 1 from the axis segment |z| <= 0.5"):
+            along = b.math(Math.MAXIMUM, b.math(Math.SUBTRACT, b.math(Math.ABSOLUTE, qz),
+                                                CAPSULE_HALF_LENGTH), 0.0)
             return _ramp(b, b.math(Math.SUBTRACT, 1.0, b.length(b.combine(qx, qy, along))),
                          falloff)
     weights = (box, sphere, cylinder, cone, wedge, capsule)      # in DECAL_SHAPES' order
