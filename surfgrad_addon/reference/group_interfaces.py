@@ -134,8 +134,9 @@ INTERFACES = {
          SocketSpec("Mask B", FLOAT, "Mask for B (0 hides it, 1 keeps it)", default=1.0,
                     min=0.0, max=1.0, subtype="FACTOR"))),
     "SG Decal": _g(
-        "Listing 15: a decal projector (box, sphere, cylinder or cone) as a volume bump map, "
-        "faded by its falloff, added to or overwriting the surface gradient underneath",
+        "Listing 15: a decal projector (box, sphere, cylinder, cone, wedge or capsule) as a "
+        "volume bump map, faded by its falloff, added to or overwriting the surface gradient "
+        "underneath",
         (S.SURFACE_GRADIENT_OUT.but(tooltip="Surface gradient (with the Base Gradient, added or "
                                     "overwritten)"),),
         (S.NORMAL,
@@ -158,7 +159,10 @@ INTERFACES = {
                     "(fades toward its near and far faces), 1 sphere (fades toward its surface), "
                     "2 cylinder along the projection axis (fades toward its side and ends), 3 "
                     "cone with its apex at the projector (+z) and radius 1 at the far end (fades "
-                    "toward its side and ends)", default=0, min=0, max=3, keyword="shape"),
+                    "toward its side and ends), 4 wedge: a prism along the projection axis "
+                    "whose footprint is a triangle, apex at +y, base at y = -1 (fades toward its "
+                    "sloped faces and ends), 5 capsule: within 1 of the axis from z = -0.5 to "
+                    "0.5 (fades toward its surface)", default=0, min=0, max=5, keyword="shape"),
          S.SURFACE_GRADIENT.but(name="Base Gradient", tooltip="The surface gradient underneath "
                                 "(the sum of the layers below). Add mode adds the decal to it; "
                                 "Overwrite replaces it where the decal is, faded by Opacity and "
