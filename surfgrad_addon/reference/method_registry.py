@@ -125,8 +125,9 @@ def _object_normal(inp, td):
     return n, surfgrad_from_perturbed_normal(n, v)
 
 
-def _volume_noise(inp, td, scale, amount, octaves):
-    return M.volume_noise_surfgrad(td, scale, amount, octaves)
+def _volume_noise(inp, td, scale, amount, octaves, footprint_filter=False):
+    return M.volume_noise_surfgrad(td, scale, amount, octaves,
+                                   footprint_filter=footprint_filter)
 
 
 def _height_map(inp, td, bump_scale):
@@ -239,6 +240,12 @@ _SPECS = (
     MethodSpec("object-normal", _object_normal),
     MethodSpec("volume-noise", _volume_noise,
                parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
+    # SG Noise's Filter Footprint on: the octaves finer than the bake's footprint fade out (at
+    # the comparison's 48 texels the third and fourth octaves are in or past the fade).
+    MethodSpec("volume-noise-filtered", _volume_noise, stability=False, parameters=(
+        *_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES),
+        Parameter("footprint_filter", True, "Filter Footprint", ("SG Noise",),
+                  M.volume_noise_surfgrad))),
     MethodSpec("height-map", _height_map, variants=M.HEIGHT_VARIANTS, parameters=(_HEIGHT,)),
     MethodSpec("triplanar", _triplanar, parameters=(_TRIPLANAR,)),
     MethodSpec("triplanar-height", _triplanar_height, parameters=(_TRIPLANAR_HEIGHT,),

@@ -16,6 +16,7 @@ GRAPHS = {
     "procedural-basis": procedural_basis_graph,
     "object-normal": object_normal_graph,
     "volume-noise": volume_noise_graph,
+    "volume-noise-filtered": volume_noise_graph,
     "height-map": height_map_graph,
     "triplanar": triplanar_graph,
     "triplanar-height": triplanar_height_graph,
