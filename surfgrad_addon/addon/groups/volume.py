@@ -119,6 +119,14 @@ def footprint_weight(b, footprint, frequency):
     return node.outputs["Result"]
 
 
+def footprint_fade(b, amp, filtered, footprint, frequency):
+    """amp (1 + Filter (w - 1)), w the octave's footprint weight: Filter Footprint off (a
+    constant 0) folds it to amp, and the footprint's nodes go unused."""
+    fade = b.math(Math.ADD, b.math(Math.MULTIPLY, filtered, b.math(
+        Math.SUBTRACT, footprint_weight(b, footprint, frequency), 1.0)), 1.0)
+    return b.math(Math.MULTIPLY, amp, fade)
+
+
 def noise_group():
     def build(b):
         vec, scale = b.input(S.NOISE_VECTOR), b.input(S.NOISE_SCALE)
@@ -154,10 +162,7 @@ def noise_group():
                 g = b.mix_vector(turb, g, b.scale(g, sgn))
                 on = b.math(Math.LESS_THAN, float(i), octaves)
                 amp = b.math(Math.MULTIPLY, on, b.math(Math.POWER, gain, float(i)))
-                # amp (1 + Filter (w - 1)): Filter off (a constant 0) folds it to amp.
-                fade = b.math(Math.ADD, b.math(Math.MULTIPLY, filtered, b.math(
-                    Math.SUBTRACT, footprint_weight(b, footprint, freq), 1.0)), 1.0)
-                amp = b.math(Math.MULTIPLY, amp, fade)
+                amp = footprint_fade(b, amp, filtered, footprint, freq)
                 value = b.math(Math.ADD, value, b.math(Math.MULTIPLY, amp, v))
                 grad = b.add(grad, b.scale(g, b.math(Math.MULTIPLY, amp, freq)))
             grad = b.scale(grad, scale)
