@@ -210,15 +210,13 @@ def images(normal_size=256, height_size=64):
 
 
 def material(name, build, ctx):
+    """A grey Principled BSDF whose Normal is build(g, ctx) (unlinked where that is None)."""
     mat = new_material(name)
-    tree = mat.node_tree
-    tree.nodes.clear()
-    g = Graph(tree.nodes, tree.links)
-    out = g.node("ShaderNodeOutputMaterial")
-    bsdf = g.node("ShaderNodeBsdfPrincipled")
-    bsdf.inputs["Base Color"].default_value = (0.6, 0.6, 0.6, 1.0)
-    bsdf.inputs["Roughness"].default_value = 0.4
-    g.link(bsdf.outputs[0], out.inputs["Surface"])
+    g = Graph(mat.node_tree.nodes, mat.node_tree.links)
+    g.nodes.clear()
+    bsdf = g.set(g.node("ShaderNodeBsdfPrincipled"), Base_Color=(0.6, 0.6, 0.6, 1.0),
+                 Roughness=0.4)
+    g.link(bsdf.outputs[0], g.node("ShaderNodeOutputMaterial").inputs["Surface"])
     normal = build(g, ctx)
     if normal is not None:
         g.link(normal, bsdf.inputs["Normal"])
