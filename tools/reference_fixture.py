@@ -56,7 +56,7 @@ def cases():
 # and the overwrite mode (issue 15). The box decal is the old decal, recorded as "hq" (the decal
 # had no variants then).
 NEW_CASES = {("decal", "sphere"), ("decal", "cylinder"), ("decal", "cone"),
-             ("decal-overwrite", "hq")}
+             ("decal-overwrite", "hq"), ("volume-noise-filtered", "hq")}
 RECORDED_AS = {("decal", "box"): ("decal", "hq")}
 
 
