@@ -125,9 +125,12 @@ def _object_normal(inp, td):
     return n, surfgrad_from_perturbed_normal(n, v)
 
 
-def _volume_noise(inp, td, scale, amount, octaves, footprint_filter=False):
-    return M.volume_noise_surfgrad(td, scale, amount, octaves,
-                                   footprint_filter=footprint_filter)
+def _volume_noise(inp, td, scale, amount, octaves):
+    return M.volume_noise_surfgrad(td, scale, amount, octaves)
+
+
+def _volume_noise_filtered(inp, td, scale, amount, octaves):
+    return M.volume_noise_surfgrad(td, scale, amount, octaves, footprint_filter=True)
 
 
 def _height_map(inp, td, bump_scale):
@@ -242,10 +245,8 @@ _SPECS = (
                parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
     # SG Noise's Filter Footprint on: the octaves finer than the bake's footprint fade out (at
     # the comparison's 48 texels the third and fourth octaves are in or past the fade).
-    MethodSpec("volume-noise-filtered", _volume_noise, stability=False, parameters=(
-        *_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES),
-        Parameter("footprint_filter", True, "Filter Footprint", ("SG Noise",),
-                  M.volume_noise_surfgrad))),
+    MethodSpec("volume-noise-filtered", _volume_noise_filtered, stability=False,
+               parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
     MethodSpec("height-map", _height_map, variants=M.HEIGHT_VARIANTS, parameters=(_HEIGHT,)),
     MethodSpec("triplanar", _triplanar, parameters=(_TRIPLANAR,)),
     MethodSpec("triplanar-height", _triplanar_height, parameters=(_TRIPLANAR_HEIGHT,),
