@@ -193,3 +193,12 @@ def test_bump_footprint_is_the_texel_size_for_a_bakes_equal_orthogonal_different
     f = footprint_from_differentials(0.1 * ex[None], 0.1 * ey[None], ez[None],
                                      0.1 * c1 * ex[None], 0.1 * c2 * ey[None])
     assert abs(f[0] - 0.1 * np.sqrt(c1 ** 4 + c2 ** 4) / np.sqrt(c1 ** 2 + c2 ** 2)) < 1e-15
+
+
+def test_bump_footprint_of_orthogonal_unequal_differentials_is_their_rms():
+    """dpdx = 0.3 x, dpdy = 0.1 y on the z = 0 plane, J = 3: F = 3 sqrt((0.09 + 0.01) / 2)."""
+    from surfgrad_addon.reference.noise_footprint import footprint_from_differentials
+    ex, ey, ez = np.eye(3)
+    f = footprint_from_differentials(0.3 * ex[None], 0.1 * ey[None], ez[None],
+                                     0.9 * ex[None], 0.3 * ey[None])
+    assert abs(f[0] - 3.0 * np.sqrt(0.05)) < 1e-14

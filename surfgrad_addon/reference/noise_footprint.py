@@ -1,6 +1,7 @@
 """Footprint filtering of the fractal noise: each octave fades out as it becomes finer than the
 shading footprint, so distant procedural bump does not sparkle (issue 24, after the fade by
-octave frequency against the pixel footprint in Mikkelsen's surfgrad demo).
+octave frequency against the pixel footprint that the issue describes in the author's demo;
+the constants lo, hi are this project's).
 
 Octave i of frequency f_i (lacunarity^i, in the noise's own coordinates) is weighted by
     w_i = 1 - smoothstep(lo, hi, f_i * F),   smoothstep(a, b, x) = t^2 (3 - 2 t),
@@ -46,8 +47,8 @@ def footprint_from_differentials(dpdx, dpdy, n, jx, jy):
     the second-order remainder R = s (|jx|^2 e_x + |jy|^2 e_y) / 2. The group's footprint is
         F = 2 |R| / (s sqrt(sum_k |g_k|^2)),
     which for equal orthogonal differentials (a bake's: dpdx = r a, dpdy = r b) and a
-    uniform J = c is c r = max(|J dpdx|, |J dpdy|); for orthogonal render differentials it
-    lies between the larger and the RMS of the two."""
+    uniform J = c is c r = max(|J dpdx|, |J dpdy|); for orthogonal differentials of unequal
+    lengths (a render's, roughly) it is c times their RMS, between max / sqrt(2) and max."""
     dpdx, dpdy, n, jx, jy = (np.asarray(a, dtype=np.float64) for a in (dpdx, dpdy, n, jx, jy))
     rx, ry = cross(dpdy, n), cross(n, dpdx)
     det = dot(dpdx, rx)
