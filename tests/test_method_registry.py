@@ -35,7 +35,7 @@ def changed(value):
 
 
 def test_the_registry_has_parameters_where_a_socket_feeds_the_reference():
-    assert len(METHODS) == 22 and len(PARAMETERS) >= 20
+    assert len(METHODS) == 23 and len(PARAMETERS) >= 20
     assert [p.name for p in METHODS["normal-map"].parameters] == ["strength"]
     assert {p.name for p in METHODS["volume-noise"].parameters} == {"scale", "amount", "octaves"}
     assert METHODS["post-resolve"].values == (("strength", 0.5),)

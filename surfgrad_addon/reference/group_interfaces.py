@@ -237,7 +237,10 @@ INTERFACES = {
          SocketSpec("Turbulence", BOOLEAN, "Sum |noise| (Perlin's turbulence) instead of noise "
                     "(fractal sum)", default=False),
          SocketSpec("Object Space", BOOLEAN, "Vector is in object space: return the gradient "
-                    "in world space (for SG Volume Gradient)", default=True), S.PRECISE_FAR)),
+                    "in world space (for SG Volume Gradient)", default=True), S.PRECISE_FAR,
+         SocketSpec("Filter Footprint", BOOLEAN, "Fade out the octaves finer than the pixel "
+                    "(or baked texel) footprint, so distant bump does not sparkle",
+                    default=False))),
     "SG Normal Map": _g(
         "Tangent-space normal map to surface gradient, MikkTSpace compliant (Listings 2, 3, 9 "
         "through the Normal Map node, then 5) on UV map {uv_map}",
