@@ -141,7 +141,7 @@ def test_the_command_line_offers_every_registered_method(tmp_path):
     assert out.returncode == 0, out.stderr
     help_text = " ".join(out.stdout.split())
     assert all(name in help_text for name in compare.METHODS), help_text
-    assert len(compare.METHODS) == 22
+    assert len(compare.METHODS) == 23
     bad = _run_cli(["compare", "--object", "Torus", "--method", "warp-drive"], tmp_path)
     assert bad.returncode != 0 and "invalid choice: 'warp-drive'" in bad.stderr
 
