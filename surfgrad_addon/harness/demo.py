@@ -113,8 +113,8 @@ def _sampler_exhibit(x):
                 tex.image = image
                 zone, _, _ = sampler_zone(g.nodes, g.links, tex)
                 node = g.group(G.height_map_sampler_group("hq"), UV=uv, Bump_Scale=bump_scale,
-                               Sampler=zone.outputs[0], Width=image.size[0],
-                               Height=image.size[1])
+                               Sampler=zone.outputs[0], Image_Width=image.size[0],
+                               Image_Height=image.size[1])
                 return g.resolve(node.outputs[0])
             obj = S.mesh("sphere", (cx, 0, 1.1), f"Sampler | {name} | {side}")
             obj.data.materials.append(S.material(f"Sampler: {name}, {side}", build))
@@ -326,7 +326,7 @@ def build_demo(log=print):
     def parallax(detail_on_top):
         def build(g):
             view = g.geometry("Incoming")
-            par = g.group(G.parallax_group(domes), UV=uv(g), View=view, Bump_Scale=0.12)
+            par = g.group(G.parallax_group(domes), UV=uv(g), View=view, Depth=0.12)
             base = g.resolve(g.group(G.normal_map_group("UVMap"),
                                      Color=g.image(hemi, par.outputs["UV"])).outputs[0])
             if not detail_on_top:

@@ -11,7 +11,7 @@ from ...reference.group_interfaces import INTERFACES
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, TSPACE_Z_CLAMP
 
 
-VERSION = 19
+VERSION = 20
 
 
 class FeatureUnavailable(ValueError):
