@@ -12,9 +12,10 @@ def choose(b, selector, candidates):
     """candidates[k] (vector sockets or constants) for the item chosen on `selector`, a Group
     Input socket declared from an enumeration spec (a Menu, or its integer on older lines)."""
     spec = b.declared_spec(selector)
-    if len(candidates) != len(spec.items):
-        raise BuildError(f"{b.where}: {spec.name!r} has {len(spec.items)} items, "
-                         f"{len(candidates)} candidates given")
+    count = len(spec.items) if spec.items else spec.max + 1     # the integer: 0..max
+    if len(candidates) != count:
+        raise BuildError(f"{b.where}: {spec.name!r} has {count} items, {len(candidates)} "
+                         f"candidates given")
     if selector.type != "MENU":
         out = candidates[0]
         for index, candidate in enumerate(candidates[1:], start=1):
