@@ -131,7 +131,7 @@ def _place_group_node(tree, kind, group, location):
 
 def _add_sampler_group(tree, name, group, location):
     """A Sampler group (Blender 5.0+) with its Sampler zone: around the active Image Texture
-    (its image's size into Width/Height, whatever fed its Vector into the group's UV; a
+    (its image's size into Image Width/Height, whatever fed its Vector into the group's UV; a
     texture that also feeds other nodes keeps them, and a copy of it goes in the zone), or an
     empty zone to put an Image Texture in."""
     from .sampler_zone import sampler_zone

@@ -262,7 +262,7 @@ def build_demo(log=print):
     def noise_sg(g):
         noise = g.group(G.noise_group(), Scale=3.0)
         vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                     Strength=NOISE_AMOUNT)
+                     Bump_Scale=NOISE_AMOUNT)
         return g.resolve(vg.outputs[0])
     a, b = S.pair(x, "Volume noise bump", noise_usual, noise_sg, left_label="Perlin 1985")
     cams["noise"] = S.camera("Camera noise", x, crops=S.pair_crops(a, b, S.FRONT_SPOT,
@@ -309,7 +309,7 @@ def build_demo(log=print):
         noise = g.group(G.noise_group(), Vector=g.group(G.rest_position_group()).outputs[0],
                         Scale=9.0, Octaves=2)
         vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                     Strength=0.015)
+                     Bump_Scale=0.015)
         return g.resolve(vg.outputs[0])
     a, b = S.pair(x, "Displacement with bump on top", lambda g: None, bump_on_top,
                  left_label="displaced, normals recomputed", right_label="analytic + bump")
@@ -333,7 +333,7 @@ def build_demo(log=print):
                 return base
             noise = g.group(G.noise_group(), Scale=12.0, Octaves=2)
             vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                         Strength=0.01, Normal=base)
+                         Bump_Scale=0.01, Normal=base)
             return g.resolve(vg.outputs[0], normal=base)
         return build
     a, b = S.pair(x, "Parallax with post-resolve detail", parallax(False), parallax(True),
