@@ -2,11 +2,13 @@
 
 import json
 
+import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import groups as G
+from surfgrad_addon.addon.enum_input import choice_index  # noqa: E402
 from surfgrad_addon.harness import demo, demo_scene  # noqa: E402
 from surfgrad_addon.addon.sampler_zone import has_closures  # noqa: E402
 
@@ -48,7 +50,7 @@ def test_demo_file_is_small_self_contained_and_complete(tmp_path):
     assert any(mod.type == "NODES" and mod.node_group.name == "SG Displace"
                for o in meshes for mod in o.modifiers)
     # The decal shapes exhibit: one SG Decal per shape, each Shape value used.
-    shapes = {n.inputs["Shape"].default_value for m in bpy.data.materials if m.node_tree
+    shapes = {choice_index(n.inputs["Shape"]) for m in bpy.data.materials if m.node_tree
               for n in m.node_tree.nodes if n.bl_idname == "ShaderNodeGroup"
               and n.node_tree.name == "SG Decal"}
     assert shapes == {0, 1, 2, 3}
@@ -80,3 +82,128 @@ def test_closure_demo_is_its_own_file(tmp_path):
              if n.bl_idname == "NodeClosureOutput"]
     assert len(zones) == 2 and {z.inputs["Color"].links[0].from_node.image.name
                                 for z in zones} == {"Height waves 32", "Height domes 32"}
+
+
+def _images(tree, seen=None):
+    """Names of the images a node tree reads, through its groups."""
+    seen = set() if seen is None else seen
+    names = set()
+    for n in tree.nodes:
+        if getattr(n, "image", None) is not None:
+            names.add(n.image.name)
+        if n.bl_idname == "ShaderNodeGroup" and n.node_tree and n.node_tree.name not in seen:
+            seen.add(n.node_tree.name)
+            names |= _images(n.node_tree, seen)
+    return names
+
+
+def _uv_layers(obj):
+    """{UV map: (vertex, u, v) per corner, sorted}: the layout, whatever order Blender's
+    primitive gave the faces in (two UV spheres made alike can list them differently)."""
+    verts = np.empty(len(obj.data.loops), dtype=np.float64)
+    obj.data.loops.foreach_get("vertex_index", verts)
+    out = {}
+    for layer in obj.data.uv_layers:
+        uv = np.empty(2 * len(obj.data.loops), dtype=np.float64)
+        layer.data.foreach_get("uv", uv)
+        rows = np.column_stack([verts, np.round(uv.reshape(-1, 2), 5)])
+        out[layer.name] = rows[np.lexsort(rows.T[::-1])]
+    return out
+
+
+def _shape(obj):
+    co = np.empty(3 * len(obj.data.vertices), dtype=np.float64)
+    obj.data.vertices.foreach_get("co", co)
+    mods = [(m.type, m.node_group.name if m.type == "NODES" else "") for m in obj.modifiers]
+    return co, tuple(obj.scale), tuple(obj.rotation_euler), mods
+
+
+@pytest.fixture(scope="module")
+def built():
+    if G.unavailable_reason("SG Displace"):
+        pytest.skip("the demo needs SG Displace (Blender 4.5+)")
+    cams = demo.build_demo(log=lambda *_: None)
+    yield cams
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def test_each_exhibit_shows_both_ways_on_the_same_object_light_and_content(built):
+    """The crops of an exhibit compare objects of one mesh, UV layout, transform and modifiers,
+    whose materials read the same images, under the file's one sun and sky."""
+    lights = [o for o in bpy.data.objects if o.type == "LIGHT"]
+    assert [o.data.type for o in lights] == ["SUN"]
+    for name, cam in built.items():
+        objs = [bpy.data.objects[s["object"]] for s in json.loads(cam[demo_scene.CROPS_KEY])]
+        first = objs[0]
+        co0, *rest0 = _shape(first)
+        uv0 = _uv_layers(first)
+        for obj in objs[1:]:
+            co, *rest = _shape(obj)
+            assert rest == rest0, (name, obj.name)
+            assert np.allclose(co, co0), (name, obj.name)
+            uv = _uv_layers(obj)
+            assert uv.keys() == uv0.keys(), (name, obj.name)
+            assert all(np.allclose(uv[k], uv0[k]) for k in uv0), (name, obj.name)
+        images = [_images(o.active_material.node_tree) for o in objs]
+        if name == "height":        # three methods on one height image; the reference's map
+            assert len({frozenset(i) for i in images[:3]}) == 1      # is baked from its truth
+            assert images[0] == {f"Height {demo.HEIGHT_IMAGE}"}
+            assert images[3] == {"Normal map from the exact height"}
+        else:        # crops come in pairs: the usual way, then the surface-gradient way
+            assert len(images) % 2 == 0 and images[0::2] == images[1::2], (name, images)
+
+
+def test_layered_exhibit_differs_only_in_the_detail_tangent_frame(built):
+    """Both spheres layer the same detail map on the turned second UV map over the same macro
+    map; the usual side decodes it in the first map's tangents, the other in its own basis."""
+    objs = [bpy.data.objects[s["object"]]
+            for s in json.loads(built["layered"][demo_scene.CROPS_KEY])]
+    first, turned = (np.empty(2 * len(objs[0].data.loops)) for _ in range(2))
+    objs[0].data.uv_layers["UVMap"].data.foreach_get("uv", first)
+    objs[0].data.uv_layers[demo.LAYERED_UV].data.foreach_get("uv", turned)
+    first, turned = first.reshape(-1, 2), turned.reshape(-1, 2)
+    # Turned 180 degrees (and tiled): the second map runs against the first on both axes.
+    expect = 0.5 - (first - 0.5) * np.array(demo.LAYERED_TILING)
+    assert np.allclose(turned, expect, atol=1e-6)
+
+    def groups(obj):
+        return sorted(n.node_tree.name for n in obj.active_material.node_tree.nodes
+                      if n.bl_idname == "ShaderNodeGroup")
+
+    def uvs(obj):
+        return sorted(n.uv_map for n in obj.active_material.node_tree.nodes
+                      if n.bl_idname == "ShaderNodeUVMap")
+    usual, sg = objs
+    assert "SG Procedural Basis" in groups(sg) and "SG Procedural Basis" not in groups(usual)
+    assert uvs(usual).count(demo.LAYERED_UV) == 1 and uvs(sg).count(demo.LAYERED_UV) == 2
+    assert _images(usual.active_material.node_tree) == {"Detail tile", "Macro waves"}
+
+
+def test_height_exhibit_camera_sees_every_sphere_alike(built):
+    """Orthographic, every sphere cropped at the same pixels relative to its centre (the error
+    row differences them), the reference among the crops, and the four spheres in view."""
+    from surfgrad_addon.harness import demo_pictures
+    cam = built["height"]
+    assert cam.data.type == "ORTHO"
+    spots = json.loads(cam[demo_scene.CROPS_KEY])
+    assert len(spots) == 4 and cam[demo_scene.CROP_REFERENCE_KEY] == spots[-1]["label"]
+    scene = bpy.context.scene
+    w, h = demo_pictures.PICTURE_SIZE
+    scene.render.resolution_x, scene.render.resolution_y = w, h
+    boxes = [xy for _, xy in demo_pictures.crop_boxes(scene, cam, w, h)]
+    centres = [bpy.data.objects[s["object"]].location.x for s in spots]
+    px_per_unit = w / cam.data.ortho_scale
+    offsets = [bx - (c - cam.location.x) * px_per_unit for (bx, _), c in zip(boxes, centres)]
+    assert max(offsets) - min(offsets) <= 0.51                 # the same pixels, to rounding
+    assert len({by for _, by in boxes}) == 1
+    assert all(0 <= bx and bx + demo_pictures.CROP_PIXELS <= w for bx, _ in boxes)
+
+
+def test_crop_error_is_the_largest_channel_difference():
+    from surfgrad_addon.harness.demo_pictures import crop_error
+    a = np.zeros((2, 2, 3))
+    b = a.copy()
+    b[0, 1] = (0.1, -0.3, 0.2)
+    err = crop_error(b, a)
+    assert err.shape == (2, 2) and err[0, 1] == pytest.approx(0.3) and err.sum() == \
+        pytest.approx(0.3)

@@ -73,7 +73,8 @@ EXHIBITS = [
     ("height-map-one-texel-sampler", "height-map-sampler", "one-texel", "image"),
     *_named_after("image", "triplanar-sampler", "triplanar-height-sampler", "parallax-sampler"),
     # Decal shapes and the overwrite mode.
-    *[(f"decal-{shape}", "decal", shape, "image") for shape in ("sphere", "cylinder", "cone")],
+    *[(f"decal-{shape}", "decal", shape, "image")
+      for shape in ("sphere", "cylinder", "cone", "wedge", "capsule")],
     *_named_after("image", "decal-overwrite"),
     # Back faces (a plane turned away from the camera): Cycles and EEVEE flip the shading
     # normal there, and nodes differ in how they treat it.

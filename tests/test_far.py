@@ -144,7 +144,8 @@ def test_triplanar_coordinates_near_the_origin_and_linked_unchanged(objects):
 
 # Methods on world or object positions, and controls on UV maps and tangents.
 FAR_METHODS = [("triplanar", "hq"), ("triplanar-height", "hq"), ("decal", "box"),
-               ("decal", "cone"), ("triplanar-sampler", "hq"), ("triplanar-height-sampler", "hq"),
+               ("decal", "cone"), ("decal", "wedge"), ("decal", "capsule"),
+               ("triplanar-sampler", "hq"), ("triplanar-height-sampler", "hq"),
                ("volume-noise", "hq"), ("displace-bump", "hq"), ("post-resolve", "hq"),
                ("normal-map", "hq"), ("object-normal", "hq")]
 

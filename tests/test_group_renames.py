@@ -75,23 +75,30 @@ def test_set_choice_sets_an_item_by_index_on_every_line(fresh):
         assert socket.default_value == (name if MENUS else index)
 
 
+ENUMERATIONS = [(G.blend_normals_group, "Method",
+                 ["Partial Derivative", "Whiteout", "UDN", "RNM"]),
+                (G.decal_group, "Shape", ["Box", "Sphere", "Cylinder", "Cone", "Wedge",
+                                          "Capsule"])]
+
+
 @pytest.mark.skipif(not MENUS, reason="integers stay integers on lines without Menu sockets")
-def test_an_integer_saved_by_the_old_version_becomes_the_item_of_that_index(fresh):
-    """A file saved when Method was an integer: its value chooses the same blend after the
-    rebuild makes it a Menu."""
-    tree = G.blend_normals_group()
+@pytest.mark.parametrize("build,name,items", ENUMERATIONS, ids=["Method", "Shape"])
+def test_an_integer_saved_by_the_old_version_becomes_the_item_of_that_index(fresh, build, name,
+                                                                           items):
+    """A file saved when the enumeration was an integer: its value chooses the same item after
+    the rebuild makes it a Menu."""
+    tree = build()
     iface = tree.interface
     iface.remove(next(it for it in iface.items_tree
-                      if it.item_type == "SOCKET" and it.name == "Method"))
-    old = iface.new_socket("Method", in_out="INPUT", socket_type="NodeSocketInt")
+                      if it.item_type == "SOCKET" and it.name == name))
+    old = iface.new_socket(name, in_out="INPUT", socket_type="NodeSocketInt")
     tree["surfgrad_version"] = G.common.VERSION - 1
     mat = new_material("User")
-    nodes = [mat.node_tree.nodes.new("ShaderNodeGroup") for _ in range(4)]
+    nodes = [mat.node_tree.nodes.new("ShaderNodeGroup") for _ in items]
     for k, node in enumerate(nodes):
         node.node_tree = tree
-        node.inputs["Method"].default_value = k
-    assert nodes[0].inputs["Method"].identifier == old.identifier
-    G.blend_normals_group()
-    assert [n.inputs["Method"].type for n in nodes] == ["MENU"] * 4
-    assert [n.inputs["Method"].default_value for n in nodes] == \
-        ["Partial Derivative", "Whiteout", "UDN", "RNM"]
+        node.inputs[name].default_value = k
+    assert nodes[0].inputs[name].identifier == old.identifier
+    build()
+    assert [n.inputs[name].type for n in nodes] == ["MENU"] * len(items)
+    assert [n.inputs[name].default_value for n in nodes] == items

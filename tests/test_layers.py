@@ -84,7 +84,7 @@ def test_the_method_registry_and_the_main_jobs_reference_stage_need_no_bpy():
         "print('METHODS', len(methods.METHODS), 'TABLE', ' '.join(table))\n")
     line = next(x for x in stdout.splitlines() if x.startswith("METHODS"))
     names = line.split()[3:]
-    assert line.split()[1] == "22"
+    assert line.split()[1] == "23"
     # Every registry method with a scene-free reference, each variant, then the baselines;
     # the Sampler methods share their per-image twins' references and maps.
     assert {"normal-map", "height-map-forward", "height-map-hq", "decal-box", "decal-cone",

@@ -111,3 +111,94 @@ def test_noise_is_continuous_across_cells():
     (v0, g0), (v1, g1) = R.gradient_noise(p - e), R.gradient_noise(p + e)
     np.testing.assert_allclose(v0, v1, atol=1e-8)
     np.testing.assert_allclose(g0, g1, atol=1e-7)
+
+
+# -- footprint filtering (issue 24): w_i = 1 - smoothstep(1/4, 1/2, 2^i F) ------------------------
+
+def _hermite_fade_by_hand(x):
+    """1 - smoothstep(0.25, 0.5, x), written out piecewise (not the module's clip form)."""
+    if x <= 0.25:
+        return 1.0
+    if x >= 0.5:
+        return 0.0
+    t = (x - 0.25) * 4.0
+    return 1.0 - (3.0 * t * t - 2.0 * t * t * t)
+
+
+@pytest.mark.parametrize("footprint", [0.0, 0.1, 0.125, 0.15, 0.2, 0.3, 1.0])
+def test_footprint_fractal_sum_weights_each_octave_by_the_smoothstep_fade(footprint):
+    """fractal_sum with a footprint is sum_i gain^i w_i noise(2^i p), w_i from the piecewise
+    fade by hand: at F = 0.125 octave 3 (f = 4) sits at x = 0.5 (gone), octave 2 at 0.25
+    (whole); at F = 0.15 octave 2 is at x = 0.3, t = 0.2, w = 1 - 0.104 = 0.896."""
+    rng = np.random.default_rng(11)
+    p = rng.uniform(-4, 4, (400, 3))
+    value, grad = R.fractal_sum(p, octaves=4, footprint=np.full(400, footprint))
+    expect_v, expect_g = np.zeros(400), np.zeros((400, 3))
+    for i in range(4):
+        w = 0.5 ** i * _hermite_fade_by_hand(2.0 ** i * footprint)
+        v, g = R.gradient_noise(p * 2.0 ** i)
+        expect_v += w * v
+        expect_g += w * 2.0 ** i * g
+    np.testing.assert_allclose(value, expect_v, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(grad, expect_g, rtol=0, atol=1e-13)
+    if footprint == 0.15:
+        assert abs(_hermite_fade_by_hand(0.3) - 0.896) < 1e-12
+
+
+def test_footprint_zero_changes_nothing_and_a_huge_one_leaves_nothing():
+    rng = np.random.default_rng(12)
+    p = rng.uniform(-4, 4, (300, 3))
+    for fn in (R.fractal_sum, R.turbulence):
+        plain = fn(p, octaves=4)
+        small = fn(p, octaves=4, footprint=np.zeros(300))
+        np.testing.assert_array_equal(plain[0], small[0])
+        np.testing.assert_array_equal(plain[1], small[1])
+        v, g = fn(p, octaves=4, footprint=np.full(300, 0.5))       # even octave 0 is gone
+        assert np.all(v == 0) and np.all(g == 0)
+
+
+def test_footprint_turbulence_fades_absolute_octaves_per_point():
+    """Per-point footprints: each point's own weights (turbulence: |noise| and sign g)."""
+    rng = np.random.default_rng(13)
+    p = rng.uniform(-4, 4, (200, 3))
+    fp = rng.uniform(0.0, 0.6, 200)
+    value, grad = R.turbulence(p, octaves=3, footprint=fp)
+    for k in range(0, 200, 37):
+        ev, eg = 0.0, np.zeros(3)
+        for i in range(3):
+            w = 0.5 ** i * _hermite_fade_by_hand(2.0 ** i * fp[k])
+            v, g = R.gradient_noise(p[k:k + 1] * 2.0 ** i)
+            ev += w * abs(v[0])
+            eg += w * 2.0 ** i * np.sign(v[0]) * g[0]
+        assert abs(value[k] - ev) < 1e-14 and np.max(np.abs(grad[k] - eg)) < 1e-13
+
+
+def test_bump_footprint_is_the_texel_size_for_a_bakes_equal_orthogonal_differentials():
+    """A bake's differentials r a, r b (a, b orthonormal in the plane, n their normal) and
+    J = c I: the group's estimator gives c r; J = diag(c1, c2, c3) on the z = 0 plane with
+    a = x, b = y: r sqrt(c1^4 + c2^4) / sqrt(c1^2 + c2^2) (derived by hand)."""
+    from surfgrad_addon.reference.noise_footprint import footprint_from_differentials
+    rng = np.random.default_rng(14)
+    n = rng.normal(size=(50, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    a = np.cross(n, rng.normal(size=(50, 3)))
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    b = np.cross(n, a)
+    r = rng.uniform(1e-3, 0.2, (50, 1))
+    c = rng.uniform(0.5, 8.0, (50, 1))
+    f = footprint_from_differentials(r * a, r * b, n, c * r * a, c * r * b)
+    np.testing.assert_allclose(f, (c * r)[:, 0], rtol=1e-12)
+    c1, c2, c3 = 2.0, 5.0, 7.0
+    ex, ey, ez = np.eye(3)
+    f = footprint_from_differentials(0.1 * ex[None], 0.1 * ey[None], ez[None],
+                                     0.1 * c1 * ex[None], 0.1 * c2 * ey[None])
+    assert abs(f[0] - 0.1 * np.sqrt(c1 ** 4 + c2 ** 4) / np.sqrt(c1 ** 2 + c2 ** 2)) < 1e-15
+
+
+def test_bump_footprint_of_orthogonal_unequal_differentials_is_their_rms():
+    """dpdx = 0.3 x, dpdy = 0.1 y on the z = 0 plane, J = 3: F = 3 sqrt((0.09 + 0.01) / 2)."""
+    from surfgrad_addon.reference.noise_footprint import footprint_from_differentials
+    ex, ey, ez = np.eye(3)
+    f = footprint_from_differentials(0.3 * ex[None], 0.1 * ey[None], ez[None],
+                                     0.9 * ex[None], 0.3 * ey[None])
+    assert abs(f[0] - 3.0 * np.sqrt(0.05)) < 1e-14

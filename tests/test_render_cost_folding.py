@@ -17,6 +17,7 @@ pytest.importorskip("bpy")
 
 from surfgrad_addon.harness.bench import folded_cost  # noqa: E402
 from surfgrad_addon.harness.bench import svm_counts as S  # noqa: E402
+from surfgrad_addon.reference.decals import DECAL_SHAPES  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -179,7 +180,7 @@ def test_precise_far_off_is_the_group_without_the_route(svm):
         assert svm[f"{key}:precise"]["svm"] > svm[key]["svm"], key
 
 
-@pytest.mark.parametrize("shape", [0, 1, 2, 3])
+@pytest.mark.parametrize("shape", range(len(DECAL_SHAPES)))
 def test_a_decal_shape_is_the_group_with_that_shape_alone(svm, shape, monkeypatch):
     """SG Decal's Shape (a constant on the node): the material compiles to the program of SG
     Decal built with that one shape's nodes."""
@@ -202,22 +203,26 @@ def test_a_blend_method_is_the_group_with_that_blend_alone(svm, method, monkeypa
 
 
 BLEND_KEYS = ["blend", "blend:method1", "blend:method2", "blend:method3"]
+SHAPE_KEYS = ["decal"] + [f"decal:shape{k}" for k in range(1, len(folded_cost.DECAL_SHAPES))]
 
 
 def test_a_menu_costs_what_its_integer_did(svm):
-    """Where Method is a Menu (5.0 and later), each item's material compiles to as many SVM
-    nodes as the same material with the integer of older lines set to that index: the Menu
-    Switch folds to the chosen blend as the Mix chain does."""
+    """Where an enumeration is a Menu (5.0 and later: SG Blend Normals' Method, SG Decal's
+    Shape), each item's material compiles to as many SVM nodes as the same material with the
+    integer of older lines set to that index: the Menu Switch folds to the chosen branch as the
+    integer's chain does."""
     from surfgrad_addon.reference.blender_lines import facts_for
     import bpy
     if not facts_for(bpy.app.version).menu_sockets:
         pytest.skip("Method is the integer on this line (the test above covers it)")
-    found = S.svm_counts(BLEND_KEYS, build="test_render_cost_folding:build_with_integers",
+    keys = BLEND_KEYS + SHAPE_KEYS
+    found = S.svm_counts(keys, build="test_render_cost_folding:build_with_integers",
                          paths=[S.ROOT / "tests"])
-    menu = {k: svm[k]["svm"] for k in BLEND_KEYS}
-    print("SVM nodes, menu:", menu, "integer:", {k: found[k].nodes for k in BLEND_KEYS})
-    assert {k: found[k].nodes for k in BLEND_KEYS} == menu
-    assert len(set(menu.values())) > 1        # the items differ: not one branch for all
+    menu = {k: svm[k]["svm"] for k in keys}
+    print("SVM nodes, menu:", menu, "integer:", {k: found[k].nodes for k in keys})
+    assert {k: found[k].nodes for k in keys} == menu
+    for group in (BLEND_KEYS, SHAPE_KEYS):    # the items differ: not one branch for all
+        assert len({menu[k] for k in group}) > 1
 
 
 def test_strength_one_is_the_group_without_the_product(svm):
@@ -269,14 +274,22 @@ def test_unused_octaves_vanish(svm):
     assert len(steps) == 1 and steps.pop() > 0, counts
 
 
+SHAPE_MARGIN = 0.05
+
+
 def test_only_the_chosen_decal_shape_runs(svm):
     """Each shape alone: the sphere (one length and a ramp) is the cheapest, the box (two
     tests, a depth ramp) next, the cylinder (a ramp on the radius and the depth ramp) and the
-    cone (the cylinder's with a divide by its radius) the dearest. Were the four computed
-    everywhere, all four counts would be one."""
-    box, sphere, cylinder, cone = (svm["decal"]["svm"],
-                                   *(svm[f"decal:shape{k}"]["svm"] for k in (1, 2, 3)))
+    cone (the cylinder's with a divide by its radius) the dearest. Were the six computed
+    everywhere, all six counts would be one."""
+    box, sphere, cylinder, cone, wedge, capsule = (
+        svm["decal"]["svm"], *(svm[f"decal:shape{k}"]["svm"] for k in range(1, 6)))
     assert sphere < box < cylinder < cone
+    # The wedge (the cone's slope ramp on |x|, a test on y) and the capsule (a clamp on |z|,
+    # the sphere's length and ramp) cost no more than the dearest of the first four plus a
+    # node or two (SHAPE_MARGIN of the material).
+    for added in (wedge, capsule):
+        assert sphere < added <= cone * (1.0 + SHAPE_MARGIN), (added, cone)
 
 
 def test_an_unlinked_input_is_free_and_a_linked_one_pays_its_test(svm):

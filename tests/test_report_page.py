@@ -188,16 +188,18 @@ def render_cost_fixture():
     """Shaped like bench-render's render_cost.json; its own markdown writer reads it."""
     from surfgrad_addon.harness.bench import render_cost
     rows = [{"key": "none", "label": "no bump", "seconds": 1.0, "nodes": 3,
-             "normal_map_nodes": 0, "image_lookups": 0},
+             "normal_map_nodes": 0, "image_lookups": 0, "svm": 53},
             {"key": "nm-sg", "label": "SG Normal Map", "seconds": 1.2, "nodes": 9,
              "normal_map_nodes": 0, "image_lookups": 1, "twin": "nm", "ratio": 1.2,
-             "overhead_ratio": 2.0, "target": 1.1},
+             "overhead_ratio": 2.0, "target": 1.1, "svm": 360, "svm_ratio": 5.0},
             {"key": "h-sg", "label": "SG Height Map", "seconds": 1.0, "nodes": 9,
              "normal_map_nodes": 0, "image_lookups": 1, "twin": "h", "ratio": 1.02,
-             "overhead_ratio": 1.0, "target": 1.05}]
+             "overhead_ratio": 1.0, "target": 1.05, "svm": 301, "svm_ratio": 2.74}]
+    folded = [{"key": r["key"], "label": r["label"], "svm": r["svm"], "unit": "int"}
+              for r in rows]
     result = {"blender": "5.2.3 LTS", "size": 64, "samples": 4, "repeats": 2, "quick": True,
               "rows": rows, "marginal_layer": {"sg_s": 0.1, "builtin_s": 0.1}, "eevee": {},
-              "seconds": 9.0}
+              "seconds": 9.0, "folded": folded}
     assert "SG Height Map" in render_cost.markdown(result)
     return result
 

@@ -81,6 +81,30 @@ def render_cost_folded_table(docs):
     return rows
 
 
+def noise_footprint_table(docs):
+    """SG Noise with and without Filter Footprint on a receding plane (bench/noise_footprint)."""
+    d = load(docs, "noise_footprint.json")
+    off, on = d["ways"]["off"], d["ways"]["on"]
+    unit = d["svm_unit"]
+
+    def trio(w, key, digits):
+        return " / ".join(f"{x:.{digits}f}" for x in (w[key], w["far"][key], w["near"][key]))
+
+    def ratio(key):
+        return " / ".join(f"{on_[key] / off_[key]:.2f}" for on_, off_ in
+                          ((on, off), (on["far"], off["far"]), (on["near"], off["near"])))
+    svm = d["svm"]
+    return [f"| | RMSE vs truth (all / far half / near half) | sparkle (all / far / near) "
+            f"| 1-spp render s | {d['truth_samples']}-spp render s | SVM ({unit} words) |",
+            "|---|---|---|---|---|---|",
+            f"| filter off | {trio(off, 'rmse', 3)} | {trio(off, 'sparkle', 4)} "
+            f"| {off['render_seconds']:.3f} | {d['truth_seconds']:.1f} | {svm['off']} |",
+            f"| filter on | {trio(on, 'rmse', 3)} | {trio(on, 'sparkle', 4)} "
+            f"| {on['render_seconds']:.3f} | {d['filtered_truth_seconds']:.1f} | {svm['on']} |",
+            f"| on / off | {ratio('rmse')} | {ratio('sparkle')} | {d['time_ratio']:.2f} "
+            f"| {d['truth_time_ratio']:.2f} | {svm['on'] / svm['off']:.2f} |"]
+
+
 BATCH_RUNS = (("shared_w1", "1 worker, all threads"),
               ("shared_w2", "2 workers, threads shared (1 each)"),
               ("one_w1", "1 worker, 1 thread"),
@@ -109,12 +133,14 @@ def bench_batch_table(docs):
 TABLES = {"bench-compare": bench_compare_table,
           "bench-compare-before": bench_compare_before_table,
           "bench-batch": bench_batch_table,
-          "render-cost-folded": render_cost_folded_table}
+          "render-cost-folded": render_cost_folded_table,
+          "noise-footprint": noise_footprint_table}
 # The committed JSON each table reads (every docs/*.json must be read by one: a test checks).
 SOURCES = {"bench-compare": ("bench_compare.json",),
            "bench-compare-before": ("bench_compare_before.json",),
            "bench-batch": ("bench_batch.json",),
-           "render-cost-folded": ("render_cost_folded.json",)}
+           "render-cost-folded": ("render_cost_folded.json",),
+           "noise-footprint": ("noise_footprint.json",)}
 
 
 def pages(root=ROOT):

@@ -53,10 +53,11 @@ def cases():
 
 
 # Cases newer than the recorded commit (a08fc13) have no before-values: the round decal shapes
-# and the overwrite mode (issue 15). The box decal is the old decal, recorded as "hq" (the decal
-# had no variants then).
-NEW_CASES = {("decal", "sphere"), ("decal", "cylinder"), ("decal", "cone"),
-             ("decal-overwrite", "hq"), ("height-blend", "hq")}
+# and the overwrite mode (issue 15), the wedge and capsule, the height blend and the filtered
+# noise (issue 24). The box decal is the old decal, recorded as "hq" (no variants then).
+NEW_CASES = {("decal", "sphere"), ("decal", "cylinder"), ("decal", "cone"), ("decal", "wedge"),
+             ("decal", "capsule"), ("decal-overwrite", "hq"), ("height-blend", "hq"),
+             ("volume-noise-filtered", "hq")}
 RECORDED_AS = {("decal", "box"): ("decal", "hq")}
 
 

@@ -116,7 +116,7 @@ class BakeRequest:
     object: str
     output: str
     space: str = _option("tangent", "the normal map's space", choices=tuple(NB.SPACES))
-    resolution: int = _option(1024, "texels per side", range=NB.RESOLUTION_RANGE)
+    resolution: int = _option(NB.DEFAULT_RESOLUTION, "texels per side", range=NB.RESOLUTION_RANGE)
     uv_map: str = _option(None, "UV map (default: the active render one)")
     margin: int = _option(16, "texels to extend past UV borders", range=MARGIN_RANGE)
     samples: int = _option(1, "Cycles samples per texel: more anti-alias detail finer than a "

@@ -21,7 +21,14 @@ def choose(b, selector, candidates):
         for index, candidate in enumerate(candidates[1:], start=1):
             out = b.mix_vector(b.math(Math.COMPARE, selector, float(index), 0.5), out, candidate)
         return out
-    switch = b.node("GeometryNodeMenuSwitch", data_type="VECTOR")
+    return menu_switch(b, selector, candidates)
+
+
+def menu_switch(b, selector, candidates, data_type="VECTOR"):
+    """A Menu Switch on `selector` (a Menu group input) with the spec's items, candidates[k]
+    the k-th item's value; sets the Menu's default and carries an earlier integer's values."""
+    spec = b.declared_spec(selector)
+    switch = b.node("GeometryNodeMenuSwitch", data_type=data_type)
     items = switch.enum_items
     while len(items) < len(spec.items):
         items.new(spec.items[len(items)][0])
@@ -55,6 +62,13 @@ def menu_items(socket):
                     if link.to_node.bl_idname == "GeometryNodeMenuSwitch":
                         return [i.name for i in link.to_node.enum_items]
     raise BuildError(f"{tree.name!r}: {socket.name!r} feeds no Menu Switch")
+
+
+def choice_index(socket):
+    """The item index a group node's enumeration input is set to (Menu or integer)."""
+    if socket.type == "MENU":
+        return menu_items(socket).index(socket.default_value)
+    return socket.default_value
 
 
 def set_choice(socket, index):

@@ -123,7 +123,7 @@ def _check_file(filepath, overwrite):
     return path
 
 
-def check(obj, resolution=1024, uv_map="", filepath="", overwrite=False):
+def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False):
     """Everything freeze needs, checked before anything changes: (material, tree, stack end,
     fed Normal inputs, uv_map, output Path or None for pack)."""
     if obj is None:
@@ -158,8 +158,8 @@ def check(obj, resolution=1024, uv_map="", filepath="", overwrite=False):
     return mat, tree, end, fed, uv_map, path
 
 
-def freeze_steps(obj, resolution=1024, uv_map="", filepath="", overwrite=False, samples=1,
-                 log=lambda *_: None):
+def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
+                 samples=1, log=lambda *_: None):
     """Freeze obj's active material (see the module doc), yielding "checked", "baked" and
     "wired" (the file is written after it); the generator's return value is the record.
     Throw FreezeCancelled in at a stage to cancel."""
@@ -212,8 +212,8 @@ def freeze_steps(obj, resolution=1024, uv_map="", filepath="", overwrite=False, 
             os.rmdir(folder)
 
 
-def freeze(obj, resolution=1024, uv_map="", filepath="", overwrite=False, samples=1,
-           log=lambda *_: None, cancel=lambda stage: False):
+def freeze(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
+           samples=1, log=lambda *_: None, cancel=lambda stage: False):
     """Run freeze_steps to the end; `cancel(stage)` True after a stage cancels the freeze."""
     steps = freeze_steps(obj, resolution, uv_map, filepath, overwrite, samples, log)
     stage = next(steps)

@@ -25,7 +25,8 @@ unlinked, in a frame (Thaw brings it back)"""
     bl_options = {'REGISTER', 'UNDO'}
 
     resolution: IntProperty(name="Resolution", description="Texels per side of the normal map",
-                            default=1024, min=4, max=16384)
+                            default=F.NB.DEFAULT_RESOLUTION, min=F.NB.RESOLUTION_RANGE[0],
+                            max=F.NB.RESOLUTION_RANGE[1])
     uv_map: StringProperty(name="UV Map", description="UV map to bake on and to sample the map "
                            "with (empty: the active render UV map)", default="")
     filepath: StringProperty(name="Save As", description="PNG (16-bit) or OpenEXR file to save "

@@ -33,6 +33,7 @@ from .scene_state import SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
+DEFAULT_RESOLUTION = 1024            # the one default of every bake entry (request, batch, freeze)
 UDIM_TOKEN = T.UDIM_TOKEN
 # extension -> (Blender file format, bit depths it takes, the default depth)
 FORMATS = {".png": ("PNG", ("8", "16"), "8"), ".exr": ("OPEN_EXR", ("half", "float"), "float")}
@@ -167,9 +168,9 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     return uv_map, tiles, with_uvs, warnings
 
 
-def bake_normal_tiles(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
-                      samples=1, depth=None, tiles=None, empty_tiles="error", overwrite=False,
-                      log=print, threads=None):
+def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,
+                      margin=16, samples=1, depth=None, tiles=None, empty_tiles="error",
+                      overwrite=False, log=print, threads=None):
     """Bake obj's materials into normal map file(s) at `output` (with <UDIM>: one file per
     tile). threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch
     of several processes gives each its share). Returns a dict: paths {tile: Path}, tiles,
@@ -338,8 +339,8 @@ def _publish(temp, final, overwrite):
     temp.unlink()
 
 
-def bake_normal_map(obj, output, space="tangent", resolution=1024, uv_map=None, margin=16,
-                    samples=1, overwrite=False, log=print, depth=None, tiles=None):
+def bake_normal_map(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,
+                    margin=16, samples=1, overwrite=False, log=print, depth=None, tiles=None):
     """Bake obj's materials to a normal map file at `output` (with <UDIM> in the name: one
     file per tile that holds UVs). Returns the written path (the name with <UDIM> for tiles)."""
     bake_normal_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, tiles,

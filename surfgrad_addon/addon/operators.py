@@ -10,8 +10,9 @@ import textwrap
 import bpy
 from bpy.props import EnumProperty, StringProperty
 
-from ..reference.decals import DECAL_SHAPES
+from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
+from .enum_input import set_choice
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .far_precision import needs_precise_far, set_precise_far_on_node
@@ -186,16 +187,22 @@ def _move_input(tree, old, new):
 # The projector's own display, and outline empties parented to it where Blender has no such
 # display: its empties draw a circle in their XZ plane and a cone along +Y (apex at y = 2), so
 # rotated +90 degrees about X they outline the cylinder's ends and the cone (apex at z = +1,
-# radius 1 at z = -1) of SG Decal's volume.
+# radius 1 at z = -1) of SG Decal's volume. Empties have no prism, so the wedge shows the cube it
+# is cut from with an unrotated cone inside (apex at y = +1, base at y = -1), whose outline seen
+# down the projection axis is the wedge's triangle; the capsule shows the unit spheres around
+# its segment's ends, whose hull it is.
 DECAL_DISPLAY = {"box": ("CUBE", ()), "sphere": ("SPHERE", ()),
                  "cylinder": ("SINGLE_ARROW", (("CIRCLE", (0.0, 0.0, 1.0)),
                                                ("CIRCLE", (0.0, 0.0, -1.0)))),
-                 "cone": ("SINGLE_ARROW", (("CONE", (0.0, 0.0, -1.0)),))}
+                 "cone": ("SINGLE_ARROW", (("CONE", (0.0, 0.0, -1.0)),)),
+                 "wedge": ("CUBE", (("CONE", (0.0, -1.0, 0.0), 0.0),)),
+                 "capsule": ("SINGLE_ARROW", (("SPHERE", (0.0, 0.0, CAPSULE_HALF_LENGTH)),
+                                              ("SPHERE", (0.0, 0.0, -CAPSULE_HALF_LENGTH))))}
 
 
 def add_decal_projector(context, tree, image=None, name="SG Decal Projector", shape="box"):
-    """An empty at the 3D cursor whose display shows the projector's volume (`shape`: box,
-    sphere, cylinder or cone), and in `tree` the decal chain: Texture Coordinate (object = the
+    """An empty at the 3D cursor whose display shows the projector's volume (`shape`: one of
+    DECAL_SHAPES), and in `tree` the decal chain: Texture Coordinate (object = the
     empty) -> SG Projector Coordinates (driven by the empty; Precise Far From Origin on where the
     active object is far) -> SG Decal Coordinates -> Image Texture -> SG Decal (its Shape set),
     whose Axis X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
@@ -207,12 +214,12 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     empty.empty_display_type = display
     empty.location = context.scene.cursor.location
     context.scene.collection.objects.link(empty)
-    for kind, offset in outlines:
+    for kind, offset, *tilt in outlines:           # tilt about X: 90 degrees unless given
         outline = bpy.data.objects.new(f"{name} ({shape} outline)", None)
         outline.empty_display_type = kind
         outline.parent = empty
         outline.location = offset
-        outline.rotation_euler = (math.radians(90.0), 0.0, 0.0)
+        outline.rotation_euler = (math.radians(tilt[0] if tilt else 90.0), 0.0, 0.0)
         outline.hide_select = True          # select and scale the projector, not its outline
         outline.hide_render = True
         context.scene.collection.objects.link(outline)
@@ -229,7 +236,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     tex.extension = "CLIP"
     tex.location = (coords.location.x + 220, coords.location.y)
     decal = _group_node(tree, G.decal_group, (tex.location.x + 300, tex.location.y))
-    decal.inputs["Shape"].default_value = DECAL_SHAPES.index(shape)
+    set_choice(decal.inputs["Shape"], DECAL_SHAPES.index(shape))
     links = tree.links
     links.new(tc.outputs["Decal Coordinates"], coords.inputs[0])
     links.new(tc.outputs["Decal Coordinates"], decal.inputs["Decal Coordinates"])
@@ -365,7 +372,11 @@ material; the decal's axes follow the empty"""
                ("cylinder", "Cylinder", "A round decal along the projection axis, fading "
                 "toward its side and ends"),
                ("cone", "Cone", "Narrows toward the projector (apex at +Z), fading toward its "
-                "side and ends")))
+                "side and ends"),
+               ("wedge", "Wedge", "A triangular decal (apex at +Y) along the projection axis, "
+                "fading toward its sloped sides and ends"),
+               ("capsule", "Capsule", "A round decal along the projection axis with rounded "
+                "ends, fading by the distance to its axis segment")))
 
     def execute(self, context):
         try:

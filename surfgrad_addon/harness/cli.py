@@ -9,6 +9,7 @@ import sys
 
 from ..addon import command_line as CL
 from ..addon.commands import SHIPPED
+from ..reference.decals import DECAL_SHAPES
 
 PROG = "python -m surfgrad_addon"
 DESCRIPTION = f"""Command line: {PROG} <command> ...
@@ -183,7 +184,7 @@ def compare_arguments(p):
     p.add_argument("--image", default=None, help="normal map image to use instead of the "
                                                  "procedural test image")
     p.add_argument("--variant", default=None,
-                   choices=("forward", "one-texel", "hq", "box", "sphere", "cylinder", "cone"),
+                   choices=("forward", "one-texel", "hq", *DECAL_SHAPES),
                    help="height-map derivative variant (default hq) or decal shape (default "
                         "box)")
     p.add_argument("--tiles", type=int, nargs="+", default=None,

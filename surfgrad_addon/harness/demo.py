@@ -17,8 +17,36 @@ from ..addon import groups as G
 from ..addon.sampler_zone import has_closures
 
 EXHIBIT_SPACING = 8.0          # wider than any exhibit camera sees of its neighbours
-HEIGHT_BUMP = 0.35
+HEIGHT_BUMP = 1.0 
 NOISE_AMOUNT = 0.16          # strong enough that Perlin's unprojected addition shows
+# The layered exhibit's second UV map: the first turned 180 degrees and tiled twice around
+# (a sphere's u spans twice the length of its v: the detail's domes stay round). An engine
+# that decodes it with the first map's tangents lights its domes from the opposite side.
+LAYERED_UV = "Detail turned"
+LAYERED_TILING = (2.0, 1.0)
+# The height exhibit: a 16 px height image, magnified (a texel is ~50 px in the picture), so
+# the methods' derivatives differ where a reader can see them.
+HEIGHT_IMAGE = 16
+HEIGHT_FREQ = (2.0, 1.0)
+HEIGHT_LABELS = {"forward": "forward", "one-texel": "one-texel", "hq": "HQ",
+                 "reference": "reference"}
+
+
+def _add_turned_uv(obj):
+    """LAYERED_UV on obj: its first UV map turned 180 degrees about the centre and tiled."""
+    layer = obj.data.uv_layers.new(name=LAYERED_UV)
+    uv = np.empty(2 * len(obj.data.loops), dtype=np.float32)
+    obj.data.uv_layers["UVMap"].data.foreach_get("uv", uv)
+    uv = 0.5 - (uv.reshape(-1, 2) - 0.5) * np.asarray(LAYERED_TILING, dtype=np.float32)
+    layer.data.foreach_set("uv", uv.ravel())
+    obj.data.uv_layers.active = obj.data.uv_layers["UVMap"]
+
+
+def _wave_normal_image(size, freq, slope):
+    """A smooth tangent-space normal map (colour) from wave_height: the macro layer."""
+    _, d = T.wave_height(T.texel_centres(size, size), freq)
+    n = np.concatenate([-slope * d, np.ones(d.shape[:-1] + (1,))], axis=-1)
+    return 0.5 * n / np.linalg.norm(n, axis=-1, keepdims=True) + 0.5
 
 
 # Decal shapes: (shape, SG mode label, overwrite, centre distance in front of the sphere's centre,
@@ -148,7 +176,8 @@ def build_demo(log=print):
     scene = S.new_file()
     hemi = S.image("Hemispheres", T.hemisphere_tile_image(256))
     detail = S.image("Detail tile", T.hemisphere_tile_image(256, 8, 0.6))
-    height = S.image("Height 64", T.wave_height_image(64, (4.0, 2.0)))
+    height = S.image(f"Height {HEIGHT_IMAGE}", T.wave_height_image(HEIGHT_IMAGE, HEIGHT_FREQ))
+    macro_waves = S.image("Macro waves", _wave_normal_image(128, (3.0, 2.0), 0.06))
     domes = S.image("Dome heights", T.hemisphere_tile_height_image(256))
     cams = {}
 
@@ -159,25 +188,32 @@ def build_demo(log=print):
         node = g.group(G.normal_map_group(uv_name), Color=g.image(image, uv(g, uv_name)))
         return node.outputs[0]
 
-    # 1. Layered detail on two UV maps (Figure 1).
+    # 1. Layered detail on a second UV map (Figure 1): the same macro and detail maps on both
+    # spheres; only the detail's tangent frame differs.
     x = 0.0
 
-    def layered_usual(g):
-        mix = g.node("ShaderNodeNormalMap", uv_map="UVMap")      # detail on the first map's
-        g.link(g.image(detail, uv(g, "Detail")), mix.inputs["Color"])   # tangents
-        return mix.outputs[0]
+    def layered(detail_frame):
+        def build(g):
+            color = g.image(detail, uv(g, LAYERED_UV))
+            if detail_frame == "UVMap":      # the usual: one tangent frame, the first map's
+                tn = g.group(G.normal_map_group("UVMap"), Color=color)
+            else:                            # the second map's own basis
+                basis = g.group(G.procedural_basis_group(), UV=uv(g, LAYERED_UV))
+                tn = g.group(G.tangent_normal_group(), Color=color,
+                             Tangent=basis.outputs[0], Bitangent=basis.outputs[1])
+            comb = g.group(G.combine_group(), A=nm(g, macro_waves), B=tn.outputs[0],
+                           Scale_B=1.0)
+            return g.resolve(comb.outputs[0])
+        return build
+    a, b = S.pair(x, "Detail on a second UV map, turned", layered("UVMap"),
+                 layered(LAYERED_UV), left_label="usual: first map's tangents",
+                 right_label="surface gradient: its own basis")
+    for obj in (a, b):
+        _add_turned_uv(obj)
+    cams["layered"] = S.camera("Camera layered", x, crops=S.pair_crops(
+        a, b, S.FRONT_SPOT, ("usual: first map's tangents", "surface gradient")))
 
-    def layered_sg(g):
-        basis = g.group(G.procedural_basis_group(), UV=uv(g, "Detail"))
-        tn = g.group(G.tangent_normal_group(), Color=g.image(detail, uv(g, "Detail")),
-                     Tangent=basis.outputs[0], Bitangent=basis.outputs[1])
-        comb = g.group(G.combine_group(), A=nm(g, hemi), B=tn.outputs[0], Scale_B=1.0)
-        return g.resolve(comb.outputs[0])
-    a, b = S.pair(x, "Detail on a second, rotated UV map", layered_usual, layered_sg)
-    cams["layered"] = S.camera("Camera layered", x,
-                              crops=S.pair_crops(a, b, S.FRONT_SPOT))
-
-    # 2. Triplanar on a rock (Figure 5), and post-resolve triplanar on a normal map (7b).
+    # 2. Triplanar on a rock (Figure 5).
     x += EXHIBIT_SPACING
 
     def tri_colors(g):
@@ -197,30 +233,15 @@ def build_demo(log=print):
         for axis, color in zip("XYZ", tri_colors(g)):
             g.link(color, node.inputs[f"Color {axis}"])
         return g.resolve(node.outputs[0])
-    def tri_post_resolve(g):
-        # Figure 7(b): a baked macro normal map resolved first, then triplanar detail with
-        # the resolved normal as the new base normal (weights, projection, second resolve).
-        first = g.resolve(g.group(G.normal_map_group("UVMap"),
-                                  Color=g.image(macro, uv(g))).outputs[0])
-        node = g.group(G.triplanar_group(), Normal=first, Strength=0.6)
-        for axis, color in zip("XYZ", tri_colors(g)):
-            g.link(color, node.inputs[f"Color {axis}"])
-        return g.resolve(node.outputs[0], normal=first)
-    macro = S.image("Macro normal map", T.hemisphere_tile_image(128, 2, 0.95))
     a, b = S.pair(x, "Triplanar on a rock", tri_usual, tri_sg, kind="rock")
-    c = S.mesh("rock", (x + 3.75, 0, 1.1), "Triplanar on a rock | post-resolve")
-    c.data.materials.append(S.material("Triplanar: post-resolve on a normal map",
-                                      tri_post_resolve))
-    S.label("post-resolve (7b)", (x + 3.75, 0, -0.25), 0.2)
-    for obj in (a, b, c):
+    for obj in (a, b):
         from .methods import add_displace_modifier
         add_displace_modifier(obj, {"Amount": 0.18, "Scale": 1.6, "Octaves": 3})
-    cams["triplanar"] = S.camera("Camera triplanar", x + 1.25, distance=10.6, crops=[
-        ("usual", a, (0.0, -1.0, 0.1)), ("surface gradient", b, (0.0, -1.0, 0.1)),
-        ("post-resolve (7b)", c, (0.0, -1.0, 0.1))])
+    cams["triplanar"] = S.camera("Camera triplanar", x, crops=S.pair_crops(
+        a, b, (0.0, -1.0, 0.1)))
 
     # 3. Decal across a torus and a plane (Figure 6).
-    x += EXHIBIT_SPACING + 3.0          # room for the triplanar exhibit's third rock
+    x += EXHIBIT_SPACING
     projectors = []
     for dx, side in ((-1.25, "usual"), (1.25, "surface gradient")):
         empty = bpy.data.objects.new(f"Decal projector ({side})", None)
@@ -269,7 +290,8 @@ def build_demo(log=print):
                                                                  ("Perlin 1985",
                                                                   "surface gradient")))
 
-    # 5. Height-map derivatives (Figure 8): forward, one-texel, HQ, a real normal map.
+    # 5. Height-map derivatives (Figure 8) on a magnified 16 px height image: forward
+    # differences, one-texel, HQ, and the reference (a normal map baked from the exact height).
     x += EXHIBIT_SPACING
     variants = [("forward", lambda g: g.resolve(g.group(
         G.height_map_forward_group(), Height=g.first(g.image(height, uv(g))),
@@ -280,27 +302,33 @@ def build_demo(log=print):
     height_objs = []
     for i, (label, build) in enumerate(variants):
         obj = S.mesh("sphere", (x - 2.4 + 1.6 * i, 0, 1.1), f"Height map | {label}")
-        height_objs.append((label, obj))
+        height_objs.append((HEIGHT_LABELS[label], obj))
         obj.scale = (0.72, 0.72, 0.72)
         obj.data.materials.append(S.material(f"Height map: {label}", build))
-        S.label(label, (x - 2.4 + 1.6 * i, 0, 0.05), 0.2)
-    obj = S.mesh("sphere", (x + 2.4, 0, 1.1), "Height map | normal map")
+        S.label(HEIGHT_LABELS[label], (x - 2.4 + 1.6 * i, 0, 0.05), 0.2)
+    obj = S.mesh("sphere", (x + 2.4, 0, 1.1), "Height map | reference")
     obj.scale = (0.72, 0.72, 0.72)
     from .bench.scenario import bake_normal_map_from_truth, exact_height_surfgrad
     from ..reference import methods as M
     from .mesh_data import mesh_arrays_from_object
     bpy.context.view_layer.update()
     arrays = mesh_arrays_from_object(obj)
-    nmap = S.image("Normal map from height", bake_normal_map_from_truth(
+    nmap = S.image("Normal map from the exact height", bake_normal_map_from_truth(
         arrays, "UVMap", 128, lambda td: M.resolve(exact_height_surfgrad(
-            td, T.wave_height(td.uv(), (4.0, 2.0))[1], HEIGHT_BUMP))))
-    obj.data.materials.append(S.material("Height map: normal map", lambda g: g.resolve(
+            td, T.wave_height(td.uv(), HEIGHT_FREQ)[1], HEIGHT_BUMP))))
+    obj.data.materials.append(S.material("Height map: reference", lambda g: g.resolve(
         g.group(G.normal_map_group("UVMap"), Color=g.image(nmap, uv(g))).outputs[0])))
-    S.label("normal map", (x + 2.4, 0, 0.05), 0.2)
-    S.label("Height-map derivatives", (x, 0, 2.65))
-    spot = tuple(0.72 * c for c in S.FRONT_SPOT)
+    height_objs.append((HEIGHT_LABELS["reference"], obj))
+    S.label(HEIGHT_LABELS["reference"], (x + 2.4, 0, 0.05), 0.2)
+    S.label(f"One {HEIGHT_IMAGE} x {HEIGHT_IMAGE} px height map, magnified", (x, 0, 2.65))
+    spot = (-0.2, -0.65, 0.2)          # the front, clear of the pole where the map pinches
+    # Orthographic, 1.6 units (the spheres' spacing) = 290 px at 1280 wide: every sphere is
+    # seen alike and the crops line up to the pixel, so each can be differenced against the
+    # reference's (demo_pictures' error row).
     cams["height"] = S.camera("Camera height", x, distance=9.8,
-                             crops=[(label, o, spot) for label, o in height_objs])
+                             crops=[(label, o, spot) for label, o in height_objs],
+                             ortho_scale=1.6 * 1280 / 290,
+                             reference=HEIGHT_LABELS["reference"])
 
     # 6. Gustavson's displacement with bump on top.
     x += EXHIBIT_SPACING

@@ -7,11 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .demo_scene import CROPS_KEY
+from .demo_scene import CROP_REFERENCE_KEY, CROPS_KEY
 
 PICTURE_SIZE = (1280, 720)
 PICTURE_SAMPLES = 16         # with the denoiser: clean enough, and 2 shared cores can afford it
 CROP_PIXELS = 150            # the square cut around each spot, shown about twice as large
+ERROR_SCALE = 0.12           # the error row's colour range: |difference| in display values
 
 
 def render_pictures(cams, out_dir, width=PICTURE_SIZE[0], height=PICTURE_SIZE[1],
@@ -81,18 +82,37 @@ def _crop_picture(scene, cam, picture, path, log, size=CROP_PIXELS):
     bpy.data.images.remove(img)
     px = px.reshape(h, w, 4)[..., :3]
     boxes = crop_boxes(scene, cam, w, h, size)
-    cols = min(len(boxes), 4)
-    rows = math.ceil(len(boxes) / cols)
+    crops = [(label, np.clip(px[y0:y0 + size, x0:x0 + size], 0, 1))
+             for label, (x0, y0) in boxes]
+    reference = dict(crops).get(cam.get(CROP_REFERENCE_KEY))
+    cols = min(len(crops), 4)
+    rows = math.ceil(len(crops) / cols) + (reference is not None)
     fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 3.75 * rows), dpi=100,
                              squeeze=False)
     for ax in axes.ravel():
         ax.axis("off")
-    for ax, (label, (x0, y0)) in zip(axes.ravel(), boxes):
-        ax.imshow(np.clip(px[y0:y0 + size, x0:x0 + size], 0, 1), origin="lower",
-                  interpolation="nearest")
+    for ax, (label, crop) in zip(axes.ravel(), crops):
+        ax.imshow(crop, origin="lower", interpolation="nearest")
         ax.set_title(label, fontsize=13)
+    if reference is not None:
+        # The last row: each crop's difference to the reference's (same pixels: the camera
+        # sees every object alike), on one colour scale.
+        for ax, (label, crop) in zip(axes[-1], crops):
+            if crop is reference:
+                continue
+            err = crop_error(crop, reference)
+            im = ax.imshow(err, origin="lower", interpolation="nearest", cmap="magma",
+                           vmin=0.0, vmax=ERROR_SCALE)
+            ax.set_title(f"|{label} - {cam[CROP_REFERENCE_KEY]}|", fontsize=12)
+        fig.colorbar(im, ax=list(axes[-1]), fraction=0.02, pad=0.01)
     fig.suptitle(f"{cam.name.replace('Camera ', '')}: enlarged crops", fontsize=14)
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.94))
+    if reference is None:
+        fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.94))
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def crop_error(crop, reference):
+    """Per pixel |crop - reference|, the largest over the colour channels."""
+    return np.abs(np.asarray(crop) - np.asarray(reference)).max(axis=-1)

@@ -108,13 +108,18 @@ def pair(x, title, left, right, kind="sphere", left_label="usual", right_label="
 PAIR_DISTANCE = 8.4          # a pair with its title and labels in a 16:9 frame
 
 
-def camera(name, x, z=1.2, distance=PAIR_DISTANCE, crops=()):
+def camera(name, x, z=1.2, distance=PAIR_DISTANCE, crops=(), ortho_scale=None,
+           reference=None):
     """An exhibit camera looking along +Y. crops: (label, object, world offset from its centre)
     spots that render_pictures enlarges side by side (kept on the camera as JSON, so the saved
-    file has them too)."""
+    file has them too). ortho_scale: an orthographic camera that wide (units). reference: the
+    label of the crop the others are differenced against (an error row under the crops)."""
     import bpy
     cam = bpy.data.cameras.new(name)
     cam.lens = 50
+    if ortho_scale:
+        cam.type = "ORTHO"
+        cam.ortho_scale = ortho_scale
     obj = bpy.data.objects.new(name, cam)
     obj.location = (x, -distance, z)
     obj.rotation_euler = (math.radians(90), 0, 0)
@@ -122,10 +127,13 @@ def camera(name, x, z=1.2, distance=PAIR_DISTANCE, crops=()):
     if crops:
         obj[CROPS_KEY] = json.dumps([{"label": label, "object": o.name, "offset": list(off)}
                                      for label, o, off in crops])
+    if reference:
+        obj[CROP_REFERENCE_KEY] = reference
     return obj
 
 
 CROPS_KEY = "surfgrad_crops"
+CROP_REFERENCE_KEY = "surfgrad_crop_reference"
 # A spot on the front of a unit sphere (camera at -Y), up and to the left, where the sun rakes.
 FRONT_SPOT = (-0.38, -0.8, 0.42)
 

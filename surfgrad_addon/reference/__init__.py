@@ -28,9 +28,10 @@ from .baselines import (bump_screen_derivative_lxengine, decal_projector_normal,
 from .mesh_arrays import MeshArrays
 from .raster import rasterize
 from .texels import TexelData
-from .decals import (DECAL_SHAPES, decal_weight_box, decal_weight_cone,  # noqa: F401
-                     decal_weight_cylinder, decal_weight_sphere, surfgrad_from_decal_box,
+from .decals import (DECAL_SHAPES, decal_weight_box, decal_weight_capsule,  # noqa: F401
+                     decal_weight_cone, decal_weight_cylinder, decal_weight_sphere,
+                     decal_weight_wedge, surfgrad_from_decal_box, surfgrad_from_decal_capsule,
                      surfgrad_from_decal_cone, surfgrad_from_decal_cylinder,
-                     surfgrad_from_decal_sphere)
+                     surfgrad_from_decal_sphere, surfgrad_from_decal_wedge)
 from . import compiled, input_checks, raster, tiles
 from . import images, meshes, methods

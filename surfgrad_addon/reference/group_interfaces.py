@@ -152,8 +152,9 @@ INTERFACES = {
          SocketSpec("Mask B", FLOAT, "Mask for B (0 hides it, 1 keeps it)", default=1.0,
                     min=0.0, max=1.0, subtype="FACTOR"))),
     "SG Decal": _g(
-        "Listing 15: a decal projector (box, sphere, cylinder or cone) as a volume bump map, "
-        "faded by its falloff, added to or overwriting the surface gradient underneath",
+        "Listing 15: a decal projector (box, sphere, cylinder, cone, wedge or capsule) as a "
+        "volume bump map, faded by its falloff, added to or overwriting the surface gradient "
+        "underneath",
         (S.SURFACE_GRADIENT_OUT.but(tooltip="Surface gradient (with the Base Gradient, added or "
                                     "overwritten)"),),
         (S.NORMAL,
@@ -172,11 +173,16 @@ INTERFACES = {
          SocketSpec("Falloff", FLOAT, "Distance over which the decal fades out toward its "
                     "shape's boundary (fraction of the projector's half-size)", default=0.2,
                     min=0.0, max=1.0, keyword="falloff"),
-         SocketSpec("Shape", INT, "Projector volume, in the projector's [-1, 1] cube: 0 box "
-                    "(fades toward its near and far faces), 1 sphere (fades toward its surface), "
-                    "2 cylinder along the projection axis (fades toward its side and ends), 3 "
-                    "cone with its apex at the projector (+z) and radius 1 at the far end (fades "
-                    "toward its side and ends)", default=0, min=0, max=3, keyword="shape"),
+         S.enumeration("Shape", "Projector volume, in the projector's [-1, 1] cube", (
+             ("Box", "The projector's cube, faded toward its near and far faces"),
+             ("Sphere", "The unit ball, faded toward its surface"),
+             ("Cylinder", "Along the projection axis, faded toward its side and ends"),
+             ("Cone", "Apex at the projector (+z), radius 1 at the far end, faded toward its "
+              "side and ends"),
+             ("Wedge", "A prism along the projection axis whose footprint is a triangle, apex "
+              "at +y, base at y = -1, faded toward its sloped faces and ends"),
+             ("Capsule", "Within 1 of the axis from z = -0.5 to 0.5, faded toward its "
+              "surface")), keyword="shape"),
          S.SURFACE_GRADIENT.but(name="Base Gradient", tooltip="The surface gradient underneath "
                                 "(the sum of the layers below). Add mode adds the decal to it; "
                                 "Overwrite replaces it where the decal is, faded by Opacity and "
@@ -251,7 +257,10 @@ INTERFACES = {
          SocketSpec("Turbulence", BOOLEAN, "Sum |noise| (Perlin's turbulence) instead of noise "
                     "(fractal sum)", default=False),
          SocketSpec("Object Space", BOOLEAN, "Vector is in object space: return the gradient "
-                    "in world space (for SG Volume Gradient)", default=True), S.PRECISE_FAR)),
+                    "in world space (for SG Volume Gradient)", default=True), S.PRECISE_FAR,
+         SocketSpec("Filter Footprint", BOOLEAN, "Fade out the octaves finer than the pixel "
+                    "(or baked texel) footprint, so distant bump does not sparkle",
+                    default=False))),
     "SG Normal Map": _g(
         "Tangent-space normal map to surface gradient, MikkTSpace compliant (Listings 2, 3, 9 "
         "through the Normal Map node, then 5) on UV map {uv_map}",

@@ -133,6 +133,10 @@ def _volume_noise(inp, td, scale, amount, octaves):
     return M.volume_noise_surfgrad(td, scale, amount, octaves)
 
 
+def _volume_noise_filtered(inp, td, scale, amount, octaves):
+    return M.volume_noise_surfgrad(td, scale, amount, octaves, footprint_filter=True)
+
+
 def _height_map(inp, td, bump_scale):
     return M.height_map_surfgrad(td, inp.pixels("height"), inp.variant, bump_scale, inp.uv_map)
 
@@ -255,6 +259,10 @@ _SPECS = (
                parameters=(_strength(("SG Tangent Normal",), M.procedural_basis_surfgrad),)),
     MethodSpec("object-normal", _object_normal),
     MethodSpec("volume-noise", _volume_noise,
+               parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
+    # SG Noise's Filter Footprint on: the octaves finer than the bake's footprint fade out (at
+    # the comparison's 48 texels the third and fourth octaves are in or past the fade).
+    MethodSpec("volume-noise-filtered", _volume_noise_filtered, stability=False,
                parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
     MethodSpec("height-map", _height_map, variants=M.HEIGHT_VARIANTS, parameters=(_HEIGHT,)),
     MethodSpec("triplanar", _triplanar, parameters=(_TRIPLANAR,)),

@@ -22,6 +22,7 @@ from .height_map import deriv_from_height_map, deriv_three_tap
 from .image_sampling import images_unchanged, sample_image
 from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .noise import fractal_sum
+from .noise_footprint import footprint_from_differentials
 from .vecmath import FLT_EPSILON, TSPACE_Z_CLAMP, cross, dot, length, normalize, stack_last, transform
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
@@ -303,21 +304,36 @@ def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
     return n, bump_scale * sg
 
 
-def noise_gradient_world(td, scale=4.0, octaves=4, coords=None):
+def noise_gradient_world(td, scale=4.0, octaves=4, coords=None, footprint_filter=False):
     """Fractal-sum noise of the object-space position (or `coords`) and its gradient in world
-    space (object gradient times the scale, through the inverse transpose)."""
+    space (object gradient times the scale, through the inverse transpose). footprint_filter:
+    fade the octaves finer than the footprint SG Noise's Filter Footprint measures from the
+    bake's differentials (noise_footprint.footprint_from_differentials)."""
     p = td.position_object if coords is None else coords
-    h, g = fractal_sum(p * scale, octaves=octaves)
+    footprint = bake_noise_footprint(td, scale) if footprint_filter else None
+    h, g = fractal_sum(p * scale, octaves=octaves, footprint=footprint)
     g *= scale
     return h, transform(g, td.mesh.normal_matrix.T)
 
 
-def volume_noise_surfgrad(td, scale=4.0, amount=0.05, octaves=4, coords=None):
+def bake_noise_footprint(td, scale):
+    """The footprint, in noise coordinates (object position x scale), that SG Noise's Bump
+    nodes measure in a bake: the bake's differentials, the shading normal they are taken
+    against, and J = scale M^-1 (world to object: v @ M^-T is M^-1 v)."""
+    dpdx, dpdy = bump_differentials(td)
+    nm = td.mesh.normal_matrix
+    jx, jy = (scale * transform(d, nm) for d in (dpdx, dpdy))
+    return footprint_from_differentials(dpdx, dpdy, unit_base_normal(td), jx, jy)
+
+
+def volume_noise_surfgrad(td, scale=4.0, amount=0.05, octaves=4, coords=None,
+                          footprint_filter=False):
     """SG Noise through SG Volume Gradient (L8). coords: object-space positions to evaluate
     the noise at (default the texels' own; for bump on a displaced surface, its rest
-    position, as in Gustavson's fragment shader)."""
+    position, as in Gustavson's fragment shader). footprint_filter: SG Noise's Filter
+    Footprint (octaves finer than the bake's footprint fade out)."""
     n = unit_base_normal(td)
-    _, g = noise_gradient_world(td, scale, octaves, coords)
+    _, g = noise_gradient_world(td, scale, octaves, coords, footprint_filter)
     return n, amount * L.surfgrad_from_volume_gradient(n, g)
 
 

@@ -13,6 +13,7 @@ composite g(f) = f^k, all with their gradients through the chain rule.
 
 import numpy as np
 
+from .noise_footprint import FADE_HI, FADE_LO, octave_weight
 from .vecmath import as_float, stack_last
 
 _U32 = np.uint32
@@ -198,16 +199,30 @@ def gradient_noise(p):
     return value.reshape(shape), stack_last(grad).reshape(shape + (3,))
 
 
-def fractal_sum(p, octaves=4, lacunarity=2.0, gain=0.5):
-    """Perlin's fractal sum: sum_i gain^i * noise(lacunarity^i * p), with its gradient."""
+def _octave_amplitude(amp, freq, footprint, fade):
+    """amp, or amp times the octave's footprint weight (reference/noise_footprint.py) as a
+    (..., 1) column when a footprint is given."""
+    if footprint is None:
+        return amp
+    return amp * octave_weight(freq, footprint, *fade)[..., None]
+
+
+def fractal_sum(p, octaves=4, lacunarity=2.0, gain=0.5, footprint=None,
+                fade=(FADE_LO, FADE_HI)):
+    """Perlin's fractal sum: sum_i gain^i * noise(lacunarity^i * p), with its gradient.
+
+    footprint (shape p.shape[:-1], in p's units): fade each octave finer than it by
+    w_i = 1 - smoothstep(fade[0], fade[1], lacunarity^i * footprint) (noise_footprint.py);
+    None sums every octave at full weight, as before."""
     (p,) = as_float(p)
     value = np.zeros(p.shape[:-1], dtype=p.dtype)
     grad = None
     for i in range(octaves):
-        freq, amp = lacunarity ** i, gain ** i
+        freq = lacunarity ** i
+        amp = _octave_amplitude(gain ** i, freq, footprint, fade)
         v, g = gradient_noise(p * freq)
         grad = np.zeros_like(g) if grad is None else grad       # the noise's layout
-        value += amp * v
+        value += (amp if footprint is None else amp[..., 0]) * v
         g *= amp * freq             # chain rule: d/dp noise(freq p) = freq * grad
         grad += g
     if grad is None:
@@ -215,17 +230,20 @@ def fractal_sum(p, octaves=4, lacunarity=2.0, gain=0.5):
     return value, grad
 
 
-def turbulence(p, octaves=4, lacunarity=2.0, gain=0.5):
+def turbulence(p, octaves=4, lacunarity=2.0, gain=0.5, footprint=None,
+               fade=(FADE_LO, FADE_HI)):
     """Perlin's turbulence: sum_i gain^i * |noise(lacunarity^i * p)|, with its gradient
-    (sign(noise) * gradient; undefined only on the zero set of each octave)."""
+    (sign(noise) * gradient; undefined only on the zero set of each octave). footprint and
+    fade as in fractal_sum."""
     (p,) = as_float(p)
     value = np.zeros(p.shape[:-1], dtype=p.dtype)
     grad = None
     for i in range(octaves):
-        freq, amp = lacunarity ** i, gain ** i
+        freq = lacunarity ** i
+        amp = _octave_amplitude(gain ** i, freq, footprint, fade)
         v, g = gradient_noise(p * freq)
         grad = np.zeros_like(g) if grad is None else grad       # the noise's layout
-        value += amp * np.abs(v)
+        value += (amp if footprint is None else amp[..., 0]) * np.abs(v)
         grad += (amp * freq) * np.sign(v)[..., None] * g
     if grad is None:
         grad = np.zeros(p.shape, dtype=p.dtype)

@@ -13,8 +13,8 @@ from .. import bake_request as BR
 from .. import normal_bake as NB
 
 SETTING_KEYS = ("uv_map", "space", "resolution", "samples", "margin", "depth", "allow_partial")
-DEFAULTS = {"uv_map": None, "space": "tangent", "resolution": 1024, "samples": 1, "margin": 16,
-            "depth": None, "allow_partial": False}
+DEFAULTS = {"uv_map": None, "space": "tangent", "resolution": NB.DEFAULT_RESOLUTION, "samples": 1,
+            "margin": 16, "depth": None, "allow_partial": False}
 NOT_HASHED = ("allow_partial",)            # settings that change no texel of the map
 TOKENS = ("{file}", "{object}", "{uv}")
 BLEND_MAGIC = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")   # plain, gzip, zstd

@@ -1,9 +1,10 @@
 """Section 4.1-4.2: triplanar projection (Listings 13 and 14, Eq. 19) and decal projectors
 (Listing 15) as volume bump maps."""
 
+from ..enum_input import menu_switch
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
-from ...reference.decals import DECAL_SHAPES, SHAPE_FLOOR  # noqa: F401
+from ...reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES, SHAPE_FLOOR  # noqa: F401
 from ...reference.vecmath import DIVIDE_FLOOR
 from . import common
 from .common import (SamplerTaps, by_strength, decode_tangent_normal, directx_input, ensure,
@@ -138,7 +139,7 @@ def _ramp(b, distance, falloff):
 
 
 def decal_weight(b, q, shape, falloff, shapes=range(len(DECAL_SHAPES))):
-    """Each shape's weight in [0, 1] (reference/decals.py has the same four), selected by
+    """Each shape's weight in [0, 1] (reference/decals.py has the same six), selected by
     `shape`; every one is a bump scale (the paper's footnote 2), so the result stays a
     surface gradient. A constant `shape` leaves only its own nodes after Cycles' folding (the
     same as building only that one: `shapes`, tests/test_render_cost_folding.py)."""
@@ -167,8 +168,29 @@ def decal_weight(b, q, shape, falloff, shapes=range(len(DECAL_SHAPES))):
                                                  0.5), SHAPE_FLOOR)
             return b.math(Math.MULTIPLY, _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(
                 Math.DIVIDE, rho, radius)), falloff), depth)
-    weights = (box, sphere, cylinder, cone)          # in DECAL_SHAPES' order
+
+    def wedge():
+        with b.frame("Wedge: half-width (1 - y) / 2, faded toward its slopes and the ends"):
+            inside = b.math(Math.GREATER_THAN, qy, -1.000001)
+            half = b.math(Math.MAXIMUM, b.math(Math.MULTIPLY, b.math(Math.SUBTRACT, 1.0, qy),
+                                               0.5), SHAPE_FLOOR)
+            across = _ramp(b, b.math(Math.SUBTRACT, 1.0, b.math(
+                Math.DIVIDE, b.math(Math.ABSOLUTE, qx), half)), falloff)
+            return b.math(Math.MULTIPLY, b.math(Math.MULTIPLY, inside, across), depth)
+
+    def capsule():
+        with b.frame("Capsule: faded toward distance 1 from the axis segment |z| <= 0.5"):
+            along = b.math(Math.MAXIMUM, b.math(Math.SUBTRACT, b.math(Math.ABSOLUTE, qz),
+                                                CAPSULE_HALF_LENGTH), 0.0)
+            return _ramp(b, b.math(Math.SUBTRACT, 1.0, b.length(b.combine(qx, qy, along))),
+                         falloff)
+    weights = (box, sphere, cylinder, cone, wedge, capsule)      # in DECAL_SHAPES' order
     with b.frame("The chosen shape"):
+        if shape.type == "MENU":
+            built = {index: weights[index]() for index in shapes}
+            fill = built[next(iter(built))]        # items not built (tests) get a built one
+            return menu_switch(b, shape, [built.get(k, fill) for k in range(len(weights))],
+                               "FLOAT")
         total = 0.0
         for index in shapes:
             pick = b.math(Math.COMPARE, shape, float(index), 0.5)

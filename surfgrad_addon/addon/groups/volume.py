@@ -3,10 +3,12 @@ the gradient noise whose exact gradient feeds them."""
 
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
+from ...reference.noise_footprint import FADE_HI, FADE_LO
 from ...reference.socket_specs import NOISE_OCTAVES
 from ...reference.vecmath import FLT_EPSILON
-from .common import (ensure, normal_input, object_position, precise_far_route, sign_nonneg,
-                     sub_group, where_zero)
+from ..node_builder import running_line
+from .common import (BUMP_FILTER_WIDTH, bump_surface_gradient, ensure, normal_input,
+                     object_position, precise_far_route, sign_nonneg, sub_group, where_zero)
 
 
 def volume_gradient_group():
@@ -84,16 +86,61 @@ def gradient_noise_group(tree_type="ShaderNodeTree"):
                   tree_type=tree_type)
 
 
+def noise_footprint(b, p):
+    """The footprint F in the noise's coordinates p, from the Bump node inverted
+    (reference/noise_footprint.footprint_from_differentials): the surface gradients g_k of
+    p's components (exact, p is linear on a triangle) and of |p|^2 / 2, whose forward
+    differences leave the remainder R = s (|J dP/dx|^2 e_x + |J dP/dy|^2 e_y) / 2 beside
+    sum_k p_k g_k; F = 2 |R| / (s sqrt(sum_k |g_k|^2)), s the Bump node's step."""
+    n = b.geometry("Normal")
+    step = running_line().bump_step_scale(BUMP_FILTER_WIDTH)
+    comps = b.separate(p)
+    grads = [bump_surface_gradient(b, c, n, BUMP_FILTER_WIDTH) for c in comps]
+    half_square = b.math(Math.MULTIPLY, b.dot(p, p), 0.5)
+    remainder = bump_surface_gradient(b, half_square, n, BUMP_FILTER_WIDTH)
+    spread = None
+    for c, g in zip(comps, grads):
+        remainder = b.sub(remainder, b.scale(g, c))
+        g2 = b.dot(g, g)
+        spread = g2 if spread is None else b.math(Math.ADD, spread, g2)
+    denom = b.math(Math.MAXIMUM, b.math(Math.MULTIPLY, b.math(Math.SQRT, spread), step),
+                   FLT_EPSILON)
+    return b.math(Math.DIVIDE, b.math(Math.MULTIPLY, b.length(remainder), 2.0), denom)
+
+
+def footprint_weight(b, footprint, frequency):
+    """w = 1 - smoothstep(FADE_LO, FADE_HI, frequency F): a Map Range (Smooth Step) from
+    [lo, hi] to [1, 0] (clamped)."""
+    node = b.node("ShaderNodeMapRange", interpolation_type="SMOOTHSTEP", clamp=True)
+    b.link(b.math(Math.MULTIPLY, footprint, frequency), node.inputs["Value"])
+    for name, value in (("From Min", FADE_LO), ("From Max", FADE_HI), ("To Min", 1.0),
+                        ("To Max", 0.0)):
+        node.inputs[name].default_value = value
+    return node.outputs["Result"]
+
+
+def footprint_fade(b, amp, filtered, footprint, frequency):
+    """amp (1 + Filter (w - 1)), w the octave's footprint weight: Filter Footprint off (a
+    constant 0) folds it to amp, and the footprint's nodes go unused."""
+    fade = b.math(Math.ADD, b.math(Math.MULTIPLY, filtered, b.math(
+        Math.SUBTRACT, footprint_weight(b, footprint, frequency), 1.0)), 1.0)
+    return b.math(Math.MULTIPLY, amp, fade)
+
+
 def noise_group():
     def build(b):
         vec, scale = b.input(S.NOISE_VECTOR), b.input(S.NOISE_SCALE)
         octaves, gain = b.input(S.OCTAVES), b.input(S.GAIN)
         turb, obj_space = b.input("Turbulence"), b.input("Object Space")
+        filtered = b.input("Filter Footprint")
         with b.frame("Unlinked Vector: object coordinates (precise far from the origin where "
                      "Precise Far From Origin is on)"):
             coords = precise_far_route(b, b.node("ShaderNodeTexCoord").outputs["Object"],
                                  lambda: object_position(b))
             p = b.scale(where_zero(b, vec, coords), scale)
+        with b.frame("Filter Footprint: octaves finer than the footprint fade out, w = 1 - "
+                     "smoothstep(lo, hi, 2^i F) (off, a constant: folds away)"):
+            footprint = noise_footprint(b, p)
         value, grad = 0.0, (0.0, 0.0, 0.0)
         octave_tree = gradient_noise_group()
         with b.frame("Fractal sum / turbulence: sum gain^i noise(2^i p), chain rule"):
@@ -115,6 +162,7 @@ def noise_group():
                 g = b.mix_vector(turb, g, b.scale(g, sgn))
                 on = b.math(Math.LESS_THAN, float(i), octaves)
                 amp = b.math(Math.MULTIPLY, on, b.math(Math.POWER, gain, float(i)))
+                amp = footprint_fade(b, amp, filtered, footprint, freq)
                 value = b.math(Math.ADD, value, b.math(Math.MULTIPLY, amp, v))
                 grad = b.add(grad, b.scale(g, b.math(Math.MULTIPLY, amp, freq)))
             grad = b.scale(grad, scale)

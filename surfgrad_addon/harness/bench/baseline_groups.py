@@ -5,8 +5,9 @@ from ...addon import groups as G
 from ...addon.node_builder import ensure_group
 from ...addon.node_vocabulary import Math, VMath
 from ...addon.groups.projection import decal_weight
+from ...reference.decals import DECAL_SHAPES
 
-VERSION = 2
+VERSION = 3
 
 
 def _normal(b):
@@ -68,8 +69,8 @@ def decal_engine_group():
         az = b.input("Axis Z", "VECTOR", "Projector Z axis (world): the negated projection "
                      "direction", default=(0.0, 0.0, 1.0))
         falloff = b.input("Falloff", "FLOAT", "Fade depth", default=0.2)
-        shape = b.input("Shape", "INT", "0 box, 1 sphere, 2 cylinder, 3 cone (as SG Decal)",
-                        default=0, min_value=0, max_value=3)
+        shape = b.input("Shape", "INT", "0 box, 1 sphere, 2 cylinder, 3 cone, 4 wedge, 5 capsule "
+                        "(as SG Decal)", default=0, min_value=0, max_value=len(DECAL_SHAPES) - 1)
         alpha = decal_weight(b, q, shape, falloff)
         dx, dy = G.decode_tangent_normal(b, color)
         decal_n = b.normalize(b.sub(b.sub(az, b.scale(ax, dx)), b.scale(ay, dy)))

@@ -119,7 +119,7 @@ _OPTIONS = [
     ("decal:precise", "SG Decal, Precise Far From Origin on", _decal,
      {**_PROJECTED, PRECISE: True}, {}, "decal"),
     *[(f"decal:shape{k}", f"SG Decal, Shape {k} ({DECAL_SHAPES[k]})", _decal, _PROJECTED,
-       {"Shape": k}, "decal") for k in (1, 2, 3)],
+       {"Shape": k}, "decal") for k in range(1, len(DECAL_SHAPES))],
     ("decal:overwrite", "SG Decal, Overwrite on", _decal, _PROJECTED, {"Overwrite": True},
      "decal"),
     ("blend", "SG Blend Normals (PD) -> SG Normal Map", _blend, {}, {}, None),

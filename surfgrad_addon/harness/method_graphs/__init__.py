@@ -10,13 +10,15 @@ from .projection import (decal_graph, decal_overwrite_graph, triplanar_graph,
                          triplanar_height_graph)
 from .samplers import (height_map_sampler_graph, parallax_sampler_graph,
                        triplanar_height_sampler_graph, triplanar_sampler_graph)
-from .volume import displace_bump_graph, layered_graph, post_resolve_graph, volume_noise_graph
+from .volume import (displace_bump_graph, layered_graph, post_resolve_graph,
+                     volume_noise_filtered_graph, volume_noise_graph)
 
 GRAPHS = {
     "normal-map": normal_map_graph,
     "procedural-basis": procedural_basis_graph,
     "object-normal": object_normal_graph,
     "volume-noise": volume_noise_graph,
+    "volume-noise-filtered": volume_noise_filtered_graph,
     "height-map": height_map_graph,
     "triplanar": triplanar_graph,
     "triplanar-height": triplanar_height_graph,

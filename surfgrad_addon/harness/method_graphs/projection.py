@@ -1,5 +1,5 @@
 """Graphs of the projected methods: triplanar (normal and height images on three planes) and
-the decals (a projector's box, sphere, cylinder or cone)."""
+the decals (a projector's box, sphere, cylinder, cone, wedge or capsule)."""
 
 import numpy as np
 

@@ -10,10 +10,16 @@ from .images import normal_map_graph, procedural_basis_graph
 from .projection import triplanar_graph
 
 
-def volume_noise_graph(inp, g, amount=NOISE_AMOUNT):
-    noise = g.group(G.noise_group(), Scale=NOISE_SCALE, Octaves=NOISE_OCTAVES, Turbulence=False)
+def volume_noise_graph(inp, g, amount=NOISE_AMOUNT, filtered=False):
+    noise = g.group(G.noise_group(), Scale=NOISE_SCALE, Octaves=NOISE_OCTAVES, Turbulence=False,
+                    Filter_Footprint=filtered)
     vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"], Bump_Scale=amount)
     return surface_gradient(vg)
+
+
+def volume_noise_filtered_graph(inp, g):
+    """volume-noise with SG Noise's Filter Footprint on."""
+    return volume_noise_graph(inp, g, filtered=True)
 
 
 def displace_bump_graph(inp, g):

@@ -58,6 +58,29 @@ def bench_compare_table(data, path):
         ["size", "compare / bake process", "compare / bake operator"], rows)
 
 
+def folded_table(data, path):
+    """folded_cost's JSON: Cycles' SVM program size after constant folding per material,
+    before and after, per Blender line (units differ by line: compare within a column)."""
+    after = need(data, path, "after")
+    lines = sorted(after, key=lambda v: tuple(int(x) for x in v.split(".")), reverse=True)
+    before = data.get("before", {})
+    by = {(when, line): {r["key"]: r for r in need(src, path, line, "rows")}
+          for when, src in (("before", before), ("after", after)) for line in lines
+          if line in src}
+    rows = []
+    for k, r in enumerate(need(after, path, lines[0], "rows")):
+        cells = [escape(r["label"])]
+        for line in lines:
+            b = by.get(("before", line), {}).get(r["key"], {}).get("svm")
+            a = by.get(("after", line), {}).get(r["key"], {}).get("svm")
+            cells += [_num(b, 0), _num(a, 0)]
+        rows.append(cells)
+    head = [h for line in lines for h in (f"{line} before", f"{line} after")]
+    return ("<p>Cycles' own SVM program size after its constant folding (what a sample runs; "
+            "5.2 counts 32-bit words, older lines int4 records)</p>"
+            + _table(["material"] + head, rows))
+
+
 def scalar_table(data, path):
     """Any other bench JSON: its top-level numbers and words."""
     rows = [[escape(k), _num(v, 3) if isinstance(v, float) else escape(str(v))]
@@ -69,6 +92,8 @@ def scalar_table(data, path):
 def _shape(data):
     if isinstance(data, dict) and "rows" in data and "marginal_layer" in data:
         return render_cost_table
+    if isinstance(data, dict) and "after" in data and "before" in data:
+        return folded_table
     if isinstance(data, dict) and "runs" in data:
         return bench_batch_table
     if isinstance(data, dict) and "sizes" in data and "method" in data:
@@ -84,7 +109,7 @@ def cost_section(docs, page_dir, repo_root, command):
     docs = Path(docs)
     files = sorted(docs.glob("render_cost*.json")) + sorted(docs.glob("bench_*.json"))
     parts = []
-    if not any(p.name.startswith("render_cost") for p in files):
+    if not (docs / "render_cost.json").is_file():
         parts.append(missing("The render-cost table (docs/render_cost.json)", command))
     chart = docs / "render_cost.png"
     if chart.is_file():

@@ -1,6 +1,6 @@
 """The report page's heat maps: every case's error on one shared, logarithmic scale.
 
-compare-all's heat PNGs (compare.heat_map_rgb) each scale their error to their own top,
+compare-all's heat PNGs (heat_map.heat_map_rgb) each scale their error to their own top,
 max(0.5 deg, the case's max). Their pixels are read back into degrees here, using the case's
 report for the top: the green channel (0.8 sqrt(v)) where the error is small, which keeps about
 6 % of a value down to 1e-4 of the top, the red one (v) above. The texels the writer painted in
@@ -22,8 +22,9 @@ LEGEND_STEPS = 512
 
 
 def reason_colours():
-    """{reason code: RGB bytes} as compare.heat_map_rgb paints them (asked of the writer)."""
-    from ..compare import HEAT_COLOURS, ErrorImage, heat_map_rgb
+    """{reason code: RGB bytes} as heat_map.heat_map_rgb paints them (asked of the writer)."""
+    from ..heat_map import HEAT_COLOURS, heat_map_rgb
+    from ..texel_report import ErrorImage
     codes = sorted(HEAT_COLOURS)
     heat = ErrorImage(np.full((1, len(codes)), np.nan), np.array([codes], dtype=np.int8))
     rgb = heat_map_rgb(heat)[0]
