@@ -90,7 +90,8 @@ def test_the_operator_offers_every_shape_and_displays_it(fresh):
                                          ("SPHERE", up, (0, 0, -0.5))])}
     for shape in D.DECAL_SHAPES:
         empty, decal = O.add_decal_projector(bpy.context, mat.node_tree, shape=shape)
-        assert decal.inputs["Shape"].default_value == D.DECAL_SHAPES.index(shape)
+        from surfgrad_addon.addon.enum_input import choice_index
+        assert choice_index(decal.inputs["Shape"]) == D.DECAL_SHAPES.index(shape)
         display, outlines = want[shape]
         assert empty.empty_display_type == display
         bpy.context.view_layer.update()

@@ -171,8 +171,9 @@ def _sampler(builder):
         image = nm if builder is G.triplanar_sampler_group else h
         node = _group(nodes, builder())
         links.new(sampler_socket(nodes, links, image), node.inputs["Sampler"])
-        if "Width" in node.inputs:
-            node.inputs["Width"].default_value, node.inputs["Height"].default_value = image.size
+        if "Image Width" in node.inputs:
+            node.inputs["Image Width"].default_value, node.inputs["Image Height"].default_value \
+                = image.size
         if builder is G.parallax_sampler_group:
             nmap = _group(nodes, G.normal_map_group())
             links.new(_tex(nodes, links, nm, node.outputs["UV"]), nmap.inputs["Color"])

@@ -8,6 +8,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import groups as G
+from surfgrad_addon.addon.enum_input import choice_index  # noqa: E402
 from surfgrad_addon.harness import demo, demo_scene  # noqa: E402
 from surfgrad_addon.addon.sampler_zone import has_closures  # noqa: E402
 
@@ -49,7 +50,7 @@ def test_demo_file_is_small_self_contained_and_complete(tmp_path):
     assert any(mod.type == "NODES" and mod.node_group.name == "SG Displace"
                for o in meshes for mod in o.modifiers)
     # The decal shapes exhibit: one SG Decal per shape, each Shape value used.
-    shapes = {n.inputs["Shape"].default_value for m in bpy.data.materials if m.node_tree
+    shapes = {choice_index(n.inputs["Shape"]) for m in bpy.data.materials if m.node_tree
               for n in m.node_tree.nodes if n.bl_idname == "ShaderNodeGroup"
               and n.node_tree.name == "SG Decal"}
     assert shapes == {0, 1, 2, 3}

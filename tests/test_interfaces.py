@@ -2,8 +2,11 @@
 every supported Blender line and is what the socket specs declare: tests/interfaces.json is
 written from them (python tools/write_interfaces.py, after changing a spec on purpose), the
 groups built here must match it, and it must match what the specs write now (a spec edited
-without regenerating fails). The one documented difference between lines: a group behind a
-feature gate (groups.REQUIRES: SG Displace below 4.5) is absent, and refused with a message."""
+without regenerating fails). The documented differences between lines: a group behind a
+feature gate (groups.REQUIRES: SG Displace below 4.5) is absent, and refused with a message;
+an enumeration is a Menu socket where the line has them (blender_lines.menu_sockets, 5.0 and
+later) and its integer 0..N-1 in the same order on 4.2 and 4.5 (the golden file is the Menu
+line's; GI.expected_signatures(menu_sockets=False) the other)."""
 
 import json
 from pathlib import Path
@@ -54,6 +57,48 @@ def test_a_spec_edit_changes_what_is_written():
         "description": S.SAMPLER.tooltip, "hide_value": False}
 
 
+@pytest.mark.tier("numpy")
+def test_lines_without_menus_differ_only_in_the_enumerations():
+    """4.2 and 4.5's interfaces: each Menu socket is an integer with the items' order in its
+    range and its tooltip; everything else is the golden file."""
+    golden, plain = _golden(), json.loads(json.dumps(GI.expected_signatures(menu_sockets=False)))
+    assert golden.keys() == plain.keys()
+    menus = 0
+    for name in golden:
+        for g, p in zip(golden[name]["sockets"], plain[name]["sockets"], strict=True):
+            if g["type"] != "NodeSocketMenu":
+                assert g == p, (name, g, p)
+                continue
+            menus += 1
+            spec = next(s for s in GI.INTERFACES[name].inputs if s.name == g["name"])
+            assert g["default_value"] == spec.items[0][0]
+            assert (p["type"], p["default_value"], p["min_value"], p["max_value"]) == \
+                ("NodeSocketInt", 0, 0, len(spec.items) - 1)
+            listed = ", ".join(f"{k} {n}" for k, (n, _) in enumerate(spec.items))
+            assert p["description"] == f"{g['description']} ({listed})"
+    assert menus >= 1
+    blend = {s["name"]: s for s in golden["SG Blend Normals"]["sockets"]}["Method"]
+    assert blend["type"] == "NodeSocketMenu"
+
+
+@pytest.mark.tier("numpy")
+def test_a_float_input_name_has_one_range_across_the_groups():
+    """One meaning and one range per input name. The one name with two: Strength, the
+    converted Blender node's own (0..10, NODE_STRENGTH's tooltip) and the surface-gradient
+    multiplier (-100..100); each tooltip says which."""
+    ranges = {}
+    for iface in GI.INTERFACES.values():
+        for s in iface.inputs:
+            if s.type in (S.FLOAT, S.INT):
+                ranges.setdefault(s.name, set()).add((s.min, s.max))
+    assert {n: r for n, r in ranges.items() if len(r) > 1} == \
+        {"Strength": {(0.0, 10.0), (-100.0, 100.0)}}
+    strengths = {s.tooltip for i in GI.INTERFACES.values() for s in i.inputs
+                 if s.name == "Strength" and s.min == 0.0}
+    assert all("Strength" in t and "node" in t for t in strengths), strengths
+    assert "Normal Map node" in S.STRENGTH.tooltip
+
+
 def _signatures(bpy, G, interface_signature):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     G.build_all()
@@ -72,9 +117,11 @@ def test_interfaces_are_the_same_on_every_line():
     from conftest import write_report
     from surfgrad_addon.addon import groups as G
     from surfgrad_addon.addon.node_builder import interface_signature
+    from surfgrad_addon.reference.blender_lines import facts_for
     got = _signatures(bpy, G, interface_signature)
     write_report("interfaces", {"groups": got})
-    want = _golden()
+    menus = facts_for(bpy.app.version).menu_sockets
+    want = _golden() if menus else json.loads(json.dumps(GI.expected_signatures(False)))
     gated = {name for name in want if G.unavailable_reason(name)}
     gated |= {h for name in gated for h in G.GATED_HELPERS.get(name, ())}
     assert sorted(got) == sorted(set(want) - gated), (sorted(got), sorted(want), gated)

@@ -39,6 +39,22 @@ def test_api_facts_match_what_this_blender_has():
     assert LINE.eevee_engine in engines
 
 
+def test_menu_sockets_where_the_line_has_them():
+    """A shader group takes a Menu socket and a Menu Switch node exactly where the table says
+    (5.0 and later); 4.2 and 4.5 refuse the socket type."""
+    tree = bpy.data.node_groups.new(".facts menu", "ShaderNodeTree")
+    try:
+        try:
+            tree.interface.new_socket("Choice", in_out="INPUT", socket_type="NodeSocketMenu")
+            tree.nodes.new("GeometryNodeMenuSwitch")
+            made = True
+        except (TypeError, RuntimeError):
+            made = False
+        assert LINE.menu_sockets == made
+    finally:
+        bpy.data.node_groups.remove(tree)
+
+
 def test_new_material_has_a_node_tree_on_every_line():
     raw = bpy.data.materials.new(".raw")
     mat = compat.new_material(".facts")

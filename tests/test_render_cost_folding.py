@@ -66,7 +66,24 @@ def build_one_blend():
     """SG Blend Normals built with only the method that the environment names."""
     from surfgrad_addon.addon.groups import tangent_space
     only = int(os.environ[ONLY_BLEND])
-    tangent_space.select_blend = lambda b, method, candidates: candidates[only]
+
+    def one(b, method, candidates):
+        # A Menu keeps its Menu Switch (its items name the choices the material sets), each
+        # item fed the one blend.
+        if method.type == "MENU":
+            return tangent_space.choose(b, method, [candidates[only]] * len(candidates))
+        return candidates[only]
+    tangent_space.select_blend = one
+    folded_cost.build_materials()
+
+
+def build_with_integers():
+    """The groups as lines without Menu sockets build them: each enumeration an integer
+    feeding a chain of Mix nodes (enum_input)."""
+    import dataclasses
+    from surfgrad_addon.addon import node_builder
+    line = node_builder.running_line()
+    node_builder.running_line = lambda: dataclasses.replace(line, menu_sockets=False)
     folded_cost.build_materials()
 
 
@@ -183,6 +200,29 @@ def test_a_blend_method_is_the_group_with_that_blend_alone(svm, method, monkeypa
     found = S.svm_counts([key], build="test_render_cost_folding:build_one_blend",
                          paths=[S.ROOT / "tests"])
     assert found[key].nodes == svm[key]["svm"]
+
+
+BLEND_KEYS = ["blend", "blend:method1", "blend:method2", "blend:method3"]
+SHAPE_KEYS = ["decal"] + [f"decal:shape{k}" for k in range(1, len(folded_cost.DECAL_SHAPES))]
+
+
+def test_a_menu_costs_what_its_integer_did(svm):
+    """Where an enumeration is a Menu (5.0 and later: SG Blend Normals' Method, SG Decal's
+    Shape), each item's material compiles to as many SVM nodes as the same material with the
+    integer of older lines set to that index: the Menu Switch folds to the chosen branch as the
+    integer's chain does."""
+    from surfgrad_addon.reference.blender_lines import facts_for
+    import bpy
+    if not facts_for(bpy.app.version).menu_sockets:
+        pytest.skip("Method is the integer on this line (the test above covers it)")
+    keys = BLEND_KEYS + SHAPE_KEYS
+    found = S.svm_counts(keys, build="test_render_cost_folding:build_with_integers",
+                         paths=[S.ROOT / "tests"])
+    menu = {k: svm[k]["svm"] for k in keys}
+    print("SVM nodes, menu:", menu, "integer:", {k: found[k].nodes for k in keys})
+    assert {k: found[k].nodes for k in keys} == menu
+    for group in (BLEND_KEYS, SHAPE_KEYS):    # the items differ: not one branch for all
+        assert len({menu[k] for k in group}) > 1
 
 
 def test_strength_one_is_the_group_without_the_product(svm):

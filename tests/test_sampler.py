@@ -91,7 +91,8 @@ def test_the_menu_wraps_the_active_image_texture_in_a_sampler_zone(fresh):
     assert tex.inputs["Vector"].links[0].from_node == uv
     assert node.inputs["Sampler"].links[0].from_node == zout
     assert node.inputs["UV"].links[0].from_node == uv
-    assert (node.inputs["Width"].default_value, node.inputs["Height"].default_value) == (64, 32)
+    assert (node.inputs["Image Width"].default_value,
+            node.inputs["Image Height"].default_value) == (64, 32)
     assert all(link.is_valid for link in tree.links)
     # One group for every image: a second image reuses it. A texture with no other use is
     # itself wrapped in the zone (no copy).

@@ -76,6 +76,26 @@ def test_the_summary_shows_the_durations_per_tier(tmp_path):
     assert "| 4.2 | 3 / 1.5 s | - | 2 / 14.0 s | - | - | 20.0 s |" in text
 
 
+def test_the_summary_compares_menus_with_the_integers_of_older_lines(tmp_path):
+    """5.2's Menu sockets against 4.2's integers: the documented difference, not a problem;
+    any other difference still is."""
+    import sys
+    from surfgrad_addon.reference.group_interfaces import expected_signatures
+    sys.path.insert(0, str(ROOT / "tools"))
+    try:
+        import lines_summary
+    finally:
+        sys.path.pop(0)
+    dumps = {"5.2": expected_signatures(), "4.2": expected_signatures(menu_sockets=False)}
+    for line, groups in dumps.items():
+        (tmp_path / f"interfaces-{line}.json").write_text(json.dumps({"groups": groups}))
+    assert lines_summary._interfaces_note(tmp_path, ["5.2", "4.2"]) == ([], ["4.2", "5.2"])
+    dumps["4.2"]["SG Resolve"]["description"] += "!"
+    (tmp_path / "interfaces-4.2.json").write_text(json.dumps({"groups": dumps["4.2"]}))
+    assert lines_summary._interfaces_note(tmp_path, ["5.2", "4.2"])[0] == [
+        "SG Resolve: 4.2 differs from 5.2"]
+
+
 # The guard and the collection rules, in a child pytest on a made-up test file --------------
 
 FAKE = '''

@@ -18,10 +18,24 @@ def _load(folder, name, line):
     return json.loads(path.read_text()) if path.is_file() else None
 
 
+def _menus_as_integers(groups):
+    """The documented difference: a Menu socket (5.0 and later) is compared as the integer
+    that lines without Menu sockets build (reference/group_interfaces.py)."""
+    root = str(Path(__file__).resolve().parents[1])
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    from surfgrad_addon.reference.group_interfaces import expected_signatures
+    plain = json.loads(json.dumps(expected_signatures(menu_sockets=False)))
+    return {name: {**sig, "sockets": [
+        plain[name]["sockets"][k] if row["type"] == "NodeSocketMenu" else row
+        for k, row in enumerate(sig["sockets"])]} for name, sig in groups.items()}
+
+
 def _interfaces_note(folder, lines):
-    """Differences between the lines' group interfaces beyond absent (gated) groups."""
+    """Differences between the lines' group interfaces beyond absent (gated) groups and the
+    enumerations (Menu sockets from 5.0, integers before)."""
     dumps = {line: _load(folder, "interfaces", line) for line in lines}
-    dumps = {line: d["groups"] for line, d in dumps.items() if d}
+    dumps = {line: _menus_as_integers(d["groups"]) for line, d in dumps.items() if d}
     if len(dumps) < 2:
         return [], sorted(dumps)
     problems = []

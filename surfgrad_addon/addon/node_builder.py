@@ -14,7 +14,8 @@ output the interface lacks, or one it declares and the builder never uses, is a 
 Arithmetic helpers take sockets or constants and return output sockets. `ensure_group` makes
 building idempotent and versioned: a group that already has the current version is reused; an
 older one is rebuilt in place (same datablock, same interface socket identifiers where the
-socket still exists), so links from existing materials survive an add-on update.
+socket still exists, or was renamed: SocketSpec.renamed_from), so links and values in existing
+materials survive an add-on update. Enumerations: addon/enum_input.py.
 """
 
 from contextlib import contextmanager
@@ -68,7 +69,7 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     tree.description = description
     builder = GroupBuilder(tree)
     if interface is not None:
-        builder.declare(interface)
+        builder.declare(interface.for_line(running_line().menu_sockets))
     build(builder)
     builder.finish()
     tree[VERSION_KEY] = version
@@ -252,6 +253,7 @@ class GroupBuilder(NodeOps):
         self._specs = {}           # (in_out, name) -> (SocketSpec, identifier)
         self._used = set()
         self._fixed = False        # True once an interface is declared: nothing may be added
+        self.retyped = {}          # name -> [(group node, value)] of a socket that changed type
         self.group_in = self.nodes.new("NodeGroupInput")
         self.group_out = self.nodes.new("NodeGroupOutput")
 
@@ -262,19 +264,27 @@ class GroupBuilder(NodeOps):
                 return it
         raise BuildError(f"{self.where}: interface socket {identifier} vanished")
 
+    def _existing(self, names, in_out):
+        """The first not yet claimed interface socket named one of `names` (in that order)."""
+        for name in names:
+            for it in self.tree.interface.items_tree:
+                if (it.item_type == "SOCKET" and it.name == name and it.in_out == in_out
+                        and it.identifier not in self._wanted):
+                    return it
+        return None
+
     def _socket(self, name, in_out, kind, description, default=None, min_value=None,
-                max_value=None, subtype=None, hide_value=False):
+                max_value=None, subtype=None, hide_value=False, renamed_from=()):
         # Items are tracked by identifier: from Blender 5.1 setting a subtype replaces the
         # item's Python object (its type becomes e.g. ...VectorDirection).
         bl_type = SOCKET_TYPES[kind]
         what = f"{self.where}: {in_out.lower()} socket {name!r}"
-        item = None
-        for it in self.tree.interface.items_tree:
-            if (it.item_type == "SOCKET" and it.name == name and it.in_out == in_out
-                    and it.identifier not in self._wanted):
-                item = it
-                break
+        item = self._existing((name, *renamed_from), in_out)
+        if item is not None and item.name != name:
+            item.name = name        # renamed in place: same identifier, links and values kept
         if item is not None and item.socket_type != bl_type:
+            # A new type (an integer become a Menu): the nodes' values, for the new socket.
+            self.retyped[name] = group_node_values(self.tree, item.identifier)
             self.tree.interface.remove(item)
             item = None
         if item is None:
@@ -321,8 +331,11 @@ class GroupBuilder(NodeOps):
         self._fixed = True
 
     def _declare(self, spec, in_out):
-        item = self._socket(spec.name, in_out, spec.type, spec.tooltip, spec.default, spec.min,
-                            spec.max, spec.subtype, spec.hide_value)
+        # A Menu socket's default names an item of the Menu Switch it feeds: enum_input sets
+        # it once that is linked.
+        default = None if spec.items else spec.default
+        item = self._socket(spec.name, in_out, spec.type, spec.tooltip, default, spec.min,
+                            spec.max, spec.subtype, spec.hide_value, spec.renamed_from)
         self._specs[(in_out, spec.name)] = (spec, item.identifier)
 
     def _declared(self, spec, in_out):
@@ -342,6 +355,13 @@ class GroupBuilder(NodeOps):
                              f"declared as a {found[0].type}")
         self._used.add((in_out, name))
         return self._item(found[1])
+
+    def declared_spec(self, socket):
+        """The SocketSpec a Group Input socket was declared from."""
+        for (in_out, _), (spec, identifier) in self._specs.items():
+            if in_out == "INPUT" and identifier == socket.identifier:
+                return spec
+        raise BuildError(f"{self.where}: {socket.name!r} is not a declared input")
 
     def input(self, spec, kind=None, description=None, default=None, min_value=None,
               max_value=None, subtype=None, hide_value=False):
@@ -436,6 +456,21 @@ class GroupBuilder(NodeOps):
             row = rows.get(col, 0)
             rows[col] = row + 1
             n.location = (col * 220.0, -row * 170.0)
+
+
+def group_node_values(tree, identifier):
+    """[(node, value)] of input `identifier` on every group node of `tree` (in materials and
+    node groups)."""
+    found = []
+    owners = [m.node_tree for m in bpy.data.materials if m.node_tree] + \
+        list(bpy.data.node_groups)
+    for owner in owners:
+        for node in owner.nodes:
+            if getattr(node, "node_tree", None) == tree:
+                for s in node.inputs:
+                    if s.identifier == identifier and hasattr(s, "default_value"):
+                        found.append((node, s.default_value))
+    return found
 
 
 def interface_signature(tree):

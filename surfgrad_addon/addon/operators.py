@@ -12,6 +12,7 @@ from bpy.props import EnumProperty, StringProperty
 
 from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
+from .enum_input import set_choice
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .far_precision import needs_precise_far, set_precise_far_on_node
@@ -235,7 +236,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     tex.extension = "CLIP"
     tex.location = (coords.location.x + 220, coords.location.y)
     decal = _group_node(tree, G.decal_group, (tex.location.x + 300, tex.location.y))
-    decal.inputs["Shape"].default_value = DECAL_SHAPES.index(shape)
+    set_choice(decal.inputs["Shape"], DECAL_SHAPES.index(shape))
     links = tree.links
     links.new(tc.outputs["Decal Coordinates"], coords.inputs[0])
     links.new(tc.outputs["Decal Coordinates"], decal.inputs["Decal Coordinates"])

@@ -10,6 +10,7 @@ import bpy
 from bpy.props import BoolProperty, StringProperty
 
 from . import freeze_operators, groups, operators
+from ..reference import socket_specs as S
 from .all_or_nothing import all_or_nothing
 from .far_precision import needs_precise_far, set_precise_far_on_node
 
@@ -130,7 +131,7 @@ def _place_group_node(tree, kind, group, location):
 
 def _add_sampler_group(tree, name, group, location):
     """A Sampler group (Blender 5.0+) with its Sampler zone: around the active Image Texture
-    (its image's size into Width/Height, whatever fed its Vector into the group's UV; a
+    (its image's size into Image Width/Height, whatever fed its Vector into the group's UV; a
     texture that also feeds other nodes keeps them, and a copy of it goes in the zone), or an
     empty zone to put an Image Texture in."""
     from .sampler_zone import sampler_zone
@@ -142,9 +143,9 @@ def _add_sampler_group(tree, name, group, location):
     tree.links.new(zone.outputs[0], node.inputs["Sampler"])
     if vector is not None and "UV" in node.inputs:
         tree.links.new(vector, node.inputs["UV"])
-    if tex is not None and tex.image is not None and "Width" in node.inputs:
-        node.inputs["Width"].default_value = tex.image.size[0] or 1
-        node.inputs["Height"].default_value = tex.image.size[1] or 1
+    if tex is not None and tex.image is not None and S.IMAGE_WIDTH.name in node.inputs:
+        node.inputs[S.IMAGE_WIDTH.name].default_value = tex.image.size[0] or 1
+        node.inputs[S.IMAGE_HEIGHT.name].default_value = tex.image.size[1] or 1
     for other in tree.nodes:
         other.select = False                 # the new group alone is selected, as Add does
     node.select = True

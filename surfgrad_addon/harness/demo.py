@@ -141,8 +141,8 @@ def _sampler_exhibit(x):
                 tex.image = image
                 zone, _, _ = sampler_zone(g.nodes, g.links, tex)
                 node = g.group(G.height_map_sampler_group("hq"), UV=uv, Bump_Scale=bump_scale,
-                               Sampler=zone.outputs[0], Width=image.size[0],
-                               Height=image.size[1])
+                               Sampler=zone.outputs[0], Image_Width=image.size[0],
+                               Image_Height=image.size[1])
                 return g.resolve(node.outputs[0])
             obj = S.mesh("sphere", (cx, 0, 1.1), f"Sampler | {name} | {side}")
             obj.data.materials.append(S.material(f"Sampler: {name}, {side}", build))
@@ -283,7 +283,7 @@ def build_demo(log=print):
     def noise_sg(g):
         noise = g.group(G.noise_group(), Scale=3.0)
         vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                     Strength=NOISE_AMOUNT)
+                     Bump_Scale=NOISE_AMOUNT)
         return g.resolve(vg.outputs[0])
     a, b = S.pair(x, "Volume noise bump", noise_usual, noise_sg, left_label="Perlin 1985")
     cams["noise"] = S.camera("Camera noise", x, crops=S.pair_crops(a, b, S.FRONT_SPOT,
@@ -337,7 +337,7 @@ def build_demo(log=print):
         noise = g.group(G.noise_group(), Vector=g.group(G.rest_position_group()).outputs[0],
                         Scale=9.0, Octaves=2)
         vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                     Strength=0.015)
+                     Bump_Scale=0.015)
         return g.resolve(vg.outputs[0])
     a, b = S.pair(x, "Displacement with bump on top", lambda g: None, bump_on_top,
                  left_label="displaced, normals recomputed", right_label="analytic + bump")
@@ -354,14 +354,14 @@ def build_demo(log=print):
     def parallax(detail_on_top):
         def build(g):
             view = g.geometry("Incoming")
-            par = g.group(G.parallax_group(domes), UV=uv(g), View=view, Bump_Scale=0.12)
+            par = g.group(G.parallax_group(domes), UV=uv(g), View=view, Depth=0.12)
             base = g.resolve(g.group(G.normal_map_group("UVMap"),
                                      Color=g.image(hemi, par.outputs["UV"])).outputs[0])
             if not detail_on_top:
                 return base
             noise = g.group(G.noise_group(), Scale=12.0, Octaves=2)
             vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                         Strength=0.01, Normal=base)
+                         Bump_Scale=0.01, Normal=base)
             return g.resolve(vg.outputs[0], normal=base)
         return build
     a, b = S.pair(x, "Parallax with post-resolve detail", parallax(False), parallax(True),

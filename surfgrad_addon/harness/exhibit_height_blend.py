@@ -40,7 +40,7 @@ def _layers(g):
     rock = g.group(G.height_map_forward_group(), Height=rock_h, Bump_Scale=0.03)
     noise = g.group(G.noise_group(), Scale=40.0, Octaves=3)
     sand = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                   Strength=0.0015)
+                   Bump_Scale=0.0015)
     sand_h = g.math(Math.MULTIPLY, noise.outputs["Value"], SAND_RELIEF)
     return surface_gradient(rock), rock_h, surface_gradient(sand), sand_h
 

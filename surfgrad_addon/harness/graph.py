@@ -2,6 +2,7 @@
 the material helpers every method, bench scenario and demo exhibit uses."""
 
 from ..addon import groups as G
+from ..addon.enum_input import set_choice
 from ..addon.node_builder import NodeOps
 from ..addon.node_vocabulary import VMath
 
@@ -27,10 +28,14 @@ class Graph(NodeOps):
         return self.set(n, **inputs)
 
     def set(self, node, **inputs):
-        """Link sockets to, or set constants on, node's inputs by keyword; returns node."""
+        """Link sockets to, or set constants on, node's inputs by keyword; returns node. An
+        enumeration takes its item index on every line (a Menu from 5.0, an integer before)."""
         for name, value in inputs.items():
-            self.link(value, node.inputs[name if name in node.inputs
-                                         else name.replace("_", " ")])
+            socket = node.inputs[name if name in node.inputs else name.replace("_", " ")]
+            if socket.type == "MENU" and isinstance(value, int):
+                set_choice(socket, value)
+            else:
+                self.link(value, socket)
         return node
 
     def uv(self, name):

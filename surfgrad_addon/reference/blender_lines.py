@@ -52,6 +52,9 @@ class LineFacts:
     # to 5.0 only sharp edges or custom normals give corner normals (otherwise smooth faces
     # shade with vertex normals and flat faces with their triangle's normal).
     sharp_faces_give_corner_normals: bool = True
+    # A shader node group can have Menu sockets and a Menu Switch node (5.0 and later); 4.2 and
+    # 4.5 refuse NodeSocketMenu in a shader tree, so an enumeration is an integer there.
+    menu_sockets: bool = True
     # Where a bake shades texel (i, j): ((i + x) / W, (j + y) / H). Same on every line.
     bake_texel_offset: tuple = (0.501, 0.502)
     # MikkTSpace tangents come from Cycles' own triangles (not the quads Blender's
@@ -71,9 +74,10 @@ _UP_TO_5_0 = dict(bake_differential_scale=0.25, bump_filter_width=True, packed_n
 LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,
-                        "normal_map_replaces_non_finite": False}),
+                        "normal_map_replaces_non_finite": False, "menu_sockets": False}),
     "4.5": LineFacts(line="4.5", eevee_engine="BLENDER_EEVEE_NEXT",
-                     **{**_UP_TO_5_0, "normal_map_replaces_non_finite": False}),
+                     **{**_UP_TO_5_0, "normal_map_replaces_non_finite": False,
+                        "menu_sockets": False}),
     "5.0": LineFacts(line="5.0", eevee_engine="BLENDER_EEVEE", **_UP_TO_5_0),
     "5.2": LineFacts(line="5.2", eevee_engine="BLENDER_EEVEE", bake_differential_scale=0.5,
                      bump_filter_width=True, packed_normals=True, normal_map_unit_normal=True,

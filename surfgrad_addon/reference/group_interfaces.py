@@ -2,7 +2,9 @@
 inputs, each a SocketSpec (reference/socket_specs.py). The builders in addon/groups create the
 interface from these (GroupBuilder.declare) and only look sockets up; `expected_signatures`
 writes what Blender must report for them, the content of tests/interfaces.json
-(tools/write_interfaces.py).
+(tools/write_interfaces.py). The one documented difference between lines: an enumeration is a
+Menu socket where the line has them, its integer (SocketSpec.as_int) on 4.2 and 4.5
+(`for_line`, `expected_signatures(menu_sockets=False)`).
 
 A description may hold {fields}: the groups built per image or per UV map fill them; the
 golden file uses `fields`' defaults (the group built without an image or UV map).
@@ -11,8 +13,8 @@ golden file uses `fields`' defaults (the group built without an image or UV map)
 from dataclasses import dataclass, field
 
 from . import socket_specs as S
-from .socket_specs import (BOOLEAN, CLOSURE, COLOR, FLOAT, GEOMETRY, INT, SOCKET_TYPES, VECTOR,
-                           SocketSpec)
+from .socket_specs import (BOOLEAN, CLOSURE, COLOR, FLOAT, GEOMETRY, INT, MENU, SOCKET_TYPES,
+                           VECTOR, SocketSpec)
 
 FLT_MAX = 3.4028234663852886e+38
 REST_ATTRIBUTE = "sg_rest_position"      # SG Displace writes the rest position there
@@ -25,6 +27,7 @@ BLENDER_UNSET = {
     COLOR: {"default": [0.0, 0.0, 0.0, 1.0]},
     BOOLEAN: {"default": False},
     GEOMETRY: {}, CLOSURE: {},
+    MENU: {"default": ""},
 }
 
 
@@ -37,6 +40,16 @@ class GroupInterface:
 
     def describe(self, **values):
         return self.description.format(**{**self.fields, **values})
+
+    def for_line(self, menu_sockets):
+        """This interface as a line builds it: without Menu sockets, each enumeration is its
+        integer (same order)."""
+        if menu_sockets:
+            return self
+        def plain(specs):
+            return tuple(s.as_int() if s.type == MENU else s for s in specs)
+        return GroupInterface(self.description, plain(self.outputs), plain(self.inputs),
+                              self.fields)
 
 
 def _g(description, outputs, inputs=(), **fields):
@@ -73,7 +86,9 @@ PARALLAX_INPUTS = (
     S.NORMAL, HEIGHT_UV,
     S.UV.but(name="View", tooltip="Unit direction toward the viewer, world space (unlinked: the "
              "Geometry node's Incoming)"),
-    S.BUMP_SCALE.but(tooltip="World distance of height 1 above the surface", min=0.0, max=100.0))
+    SocketSpec("Depth", FLOAT, "World distance of height 1 above the surface (how deep the "
+               "parallax reaches; not a bump scale)", default=S.BUMP_SCALE.default, min=0.0,
+               max=100.0, renamed_from=("Bump Scale",)))
 TRIPLANAR_HEIGHT_INPUTS = (S.NORMAL, S.POSITION, S.TEXTURE_SCALE, S.SHARPNESS, S.BUMP_SCALE)
 MIKKTSPACE_FRAME = _g("Listing 9's MikkTSpace frame", (
     S.TANGENT_OUT.but(tooltip="MikkTSpace tangent / |n| (world)"),
@@ -120,8 +135,11 @@ INTERFACES = {
                             "OpenGL or DirectX like Color B (the result keeps the convention)"),
          S.NORMAL_COLOR.but(name="Color B", tooltip="Second (detail) tangent-space normal "
                             "colour"),
-         SocketSpec("Method", INT, "0: partial derivatives (PD), 1: whiteout, 2: UDN, 3: "
-                    "reoriented normal mapping (RNM)", default=0, min=0, max=3))),
+         S.enumeration("Method", "How the two normals combine", (
+             ("Partial Derivative", "Add the slopes (PD): the surface-gradient sum"),
+             ("Whiteout", "Add x and y, multiply z"),
+             ("UDN", "Add x and y, keep A's z (cheapest, flattens)"),
+             ("RNM", "Reoriented normal mapping: B rotated onto A (Eq. 18)"))))),
     "SG Combine": _g(
         "Layering (Eq. 13-14): add, scale, mask or invert surface gradients",
         (S.SURFACE_GRADIENT_OUT.but(tooltip="Scale A x A + Scale B x Mask B x B"),),
@@ -155,14 +173,16 @@ INTERFACES = {
          SocketSpec("Falloff", FLOAT, "Distance over which the decal fades out toward its "
                     "shape's boundary (fraction of the projector's half-size)", default=0.2,
                     min=0.0, max=1.0, keyword="falloff"),
-         SocketSpec("Shape", INT, "Projector volume, in the projector's [-1, 1] cube: 0 box "
-                    "(fades toward its near and far faces), 1 sphere (fades toward its surface), "
-                    "2 cylinder along the projection axis (fades toward its side and ends), 3 "
-                    "cone with its apex at the projector (+z) and radius 1 at the far end (fades "
-                    "toward its side and ends), 4 wedge: a prism along the projection axis "
-                    "whose footprint is a triangle, apex at +y, base at y = -1 (fades toward its "
-                    "sloped faces and ends), 5 capsule: within 1 of the axis from z = -0.5 to "
-                    "0.5 (fades toward its surface)", default=0, min=0, max=5, keyword="shape"),
+         S.enumeration("Shape", "Projector volume, in the projector's [-1, 1] cube", (
+             ("Box", "The projector's cube, faded toward its near and far faces"),
+             ("Sphere", "The unit ball, faded toward its surface"),
+             ("Cylinder", "Along the projection axis, faded toward its side and ends"),
+             ("Cone", "Apex at the projector (+z), radius 1 at the far end, faded toward its "
+              "side and ends"),
+             ("Wedge", "A prism along the projection axis whose footprint is a triangle, apex "
+              "at +y, base at y = -1, faded toward its sloped faces and ends"),
+             ("Capsule", "Within 1 of the axis from z = -0.5 to 0.5, faded toward its "
+              "surface")), keyword="shape"),
          S.SURFACE_GRADIENT.but(name="Base Gradient", tooltip="The surface gradient underneath "
                                 "(the sum of the layers below). Add mode adds the decal to it; "
                                 "Overwrite replaces it where the decal is, faded by Opacity and "
@@ -321,9 +341,10 @@ INTERFACES = {
         (S.NORMAL,
          S.SURFACE_GRADIENT.but(name="Gradient", tooltip="Gradient of a volume bump function "
                                 "(world space), e.g. SG Noise's Gradient"),
-         S.BUMP_SCALE.but(name="Strength", keyword="amount", tooltip="Bump scale: world units "
-                          "of displacement per unit of the function (0.05 gives SG Noise's "
-                          "default a moderate relief on a 1 m object)"))),
+         S.BUMP_SCALE.but(keyword="amount", renamed_from=("Strength",), tooltip="World units "
+                          "of displacement per unit of the function, as the height groups' Bump "
+                          "Scale (0.05 gives SG Noise's default a moderate relief on a 1 m "
+                          "object)"))),
 }
 
 
@@ -349,13 +370,14 @@ def signature_row(spec, in_out):
     return row
 
 
-def expected_signature(name, **fields):
-    iface = INTERFACES[name]
+def expected_signature(name, menu_sockets=True, **fields):
+    iface = INTERFACES[name].for_line(menu_sockets)
     return {"description": iface.describe(**fields),
             "sockets": [signature_row(s, "OUTPUT") for s in iface.outputs]
             + [signature_row(s, "INPUT") for s in iface.inputs]}
 
 
-def expected_signatures():
-    """{group name: signature} for every group: the content of tests/interfaces.json."""
-    return {name: expected_signature(name) for name in sorted(INTERFACES)}
+def expected_signatures(menu_sockets=True):
+    """{group name: signature} for every group: the content of tests/interfaces.json (a line
+    with Menu sockets; menu_sockets=False: what 4.2 and 4.5 must report)."""
+    return {name: expected_signature(name, menu_sockets) for name in sorted(INTERFACES)}

@@ -236,7 +236,7 @@ def _bump_scale(groups, function):
 def _noise(default_scale, default_amount, default_octaves):
     f = M.volume_noise_surfgrad
     return (Parameter("scale", default_scale, "Scale", ("SG Noise",), f),
-            Parameter("amount", default_amount, "Strength", ("SG Volume Gradient",), f),
+            Parameter("amount", default_amount, "Bump Scale", ("SG Volume Gradient",), f),
             Parameter("octaves", default_octaves, "Octaves", ("SG Noise",), f))
 
 
@@ -284,7 +284,7 @@ _SPECS = (
     MethodSpec("layered", _layered, mikktspace=True, parameters=(
         _strength(("SG Tangent Normal",), M.procedural_basis_surfgrad, LAYER_DETAIL,
                   name="detail_strength"),
-        Parameter("noise_amount", LAYER_NOISE, "Strength", ("SG Volume Gradient",),
+        Parameter("noise_amount", LAYER_NOISE, "Bump Scale", ("SG Volume Gradient",),
                   M.volume_noise_surfgrad, "amount"))),
     # The Sampler groups (5.0+): the per-image methods' references, the image as a closure.
     MethodSpec("height-map-sampler", _height_map, variants=("one-texel", "hq"),

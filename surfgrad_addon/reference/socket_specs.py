@@ -7,8 +7,11 @@ is generated from them (reference/group_interfaces.py), and a method registry ca
 Bump Scale -> bump_scale). A group that needs its own tooltip for a kind derives a variant with
 `spec.but(tooltip=...)` (dataclasses.replace): the kind itself is declared here only.
 
-type is the interface socket kind: VECTOR, FLOAT, COLOR, BOOLEAN, INT, GEOMETRY or CLOSURE
-(SOCKET_TYPES names its Blender socket type). None for default, min,
+type is the interface socket kind: VECTOR, FLOAT, COLOR, BOOLEAN, INT, GEOMETRY, CLOSURE or
+MENU (SOCKET_TYPES names its Blender socket type). An enumeration is a MENU spec (`enumeration`):
+its items are named; on a line without Menu sockets (4.2, 4.5) it is built as `as_int()`, an
+integer 0..N-1 in the same order whose tooltip lists the names. renamed_from: the socket's
+earlier names, so a rebuild renames the saved socket in place (links and values kept). None for default, min,
 max or subtype leaves Blender's own (the fill-ins are in group_interfaces.BLENDER_UNSET).
 """
 
@@ -17,11 +20,13 @@ from typing import Any, Optional
 
 VECTOR, FLOAT, COLOR, BOOLEAN, INT = "VECTOR", "FLOAT", "COLOR", "BOOLEAN", "INT"
 GEOMETRY, CLOSURE = "GEOMETRY", "CLOSURE"     # Closure: Blender 5.0 and later
-TYPES = (VECTOR, FLOAT, COLOR, BOOLEAN, INT, GEOMETRY, CLOSURE)
+MENU = "MENU"           # shader groups: Blender 5.0 and later (blender_lines.menu_sockets)
+TYPES = (VECTOR, FLOAT, COLOR, BOOLEAN, INT, GEOMETRY, CLOSURE, MENU)
 # The Blender interface socket type of each (addon/node_builder creates them).
 SOCKET_TYPES = {VECTOR: "NodeSocketVector", FLOAT: "NodeSocketFloat", COLOR: "NodeSocketColor",
                 BOOLEAN: "NodeSocketBool", INT: "NodeSocketInt",
-                GEOMETRY: "NodeSocketGeometry", CLOSURE: "NodeSocketClosure"}
+                GEOMETRY: "NodeSocketGeometry", CLOSURE: "NodeSocketClosure",
+                MENU: "NodeSocketMenu"}
 
 
 @dataclass(frozen=True)
@@ -35,12 +40,26 @@ class SocketSpec:
     subtype: Optional[str] = None
     hide_value: bool = False
     keyword: Optional[str] = None      # the reference function's keyword, or None
+    items: tuple = ()                  # MENU: ((name, tooltip), ...) in index order
+    renamed_from: tuple = ()           # earlier names of this socket, newest first
 
     def __post_init__(self):
         if self.type not in TYPES:
             raise ValueError(f"socket {self.name!r}: type {self.type!r} is not one of {TYPES}")
         if not self.tooltip:
             raise ValueError(f"socket {self.name!r} has no tooltip")
+        if (self.type == MENU) != bool(self.items):
+            raise ValueError(f"socket {self.name!r}: items belong to MENU sockets only")
+
+    def item_names(self):
+        return tuple(name for name, _ in self.items)
+
+    def as_int(self):
+        """The integer an older line builds for this enumeration: 0..N-1 in the items' order,
+        the tooltip listing them."""
+        names = ", ".join(f"{k} {name}" for k, name in enumerate(self.item_names()))
+        return replace(self, type=INT, tooltip=f"{self.tooltip} ({names})", default=0, min=0,
+                       max=len(self.items) - 1, items=())
 
     def but(self, **changes):
         """A variant of this kind (e.g. a group's own tooltip); the kind stays declared once."""
@@ -50,6 +69,12 @@ class SocketSpec:
 def _vector(name, tooltip, **kw):
     """A vector input that is linked, not typed in (its value hidden)."""
     return SocketSpec(name, VECTOR, tooltip, hide_value=True, **kw)
+
+
+def enumeration(name, tooltip, items, **kw):
+    """A choice among named items ((name, tooltip), ...): a Menu socket, the first item the
+    default."""
+    return SocketSpec(name, MENU, tooltip, default=items[0][0], items=tuple(items), **kw)
 
 
 def _out(name, type_, tooltip):
@@ -68,9 +93,12 @@ POSITION = _vector("Position", "Where to project from (unlinked: world position)
 SURFACE_GRADIENT = _vector("Surface Gradient", "Sum of the surface gradients to apply")
 
 # -- inputs: scales ------------------------------------------------------------------------------
-STRENGTH = SocketSpec("Strength", FLOAT, "Bump scale: multiplies the surface gradient "
-                      "(negative inverts the bump)", default=1.0, min=-100.0, max=100.0,
-                      keyword="strength")
+# "Strength" is a multiplier of the surface gradient everywhere except the groups that convert
+# a Blender node (NODE_STRENGTH: that node's meaning and range). World units are "Bump Scale".
+STRENGTH = SocketSpec("Strength", FLOAT, "Multiplies the surface gradient (1: as the map is, "
+                      "0: flat, negative inverts the bump); unlike the Normal Map node's "
+                      "Strength it scales the slope itself", default=1.0, min=-100.0,
+                      max=100.0, keyword="strength")
 # A Blender node's own Strength (Normal Map, Bump), kept by groups that convert those nodes.
 NODE_STRENGTH = SocketSpec("Strength", FLOAT, "As the Normal Map node's Strength: 1 reproduces "
                            "the map, 0 is flat, above 1 steeper (so a converted Normal Map node "
@@ -94,11 +122,12 @@ DIRECTX = SocketSpec("DirectX", BOOLEAN, "The map is in DirectX convention (gree
 SAMPLER = SocketSpec("Sampler", CLOSURE, "Your image as a closure: an Image Texture inside a "
                      "Closure Zone (Vector in, Color out), its Closure linked here. Linear or "
                      "Closest interpolation; the group evaluates it at the coordinates it needs")
-IMAGE_WIDTH = SocketSpec("Width", INT, "Width of the sampled image in pixels (the Add menu sets "
-                         "it from the active Image Texture's image)", default=1024, min=1,
-                         max=65536)
-IMAGE_HEIGHT = SocketSpec("Height", INT, "Height of the sampled image in pixels", default=1024,
-                          min=1, max=65536)
+# "Image ...": a group's "Height" is a height value (SG Height Map Forward, SG Parallax).
+IMAGE_WIDTH = SocketSpec("Image Width", INT, "Width of the sampled image in pixels (the Add "
+                         "menu sets it from the active Image Texture's image)", default=1024,
+                         min=1, max=65536, renamed_from=("Width",))
+IMAGE_HEIGHT = SocketSpec("Image Height", INT, "Height of the sampled image in pixels",
+                          default=1024, min=1, max=65536, renamed_from=("Height",))
 
 # -- inputs: far from the origin -----------------------------------------------------------------
 # Off (a constant), Cycles folds the precise route away: the group costs what it did without it.

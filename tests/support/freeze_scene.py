@@ -19,7 +19,7 @@ def layered_material(obj, name="Layered"):
     noise = g.group(G.noise_group())
     noise.inputs["Scale"].default_value = 3.0
     volume = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"])
-    volume.inputs["Strength"].default_value = 0.15
+    volume.inputs["Bump Scale"].default_value = 0.15
     combine = g.group(G.combine_group(), A=nm.outputs[0], B=volume.outputs[0])
     g.link(g.resolve(combine.outputs[0]), bsdf.inputs["Normal"])
     obj.data.materials.clear()

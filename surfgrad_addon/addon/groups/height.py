@@ -122,7 +122,7 @@ def height_map_group(image=None, variant="hq", extension="REPEAT"):
 
 def height_map_sampler_group(variant="hq"):
     """SG Height Map HQ / One-Texel (Sampler), Blender 5.0+: the same derivatives as
-    height_map_group from any image, given as a Sampler closure with its Width and Height."""
+    height_map_group from any image, given as a Sampler closure with its Image Width and Height."""
     _check_variant(variant)
     name = f"SG Height Map {HEIGHT_LABELS[variant]} (Sampler)"
     common.require(name)
@@ -209,7 +209,7 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
 
 def triplanar_height_sampler_group():
     """SG Triplanar Height (Sampler), Blender 5.0+: one height image, given as a Sampler
-    closure with its Width and Height, on all three planes."""
+    closure with its Image Width and Height, on all three planes."""
     name = "SG Triplanar Height (Sampler)"
     common.require(name)
 

@@ -12,7 +12,7 @@ POM_STEPS = 8
 
 
 def parallax_group(image=None, extension="REPEAT"):
-    """SG Parallax for one height image (heights in [0, 1], 1 = Bump Scale above the surface):
+    """SG Parallax for one height image (heights in [0, 1], 1 = Depth above the surface):
     Listing 11 in surface gradients (the change of st along dir is (grad s . dir,
     grad t . dir)), Welsh's offset limiting, a POM_STEPS-step parallax-occlusion march with
     linear refinement (reference/parallax.py), and Listing 12 for the surface offset."""
@@ -34,7 +34,7 @@ def _parallax_body(b, taps_for):
     """The interface and interior shared by the per-image and the sampler parallax."""
     n = normal_input(b)
     uv = uv_input(b)
-    view, scale = b.input("View"), b.input(S.BUMP_SCALE)
+    view, scale = b.input("View"), b.input("Depth")
     taps = taps_for(b)
     with b.frame("Unlinked View: Incoming"):
         view = where_zero(b, view, b.geometry("Incoming"))

@@ -1,6 +1,7 @@
 """Section 4.1-4.2: triplanar projection (Listings 13 and 14, Eq. 19) and decal projectors
 (Listing 15) as volume bump maps."""
 
+from ..enum_input import menu_switch
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from ...reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES, SHAPE_FLOOR  # noqa: F401
@@ -185,6 +186,11 @@ def decal_weight(b, q, shape, falloff, shapes=range(len(DECAL_SHAPES))):
                          falloff)
     weights = (box, sphere, cylinder, cone, wedge, capsule)      # in DECAL_SHAPES' order
     with b.frame("The chosen shape"):
+        if shape.type == "MENU":
+            built = {index: weights[index]() for index in shapes}
+            fill = built[next(iter(built))]        # items not built (tests) get a built one
+            return menu_switch(b, shape, [built.get(k, fill) for k in range(len(weights))],
+                               "FLOAT")
         total = 0.0
         for index in shapes:
             pick = b.math(Math.COMPARE, shape, float(index), 0.5)

@@ -2,6 +2,7 @@
 MikkTSpace frame (Listing 9, SG Normal Map) or on a generated one (Listing 4, SG Procedural
 Basis, SG Tangent Normal), and the classic blends of two tangent-space normals (Eq. 18)."""
 
+from ..enum_input import choose
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from ...reference.vecmath import DIVIDE_FLOOR
@@ -106,13 +107,10 @@ def normal_map_group(uv_map=""):
 
 
 def select_blend(b, method, candidates):
-    """candidates[method] (PD, whiteout, UDN, RNM): a chain of Mix nodes on Method = index. A
-    constant Method folds it to that one blend, the others' nodes gone
-    (tests/test_render_cost_folding.py)."""
-    out = candidates[0]
-    for index, candidate in enumerate(candidates[1:], start=1):
-        out = b.mix_vector(b.math(Math.COMPARE, method, float(index), 0.5), out, candidate)
-    return out
+    """candidates[method] (PD, whiteout, UDN, RNM): a Menu Switch, or on older lines a chain of
+    Mix nodes on the integer (enum_input). A constant Method folds it to that one blend, the
+    others' nodes gone (tests/test_render_cost_folding.py)."""
+    return choose(b, method, candidates)
 
 
 def blend_normals_group():

@@ -14,7 +14,7 @@ from .common import (BUMP_FILTER_WIDTH, bump_surface_gradient, ensure, normal_in
 def volume_gradient_group():
     def build(b):
         n = normal_input(b)
-        grad, strength = b.input("Gradient"), b.input("Strength")
+        grad, strength = b.input("Gradient"), b.input("Bump Scale")
         with b.frame("Listing 8: grad - (n . grad) n"):
             sg = b.sub(grad, b.scale(n, b.dot(n, grad)))
         b.output(S.SUMMABLE_GRADIENT_OUT, b.scale(sg, strength))

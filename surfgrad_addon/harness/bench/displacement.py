@@ -122,7 +122,7 @@ def bump_vs_cycles_displacement(amplitudes=AMPLITUDES, resolution=128, subdivisi
             g = Graph(nodes, links)
             noise = g.group(G.noise_group(), Scale=BUMP_SCALE, Octaves=BUMP_OCTAVES)
             vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                         Strength=a)
+                         Bump_Scale=a)
             return g.resolve(vg.outputs[0])
 
         def geometry_normal(nodes, links):

@@ -11,6 +11,7 @@ compare within a line.
 """
 
 from ...addon import groups as G
+from ...addon.enum_input import set_choice
 from ...reference.decals import DECAL_SHAPES
 from ...reference.socket_specs import PRECISE_FAR
 from . import render_materials as M
@@ -30,6 +31,8 @@ def _settle(g, node, settings):
         if value == LINKED:
             kind, output = _LINKS[name]
             g.link(g.node(kind).outputs[output], node.inputs[name])
+        elif node.inputs[name].type == "MENU":
+            set_choice(node.inputs[name], value)       # an item index, as on the integer lines
         else:
             node.inputs[name].default_value = value
 

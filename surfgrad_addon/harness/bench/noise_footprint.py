@@ -52,7 +52,7 @@ def build_materials():
         noise = g.group(G.noise_group(), Scale=NOISE_SCALE)
         noise.inputs["Filter Footprint"].default_value = way == "on"
         vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                     Strength=AMOUNT)
+                     Bump_Scale=AMOUNT)
         g.link(g.resolve(vg.outputs[0]), bsdf.inputs["Normal"])
         mats[way] = mat
     return mats

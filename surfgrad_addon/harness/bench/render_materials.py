@@ -119,7 +119,7 @@ def _hq_image(g, ctx):
 def _hq_sampler(g, ctx):
     w, h = ctx["height"].size[:2]
     node = g.group(G.height_map_sampler_group("hq"), UV=g.uv("UVMap"), Bump_Scale=HEIGHT_BUMP,
-                   Sampler=_sampler(g, ctx["height"]), Width=w, Height=h)
+                   Sampler=_sampler(g, ctx["height"]), Image_Width=w, Image_Height=h)
     return g.resolve(node.outputs[0])
 
 
@@ -136,17 +136,17 @@ def _tri_height_image(g, ctx):
 def _tri_height_sampler(g, ctx):
     w, h = ctx["height"].size[:2]
     node = g.group(G.triplanar_height_sampler_group(), Bump_Scale=HEIGHT_BUMP,
-                   Sampler=_sampler(g, ctx["height"]), Width=w, Height=h)
+                   Sampler=_sampler(g, ctx["height"]), Image_Width=w, Image_Height=h)
     return g.resolve(node.outputs[0])
 
 
 def _parallax(sampler):
     def build(g, ctx):
         if sampler:
-            par = g.group(G.parallax_sampler_group(), UV=g.uv("UVMap"), Bump_Scale=0.1,
+            par = g.group(G.parallax_sampler_group(), UV=g.uv("UVMap"), Depth=0.1,
                           Sampler=_sampler(g, ctx["height"]))
         else:
-            par = g.group(G.parallax_group(ctx["height"]), UV=g.uv("UVMap"), Bump_Scale=0.1)
+            par = g.group(G.parallax_group(ctx["height"]), UV=g.uv("UVMap"), Depth=0.1)
         nm = g.group(G.normal_map_group("UVMap"), Color=g.image(ctx["normal"],
                                                                  par.outputs["UV"]))
         return g.resolve(nm.outputs[0])

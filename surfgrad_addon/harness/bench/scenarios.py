@@ -119,7 +119,7 @@ def _noise_methods(ctx):
         return g.perlin(g.geometry("Normal"), g.scale(grad(g), NOISE_AMOUNT))
 
     def analytic(g, c):
-        vg = g.group(G.volume_gradient_group(), Gradient=grad(g), Strength=NOISE_AMOUNT)
+        vg = g.group(G.volume_gradient_group(), Gradient=grad(g), Bump_Scale=NOISE_AMOUNT)
         return g.resolve(vg.outputs[0])
 
     def differences(central):
@@ -151,7 +151,7 @@ def _noise_methods(ctx):
             for slot, v in zip(comb.inputs, comps):
                 g.link(v, slot)
             vg = g.group(G.volume_gradient_group(), Gradient=comb.outputs[0],
-                         Strength=NOISE_AMOUNT)
+                         Bump_Scale=NOISE_AMOUNT)
             return g.resolve(vg.outputs[0])
         return build
 

@@ -13,7 +13,7 @@ def height_blend_graph(inp, g):
     rock = g.group(G.height_map_group(image, "hq"), UV=uv, Bump_Scale=HEIGHT_BUMP_SCALE)
     noise = g.group(G.noise_group(), Scale=NOISE_SCALE, Octaves=NOISE_OCTAVES, Turbulence=False)
     sand = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"],
-                   Strength=NOISE_AMOUNT)
+                   Bump_Scale=NOISE_AMOUNT)
     blend = g.group(G.height_blend_group(), A=surface_gradient(rock),
                     Height_A=g.first(g.image(image, uv)), B=surface_gradient(sand),
                     Height_B=noise.outputs["Value"], Offset_B=SAND_LEVEL)

@@ -61,7 +61,7 @@ def parallax_view(g):
 
 def normal_map_at_parallax(inp, g, par):
     """A parallax group's view and scale set, and SG Normal Map read at its offset UV."""
-    g.set(par, View=parallax_view(g), Bump_Scale=parallax_depth(inp))
+    g.set(par, View=parallax_view(g), Depth=parallax_depth(inp))
     color = g.image(inp.bpy_image("normal"), par.outputs["UV"])
     return surface_gradient(g.group(G.normal_map_group(inp.uv_map), Color=color))
 

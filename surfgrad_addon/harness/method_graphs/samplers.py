@@ -18,8 +18,8 @@ def sampler_socket(nodes, links, image, interpolation="Linear", extension="REPEA
 
 
 def _sized(image):
-    """A Sampler group's Width and Height inputs for `image`."""
-    return {"Width": image.size[0], "Height": image.size[1]}
+    """A Sampler group's Image Width and Image Height inputs for `image`."""
+    return {"Image_Width": image.size[0], "Image_Height": image.size[1]}
 
 
 def height_map_sampler_graph(inp, g):

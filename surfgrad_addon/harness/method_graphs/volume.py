@@ -13,7 +13,7 @@ from .projection import triplanar_graph
 def volume_noise_graph(inp, g, amount=NOISE_AMOUNT, filtered=False):
     noise = g.group(G.noise_group(), Scale=NOISE_SCALE, Octaves=NOISE_OCTAVES, Turbulence=False,
                     Filter_Footprint=filtered)
-    vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"], Strength=amount)
+    vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"], Bump_Scale=amount)
     return surface_gradient(vg)
 
 
@@ -28,7 +28,7 @@ def displace_bump_graph(inp, g):
     scale, amount, octaves = BUMP_ON_TOP
     rest = g.group(G.rest_position_group())
     noise = g.group(G.noise_group(), Vector=rest.outputs[0], Scale=scale, Octaves=octaves)
-    vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"], Strength=amount)
+    vg = g.group(G.volume_gradient_group(), Gradient=noise.outputs["Gradient"], Bump_Scale=amount)
     return surface_gradient(vg)
 
 
