@@ -9,9 +9,7 @@ frozen against frozen, averaged). Measured on 5.2 (freeze at 128 texels, 160 x 9
 live - frozen 0.0285, floor 0.0245 (live 0.0267, frozen 0.0223), live - flat 0.067, frozen -
 flat 0.061. Bars: live - frozen <= 1.25 floor + 0.003 (the frozen one samples a linear-filtered
 128-texel map, a little smoother than the live noise: at 32 samples the whole difference is
-0.008); each stacked sphere >= 2 floors from its flat self (the Principled freeze the exhibit
-first tried, a visibly weaker map, measured further off than this)."""
-
+0.008); each stacked sphere >= 2 floors from its flat self."""
 
 import numpy as np
 import pytest
