@@ -39,8 +39,10 @@ def stack(g):
 
 def diffuse_material(name, build):
     """A Diffuse BSDF material whose Normal is build(g). Diffuse, as in the freeze tests:
-    Cycles' NORMAL bake averages closure normals, and freezing a Principled BSDF measured a
-    visibly weaker map (its bake mixes in a closure that does not follow the Normal input)."""
+    Cycles' NORMAL bake averages closure normals, and freezing a Principled BSDF gave a
+    visibly flatter map (5.2, 160 x 90 at 32 samples, mean |live - frozen| on the discs 0.0156
+    against 0.0078 for Diffuse): its bake seems to mix in a closure that does not follow the
+    Normal input."""
     from ..addon import compat
     from .graph import Graph
     mat = compat.new_material(name)
