@@ -12,6 +12,7 @@ compare within a line.
 
 from ...addon import groups as G
 from ...addon.enum_input import set_choice
+from ...addon.node_vocabulary import Math, VMath
 from ...reference.decals import DECAL_SHAPES
 from ...reference.socket_specs import PRECISE_FAR
 from . import render_materials as M
@@ -80,6 +81,18 @@ def _decal(g, ctx, up):
     return g.group(G.decal_group(), Decal_Coordinates=q, Color=g.image(ctx["normal"], uv))
 
 
+def _decal_builtin(g, ctx):
+    """The usual decal by projection, built-in nodes only: the Image Texture at the projector's
+    Object coordinates (the box [-1, 1]^3 onto UV [0, 1]^2) mixed over the flat normal colour
+    by the box's mask (max |coordinate| < 1), through a tangent-space Normal Map node."""
+    q = g.node("ShaderNodeTexCoord").outputs["Object"]
+    x, y, z = g.separate(g.vmath(VMath.ABSOLUTE, q))
+    inside = g.math(Math.LESS_THAN, g.math(Math.MAXIMUM, g.math(Math.MAXIMUM, x, y), z), 1.0)
+    uv = g.vmath(VMath.MULTIPLY_ADD, q, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5))
+    color = g.mix_vector(inside, (0.5, 0.5, 1.0), g.image(ctx["normal"], uv))
+    return g.normal_map(color, "TANGENT", uv_map="UVMap")
+
+
 def _blend(g, ctx, up):
     """Two normal maps (on the two UV maps, so Cycles cannot merge them) through SG Blend
     Normals (`up` on it) into SG Normal Map."""
@@ -115,7 +128,7 @@ _OPTIONS = [
     ("uv2-sg:strength", "SG Tangent Normal, Strength 0.5", _uv2, {}, {"Strength": 0.5},
      "uv2-sg"),
     ("decal", "Texture Coordinate -> SG Projector + Decal Coordinates -> SG Decal (box)", _decal,
-     _PROJECTED, {}, None),
+     _PROJECTED, {}, "decal-builtin"),
     ("decal:precise", "SG Decal, Precise Far From Origin on", _decal,
      {**_PROJECTED, PRECISE: True}, {}, "decal"),
     *[(f"decal:shape{k}", f"SG Decal, Shape {k} ({DECAL_SHAPES[k]})", _decal, _PROJECTED,
@@ -134,6 +147,9 @@ _OPTIONS = [
     ("noise:precise", "SG Noise, Precise Far From Origin on", _noise, {PRECISE: True}, {},
      "noise"),
 ]
+# Built-in twins of SG layers bench-render has no case for: (key, label, build, None).
+TWINS = [("decal-builtin", "Texture Coordinate (Object) -> box mask (Separate XYZ, Math) -> "
+          "Mix over flat -> Normal Map node", _decal_builtin, None)]
 OPTIONS = [(key, label, _material(layer, up, **opts), against)
            for key, label, layer, up, opts, against in _OPTIONS]
 STACKS = [(f"layers{k}-{side}", f"{k} normal-map layer{'s' * (k > 1)} ({side})",
@@ -143,9 +159,10 @@ STACKS = [(f"layers{k}-{side}", f"{k} normal-map layer{'s' * (k > 1)} ({side})",
 
 
 def materials():
-    """[(key, label, build, compared with)]: bench-render's cases, the options, the stacks."""
+    """[(key, label, build, compared with)]: bench-render's cases, the twins bench-render
+    lacks, the options, the stacks."""
     base = [(key, label, build, twin) for key, label, build, twin, *_ in M.cases()]
-    return base + OPTIONS + STACKS
+    return base + TWINS + OPTIONS + STACKS
 
 
 def build_materials():
