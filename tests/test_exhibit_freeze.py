@@ -48,7 +48,7 @@ def renders():
     for obj in (live_obj, frozen_obj):
         tree = obj.active_material.node_tree
         for link in [lk for lk in tree.links if lk.to_socket.name == "Normal" and
-                     lk.to_node.bl_idname == "ShaderNodeBsdfDiffuse"]:
+                     lk.to_node.bl_idname == "ShaderNodeBsdfPrincipled"]:
             tree.links.remove(link)
     flat = E.render_pixels(SIZE, SAMPLES)
     return discs(stacked), discs(reseeded), discs(flat)

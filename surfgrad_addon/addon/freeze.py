@@ -17,6 +17,7 @@ throwing FreezeCancelled into it; freeze() runs it to the end.
 import json
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 from . import normal_bake as NB
@@ -38,6 +39,27 @@ class FreezeCancelled(FreezeError):
 def _output(tree):
     outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
     return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+
+
+@contextmanager
+def _baking_the_stack_alone(tree, end):
+    """For the bake only: the Material Output's Surface fed by a Diffuse BSDF whose Normal is
+    the stack's end. Cycles' NORMAL bake averages the closures' normals, and a Principled
+    BSDF's glossy and coat closures bend theirs (its bump correction), so baking the material
+    as it is gave a visibly flatter map (mean |live - frozen| 0.0156 against 0.0078 through a
+    Diffuse BSDF, 160x90 renders); the Diffuse closure's normal is the stack's. Restored after,
+    also when the bake fails or is cancelled."""
+    output = _output(tree)
+    surface = output.inputs["Surface"]
+    shader = surface.links[0].from_socket
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    try:
+        tree.links.new(end, diffuse.inputs[NORMAL])
+        tree.links.new(diffuse.outputs[0], surface)
+        yield
+    finally:
+        tree.links.new(shader, surface)
+        tree.nodes.remove(diffuse)
 
 
 def _upstream(socket):
@@ -173,8 +195,9 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
     baked = folder / f".{stem}.freeze{os.getpid()}{suffix}"
     image = None
     try:
-        NB.bake_normal_tiles(obj, baked, "tangent", resolution, uv_map, samples=samples,
-                             depth=depth, overwrite=True, log=log)
+        with _baking_the_stack_alone(tree, end):
+            NB.bake_normal_tiles(obj, baked, "tangent", resolution, uv_map, samples=samples,
+                                 depth=depth, overwrite=True, log=log)
         yield "baked"
         image = bpy.data.images.load(str(baked), check_existing=False)
         image.name = path.name if path else f"{stem}{suffix}"

@@ -38,19 +38,17 @@ def stack(g):
 
 
 def diffuse_material(name, build):
-    """A Diffuse BSDF material whose Normal is build(g). Diffuse, as in the freeze tests:
-    Cycles' NORMAL bake averages closure normals, and freezing a Principled BSDF gave a
-    visibly flatter map (5.2, 160 x 90 at 32 samples, mean |live - frozen| on the discs 0.0156
-    against 0.0078 for Diffuse): its bake seems to mix in a closure that does not follow the
-    Normal input."""
+    """A Principled BSDF material (what artists freeze) whose Normal is build(g). Freeze
+    bakes the stack through a Diffuse stand-in (addon/freeze.py), so the Principled
+    BSDF's glossy closures do not flatten the map."""
     from ..addon import compat
     from .graph import Graph
     mat = compat.new_material(name)
     tree = mat.node_tree
     tree.nodes.clear()
     g = Graph(tree.nodes, tree.links)
-    bsdf = g.node("ShaderNodeBsdfDiffuse")
-    bsdf.inputs["Color"].default_value = (0.62, 0.6, 0.58, 1.0)
+    bsdf = g.node("ShaderNodeBsdfPrincipled")
+    bsdf.inputs["Base Color"].default_value = (0.62, 0.6, 0.58, 1.0)
     g.link(bsdf.outputs[0], g.node("ShaderNodeOutputMaterial").inputs["Surface"])
     g.link(build(g), bsdf.inputs["Normal"])
     return mat
