@@ -44,7 +44,7 @@ from .heat_map import write_heat_map
 # EXCLUSION_REASONS and CONTESTED (texel_report's) named here too for the tests that read them
 # as compare's (tests/test_bake_compare.py, tests/test_real_assets.py).
 from .texel_report import CONTESTED, EXCLUSION_REASONS  # noqa: F401
-from .texel_report import ErrorImage, compare_tile, merge
+from .texel_report import ErrorImage, blank_heat, compare_tile, merge
 
 DETAIL_UV = "Detail"
 
@@ -324,13 +324,15 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
         the bake, whose single-threaded stretches (scene sync, pixel read-back) leave a core
         idle. Only already loaded kernels run there: numba compiling its kernels (a cold
         cache) while Cycles bakes crashed Blender 4.5 (segfault, 1 run in 4 or 5), so
-        load_compiled runs before, in this thread."""
+        load_compiled runs before, in this thread. A covered tile's blank error image is
+        written there too (its pages first touched off the critical path)."""
         rasters = {}
         for number in tiles:
             t0 = time.perf_counter()
             td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=facts,
                              uv_offset=R.tiles.tile_uv_offset(number))
-            rasters[number] = (td, time.perf_counter() - t0)
+            rasters[number] = (td, time.perf_counter() - t0,
+                               blank_heat(resolution, resolution) if td.covered.any() else None)
         return rasters
 
     def build(nodes, links):
@@ -355,14 +357,14 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     reference_seconds = 0.0
     tile_reports, heats, tds = [], [], []
     for number in tiles:
-        td, seconds = rasters.pop(number)
+        td, seconds, heat = rasters.pop(number)
         reference_seconds += seconds
         pixels, covered = baked_tiles.pop(number)
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
         tds.append(td)
         r, heat, seconds = compare_tile(td, lambda block: M.resolve(reference(inp, block)),
-                                        pixels, covered)
+                                        pixels, covered, heat)
         reference_seconds += seconds
         r["tile"] = number
         tile_reports.append(r)
