@@ -19,6 +19,7 @@ faces outside counted.
 """
 
 import gc
+import sys
 import json
 import os
 import time
@@ -302,8 +303,13 @@ def _freeze_loaded_heap():
     Blender's and numba's typing and target tables, which last as long as the process) goes
     to the collector's permanent generation, so no later collection walks them again. The
     last collection at exit spent about 0.3 s of CPU on them (a 2048^2 compare on 5.2: a
-    third of what compare adds to its bake)."""
-    if not _HEAP_FROZEN:
+    third of what compare adds to its bake). Only in compare's own command process
+    (`python -m surfgrad_addon`), which exits right after: in a long-lived one (pytest, a
+    Blender session) frozen objects outlive Blender's exit, and the Python 3.11 lines (4.2,
+    4.5) then crashed or hung at interpreter exit after the whole suite had passed."""
+    main = sys.modules.get("__main__")
+    spec = getattr(main, "__spec__", None)
+    if not _HEAP_FROZEN and spec is not None and spec.name == "surfgrad_addon.__main__":
         gc.freeze()
         _HEAP_FROZEN.append(True)
 
