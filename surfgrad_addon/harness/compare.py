@@ -23,7 +23,6 @@ import sys
 import json
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -45,7 +44,7 @@ from .heat_map import write_heat_map
 # EXCLUSION_REASONS and CONTESTED (texel_report's) named here too for the tests that read them
 # as compare's (tests/test_bake_compare.py, tests/test_real_assets.py).
 from .texel_report import CONTESTED, EXCLUSION_REASONS  # noqa: F401
-from .texel_report import ErrorImage, blank_heat, compare_tile, merge
+from .texel_report import ErrorImage, compare_tile, merge
 
 DETAIL_UV = "Detail"
 
@@ -325,52 +324,46 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     facts = B.running_line()
 
-    def rasterize_tiles():
-        """Each tile's rasterisation (reference time), bpy-free: it runs in a thread beside
-        the bake, whose single-threaded stretches (scene sync, pixel read-back) leave a core
-        idle. Only already loaded kernels run there: numba compiling its kernels (a cold
-        cache) while Cycles bakes crashed Blender 4.5 (segfault, 1 run in 4 or 5), so
-        load_compiled runs before, in this thread. A covered tile's blank error image is
-        written there too (its pages first touched off the critical path)."""
+    def prepare():
+        """bpy-free work that needs no bake. Compiled kernels load once per process (like an
+        import), reported apart from the timing; each tile's rasterisation counts as
+        reference time. Not in a thread beside the bake: numba compiling its kernels (a cold
+        cache) while Cycles bakes crashed Blender 4.5 (segfault, 1 run in 4 or 5)."""
+        load = R.raster.load_compiled()
+        _freeze_loaded_heap()
         rasters = {}
         for number in tiles:
             t0 = time.perf_counter()
             td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=facts,
                              uv_offset=R.tiles.tile_uv_offset(number))
-            rasters[number] = (td, time.perf_counter() - t0,
-                               blank_heat(resolution, resolution) if td.covered.any() else None)
-        return rasters
+            rasters[number] = (td, time.perf_counter() - t0)
+        return load, rasters
 
     def build(nodes, links):
         out = graph(inp, nodes, links)
         # Graphs return a surface gradient to resolve against the shading normal, or (post-
         # resolve) an already resolved normal.
         return out if out.name == "Normal" else resolve_sg(nodes, links, out)
-    # Compiled kernels load once per process (like an import), reported apart from the timing.
-    load_seconds = R.raster.load_compiled()
-    _freeze_loaded_heap()
-    with ThreadPoolExecutor(1) as pool:
-        rastering = pool.submit(rasterize_tiles)
-        if tiles == [R.tiles.UDIM_FIRST]:
-            # RGBA as read back (no copy): the comparison reads channels 0-2.
-            pixels, covered, bake_seconds = B.bake_vector_in_pieces(
-                obj, build, resolution, resolution, uv_map=inp.uv_map, rgba=True)
-            baked_tiles = {tiles[0]: (pixels, covered)}
-        else:
-            baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution,
-                                                            resolution, tiles, uv_map=inp.uv_map)
-        rasters = rastering.result()
+    load_seconds, rasters = prepare()
+    if tiles == [R.tiles.UDIM_FIRST]:
+        # RGBA as read back (no copy): the comparison reads channels 0-2.
+        pixels, covered, bake_seconds = B.bake_vector_in_pieces(
+            obj, build, resolution, resolution, uv_map=inp.uv_map, rgba=True)
+        baked_tiles = {tiles[0]: (pixels, covered)}
+    else:
+        baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
+                                                        tiles, uv_map=inp.uv_map)
     reference_seconds = 0.0
     tile_reports, heats, tds = [], [], []
     for number in tiles:
-        td, seconds, heat = rasters.pop(number)
+        td, seconds = rasters.pop(number)
         reference_seconds += seconds
         pixels, covered = baked_tiles.pop(number)
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
         tds.append(td)
         r, heat, seconds = compare_tile(td, lambda block: M.resolve(reference(inp, block)),
-                                        pixels, covered, heat)
+                                        pixels, covered)
         reference_seconds += seconds
         r["tile"] = number
         tile_reports.append(r)

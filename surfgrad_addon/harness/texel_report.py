@@ -51,16 +51,15 @@ class ErrorImage(np.ndarray):
         self.reasons = getattr(obj, "reasons", None)
 
 
-def compare_tile(td, reference, pixels, covered, heat=None):
+def compare_tile(td, reference, pixels, covered):
     """One image's comparison, block by block (reference/raster.py: the reference's working
     memory and the comparison's are one block's; the errors and the error image are whole):
     the report fields, its ErrorImage and the seconds the reference took (the block pass's
-    wall time times the reference's share of the block threads' time). heat: the error
-    image's buffer, (H, W) float64 all NaN (blank_heat), if made beforehand."""
+    wall time times the reference's share of the block threads' time)."""
     h, w = covered.shape
     reasons = np.zeros((h, w), dtype=np.int8)
     reasons[covered ^ td.covered] = OUTSIDE
-    heat = blank_heat(h, w) if heat is None or heat.shape != (h, w) else heat
+    heat = np.full((h, w), np.nan)
     heat_flat = heat.reshape(-1)                # a view: blocks write their own texels
 
     def measure(block):
@@ -109,11 +108,6 @@ def compare_tile(td, reference, pixels, covered, heat=None):
         "_err": errs[:n_errs], "_sums": sums,
     }
     return r, ErrorImage(heat, reasons), wall[0] * (thread_seconds[0] / busy if busy else 1.0)
-
-
-def blank_heat(h, w):
-    """An error image before any texel is compared: NaN everywhere."""
-    return np.full((h, w), np.nan)
 
 
 def error_stats(err):
