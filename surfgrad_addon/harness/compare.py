@@ -18,8 +18,6 @@ grid (tiling UVs) on the 0..1 square a plain image bakes, or on the tiles asked 
 faces outside counted.
 """
 
-import gc
-import sys
 import json
 import os
 import time
@@ -294,25 +292,6 @@ def backfacing_warning(mesh, report):
             f"Recalculate Outside) or fix the custom normals.")
 
 
-_HEAP_FROZEN = []
-
-
-def _freeze_loaded_heap():
-    """Once per process, once the kernels are loaded: every object alive then (the modules,
-    Blender's and numba's typing and target tables, which last as long as the process) goes
-    to the collector's permanent generation, so no later collection walks them again. The
-    last collection at exit spent about 0.3 s of CPU on them (a 2048^2 compare on 5.2: a
-    third of what compare adds to its bake). Only in compare's own command process
-    (`python -m surfgrad_addon`), which exits right after: in a long-lived one (pytest, a
-    Blender session) frozen objects outlive Blender's exit, and the Python 3.11 lines (4.2,
-    4.5) then crashed or hung at interpreter exit after the whole suite had passed."""
-    main = sys.modules.get("__main__")
-    spec = getattr(main, "__spec__", None)
-    if not _HEAP_FROZEN and spec is not None and spec.name == "surfgrad_addon.__main__":
-        gc.freeze()
-        _HEAP_FROZEN.append(True)
-
-
 def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
     and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""
@@ -330,7 +309,6 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
         reference time. Not in a thread beside the bake: numba compiling its kernels (a cold
         cache) while Cycles bakes crashed Blender 4.5 (segfault, 1 run in 4 or 5)."""
         load = R.raster.load_compiled()
-        _freeze_loaded_heap()
         rasters = {}
         for number in tiles:
             t0 = time.perf_counter()
