@@ -104,12 +104,21 @@ def test_each_generated_table_is_in_the_docs_and_reads_its_json():
     assert [r.split("|")[1].strip() for r in compare[2:]] == [f"{s}²" for s in sorted(now, key=int)]
     for row, size in zip(compare[2:], sorted(now, key=int)):
         assert f"**{now[size]['compare_over_bake_alone']:.2f}**" in row
+    post = docs_tables.post_resolve_table(DOCS)
+    exhibit = _json("exhibits/post-resolve.json")
+    usual = exhibit["usual vs reference"]
+    assert post[2].startswith("| usual (Bump node) against the reference | ")
+    cells = [c.strip() for c in post[2].split("|")[2:-1]]
+    assert [float(c) for c in cells] == pytest.approx(
+        [usual[k] for k in ("mean_deg", "p99_deg", "max_deg")]
+        + [z["mean_deg"] for z in usual["by_lean"].values()], rel=0.05)
 
 
 def test_a_changed_json_makes_its_block_stale(tmp_path):
-    (tmp_path / "docs").mkdir()
-    for f in DOCS.glob("*.json"):
-        (tmp_path / "docs" / f.name).write_text(f.read_text())
+    for f in DOCS.glob("**/*.json"):          # exhibits/ too: a table reads one there
+        copy = tmp_path / f.relative_to(ROOT)
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        copy.write_text(f.read_text())
     for p in PAGES:
         (tmp_path / p.relative_to(ROOT)).write_text(p.read_text())
     assert docs_tables.stale(tmp_path) == []

@@ -130,17 +130,46 @@ def bench_batch_table(docs):
     return rows
 
 
+POST_RESOLVE_ROWS = (("usual vs reference", "usual (Bump node) against the reference"),
+                     ("surface gradient vs reference", "SG against the reference"),
+                     ("usual vs bump node model", "usual against the Bump node's model"))
+
+
+def post_resolve_table(docs):
+    """The post-resolve exhibit's baked errors (docs/exhibits/post-resolve.json, written by
+    harness/exhibit_post_resolve.py): each comparison, and its mean by how far the normal
+    map leans the normal."""
+    data = load(docs, "exhibits/post-resolve.json")
+    zones = list(data[POST_RESOLVE_ROWS[0][0]]["by_lean"])
+
+    def deg(v):             # two figures, as the picture prints them
+        return (f"{v:.0f}" if v >= 10 else f"{v:.1f}" if v >= 1 else f"{v:.2g}" if v >= 1e-3
+                else "<0.001")
+    rows = ["| degrees | mean | p99 | max | " + " | ".join(f"mean, lean {z}°" for z in zones)
+            + " |",
+            "|---|---|---|---|" + "---|" * len(zones)]
+    for key, label in POST_RESOLVE_ROWS:
+        r = data[key]
+        rows.append(f"| {label} | {deg(r['mean_deg'])} | {deg(r['p99_deg'])} | "
+                    f"{deg(r['max_deg'])} | "
+                    + " | ".join(deg(r["by_lean"][z]["mean_deg"]) for z in zones) + " |")
+    rows.append(f"\n{data['resolution']}² texels a plane, Blender {data['blender']}.")
+    return rows
+
+
 TABLES = {"bench-compare": bench_compare_table,
           "bench-compare-before": bench_compare_before_table,
           "bench-batch": bench_batch_table,
           "render-cost-folded": render_cost_folded_table,
-          "noise-footprint": noise_footprint_table}
+          "noise-footprint": noise_footprint_table,
+          "post-resolve": post_resolve_table}
 # The committed JSON each table reads (every docs/*.json must be read by one: a test checks).
 SOURCES = {"bench-compare": ("bench_compare.json",),
            "bench-compare-before": ("bench_compare_before.json",),
            "bench-batch": ("bench_batch.json",),
            "render-cost-folded": ("render_cost_folded.json",),
-           "noise-footprint": ("noise_footprint.json",)}
+           "noise-footprint": ("noise_footprint.json",),
+           "post-resolve": ("exhibits/post-resolve.json",)}
 
 
 def pages(root=ROOT):

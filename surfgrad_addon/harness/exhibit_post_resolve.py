@@ -16,7 +16,7 @@ post_resolve_bump); the usual bake is also compared with a numpy model of the Bu
 (bump_node_normal), which says where its difference comes from. The picture is a Cycles render
 of the two planes above the two error maps on one scale.
 
-    python -m surfgrad_addon.harness.exhibit_post_resolve [PICTURE]    (5.2, about a minute)
+    python -m surfgrad_addon.harness.exhibit_post_resolve [PICTURE]    (under a minute)
 """
 
 import json
@@ -103,20 +103,26 @@ def reference_normal(td, pixels):
                                                                                         grad))
 
 
-def bump_node_normal(td, pixels):
+def bump_node_normal(td, pixels, exact=False):
     """Cycles' Bump node given the resolved normal N: the noise's forward differences along
     the bake's dP/dx, dP/dy of the real surface (Filter Width steps long), into Listing 6 with
-    screen-space derivatives on N (Mikkelsen 2010, what the node computes)."""
+    screen-space derivatives on N (Mikkelsen 2010, what the node computes). exact: the
+    noise's exact change along those steps (the node without its forward differences' error),
+    which leaves only what comes of N leaning away from the real surface."""
     _, _, n1 = resolved_base(td, pixels)
     fw = td.facts.bump_step_scale(BUMP_FILTER_WIDTH)
     dpdx, dpdy = (fw * d for d in bump_differentials(td))
     p, to_object = td.position_object, td.mesh.normal_matrix     # v @ M^-T is M^-1 v
-
-    def height(step):
-        return fractal_sum((p + transform(step, to_object)) * NOISE_SCALE,
-                           octaves=NOISE_OCTAVES)[0]
-    h_c = height(np.zeros_like(dpdx))
-    deriv = DETAIL * np.stack([height(dpdx) - h_c, height(dpdy) - h_c], axis=-1)
+    if exact:
+        _, grad = M.noise_gradient_world(td, NOISE_SCALE, NOISE_OCTAVES)
+        steps = [np.sum(grad * d, axis=-1) for d in (dpdx, dpdy)]
+    else:
+        def height(step):
+            return fractal_sum((p + transform(step, to_object)) * NOISE_SCALE,
+                               octaves=NOISE_OCTAVES)[0]
+        h_c = height(np.zeros_like(dpdx))
+        steps = [height(dpdx) - h_c, height(dpdy) - h_c]
+    deriv = DETAIL * np.stack(steps, axis=-1)
     sg = L.surfgrad_scale_dependent(n1, dpdx, dpdy, deriv, None, None, None,
                                     is_deriv_screen_space=True)
     return M.resolve((n1, sg))

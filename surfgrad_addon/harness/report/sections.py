@@ -220,6 +220,8 @@ EXHIBIT_NOTES = {
     "height": "height-map derivatives",
     "displacement": "displacement with bump on top",
     "parallax": "parallax with detail after the resolve",
+    "post-resolve": "detail on a resolved normal map: the Bump node against SG Volume Gradient, "
+                    "with each one's error",
     "sampler": "one Sampler group for two images (Blender 5.0+)",
 }
 
