@@ -34,6 +34,7 @@ from ..reference.images import hemisphere_tile_image
 from ..reference.noise import fractal_sum
 from ..reference.vecmath import transform
 from . import demo_scene as S
+from .exhibit_freeze import render_pixels
 from .graph import Graph, surface_gradient
 
 PICTURE = Path("docs") / "exhibits" / "post-resolve.png"
@@ -211,26 +212,6 @@ def camera():
     return cam
 
 
-def render_pixels(size, samples):
-    """The open scene rendered (Cycles, CPU, denoised where the build has it): (h, w, 3)
-    display-referred floats, top row first."""
-    import tempfile
-    import bpy
-    from PIL import Image
-    scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = size
-    scene.render.resolution_percentage = 100
-    scene.cycles.samples = samples
-    scene.cycles.use_adaptive_sampling = False
-    scene.cycles.use_denoising = bool(getattr(bpy.app.build_options, "openimagedenoise", False))
-    scene.render.image_settings.file_format = "PNG"
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "render.png"
-        scene.render.filepath = str(path)
-        bpy.ops.render.render(write_still=True)
-        return np.asarray(Image.open(path).convert("RGB"), dtype=np.float64) / 255.0
-
-
 def degrees(v):
     """Two significant figures (under 0.001: "<0.001"), as the picture prints them."""
     return (f"{v:.0f}" if v >= 10 else f"{v:.1f}" if v >= 1 else f"{v:.2g}" if v >= 1e-3
@@ -308,7 +289,7 @@ def render(path=PICTURE, samples=SAMPLES, resolution=BAKE_RESOLUTION, log=print)
     objs, image, pixels = build_scene()
     figures, heats = measure(objs, image, pixels, resolution)
     camera()
-    render_rows = render_pixels((SIZE[0], RENDER_ROWS), samples)
+    render_rows = render_pixels((SIZE[0], RENDER_ROWS), samples, denoise=True)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     compose(render_rows, figures, heats, path)
