@@ -90,8 +90,8 @@ SIDES = {"usual": usual, "surface gradient": surface_gradient_way}
 # The numpy side --------------------------------------------------------------------------------
 
 def resolved_base(td, pixels):
-    """The normal map's resolved normal (what both sides put the detail on) and the shading
-    normal n with the map's surface gradient."""
+    """(n, sg, n1): the shading normal, the map's surface gradient on it, and the resolved
+    normal both sides put the detail on."""
     n, sg = M.normal_map_surfgrad(td, pixels, UV_MAP)
     return n, sg, M.resolve((n, sg))
 
@@ -132,8 +132,8 @@ def bump_node_normal(td, pixels, exact=False):
 # Scene, bakes and figures ----------------------------------------------------------------------
 
 def build_scene():
-    """A fresh file with the two planes (demo_scene's tilted plane), the same packed map of
-    domes; returns ({side: object}, image pixels)."""
+    """A fresh file with the two planes (demo_scene's plane, tilted PLANE_TILT back) and the
+    one packed map of domes; returns ({side: object}, the image, its pixels)."""
     S.new_file()
     pixels = dome_pixels()
     image = S.image("Domes", pixels)
