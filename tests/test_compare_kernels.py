@@ -175,18 +175,18 @@ def test_the_compiled_heat_map_is_its_numpy_definition_byte_for_byte(monkeypatch
     from surfgrad_addon.harness import heat_map as H
     heat = random_heat(seed)
     monkeypatch.setenv(compiled.ENV, "1")
-    fast, fast_down = H.heat_map_rgb(heat), H.heat_map_rgb(heat, top_down=True)
+    fast, fast_down = H.heat_map_indices(heat), H.heat_map_indices(heat, top_down=True)
     monkeypatch.setenv(compiled.ENV, "0")
-    plain = H.heat_map_rgb(heat)
+    plain = H.heat_map_indices(heat)
     assert np.array_equal(fast, plain) and np.array_equal(fast_down, plain[::-1])
-    assert np.array_equal(H.heat_map_rgb(heat, top_down=True), plain[::-1])
+    assert np.array_equal(H.heat_map_indices(heat, top_down=True), plain[::-1])
     # Without reasons (a plain array) and with no finite error at all.
     bare = np.array(heat)
-    assert np.array_equal(H.heat_map_rgb_numpy(bare), _with_env(monkeypatch, H.heat_map_rgb,
-                                                                 bare))
+    assert np.array_equal(H.heat_map_indices_numpy(bare),
+                          _with_env(monkeypatch, H.heat_map_indices, bare))
     empty = np.full((3, 4), np.nan)
-    assert np.array_equal(H.heat_map_rgb_numpy(empty), _with_env(monkeypatch, H.heat_map_rgb,
-                                                                  empty))
+    assert np.array_equal(H.heat_map_indices_numpy(empty),
+                          _with_env(monkeypatch, H.heat_map_indices, empty))
 
 
 def _with_env(monkeypatch, fn, *args):
@@ -197,21 +197,39 @@ def _with_env(monkeypatch, fn, *args):
 @pytest.mark.parametrize("enabled", [False, True] if compiled.AVAILABLE else [False])
 def test_heat_map_colours_by_hand(monkeypatch, enabled):
     """Black at 0, white-ish (255, 204, 255) at the top, the reasons' colours, dark blue where
-    nothing was compared; the top is at least 0.5 degrees."""
+    nothing was compared; the top is at least 0.5 degrees. An error's level is sqrt(v) in
+    1/250 steps, rounded half up (v = error / top); its colour the ramp at the level's v."""
     from surfgrad_addon.harness import heat_map as H
     from surfgrad_addon.harness.texel_report import ErrorImage
     monkeypatch.setenv(compiled.ENV, "1" if enabled else "0")
     heat = ErrorImage([[0.0, 0.25, 2.0, np.nan, 1.0, np.nan]], [[0, 0, 0, 3, 1, 0]])
+    # v = e / 2. v = 0.125: sqrt 0.35355 -> level 88 (88.39 + 0.5 floored), its v 0.352^2.
+    # Reasons: slot 251 + code (outside 3, contested 1); no error: 251.
+    assert H.heat_map_indices(heat)[0].tolist() == [0, 88, 250, 254, 252, 251]
     rgb = H.heat_map_rgb(heat)
-    # v = e / 2: (255 v, 204 sqrt(v), 255 v^2) rounded half up.
     assert rgb[0, 0].tolist() == [0, 0, 0]
-    assert rgb[0, 1].tolist() == [32, 72, 4]           # v = 0.125
+    # (255 v, 204 sqrt(v), 255 v^2) rounded half up at v = 0.123904: 31.6, 71.8, 3.9.
+    assert rgb[0, 1].tolist() == [32, 72, 4]
     assert rgb[0, 2].tolist() == [255, 204, 255]
     assert rgb[0, 3].tolist() == [0, 204, 204]         # outside: cyan
     assert rgb[0, 4].tolist() == [230, 26, 204]        # contested: magenta, whatever its error
     assert rgb[0, 5].tolist() == [13, 13, 51]          # not compared: dark blue
     small = H.heat_map_rgb(ErrorImage([[0.25]], [[0]]))
-    assert small[0, 0].tolist() == [128, 144, 64]      # v = 0.25 / 0.5
+    # v = 0.25 / 0.5: sqrt 0.7071 -> level 177, v 0.501264: 127.8, 144.4, 64.1.
+    assert small[0, 0].tolist() == [128, 144, 64]
+
+
+def test_heat_map_png_is_indexed_and_reads_back_its_levels(tmp_path):
+    """The written PNG holds the indices (no other copy of the picture) and the palette's
+    colours."""
+    from PIL import Image
+    from surfgrad_addon.harness import heat_map as H
+    heat = random_heat(3)
+    path = H.write_heat_map(tmp_path / "h.png", heat, overwrite=False)
+    image = Image.open(path)
+    assert image.mode == "P"
+    assert np.array_equal(np.asarray(image), H.heat_map_indices(heat, top_down=True))
+    assert np.array_equal(np.asarray(image.convert("RGB")), H.heat_map_rgb(heat, top_down=True))
 
 
 # The statistics on the block threads (harness/texel_report.py) --------------------------------

@@ -303,26 +303,25 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     facts = B.running_line()
 
-    def prepare():
-        """bpy-free work that needs no bake. Compiled kernels load once per process (like an
-        import), reported apart from the timing; each tile's rasterisation counts as
-        reference time. Not in a thread beside the bake: numba compiling its kernels (a cold
-        cache) while Cycles bakes crashed Blender 4.5 (segfault, 1 run in 4 or 5)."""
-        load = R.raster.load_compiled()
-        rasters = {}
-        for number in tiles:
-            t0 = time.perf_counter()
-            td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=facts,
-                             uv_offset=R.tiles.tile_uv_offset(number))
-            rasters[number] = (td, time.perf_counter() - t0)
-        return load, rasters
+    def rasterized(number):
+        """(TexelData, seconds) of one tile: reference time. After the bake, not before it:
+        Cycles' freed buffers are pages this process already holds, where fresh ones cost
+        more than the scan itself on a virtual machine (a first 128 MB np.full 0.35 s, a
+        second 0.02 s), and the peak memory is the bake's. Not in a thread beside the bake:
+        numba compiling its kernels (a cold cache) while Cycles bakes crashed Blender 4.5
+        (segfault, 1 run in 4 or 5)."""
+        t0 = time.perf_counter()
+        td = R.rasterize(mesh, inp.uv_map, resolution, resolution, facts=facts,
+                         uv_offset=R.tiles.tile_uv_offset(number))
+        return td, time.perf_counter() - t0
 
     def build(nodes, links):
         out = graph(inp, nodes, links)
         # Graphs return a surface gradient to resolve against the shading normal, or (post-
         # resolve) an already resolved normal.
         return out if out.name == "Normal" else resolve_sg(nodes, links, out)
-    load_seconds, rasters = prepare()
+    # Compiled kernels load once per process (like an import), reported apart from the timing.
+    load_seconds = R.raster.load_compiled()
     if tiles == [R.tiles.UDIM_FIRST]:
         # RGBA as read back (no copy): the comparison reads channels 0-2.
         pixels, covered, bake_seconds = B.bake_vector_in_pieces(
@@ -334,7 +333,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     reference_seconds = 0.0
     tile_reports, heats, tds = [], [], []
     for number in tiles:
-        td, seconds = rasters.pop(number)
+        td, seconds = rasterized(number)
         reference_seconds += seconds
         pixels, covered = baked_tiles.pop(number)
         if not td.covered.any() and not covered.any():

@@ -1,9 +1,16 @@
 """compare's error heat map: the per-texel error as a picture (PNG), excluded texels in their
 reason's colour.
 
-`heat_map_rgb_numpy` is the definition; `heat_map_rgb` runs its compiled twin (one pass over
-the image instead of a dozen whole-image temporaries) when the reference's kernels run
-(reference/compiled.py), with the same float operations in the same order, so the bytes are
+The picture is a palette (indexed) PNG: a texel's index is its error's level, LEVELS steps
+even in sqrt(error / top) (fine near zero, where the bars are), or the slot of its reason's
+colour. The colour of a level is the ramp (v, 0.8 sqrt(v), v^2) at the level's v. An indexed
+PNG is written without PNG's per-row filters: a 4096^2 map takes 0.03 s to encode against
+0.5 s as RGB (measured, compress level 1), and its index reads back as the level exactly
+(report/heat.py).
+
+`heat_map_indices_numpy` is the definition; `heat_map_indices` runs its compiled twin (one
+pass over the image instead of a dozen whole-image temporaries) when the reference's kernels
+run (reference/compiled.py), with the same float operations in the same order, so the bytes are
 the same either way (tests/test_compare_kernels.py)."""
 
 import numpy as np
@@ -14,8 +21,9 @@ from .pictures import write_png
 
 HEAT_COLOURS = {0: (0.05, 0.05, 0.2), 1: (0.9, 0.1, 0.8), 2: (1.0, 0.55, 0.0),
                 3: (0.0, 0.8, 0.8), 4: (0.2, 0.9, 0.2)}
-# zlib level of the heat maps: 1 encodes a 4096^2 map in a third of the default's (6) time
-# for a file about 1.5 x larger; the pixels are the same.
+# Error levels 0..LEVELS - 1 (v = (level / (LEVELS - 1))^2); a reason code c (a key of
+# HEAT_COLOURS) has palette slot LEVELS + c: 256 entries in all.
+LEVELS = 251
 PNG_COMPRESS_LEVEL = 1
 
 
@@ -24,8 +32,9 @@ def write_heat_map(path, heat, overwrite):
     larger), uncovered texels dark blue; contested texels magenta (their error is in the
     report), excluded ones in their reason's colour (edge orange, outside cyan: HEAT_COLOURS)."""
     # Rows already top-down: the picture is written without another copy.
-    return write_png(path, heat_map_rgb(heat, top_down=True), bottom_up=False,
-                     overwrite=overwrite, compress_level=PNG_COMPRESS_LEVEL)
+    return write_png(path, heat_map_indices(heat, top_down=True), bottom_up=False,
+                     overwrite=overwrite, compress_level=PNG_COMPRESS_LEVEL,
+                     palette=heat_palette())
 
 
 def _byte(value):
@@ -33,13 +42,29 @@ def _byte(value):
     return np.minimum(np.asarray(value) * 255.0 + 0.5, 255.0).astype(np.uint8)
 
 
-def _colour_table():
-    """(table (256, 3) uint8, known (256,) bool): a reason code's colour (index code & 255)."""
+def level_value(level):
+    """v (error over the map's top) of an error level."""
+    return np.square(np.asarray(level, dtype=np.float64) / (LEVELS - 1))
+
+
+def heat_palette():
+    """(256, 3) uint8: the ramp at each level's v, then the reasons' colours."""
+    v = level_value(np.arange(LEVELS))
     table = np.zeros((256, 3), dtype=np.uint8)
-    known = np.zeros(256, dtype=bool)
+    table[:LEVELS, 0] = _byte(v)
+    table[:LEVELS, 1] = _byte(np.sqrt(v) * 0.8)
+    table[:LEVELS, 2] = _byte(np.square(v))
     for code, colour in HEAT_COLOURS.items():
-        table[code & 255], known[code & 255] = _byte(colour), True
-    return table, known
+        table[LEVELS + code] = _byte(colour)
+    return table
+
+
+def _reason_slots():
+    """(256,) uint8 palette slot of a reason code (index code & 255), 0 where none."""
+    slots = np.zeros(256, dtype=np.uint8)
+    for code in HEAT_COLOURS:
+        slots[code & 255] = LEVELS + code
+    return slots
 
 
 def _codes(heat):
@@ -48,47 +73,44 @@ def _codes(heat):
             else np.asarray(codes, dtype=np.int8).view(np.uint8))
 
 
-def heat_map_rgb(heat, top_down=False):
-    """write_heat_map's picture, (H, W, 3) uint8, row 0 at the bottom (Blender's order) or,
-    top_down, at the top."""
+def heat_map_indices(heat, top_down=False):
+    """write_heat_map's picture as palette indices (H, W) uint8, row 0 at the bottom
+    (Blender's order) or, top_down, at the top."""
     if not compiled.enabled():
-        rgb = heat_map_rgb_numpy(heat)
-        return rgb[::-1] if top_down else rgb
-    table, known = _colour_table()
+        index = heat_map_indices_numpy(heat)
+        return index[::-1] if top_down else index
     values = np.ascontiguousarray(heat, dtype=np.float64)
-    rgb = np.empty(values.shape + (3,), dtype=np.uint8)
-    heat_kernel(values, np.ascontiguousarray(_codes(heat)), table, known, top_down, rgb)
-    return rgb
+    index = np.empty(values.shape, dtype=np.uint8)
+    heat_kernel(values, np.ascontiguousarray(_codes(heat)), _reason_slots(), LEVELS, top_down,
+                index)
+    return index
 
 
-def heat_map_rgb_numpy(heat):
-    """The definition of heat_map_rgb: channel by channel into one byte image, the reason
-    colours through a table (no float RGB image, no mask per colour)."""
+def heat_map_rgb(heat, top_down=False):
+    """The picture's colours, (H, W, 3) uint8 (heat_palette at heat_map_indices)."""
+    return heat_palette()[heat_map_indices(heat, top_down)]
+
+
+def heat_map_indices_numpy(heat):
+    """The definition of heat_map_indices: the level of min(max(e / top, 0), 1) rounded half up
+    in sqrt space; a known reason's slot wins; any other texel without an error is
+    HEAT_COLOURS[0]'s slot."""
     index = _codes(heat)
     heat = np.asarray(heat, dtype=np.float64)
     finite = np.isfinite(heat)
     top = max(0.5, float(np.nanmax(heat)) if finite.any() else 0.5)
     v = np.clip(np.nan_to_num(heat, nan=0.0) / top, 0, 1)
-    rgb = np.empty(heat.shape + (3,), dtype=np.uint8)
-    rgb[..., 0] = _byte(v)
-    rgb[..., 1] = _byte(np.sqrt(v) * 0.8)
-    rgb[..., 2] = _byte(np.square(v))
-    table, known = _colour_table()
-    # A reason's colour wins; any other texel without an error is HEAT_COLOURS[0].
-    reason = known[index] & (index != 0)
-    special = reason | ~finite
-    rgb[special] = table[np.where(reason, index, 0)[special]]
-    return rgb
-
-
-@kernel(inline=True)
-def _byte_of(v):
-    return np.uint8(min(v * 255.0 + 0.5, 255.0))
+    out = np.floor(np.sqrt(v) * (LEVELS - 1) + 0.5).astype(np.uint8)
+    slots = _reason_slots()
+    reason = (slots[index] != 0) & (index != 0)
+    out[reason] = slots[index[reason]]
+    out[~reason & ~finite] = LEVELS                   # HEAT_COLOURS[0]: no error
+    return out
 
 
 @kernel()
-def heat_kernel(heat, codes, table, known, top_down, rgb):
-    """Compiled twin of heat_map_rgb_numpy, rows flipped when top_down."""
+def heat_kernel(heat, codes, slots, levels, top_down, index):
+    """Compiled twin of heat_map_indices_numpy, rows flipped when top_down."""
     h, w = heat.shape
     top = -np.inf
     any_finite = False
@@ -104,26 +126,20 @@ def heat_kernel(heat, codes, table, known, top_down, rgb):
         for x in range(w):
             c = codes[y, x]
             e = heat[y, x]
-            if known[c] and c != 0:
-                k = c
+            if slots[c] != 0 and c != 0:
+                index[row, x] = slots[c]
             elif not np.isfinite(e):
-                k = 0
+                index[row, x] = slots[0]
             else:
                 v = min(max(e / top, 0.0), 1.0)    # np.clip(heat / top, 0, 1)
-                rgb[row, x, 0] = _byte_of(v)
-                rgb[row, x, 1] = _byte_of(np.sqrt(v) * 0.8)
-                rgb[row, x, 2] = _byte_of(v * v)
-                continue
-            rgb[row, x, 0] = table[k, 0]
-            rgb[row, x, 1] = table[k, 1]
-            rgb[row, x, 2] = table[k, 2]
+                index[row, x] = np.uint8(np.floor(np.sqrt(v) * (levels - 1) + 0.5))
 
 
 def _load():
     """Load the kernel for the types compare uses (raster.load_compiled)."""
-    rgb = np.empty((1, 1, 3), dtype=np.uint8)
-    table, known = _colour_table()
-    heat_kernel(np.zeros((1, 1)), np.zeros((1, 1), dtype=np.uint8), table, known, True, rgb)
+    index = np.empty((1, 1), dtype=np.uint8)
+    heat_kernel(np.zeros((1, 1)), np.zeros((1, 1), dtype=np.uint8), _reason_slots(), LEVELS,
+                True, index)
 
 
 compiled.LOADERS.append(_load)

@@ -12,11 +12,12 @@ from PIL import Image
 _CHANNELS = (1, 3, 4)      # grey (L), RGB, RGBA
 
 
-def write_png(path, pixels, bottom_up=True, overwrite=False, compress_level=6):
+def write_png(path, pixels, bottom_up=True, overwrite=False, compress_level=6, palette=None):
     """Write 8-bit pixels (H, W), (H, W, 3) or (H, W, 4): [0, 1] floats or 0-255 integers.
     bottom_up: row 0 is the bottom of the picture (Blender's order). Refuses to replace an
     existing file unless overwrite. compress_level: zlib's 0-9 (Pillow's default 6); the
-    pixels are the same at any level."""
+    pixels are the same at any level. palette: (K <= 256, 3) uint8 colours, pixels (H, W)
+    their indices (an indexed PNG)."""
     path = Path(path)
     if path.exists() and not overwrite:
         raise FileExistsError(f"{path} exists; pass overwrite=True (--overwrite) to replace it")
@@ -32,5 +33,10 @@ def write_png(path, pixels, bottom_up=True, overwrite=False, compress_level=6):
     if bottom_up:
         a = a[::-1]
     image = Image.fromarray(np.ascontiguousarray(a))      # uint8: L, RGB or RGBA by shape
+    if palette is not None:
+        if a.ndim != 2:
+            raise ValueError(f"an indexed PNG needs (H, W) indices, got shape {a.shape}")
+        # putpalette makes the grey (L) image an indexed (P) one, its bytes the indices.
+        image.putpalette(np.asarray(palette, dtype=np.uint8).reshape(-1).tolist())
     image.save(path, format="PNG", compress_level=compress_level)
     return path

@@ -96,8 +96,9 @@ def compare_tile(td, reference, pixels, covered):
         thread_seconds[0] += ref_s
         thread_seconds[1] += stat_s
     contested_err = np.concatenate(contested_errs) if contested_errs else np.zeros(0)
-    per_code = np.bincount(reasons.reshape(-1).view(np.uint8), minlength=256)
-    excluded = {name: int(per_code[code]) for code, (name, _) in EXCLUSION_REASONS.items()}
+    # One comparison per reason (a 4096^2 image: 5 ms each; np.bincount took 0.1 s).
+    excluded = {name: int(np.count_nonzero(reasons == code))
+                for code, (name, _) in EXCLUSION_REASONS.items()}
     busy = sum(thread_seconds)
     r = {
         "texels_covered": int(np.count_nonzero(covered | td.covered)),

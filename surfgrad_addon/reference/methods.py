@@ -7,7 +7,6 @@ and y one along t (TexelData.texel_steps). Colour images are normal maps in [0, 
 """
 
 import itertools
-import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 
@@ -21,6 +20,7 @@ from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin198
 from .height_map import deriv_from_height_map, deriv_three_tap
 from .image_sampling import images_unchanged, sample_image
 from .parallax import parallax_occlusion_march, project_vec_to_texture_space
+from .threads import reference_threads  # noqa: F401 (methods.reference_threads for callers)
 from .noise import fractal_sum
 from .noise_footprint import footprint_from_differentials
 from .vecmath import FLT_EPSILON, TSPACE_Z_CLAMP, cross, dot, length, normalize, stack_last, transform
@@ -32,22 +32,8 @@ HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 FORWARD_FILTER_WIDTH = 2.0
 
 
-def reference_threads():
-    """Threads that evaluate blocks at once: SURFGRAD_REFERENCE_THREADS, default the machine's
-    cores (at most 8), as Cycles' bake uses them. numpy and the compiled kernels release the
-    GIL inside their loops, so blocks run in parallel; results are identical for any count
-    (tests/test_fast_reference.py). A farm running one process per core sets it to 1."""
-    value = os.environ.get("SURFGRAD_REFERENCE_THREADS", "").strip()
-    if not value:
-        return max(1, min(8, os.cpu_count() or 1))
-    try:
-        return max(1, int(value))
-    except ValueError:
-        raise ValueError(f"SURFGRAD_REFERENCE_THREADS must be a whole number, got {value!r}")
-
-
-# Blocks per thread handed to the pool at once: the threads share them as they finish,
-# then the caller gets them in order (its own work, e.g. compare's, never overlaps theirs).
+# Blocks per thread handed to the pool at once: the threads share them as they finish and
+# the caller gets them in order, one window behind the threads.
 WINDOW_BLOCKS = 4
 
 _HEAP_KEPT = []
@@ -104,15 +90,26 @@ def evaluated_blocks(fn, td, texels=None, threads=None, seconds=None):
                 yield start, stop, block, value
             return
         with ThreadPoolExecutor(threads) as pool:
-            while True:
-                window = list(itertools.islice(blocks, WINDOW_BLOCKS * threads))
-                if not window:
-                    return
-                t0 = time.perf_counter()
-                values = list(pool.map(fn, [b for _, _, b in window]))
-                timer[0] += time.perf_counter() - t0
-                for (start, stop, block), value in zip(window, values):
+            # Two windows in flight: the threads work on the next window while the caller
+            # takes the current one's values, in order (a window at a time left the threads
+            # idle while the caller worked through its values).
+            t0 = time.perf_counter()
+            waiting = 0.0                           # the caller's time between values
+            ahead = _submitted(pool, fn, blocks, WINDOW_BLOCKS * threads)
+            while ahead:
+                current, ahead = ahead, _submitted(pool, fn, blocks, WINDOW_BLOCKS * threads)
+                for (start, stop, block), future in current:
+                    value = future.result()
+                    t1 = time.perf_counter()
                     yield start, stop, block, value
+                    waiting += time.perf_counter() - t1
+            timer[0] += time.perf_counter() - t0 - waiting
+
+
+def _submitted(pool, fn, blocks, count):
+    """The next `count` blocks handed to the pool: [((start, stop, block), future)]."""
+    return [((start, stop, block), pool.submit(fn, block))
+            for start, stop, block in itertools.islice(blocks, count)]
 
 
 def evaluate_in_blocks(fn, td, texels=None, threads=None):

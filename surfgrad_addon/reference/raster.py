@@ -22,6 +22,8 @@ per row, and spans are expanded band by band of rows; only a loop over bands rem
 The mesh comes in as MeshArrays (mesh_arrays.py); the texels go out as TexelData (texels.py).
 """
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
 from . import compiled, raster_kernels
@@ -32,10 +34,15 @@ from .blender_lines import MAIN_LINE
 from .mesh_arrays import MeshArrays
 # BLOCK_TEXELS also from here: harness/bench_reference.py reads raster.BLOCK_TEXELS.
 from .texels import BLOCK_TEXELS, TexelData  # noqa: F401
+from .threads import reference_threads
 
 # Texels per band of rows in rasterize (its working memory is about 150 bytes x this);
 # 16K measured 1.1-2x faster than 64K (cache).
 _BAND_TEXELS = 1 << 14
+# The compiled rasteriser splits an image of this many texels or more into bands of rows that
+# threads scan at once (a 4096^2 sphere: 0.63 s on one thread); BANDS_PER_THREAD bands each.
+PARALLEL_RASTER_TEXELS = 1 << 18
+BANDS_PER_THREAD = 4
 # Float32 rounding of Blender's scan conversion, in texels at 256^2 (scaled with the size).
 _EDGE_TEXELS = 1e-4
 
@@ -216,14 +223,26 @@ def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol
     strict = np.zeros(npx, dtype=np.uint8)
     cx, cy, cc = (np.ascontiguousarray(coef[:, :, j].T) for j in range(3))
     tol = np.ascontiguousarray(tol, dtype=np.float64)
-    raster_kernels.scan_triangles(cx, cy, cc, tol, np.maximum(tol, 1e-12),
-                                  np.ascontiguousarray(lo), np.ascontiguousarray(hi), counts,
-                                  width, triangle, other_tri, near, strict)
+    span_tol = np.maximum(tol, 1e-12)
+    lo, hi = np.ascontiguousarray(lo), np.ascontiguousarray(hi)
     on_edge = np.zeros(npx, dtype=bool)
     row_count = np.zeros(height, dtype=np.int64)
     contested = np.empty(npx, dtype=bool)
-    raster_kernels.texel_flags(triangle, near, strict, cx, cy, cc, tol, width, row_count,
-                               contested, on_edge)
+
+    def band(rows):
+        """Scan and flag the rows [y_lo, y_hi): the same texels and values as one pass."""
+        y_lo, y_hi = rows
+        raster_kernels.scan_triangles(cx, cy, cc, tol, span_tol, lo, hi, counts, width,
+                                      triangle, other_tri, near, strict, y_lo, y_hi)
+        raster_kernels.texel_flags(triangle, near, strict, cx, cy, cc, tol, width, row_count,
+                                   contested, on_edge, y_lo, y_hi)
+    bands = _row_bands(height, npx)
+    if len(bands) == 1:
+        band(bands[0])
+    else:
+        # The kernels release the GIL; bands hold distinct rows, so no texel is shared.
+        with ThreadPoolExecutor(min(len(bands), reference_threads())) as pool:
+            list(pool.map(band, bands))
     row_start = np.zeros(height + 1, dtype=np.int64)
     np.cumsum(row_count, out=row_start[1:])
     return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
@@ -233,6 +252,17 @@ def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol
                      other_triangle=other_tri.reshape(height, width),
                      on_edge=on_edge.reshape(height, width), row_start=row_start,
                      _shared={"raster_coefficients": (cx, cy, cc)})
+
+
+def _row_bands(height, texels):
+    """Row ranges the compiled rasteriser scans at once: one for a small image (threads would
+    cost more than they save), else BANDS_PER_THREAD per thread, so a thread that finishes a
+    sparse band takes the next."""
+    threads = reference_threads()
+    if threads == 1 or texels < PARALLEL_RASTER_TEXELS:
+        return [(0, height)]
+    edges = np.linspace(0, height, min(height, BANDS_PER_THREAD * threads) + 1).astype(int)
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
 
 def _row_spans(coef, lo, hi, counts, tol):

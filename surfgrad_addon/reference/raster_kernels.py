@@ -21,19 +21,20 @@ def _clamp_low(a):
 
 @kernel()
 def scan_triangles(cx, cy, cc, tol, span_tol, lo, hi, counts, width, triangle, other, near,
-                   strict):
+                   strict, y_lo, y_hi):
     """Visit every candidate texel of every triangle, triangles in index order as Blender's
     bake scan-converts them (the last triangle containing a texel wins:
     RE_bake_pixels_populate). A texel's claimants come in ascending triangle order, as in
     rasterize's row-ordered spans, so the outcome is the same. Each row of a triangle is the
     span _row_spans computes (the same bounds, in the same float steps). Fills, per texel of
     the flat image: triangle (the winner, -1 if none), other (the claimant before it), near
-    and strict (how many triangles come within / lie beyond the edge tolerance, up to 2)."""
+    and strict (how many triangles come within / lie beyond the edge tolerance, up to 2).
+    Only rows y_lo..y_hi-1: bands of rows touch distinct texels, so they may run at once."""
     for t in range(cx.shape[1]):
-        if counts[t] == 0:
+        if counts[t] == 0 or hi[t, 1] < y_lo or lo[t, 1] >= y_hi:
             continue
         tl = tol[t]
-        for y in range(lo[t, 1], hi[t, 1] + 1):
+        for y in range(max(lo[t, 1], y_lo), min(hi[t, 1] + 1, y_hi)):
             x0 = float(lo[t, 0])
             x1 = float(hi[t, 0])
             for k in range(3):
@@ -69,11 +70,11 @@ def scan_triangles(cx, cy, cc, tol, span_tol, lo, hi, counts, width, triangle, o
 
 @kernel()
 def texel_flags(triangle, near, strict, cx, cy, cc, tol, width, row_count, contested,
-                on_edge):
+                on_edge, y_lo, y_hi):
     """Per texel: claimed by two interiors (contested), within rounding of an edge (on_edge:
     claimed within tolerance by two triangles, or its winner's lowest barycentric within the
-    winner's tolerance); per row: how many texels are covered."""
-    for y in range(row_count.shape[0]):
+    winner's tolerance); per row: how many texels are covered. Rows y_lo..y_hi-1."""
+    for y in range(y_lo, y_hi):
         row = y * width
         for x in range(width):
             f = row + x

@@ -1,10 +1,10 @@
 """The report page's heat maps: every case's error on one shared, logarithmic scale.
 
-compare-all's heat PNGs (heat_map.heat_map_rgb) each scale their error to their own top,
-max(0.5 deg, the case's max). Their pixels are read back into degrees here, using the case's
-report for the top: the green channel (0.8 sqrt(v)) where the error is small, which keeps about
-6 % of a value down to 1e-4 of the top, the red one (v) above. The texels the writer painted in
-a reason's colour (not compared, contested, excluded) keep that reason.
+compare-all's heat PNGs (heat_map.write_heat_map) each scale their error to their own top,
+max(0.5 deg, the case's max). Their palette indices are read back into degrees here, using the
+case's report for the top: a level is sqrt(error / top) to 1/500 (about 6 % of a value down to
+1e-4 of the top). The texels the writer painted in a reason's colour (not compared, contested,
+excluded) keep that reason.
 """
 
 from pathlib import Path
@@ -16,36 +16,34 @@ from PIL import Image
 LOW = 1e-5
 OVER_BAR = (214, 39, 40)          # red: above the max bar
 LIGHT, DARK = 248.0, 24.0         # grey levels at LOW and at the bar
-# Below this green byte the green channel is the finer measure (v < 0.16: 0.8 sqrt(v) * 255).
-GREEN_SWITCH = 82
 LEGEND_STEPS = 512
 
 
 def reason_colours():
-    """{reason code: RGB bytes} as heat_map.heat_map_rgb paints them (asked of the writer)."""
-    from ..heat_map import HEAT_COLOURS, heat_map_rgb
-    from ..texel_report import ErrorImage
-    codes = sorted(HEAT_COLOURS)
-    heat = ErrorImage(np.full((1, len(codes)), np.nan), np.array([codes], dtype=np.int8))
-    rgb = heat_map_rgb(heat)[0]
-    return {code: tuple(int(c) for c in rgb[i]) for i, code in enumerate(codes)}
+    """{reason code: RGB bytes} as the compare writer paints them (its palette's slots)."""
+    from ..heat_map import HEAT_COLOURS, LEVELS, heat_palette
+    palette = heat_palette()
+    return {code: tuple(int(c) for c in palette[LEVELS + code]) for code in HEAT_COLOURS}
 
 
-def decode_heat_png(path, max_deg, colours):
+def decode_heat_png(path, max_deg):
     """(error (H, W) in degrees, NaN where the picture shows a reason; reasons (H, W) int8:
     0 where an error was read, -1 not compared, else the compare's reason code) from a compare
-    heat PNG whose case's max error is max_deg. Rows stay in the PNG's order."""
-    rgb = np.asarray(Image.open(path).convert("RGB")).astype(np.int32)
+    heat PNG (indexed: heat_map.write_heat_map) whose case's max error is max_deg. Rows stay
+    in the PNG's order."""
+    from ..heat_map import LEVELS, level_value
+    image = Image.open(path)
+    if image.mode != "P":
+        raise ValueError(f"{path} is not a compare heat map (an indexed PNG); run compare-all "
+                         f"again to write it")
+    index = np.asarray(image).astype(np.int32)
     top = max(0.5, float(max_deg or 0.0))
-    reasons = np.zeros(rgb.shape[:2], dtype=np.int8)
-    for code, colour in colours.items():
-        if code != 0:
-            reasons[np.all(rgb == np.array(colour), axis=-1)] = code
-    red, green = rgb[..., 0] / 255.0, rgb[..., 1] / (0.8 * 255.0)
-    v = np.where(rgb[..., 1] < GREEN_SWITCH, np.square(green), red)
-    # Colour 0 is "no error" (not covered by both sides): a reason of its own on the page, -1.
-    reasons[np.all(rgb == np.array(colours[0]), axis=-1)] = -1
-    return np.where(reasons == 0, v * top, np.nan), reasons
+    # A slot past the levels is a reason (LEVELS + code); code 0, "no error" (not covered by
+    # both sides), is a reason of its own on the page: -1.
+    reasons = np.where(index >= LEVELS, index - LEVELS, 0).astype(np.int8)
+    reasons[index == LEVELS] = -1
+    error = np.where(reasons == 0, level_value(np.minimum(index, LEVELS - 1)) * top, np.nan)
+    return error, reasons
 
 
 def scale_position(error_deg, bar):
@@ -90,7 +88,7 @@ def write_shared_heat_maps(reports, heat_dir, out_dir, bar):
         if not source.is_file():
             paths[i] = None
             continue
-        error, reasons = decode_heat_png(source, r["max_deg"], colours)
+        error, reasons = decode_heat_png(source, r["max_deg"])
         Image.fromarray(shared_rgba(error, reasons, bar, colours)).save(out_dir / name,
                                                                         format="PNG")
         paths[i] = out_dir / name
