@@ -111,16 +111,13 @@ def build_listings():
     from surfgrad_addon.addon import groups as G
     from surfgrad_addon.addon.groups import common as C
     from surfgrad_addon.harness.bench import render_materials as M
-    from surfgrad_addon.addon.node_vocabulary import Math, VMath
+    from surfgrad_addon.addon.node_vocabulary import Math
 
     def guard(g, v):
         return g.group(G.safe_normal_group(), Vector=v).outputs[0]
 
     def nm(g, ctx):
-        dx, dy, dz = g.separate(g.vmath(VMath.SUBTRACT, g.image(ctx["normal"], g.uv("UVMap")),
-                                        (0.5, 0.5, 0.5)))
-        color = g.vmath(VMath.ADD, g.combine(dx, dy, C.listing2_z(g, dx, dy, dz)),
-                        (0.5, 0.5, 0.5))
+        color = C.listing2_colour(g, g.image(ctx["normal"], g.uv("UVMap")), None)
         n, ns = g.normalize(g.geometry("Normal")), g.geometry("Normal")
         v = g.normal_map(color, "TANGENT", 1.0, "UVMap")
         return guard(g, g.sub(n, C.surfgrad_reaching(g, n, v, ns)))
