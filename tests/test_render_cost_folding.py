@@ -118,12 +118,12 @@ def build_listings():
 
     def nm(g, ctx):
         color = C.listing2_colour(g, g.image(ctx["normal"], g.uv("UVMap")), None)
-        n, ns = g.normalize(g.geometry("Normal")), g.geometry("Normal")
+        n = ns = g.geometry("Normal")
         v = g.normal_map(color, "TANGENT", 1.0, "UVMap")
         return guard(g, g.sub(n, C.surfgrad_reaching(g, n, v, ns)))
 
     def forward(g, ctx):
-        n = g.normalize(g.geometry("Normal"))
+        n = g.geometry("Normal")
         nb = g.bump(M.noise_texture(g), n, G.FORWARD_FILTER_WIDTH)
         sg = g.scale(g.sub(n, g.scale(nb, g.math(Math.DIVIDE, 1.0, g.dot(nb, n)))),
                      M.BUMP_DISTANCE)

@@ -75,13 +75,10 @@ def normal_input(b, spec=S.NORMAL):
     per stack, not one per socket. `spec` may be a tooltip, for a group without a declared
     interface."""
     raw = b.input(S.NORMAL.but(tooltip=spec) if isinstance(spec, str) else spec)
-    with b.frame("Base normal: the shading normal where unlinked (zero), normalised"):
-        return b.normalize(add_where_zero(b, raw, b.geometry("Normal")))
-
-
-def add_where_zero(b, v, fallback):
-    """v + fallback where v is (0, 0, 0) (an unlinked vector input), else v."""
-    return b.add(v, b.scale(fallback, b.is_zero(v)))
+    with b.frame("Base normal: the shading normal where unlinked (zero), else normalised"):
+        # Unlinked, the Compare is a constant 1 and the Mix folds to the shading normal (unit
+        # already): no Normalize runs.
+        return b.mix_vector(b.is_zero(raw), b.normalize(raw), b.geometry("Normal"))
 
 
 def where_zero(b, v, fallback):
