@@ -159,7 +159,8 @@ def bump_surface_gradient(b, height, n, filter_width):
     """The Bump node inverted: its normal nb = normalize(N - grad_S h) (Strength 1, Distance 1)
     gives back g = N - nb / (nb . N)."""
     nb = b.bump(height, n, filter_width)
-    return b.sub(n, b.scale(nb, b.math(Math.DIVIDE, 1.0, b.dot(nb, n))))
+    # n + nb * (-1 / (nb . N)): one Multiply Add for the Scale and the Subtract.
+    return b.vmath(VMath.MULTIPLY_ADD, nb, b.math(Math.DIVIDE, -1.0, b.dot(nb, n)), n)
 
 
 # Shifted copies see UV + fw * dUV: for linear attributes any step is exact, and a large one
@@ -391,10 +392,11 @@ def surfgrad_reaching(b, n, v, against):
     (the normal v is measured from), and n - v (v unit) where v faces away from a, which still
     resolves to v. A surface gradient that adds to others."""
     k = b.dot(against, v)
-    inv = b.math(Math.DIVIDE, 1.0, b.math(Math.MAXIMUM, k, FLT_EPSILON))
-    away = b.math(Math.LESS_THAN, k, FLT_EPSILON)
-    w = b.math(Math.MULTIPLY_ADD, away, b.math(Math.SUBTRACT, 1.0, inv), inv)
-    return b.sub(n, b.scale(v, w))
+    # w = 1 / k, or 1 where v faces away (k < FLT_EPSILON): max(k, [k < FLT_EPSILON]) is k or 1;
+    # n - v w as one Multiply Add, v (-w) + n.
+    neg_w = b.math(Math.DIVIDE, -1.0,
+                   b.math(Math.MAXIMUM, k, b.math(Math.LESS_THAN, k, FLT_EPSILON)))
+    return b.vmath(VMath.MULTIPLY_ADD, v, neg_w, n)
 
 
 def uv_input(b):
