@@ -111,7 +111,7 @@ def build_listings():
     from surfgrad_addon.addon import groups as G
     from surfgrad_addon.addon.groups import common as C
     from surfgrad_addon.harness.bench import render_materials as M
-    from surfgrad_addon.addon.node_vocabulary import Math
+    from surfgrad_addon.addon.node_vocabulary import Math, VMath
 
     def guard(g, v):
         return g.group(G.safe_normal_group(), Vector=v).outputs[0]
@@ -125,8 +125,8 @@ def build_listings():
     def forward(g, ctx):
         n = g.geometry("Normal")
         nb = g.bump(M.noise_texture(g), n, G.FORWARD_FILTER_WIDTH)
-        sg = g.scale(g.sub(n, g.scale(nb, g.math(Math.DIVIDE, 1.0, g.dot(nb, n)))),
-                     M.BUMP_DISTANCE)
+        grad = g.vmath(VMath.MULTIPLY_ADD, nb, g.math(Math.DIVIDE, -1.0, g.dot(nb, n)), n)
+        sg = g.scale(grad, M.BUMP_DISTANCE)
         return guard(g, g.sub(n, sg))
 
     def triplanar(g, ctx):
