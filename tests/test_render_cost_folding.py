@@ -117,19 +117,16 @@ def build_listings():
         return g.group(G.safe_normal_group(), Vector=v).outputs[0]
 
     def nm(g, ctx):
-        dx, dy, dz = g.separate(g.vmath(VMath.SUBTRACT, g.image(ctx["normal"], g.uv("UVMap")),
-                                        (0.5, 0.5, 0.5)))
-        color = g.vmath(VMath.ADD, g.combine(dx, dy, C.listing2_z(g, dx, dy, dz)),
-                        (0.5, 0.5, 0.5))
-        n, ns = g.normalize(g.geometry("Normal")), g.geometry("Normal")
+        color = C.listing2_colour(g, g.image(ctx["normal"], g.uv("UVMap")), None)
+        n = ns = g.geometry("Normal")
         v = g.normal_map(color, "TANGENT", 1.0, "UVMap")
         return guard(g, g.sub(n, C.surfgrad_reaching(g, n, v, ns)))
 
     def forward(g, ctx):
-        n = g.normalize(g.geometry("Normal"))
+        n = g.geometry("Normal")
         nb = g.bump(M.noise_texture(g), n, G.FORWARD_FILTER_WIDTH)
-        sg = g.scale(g.sub(n, g.scale(nb, g.math(Math.DIVIDE, 1.0, g.dot(nb, n)))),
-                     M.BUMP_DISTANCE)
+        grad = g.vmath(VMath.MULTIPLY_ADD, nb, g.math(Math.DIVIDE, -1.0, g.dot(nb, n)), n)
+        sg = g.scale(grad, M.BUMP_DISTANCE)
         return guard(g, g.sub(n, sg))
 
     def triplanar(g, ctx):

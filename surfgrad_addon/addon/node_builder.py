@@ -229,11 +229,13 @@ class NodeOps:
             self.link(value, slot)
         return n.outputs[0]
 
-    def mix_vector(self, factor, a, b):
-        """(1 - factor) a + factor b with a scalar factor."""
-        n = self.node("ShaderNodeMix", data_type="VECTOR", clamp_factor=False)
+    def mix_vector(self, factor, a, b, per_axis=False):
+        """(1 - factor) a + factor b with a scalar factor (a vector one, axis by axis, where
+        `per_axis`)."""
+        n = self.node("ShaderNodeMix", data_type="VECTOR", clamp_factor=False,
+                      factor_mode="NON_UNIFORM" if per_axis else "UNIFORM")
         inputs = {s.identifier: s for s in n.inputs}
-        self.link(factor, inputs["Factor_Float"])
+        self.link(factor, inputs["Factor_Vector" if per_axis else "Factor_Float"])
         self.link(a, inputs["A_Vector"])
         self.link(b, inputs["B_Vector"])
         return {s.identifier: s for s in n.outputs}["Result_Vector"]

@@ -11,7 +11,7 @@ from ...reference.group_interfaces import INTERFACES
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, TSPACE_Z_CLAMP
 
 
-VERSION = 20
+VERSION = 21
 
 
 class FeatureUnavailable(ValueError):
@@ -75,13 +75,10 @@ def normal_input(b, spec=S.NORMAL):
     per stack, not one per socket. `spec` may be a tooltip, for a group without a declared
     interface."""
     raw = b.input(S.NORMAL.but(tooltip=spec) if isinstance(spec, str) else spec)
-    with b.frame("Base normal: the shading normal where unlinked (zero), normalised"):
-        return b.normalize(add_where_zero(b, raw, b.geometry("Normal")))
-
-
-def add_where_zero(b, v, fallback):
-    """v + fallback where v is (0, 0, 0) (an unlinked vector input), else v."""
-    return b.add(v, b.scale(fallback, b.is_zero(v)))
+    with b.frame("Base normal: the shading normal where unlinked (zero), else normalised"):
+        # Unlinked, the Compare is a constant 1 and the Mix folds to the shading normal (unit
+        # already): no Normalize runs.
+        return b.mix_vector(b.is_zero(raw), b.normalize(raw), b.geometry("Normal"))
 
 
 def where_zero(b, v, fallback):
@@ -102,35 +99,49 @@ def sign_nonneg(b, x):
     return b.math(Math.SUBTRACT, 1.0, b.math(Math.MULTIPLY, 2.0, b.math(Math.LESS_THAN, x, 0.0)))
 
 
-def zero_unless_finite(b, v):
-    """v where every component is finite, else (0, 0, 0): Maximum/Minimum drop a NaN
-    (fmaxf) and clamp an Inf, and x - x < 0.5 is false exactly for NaN and Inf."""
-    comps = b.separate(v)
-    finite = [b.math(Math.LESS_THAN, b.math(Math.SUBTRACT, c, c), 0.5) for c in comps]
-    clamped = [b.math(Math.MINIMUM, b.math(Math.MAXIMUM, c, -1e30), 1e30) for c in comps]
-    every = b.math(Math.MULTIPLY, b.math(Math.MULTIPLY, finite[0], finite[1]), finite[2])
-    return b.scale(b.combine(*clamped), every)
+# Squared lengths at or under this have no direction: is_zero's test (|v| <= FLT_EPSILON,
+# Cycles' and EEVEE's Compare) on the squared length.
+NO_DIRECTION_SQUARED = FLT_EPSILON * FLT_EPSILON
+# Every finite component a unit-normal computation can use stays inside (Vector Math
+# Maximum/Minimum, which drop a NaN and clamp an Inf).
+FINITE_BOUND = 1e30
+
+
+def has_direction(b, v):
+    """1 where v is finite and not (nearly) zero, else 0: d * 0 + d is d where the squared length
+    d is finite and NaN where it is NaN or Inf (Inf * 0), and a NaN compares false."""
+    d = b.dot(v, v)
+    return b.math(Math.GREATER_THAN, b.math(Math.MULTIPLY_ADD, d, 0.0, d), NO_DIRECTION_SQUARED)
 
 
 def safe_normal_group():
     def build(b):
         v = b.input(S.NOISE_VECTOR)
-        if not running_line().normal_map_replaces_non_finite:
-            with b.frame("Blender 4.2/4.5: NaN or Inf to zero (their Normal Map node lets "
-                         "non-finite values through)"):
-                v = zero_unless_finite(b, v)
-        with b.frame("normalize(v), or the shading normal where v is zero, NaN or Inf"):
-            # A World-space Normal Map node normalises (c - 0.5) * 2. Cycles' replaces a zero
+        ns = b.geometry("Normal")
+        with b.frame("v where it has a direction, else the shading normal"):
+            if running_line().normal_map_replaces_non_finite:
+                # 5.0+: Cycles' Normal Map node below replaces a NaN or Inf by the shading
+                # normal itself; an Inf becomes NaN here (Inf * 0 in the Mix) so that the
+                # turn below keeps that normal. Zero: EEVEE's node would normalise it to NaN.
+                v = b.mix_vector(has_direction(b, v), ns, v)
+            else:
+                # 4.2/4.5: their Normal Map node lets NaN and Inf through, so they never reach
+                # it: clamped finite (Vector Maximum/Minimum drop a NaN), then the shading
+                # normal is mixed in (a finite v times a Factor of 0 is 0).
+                finite = b.vmath(VMath.MINIMUM, b.vmath(VMath.MAXIMUM, v, (-FINITE_BOUND,) * 3),
+                                 (FINITE_BOUND,) * 3)
+                v = b.mix_vector(has_direction(b, v), ns, finite)
+        with b.frame("normalize(v), or the shading normal where v is NaN"):
+            # A World-space Normal Map node normalises (c - 0.5) * 2; Cycles' replaces a zero
             # or non-finite result by the shading normal (arithmetic cannot remove a NaN,
-            # this node can) and negates its result on back faces; EEVEE's does neither. So:
-            # zero becomes the shading normal before the node (for EEVEE), and the node's
-            # result u is turned back where it points against v (a back face in Cycles); a
-            # NaN v compares false and keeps u, the shading normal.
-            v = add_where_zero(b, v, b.geometry("Normal"))
+            # this node can) and negates its result on back faces; EEVEE's does neither. So
+            # its result u is turned back where it points against v (Cycles' back faces):
+            # Face Forward(-u, v, u) is u where dot(u, v) >= 0 and where it is NaN (v NaN, u
+            # the shading normal), -u where it is negative.
             u = b.normal_map(b.vmath(VMath.MULTIPLY_ADD, v, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5)),
                              "WORLD")
-            turn = b.math(Math.MULTIPLY_ADD, b.math(Math.LESS_THAN, b.dot(u, v), 0.0), -2.0, 1.0)
-        b.output(S.NORMAL_OUT, b.scale(u, turn))
+            out = b.vmath(VMath.FACEFORWARD, b.scale(u, -1.0), v, u)
+        b.output(S.NORMAL_OUT, out)
     return ensure(".SG Safe Normal", build)
 
 
@@ -148,7 +159,8 @@ def bump_surface_gradient(b, height, n, filter_width):
     """The Bump node inverted: its normal nb = normalize(N - grad_S h) (Strength 1, Distance 1)
     gives back g = N - nb / (nb . N)."""
     nb = b.bump(height, n, filter_width)
-    return b.sub(n, b.scale(nb, b.math(Math.DIVIDE, 1.0, b.dot(nb, n))))
+    # n + nb * (-1 / (nb . N)): one Multiply Add for the Scale and the Subtract.
+    return b.vmath(VMath.MULTIPLY_ADD, nb, b.math(Math.DIVIDE, -1.0, b.dot(nb, n)), n)
 
 
 # Shifted copies see UV + fw * dUV: for linear attributes any step is exact, and a large one
@@ -191,6 +203,31 @@ def listing2_z(b, mx, my, mz):
     return b.math(Math.MAXIMUM, b.math(Math.ABSOLUTE, mz), b.math(
         Math.MULTIPLY, TSPACE_Z_CLAMP, b.math(Math.MAXIMUM, b.math(Math.ABSOLUTE, mx),
                                                b.math(Math.ABSOLUTE, my))))
+
+
+def listing2_colour(b, color, directx):
+    """Listing 2 as a colour for a Normal Map node: the colour c with its green flipped where
+    DirectX is on and its blue b = 0.5 + max(|c.z - 0.5|, max(|c.x - 0.5|, |c.y - 0.5|) / 128).
+    The node's decode 2 (c - 0.5) then gives Listing 2's m with z clamped, bit for bit as from
+    the centred m (c - 0.5 is exact there); x and y pass as they are (a per-axis Mix)."""
+    ax, ay, az = b.separate(b.vmath(VMath.ABSOLUTE, b.vmath(VMath.SUBTRACT, color,
+                                                           (0.5, 0.5, 0.5))))
+    # 0.5 + max(p, q) = max(0.5 + p, 0.5 + q), rounded alike; q = M / 128 is exact.
+    blue = b.math(Math.MAXIMUM, b.math(Math.ADD, az, 0.5), b.math(
+        Math.MULTIPLY_ADD, b.math(Math.MAXIMUM, ax, ay), TSPACE_Z_CLAMP, 0.5))
+    return b.mix_vector((0.0, 0.0, 1.0), flip_green_colour(b, color, directx), blue,
+                        per_axis=True)
+
+
+def flip_green_colour(b, color, directx):
+    """The colour with green g turned into 1 - g where the DirectX switch is on: c (1, k, 1) +
+    (0, DirectX, 0) with k = 1 - 2 DirectX. Off (a constant) both fold away in Cycles (a
+    product by (1, 1, 1), a sum with zero); None builds no switch at all."""
+    if directx is None:
+        return color
+    k = b.math(Math.MULTIPLY_ADD, directx, -2.0, 1.0)
+    return b.add(b.vmath(VMath.MULTIPLY, color, b.combine(1.0, k, 1.0)),
+                 b.combine(0.0, directx, 0.0))
 
 
 def unpack_normal(b, color):
@@ -355,10 +392,11 @@ def surfgrad_reaching(b, n, v, against):
     (the normal v is measured from), and n - v (v unit) where v faces away from a, which still
     resolves to v. A surface gradient that adds to others."""
     k = b.dot(against, v)
-    inv = b.math(Math.DIVIDE, 1.0, b.math(Math.MAXIMUM, k, FLT_EPSILON))
-    away = b.math(Math.LESS_THAN, k, FLT_EPSILON)
-    w = b.math(Math.MULTIPLY_ADD, away, b.math(Math.SUBTRACT, 1.0, inv), inv)
-    return b.sub(n, b.scale(v, w))
+    # w = 1 / k, or 1 where v faces away (k < FLT_EPSILON): max(k, [k < FLT_EPSILON]) is k or 1;
+    # n - v w as one Multiply Add, v (-w) + n.
+    neg_w = b.math(Math.DIVIDE, -1.0,
+                   b.math(Math.MAXIMUM, k, b.math(Math.LESS_THAN, k, FLT_EPSILON)))
+    return b.vmath(VMath.MULTIPLY_ADD, v, neg_w, n)
 
 
 def uv_input(b):

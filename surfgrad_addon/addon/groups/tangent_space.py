@@ -6,7 +6,7 @@ from ..enum_input import choose
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from ...reference.vecmath import DIVIDE_FLOOR
-from .common import (directx_input, ensure, flip_green, listing2_z, normal_input, sign_nonneg,
+from .common import (directx_input, ensure, listing2_colour, normal_input, sign_nonneg,
                      sub_group, surfgrad_reaching, tangent_normal_to_surfgrad, unpack_normal,
                      uv_gradients_group, uv_input)
 
@@ -87,16 +87,14 @@ def normal_map_group(uv_map=""):
         directx = directx_input(b)
         strength = b.input(S.NODE_STRENGTH)
         n = normal_input(b)
-        with b.frame("Listing 2 as a colour: c - 0.5 with the DirectX flip on y, "
+        with b.frame("Listing 2 as a colour: the DirectX flip on green, "
                      "z = max(|z|, max(|x|, |y|) / 128)"):
-            dx, dy, dz = b.separate(b.vmath(VMath.SUBTRACT, color, (0.5, 0.5, 0.5)))
-            processed = b.combine(dx, flip_green(b, dy, directx), listing2_z(b, dx, dy, dz))
+            processed = listing2_colour(b, color, directx)
         with b.frame("Listings 3 and 9: Blender's Normal Map node in the MikkTSpace frame, "
                      "with its own Strength"):
             # The node applies Strength itself (x, y scaled, z blended toward 1); on 5.2 the
             # colour is already OpenGL.
-            v = b.normal_map(b.vmath(VMath.ADD, processed, (0.5, 0.5, 0.5)), "TANGENT",
-                             strength, uv_map)
+            v = b.normal_map(processed, "TANGENT", strength, uv_map)
         with b.frame("Listing 5 against the shading normal ns, + (n - ns): n - v / (ns . v); "
                      "n - v where v faces away from ns (strong non-uniform scale)"):
             sg = surfgrad_reaching(b, n, v, b.geometry("Normal"))
