@@ -156,7 +156,13 @@ def test_sections_and_pass_marks_match_the_numbers(built):
     for href in ('href="compare/compare.json"', 'href="bench/bench.json"',
                  'docs/bench_batch.json"'):
         assert href in dom
-    assert "render-cost table" in dom and "bash run.sh bench-render" in dom
+    # The committed render cost (docs/render_cost.json) is shown: each SG row's ratio as the
+    # JSON has it.
+    cost = json.loads((ROOT / "docs" / "render_cost.json").read_text())
+    assert 'docs/render_cost.json"' in dom
+    for row in (r for r in cost["rows"] if "ratio" in r):
+        assert f"<td>{html.escape(row['label'])}</td><td>{row['seconds']:.2f}</td>" \
+            f"<td>{row['ratio']:.2f}x</td>" in dom, row["label"]
 
 
 def screenshot(page, shot, tmp):
@@ -262,3 +268,13 @@ def test_shared_heat_maps_read_back_the_compare_writers_degrees(tmp_path):
         assert (rgba[0, :41][over, :3] == H.OVER_BAR).all()
         grey = rgba[0, :41][~over & (grid[0, :41] < MAX_BAR), 0].astype(int)
         assert np.all(np.diff(grey) <= 1)                        # darker as the error grows
+
+
+def test_a_missing_render_cost_names_its_command(tmp_path):
+    repo = tmp_path / "repo"
+    (repo / "docs" / "exhibits").mkdir(parents=True)
+    _png(repo / "docs" / "exhibits" / "layered.png", (64, 36), {})
+    page = write_report_page(tmp_path / "demo", repo_root=repo, log=lambda *_: None)
+    text = page.read_text()
+    assert "The render-cost table (docs/render_cost.json)" in text
+    assert "bash run.sh bench-render" in text
