@@ -21,6 +21,7 @@ from .addon.bake_request import BakeRequest as _Request
 # Options of the groups that take them: name -> the builder's keyword arguments.
 _OPTIONS = {
     "SG Normal Map": ("uv_map",),
+    "SG Procedural Basis": ("uv_map",),
     "SG Height Map HQ": ("image", "variant", "extension"),
     "SG Height Map Forward": ("filter_width",),
     "SG Triplanar Height": ("image", "extension", "images"),
@@ -36,7 +37,7 @@ def group_names():
 
 def node_group(name, **options):
     """The node tree of group `name`, built (or updated in place) if needed. Options:
-    SG Normal Map `uv_map`; SG Height Map HQ `image`, `variant` ('hq' or 'one-texel'),
+    SG Normal Map and SG Procedural Basis `uv_map`; SG Height Map HQ `image`, `variant` ('hq' or 'one-texel'),
     `extension`; SG Height Map Forward `filter_width`; SG Triplanar Height `image` (or
     `images`, three), `extension`; SG Parallax `image`, `extension`."""
     builders = dict(_groups.MENU_GROUPS) | dict(_groups.GEOMETRY_MENU_GROUPS)

@@ -222,6 +222,28 @@ def test_a_menu_costs_what_its_integer_did(svm):
         assert len({menu[k] for k in group}) > 1
 
 
+def build_generic_unlinked_basis():
+    """uv2-sg with the generic SG Procedural Basis, its UV unlinked (the active render map)."""
+    from surfgrad_addon.addon import groups
+    generic = groups.procedural_basis_group
+    groups.procedural_basis_group = lambda uv_map="": generic()
+    folded_cost.build_materials()
+
+
+def test_the_per_map_basis_costs_the_unlinked_generic_group(svm):
+    """SG Procedural Basis [Detail] (bench-render's uv2-sg) costs no more than the generic
+    group with its UV unlinked: the choice of map folds away (its UV Map node reads the map
+    the image's UV Map node reads, which Cycles may merge). The generic group
+    with a UV Map node linked in keeps the choice in each of the UV gradients' Bump
+    evaluations: dearer."""
+    found = S.svm_counts(["uv2-sg"], build="test_render_cost_folding:build_generic_unlinked_basis",
+                         paths=[S.ROOT / "tests"])
+    print("SVM, uv2-sg per-map:", svm["uv2-sg"]["svm"], "generic unlinked:",
+          found["uv2-sg"].nodes, "generic linked:", svm["uv2-sg:linked"]["svm"])
+    assert svm["uv2-sg"]["svm"] <= found["uv2-sg"].nodes
+    assert svm["uv2-sg:linked"]["svm"] > svm["uv2-sg"]["svm"]
+
+
 def test_strength_one_is_the_group_without_the_product(svm):
     """Strength 1 (the default) on SG Triplanar, SG Tangent Normal and SG Decal: the program
     of the groups built with no Strength product; another Strength is one node more."""

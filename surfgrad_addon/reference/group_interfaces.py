@@ -283,10 +283,14 @@ INTERFACES = {
     "SG Parallax (Sampler)": _g(PARALLAX + ", the height image given as a Sampler closure",
                                 PARALLAX_OUTPUTS, (*PARALLAX_INPUTS, S.SAMPLER)),
     "SG Procedural Basis": _g(
-        "Listing 4: a tangent frame for any UV map, generated per pixel",
+        "Listing 4: a tangent frame for any UV map, generated per pixel; with UV unlinked, "
+        "on UV map {uv_map}",
         (S.TANGENT_OUT, S.BITANGENT_OUT),
-        (S.NORMAL, _unlinked_uv("Texture coordinate of a UV map without stored tangents (link "
-                                "a UV Map node for another map)"))),
+        (S.NORMAL, S.UV.but(tooltip="Texture coordinate of a UV map without stored tangents "
+                            "(unlinked: the UV map in the description, the active render one "
+                            "unless the group is SG Procedural Basis [<map>]; for another UV map "
+                            "that group is cheaper than linking a UV Map node)")),
+        uv_map="(active render map)"),
     "SG Projector Coordinates": _g(
         "A decal projector's coordinates, precise kilometres from the origin (a Texture "
         "Coordinate node's Object output alone is not): feed SG Decal Coordinates and SG Decal",

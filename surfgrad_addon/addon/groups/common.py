@@ -399,12 +399,13 @@ def surfgrad_reaching(b, n, v, against):
     return b.vmath(VMath.MULTIPLY_ADD, v, neg_w, n)
 
 
-def uv_input(b):
-    """A UV input; unlinked (zero) it is the active render UV map, as Blender's own texture
-    nodes take it."""
+def uv_input(b, uv_map=""):
+    """A UV input; unlinked (zero) it is UV map `uv_map`, by default ("") the active render one,
+    as Blender's own texture nodes take it."""
     raw = b.input(S.UV)
-    with b.frame("UV: the active render UV map where unlinked (zero)"):
-        return where_zero(b, raw, b.node("ShaderNodeUVMap", uv_map="").outputs["UV"])
+    where = f"UV map {uv_map!r}" if uv_map else "the active render UV map"
+    with b.frame(f"UV: {where} where unlinked (zero)"):
+        return where_zero(b, raw, b.node("ShaderNodeUVMap", uv_map=uv_map).outputs["UV"])
 
 
 def images_stale(expected):

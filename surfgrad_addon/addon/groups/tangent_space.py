@@ -11,10 +11,14 @@ from .common import (directx_input, ensure, listing2_colour, normal_input, sign_
                      uv_gradients_group, uv_input)
 
 
-def procedural_basis_group():
+def procedural_basis_group(uv_map=""):
+    """SG Procedural Basis; with `uv_map`, the per-map group "SG Procedural Basis [<map>]" whose
+    unlinked UV is that map. Left unlinked, the choice of map is a constant that Cycles folds
+    away, where a UV Map node linked in keeps it (an is-zero test and a Mix) in each of the UV
+    gradients' Bump evaluations (docs/performance.md, the folded table)."""
     def build(b):
         n = normal_input(b)
-        uv = uv_input(b)
+        uv = uv_input(b, uv_map)
         grads = sub_group(b, uv_gradients_group(), "UV gradients", UV=uv, Normal=n)
         gs, gt = grads.outputs[0], grads.outputs[1]
         with b.frame("Listing 4 in surface gradients: t = normalize(sgn (grad t x n))"):
@@ -25,7 +29,9 @@ def procedural_basis_group():
             bt = b.scale(b.cross(n, t), orient)
         b.output(S.TANGENT_OUT, t)
         b.output(S.BITANGENT_OUT, bt)
-    return ensure("SG Procedural Basis", build)
+    name = "SG Procedural Basis" + (f" [{uv_map}]" if uv_map else "")
+    fields = {"uv_map": uv_map} if uv_map else {}
+    return ensure("SG Procedural Basis", build, name, **fields)
 
 
 def tangent_normal_group():

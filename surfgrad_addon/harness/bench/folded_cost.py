@@ -68,6 +68,15 @@ def _tri(g, ctx, up):
 
 def _uv2(g, ctx, up):
     uv = g.uv("Detail")
+    basis = g.group(G.procedural_basis_group("Detail"))
+    return g.group(G.tangent_normal_group(), Color=g.image(ctx["normal"], uv),
+                   Tangent=basis.outputs["Tangent"], Bitangent=basis.outputs["Bitangent"])
+
+
+def _uv2_linked(g, ctx, up):
+    """bench-render's uv2-sg as it was: the generic SG Procedural Basis, a UV Map node linked
+    into its UV (the choice of map stays in each Bump evaluation of the UV gradients)."""
+    uv = g.uv("Detail")
     basis = g.group(G.procedural_basis_group(), UV=uv)
     return g.group(G.tangent_normal_group(), Color=g.image(ctx["normal"], uv),
                    Tangent=basis.outputs["Tangent"], Bitangent=basis.outputs["Bitangent"])
@@ -124,6 +133,8 @@ _OPTIONS = [
      "tri-sg"),
     ("tri-sg:precise", "SG Triplanar, Precise Far From Origin on", _tri, {PRECISE: True}, {},
      "tri-sg"),
+    ("uv2-sg:linked", "SG Procedural Basis (generic, UV Map node linked) + SG Tangent Normal",
+     _uv2_linked, {}, {}, "uv2-sg"),
     ("uv2-sg:directx", "SG Tangent Normal, DirectX on", _uv2, {}, {"DirectX": True}, "uv2-sg"),
     ("uv2-sg:strength", "SG Tangent Normal, Strength 0.5", _uv2, {}, {"Strength": 0.5},
      "uv2-sg"),

@@ -69,8 +69,10 @@ def _uv2_builtin(g, ctx):
 
 
 def _uv2_sg(g, ctx):
+    # The per-map basis, its UV unlinked: the map's choice folds away (folded_cost's
+    # "uv2-sg:linked" is the generic group with the UV Map node linked in).
     uv = g.uv("Detail")
-    basis = g.group(G.procedural_basis_group(), UV=uv)
+    basis = g.group(G.procedural_basis_group("Detail"))
     tn = g.group(G.tangent_normal_group(), Color=g.image(ctx["normal"], uv),
                  Tangent=basis.outputs["Tangent"], Bitangent=basis.outputs["Bitangent"])
     return g.resolve(tn.outputs["Surface Gradient"])
