@@ -31,6 +31,9 @@ def test_node_group_builds_every_group_by_name(fresh):
     assert detail.name == "SG Normal Map [Detail]"
     frame = [n for n in detail.nodes if n.bl_idname == "ShaderNodeNormalMap"]
     assert len(frame) == 1 and frame[0].uv_map == "Detail"
+    basis = api.node_group("SG Procedural Basis", uv_map="Detail")
+    assert basis.name == "SG Procedural Basis [Detail]"
+    assert [n.uv_map for n in basis.nodes if n.bl_idname == "ShaderNodeUVMap"] == ["Detail"]
 
 
 @pytest.mark.tier("blender")

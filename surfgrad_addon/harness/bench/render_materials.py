@@ -169,7 +169,7 @@ CASES = [
     ("tri-sg", "3 Image Textures -> SG Triplanar -> SG Resolve", _tri_sg, "tri-builtin",
      "triplanar", "triplanar"),
     ("uv2-builtin", "Normal Map node on a second UV map", _uv2_builtin, None, None, None),
-    ("uv2-sg", "SG Procedural Basis + SG Tangent Normal on a second UV map", _uv2_sg,
+    ("uv2-sg", "SG Procedural Basis [Detail] + SG Tangent Normal on a second UV map", _uv2_sg,
      "uv2-builtin", "second-uv", "procedural-basis"),
     ("layers2-builtin", "2 Normal Map nodes, added", layers_builtin(2), None, None, None),
     ("layers3-builtin", "3 Normal Map nodes, added", layers_builtin(3), None, None, None),
