@@ -37,9 +37,10 @@ def group_names():
 
 def node_group(name, **options):
     """The node tree of group `name`, built (or updated in place) if needed. Options:
-    SG Normal Map and SG Procedural Basis `uv_map`; SG Height Map HQ `image`, `variant` ('hq' or 'one-texel'),
-    `extension`; SG Height Map Forward `filter_width`; SG Triplanar Height `image` (or
-    `images`, three), `extension`; SG Parallax `image`, `extension`."""
+    SG Normal Map and SG Procedural Basis `uv_map` (the per-map group, "<name> [<map>]");
+    SG Height Map HQ `image`, `variant` ('hq' or 'one-texel'), `extension`; SG Height Map
+    Forward `filter_width`; SG Triplanar Height `image` (or `images`, three), `extension`;
+    SG Parallax `image`, `extension`."""
     builders = dict(_groups.MENU_GROUPS) | dict(_groups.GEOMETRY_MENU_GROUPS)
     if name not in builders:
         raise ValueError(f"no surfgrad group named {name!r}; the groups are "
