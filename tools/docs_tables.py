@@ -82,40 +82,46 @@ def render_cost_folded_table(docs):
 
 
 def render_cost_table(docs):
-    """`bench-render`'s render times (docs/render_cost.json) against the same bench on the
-    commit before (docs/render_cost_before.json, same machine, run just before): each SG
-    material's ratio to its built-in twin (medians of interleaved rounds), the target, Cycles'
-    SVM program size after folding, EEVEE's first (compiling) and later renders, the look."""
-    now, before = load(docs, "render_cost.json"), load(docs, "render_cost_before.json")
+    """`bench-render`'s render times: docs/render_cost.json (this code) against
+    docs/render_cost_before.json (the commit before) and docs/render_cost_earlier.json (an
+    earlier run the same day, before the per-map procedural basis), all on the same machine:
+    each SG material's ratio to its built-in twin (medians of interleaved rounds), the target,
+    Cycles' SVM program size after folding, EEVEE's first (compiling) and later renders, the
+    look. Two runs of nearly the same code show the run-to-run spread."""
+    now = load(docs, "render_cost.json")
+    before, earlier = load(docs, "render_cost_before.json"), load(docs, "render_cost_earlier.json")
     was = {r["key"]: r for r in before["rows"]}
-    rows = ["| material | ratio to its twin, before | now | target | SVM words after "
-            "folding, before -> now (twin) | EEVEE first / later, now | look (mean / max "
-            "deg, against) |",
-            "|---|---|---|---|---|---|---|"]
+    mid = {r["key"]: r for r in earlier["rows"]}
     svm = {r["key"]: r["svm"] for r in now["rows"]}
+
+    def ratio(row):
+        return f"{row['ratio']:.2f}x" if "ratio" in row else "-"
+    rows = ["| material | ratio to its twin, before | earlier run | now | target "
+            "| SVM words after folding, before -> now (twin) | EEVEE first / later, now "
+            "| look (mean / max deg, against) |",
+            "|---|---|---|---|---|---|---|---|"]
     for r in now["rows"]:
         if "ratio" not in r:
             continue
-        b = was.get(r["key"], {})
+        b, e = was.get(r["key"], {}), mid.get(r["key"], {})
         target = ""
         if "target" in r:
-            met = "met" if r["ratio"] <= r["target"] else f"missed by {r['ratio'] - r['target']:.2f}"
+            met = "met" if r["ratio"] <= r["target"] else \
+                f"missed by {r['ratio'] - r['target']:.2f}"
             target = f"{r['target']:.2f}x: {met}"
         ee = (f"{r['eevee_first_ratio']:.2f} / {r['eevee_later_ratio']:.2f}"
               if "eevee_first_ratio" in r else "")
         look = (f"{r['look']['mean_deg']:.3f} / {r['look']['max_deg']:.3f} vs "
                 f"{r['look']['against']}" if "look" in r else "")
-        rows.append(f"| {r['label']} | {b['ratio']:.2f}x | **{r['ratio']:.2f}x** | {target} "
-                    f"| {b.get('svm', '-')} -> **{r['svm']}** ({svm[r['twin']]}) | {ee} "
-                    f"| {look} |" if "ratio" in b else
-                    f"| {r['label']} | - | **{r['ratio']:.2f}x** | {target} "
-                    f"| - -> **{r['svm']}** ({svm[r['twin']]}) | {ee} | {look} |")
+        rows.append(f"| {r['label']} | {ratio(b)} | {ratio(e)} | **{r['ratio']:.2f}x** "
+                    f"| {target} | {b.get('svm', '-')} -> **{r['svm']}** ({svm[r['twin']]}) "
+                    f"| {ee} | {look} |")
     m, mb = now["marginal_layer"], before["marginal_layer"]
     rows.append(f"\nOne more normal-map layer in a stack: SG {m['sg_s']:.3f} s "
                 f"(before {mb['sg_s']:.3f} s), Blender's chain {m['builtin_s']:.3f} s. "
                 f"Blender {now['blender']}, {now['size']}², {now['samples']} samples, median of "
-                f"{now['repeats']} interleaved rounds; the bench took {now['seconds'] / 60:.0f} "
-                f"minutes.")
+                f"{now['repeats']} interleaved rounds; each bench took about "
+                f"{now['seconds'] / 60:.0f} minutes.")
     return rows
 
 
@@ -207,7 +213,8 @@ SOURCES = {"bench-compare": ("bench_compare.json",),
            "bench-compare-before": ("bench_compare_before.json",),
            "bench-batch": ("bench_batch.json",),
            "render-cost-folded": ("render_cost_folded.json",),
-           "render-cost": ("render_cost.json", "render_cost_before.json"),
+           "render-cost": ("render_cost.json", "render_cost_before.json",
+                           "render_cost_earlier.json"),
            "noise-footprint": ("noise_footprint.json",),
            "post-resolve": ("exhibits/post-resolve.json",)}
 
