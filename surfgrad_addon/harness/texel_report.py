@@ -59,10 +59,7 @@ def compare_tile(td, reference, pixels, covered):
     h, w = covered.shape
     reasons = np.zeros((h, w), dtype=np.int8)
     reasons[covered ^ td.covered] = OUTSIDE
-    # NaN where no block texel is: the blocks write every texel of theirs (NaN where not
-    # compared) on the block threads, so the whole image is not filled on one thread first.
-    heat = np.empty((h, w))
-    np.copyto(heat, np.nan, where=~td.covered)
+    heat = np.full((h, w), np.nan)
     heat_flat = heat.reshape(-1)                # a view: blocks write their own texels
 
     def measure(block):
@@ -74,9 +71,7 @@ def compare_tile(td, reference, pixels, covered):
                             block.shading_normal, block.geometric_normal,
                             M.unit_base_normal(block), BACKFACING_DOT, reasons)
         err = a.error()
-        px = block.pixel
-        heat_flat[px[:, 1] * w + px[:, 0]] = np.nan     # blocks hold distinct texels
-        heat_flat[a.flat[:a.n]] = err
+        heat_flat[a.flat[:a.n]] = err           # blocks hold distinct texels
         tilt_bake, tilt_ref = a.tilts()
         backfacing = np.unique(block.tri[a.backfacing]) if a.backfacing.any() else ()
         return (err, err[a.marked[:a.n]], backfacing, float(tilt_bake.sum()),
