@@ -22,12 +22,13 @@ from ..addon.far_precision import needs_precise_far, set_precise_far
 from .graph import Graph
 
 
-def exact_cycles(scene):
+def exact_cycles(scene, device="CPU"):
     """Cycles on the CPU, one sample, no denoising or adaptivity, a fixed seed: every bake and
-    render of the suite is exact and repeatable. Returns scene.cycles."""
+    render of the suite is exact and repeatable. device "GPU": on the GPU the preferences chose
+    (cycles_device.selected), for --cycles-device. Returns scene.cycles."""
     scene.render.engine = "CYCLES"
     cy = scene.cycles
-    cy.device = "CPU"
+    cy.device = device
     cy.samples = 1
     cy.use_denoising = False
     cy.use_adaptive_sampling = False
@@ -137,7 +138,7 @@ def _tile_pixels(image, tiles, width, height):
     return out
 
 
-def bake_vector_tiles(obj, build, width, height, tiles, uv_map=None, log=None):
+def bake_vector_tiles(obj, build, width, height, tiles, uv_map=None, log=None, device="CPU"):
     """bake_vector into a UDIM image with the given tiles (numbers, 1001 + u + 10 v): returns
     ({tile: (pixels (H, W, 3), coverage (H, W))}, seconds). Blender bakes each tile at its
     own UV offset (reference.tiles)."""
@@ -146,7 +147,7 @@ def bake_vector_tiles(obj, build, width, height, tiles, uv_map=None, log=None):
     tiles = [int(t) for t in tiles]
     image = _tiled_float_image("surfgrad_bake_tiles", width, height, tiles)
     try:
-        seconds = _bake_into(obj, build, image, uv_map, None, log)
+        seconds = _bake_into(obj, build, image, uv_map, None, log, device)
         px = _tile_pixels(image, tiles, width, height)
         return {k: (v[..., :3].copy(), v[..., 3] > 0.5) for k, v in px.items()}, seconds
     finally:
@@ -160,7 +161,7 @@ PIECE_UV_MAP = "surfgrad_bake_piece"      # the temporary UV map of a piece
 
 
 def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
-                          piece=PIECE_TEXELS, rgba=False):
+                          piece=PIECE_TEXELS, rgba=False, device="CPU"):
     """bake_vector, with Cycles' memory bounded by a piece: an image larger than piece x piece
     is baked as a grid of pieces, each through a temporary UV map that scales the UV map by
     the (power-of-two) grid size and shifts the piece onto 0..1. The sample points and the
@@ -173,7 +174,7 @@ def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
     _check_target(obj, uv_map)
     nx, ny = _grid(width, piece), _grid(height, piece)
     if (nx == 1 and ny == 1) or len(obj.modifiers) or nx is None or ny is None:
-        return bake_vector(obj, build, width, height, uv_map, log, rgba=rgba)
+        return bake_vector(obj, build, width, height, uv_map, log, rgba=rgba, device=device)
     mesh = obj.data
     name = uv_map or next(layer.name for layer in mesh.uv_layers if layer.active_render)
     uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
@@ -183,7 +184,7 @@ def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
     render = next((layer.name for layer in mesh.uv_layers if layer.active_render), None)
     tmp = mesh.uv_layers.new(name=PIECE_UV_MAP, do_init=False)
     if tmp is None:                     # the mesh has the most UV maps Blender allows
-        return bake_vector(obj, build, width, height, uv_map, log, rgba=rgba)
+        return bake_vector(obj, build, width, height, uv_map, log, rgba=rgba, device=device)
     pw, ph = width // nx, height // ny
     pixels = np.empty((height, width, 4), dtype=np.float32)
     buffer = np.empty((ph, pw, 4), dtype=np.float32)        # each piece's read-back
@@ -196,7 +197,8 @@ def bake_vector_in_pieces(obj, build, width, height, uv_map=None, log=None,
                     [i, j], dtype=np.float32)
                 tmp.uv.foreach_set("vector", shifted.ravel())
                 mesh.update()
-                _, _, s = bake_vector(obj, build, pw, ph, tmp.name, rgba=True, out=buffer)
+                _, _, s = bake_vector(obj, build, pw, ph, tmp.name, rgba=True, out=buffer,
+                                      device=device)
                 pixels[j * ph:(j + 1) * ph, i * pw:(i + 1) * pw] = buffer
                 seconds += s
                 if log:
@@ -228,7 +230,7 @@ def _grid(size, piece):
 
 
 def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=None,
-                rgba=False, out=None):
+                rgba=False, out=None, device="CPU"):
     """Bake the vector returned by `build(nodes, links)` (an output socket of a node created in
     the given temporary material's tree) over obj's UV map `uv_map` (default: the active one).
 
@@ -237,6 +239,7 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
     Cycles' true displacement of the surface during the bake. Texels the bake did not write
     are marked uncovered: the image is cleared to alpha 0 and the bake writes alpha 1.
     rgba: the pixels are the baked (height, width, 4) RGBA (read into `out` if given).
+    device: scene.cycles.device for the bake ("GPU": the devices cycles_device.selected chose).
     """
     import bpy
 
@@ -247,7 +250,7 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
     try:
         # A cleared float image is (0, 0, 0, 0); baked texels get alpha 1.
         image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))
-        seconds = _bake_into(obj, build, image, uv_map, displacement, log)
+        seconds = _bake_into(obj, build, image, uv_map, displacement, log, device)
         px = np.empty((height, width, 4), dtype=np.float32) if out is None else out
         image.pixels.foreach_get(px.reshape(-1))        # straight into the buffer
         return _result(px, rgba) + (seconds,)
@@ -255,7 +258,7 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
         bpy.data.images.remove(image)
 
 
-def _bake_into(obj, build, image, uv_map, displacement, log):
+def _bake_into(obj, build, image, uv_map, displacement, log, device="CPU"):
     """Bake the vector of `build` on obj into `image` (plain or UDIM); returns the seconds."""
     import bpy
 
@@ -284,7 +287,7 @@ def _bake_into(obj, build, image, uv_map, displacement, log):
         nodes.active = target
         with restored(scene, SCENE_SETTINGS), _selection_kept(context), \
                 visible_for_bake(obj, context.view_layer), _temporary_material(obj, material):
-            cy = exact_cycles(scene)
+            cy = exact_cycles(scene, device)
             cy.sample_clamp_direct = 0.0
             cy.sample_clamp_indirect = 0.0
             cy.bake_type = "EMIT"

@@ -169,6 +169,13 @@ def bench_compare_run(args):
 
 # compare, compare-all -----------------------------------------------------------------------
 
+def _cycles_device(p):
+    from .cycles_device import KINDS
+    p.add_argument("--cycles-device", default="CPU", choices=KINDS,
+                   help="Cycles device of the bakes/renders: CPU (default), or every CUDA or "
+                        "OptiX GPU (refused when Cycles finds none)")
+
+
 def compare_arguments(p):
     p.add_argument("--blend", default=None,
                    help=".blend file to open (default: the procedural test scene; inside "
@@ -190,6 +197,7 @@ def compare_arguments(p):
     p.add_argument("--tiles", type=int, nargs="+", default=None,
                    help="UDIM tiles to bake and compare (default: the 0-1 square, or every "
                         "tile with faces when all faces lie on UDIM tiles)")
+    _cycles_device(p)
     _overwrite(p)
 
 
@@ -197,7 +205,7 @@ def compare_run(args):
     from . import compare
     compare.run(args.blend, args.object, args.method, args.resolution, args.json, args.uv_map,
                 args.image, args.variant, args.overwrite, from_open_file=args.in_blender,
-                tiles=args.tiles)
+                tiles=args.tiles, cycles_device=args.cycles_device)
 
 
 def compare_all_arguments(p):
@@ -206,11 +214,13 @@ def compare_all_arguments(p):
     _overwrite(p)
     p.add_argument("--workers", type=int, default=None,
                    help="processes sharing the cases (default: one per core, at most 2)")
+    _cycles_device(p)
 
 
 def compare_all_run(args):
     from . import compare_all
-    compare_all.run_all(args.out, args.resolution, args.overwrite, workers=args.workers)
+    compare_all.run_all(args.out, args.resolution, args.overwrite, workers=args.workers,
+                        cycles_device=args.cycles_device)
 
 
 # bench, bench-render, bench-far -------------------------------------------------------------
@@ -234,12 +244,20 @@ def bench_run(args):
 def bench_render_arguments(p):
     _out(p, "out/bench_render")
     p.add_argument("--quick", action="store_true", help="small, few samples, no EEVEE")
+    p.add_argument("--size", type=int, default=None,
+                   help="frame width and height in pixels (default 320, quick 96)")
+    p.add_argument("--samples", type=int, default=None,
+                   help="Cycles samples per pixel (default 64, quick 8)")
+    p.add_argument("--no-eevee", action="store_true", help="skip the EEVEE timings")
+    _cycles_device(p)
     _overwrite(p)
 
 
 def bench_render_run(args):
     from .bench import render_cost
-    render_cost.run(args.out, args.quick, args.overwrite)
+    render_cost.run(args.out, args.quick, args.overwrite, size=args.size,
+                    samples=args.samples, eevee=not args.no_eevee,
+                    cycles_device=args.cycles_device)
 
 
 def bench_far_arguments(p):

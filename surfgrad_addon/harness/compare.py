@@ -159,10 +159,11 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
 # The comparison -----------------------------------------------------------------------------------
 
 def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print,
-                   tiles=None):
+                   tiles=None, device="CPU"):
     """Bake `method` on obj and compare with the reference (variant None: "hq" for the
     height maps, the method's first otherwise, e.g. the box decal). `tiles`: the UDIM tiles
     to bake and compare (None: what target_tiles picks, as Blender's bake would fill).
+    device: scene.cycles.device for the bake ("GPU" inside cycles_device.selected).
     Returns (report dict, per-texel error image (H, W) with NaN where not compared)."""
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
@@ -190,7 +191,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         # Far out: a second user keeps the mesh in object space (before the mesh is read).
         with m.scene(obj, inp), precise_far(obj, log):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
-                                         tiles=tiles)
+                                         tiles=tiles, device=device)
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
         if limit:
             report["warnings"].append(limit)
@@ -292,7 +293,7 @@ def backfacing_warning(mesh, report):
             f"Recalculate Outside) or fix the custom normals.")
 
 
-def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
+def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, device="CPU"):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
     and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""
     method = getattr(graph, "__name__", "graph")
@@ -325,11 +326,11 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
     if tiles == [R.tiles.UDIM_FIRST]:
         # RGBA as read back (no copy): the comparison reads channels 0-2.
         pixels, covered, bake_seconds = B.bake_vector_in_pieces(
-            obj, build, resolution, resolution, uv_map=inp.uv_map, rgba=True)
+            obj, build, resolution, resolution, uv_map=inp.uv_map, rgba=True, device=device)
         baked_tiles = {tiles[0]: (pixels, covered)}
     else:
         baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
-                                                        tiles, uv_map=inp.uv_map)
+                                                        tiles, uv_map=inp.uv_map, device=device)
     reference_seconds = 0.0
     tile_reports, heats, tds = [], [], []
     for number in tiles:
@@ -373,14 +374,15 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None):
 
 
 def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
-            with_heat_map=False, tiles=None):
+            with_heat_map=False, tiles=None, device="CPU"):
     """The public comparison (surfgrad_addon.harness.api.compare): compare_object, quiet, with
     the node groups the bake added removed again (the file is the user's)."""
     import bpy
     before = set(bpy.data.node_groups)
     try:
         report, heat = compare_object(obj, method, resolution, uv_map=uv_map, image=image,
-                                      variant=variant, log=lambda *_: None, tiles=tiles)
+                                      variant=variant, log=lambda *_: None, tiles=tiles,
+                                      device=device)
     finally:
         # The groups the bake needed go again (users first).
         for tree in [t for t in bpy.data.node_groups if t not in before][::-1]:
@@ -411,13 +413,17 @@ def check_output_path(path, overwrite, what="output"):
 
 
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
-        variant=None, overwrite=False, log=print, from_open_file=False, tiles=None):
-    """The command: load, bake, compare, write the JSON and the heat map, print a summary."""
+        variant=None, overwrite=False, log=print, from_open_file=False, tiles=None,
+        cycles_device="CPU"):
+    """The command: load, bake, compare, write the JSON and the heat map, print a summary.
+    cycles_device: CPU, CUDA or OPTIX (cycles_device.py; refused before the load without one)."""
     import bpy
+    from . import cycles_device as D
     json_out = Path(json_out)
     heat_path = json_out.with_name(json_out.stem + "_error.png")
     for p in (json_out, heat_path):
         check_output_path(p, overwrite)
+    D.check(cycles_device)
     if blend:
         if not Path(blend).is_file():
             raise CompareError(f".blend file {blend!r} does not exist")
@@ -430,8 +436,10 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     if obj is None:
         raise CompareError(f"no object named {object_name!r}; objects: "
                            f"{sorted(o.name for o in bpy.data.objects)}")
-    report, heat = compare(obj, method, resolution, variant, uv_map, image,   # the public one
-                           with_heat_map=True, tiles=tiles)
+    with D.selected(bpy.context.scene, cycles_device) as chosen:
+        report, heat = compare(obj, method, resolution, variant, uv_map, image,  # the public one
+                               with_heat_map=True, tiles=tiles, device=chosen.scene_device)
+    report["cycles_device"] = chosen.description
     json_out.parent.mkdir(parents=True, exist_ok=True)
     json_out.write_text(json.dumps(report, indent=2))
     write_heat_map(heat_path, heat, overwrite)

@@ -1,6 +1,7 @@
 """compare-all: every method on every object of the procedural test scene, on both cores.
 
     python -m surfgrad_addon compare-all --out DIR [--resolution N] [--workers N]
+        [--cycles-device CPU|CUDA|OPTIX]
 
 The cases (method, variant, object) are dealt round-robin to `workers` processes (default:
 one per core, at most 2): this process runs share 0, child processes (this Python with the
@@ -8,6 +9,7 @@ bpy module, `python -m surfgrad_addon.harness.compare_all --shard ...`) the othe
 its own fresh test scene, writing its heat maps and its reports (a JSON file in the output
 folder, removed after). The table and compare.json list the cases in the serial order, so
 they are the same for any number of workers. Inside a Blender binary one process runs all.
+Every process bakes on the Cycles device asked for (cycles_device.py; each report names it).
 """
 
 import argparse
@@ -19,6 +21,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from . import cycles_device as D
 from .compare import CompareError, compare_object
 from .heat_map import write_heat_map
 from .methods import METHODS, cases, unavailable_reason
@@ -52,31 +55,35 @@ def _label(method, variant):
     return method + (f"-{variant}" if len(METHODS[method].variants) > 1 else "")
 
 
-def run_shard(out, resolution, shard, shards, log=print, methods=None):
+def run_shard(out, resolution, shard, shards, log=print, methods=None, cycles_device="CPU"):
     """Cases shard, shard + shards, ... of the serial order: {index: report}."""
+    import bpy
     from . import scenes
-    objects = scenes.new_scene()
+    objects = scenes.new_scene()        # factory settings: the device is chosen after it
     jobs = [(m, v, name) for m, v in compare_cases(methods) for name in objects]
     reports = {}
-    for index in range(shard, len(jobs), shards):
-        method, variant, name = jobs[index]
-        report, heat = compare_object(objects[name], method, resolution, variant=variant,
-                                      log=lambda *_: None)
-        reports[index] = report
-        label = _label(method, variant)
-        write_heat_map(Path(out) / "heat" / f"{label}_{name}.png", heat, overwrite=True)
-        log(f"[{index + 1}/{len(jobs)}] {label:22s} {name:12s} p99 "
-            f"{report['p99_deg']:.4f} max {report['max_deg']:.4f} deg, bake "
-            f"{report['bake_seconds']:.3f} s, reference {report['reference_seconds']:.3f} s")
+    with D.selected(bpy.context.scene, cycles_device) as chosen:
+        for index in range(shard, len(jobs), shards):
+            method, variant, name = jobs[index]
+            report, heat = compare_object(objects[name], method, resolution, variant=variant,
+                                          log=lambda *_: None, device=chosen.scene_device)
+            report["cycles_device"] = chosen.description
+            reports[index] = report
+            label = _label(method, variant)
+            write_heat_map(Path(out) / "heat" / f"{label}_{name}.png", heat, overwrite=True)
+            log(f"[{index + 1}/{len(jobs)}] {label:22s} {name:12s} p99 "
+                f"{report['p99_deg']:.4f} max {report['max_deg']:.4f} deg, bake "
+                f"{report['bake_seconds']:.3f} s, reference {report['reference_seconds']:.3f} s")
     return reports
 
 
-def _start_worker(out, resolution, shard, shards, methods, temp):
+def _start_worker(out, resolution, shard, shards, methods, temp, cycles_device="CPU"):
     """A child running one shard; its errors go to a file (a pipe nobody reads while this
     process runs its own share could fill and stall it). Its temporary files go to `temp`,
     which this process removes: a child killed on a stop cannot clean up after itself."""
     cmd = [sys.executable, "-m", "surfgrad_addon.harness.compare_all", "--out", str(out),
-           "--resolution", str(resolution), "--shard", str(shard), "--shards", str(shards)]
+           "--resolution", str(resolution), "--shard", str(shard), "--shards", str(shards),
+           "--cycles-device", cycles_device]
     cmd += ["--methods", *methods] if methods else []
     errors = tempfile.TemporaryFile(mode="w+")
     env = dict(os.environ, TMPDIR=str(temp), TEMP=str(temp), TMP=str(temp))
@@ -85,10 +92,12 @@ def _start_worker(out, resolution, shard, shards, methods, temp):
     return child
 
 
-def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, methods=None):
+def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, methods=None,
+            cycles_device="CPU"):
     """Every method (or those of `methods`) on every object of the procedural test scene:
     JSON, a Markdown table and an error heat map per case. A stop (Ctrl-C / SIGTERM) kills
-    the workers and takes back what this run wrote (heat maps, the folders it made)."""
+    the workers and takes back what this run wrote (heat maps, the folders it made).
+    cycles_device: CPU, CUDA or OPTIX; refused before anything is made when there is none."""
     from ..addon import interrupts
     from .compare import check_output_path
     out = Path(out_dir)
@@ -100,6 +109,7 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
     unknown = sorted(set(methods or ()) - set(METHODS))
     if unknown:
         raise CompareError(f"no method {unknown[0]!r}; use some of {sorted(METHODS)}")
+    devices = D.check(cycles_device)
     created = [d for d in (out, out / "heat") if not d.exists()]
     before = set((out / "heat").glob("*.png")) if (out / "heat").is_dir() else set()
     (out / "heat").mkdir(parents=True, exist_ok=True)
@@ -132,9 +142,10 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
             if workers > 1 and not _bpy_module():
                 log("compare-all: inside a Blender binary one process runs every case")
                 workers = 1
-            children += [_start_worker(out, resolution, k, workers, methods, temp)
-                         for k in range(1, workers)]
-            reports = _collect(out, resolution, workers, methods, children, log)
+            children += [_start_worker(out, resolution, k, workers, methods, temp,
+                                       cycles_device) for k in range(1, workers)]
+            reports = _collect(out, resolution, workers, methods, children, log,
+                               cycles_device)
         finally:
             for k, child in enumerate(children, start=1):
                 if child.poll() is None:
@@ -144,14 +155,14 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
                 (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
             shutil.rmtree(temp, ignore_errors=True)
         table_json.write_text(json.dumps(reports, indent=2))
-        table_md.write_text(table_markdown(reports, resolution))
+        table_md.write_text(table_markdown(reports, resolution, cycles_device, devices))
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
     return reports
 
 
-def _collect(out, resolution, workers, methods, children, log):
+def _collect(out, resolution, workers, methods, children, log, cycles_device="CPU"):
     """This process's shard, then each worker's: the reports in the serial order."""
-    reports = run_shard(out, resolution, 0, workers, log, methods)
+    reports = run_shard(out, resolution, 0, workers, log, methods, cycles_device)
     for k, child in enumerate(children, start=1):
         child.wait()
         child.errors.seek(0)
@@ -165,8 +176,9 @@ def _collect(out, resolution, workers, methods, children, log):
     return [reports[i] for i in sorted(reports)]
 
 
-def table_markdown(reports, resolution):
-    lines = [f"# Bakes against the reference at {resolution}^2",
+def table_markdown(reports, resolution, cycles_device="CPU", devices=()):
+    on = "" if cycles_device == "CPU" else f", Cycles on {cycles_device} ({', '.join(devices)})"
+    lines = [f"# Bakes against the reference at {resolution}^2{on}",
              "", "Angular error (degrees) between the Cycles bake of each method's node groups "
              "and the numpy reference, over every texel both cover (contested texels of "
              "overlapping UVs included: the reference follows the bake's rule); excluded "
@@ -197,9 +209,11 @@ def _main():
     parser.add_argument("--shard", type=int, required=True)
     parser.add_argument("--shards", type=int, required=True)
     parser.add_argument("--methods", nargs="*", default=None)
+    parser.add_argument("--cycles-device", default="CPU", choices=D.KINDS)
     args = parser.parse_args()
     reports = run_shard(args.out, args.resolution, args.shard, args.shards,
-                        log=lambda line: print(line, flush=True), methods=args.methods)
+                        log=lambda line: print(line, flush=True), methods=args.methods,
+                        cycles_device=args.cycles_device)
     path = Path(args.out) / SHARD_FILE.format(args.shard)
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(reports))

@@ -14,6 +14,10 @@ folding (folded_cost.py: every material and each option on and off; deterministi
 line's unit).
 
 Targets (issue 21) are ratios of whole render time to the twin, measured in one run.
+
+On a GPU (--cycles-device CUDA or OPTIX, cycles_device.py) the same rounds and look bakes run
+there, the CPU left out; --size and --samples scale the frame up so a render takes long enough
+to time, --no-eevee skips EEVEE. The JSON names the device (cycles_device).
 """
 
 import json
@@ -23,11 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import cycles_device as D
 from ..graph import Graph
 from . import folded_cost
 from . import render_materials as M
 
 SIZE, SAMPLES, REPEATS = 320, 64, 3
+SIZE_RANGE, SAMPLES_RANGE = (16, 8192), (1, 65536)
 QUICK = {"size": 96, "samples": 8, "repeats": 2, "eevee": False}
 TARGETS = {"normal-map": 1.05, "height-forward": 1.05, "triplanar": 1.15, "second-uv": 1.10,
            "eevee": 1.3}
@@ -88,9 +94,9 @@ def _render(scene, path):
     return time.perf_counter() - t0
 
 
-def _look(obj, mats, key, look, ctx, log):
+def _look(obj, mats, key, look, ctx, log, device="CPU"):
     """Angle (mean, max degrees) between the SG material's normal and its twin's, or the
-    bake-vs-reference figures of the method it uses."""
+    bake-vs-reference figures of the method it uses; baked on `device` (scene.cycles.device)."""
     from .. import bake, compare
     if look == "twin":
         twin = next(c for c in M.cases() if c[0] == key)[3]
@@ -98,26 +104,57 @@ def _look(obj, mats, key, look, ctx, log):
         for k in (key, twin):
             build = next(c for c in M.cases() if c[0] == k)[2]
             px[k], cov, _ = bake.bake_vector(obj, lambda nodes, links, b=build:
-                                             b(Graph(nodes, links), ctx), 128, 128, "UVMap")
+                                             b(Graph(nodes, links), ctx), 128, 128, "UVMap",
+                                             device=device)
         both = cov
         err = compare.angle_deg(px[key][both].astype(np.float64),
                                 px[twin][both].astype(np.float64))
         return {"against": "twin", "mean_deg": float(err.mean()), "max_deg": float(err.max())}
-    report, _ = compare.compare_object(obj, look, 64, log=lambda *_: None)
+    report, _ = compare.compare_object(obj, look, 64, log=lambda *_: None, device=device)
     return {"against": f"reference ({look})", "mean_deg": report["mean_deg"],
             "max_deg": report["max_deg"]}
 
 
-def run(out_dir, quick=False, overwrite=False, log=print):
+def _whole(value, name, lo, hi):
+    """value if a whole number in [lo, hi], else a ValueError naming the option and the fix."""
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise ValueError(f"{name} {value!r}: use a whole number from {lo} to {hi}")
+    return value
+
+
+def run(out_dir, quick=False, overwrite=False, log=print, size=None, samples=None, eevee=True,
+        cycles_device="CPU"):
+    """The bench; size and samples (None: the defaults, or --quick's) override the frame,
+    eevee=False skips EEVEE, cycles_device CPU, CUDA or OPTIX (refused before anything is
+    written when Cycles finds no such device)."""
     import bpy
     out = Path(out_dir)
     if (out / "render_cost.json").exists() and not overwrite:
         raise FileExistsError(f"{out / 'render_cost.json'} exists; pass --overwrite to "
                               f"replace it")
-    out.mkdir(parents=True, exist_ok=True)
-    size, samples, repeats = (QUICK["size"], QUICK["samples"], QUICK["repeats"]) if quick \
+    default_size, default_samples, repeats = (QUICK["size"], QUICK["samples"],
+                                              QUICK["repeats"]) if quick \
         else (SIZE, SAMPLES, REPEATS)
-    scene, obj, ctx = build_scene(size, samples)
+    size = _whole(default_size if size is None else size, "--size", *SIZE_RANGE)
+    samples = _whole(default_samples if samples is None else samples, "--samples",
+                     *SAMPLES_RANGE)
+    D.check(cycles_device)
+    out.mkdir(parents=True, exist_ok=True)
+    scene, obj, ctx = build_scene(size, samples)    # factory settings: the device after it
+    with D.selected(scene, cycles_device) as chosen:
+        result = _measure(scene, obj, ctx, out, size, samples, repeats, quick,
+                          eevee and not quick, chosen, log)
+    (out / "render_cost.json").write_text(json.dumps(result, indent=1))
+    (out / "render_cost.md").write_text(markdown(result))
+    _chart(result, out / "render_cost.png")
+    log(markdown(result))
+    return result
+
+
+def _measure(scene, obj, ctx, out, size, samples, repeats, quick, with_eevee, chosen, log):
+    """The interleaved Cycles rounds, EEVEE (with_eevee), the SVM counts and the look checks
+    on the chosen device: the result written as render_cost.json."""
+    import bpy
     mats = {key: M.material(f"RC {key}", build, ctx) for key, _, build, *_ in M.cases()}
     counts = {key: node_counts(m.node_tree) for key, m in mats.items()}
     frame = out / "frame.png"
@@ -133,7 +170,7 @@ def run(out_dir, quick=False, overwrite=False, log=print):
         log(f"  Cycles round {r}/{repeats} done ({time.perf_counter() - t_start:.0f} s)")
     med = {k: statistics.median(v) for k, v in times.items()}
     eevee = {}
-    if not quick:
+    if with_eevee:
         from ...reference.blender_lines import facts_for
         scene.render.engine = facts_for(bpy.app.version).eevee_engine
         scene.eevee.taa_render_samples = 4
@@ -163,23 +200,20 @@ def run(out_dir, quick=False, overwrite=False, log=print):
                 row["eevee_first_ratio"] = eevee[key]["first_s"] / eevee[twin]["first_s"]
                 row["eevee_later_ratio"] = eevee[key]["later_s"] / eevee[twin]["later_s"]
             if look:
-                row["look"] = _look(obj, mats, key, look, ctx, log)
+                row["look"] = _look(obj, mats, key, look, ctx, log, chosen.scene_device)
         rows.append(row)
     # Marginal cost of a layer: (3 layers - 2 layers) in each chain.
     marginal = {"sg_s": med["layers3-sg"] - med["layers2-sg"],
                 "builtin_s": med["layers3-builtin"] - med["layers2-builtin"]}
-    result = {"blender": bpy.app.version_string, "size": size, "samples": samples,
-              "repeats": repeats, "quick": quick, "rows": rows, "marginal_layer": marginal,
-              "eevee": eevee, "folded": folded, "seconds": time.perf_counter() - t_start}
-    (out / "render_cost.json").write_text(json.dumps(result, indent=1))
-    (out / "render_cost.md").write_text(markdown(result))
-    _chart(result, out / "render_cost.png")
-    log(markdown(result))
-    return result
+    return {"blender": bpy.app.version_string, "size": size, "samples": samples,
+            "repeats": repeats, "quick": quick, "rows": rows, "marginal_layer": marginal,
+            "eevee": eevee, "folded": folded, "seconds": time.perf_counter() - t_start,
+            "cycles_device": chosen.description}
 
 
 def markdown(result):
-    lines = [f"Render cost, Cycles CPU, {result['size']} x {result['size']}, "
+    lines = [f"Render cost, Cycles {result.get('cycles_device', 'CPU')}, "
+             f"{result['size']} x {result['size']}, "
              f"{result['samples']} samples, median of {result['repeats']} interleaved rounds "
              f"(Blender {result['blender']})", "",
              "| material | render s | ratio to twin | target | overhead ratio | EEVEE first / "
@@ -224,7 +258,8 @@ def _chart(result, path):
     ax.set_yticks(y, [r["label"] for r in rows], fontsize=8)
     ax.invert_yaxis()
     ax.set_xlabel("render time / Blender's own nodes (black: target)")
-    ax.set_title(f"Render cost, Cycles CPU {result['size']}^2, {result['samples']} samples",
+    ax.set_title(f"Render cost, Cycles {result.get('cycles_device', 'CPU')} "
+                 f"{result['size']}^2, {result['samples']} samples",
                  fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
