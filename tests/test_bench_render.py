@@ -46,6 +46,9 @@ def test_quick_render_cost_bench(tmp_path):
     assert rows["nm-sg"]["normal_map_nodes"] == 2
     assert rows["layers3-sg"]["normal_map_nodes"] == 4
     assert result["marginal_layer"].keys() == {"sg_s", "builtin_s"}
+    # The default device: the CPU, named in the JSON and the table's heading.
+    assert result["cycles_device"] == "CPU" and (result["size"], result["samples"]) == (96, 8)
+    assert (tmp_path / "render_cost.md").read_text().startswith("Render cost, Cycles CPU, 96 x 96")
     # Blender 5.0+: each Sampler group looks like its per-image group (the same taps), and
     # its image lookups moved out of the group into the one Image Texture of its zone.
     from surfgrad_addon.addon.sampler_zone import has_closures
