@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# surfgrad on Cycles' GPU devices (issue 21, item 4), in one run of a few minutes:
+#   bash tools/gpu_check.sh [OUT_DIR]                      (default out/gpu)
+# Needs an NVIDIA GPU and the main line's Python with bpy (PYTHON, default .venv/bin/python).
+# Writes OUT_DIR/:
+#   compare-<kind>/   every method baked on the GPU against the numpy reference (compare-all:
+#                     compare.md / compare.json, heat maps), for the kind in COMPARE_KIND (OPTIX)
+#   check-<kind>.json one method baked with each kind in CHECK_KINDS (CUDA): the other backend
+#                     bakes the same normals
+#   bench_render/     render cost against Blender's own nodes on the GPU (render_cost.md/.json,
+#                     chart), BENCH_SIZE^2 pixels and BENCH_SAMPLES samples (1024, 128: a GPU
+#                     renders the CPU bench's 320^2 x 64 in milliseconds, where timing is noise)
+#   gpu_check.log     the devices, each step's command, seconds and exit status
+# Each step has STEP_TIMEOUT seconds (240). Exit 0 only when every step succeeded.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+
+PY=${PYTHON:-.venv/bin/python}
+OUT_DIR=${1:-out/gpu}
+COMPARE_KIND=${COMPARE_KIND:-OPTIX}
+CHECK_KINDS=${CHECK_KINDS:-CUDA}
+BENCH_SIZE=${BENCH_SIZE:-1024}
+BENCH_SAMPLES=${BENCH_SAMPLES:-128}
+STEP_TIMEOUT=${STEP_TIMEOUT:-240}
+mkdir -p "$OUT_DIR"
+LOG=$OUT_DIR/gpu_check.log
+: > "$LOG"
+failed=0
+
+step() {        # step NAME COMMAND...: run it under the timeout, log its time and status
+  local name=$1; shift
+  local t0=$SECONDS
+  echo "== $name: $*" | tee -a "$LOG"
+  timeout "$STEP_TIMEOUT" "$@" 2>&1 | tee -a "$LOG"
+  local rc=${PIPESTATUS[0]}
+  echo "== $name: exit $rc after $((SECONDS - t0)) s" | tee -a "$LOG"
+  [ "$rc" -eq 0 ] || failed=1
+}
+
+command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,memory.total \
+  --format=csv,noheader | tee -a "$LOG"
+
+step compare-all-"$COMPARE_KIND" "$PY" -m surfgrad_addon compare-all \
+  --cycles-device "$COMPARE_KIND" --out "$OUT_DIR/compare-${COMPARE_KIND,,}" --overwrite
+step bench-render-"$COMPARE_KIND" "$PY" -m surfgrad_addon bench-render --no-eevee \
+  --cycles-device "$COMPARE_KIND" --size "$BENCH_SIZE" --samples "$BENCH_SAMPLES" \
+  --out "$OUT_DIR/bench_render" --overwrite
+
+for kind in $CHECK_KINDS; do
+  step check-"$kind" "$PY" -m surfgrad_addon compare --object Sphere --method normal-map \
+    --resolution 256 --cycles-device "$kind" --json "$OUT_DIR/check-${kind,,}.json"
+done
+echo "gpu_check: $([ $failed -eq 0 ] && echo 'every step succeeded' || echo 'a step failed'); \
+log in $LOG" | tee -a "$LOG"
+exit $failed
