@@ -11,7 +11,8 @@
 #                     chart), BENCH_SIZE^2 pixels and BENCH_SAMPLES samples (1024, 128: a GPU
 #                     renders the CPU bench's 320^2 x 64 in milliseconds, where timing is noise)
 #   gpu_check.log     the devices, each step's command, seconds and exit status
-# Each step has STEP_TIMEOUT seconds (240). Exit 0 only when every step succeeded.
+# Each step has STEP_TIMEOUT seconds (240), the first bake (kernel compilation) WARM_TIMEOUT
+# (600). Exit 0 only when every step succeeded.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 
@@ -22,6 +23,7 @@ CHECK_KINDS=${CHECK_KINDS:-CUDA}
 BENCH_SIZE=${BENCH_SIZE:-1024}
 BENCH_SAMPLES=${BENCH_SAMPLES:-128}
 STEP_TIMEOUT=${STEP_TIMEOUT:-240}
+WARM_TIMEOUT=${WARM_TIMEOUT:-600}
 mkdir -p "$OUT_DIR"
 LOG=$OUT_DIR/gpu_check.log
 : > "$LOG"
@@ -40,6 +42,11 @@ step() {        # step NAME COMMAND...: run it under the timeout, log its time a
 command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,memory.total \
   --format=csv,noheader | tee -a "$LOG"
 
+# Cycles compiles its GPU kernels on first use (OptiX's modules; CUDA's PTX where the wheel has
+# no binary for the card): minutes once, then cached on disk. One small bake pays for it here.
+STEP_TIMEOUT=$WARM_TIMEOUT step warm-up-"$COMPARE_KIND" "$PY" -m surfgrad_addon compare \
+  --object Sphere --method normal-map --resolution 64 --cycles-device "$COMPARE_KIND" \
+  --json "$OUT_DIR/warm-${COMPARE_KIND,,}.json"
 step compare-all-"$COMPARE_KIND" "$PY" -m surfgrad_addon compare-all \
   --cycles-device "$COMPARE_KIND" --out "$OUT_DIR/compare-${COMPARE_KIND,,}" --overwrite
 step bench-render-"$COMPARE_KIND" "$PY" -m surfgrad_addon bench-render --no-eevee \
