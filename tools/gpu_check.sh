@@ -10,7 +10,8 @@
 #   bench_render/     render cost against Blender's own nodes on the GPU (render_cost.md/.json,
 #                     chart), BENCH_SIZE^2 pixels and BENCH_SAMPLES samples (1024, 128: a GPU
 #                     renders the CPU bench's 320^2 x 64 in milliseconds, where timing is noise)
-#   gpu_check.log     the devices, each step's command, seconds and exit status
+#   gpu_check.log     the devices, each step's command, seconds and exit status, and the last
+#                     step's verdict: every GPU bake within the CPU's bars (p99 0.1, max 0.5 deg)
 # Each step has STEP_TIMEOUT seconds (240), the first bake (kernel compilation) WARM_TIMEOUT
 # (600). Exit 0 only when every step succeeded.
 set -uo pipefail
@@ -57,6 +58,23 @@ for kind in $CHECK_KINDS; do
   step check-"$kind" "$PY" -m surfgrad_addon compare --object Sphere --method normal-map \
     --resolution 256 --cycles-device "$kind" --json "$OUT_DIR/check-${kind,,}.json"
 done
+# Every GPU bake is held to the CPU's bars (tests/test_bake_compare.py): p99 0.1, max 0.5 deg.
+step bars "$PY" - "$OUT_DIR"/compare-*/compare.json "$OUT_DIR"/check-*.json <<'PY'
+import json, sys
+from pathlib import Path
+reports = []
+for name in sys.argv[1:]:
+    if Path(name).is_file():
+        got = json.loads(Path(name).read_text())
+        reports += got if isinstance(got, list) else [got]
+over = [f"{r['method']} ({r['variant']}) on {r['object']}: p99 {r['p99_deg']}, max "
+        f"{r['max_deg']}" for r in reports
+        if r["p99_deg"] is None or r["p99_deg"] > 0.1 or r["max_deg"] > 0.5]
+print("no bake reports to check" if not reports else f"{len(reports)} bakes; " + (
+      "every one within the bars (p99 0.1, max 0.5 degrees)" if not over else
+      f"{len(over)} over the bars: " + "; ".join(over)))
+sys.exit(1 if over or not reports else 0)
+PY
 echo "gpu_check: $([ $failed -eq 0 ] && echo 'every step succeeded' || echo 'a step failed'); \
 log in $LOG" | tee -a "$LOG"
 exit $failed
