@@ -37,6 +37,7 @@ from .image_checks import image_problems
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
 SAMPLES_RANGE = (1, 65536)
+THREADS_RANGE = (1, 1024)
 MARGIN_RANGE = (0, 1024)
 DEPTHS = ("auto", "8", "16", "half", "float")
 
@@ -51,7 +52,8 @@ class BakeRequestError(NB.NormalBakeError):
         super().__init__(text)
 
 
-def _whole(name, value, lo, hi, unit=""):
+def whole_number_problem(name, value, lo, hi, unit=""):
+    """None for a whole number in [lo, hi], else the message naming the setting and the fix."""
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
         return f"{name} {value!r}: use a whole number{unit} from {lo} to {hi}"
     return None
@@ -80,8 +82,8 @@ SETTING_CHECKS = {
     "uv_map": _uv_map,
     "space": _space,
     "resolution": lambda v: NB.resolution_problem(v, *NB.RESOLUTION_RANGE),
-    "samples": lambda v: _whole("samples", v, *SAMPLES_RANGE),
-    "margin": lambda v: _whole("margin", v, *MARGIN_RANGE, " of texels"),
+    "samples": lambda v: whole_number_problem("samples", v, *SAMPLES_RANGE),
+    "margin": lambda v: whole_number_problem("margin", v, *MARGIN_RANGE, " of texels"),
     "depth": _depth,
     "allow_partial": _flag("allow_partial"),
 }
@@ -153,8 +155,10 @@ class BakeRequest:
         out = settings_problems(self.settings())
         if self.empty_tiles not in ("error", "skip"):
             out.append(f"empty tiles {self.empty_tiles!r}: use 'error' or 'skip'")
-        if self.threads is not None and _whole("threads", self.threads, 1, 1024):
-            out.append(_whole("threads", self.threads, 1, 1024))
+        problem = self.threads is not None and whole_number_problem("threads", self.threads,
+                                                                    *THREADS_RANGE)
+        if problem:
+            out.append(problem)
         try:
             self.tiles = T.parse_tiles(self.tiles)
         except ValueError as err:

@@ -181,8 +181,10 @@ def checked_options(output, workers, worker_timeout, threads, empty_tiles, tiles
                                        not isinstance(worker_timeout, (int, float)) or
                                        not worker_timeout > 0):
         raise BatchError(f"worker timeout {worker_timeout!r}: give seconds, more than 0")
-    if threads is not None and BR._whole("threads", threads, 1, 1024):
-        raise BatchError(BR._whole("threads", threads, 1, 1024))   # before any file opens
+    problem = threads is not None and BR.whole_number_problem("threads", threads,
+                                                              *BR.THREADS_RANGE)
+    if problem:
+        raise BatchError(problem)                           # before any file opens
     if empty_tiles not in ("error", "skip"):
         raise BatchError("empty tiles: use 'error' or 'skip'")
     tiles = _tile_list(tiles)

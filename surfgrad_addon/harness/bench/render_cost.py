@@ -27,13 +27,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ...addon.bake_request import SAMPLES_RANGE, whole_number_problem
 from .. import cycles_device as D
 from ..graph import Graph
 from . import folded_cost
 from . import render_materials as M
 
 SIZE, SAMPLES, REPEATS = 320, 64, 3
-SIZE_RANGE, SAMPLES_RANGE = (16, 8192), (1, 65536)
+SIZE_RANGE = (16, 8192)
 QUICK = {"size": 96, "samples": 8, "repeats": 2, "eevee": False}
 TARGETS = {"normal-map": 1.05, "height-forward": 1.05, "triplanar": 1.15, "second-uv": 1.10,
            "eevee": 1.3}
@@ -117,8 +118,9 @@ def _look(obj, mats, key, look, ctx, log, device="CPU"):
 
 def _whole(value, name, lo, hi):
     """value if a whole number in [lo, hi], else a ValueError naming the option and the fix."""
-    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise ValueError(f"{name} {value!r}: use a whole number from {lo} to {hi}")
+    problem = whole_number_problem(name, value, lo, hi)
+    if problem:
+        raise ValueError(problem)
     return value
 
 
