@@ -251,15 +251,18 @@ def _chart(result, path):
     rows = [r for r in result["rows"] if "ratio" in r]
     fig, ax = plt.subplots(figsize=(9, 4.2))
     y = np.arange(len(rows))
-    ax.barh(y, [r["ratio"] for r in rows], color=["#4c8" if r["ratio"] <= r.get("target", 9)
-                                                  else "#d64" for r in rows])
+    # Green: its target met, orange: missed, grey: no target (a comparison shown for scale).
+    ax.barh(y, [r["ratio"] for r in rows],
+            color=["0.7" if "target" not in r else "#4c8" if r["ratio"] <= r["target"]
+                   else "#d64" for r in rows])
     for i, r in enumerate(rows):
         if "target" in r:
             ax.plot([r["target"]] * 2, [i - 0.4, i + 0.4], color="k", lw=2)
     ax.axvline(1.0, color="0.5", lw=1, ls="--")
     ax.set_yticks(y, [r["label"] for r in rows], fontsize=8)
     ax.invert_yaxis()
-    ax.set_xlabel("render time / Blender's own nodes (black: target)")
+    ax.set_xlabel("render time / Blender's own nodes\n(black: target; green: met, orange: "
+                  "missed, grey: no target)")
     ax.set_title(f"Render cost, Cycles {result.get('cycles_device', 'CPU')} "
                  f"{result['size']}^2, {result['samples']} samples",
                  fontsize=10)
