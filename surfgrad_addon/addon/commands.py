@@ -92,7 +92,8 @@ def run_bake_batch(args, log=print):
     from . import batch, interrupts
     if getattr(args, "in_blender", False) and not args.blends and not args.asset_list:
         args.open_file = True
-    with interrupts.stoppable("the batch"):
+    # A stop keeps the maps already baked: the manifest records them (run.py).
+    with interrupts.stoppable("the batch", keep_placed=True):
         return _bake_batch(batch, args, log)
 
 

@@ -12,6 +12,12 @@ unfinished assets in the manifest) and ends the process with os._exit(128 + sign
 releases the GIL while it bakes, so the watcher runs at once; a call that holds the GIL
 (loading a .blend, saving an image) delays it until that call returns.
 
+Files a command puts in place are written inside `committing()` and recorded with `placed()`:
+the watcher waits for a block under way to end before it runs the clean-ups (so they see every
+file of it, never half), a block asked for after a stop began never starts, and the stop then
+removes the placed files (exit non-zero: no file). A batch keeps what it placed (keep_placed):
+its manifest records those assets as baked.
+
 Only command-line entry points install this (stoppable); the Python API and the operators
 leave the session's own signal handling alone.
 """
@@ -26,8 +32,12 @@ from pathlib import Path
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _WAKE_END = 0                               # byte that ends the watcher (no signal is 0)
-_state = {"active": False, "what": "the command", "cleanups": []}
+_state = {"active": False, "what": "the command", "cleanups": [], "placed": [],
+          "keep_placed": False}
 _stopping = threading.Lock()
+_committing = threading.RLock()
+_stop_begun = threading.Event()
+COMMIT_WAIT_S = 30.0                        # a stop waits at most this long for a commit
 
 
 def exit_code(signum):
@@ -45,10 +55,10 @@ def say(text):
 
 
 @contextmanager
-def stoppable(what="the command"):
+def stoppable(what="the command", keep_placed=False):
     """Within this block SIGINT and SIGTERM stop the process cleanly (see the module's
     docstring). Only in the main thread (elsewhere signals cannot be handled: a no-op); a
-    nested block keeps the outer one."""
+    nested block keeps the outer one. keep_placed: a stop leaves the files placed()."""
     if _state["active"] or threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -66,7 +76,7 @@ def stoppable(what="the command"):
         return
     for s in SIGNALS:
         signal.signal(s, _note)
-    _state.update(active=True, what=what)
+    _state.update(active=True, what=what, placed=[], keep_placed=keep_placed)
     watcher = threading.Thread(target=_watch, args=(read_fd,), daemon=True,
                                name="surfgrad-interrupts")
     watcher.start()
@@ -76,7 +86,7 @@ def stoppable(what="the command"):
         for s, handler in previous.items():
             signal.signal(s, handler if handler is not None else signal.SIG_DFL)
         signal.set_wakeup_fd(old_fd)
-        _state["active"] = False
+        _state.update(active=False, placed=[])
         try:
             os.write(write_fd, bytes([_WAKE_END]))
         except OSError:
@@ -111,6 +121,11 @@ def stop(signum):
     if not _stopping.acquire(blocking=False):     # a second Ctrl-C while stopping
         return
     name = signal.Signals(signum).name
+    # Held until os._exit: a commit under way ends first, and none starts after.
+    _stop_begun.set()
+    _committing.acquire(timeout=COMMIT_WAIT_S)
+    if not _state["keep_placed"]:
+        remove_placed()
     for cleanup in reversed(list(_state["cleanups"])):
         try:
             cleanup(name)
@@ -149,6 +164,33 @@ def remove_blender_tempdir():
         return None
     shutil.rmtree(folder, ignore_errors=True)
     return folder
+
+
+@contextmanager
+def committing():
+    """Put finished files in place within this block: a stop waits for it to end (at most
+    COMMIT_WAIT_S) before its clean-ups run, and once a stop began the block never starts."""
+    with _committing:
+        if _stop_begun.is_set():               # the lock is not fair: this thread may win it
+            _committing.release()              # back from the waiting stop; hand it over
+            threading.Event().wait()           # and wait for the stop's os._exit
+        yield
+
+
+def placed(path):
+    """Record a file (or a folder) this command made: a stop before the command ends
+    removes it, last made first, a folder only when empty (unless the stoppable block keeps
+    them). Outside a stoppable block: nothing."""
+    if _state["active"]:
+        _state["placed"].append(Path(path))
+
+
+def remove_placed():
+    for path in reversed(_state["placed"]):
+        try:
+            path.rmdir() if path.is_dir() else path.unlink()
+        except OSError:
+            pass
 
 
 @contextmanager

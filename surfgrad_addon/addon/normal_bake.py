@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 from ..reference import tiles as T
+from . import interrupts
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, visible_for_bake
 from .exit_codes import BakeFailed
@@ -271,9 +272,11 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
             raise BakeFailed(f"Blender wrote no file {missing[0]}")
         if depth == "half":
             _to_half_exr(bpy, scene, temps.values())
-        for t in tiles:
-            _publish(temps[t], finals[t], overwrite)
-            result["paths"][t] = finals[t]
+        with interrupts.committing():             # a stop sees every tile or none
+            for t in tiles:
+                _publish(temps[t], finals[t], overwrite)
+                interrupts.placed(finals[t])
+                result["paths"][t] = finals[t]
         result["save_s"] = time.perf_counter() - t0
         log(f"[3/3] wrote {', '.join(str(p) for p in finals.values())}")
         return result

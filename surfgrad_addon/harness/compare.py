@@ -412,6 +412,21 @@ def check_output_path(path, overwrite, what="output"):
                            f"writable; choose another folder")
 
 
+def _write_report(json_out, report, heat_path, heat, overwrite):
+    """The JSON and its heat map, both or neither: a stop (Ctrl-C) waits for the pair and
+    then removes it, and the folders made for it (interrupts.committing, placed)."""
+    from ..addon import interrupts
+    with interrupts.committing():
+        for d in reversed([d for d in (json_out.parent, *json_out.parent.parents)
+                           if not d.exists()]):
+            d.mkdir()
+            interrupts.placed(d)
+        for path in (json_out, heat_path):
+            interrupts.placed(path)
+        json_out.write_text(json.dumps(report, indent=2))
+        write_heat_map(heat_path, heat, overwrite)
+
+
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
         variant=None, overwrite=False, log=print, from_open_file=False, tiles=None,
         cycles_device="CPU"):
@@ -440,9 +455,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
         report, heat = compare(obj, method, resolution, variant, uv_map, image,  # the public one
                                with_heat_map=True, tiles=tiles, device=chosen.scene_device)
     report["cycles_device"] = chosen.description
-    json_out.parent.mkdir(parents=True, exist_ok=True)
-    json_out.write_text(json.dumps(report, indent=2))
-    write_heat_map(heat_path, heat, overwrite)
+    _write_report(json_out, report, heat_path, heat, overwrite)
     log(f"{method} on {obj.name} at {resolution}^2: {report['texels_compared']} texels, "
         f"mean {report['mean_deg']:.4f} p99 {report['p99_deg']:.4f} max "
         f"{report['max_deg']:.4f} deg ({report['texels_contested']} contested); excluded "

@@ -58,6 +58,7 @@ def _label(method, variant):
 def run_shard(out, resolution, shard, shards, log=print, methods=None, cycles_device="CPU"):
     """Cases shard, shard + shards, ... of the serial order: {index: report}."""
     import bpy
+    from ..addon import interrupts
     from . import scenes
     objects = scenes.new_scene()        # factory settings: the device is chosen after it
     jobs = [(m, v, name) for m, v in compare_cases(methods) for name in objects]
@@ -70,7 +71,9 @@ def run_shard(out, resolution, shard, shards, log=print, methods=None, cycles_de
             report["cycles_device"] = chosen.description
             reports[index] = report
             label = _label(method, variant)
-            write_heat_map(Path(out) / "heat" / f"{label}_{name}.png", heat, overwrite=True)
+            with interrupts.committing():     # a stop's clean-up sees this map, whole
+                write_heat_map(Path(out) / "heat" / f"{label}_{name}.png", heat,
+                               overwrite=True)
             log(f"[{index + 1}/{len(jobs)}] {label:22s} {name:12s} p99 "
                 f"{report['p99_deg']:.4f} max {report['max_deg']:.4f} deg, bake "
                 f"{report['bake_seconds']:.3f} s, reference {report['reference_seconds']:.3f} s")
@@ -127,6 +130,7 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
             f.unlink(missing_ok=True)
         for k in range(1, len(children) + 1):
             (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
+            (out / SHARD_FILE.format(k)).with_suffix(".tmp").unlink(missing_ok=True)
         for d in reversed(created):
             try:
                 d.rmdir()
@@ -142,8 +146,10 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
             if workers > 1 and not _bpy_module():
                 log("compare-all: inside a Blender binary one process runs every case")
                 workers = 1
-            children += [_start_worker(out, resolution, k, workers, methods, temp,
-                                       cycles_device) for k in range(1, workers)]
+            for k in range(1, workers):
+                with interrupts.committing():     # a stop's clean-up sees every child
+                    children.append(_start_worker(out, resolution, k, workers, methods,
+                                                  temp, cycles_device))
             reports = _collect(out, resolution, workers, methods, children, log,
                                cycles_device)
         finally:
@@ -154,8 +160,11 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
                 child.errors.close()
                 (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
             shutil.rmtree(temp, ignore_errors=True)
-        table_json.write_text(json.dumps(reports, indent=2))
-        table_md.write_text(table_markdown(reports, resolution, cycles_device, devices))
+        with interrupts.committing():             # both tables or, on a stop, neither
+            for p in (table_json, table_md):
+                interrupts.placed(p)
+            table_json.write_text(json.dumps(reports, indent=2))
+            table_md.write_text(table_markdown(reports, resolution, cycles_device, devices))
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
     return reports
 

@@ -46,7 +46,8 @@ def serve(run_request, stoppable):
     reply({"op": "ready"})
     # SIGTERM / SIGINT sent to this worker: its temporary files go, exit 143 / 130 (the batch
     # then fails that asset without a retry); the batch itself stops workers with SIGKILL.
-    with stoppable("the worker"):
+    # The maps of earlier requests stay: the batch has recorded them as baked.
+    with stoppable("the worker", keep_placed=True):
         for line in sys.stdin:
             line = line.strip()
             if not line:
