@@ -3,10 +3,12 @@
 CI once found compare-all's output folder left behind after Ctrl-C: the watcher thread ran
 the clean-up (remove this run's heat maps, then the folders) while the main thread went on
 and wrote one more heat map, so the folder was not empty. Now a stop waits for a commit under
-way, lets none start after it, and removes what the command placed. These tests make the
-race certain: the clean-up is slow and the main thread keeps committing meanwhile."""
+way, parks the main thread (it runs no more Python), and removes what the command placed.
+These tests make the race certain: the clean-up is slow and the main thread would go on
+writing meanwhile."""
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -91,3 +93,39 @@ def test_placed_records_nothing_outside_a_stoppable_block(tmp_path):
     with interrupts.committing():
         interrupts.placed(tmp_path / "x")
     assert interrupts._state["placed"] == before == []
+
+
+# The child: a main thread writing a file every millisecond outside any commit (as the demo's
+# stages do), and a slow clean-up that counts the files at its start and at its end.
+WRITER = r"""
+import os, sys, time
+from pathlib import Path
+from surfgrad_addon.addon import interrupts
+out = Path(sys.argv[1])
+
+def cleanup(name):
+    first = len(list(out.iterdir()))
+    time.sleep(1.0)
+    os.write(2, f"clean-up saw {first} then {len(list(out.iterdir()))}\n".encode())
+
+with interrupts.stoppable("the test"), interrupts.on_stop(cleanup):
+    print("ready", flush=True)
+    for i in range(100000):
+        (out / f"f{i}").write_text("x")
+        time.sleep(0.001)
+"""
+
+
+def test_a_stop_parks_the_main_thread_before_the_clean_ups(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    child = subprocess.Popen([sys.executable, "-c", WRITER, str(out)], cwd=ROOT,
+                             env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert child.stdout.readline().strip() == "ready"
+    time.sleep(0.3)                                     # some files written
+    child.send_signal(signal.SIGTERM)
+    _stdout, stderr = child.communicate(timeout=60)
+    assert child.returncode == 143, stderr
+    first, last = map(int, re.search(r"clean-up saw (\d+) then (\d+)", stderr).groups())
+    assert first > 10 and last == first, stderr         # nothing written during the clean-up

@@ -5,18 +5,21 @@ output, no temporary file and no process behind, and print one line, no tracebac
 Why not KeyboardInterrupt: a bake is one blocking call into Cycles, and Python runs a signal
 handler only between bytecodes; the KeyboardInterrupt then surfaces inside Cycles' own Python
 bake callback, where Blender logs it and goes on to finish the bake (the file is written,
-exit 0). So the handler here does nothing itself: Python's C-level handler also writes the
+exit 0). So the handler here raises nothing: Python's C-level handler also writes the
 signal number to a wake-up pipe (signal.set_wakeup_fd), a watcher thread reading that pipe
 runs the registered clean-ups (kill worker process groups, remove temporary files, record
 unfinished assets in the manifest) and ends the process with os._exit(128 + signal). Cycles
 releases the GIL while it bakes, so the watcher runs at once; a call that holds the GIL
 (loading a .blend, saving an image) delays it until that call returns.
 
-Files a command puts in place are written inside `committing()` and recorded with `placed()`:
-the watcher waits for a block under way to end before it runs the clean-ups (so they see every
-file of it, never half), a block asked for after a stop began never starts, and the stop then
-removes the placed files (exit non-zero: no file). A batch keeps what it placed (keep_placed):
-its manifest records those assets as baked.
+The clean-ups must not race the command: the Python-level handler parks the main thread for
+good at its next Python step (the watcher waits for that, at most PARK_WAIT_S, and not at all
+while the main thread is inside a bake: `native_call()`), so nothing the command would write
+next can appear behind them. Files a command puts in place are written inside `committing()`
+and recorded with `placed()`: a block under way ends before the main thread parks (the
+clean-ups see all of it, never half), and the stop then removes the placed files (exit
+non-zero: no file). A batch keeps what it placed (keep_placed): its manifest records those
+assets as baked.
 
 Only command-line entry points install this (stoppable); the Python API and the operators
 leave the session's own signal handling alone.
@@ -37,7 +40,10 @@ _state = {"active": False, "what": "the command", "cleanups": [], "placed": [],
 _stopping = threading.Lock()
 _committing = threading.RLock()
 _stop_begun = threading.Event()
+_main_parked = threading.Event()
+_main = {"commits": 0, "park_pending": False, "native": 0}      # the main thread's state
 COMMIT_WAIT_S = 30.0                        # a stop waits at most this long for a commit
+PARK_WAIT_S = 2.0                           # and this long for the main thread to park
 
 
 def exit_code(signum):
@@ -97,8 +103,34 @@ def stoppable(what="the command", keep_placed=False):
 
 
 def _note(signum, frame):
-    """The Python-level handler: nothing to do, the watcher stops the process (raising here
-    would land inside Blender's callbacks, see the module's docstring)."""
+    """The Python-level handler, run by the main thread at its next Python step: park it
+    for good (the watcher ends the process; raising here would land inside Blender's
+    callbacks), or at the end of the commit it is in."""
+    if _main["commits"]:
+        _main["park_pending"] = True
+    else:
+        _park()
+
+
+def _park():
+    _main_parked.set()
+    while True:                 # a second signal runs _note in here, and parks again
+        threading.Event().wait()
+
+
+def _is_main():
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextmanager
+def native_call():
+    """Around a long call into Blender that writes none of our files (a bake): a stop does
+    not wait for the main thread to park (it parks when the call returns to Python)."""
+    _main["native"] += _is_main()
+    try:
+        yield
+    finally:
+        _main["native"] -= _is_main()
 
 
 def _watch(read_fd):
@@ -121,9 +153,12 @@ def stop(signum):
     if not _stopping.acquire(blocking=False):     # a second Ctrl-C while stopping
         return
     name = signal.Signals(signum).name
-    # Held until os._exit: a commit under way ends first, and none starts after.
+    # Held until os._exit: a commit under way ends first, and none starts after; then the
+    # main thread is parked (or inside a bake), so the clean-ups race nothing.
     _stop_begun.set()
     _committing.acquire(timeout=COMMIT_WAIT_S)
+    if not _main["native"]:
+        _main_parked.wait(PARK_WAIT_S)
     if not _state["keep_placed"]:
         remove_placed()
     for cleanup in reversed(list(_state["cleanups"])):
@@ -170,11 +205,18 @@ def remove_blender_tempdir():
 def committing():
     """Put finished files in place within this block: a stop waits for it to end (at most
     COMMIT_WAIT_S) before its clean-ups run, and once a stop began the block never starts."""
+    main = _is_main()
     with _committing:
         if _stop_begun.is_set():               # the lock is not fair: this thread may win it
             _committing.release()              # back from the waiting stop; hand it over
-            threading.Event().wait()           # and wait for the stop's os._exit
-        yield
+            _park() if main else threading.Event().wait()
+        _main["commits"] += main
+        try:
+            yield
+        finally:
+            _main["commits"] -= main
+    if main and not _main["commits"] and (_main["park_pending"] or _stop_begun.is_set()):
+        _park()                                # a signal came during the commit
 
 
 def placed(path):

@@ -247,7 +247,8 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
                 bpy.context.view_layer.objects.active = obj
                 log("[2/3] baking with Cycles (CPU) ...")
                 t0 = time.perf_counter()
-                with quiet_bake() as say, heartbeat(say, "      still baking"):
+                with quiet_bake() as say, heartbeat(say, "      still baking"), \
+                        interrupts.native_call():
                     outcome = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
                                                   uv_layer=uv_map, margin=margin,
                                                   use_clear=True)

@@ -18,6 +18,7 @@ from ..addon.bake_console import quiet_bake
 from ..addon.scene_state import SCENE_SETTINGS, restored
 from ..addon.bake_target import bake_target_problem, visible_for_bake
 from ..addon.exit_codes import BakeFailed
+from ..addon.interrupts import native_call
 from ..addon.far_precision import needs_precise_far, set_precise_far
 from .graph import Graph
 
@@ -304,7 +305,7 @@ def _bake_into(obj, build, image, uv_map, displacement, log, device="CPU"):
             kwargs = {"type": "EMIT", "margin": 0, "use_clear": False}
             if uv_map is not None:
                 kwargs["uv_layer"] = uv_map
-            with quiet_bake():
+            with quiet_bake(), native_call():       # a stop need not wait for it
                 result = bpy.ops.object.bake(**kwargs)
             seconds = time.perf_counter() - t0
             if result != {"FINISHED"}:
