@@ -6,6 +6,7 @@ builds both command lines from their tables.
 """
 
 import sys
+from pathlib import Path
 
 from ..addon import command_line as CL
 from ..addon.commands import SHIPPED
@@ -78,10 +79,12 @@ def demo_arguments(p):
 
 def demo_run(args):
     """The main job in stages, each announced with its number and time, ending with the
-    report page (out/demo/index.html) that shows what the run proved."""
+    report page (out/demo/index.html) that shows what the run proved. Written whole or not
+    at all: into a hidden sibling folder, moved into --out at the end (staged_folder.py)."""
     import time
     from . import main_job
     from .report_page import write_report_page
+    from .staged_folder import shown, staged
     start = time.perf_counter()
     stages = ["reference maps and summary"]
     if not args.no_bake:
@@ -94,24 +97,27 @@ def demo_run(args):
         print(f"surfgrad: [{next(done)}/{len(stages)}] {name} "
               f"({time.perf_counter() - start:.0f} s so far)", flush=True)
 
-    stage(stages[0])
-    main_job.run(args.out, args.resolution, args.overwrite)
-    if not args.no_bake:
-        from . import compare_all, demo, demo_pictures
-        from .bench import run as bench_run
-        stage(stages[1])
-        compare_all.run_all(f"{args.out}/compare", args.compare_resolution, args.overwrite)
-        stage(stages[2])
-        bench_run.run(f"{args.out}/bench", quick=True, overwrite=args.overwrite)
-        stage(stages[3])
-        cams = demo.save_demo(f"{args.out}/demo.blend", overwrite=args.overwrite)
-        if args.pictures:
-            stage(stages[4])
-            demo_pictures.render_pictures(cams, f"{args.out}/pictures")
-    stage(stages[-1])
-    page = write_report_page(args.out, job_seconds=time.perf_counter() - start,
-                             overwrite=args.overwrite)
-    print(f"surfgrad: done in {time.perf_counter() - start:.0f} s; open {page}", flush=True)
+    with staged(args.out, args.overwrite) as work:
+        log = shown(lambda text: print(text, flush=True), work, args.out)
+        stage(stages[0])
+        main_job.run(work, args.resolution, log=log)
+        if not args.no_bake:
+            from . import compare_all, demo, demo_pictures
+            from .bench import run as bench_run
+            stage(stages[1])
+            compare_all.run_all(work / "compare", args.compare_resolution, log=log)
+            stage(stages[2])
+            bench_run.run(work / "bench", quick=True, log=log)
+            stage(stages[3])
+            cams = demo.save_demo(work / "demo.blend", log=log)
+            if args.pictures:
+                stage(stages[4])
+                demo_pictures.render_pictures(cams, work / "pictures", log=log)
+        stage(stages[-1])
+        write_report_page(work, job_seconds=time.perf_counter() - start, log=log,
+                          shown_as=args.out)
+    print(f"surfgrad: done in {time.perf_counter() - start:.0f} s; open "
+          f"{Path(args.out) / 'index.html'}", flush=True)
 
 
 # bench-reference ----------------------------------------------------------------------------

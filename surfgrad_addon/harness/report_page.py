@@ -55,12 +55,14 @@ def _machine():
             f"{platform.python_version()}{blender}")
 
 
-def write_report_page(out_dir, repo_root=None, job_seconds=None, overwrite=False, log=print):
+def write_report_page(out_dir, repo_root=None, job_seconds=None, overwrite=False, log=print,
+                      shown_as=None):
     """Write out_dir/index.html from what out_dir holds (compare/compare.json and its heat
     maps, bench/bench.json and its chart, pictures/ if this run rendered any) and the
     committed figures under repo_root/docs (default: this checkout's); returns the page's path.
     job_seconds: the main job's time, shown in the header when given. Refuses to replace an
-    existing page unless overwrite."""
+    existing page unless overwrite. shown_as: the folder named in the page's commands (where
+    out_dir will be moved; default out_dir)."""
     from .bench.far import BAR
     out = Path(out_dir)
     repo_root = Path(repo_root) if repo_root is not None else ROOT
@@ -68,7 +70,7 @@ def write_report_page(out_dir, repo_root=None, job_seconds=None, overwrite=False
     if page.exists() and not overwrite:
         raise FileExistsError(f"{page} exists; pass --overwrite to replace it")
     out.mkdir(parents=True, exist_ok=True)
-    commands = _commands(out_dir)
+    commands = _commands(out_dir if shown_as is None else shown_as)
     docs = repo_root / "docs"
     paths = {"compare_json": out / "compare" / "compare.json",
              "compare_md": out / "compare" / "compare.md",

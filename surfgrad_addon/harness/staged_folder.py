@@ -1,0 +1,83 @@
+"""An output folder written whole or not at all (the main job's out/demo).
+
+The command writes into a hidden sibling, `.NAME.partial-PID`, and moves what it wrote into
+the folder only at the end. A failure or a stop (Ctrl-C, SIGTERM) removes the sibling, so
+the folder keeps exactly what it held before: a stopped rerun with --overwrite leaves the last
+complete run in place, not a mix of two runs under the old report page.
+"""
+
+import os
+import shutil
+from contextlib import contextmanager
+from pathlib import Path
+
+from ..addon import interrupts
+
+
+def problem(final, overwrite):
+    """Why `final` cannot take this run's files (None when it can): checked before any work."""
+    final = Path(final)
+    if final.exists() and not final.is_dir():
+        return f"{final} is a file; the outputs need a folder there: choose another --out"
+    if final.is_dir() and any(final.iterdir()) and not overwrite:
+        return (f"{final} exists; pass --overwrite to replace what this run writes in it, or "
+                f"choose another --out")
+    return None
+
+
+@contextmanager
+def staged(final, overwrite):
+    """Yield the folder to write into; at the block's end its entries replace those of the
+    same name in `final` (made if missing). Raises FileExistsError before anything is made
+    when `final` is a file, or holds files and not overwrite."""
+    final = Path(final)
+    why = problem(final, overwrite)
+    if why:
+        raise FileExistsError(why)
+    made = [d for d in (final.parent, *final.parent.parents) if not d.exists()]
+    final.parent.mkdir(parents=True, exist_ok=True)
+    work = final.parent / f".{final.name}.partial-{os.getpid()}"
+    shutil.rmtree(work, ignore_errors=True)        # left by a killed process with this pid
+    work.mkdir()
+
+    def forget(_signal_name=None):
+        shutil.rmtree(work, ignore_errors=True)
+        for d in made:                             # innermost first; only empty ones go
+            try:
+                d.rmdir()
+            except OSError:
+                break
+
+    with interrupts.on_stop(forget):
+        try:
+            yield work
+            with interrupts.committing():          # a stop waits for the move, whole
+                _publish(work, final)
+        except BaseException:
+            forget()
+            raise
+
+
+def _publish(work, final):
+    if not final.exists():
+        os.rename(work, final)
+        return
+    for entry in sorted(work.iterdir()):
+        dest = final / entry.name
+        if dest.exists() or dest.is_symlink():
+            old = final / f".{entry.name}.old-{os.getpid()}"
+            os.rename(dest, old)                   # never a moment with neither
+            os.rename(entry, dest)
+            if old.is_dir() and not old.is_symlink():
+                shutil.rmtree(old)
+            else:
+                old.unlink()
+        else:
+            os.rename(entry, dest)
+    work.rmdir()
+
+
+def shown(log, work, final):
+    """`log` with the working folder's name replaced by the final one, so the messages name
+    where the files will be."""
+    return lambda text: log(str(text).replace(str(work), str(final)))
