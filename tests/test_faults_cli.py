@@ -169,3 +169,18 @@ def test_a_bake_blender_cancels_names_the_empty_slot_and_exits_1(tmp_path, capsy
     assert "give every slot a material" in err and "Traceback" not in err
     assert _files(out) == []
     assert _sha(blend) == before
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--only", "heigth"], "no bench scenario 'heigth'; --only takes some of height, noise"),
+    (["--resolution", "0"], "--resolution must be at least 1, not 0"),
+    (["--repeats", "-1"], "--repeats must be at least 1, not -1")])
+def test_bench_refuses_a_bad_request_before_any_work(tmp_path, capsys, extra, message):
+    """A misspelt --only used to run the displacement and stability suites and then end in
+    matplotlib's 'Number of rows must be a positive integer, not 0'; --resolution 0 ran at
+    the default size."""
+    out = tmp_path / "b" / "bench"
+    assert main(["bench", "--quick", "--out", str(out), *extra]) == 2
+    err = capsys.readouterr().err
+    assert f"surfgrad: error: {message}" in err and "Traceback" not in err
+    assert _files(tmp_path) == []                       # nothing made, parents included

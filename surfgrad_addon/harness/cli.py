@@ -84,7 +84,6 @@ def demo_run(args):
     import time
     from . import main_job
     from .report_page import write_report_page
-    from .staged_folder import shown, staged
     start = time.perf_counter()
     stages = ["reference maps and summary"]
     if not args.no_bake:
@@ -97,8 +96,7 @@ def demo_run(args):
         print(f"surfgrad: [{next(done)}/{len(stages)}] {name} "
               f"({time.perf_counter() - start:.0f} s so far)", flush=True)
 
-    with staged(args.out, args.overwrite) as work:
-        log = shown(lambda text: print(text, flush=True), work, args.out)
+    def stages_in(work, log):
         stage(stages[0])
         main_job.run(work, args.resolution, log=log)
         if not args.no_bake:
@@ -116,6 +114,8 @@ def demo_run(args):
         stage(stages[-1])
         write_report_page(work, job_seconds=time.perf_counter() - start, log=log,
                           shown_as=args.out)
+
+    _whole(args, stages_in)
     print(f"surfgrad: done in {time.perf_counter() - start:.0f} s; open "
           f"{Path(args.out) / 'index.html'}", flush=True)
 
@@ -242,9 +242,18 @@ def bench_arguments(p):
     _overwrite(p)
 
 
+def _whole(args, run):
+    """run(folder, log) with --out written whole or not at all (staged_folder.py): a failed
+    or stopped run leaves --out as it was."""
+    from .staged_folder import shown, staged
+    with staged(args.out, args.overwrite) as work:
+        run(work, shown(lambda text: print(text, flush=True), work, args.out))
+
+
 def bench_run(args):
     from .bench import run
-    run.run(args.out, args.quick, args.resolution, args.repeats, args.only, args.overwrite)
+    _whole(args, lambda work, log: run.run(work, args.quick, args.resolution, args.repeats,
+                                           args.only, log=log))
 
 
 def bench_render_arguments(p):
@@ -261,9 +270,9 @@ def bench_render_arguments(p):
 
 def bench_render_run(args):
     from .bench import render_cost
-    render_cost.run(args.out, args.quick, args.overwrite, size=args.size,
-                    samples=args.samples, eevee=not args.no_eevee,
-                    cycles_device=args.cycles_device)
+    _whole(args, lambda work, log: render_cost.run(
+        work, args.quick, log=log, size=args.size, samples=args.samples,
+        eevee=not args.no_eevee, cycles_device=args.cycles_device))
 
 
 def bench_far_arguments(p):

@@ -12,13 +12,21 @@ QUICK = {"resolution": 64, "repeats": 2}
 def run(out_dir, quick=False, resolution=None, repeats=None, only=None, overwrite=False,
         log=print):
     out = Path(out_dir)
+    names = [sc.name for sc in S.SCENARIOS]
+    unknown = [n for n in only or () if n not in names]
+    if unknown:                     # before any work: a typo used to end in matplotlib's error
+        raise ValueError(f"no bench scenario {unknown[0]!r}; --only takes some of "
+                         f"{', '.join(names)}")
+    for option, value in (("--resolution", resolution), ("--repeats", repeats)):
+        if value is not None and value < 1:
+            raise ValueError(f"{option} must be at least 1, not {value}")
     if (out / "bench.json").exists() and not overwrite:
         raise FileExistsError(f"{out / 'bench.json'} exists; pass --overwrite to replace it")
     out.mkdir(parents=True, exist_ok=True)
     settings = dict(QUICK if quick else DEFAULTS)
-    if resolution:
+    if resolution is not None:
         settings["resolution"] = resolution
-    if repeats:
+    if repeats is not None:
         settings["repeats"] = repeats
     settings["quick"] = quick
     chosen = [sc for sc in S.SCENARIOS if not only or sc.name in only]
