@@ -184,3 +184,15 @@ def test_bench_refuses_a_bad_request_before_any_work(tmp_path, capsys, extra, me
     err = capsys.readouterr().err
     assert f"surfgrad: error: {message}" in err and "Traceback" not in err
     assert _files(tmp_path) == []                       # nothing made, parents included
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--resolution", "0"], "--resolution: resolution 0: use a whole number of texels from 8"),
+    (["--compare-resolution", "-3"], "--compare-resolution: resolution -3: use a whole")])
+def test_the_main_job_refuses_a_bad_size_before_its_first_stage(tmp_path, capsys, extra,
+                                                                message):
+    """--compare-resolution 0 used to be refused only at stage 2, after the reference stage."""
+    assert main(["demo", "--out", str(tmp_path / "demo"), *extra]) == 2
+    captured = capsys.readouterr()
+    assert f"surfgrad: error: {message}" in captured.err and "[1/" not in captured.out
+    assert _files(tmp_path) == []

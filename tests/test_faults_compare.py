@@ -473,3 +473,28 @@ def test_huge_object_world_projection_is_named_a_float32_limit(empty_file):
     report, _, _ = _compare(near, "triplanar")
     assert not report["warnings"], report["warnings"]
     assert report["p99_deg"] <= P99 and report["max_deg"] <= MAX, report
+
+
+def test_compare_all_that_fails_takes_back_its_heat_maps_and_folders(tmp_path, monkeypatch):
+    """A failing case used to leave the heat maps of the cases before it (and the folders):
+    exit non-zero, nothing written. A bad resolution is refused before any folder is made."""
+    from surfgrad_addon.harness import compare_all
+    out = tmp_path / "made" / "cmp"
+    with pytest.raises(compare.CompareError, match="resolution -5"):
+        compare_all.run_all(out, -5, workers=1, log=lambda *_: None)
+    assert list(tmp_path.iterdir()) == []
+    real, calls = compare_all.compare_object, []
+
+    def third_fails(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise compare.CompareError("the third case failed")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(compare_all, "compare_object", third_fails)
+    seen = []
+    with pytest.raises(compare.CompareError, match="the third case failed"):
+        compare_all.run_all(out, 8, workers=1, methods=["normal-map"],
+                            log=lambda line: seen.append(len(list((out / "heat").glob("*")))))
+    assert seen[-1] == 2                                # two heat maps were written
+    assert list(tmp_path.iterdir()) == []

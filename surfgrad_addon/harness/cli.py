@@ -82,8 +82,16 @@ def demo_run(args):
     report page (out/demo/index.html) that shows what the run proved. Written whole or not
     at all: into a hidden sibling folder, moved into --out at the end (staged_folder.py)."""
     import time
+    from ..addon.normal_bake import resolution_problem
     from . import main_job
+    from .compare import RESOLUTION_RANGE
     from .report_page import write_report_page
+    sizes = [("--resolution", args.resolution)] + \
+        ([] if args.no_bake else [("--compare-resolution", args.compare_resolution)])
+    for option, value in sizes:                # before any stage runs
+        problem = resolution_problem(value, *RESOLUTION_RANGE)
+        if problem:
+            raise ValueError(f"{option}: {problem}")
     start = time.perf_counter()
     stages = ["reference maps and summary"]
     if not args.no_bake:

@@ -102,8 +102,12 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
     the workers and takes back what this run wrote (heat maps, the folders it made).
     cycles_device: CPU, CUDA or OPTIX; refused before anything is made when there is none."""
     from ..addon import interrupts
-    from .compare import check_output_path
+    from ..addon.normal_bake import resolution_problem
+    from .compare import RESOLUTION_RANGE, check_output_path
     out = Path(out_dir)
+    problem = resolution_problem(resolution, *RESOLUTION_RANGE)
+    if problem:                                 # before any folder is made
+        raise CompareError(problem)
     table_md, table_json = out / "compare.md", out / "compare.json"
     for p in (table_md, table_json):
         check_output_path(p, overwrite)
@@ -113,14 +117,15 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
     if unknown:
         raise CompareError(f"no method {unknown[0]!r}; use some of {sorted(METHODS)}")
     devices = D.check(cycles_device)
-    created = [d for d in (out, out / "heat") if not d.exists()]
+    created = [d for d in (*reversed(out.parents), out, out / "heat") if not d.exists()]
     before = set((out / "heat").glob("*.png")) if (out / "heat").is_dir() else set()
     (out / "heat").mkdir(parents=True, exist_ok=True)
     temp = Path(tempfile.mkdtemp(prefix="surfgrad-compare-all-"))
     children = []
 
-    def forget(_signal_name):
-        """Kill the workers, remove their temporary files and this run's new heat maps."""
+    def forget(_signal_name=None):
+        """Kill the workers, remove their temporary files, this run's new heat maps and the
+        folders it made: on a stop, and on a failure (a run that fails writes nothing)."""
         for child in children:
             if child.poll() is None:
                 child.kill()
@@ -152,6 +157,9 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
                                                   temp, cycles_device))
             reports = _collect(out, resolution, workers, methods, children, log,
                                cycles_device)
+        except BaseException:
+            forget()
+            raise
         finally:
             for k, child in enumerate(children, start=1):
                 if child.poll() is None:
