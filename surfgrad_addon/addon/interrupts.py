@@ -89,10 +89,10 @@ def stoppable(what="the command", keep_placed=False):
     try:
         yield
     finally:
+        _state.update(active=False, placed=[])   # first: a stop from here on waits for no park
         for s, handler in previous.items():
             signal.signal(s, handler if handler is not None else signal.SIG_DFL)
         signal.set_wakeup_fd(old_fd)
-        _state.update(active=False, placed=[])
         try:
             os.write(write_fd, bytes([_WAKE_END]))
         except OSError:
@@ -157,7 +157,7 @@ def stop(signum):
     # main thread is parked (or inside a bake), so the clean-ups race nothing.
     _stop_begun.set()
     _committing.acquire(timeout=COMMIT_WAIT_S)
-    if not _main["native"]:
+    if _state["active"] and not _main["native"]:
         _main_parked.wait(PARK_WAIT_S)
     if not _state["keep_placed"]:
         remove_placed()
