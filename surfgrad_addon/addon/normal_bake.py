@@ -27,7 +27,8 @@ from pathlib import Path
 from ..reference import tiles as T
 from . import interrupts
 from .bake_console import heartbeat, quiet_bake
-from .bake_target import bake_target_problem, visible_for_bake
+from .bake_target import bake_target_problem, own_materials, visible_for_bake
+from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
 from .exit_codes import BakeFailed
 from .precise_bake import precise_far
 from .scene_state import SCENE_SETTINGS, restored
@@ -56,27 +57,6 @@ class NormalBakeError(ValueError):
 
 tile_path = T.tile_path
 _tiles_text = T.tiles_text
-
-
-def uv_tiles(mesh, uv_map):
-    """The UDIM tiles the faces of `uv_map` cover, sorted, and how many faces lie (partly)
-    outside the UDIM range (u in 0..10, v >= 0). Exact (reference/tiles.py): a tile counts
-    when a face's triangle covers part of it, not when only its bounding box reaches in, and
-    a face across the range's border still names the tiles its inside part covers."""
-    import numpy as np
-    if len(mesh.polygons) == 0:
-        return [], 0
-    mesh.calc_loop_triangles()
-    nt = len(mesh.loop_triangles)
-    loops = np.empty(nt * 3, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    faces = np.empty(nt, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("polygon_index", faces)
-    uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
-    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
-    uv = uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
-    outside = np.unique(faces[T.triangles_outside(uv)])
-    return T.tiles_with_uvs(uv), int(len(outside))
 
 
 def check_output(output, overwrite_check=True):
@@ -110,6 +90,12 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     """(uv_map, tiles to bake, tiles with UVs, warnings) for obj and the output name, or a
     NormalBakeError naming what is wrong. empty_tiles='skip' drops asked-for tiles that hold
     no UVs (a farm's asset x tile task) instead of refusing them."""
+    return plan_tile_layout(obj, output, uv_map, tiles, empty_tiles)[:4]
+
+
+def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
+    """plan_tiles, and how many faces of the UV map lie outside the UDIM range. The tiles are
+    those of the mesh the bake renders (bake_uvs.py: modifiers can move UVs)."""
     import bpy
     if obj is None:
         raise NormalBakeError("pick a mesh object to bake (--object NAME)")
@@ -126,7 +112,12 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     uv_map = uv_map or next((uv.name for uv in mesh.uv_layers if uv.active_render), names[0])
     if uv_map not in names:
         raise NormalBakeError(f"object {obj.name!r} has no UV map {uv_map!r}; it has {names}")
-    with_uvs, outside = uv_tiles(mesh, uv_map)
+    layout = baked_uv_tiles(obj)
+    if uv_map not in layout:
+        raise NormalBakeError(f"UV map {uv_map!r} of object {obj.name!r} is not on the mesh as "
+                              f"it renders (a modifier removes it; the rendered mesh has "
+                              f"{sorted(layout)}): pick one of those, or fix the modifiers")
+    with_uvs, outside = layout[uv_map]
     warnings = []
     if outside:
         warnings.append(f"{outside} face(s) of UV map {uv_map!r} lie outside the UDIM range "
@@ -166,7 +157,7 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
                                   f"{UDIM_TOKEN} in the name (one file per tile), or ask for "
                                   f"tile 1001 alone")
         tiles = [UDIM_FIRST]
-    return uv_map, tiles, with_uvs, warnings
+    return uv_map, tiles, with_uvs, warnings, outside
 
 
 def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,
@@ -227,6 +218,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
             tree.nodes.active = node
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
+                own_materials(bpy.context.view_layer), \
                 precise_far(obj, log):           # far out: as precise as at the origin
             mesh = obj.data         # the route may stand a copy of the render mesh in for it
             scene.render.engine = "CYCLES"
@@ -248,9 +240,12 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
                 log("[2/3] baking with Cycles (CPU) ...")
                 t0 = time.perf_counter()
                 with quiet_bake() as say, heartbeat(say, "      still baking"):
+                    # The swizzle given: unset, the operator takes the file's own bake
+                    # settings (a DirectX -Y left from a game export flips green).
                     outcome = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
-                                                  uv_layer=uv_map, margin=margin,
-                                                  use_clear=True)
+                                                  normal_r="POS_X", normal_g="POS_Y",
+                                                  normal_b="POS_Z", uv_layer=uv_map,
+                                                  margin=margin, use_clear=True)
                 result["bake_s"] = time.perf_counter() - t0
                 log(f"      baked in {result['bake_s']:.2f} s")
             finally:
