@@ -328,9 +328,13 @@ def zero_scale_problem(obj, matrix):
     sv = np.linalg.svd(m, compute_uv=False)
     if lengths.min() > 0 and sv.min() > 1e-12 * max(sv.max(), 1e-300):
         return None
-    return (f"object {obj.name!r}: its scale has a zero axis (scale "
-            f"{tuple(round(float(v), 6) for v in obj.scale)}, its world matrix is singular), "
-            f"so its normals cannot be baked: apply a non-zero scale on every axis")
+    scale = tuple(round(float(v), 6) for v in obj.scale)
+    # Its own scale may be whole while the delta scale, a parent or a constraint zeroes an axis.
+    where = "" if 0.0 in scale else (": the zero comes from its delta scale, a parent or a "
+                                     "constraint")
+    return (f"object {obj.name!r}: its scale has a zero axis (scale {scale}, its world matrix "
+            f"is singular{where}), so its normals cannot be baked: apply a non-zero scale on "
+            f"every axis")
 
 
 def overlap_warnings(uv, tiles, resolution, what):

@@ -5,8 +5,8 @@ builds a RENDER depsgraph): modifiers at their render settings. Modifiers can mo
 UV Project, Array's and Mirror's UV offsets, Geometry Nodes) and can be shown in renders only or
 in the viewport only, so the tiles a bake writes and the faces it covers are those of that mesh,
 not of the mesh data: a layout checked on the mesh data bakes a blank map, or leaves a tile out,
-with exit 0. An object with no modifier shown in renders is read from the viewport's depsgraph
-(the same mesh, and no render-mode pass); one with such modifiers through render_mesh.py.
+with exit 0. An object without modifiers is read from the viewport's depsgraph
+(the same mesh, and no render-mode pass); one with modifiers through render_mesh.py.
 """
 
 import numpy as np
@@ -15,9 +15,10 @@ from ..reference import tiles as T
 from .bake_target import bake_target_problem
 
 
-def modified_for_render(obj):
-    """obj has a modifier shown in renders (its render mesh may differ from the viewport's)."""
-    return any(m.show_render for m in obj.modifiers)
+def modified(obj):
+    """obj has modifiers: its rendered mesh may differ from the mesh data and, through their
+    render and viewport switches and settings, from the viewport's."""
+    return len(obj.modifiers) > 0
 
 
 def read_as_baked(obj, read):
@@ -26,7 +27,7 @@ def read_as_baked(obj, read):
     import bpy
     # An object the bake refuses (linked, outside the view layer) is read as the viewport
     # has it: its refusal names the problem, the render-mode pass could not reach it.
-    if modified_for_render(obj) and bake_target_problem(obj, bpy.context.view_layer) is None:
+    if modified(obj) and bake_target_problem(obj, bpy.context.view_layer) is None:
         from .render_mesh import read_in_render_mode
         return read_in_render_mode(obj, lambda depsgraph: read(obj.evaluated_get(depsgraph)))
     return read(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
