@@ -156,21 +156,20 @@ def _flags(fault):
             "directx_swizzle": lambda: bpy.context.scene.render.bake.normal_g}[fault]()
 
 
-@pytest.mark.parametrize("fault,kept", [
-    ("object_holdout", True),
-    ("collection_holdout", True),
-    ("collection_hidden", (True, True, True)),
-    ("material_override", "Flat"),
-    ("directx_swizzle", "NEG_Y"),
-])
-def test_scene_settings_do_not_change_the_map(tmp_path, capsys, plain, fault, kept):
+# fault -> its flags as the file has them, which the bake must put back
+KEPT = {"object_holdout": True, "collection_holdout": True,
+        "collection_hidden": (True, True, True), "material_override": "Flat",
+        "directx_swizzle": "NEG_Y"}
+
+
+@pytest.mark.parametrize("fault", sorted(KEPT))
+def test_scene_settings_do_not_change_the_map(tmp_path, capsys, plain, fault):
     blend = _scene(tmp_path, fault)
     before = _sha(blend)
-    out = tmp_path / "n.png"
-    rc, err = _bake(capsys, blend, out)
+    rc, err = _bake(capsys, blend, tmp_path / "n.png")
     assert rc == exit_codes.OK, err[-2000:]
-    assert np.abs(_pixels(out) - plain).max() <= 1.5 / 255
-    assert _flags(fault) == kept                     # put back after the bake
+    assert np.abs(_pixels(tmp_path / "n.png") - plain).max() <= 1.5 / 255
+    assert _flags(fault) == KEPT[fault]
     assert _sha(blend) == before
 
 
