@@ -4,7 +4,9 @@ bake-normal-map write a wrong map with exit 0 (a grey map of zero-length normals
 holdout, a flat one under a material override, DirectX green from the file's bake swizzle, a
 blank one when a modifier moved the UVs out of the tile baked) or fail after its checks (a
 hidden collection). Each bake here is held to the same bake of the plain file, texel for
-texel; the file is byte for byte as it was and the flags the bake lifted are back."""
+texel; the file is byte for byte as it was and the flags the bake lifted are back. Also: a
+material in two slots is baked once and its active node put back, and an output that is one
+of the images the materials read is refused, --overwrite or not."""
 
 import hashlib
 from pathlib import Path
@@ -219,3 +221,38 @@ def test_a_blend_from_a_newer_line_is_named_as_such(tmp_path, capsys):
     assert (f"it was saved by Blender {major + 2}.{minor}, newer than this Blender "
             f"({major}.{minor}): open it with Blender {major + 2}.{minor} or later") in err
     assert list(maps.iterdir()) == [] and _sha(blend) == before
+
+
+def test_a_material_in_two_slots_is_baked_once_and_put_back(tmp_path, plain):
+    """Joined objects keep one material in two slots: the bake added an image node per slot
+    and left the material's active node unset (the api bakes the open file in place)."""
+    from surfgrad_addon import api
+    _scene(tmp_path)
+    obj = bpy.data.objects["Plane"]
+    mat = obj.data.materials[0]
+    obj.data.materials.append(mat)
+    for i, face in enumerate(obj.data.polygons):
+        face.material_index = i % 2
+    tree = mat.node_tree
+    tree.nodes.active = tree.nodes["Image Texture"]
+    names = sorted(n.name for n in tree.nodes)
+    api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=RES)
+    assert np.abs(_pixels(tmp_path / "n.png") - plain).max() <= 1.5 / 255
+    assert sorted(n.name for n in tree.nodes) == names
+    assert tree.nodes.active is not None and tree.nodes.active.name == "Image Texture"
+
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("how", ["absolute", "relative"])
+def test_an_output_that_is_an_input_image_is_refused_even_with_overwrite(
+        tmp_path, capsys, monkeypatch, how):
+    blend = _scene(tmp_path)
+    tex = tmp_path / "stripes.png"
+    before, tex_before = _sha(blend), _sha(tex)
+    monkeypatch.chdir(tmp_path)
+    rc, err = _bake(capsys, blend, tex if how == "absolute" else Path("stripes.png"),
+                    "--overwrite")
+    assert rc == exit_codes.BAD_REQUEST, err[-2000:]
+    assert ("is the file of image 'stripes.png', which material 'Mat' reads: the bake would "
+            "replace its own input; write the map to another file") in err
+    assert _sha(tex) == tex_before and _sha(blend) == before

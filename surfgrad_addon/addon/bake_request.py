@@ -12,7 +12,7 @@ files and the bake-batch planner) builds a BakeRequest and runs the same checks 
 - every image the object's materials read (from the active Material Output, into node
   groups): packed or on disk, loadable, and with finite pixels when float (image_checks.py);
 - the output: format and bit depth, a folder that exists and takes a file (a probe file is
-  created and removed), no file replaced unless overwrite.
+  created and removed), no file replaced unless overwrite, never an image the materials read.
 
 check() raises BakeRequestError naming every problem found and its fix; nothing has been
 written and the .blend is as it was (images loaded for the check are freed again). Warnings
@@ -33,7 +33,7 @@ from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from .bake_uvs import read_as_baked
 from .exit_codes import BakeFailed
-from .image_checks import image_problems
+from .image_checks import image_problems, output_input_problems
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -222,6 +222,7 @@ def check(request, obj=None, warn=warn_stderr):
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)
+    problems += output_input_problems(obj, finals)
     if problems:
         raise BakeRequestError(problems)
     for w in warnings:

@@ -94,6 +94,27 @@ def image_problems(obj, covered=()):
     return out
 
 
+def output_input_problems(obj, finals):
+    """An output file that is the file of an image the object's materials read (a texture
+    named like the map, or a pattern that lands on one): the bake would replace its own input,
+    with overwrite even silently, and a second run would bake from the first one's map."""
+    reads = {}
+    for mat, _, _, image in material_images(obj):
+        if image is None or image.packed_file is not None or not image.filepath or \
+                image.source in ("GENERATED", "VIEWER"):
+            continue
+        for f in _image_files(image):
+            reads.setdefault(Path(f).resolve(), (image.name, mat.name))
+    out = []
+    for final in finals.values():
+        hit = reads.get(Path(final).resolve())
+        if hit:
+            out.append(f"output {str(final)!r} is the file of image {hit[0]!r}, which material "
+                       f"{hit[1]!r} reads: the bake would replace its own input; write the map "
+                       f"to another file")
+    return out
+
+
 def uv_reference_problems(obj):
     """Nodes naming a UV map (or attribute) the evaluated mesh does not have."""
     import bpy

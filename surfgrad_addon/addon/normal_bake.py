@@ -192,7 +192,10 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
     if existing and not overwrite:
         raise NormalBakeError(f"{existing[0]} exists; pass --overwrite to replace it")
     mesh = obj.data
-    materials = [s.material for s in obj.material_slots if s.material is not None]
+    # Each material once: one in two slots (joined objects) would take two image nodes, and
+    # putting back the second's "previous active" would name the first, removed one.
+    materials = list(dict.fromkeys(s.material for s in obj.material_slots
+                                   if s.material is not None))
     if not materials:
         raise NormalBakeError(f"object {obj.name!r} has no material to bake")
     fmt, _, _ = FORMATS[output.suffix.lower()]
@@ -276,7 +279,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
         log(f"[3/3] wrote {', '.join(str(p) for p in finals.values())}")
         return result
     finally:
-        for tree, node, previous in added:
+        for tree, node, previous in reversed(added):
             tree.nodes.remove(node)
             tree.nodes.active = previous
         bpy.data.images.remove(image)
