@@ -2,7 +2,8 @@
 Blender line than the one running (5.x's new file header reads as "not a blend file" to 4.x),
 asset lists and settings files with a UTF-8 byte-order mark (Windows editors, PowerShell), and
 a zero scale axis that comes from the delta scale, a parent or a constraint (the message showed
-the object's own, whole scale). Numpy tier: headers, text files and messages, no bpy."""
+the object's own, whole scale), an output name longer than the file system takes. Numpy tier:
+headers, text files, names and messages, no bpy."""
 
 import json
 from types import SimpleNamespace
@@ -71,3 +72,19 @@ def test_a_zero_axis_from_elsewhere_is_said_to_come_from_elsewhere():
     own = zero_scale_problem(_obj((1.0, 0.0, 1.0)), squashed)
     assert "scale (1.0, 0.0, 1.0), its world matrix is singular)" in own
     assert zero_scale_problem(_obj((1.0, 1.0, 1.0)), np.eye(4)) is None
+
+
+def test_an_output_name_too_long_for_the_file_system_is_refused(tmp_path):
+    """A name the file system refuses raised OSError out of the command (a traceback, before
+    or after the bake: the temporary file beside the output has a longer name)."""
+    from surfgrad_addon.addon import normal_bake as NB
+    longest = 255 - NB.TEMP_NAME_EXTRA             # tmp_path's file system: 255-byte names
+    fits = tmp_path / ("a" * (longest - 4) + ".png")
+    assert NB.check_output(fits) == fits
+    for name in ("a" * (longest - 3) + ".png", "a" * 300 + ".png"):
+        with pytest.raises(NB.NormalBakeError, match=f"is {len(name)} bytes: the folder's "
+                           f"file system takes {longest} for it"):
+            NB.check_output(tmp_path / name)
+    with pytest.raises(NB.NormalBakeError, match=r"cannot be used \(File name too long\): "
+                                                 r"give a shorter or plainer file name"):
+        NB.check_output(tmp_path / ("d" * 300) / "n.png")

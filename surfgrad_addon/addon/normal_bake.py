@@ -59,9 +59,38 @@ tile_path = T.tile_path
 _tiles_text = T.tiles_text
 
 
+# What the temporary file beside the output adds to its name: ".", ".part", a process id.
+TEMP_NAME_EXTRA = 1 + len(".part") + 7
+
+
 def check_output(output, overwrite_check=True):
     """The output name's format and its folder: raises NormalBakeError naming the fix."""
     output = Path(output)
+    try:
+        return _check_output(output)
+    except OSError as err:        # what the file system says of the name (the OS's words)
+        raise NormalBakeError(f"output {str(output)!r} cannot be used ({err.strerror}): give "
+                              f"a shorter or plainer file name") from None
+
+
+def _name_max(folder):
+    """The longest file name, in bytes, the file system under `folder` takes (255 where it
+    does not say)."""
+    while not folder.exists() and folder.parent != folder:
+        folder = folder.parent
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (AttributeError, OSError, ValueError):
+        return 255
+
+
+def _check_output(output):
+    longest = _name_max(output.parent) - TEMP_NAME_EXTRA
+    if len(os.fsencode(output.name)) > longest:
+        raise NormalBakeError(f"output file name {output.name[:40]!r}... is "
+                              f"{len(os.fsencode(output.name))} bytes: the folder's file system "
+                              f"takes {longest} for it (the bake writes a temporary file with a "
+                              f"longer name beside it first); give a shorter name")
     if output.is_dir() or str(output).endswith(("/", os.sep)):
         raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     if output.suffix.lower() not in FORMATS:
