@@ -256,3 +256,47 @@ def test_an_output_that_is_an_input_image_is_refused_even_with_overwrite(
     assert ("is the file of image 'stripes.png', which material 'Mat' reads: the bake would "
             "replace its own input; write the map to another file") in err
     assert _sha(tex) == tex_before and _sha(blend) == before
+
+
+def _noisy_scene(tmp_path, simplify):
+    """A 256 px map of random tilts (no two neighbours alike, so any downscale shows), the
+    scene's Simplify with its 128 px texture limit on or off."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    rng = np.random.default_rng(28)
+    n = rng.uniform(-0.5, 0.5, (256, 256, 3))
+    n[..., 2] = np.sqrt(1.0 - n[..., 0] ** 2 - n[..., 1] ** 2)
+    img = bpy.data.images.new("noisy", 256, 256)
+    img.colorspace_settings.name = "Non-Color"
+    img.pixels.foreach_set(np.concatenate([n * 0.5 + 0.5, np.ones((256, 256, 1))], -1)
+                           .astype(np.float32).ravel())
+    img.filepath_raw = str(tmp_path / "noisy.png")
+    img.file_format = "PNG"
+    img.save()
+    obj = _grid()
+    mat, tree, bsdf = diffuse_material("Mat")
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    nm = tree.nodes.new("ShaderNodeNormalMap")
+    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
+    tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+    obj.data.materials.append(mat)
+    scene = bpy.context.scene
+    scene.render.use_simplify = simplify
+    scene.cycles.texture_limit_render = "128"
+    blend = tmp_path / f"simplify_{simplify}.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    return blend
+
+
+def test_simplify_texture_limit_does_not_blur_the_map(tmp_path, capsys):
+    """Simplify for quick previews shrank every texture the bake read: a blurred map."""
+    maps = {}
+    for simplify in (False, True):
+        blend = _noisy_scene(tmp_path, simplify)
+        maps[simplify] = tmp_path / f"n_{simplify}.png"
+        rc, err = _bake(capsys, blend, maps[simplify], "--resolution", "128")
+        assert rc == exit_codes.OK, err[-2000:]
+    sharp, limited = _pixels(maps[False]), _pixels(maps[True])
+    assert np.std(sharp - 0.5) > 0.1                         # the noise is there
+    assert np.abs(limited - sharp).max() <= 1.5 / 255
+    assert bpy.context.scene.cycles.texture_limit_render == "128"     # put back

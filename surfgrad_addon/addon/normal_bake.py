@@ -31,7 +31,7 @@ from .bake_target import bake_target_problem, own_materials, visible_for_bake
 from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
 from .exit_codes import BakeFailed
 from .precise_bake import precise_far
-from .scene_state import SCENE_SETTINGS, restored
+from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
@@ -257,6 +257,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
             scene.cycles.device = "CPU"
             scene.cycles.samples = samples
             scene.cycles.use_denoising = False
+            scene.cycles.texture_limit_render = NO_TEXTURE_LIMIT
             if threads:
                 scene.render.threads_mode = "FIXED"
                 scene.render.threads = threads
