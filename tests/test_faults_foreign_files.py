@@ -88,3 +88,13 @@ def test_an_output_name_too_long_for_the_file_system_is_refused(tmp_path):
     with pytest.raises(NB.NormalBakeError, match=r"cannot be used \(File name too long\): "
                                                  r"give a shorter or plainer file name"):
         NB.check_output(tmp_path / ("d" * 300) / "n.png")
+
+
+def test_a_material_without_a_node_tree_is_named():
+    """(Files from before 5.0; the whole refusal: test_faults_scene_settings.py on 4.x.)"""
+    from surfgrad_addon.addon.material_inputs import no_tree_problem
+    assert no_tree_problem(SimpleNamespace(name="Bare", node_tree=None)) == (
+        "material 'Bare' has no node tree (Use Nodes is off), so the bake has nowhere to "
+        "write its faces: turn on Use Nodes for it (Material Properties > Surface), or give "
+        "its faces another material")
+    assert no_tree_problem(SimpleNamespace(name="Mat", node_tree=object())) is None

@@ -300,3 +300,26 @@ def test_simplify_texture_limit_does_not_blur_the_map(tmp_path, capsys):
     assert np.std(sharp - 0.5) > 0.1                         # the noise is there
     assert np.abs(limited - sharp).max() <= 1.5 / 255
     assert bpy.context.scene.cycles.texture_limit_render == "128"     # put back
+
+
+@pytest.mark.tier("blender")
+def test_a_material_without_a_node_tree_is_refused_before_baking(tmp_path, capsys):
+    """Before 5.0 a material made without Use Nodes has no node tree: the bake raised
+    AttributeError after its checks (a traceback, exit 1)."""
+    blend = _scene(tmp_path)
+    bare = bpy.data.materials.new("Bare")
+    if bare.node_tree is not None:
+        pytest.skip("from 5.0 every new material has a node tree")
+    obj = bpy.data.objects["Plane"]
+    obj.data.materials.append(bare)
+    obj.data.polygons[0].material_index = 1
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    before = _sha(blend)
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    rc, err = _bake(capsys, blend, maps / "n.png")
+    assert rc == exit_codes.BAD_REQUEST, err[-2000:]
+    assert ("material 'Bare' has no node tree (Use Nodes is off), so the bake has nowhere to "
+            "write its faces: turn on Use Nodes for it") in err
+    assert "Traceback" not in err
+    assert list(maps.iterdir()) == [] and _sha(blend) == before

@@ -66,7 +66,8 @@ def image_problems(obj, covered=()):
     out, checked = [], set()
     for slot in obj.material_slots:
         if slot.material is not None:
-            problem = MI.library_problem(slot.material)
+            # (a missing library's placeholder has no tree either: its library is the fix)
+            problem = MI.library_problem(slot.material) or MI.no_tree_problem(slot.material)
             if problem and problem not in out:
                 out.append(problem)
     out += uv_reference_problems(obj)
