@@ -323,3 +323,23 @@ def test_a_material_without_a_node_tree_is_refused_before_baking(tmp_path, capsy
             "write its faces: turn on Use Nodes for it") in err
     assert "Traceback" not in err
     assert list(maps.iterdir()) == [] and _sha(blend) == before
+
+
+@pytest.mark.tier("blender")
+def test_a_blend_a_newer_line_saved_is_opened_with_a_warning_on_stderr(tmp_path, capsys):
+    """A file from a newer line that this one still opens (4.5's on 4.2) may lose what that
+    line added: Blender said so on stdout only."""
+    blend = _scene(tmp_path)
+    major, minor = bpy.app.version[:2]
+    data = bytearray(blend.read_bytes())
+    if data[7:9].isdigit():                          # the header from 5.0 on: BLENDER17-01v0502
+        data[13:17] = f"{major:02d}{minor + 1:02d}".encode()
+    else:                                            # BLENDER-v402
+        data[9:12] = f"{major}{minor + 1:02d}".encode()
+    blend.write_bytes(bytes(data))
+    rc, err = _bake(capsys, blend, tmp_path / "n.png", "--object", "Nope")   # opened, refused
+    assert rc == exit_codes.BAD_REQUEST
+    assert (f"surfgrad: warning: .blend file {str(blend)!r} was saved by Blender "
+            f"{major}.{minor + 1}, newer than this Blender ({major}.{minor}): what that line "
+            f"added to the file may be lost") in err
+    assert "no object named 'Nope'" in err

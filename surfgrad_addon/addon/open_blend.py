@@ -4,6 +4,7 @@ Blender's -c loads the user's Preferences; with "Auto Run Python Scripts" on, a 
 open_mainfile would run the file's registered text blocks and Python drivers. Every place
 that opens a user's file goes through here, with use_scripts=False."""
 
+import sys
 from pathlib import Path
 
 
@@ -18,6 +19,12 @@ def open_mainfile(path, load_ui=False):
         raise BlendOpenError(f".blend file {str(path)!r} is a folder: give a .blend file")
     try:
         bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=load_ui, use_scripts=False)
+        newer = _newer_than_running(path, bpy.app.version)
+        if newer:            # Blender says so on stdout only, where a farm log buries it
+            print(f"surfgrad: warning: .blend file {str(path)!r} was saved by Blender {newer}, "
+                  f"newer than this Blender ({bpy.app.version[0]}.{bpy.app.version[1]}): "
+                  f"what that line added to the file may be lost and the map may differ; "
+                  f"bake with Blender {newer} or later", file=sys.stderr, flush=True)
     except RuntimeError as err:       # Blender's own text starts "Error: ": say it once
         reason = str(err).strip()
         reason = reason[len("Error:"):].strip() if reason.startswith("Error:") else reason
