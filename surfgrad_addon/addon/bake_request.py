@@ -12,7 +12,7 @@ files and the bake-batch planner) builds a BakeRequest and runs the same checks 
 - every image the object's materials read (from the active Material Output, into node
   groups): packed or on disk, loadable, and with finite pixels when float (image_checks.py);
 - the output: format and bit depth, a folder that exists and takes a file (a probe file is
-  created and removed), no file replaced unless overwrite.
+  created and removed), no file replaced unless overwrite, never an image the materials read.
 
 check() raises BakeRequestError naming every problem found and its fix; nothing has been
 written and the .blend is as it was (images loaded for the check are freed again). Warnings
@@ -31,8 +31,9 @@ from ..reference import input_checks as IC
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
 from . import normal_bake as NB
+from .bake_uvs import read_as_baked
 from .exit_codes import BakeFailed
-from .image_checks import image_problems
+from .image_checks import image_problems, output_input_problems
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -202,12 +203,11 @@ def check(request, obj=None, warn=warn_stderr):
                                     f"{sorted(o.name for o in bpy.data.objects)}"])
     warnings = []
     try:
-        uv_map, tiles, with_uvs, tile_warnings = NB.plan_tiles(
+        uv_map, tiles, with_uvs, tile_warnings, outside = NB.plan_tile_layout(
             obj, request.output, request.uv_map, request.tiles, request.empty_tiles)
     except NB.NormalBakeError as err:
         raise BakeRequestError([str(err)]) from None
     problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution)
-    outside = NB.uv_tiles(obj.data, uv_map)[1]
     if outside and not request.allow_partial:
         problems.append(f"{outside} face(s) of UV map {uv_map!r} of object {obj.name!r} lie "
                         f"outside the UDIM range (u 0..10, v >= 0) and would not be baked: "
@@ -222,6 +222,7 @@ def check(request, obj=None, warn=warn_stderr):
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)
+    problems += output_input_problems(obj, finals)
     if problems:
         raise BakeRequestError(problems)
     for w in warnings:
@@ -251,34 +252,14 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
 # The checks ---------------------------------------------------------------------------------
 
 def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
-    """The evaluated mesh as the bake sees it: finite positions, faces with area, finite UVs
-    with area in `uv_map`; far from the origin, and texels of `tiles` that overlapping UV
-    islands contest at `resolution`, add warnings."""
-    import bpy
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    eval_obj = obj.evaluated_get(depsgraph)
-    mesh = eval_obj.to_mesh()
+    """The evaluated mesh as the bake sees it (bake_uvs.read_as_baked: modifiers at their
+    render settings): finite positions, faces with area, finite UVs with area in `uv_map`;
+    far from the origin, and texels of `tiles` that overlapping UV islands contest at
+    `resolution`, add warnings."""
+    positions, tris, matrix, uv = read_as_baked(obj, lambda ev: _mesh_arrays(ev, uv_map))
+    nt = len(tris)
     what = f"mesh {obj.data.name!r} of object {obj.name!r}"
     out = []
-    try:
-        mesh.calc_loop_triangles()
-        nv, nl, nt = len(mesh.vertices), len(mesh.loops), len(mesh.loop_triangles)
-        positions = np.empty(nv * 3, np.float64)
-        mesh.vertices.foreach_get("co", positions)
-        positions = positions.reshape(-1, 3)
-        tris = np.empty(nt * 3, np.int64)
-        mesh.loop_triangles.foreach_get("vertices", tris)
-        tris = tris.reshape(-1, 3)
-        tri_loops = np.empty(nt * 3, np.int64)
-        mesh.loop_triangles.foreach_get("loops", tri_loops)
-        matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
-        uv = None
-        if uv_map and uv_map in mesh.uv_layers:
-            uv = np.empty(nl * 2, np.float64)
-            mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
-            uv = uv.reshape(-1, 2)[tri_loops].reshape(-1, 3, 2)
-    finally:
-        eval_obj.to_mesh_clear()
     fix = "fix or remove those vertices (a bad import or script often leaves them)"
     problem = IC.finite_problem(f"the vertex positions of {what}", positions, fix) or \
         IC.finite_problem(f"the transform of object {obj.name!r}", matrix,
@@ -316,6 +297,30 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
     return out
 
 
+def _mesh_arrays(eval_obj, uv_map):
+    """(positions, triangles' vertices, world matrix, triangles' UVs of uv_map or None) of an
+    evaluated object, in float64."""
+    mesh = eval_obj.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        nv, nl, nt = len(mesh.vertices), len(mesh.loops), len(mesh.loop_triangles)
+        positions = np.empty(nv * 3, np.float64)
+        mesh.vertices.foreach_get("co", positions)
+        tris = np.empty(nt * 3, np.int64)
+        mesh.loop_triangles.foreach_get("vertices", tris)
+        tri_loops = np.empty(nt * 3, np.int64)
+        mesh.loop_triangles.foreach_get("loops", tri_loops)
+        matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
+        uv = None
+        if uv_map and uv_map in mesh.uv_layers:
+            uv = np.empty(nl * 2, np.float64)
+            mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
+            uv = uv.reshape(-1, 2)[tri_loops].reshape(-1, 3, 2)
+    finally:
+        eval_obj.to_mesh_clear()
+    return positions.reshape(-1, 3), tris.reshape(-1, 3), matrix, uv
+
+
 def zero_scale_problem(obj, matrix):
     """An object whose world matrix squashes an axis to nothing (a zero scale axis): its
     normals cannot be transformed (a singular matrix), the map would be garbage."""
@@ -324,9 +329,13 @@ def zero_scale_problem(obj, matrix):
     sv = np.linalg.svd(m, compute_uv=False)
     if lengths.min() > 0 and sv.min() > 1e-12 * max(sv.max(), 1e-300):
         return None
-    return (f"object {obj.name!r}: its scale has a zero axis (scale "
-            f"{tuple(round(float(v), 6) for v in obj.scale)}, its world matrix is singular), "
-            f"so its normals cannot be baked: apply a non-zero scale on every axis")
+    scale = tuple(round(float(v), 6) for v in obj.scale)
+    # Its own scale may be whole while the delta scale, a parent or a constraint zeroes an axis.
+    where = "" if 0.0 in scale else (": the zero comes from its delta scale, a parent or a "
+                                     "constraint")
+    return (f"object {obj.name!r}: its scale has a zero axis (scale {scale}, its world matrix "
+            f"is singular{where}), so its normals cannot be baked: apply a non-zero scale on "
+            f"every axis")
 
 
 def overlap_warnings(uv, tiles, resolution, what):

@@ -3,6 +3,8 @@
 Blender's bake operator works on selectable, visible objects of the active view layer, and
 writes into the object's materials: an object linked from a library cannot take a temporary
 material, and one hidden in the viewport makes the operator fail with "context is incorrect".
+Holdout (the object's or a collection's) bakes zero-length normals and a view layer's material
+override bakes that material instead: both are lifted for the bake, like the hiding.
 """
 
 from contextlib import contextmanager
@@ -41,21 +43,63 @@ def _in_view_layer(obj, layer_collection):
 
 
 _HIDING = ("hide_viewport", "hide_select", "hide_render")
+# Holdout makes Cycles bake (0, 0, 0): a grey map of zero-length normals, with exit 0.
+_OBJECT_FLAGS = _HIDING + ("is_holdout",)
+# The collections holding obj: hidden ones make the operator fail ("No valid selected
+# objects"); a holdout one bakes the grey map.
+_COLLECTION_FLAGS = _HIDING
+_LAYER_COLLECTION_FLAGS = ("hide_viewport", "holdout")
+
+
+def _chains(obj, layer_collection, above=()):
+    """Every chain of layer collections, from below the view layer's root down to one that
+    holds obj, through collections that are not excluded."""
+    if layer_collection.exclude:
+        return
+    chain = above + (layer_collection,)
+    if layer_collection.collection.objects.get(obj.name) is obj:
+        yield chain
+    for child in layer_collection.children:
+        yield from _chains(obj, child, chain)
 
 
 @contextmanager
 def visible_for_bake(obj, view_layer):
-    """Unhide obj (eye, monitor, pointer, camera) for the bake; put every flag back after."""
-    saved = {name: getattr(obj, name) for name in _HIDING}
+    """Unhide obj (eye, monitor, pointer, camera) and the collections that hold it, and lift
+    holdout from both, for the bake; put every flag back after."""
+    blocks = [(obj, _OBJECT_FLAGS)]
+    for chain in _chains(obj, view_layer.layer_collection):
+        for layer in chain[1:]:                  # the root (scene collection) has no flags
+            blocks += [(layer, _LAYER_COLLECTION_FLAGS), (layer.collection, _COLLECTION_FLAGS)]
+    saved = []
+    for block, names in blocks:
+        if getattr(block, "library", None) is not None:     # linked: not ours to change
+            continue
+        saved += [(block, name, getattr(block, name)) for name in names
+                  if hasattr(block, name)]
     hidden = obj.hide_get(view_layer=view_layer)
     try:
-        for name in _HIDING:
-            setattr(obj, name, False)
+        for block, name, _ in saved:
+            setattr(block, name, False)
         if hidden:
             obj.hide_set(False, view_layer=view_layer)
         yield
     finally:
         if hidden:
             obj.hide_set(True, view_layer=view_layer)
-        for name, value in saved.items():
-            setattr(obj, name, value)
+        for block, name, value in reversed(saved):
+            setattr(block, name, value)
+
+
+@contextmanager
+def own_materials(view_layer):
+    """Lift the view layer's material override for the bake (Cycles would bake the override
+    material in place of the object's own: a flat map, with exit 0); put it back after."""
+    override = getattr(view_layer, "material_override", None)
+    try:
+        if override is not None:
+            view_layer.material_override = None
+        yield
+    finally:
+        if override is not None:
+            view_layer.material_override = override

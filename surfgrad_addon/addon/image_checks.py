@@ -66,7 +66,8 @@ def image_problems(obj, covered=()):
     out, checked = [], set()
     for slot in obj.material_slots:
         if slot.material is not None:
-            problem = MI.library_problem(slot.material)
+            # (a missing library's placeholder has no tree either: its library is the fix)
+            problem = MI.library_problem(slot.material) or MI.no_tree_problem(slot.material)
             if problem and problem not in out:
                 out.append(problem)
     out += uv_reference_problems(obj)
@@ -91,6 +92,27 @@ def image_problems(obj, covered=()):
             problem = MI.missing_tiles_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
+    return out
+
+
+def output_input_problems(obj, finals):
+    """An output file that is the file of an image the object's materials read (a texture
+    named like the map, or a pattern that lands on one): the bake would replace its own input,
+    with overwrite even silently, and a second run would bake from the first one's map."""
+    reads = {}
+    for mat, _, _, image in material_images(obj):
+        if image is None or image.packed_file is not None or not image.filepath or \
+                image.source in ("GENERATED", "VIEWER"):
+            continue
+        for f in _image_files(image):
+            reads.setdefault(Path(f).resolve(), (image.name, mat.name))
+    out = []
+    for final in finals.values():
+        hit = reads.get(Path(final).resolve())
+        if hit:
+            out.append(f"output {str(final)!r} is the file of image {hit[0]!r}, which material "
+                       f"{hit[1]!r} reads: the bake would replace its own input; write the map "
+                       f"to another file")
     return out
 
 

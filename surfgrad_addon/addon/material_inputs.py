@@ -84,6 +84,16 @@ def library_problem(mat):
     return None
 
 
+def no_tree_problem(mat):
+    """A material without a node tree (Use Nodes never turned on, before 5.0): the bake writes
+    through an Image Texture node in each material, and has nowhere to put one."""
+    if mat.node_tree is not None:
+        return None
+    return (f"material {mat.name!r} has no node tree (Use Nodes is off), so the bake has "
+            f"nowhere to write its faces: turn on Use Nodes for it (Material Properties > "
+            f"Surface), or give its faces another material")
+
+
 def uv_name_problem(mat, path, node, mesh):
     """A Normal Map (tangent space), UV Map or Attribute (Geometry) node naming a UV map or
     attribute the (evaluated) mesh does not have."""

@@ -27,10 +27,11 @@ from pathlib import Path
 from ..reference import tiles as T
 from . import interrupts
 from .bake_console import heartbeat, quiet_bake
-from .bake_target import bake_target_problem, visible_for_bake
+from .bake_target import bake_target_problem, own_materials, visible_for_bake
+from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
 from .exit_codes import BakeFailed
 from .precise_bake import precise_far
-from .scene_state import SCENE_SETTINGS, restored
+from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
@@ -58,30 +59,38 @@ tile_path = T.tile_path
 _tiles_text = T.tiles_text
 
 
-def uv_tiles(mesh, uv_map):
-    """The UDIM tiles the faces of `uv_map` cover, sorted, and how many faces lie (partly)
-    outside the UDIM range (u in 0..10, v >= 0). Exact (reference/tiles.py): a tile counts
-    when a face's triangle covers part of it, not when only its bounding box reaches in, and
-    a face across the range's border still names the tiles its inside part covers."""
-    import numpy as np
-    if len(mesh.polygons) == 0:
-        return [], 0
-    mesh.calc_loop_triangles()
-    nt = len(mesh.loop_triangles)
-    loops = np.empty(nt * 3, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    faces = np.empty(nt, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("polygon_index", faces)
-    uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
-    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
-    uv = uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
-    outside = np.unique(faces[T.triangles_outside(uv)])
-    return T.tiles_with_uvs(uv), int(len(outside))
+# What the temporary file beside the output adds to its name: ".", ".part", a process id.
+TEMP_NAME_EXTRA = 1 + len(".part") + 7
 
 
 def check_output(output, overwrite_check=True):
     """The output name's format and its folder: raises NormalBakeError naming the fix."""
     output = Path(output)
+    try:
+        return _check_output(output)
+    except OSError as err:        # what the file system says of the name (the OS's words)
+        raise NormalBakeError(f"output {str(output)!r} cannot be used ({err.strerror}): give "
+                              f"a shorter or plainer file name") from None
+
+
+def _name_max(folder):
+    """The longest file name, in bytes, the file system under `folder` takes (255 where it
+    does not say)."""
+    while not folder.exists() and folder.parent != folder:
+        folder = folder.parent
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (AttributeError, OSError, ValueError):
+        return 255
+
+
+def _check_output(output):
+    longest = _name_max(output.parent) - TEMP_NAME_EXTRA
+    if len(os.fsencode(output.name)) > longest:
+        raise NormalBakeError(f"output file name {output.name[:40]!r}... is "
+                              f"{len(os.fsencode(output.name))} bytes: the folder's file system "
+                              f"takes {longest} for it (the bake writes a temporary file with a "
+                              f"longer name beside it first); give a shorter name")
     if output.is_dir() or str(output).endswith(("/", os.sep)):
         raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     if output.suffix.lower() not in FORMATS:
@@ -110,6 +119,12 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     """(uv_map, tiles to bake, tiles with UVs, warnings) for obj and the output name, or a
     NormalBakeError naming what is wrong. empty_tiles='skip' drops asked-for tiles that hold
     no UVs (a farm's asset x tile task) instead of refusing them."""
+    return plan_tile_layout(obj, output, uv_map, tiles, empty_tiles)[:4]
+
+
+def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
+    """plan_tiles, and how many faces of the UV map lie outside the UDIM range. The tiles are
+    those of the mesh the bake renders (bake_uvs.py: modifiers can move UVs)."""
     import bpy
     if obj is None:
         raise NormalBakeError("pick a mesh object to bake (--object NAME)")
@@ -126,7 +141,12 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     uv_map = uv_map or next((uv.name for uv in mesh.uv_layers if uv.active_render), names[0])
     if uv_map not in names:
         raise NormalBakeError(f"object {obj.name!r} has no UV map {uv_map!r}; it has {names}")
-    with_uvs, outside = uv_tiles(mesh, uv_map)
+    layout = baked_uv_tiles(obj)
+    if uv_map not in layout:
+        raise NormalBakeError(f"UV map {uv_map!r} of object {obj.name!r} is not on the mesh as "
+                              f"it renders (a modifier removes it; the rendered mesh has "
+                              f"{sorted(layout)}): pick one of those, or fix the modifiers")
+    with_uvs, outside = layout[uv_map]
     warnings = []
     if outside:
         warnings.append(f"{outside} face(s) of UV map {uv_map!r} lie outside the UDIM range "
@@ -166,7 +186,7 @@ def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
                                   f"{UDIM_TOKEN} in the name (one file per tile), or ask for "
                                   f"tile 1001 alone")
         tiles = [UDIM_FIRST]
-    return uv_map, tiles, with_uvs, warnings
+    return uv_map, tiles, with_uvs, warnings, outside
 
 
 def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,
@@ -201,7 +221,10 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
     if existing and not overwrite:
         raise NormalBakeError(f"{existing[0]} exists; pass --overwrite to replace it")
     mesh = obj.data
-    materials = [s.material for s in obj.material_slots if s.material is not None]
+    # Each material once: one in two slots (joined objects) would take two image nodes, and
+    # putting back the second's "previous active" would name the first, removed one.
+    materials = list(dict.fromkeys(s.material for s in obj.material_slots
+                                   if s.material is not None))
     if not materials:
         raise NormalBakeError(f"object {obj.name!r} has no material to bake")
     fmt, _, _ = FORMATS[output.suffix.lower()]
@@ -227,12 +250,14 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
             tree.nodes.active = node
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
+                own_materials(bpy.context.view_layer), \
                 precise_far(obj, log):           # far out: as precise as at the origin
             mesh = obj.data         # the route may stand a copy of the render mesh in for it
             scene.render.engine = "CYCLES"
             scene.cycles.device = "CPU"
             scene.cycles.samples = samples
             scene.cycles.use_denoising = False
+            scene.cycles.texture_limit_render = NO_TEXTURE_LIMIT
             if threads:
                 scene.render.threads_mode = "FIXED"
                 scene.render.threads = threads
@@ -249,9 +274,12 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
                 t0 = time.perf_counter()
                 with quiet_bake() as say, heartbeat(say, "      still baking"), \
                         interrupts.native_call():
+                    # The swizzle given: unset, the operator takes the file's own bake
+                    # settings (a DirectX -Y left from a game export flips green).
                     outcome = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
-                                                  uv_layer=uv_map, margin=margin,
-                                                  use_clear=True)
+                                                  normal_r="POS_X", normal_g="POS_Y",
+                                                  normal_b="POS_Z", uv_layer=uv_map,
+                                                  margin=margin, use_clear=True)
                 result["bake_s"] = time.perf_counter() - t0
                 log(f"      baked in {result['bake_s']:.2f} s")
             finally:
@@ -282,7 +310,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
         log(f"[3/3] wrote {', '.join(str(p) for p in finals.values())}")
         return result
     finally:
-        for tree, node, previous in added:
+        for tree, node, previous in reversed(added):
             tree.nodes.remove(node)
             tree.nodes.active = previous
         bpy.data.images.remove(image)

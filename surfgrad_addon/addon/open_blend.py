@@ -4,6 +4,7 @@ Blender's -c loads the user's Preferences; with "Auto Run Python Scripts" on, a 
 open_mainfile would run the file's registered text blocks and Python drivers. Every place
 that opens a user's file goes through here, with use_scripts=False."""
 
+import sys
 from pathlib import Path
 
 
@@ -18,8 +19,50 @@ def open_mainfile(path, load_ui=False):
         raise BlendOpenError(f".blend file {str(path)!r} is a folder: give a .blend file")
     try:
         bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=load_ui, use_scripts=False)
+        newer = _newer_than_running(path, bpy.app.version)
+        if newer:            # Blender says so on stdout only, where a farm log buries it
+            print(f"surfgrad: warning: .blend file {str(path)!r} was saved by Blender {newer}, "
+                  f"newer than this Blender ({bpy.app.version[0]}.{bpy.app.version[1]}): "
+                  f"what that line added to the file may be lost and the map may differ; "
+                  f"bake with Blender {newer} or later", file=sys.stderr, flush=True)
     except RuntimeError as err:       # Blender's own text starts "Error: ": say it once
         reason = str(err).strip()
         reason = reason[len("Error:"):].strip() if reason.startswith("Error:") else reason
+        newer = _newer_than_running(path, bpy.app.version)
+        if newer:              # e.g. 5.x's new file header, which 4.x calls "not a blend file"
+            raise BlendOpenError(f".blend file {str(path)!r} could not be opened ({reason}); "
+                                 f"it was saved by Blender {newer}, newer than this Blender "
+                                 f"({bpy.app.version[0]}.{bpy.app.version[1]}): open it with "
+                                 f"Blender {newer} or later") from None
         raise BlendOpenError(f".blend file {str(path)!r} could not be opened ({reason}): "
                              f"give a .blend file Blender can open") from None
+
+
+def saved_by(header):
+    """(major, minor) of the Blender that wrote a .blend, from its first 17 bytes, or None
+    (not an uncompressed .blend). Two header layouts: 'BLENDER' + pointer size + endianness +
+    3 digits (BLENDER-v402: 4.2), and from 5.0 'BLENDER' + header size + '-' + format version
+    + endianness + 4 digits (BLENDER17-01v0502: 5.2)."""
+    if not header.startswith(b"BLENDER"):
+        return None
+    rest = header[7:]
+    if rest[:1] in (b"_", b"-") and rest[1:2] in (b"v", b"V") and rest[2:5].isdigit():
+        number = int(rest[2:5])
+    elif rest[:2].isdigit() and rest[2:3] == b"-" and rest[5:6] in (b"v", b"V") and \
+            rest[6:10].isdigit():
+        number = int(rest[6:10])
+    else:
+        return None
+    return number // 100, number % 100
+
+
+def _newer_than_running(path, running):
+    """'X.Y' when `path` was saved by a newer Blender line than `running`, else None."""
+    try:
+        with open(path, "rb") as f:
+            version = saved_by(f.read(17))
+    except OSError:
+        return None
+    if version is None or version <= tuple(running[:2]):
+        return None
+    return f"{version[0]}.{version[1]}"

@@ -34,4 +34,8 @@ SCENE_SETTINGS = (
     "cycles.use_adaptive_sampling", "cycles.seed", "cycles.sample_clamp_direct",
     "cycles.sample_clamp_indirect", "cycles.bake_type", "render.bake.margin",
     "render.bake.use_clear", "render.bake.target", "render.bake.use_selected_to_active",
+    "cycles.texture_limit_render",
 )
+# Simplify's texture limit shrinks every image Cycles reads (to 128 px and up): a render
+# setting for quick previews, which would bake a blurred map with exit 0; a bake lifts it.
+NO_TEXTURE_LIMIT = "OFF"

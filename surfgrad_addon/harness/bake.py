@@ -15,8 +15,8 @@ import numpy as np
 from ..addon.compat import new_material
 from ..addon.node_builder import running_line  # noqa: F401 (the line whose bakes we model)
 from ..addon.bake_console import quiet_bake
-from ..addon.scene_state import SCENE_SETTINGS, restored
-from ..addon.bake_target import bake_target_problem, visible_for_bake
+from ..addon.scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
+from ..addon.bake_target import bake_target_problem, own_materials, visible_for_bake
 from ..addon.exit_codes import BakeFailed
 from ..addon.interrupts import native_call
 from ..addon.far_precision import needs_precise_far, set_precise_far
@@ -287,8 +287,10 @@ def _bake_into(obj, build, image, uv_map, displacement, log, device="CPU"):
         target.image = image
         nodes.active = target
         with restored(scene, SCENE_SETTINGS), _selection_kept(context), \
-                visible_for_bake(obj, context.view_layer), _temporary_material(obj, material):
+                visible_for_bake(obj, context.view_layer), own_materials(context.view_layer), \
+                _temporary_material(obj, material):
             cy = exact_cycles(scene, device)
+            cy.texture_limit_render = NO_TEXTURE_LIMIT
             cy.sample_clamp_direct = 0.0
             cy.sample_clamp_indirect = 0.0
             cy.bake_type = "EMIT"

@@ -59,9 +59,10 @@ def sha256_file(path, chunk=1 << 20):
 
 
 def _read_text(path, what, fix):
-    """A UTF-8 text file's text, or a BatchError naming `what` it is and the fix."""
+    """A UTF-8 text file's text, or a BatchError naming `what` it is and the fix. A leading
+    byte-order mark (Windows editors, PowerShell) is dropped, not read as part of a path."""
     try:
-        return Path(path).read_text(encoding="utf-8")
+        return Path(path).read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as err:
         raise BatchError(f"{what} {path} is not UTF-8 text ({err.reason} at byte "
                          f"{err.start}); {fix}") from None

@@ -52,9 +52,10 @@ def scan_open_file(objects=None, collections=None, everything=False):
         if obj.type == "MESH":
             entry["materials"] = sum(1 for s in obj.material_slots if s.material)
             entry["outside"] = {}
-            for uv in obj.data.uv_layers:
+            layout = NB.baked_uv_tiles(obj) if len(obj.data.polygons) else {}
+            for uv in obj.data.uv_layers:          # the tiles of the mesh the bake renders
                 entry["uv_maps"][uv.name], entry["outside"][uv.name] = \
-                    NB.uv_tiles(obj.data, uv.name)
+                    layout.get(uv.name, ([], 0))
                 if uv.active_render:
                     entry["active_uv"] = uv.name
             entry["problems"] = _input_problems(obj)
