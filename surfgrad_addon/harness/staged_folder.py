@@ -30,7 +30,7 @@ def staged(final, overwrite):
     """Yield the folder to write into; at the block's end its entries replace those of the
     same name in `final` (made if missing). Raises FileExistsError before anything is made
     when `final` is a file, or holds files and not overwrite."""
-    final = Path(final)
+    final = Path(os.path.abspath(final))          # "." and "out/" have a name this way
     why = problem(final, overwrite)
     if why:
         raise FileExistsError(why)
