@@ -145,6 +145,15 @@ def _check_file(filepath, overwrite):
     return path
 
 
+def _other_meshes_using(obj, mat):
+    """Names of the objects other than obj, on other data than obj's mesh, that use `mat`:
+    a frozen map fits obj's surface and UVs only (linked duplicates share them)."""
+    import bpy
+    return sorted(repr(o.name) for o in bpy.data.objects
+                  if o != obj and o.data != obj.data and
+                  any(slot.material == mat for slot in getattr(o, "material_slots", ())))
+
+
 def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False):
     """Everything freeze needs, checked before anything changes: (material, tree, stack end,
     fed Normal inputs, uv_map, output Path or None for pack)."""
@@ -162,6 +171,13 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
                           f"first")
     if RECORD in mat:
         raise FreezeError(f"material {mat.name!r} is frozen already: thaw it first")
+    others = _other_meshes_using(obj, mat)
+    if others:
+        raise FreezeError(f"material {mat.name!r} is also used by {', '.join(others)} (not "
+                          f"{obj.name!r}'s mesh): the frozen map is baked on {obj.name!r}'s "
+                          f"UVs and would be wrong there; give {obj.name!r} its own copy of "
+                          f"the material first (the number next to the material's name "
+                          f"makes it single-user)")
     tree = mat.node_tree
     end, fed = find_stack(tree)
     problem = NB.resolution_problem(resolution, *NB.RESOLUTION_RANGE)
@@ -192,7 +208,8 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
     depth = "16" if suffix == ".png" else "float"         # 8 bits would cost ~0.3 degrees
     folder = path.parent if path else Path(tempfile.mkdtemp(prefix="surfgrad_freeze_"))
     stem = path.stem if path else f"{mat.name}_frozen_normal"
-    baked = folder / f".{stem}.freeze{os.getpid()}{suffix}"
+    # The packed map's working file is named after the material, which may hold a "/".
+    baked = folder / f".{bpy.path.clean_name(stem)}.freeze{os.getpid()}{suffix}"
     image = None
     try:
         with _baking_the_stack_alone(tree, end):
@@ -330,6 +347,9 @@ def thaw(mat):
     record = frozen_record(mat)
     if record is None:
         raise FreezeError(f"material {mat.name!r} is not frozen: nothing to thaw")
+    if not mat.is_editable:
+        raise FreezeError(f"material {mat.name!r} is linked from a library: make it local "
+                          f"first")
     tree = mat.node_tree
     for from_node, from_id, to_node, to_id in record["links"]:
         for name, side, ident in ((from_node, "outputs", from_id), (to_node, "inputs", to_id)):

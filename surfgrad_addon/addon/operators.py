@@ -32,9 +32,26 @@ def _active_tree(context):
     if mat is None:
         raise SurfgradError(f"{obj.name!r} has no material: add one in the Material "
                             f"Properties first")
+    if not mat.is_editable:
+        raise SurfgradError(_linked_text(repr(mat.name)))
     if mat.node_tree is None:
         mat.use_nodes = True
     return mat, mat.node_tree
+
+
+def _linked_text(what):
+    return (f"{what} is linked from a library (or override data), so an edit would not be "
+            f"saved: make it local first (Object > Relations > Make Local)")
+
+
+def require_editable(tree):
+    """Refuse a node tree whose edits would be lost: linked from a library (a linked
+    material's tree is too), or override data. Python may add nodes to such a tree, but the
+    file never saves them."""
+    if not tree.is_editable:
+        owner = next((m for m in bpy.data.materials if m.node_tree == tree), None)
+        raise SurfgradError(_linked_text(f"material {owner.name!r}" if owner is not None
+                                         else f"node tree {tree.name!r}"))
 
 
 def _is_world_tree(tree):
@@ -55,9 +72,7 @@ def shown_tree(context):
                                 "nodes: layer stacks and decals go in a material; switch "
                                 "the editor to Object and show a material")
         if tree is not None:
-            if not tree.is_editable:
-                raise SurfgradError(f"{tree.name!r} is not editable (linked or override "
-                                    f"data): make it local first")
+            require_editable(tree)
             return tree
     return _active_tree(context)[1]
 
@@ -94,6 +109,7 @@ def _group_node(tree, builder, location, label=None):
 def add_layer_stack(tree, uv_map=""):
     """SG Normal Map -> SG Combine -> SG Resolve -> the surface shader's Normal. Returns the
     new nodes. An existing link into the shader's Normal is replaced (and reported)."""
+    require_editable(tree)
     shader = _surface_shader(tree)
     _prebuild(G.resolve_group, G.combine_group, lambda: G.normal_map_group(uv_map))
     x, y = shader.location
@@ -114,9 +130,18 @@ def convert_node(tree, node):
     with the same look; the node's input and output links are carried over. Returns the
     SG Resolve node that now feeds what the old node fed."""
     links = tree.links
+    require_editable(tree)
     if node.bl_idname not in ("ShaderNodeNormalMap", "ShaderNodeBump"):
         raise SurfgradError(f"{node.name!r} is a {node.bl_idname}: select a Normal Map or a "
                             f"Bump node to convert")
+    if node.mute:            # the groups would not be muted: the look would change
+        raise SurfgradError(f"{node.name!r} is muted: unmute it (M) to convert it, or "
+                            f"delete it")
+    width = node.inputs.get("Filter Width")
+    if width is not None and width.is_linked:   # the group takes its width as a constant
+        raise SurfgradError(f"{node.name!r} has a link into Filter Width, which the "
+                            f"surface-gradient group takes as a value: remove the link and "
+                            f"type the width, then convert")
     if node.bl_idname == "ShaderNodeNormalMap" and node.space != "TANGENT":
         raise SurfgradError(f"{node.name!r} is an {node.space.lower()}-space Normal Map: "
                             f"use SG Object Normal for object or world space maps")
@@ -208,6 +233,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     whose Axis X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
     if shape not in DECAL_SHAPES:
         raise SurfgradError(f"decal shape {shape!r}: use one of {', '.join(DECAL_SHAPES)}")
+    require_editable(tree)
     _prebuild(G.projector_coordinates_group, G.decal_coordinates_group, G.decal_group)
     empty = bpy.data.objects.new(name, None)
     display, outlines = DECAL_DISPLAY[shape]

@@ -1,0 +1,152 @@
+"""The artist's edits refuse what would be silently lost or wrong (red team 28b), with the file
+left as it was:
+
+- A material linked from a library: Python can add nodes to its tree, but the file never saves
+  them, so the layer stack, the decal projector (drivers and an empty too), Convert (from a
+  Shader Editor showing the linked tree, whose poll lets it run) and Thaw used to edit it and
+  report success. The API's add_layer_stack likewise.
+- Convert to Surface Gradient on a Bump node whose Filter Width is linked dropped the link
+  (the group takes a constant width), and on a muted node made live groups of it: either
+  changed the look without a word.
+- Freeze of a material another mesh also uses baked one object's UVs into a map the other
+  then rendered with; a linked duplicate (the same mesh) is still frozen.
+- Freeze packing the map of a material named with a "/" ("Rock/Wet") was refused with a
+  missing temporary folder.
+"""
+
+import json
+import types
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon import operators as O  # noqa: E402
+from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
+from support.freeze_scene import layered_material  # noqa: E402
+from support.material_dump import material_dump  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
+
+pytestmark = pytest.mark.tier("blender")
+
+LINKED = "linked from a library"
+
+
+def _tree_state(tree):
+    return (sorted(f"{n.name}:{n.bl_idname}" for n in tree.nodes),
+            sorted(f"{lk.from_node.name}.{lk.from_socket.identifier}->"
+                   f"{lk.to_node.name}.{lk.to_socket.identifier}" for lk in tree.links),
+            len(tree.animation_data.drivers) if tree.animation_data else 0)
+
+
+def _file_state():
+    return (sorted(o.name for o in bpy.data.objects),
+            sorted(g.name for g in bpy.data.node_groups))
+
+
+@pytest.fixture()
+def linked(fresh, tmp_path):
+    """A plane whose material (a Normal Map into a Diffuse BSDF, frozen-looking record on
+    it) is linked from a library file; returns (plane, material)."""
+    mat, tree, bsdf = diffuse_material("Library Material")
+    nmap = tree.nodes.new("ShaderNodeNormalMap")
+    tree.links.new(nmap.outputs[0], bsdf.inputs["Normal"])
+    tree.nodes.active = nmap
+    mat[F.RECORD] = json.dumps({"image": "x", "image_created": True, "file": "",
+                                "links": [], "added": [], "moved": {}, "frame": ""})
+    path = tmp_path / "library.blend"
+    bpy.data.libraries.write(str(path), {mat}, fake_user=True)
+    bpy.data.materials.remove(mat)
+    with bpy.data.libraries.load(str(path), link=True) as (_, into):
+        into.materials = ["Library Material"]
+    mat = bpy.data.materials["Library Material"]
+    assert mat.library is not None
+    mesh = bpy.data.meshes.new("Plane")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [], [(0, 1, 2, 3)])
+    mesh.materials.append(mat)
+    plane = bpy.data.objects.new("Plane", mesh)
+    bpy.context.scene.collection.objects.link(plane)
+    bpy.context.view_layer.objects.active = plane
+    return plane, mat
+
+
+def _refused_unchanged(tree, call, match):
+    before, files = _tree_state(tree), _file_state()
+    with pytest.raises(ValueError, match=match):
+        call()
+    assert _tree_state(tree) == before
+    assert _file_state() == files
+
+
+def test_a_linked_material_is_refused_not_edited(linked):
+    plane, mat = linked
+    tree = mat.node_tree
+    nmap = tree.nodes.active
+    no_editor = types.SimpleNamespace(object=plane, space_data=None,
+                                      scene=bpy.context.scene)
+    # The operators' route without a Shader Editor (F3 search): the active object's material.
+    _refused_unchanged(tree, lambda: O.shown_tree(no_editor), f"'Library Material' is {LINKED}")
+    _refused_unchanged(tree, lambda: api.add_layer_stack(mat), LINKED)
+    _refused_unchanged(tree, lambda: O.add_layer_stack(tree), LINKED)
+    _refused_unchanged(tree, lambda: O.convert_node(tree, nmap), LINKED)
+    _refused_unchanged(tree, lambda: O.add_decal_projector(no_editor, tree), LINKED)
+    _refused_unchanged(tree, lambda: F.thaw(mat), f"'Library Material' is {LINKED}")
+
+
+def _bump_material():
+    mat, tree, bsdf = diffuse_material("Bumpy")
+    bump = tree.nodes.new("ShaderNodeBump")
+    tree.links.new(bump.outputs[0], bsdf.inputs["Normal"])
+    return mat, tree, bump
+
+
+def test_convert_refuses_a_linked_filter_width(fresh):
+    mat, tree, bump = _bump_material()
+    if "Filter Width" not in bump.inputs:
+        pytest.skip("this line's Bump node has no Filter Width")
+    width = tree.nodes.new("ShaderNodeValue")
+    tree.links.new(width.outputs[0], bump.inputs["Filter Width"])
+    _refused_unchanged(tree, lambda: O.convert_node(tree, bump),
+                       "link into Filter Width.*remove the link and type the width")
+
+
+@pytest.mark.parametrize("kind", ["ShaderNodeBump", "ShaderNodeNormalMap"])
+def test_convert_refuses_a_muted_node(fresh, kind):
+    mat, tree, bsdf = diffuse_material("Muted")
+    node = tree.nodes.new(kind)
+    tree.links.new(node.outputs[0], bsdf.inputs["Normal"])
+    node.mute = True
+    _refused_unchanged(tree, lambda: O.convert_node(tree, node), "is muted: unmute it")
+    node.mute = False                              # unmuted, the same node converts
+    resolve = O.convert_node(tree, node)
+    assert bsdf.inputs["Normal"].links[0].from_node == resolve
+
+
+def test_freeze_refuses_a_material_another_mesh_uses():
+    objs = test_scenes.new_scene(["Sphere", "Plane"])
+    sphere, plane = objs["Sphere"], objs["Plane"]
+    mat, _ = layered_material(sphere)
+    plane.data.materials.clear()
+    plane.data.materials.append(mat)
+    before, images = material_dump(mat), set(bpy.data.images.keys())
+    with pytest.raises(F.FreezeError, match="also used by 'Plane'.*own copy of the material"):
+        F.freeze(sphere, 16, log=lambda *_: None)
+    assert material_dump(mat) == before and set(bpy.data.images.keys()) == images
+    # A linked duplicate shares the mesh, its UVs and so the map: that one is no obstacle.
+    plane.data.materials.clear()
+    twin = sphere.copy()
+    bpy.context.scene.collection.objects.link(twin)
+    assert twin.data == sphere.data
+    assert F.check(sphere, 16)[0] == mat
+
+
+@pytest.mark.tier("bake")
+def test_freeze_packs_a_material_named_with_a_slash():
+    obj = test_scenes.new_scene(["Plane"])["Plane"]
+    mat, _ = layered_material(obj, name="Rock/Wet")
+    record = F.freeze(obj, 16, log=lambda *_: None)
+    image = bpy.data.images[record["image"]]
+    assert image.packed_file is not None and image.size[:] == (16, 16)
+    assert record["file"] == "" and F.RECORD in mat
