@@ -12,6 +12,8 @@ left as it was:
   then rendered with; a linked duplicate (the same mesh) is still frozen.
 - Freeze packing the map of a material named with a "/" ("Rock/Wet") was refused with a
   missing temporary folder.
+- A decal projector scaled to zero on an axis divided by zero in its drivers, which Blender
+  then stopped evaluating: the decal no longer followed the projector.
 """
 
 import json
@@ -150,3 +152,35 @@ def test_freeze_packs_a_material_named_with_a_slash():
     image = bpy.data.images[record["image"]]
     assert image.packed_file is not None and image.size[:] == (16, 16)
     assert record["file"] == "" and F.RECORD in mat
+
+
+def test_a_decal_projector_scaled_through_zero_keeps_following(fresh):
+    """Scaling the projector to zero on an axis (S Z 0, or a decal animated growing from
+    nothing) divided by zero in its drivers, which Blender then stopped evaluating for good:
+    the decal stayed put after the scale came back."""
+    mesh = bpy.data.meshes.new("Plane")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0)], [], [(0, 1, 2)])
+    plane = bpy.data.objects.new("Plane", mesh)
+    bpy.context.scene.collection.objects.link(plane)
+    mat, tree, _ = diffuse_material("Decal")
+    mesh.materials.append(mat)
+    empty, decal = O.add_decal_projector(bpy.context, tree)
+    coords = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeGroup"
+                  and n.node_tree.name == "SG Projector Coordinates")
+    rows = [coords.inputs[f"To Projector {axis}"] for axis in "XYZ"]
+    drivers = tree.animation_data.drivers
+    assert len(drivers) == 18 and all(d.driver.is_simple_expression for d in drivers)
+    for scale in ((1, 1, 0), (0, 1, 1), (0, 0, 0), (2, 3, 0.5)):
+        empty.scale = scale
+        empty.rotation_euler = (0.5, -0.2, 0.3)
+        bpy.context.view_layer.update()
+        assert all(d.driver.is_valid for d in drivers), scale
+        values = [list(r.default_value) for r in rows] + [list(decal.inputs["Axis X"]
+                                                            .default_value)]
+        assert all(abs(v) < 1e7 for row in values for v in row), (scale, values)
+    # Back to a real size: the drivers follow it again (the inverse of its 3 x 3 matrix).
+    inverse = empty.matrix_world.to_3x3().inverted()
+    for r, expected in zip(rows, inverse):
+        assert list(r.default_value) == pytest.approx(list(expected), abs=1e-5)
+    axis_x = empty.matrix_world.to_3x3().col[0].normalized()
+    assert list(decal.inputs["Axis X"].default_value) == pytest.approx(list(axis_x), abs=1e-6)

@@ -275,7 +275,11 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
 
 # Rows of the inverse of a 3 x 3 matrix (a b c / d e f / g h i) by cofactors over the
 # determinant: simple expressions, which drivers run without auto-run Python scripts.
+# A division by zero would mark the driver invalid for good (Blender evaluates it no more,
+# even once the scale is back), so a projector scaled to zero on an axis gets the inverse of a
+# tiny one instead (ZERO_SIZE_INVERSE on the diagonal): it covers nothing until it grows again.
 _DET = "(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g))"
+ZERO_SIZE_INVERSE = 1e6
 _INVERSE_ROWS = (("e * i - f * h", "c * h - b * i", "b * f - c * e"),
                  ("f * g - d * i", "a * i - c * g", "c * d - a * f"),
                  ("d * h - e * g", "b * g - a * h", "a * e - b * d"))
@@ -301,12 +305,14 @@ def drive_projector(node, obj):
                 var.name, var.type = name, "SINGLE_PROP"
                 var.targets[0].id = obj
                 var.targets[0].data_path = f"matrix_world[{k % 3}][{k // 3}]"
-            drv.expression = f"({cofactor}) / {_DET}"
+            fallback = ZERO_SIZE_INVERSE if i == "XYZ".index(axis) else 0.0
+            drv.expression = f"({cofactor}) / {_DET} if {_DET} != 0 else {fallback:g}"
 
 
 def drive_axis(socket, obj, column):
     """Drive a vector socket with the unit world direction of obj's local axis `column`
-    (simple expressions only, so they run without auto-run Python scripts)."""
+    (simple expressions only, so they run without auto-run Python scripts); zero while the
+    axis is scaled to zero (a division by zero would stop the driver for good)."""
     names = "abc"
     for i in range(3):
         fcurve = socket.driver_add("default_value", i)
@@ -319,7 +325,8 @@ def drive_axis(socket, obj, column):
             var.targets[0].id = obj
             # RNA indexes matrices column first: [column][row].
             var.targets[0].data_path = f"matrix_world[{column}][{row}]"
-        drv.expression = f"{names[i]} / sqrt(a * a + b * b + c * c)"
+        drv.expression = (f"{names[i]} / sqrt(a * a + b * b + c * c) "
+                          f"if a * a + b * b + c * c > 0 else 0")
 
 
 # Operators ------------------------------------------------------------------------------------
