@@ -12,6 +12,8 @@ left as it was:
   then rendered with; a linked duplicate (the same mesh) is still frozen.
 - Freeze packing the map of a material named with a "/" ("Rock/Wet") was refused with a
   missing temporary folder.
+- Thaw removed the freeze's nodes by name, also a node of the user's that took the name of
+  one the user had deleted.
 - A decal projector scaled to zero on an axis divided by zero in its drivers, which Blender
   then stopped evaluating: the decal no longer followed the projector.
 """
@@ -184,3 +186,23 @@ def test_a_decal_projector_scaled_through_zero_keeps_following(fresh):
         assert list(r.default_value) == pytest.approx(list(expected), abs=1e-5)
     axis_x = empty.matrix_world.to_3x3().col[0].normalized()
     assert list(decal.inputs["Axis X"].default_value) == pytest.approx(list(axis_x), abs=1e-6)
+
+
+@pytest.mark.tier("bake")
+def test_thaw_keeps_a_node_of_the_users_that_took_a_frozen_nodes_name():
+    """The user deletes the freeze's Normal Map node and adds one of their own, which takes
+    the free name "Normal Map": Thaw used to remove it by that name."""
+    obj = test_scenes.new_scene(["Plane"])["Plane"]
+    mat, _ = layered_material(obj)
+    record = F.freeze(obj, 16, log=lambda *_: None)
+    tree = mat.node_tree
+    frozen_nmap = next(tree.nodes[n] for n in record["added"]
+                       if tree.nodes[n].bl_idname == "ShaderNodeNormalMap")
+    name = frozen_nmap.name
+    tree.nodes.remove(frozen_nmap)
+    mine = tree.nodes.new("ShaderNodeNormalMap")
+    assert mine.name == name                 # the name the record holds
+    F.thaw(mat)
+    assert tree.nodes.get(name) == mine and F.RECORD not in mat
+    # What the freeze added (and still labels as its own) is gone.
+    assert not any(n.label.startswith("surfgrad: ") for n in tree.nodes)

@@ -23,7 +23,8 @@ from pathlib import Path
 from . import normal_bake as NB
 
 RECORD = "surfgrad_freeze"
-FRAME_LABEL = "surfgrad: live stack (frozen into {})"
+ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
+FRAME_LABEL = ADDED_LABEL + "live stack (frozen into {})"
 SG_PREFIX = "SG "
 NORMAL = "Normal"
 
@@ -288,11 +289,12 @@ def _wire(mat, tree, end, fed, uv_map, image):
         nmap.uv_map = uv_map
         frame = nodes.new("NodeFrame")
         frame.label = FRAME_LABEL.format(image.name)
+        for node in (uv, tex, nmap):
+            node.label = f"{ADDED_LABEL}frozen ({node.bl_label})"
         record["added"] = [n.name for n in (uv, tex, nmap, frame)]
         record["frame"] = frame.name
         for i, node in enumerate((uv, tex, nmap)):
             node.location = (x - 760 + 260 * i, y - 420)
-            node.label = f"surfgrad: frozen ({node.bl_label})"
         tree.links.new(uv.outputs["UV"], tex.inputs["Vector"])
         tree.links.new(tex.outputs["Color"], nmap.inputs["Color"])
         for node, s in fed:
@@ -309,16 +311,22 @@ def _wire(mat, tree, end, fed, uv_map, image):
 
 
 def _undo(mat, tree, record):
-    """Put the stack back as the record says, remove the added nodes and the record."""
+    """Put the stack back as the record says, remove the added nodes and the record. A node
+    is removed only while it still carries the freeze's label: one the user deleted leaves its
+    name free, and a node of the user's that took it again stays."""
     nodes = tree.nodes
+    def added(name):
+        node = nodes.get(name)
+        return node if node is not None and node.label.startswith(ADDED_LABEL) else None
     for name in record["added"]:
-        if name in nodes and nodes[name].bl_idname != "NodeFrame":
-            nodes.remove(nodes[name])
+        node = added(name)
+        if node is not None and node.bl_idname != "NodeFrame":
+            nodes.remove(node)
     for name, location in record["moved"].items():
         if name in nodes:
             nodes[name].parent = None
             nodes[name].location = location
-    if record["frame"] in nodes:
+    if added(record["frame"]) is not None:
         nodes.remove(nodes[record["frame"]])
     for from_node, from_id, to_node, to_id in record["links"]:
         tree.links.new(_socket(nodes[from_node].outputs, from_id),
