@@ -14,6 +14,8 @@ left as it was:
   missing temporary folder.
 - Thaw removed the freeze's nodes by name, also a node of the user's that took the name of
   one the user had deleted.
+- A second Sampler group added with the texture of a Sampler zone active linked its UV from
+  inside that zone, which invalidated the material's links up to its output.
 - A decal projector scaled to zero on an axis divided by zero in its drivers, which Blender
   then stopped evaluating: the decal no longer followed the projector.
 """
@@ -206,3 +208,35 @@ def test_thaw_keeps_a_node_of_the_users_that_took_a_frozen_nodes_name():
     assert tree.nodes.get(name) == mine and F.RECORD not in mat
     # What the freeze added (and still labels as its own) is gone.
     assert not any(n.label.startswith("surfgrad: ") for n in tree.nodes)
+
+
+def test_a_second_sampler_group_on_a_zones_texture_keeps_the_material_valid(fresh):
+    """The texture a Sampler zone holds made active and a second Sampler group added (the
+    one-texel twin of the same image): the new group's UV was linked from inside the first
+    zone, a link out of a zone, which made everything downstream invalid up to the Material
+    Output (the material rendered nothing)."""
+    from surfgrad_addon.addon import groups as G
+    from surfgrad_addon.addon import ui
+    from surfgrad_addon.addon.sampler_zone import has_closures
+    if not has_closures():
+        pytest.skip("Sampler groups need Blender 5.0's closures")
+    mat, tree, bsdf = diffuse_material("Sampled")
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.new("Height", 8, 8)
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    tree.links.new(tree.nodes.new("ShaderNodeUVMap").outputs[0], mapping.inputs[0])
+    tree.links.new(mapping.outputs[0], tex.inputs["Vector"])
+    tree.nodes.active = tex
+    first = ui.add_group_node(tree, "SG Height Map HQ (Sampler)")
+    zone_out = first.inputs["Sampler"].links[0].from_node
+    tree.nodes.active = zone_out.inputs["Color"].links[0].from_node    # the zone's texture
+    second = ui.add_group_node(tree, "SG Height Map One-Texel (Sampler)", (400.0, 0.0))
+    assert second.inputs["UV"].links[0].from_node == mapping        # as the first group's
+    assert first.inputs["UV"].links[0].from_node == mapping
+    resolve = tree.nodes.new("ShaderNodeGroup")
+    resolve.node_tree = G.resolve_group()
+    tree.links.new(second.outputs[0], resolve.inputs["Surface Gradient"])
+    tree.links.new(resolve.outputs[0], bsdf.inputs["Normal"])
+    invalid = [f"{lk.from_node.name}.{lk.from_socket.name} -> {lk.to_node.name}."
+               f"{lk.to_socket.name}" for lk in tree.links if not lk.is_valid]
+    assert invalid == []
