@@ -16,6 +16,9 @@ left as it was:
   one the user had deleted.
 - A second Sampler group added with the texture of a Sampler zone active linked its UV from
   inside that zone, which invalidated the material's links up to its output.
+- The API's node_group raised AttributeError or RuntimeError (not the ValueError it promises)
+  for an image given by name, an unknown extension, a uv_map that is not a string or too long,
+  and built a group for a NaN or negative filter width; an image by name now works.
 - A decal projector scaled to zero on an axis divided by zero in its drivers, which Blender
   then stopped evaluating: the decal no longer followed the projector.
 """
@@ -240,3 +243,32 @@ def test_a_second_sampler_group_on_a_zones_texture_keeps_the_material_valid(fres
     invalid = [f"{lk.from_node.name}.{lk.from_socket.name} -> {lk.to_node.name}."
                f"{lk.to_socket.name}" for lk in tree.links if not lk.is_valid]
     assert invalid == []
+
+
+@pytest.mark.parametrize("name, options, match", [
+    ("SG Height Map HQ", {"image": "No Such Image"}, "there is no image of that name"),
+    ("SG Parallax", {"image": 3}, "give an image of this file"),
+    ("SG Height Map HQ", {"extension": "WRAP"}, "extension 'WRAP': use one of REPEAT"),
+    ("SG Height Map Forward", {"filter_width": "abc"}, "give a positive number"),
+    ("SG Height Map Forward", {"filter_width": float("nan")}, "give a positive number"),
+    ("SG Height Map Forward", {"filter_width": -1.0}, "give a positive number"),
+    ("SG Normal Map", {"uv_map": 3}, "give the UV map's name"),
+    ("SG Normal Map", {"uv_map": "x" * 80}, "longer than a UV map's name can be"),
+])
+def test_the_api_raises_value_errors_for_bad_options(fresh, name, options, match):
+    """The API promises ValueError with the fix; these raised AttributeError or the node
+    builder's RuntimeError (or built a group with a NaN filter width), and left no group."""
+    groups = set(bpy.data.node_groups.keys())
+    with pytest.raises(ValueError, match=match):
+        api.node_group(name, **options)
+    assert set(bpy.data.node_groups.keys()) == groups
+
+
+def test_the_api_takes_an_image_by_name(fresh):
+    image = bpy.data.images.new("Height", 8, 4)
+    by_name = api.node_group("SG Height Map HQ", image="Height")
+    assert by_name == api.node_group("SG Height Map HQ", image=image)
+    assert any(getattr(n, "image", None) == image for n in by_name.nodes)
+    mat, _, _ = diffuse_material("Stack")
+    with pytest.raises(ValueError, match="give the UV map's name"):
+        api.add_layer_stack(mat, uv_map=5)
