@@ -19,6 +19,8 @@ left as it was:
 - The API's node_group raised AttributeError or RuntimeError (not the ValueError it promises)
   for an image given by name, an unknown extension, a uv_map that is not a string or too long,
   and built a group for a NaN or negative filter width; an image by name now works.
+- A light's nodes (what the Shader Editor shows in Object mode with a light active) were
+  edited like a material's (the decal projector added its empty and chain), unlike the World's.
 - A decal projector scaled to zero on an axis divided by zero in its drivers, which Blender
   then stopped evaluating: the decal no longer followed the projector.
 """
@@ -272,3 +274,19 @@ def test_the_api_takes_an_image_by_name(fresh):
     mat, _, _ = diffuse_material("Stack")
     with pytest.raises(ValueError, match="give the UV map's name"):
         api.add_layer_stack(mat, uv_map=5)
+
+
+def test_a_lights_nodes_shown_are_refused(fresh):
+    """In Object mode the Shader Editor shows the active light's nodes: the decal projector
+    went in there (an empty in the scene and a decal chain in the light), as the World's
+    nodes are refused."""
+    light = bpy.data.lights.new("Lamp", "POINT")
+    if light.node_tree is None:
+        light.use_nodes = True
+    obj = bpy.data.objects.new("Lamp", light)
+    bpy.context.scene.collection.objects.link(obj)
+    space = types.SimpleNamespace(type='NODE_EDITOR', tree_type="ShaderNodeTree",
+                                  shader_type='OBJECT', edit_tree=light.node_tree)
+    shown = types.SimpleNamespace(object=obj, space_data=space, scene=bpy.context.scene)
+    _refused_unchanged(light.node_tree, lambda: O.shown_tree(shown),
+                       "shows the World's \\(or a light's")

@@ -55,22 +55,25 @@ def require_editable(tree):
 
 
 def _is_world_tree(tree):
-    return any(owner.node_tree == tree for owner in (*bpy.data.worlds, *bpy.data.linestyles)
-               if getattr(owner, "node_tree", None) is not None)
+    """True for the nodes of a World, a light (the editor shows them in Object mode when the
+    active object is a light) or a line style: no surface there to bump."""
+    owners = (*bpy.data.worlds, *bpy.data.lights, *bpy.data.linestyles)
+    return any(getattr(owner, "node_tree", None) == tree for owner in owners)
 
 
 def shown_tree(context):
     """The node tree to edit: the one the Shader Editor shows (pinned, or a group entered),
     else (no editor, or it shows nothing) the active object's active material. Raises
-    SurfgradError where it makes no sense: the editor shows the World or a line style."""
+    SurfgradError where it makes no sense: the editor shows the World, a light or a line
+    style."""
     space = getattr(context, "space_data", None)
     if space is not None and space.type == 'NODE_EDITOR' and \
             getattr(space, "tree_type", None) == "ShaderNodeTree":
         tree = space.edit_tree
         if space.shader_type != 'OBJECT' or (tree is not None and _is_world_tree(tree)):
-            raise SurfgradError("The Shader Editor shows the World's (or a line style's) "
-                                "nodes: layer stacks and decals go in a material; switch "
-                                "the editor to Object and show a material")
+            raise SurfgradError("The Shader Editor shows the World's (or a light's or a "
+                                "line style's) nodes: layer stacks and decals go in a "
+                                "material; switch the editor to Object and show a material")
         if tree is not None:
             require_editable(tree)
             return tree
