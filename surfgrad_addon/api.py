@@ -35,12 +35,61 @@ def group_names():
         [name for name, _ in _groups.GEOMETRY_MENU_GROUPS]
 
 
+def _image(value):
+    """An image option: a bpy Image, or the name of one in this file."""
+    import bpy
+    if value is None or isinstance(value, bpy.types.Image):
+        return value
+    if isinstance(value, str) and value in bpy.data.images:
+        return bpy.data.images[value]
+    raise ValueError(f"image {value!r}: give an image of this file (bpy.data.images[name]) "
+                     f"or its name" + ("; there is no image of that name"
+                                       if isinstance(value, str) else ""))
+
+
+def _check_uv_map(uv_map):
+    import bpy
+    longest = bpy.types.ShaderNodeNormalMap.bl_rna.properties["uv_map"].length_max - 1
+    if not isinstance(uv_map, str):
+        raise ValueError(f"uv_map {uv_map!r}: give the UV map's name (a string)")
+    if len(uv_map.encode()) > longest:         # Blender would cut it: another map's name
+        raise ValueError(f"uv_map {uv_map!r} is longer than a UV map's name can be "
+                         f"({longest} bytes)")
+
+
+def _checked(options):
+    """The options with image names resolved; ValueError for a value no group takes (the
+    builders would fail with an AttributeError or a RuntimeError of their own)."""
+    import math
+    import bpy
+    out = dict(options)
+    if "image" in out:
+        out["image"] = _image(out["image"])
+    if out.get("images") is not None:
+        out["images"] = [_image(v) for v in out["images"]]
+    if "uv_map" in out:
+        _check_uv_map(out["uv_map"])
+    if "extension" in out:
+        allowed = [i.identifier for i in bpy.types.ShaderNodeTexImage.bl_rna
+                   .properties["extension"].enum_items]
+        if out["extension"] not in allowed:
+            raise ValueError(f"extension {out['extension']!r}: use one of "
+                             f"{', '.join(allowed)}")
+    if out.get("filter_width") is not None:
+        fw = out["filter_width"]
+        if isinstance(fw, bool) or not isinstance(fw, (int, float)) or \
+                not math.isfinite(fw) or fw <= 0:
+            raise ValueError(f"filter_width {fw!r}: give a positive number (the Bump node's "
+                             f"Filter Width, in differentials; None for the default)")
+    return out
+
+
 def node_group(name, **options):
     """The node tree of group `name`, built (or updated in place) if needed. Options:
     SG Normal Map and SG Procedural Basis `uv_map` (the per-map group, "<name> [<map>]");
     SG Height Map HQ `image`, `variant` ('hq' or 'one-texel'), `extension`; SG Height Map
     Forward `filter_width`; SG Triplanar Height `image` (or `images`, three), `extension`;
-    SG Parallax `image`, `extension`."""
+    SG Parallax `image`, `extension`. An image is a bpy Image or the name of one."""
     builders = dict(_groups.MENU_GROUPS) | dict(_groups.GEOMETRY_MENU_GROUPS)
     if name not in builders:
         raise ValueError(f"no surfgrad group named {name!r}; the groups are "
@@ -53,7 +102,7 @@ def node_group(name, **options):
     reason = _groups.unavailable_reason(name)
     if reason:
         raise _groups.FeatureUnavailable(reason)
-    return builders[name](**options)
+    return builders[name](**_checked(options))
 
 
 def add_layer_stack(material, uv_map=""):
@@ -62,6 +111,7 @@ def add_layer_stack(material, uv_map=""):
     from .addon import operators
     if material is None or getattr(material, "node_tree", None) is None:
         raise ValueError("give a material that uses nodes")
+    _check_uv_map(uv_map)
     return operators.add_layer_stack(material.node_tree, uv_map)
 
 

@@ -23,7 +23,8 @@ from pathlib import Path
 from . import normal_bake as NB
 
 RECORD = "surfgrad_freeze"
-FRAME_LABEL = "surfgrad: live stack (frozen into {})"
+ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
+FRAME_LABEL = ADDED_LABEL + "live stack (frozen into {})"
 SG_PREFIX = "SG "
 NORMAL = "Normal"
 
@@ -145,6 +146,15 @@ def _check_file(filepath, overwrite):
     return path
 
 
+def _other_meshes_using(obj, mat):
+    """Names of the objects other than obj, on other data than obj's mesh, that use `mat`:
+    a frozen map fits obj's surface and UVs only (linked duplicates share them)."""
+    import bpy
+    return sorted(repr(o.name) for o in bpy.data.objects
+                  if o != obj and o.data != obj.data and
+                  any(slot.material == mat for slot in getattr(o, "material_slots", ())))
+
+
 def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False):
     """Everything freeze needs, checked before anything changes: (material, tree, stack end,
     fed Normal inputs, uv_map, output Path or None for pack)."""
@@ -162,6 +172,13 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
                           f"first")
     if RECORD in mat:
         raise FreezeError(f"material {mat.name!r} is frozen already: thaw it first")
+    others = _other_meshes_using(obj, mat)
+    if others:
+        raise FreezeError(f"material {mat.name!r} is also used by {', '.join(others)} (not "
+                          f"{obj.name!r}'s mesh): the frozen map is baked on {obj.name!r}'s "
+                          f"UVs and would be wrong there; give {obj.name!r} its own copy of "
+                          f"the material first (the number next to the material's name "
+                          f"makes it single-user)")
     tree = mat.node_tree
     end, fed = find_stack(tree)
     problem = NB.resolution_problem(resolution, *NB.RESOLUTION_RANGE)
@@ -192,7 +209,8 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
     depth = "16" if suffix == ".png" else "float"         # 8 bits would cost ~0.3 degrees
     folder = path.parent if path else Path(tempfile.mkdtemp(prefix="surfgrad_freeze_"))
     stem = path.stem if path else f"{mat.name}_frozen_normal"
-    baked = folder / f".{stem}.freeze{os.getpid()}{suffix}"
+    # The packed map's working file is named after the material, which may hold a "/".
+    baked = folder / f".{bpy.path.clean_name(stem)}.freeze{os.getpid()}{suffix}"
     image = None
     try:
         with _baking_the_stack_alone(tree, end):
@@ -271,11 +289,12 @@ def _wire(mat, tree, end, fed, uv_map, image):
         nmap.uv_map = uv_map
         frame = nodes.new("NodeFrame")
         frame.label = FRAME_LABEL.format(image.name)
+        for node in (uv, tex, nmap):
+            node.label = f"{ADDED_LABEL}frozen ({node.bl_label})"
         record["added"] = [n.name for n in (uv, tex, nmap, frame)]
         record["frame"] = frame.name
         for i, node in enumerate((uv, tex, nmap)):
             node.location = (x - 760 + 260 * i, y - 420)
-            node.label = f"surfgrad: frozen ({node.bl_label})"
         tree.links.new(uv.outputs["UV"], tex.inputs["Vector"])
         tree.links.new(tex.outputs["Color"], nmap.inputs["Color"])
         for node, s in fed:
@@ -292,16 +311,22 @@ def _wire(mat, tree, end, fed, uv_map, image):
 
 
 def _undo(mat, tree, record):
-    """Put the stack back as the record says, remove the added nodes and the record."""
+    """Put the stack back as the record says, remove the added nodes and the record. A node
+    is removed only while it still carries the freeze's label: one the user deleted leaves its
+    name free, and a node of the user's that took it again stays."""
     nodes = tree.nodes
+    def added(name):
+        node = nodes.get(name)
+        return node if node is not None and node.label.startswith(ADDED_LABEL) else None
     for name in record["added"]:
-        if name in nodes and nodes[name].bl_idname != "NodeFrame":
-            nodes.remove(nodes[name])
+        node = added(name)
+        if node is not None and node.bl_idname != "NodeFrame":
+            nodes.remove(node)
     for name, location in record["moved"].items():
         if name in nodes:
             nodes[name].parent = None
             nodes[name].location = location
-    if record["frame"] in nodes:
+    if added(record["frame"]) is not None:
         nodes.remove(nodes[record["frame"]])
     for from_node, from_id, to_node, to_id in record["links"]:
         tree.links.new(_socket(nodes[from_node].outputs, from_id),
@@ -330,6 +355,9 @@ def thaw(mat):
     record = frozen_record(mat)
     if record is None:
         raise FreezeError(f"material {mat.name!r} is not frozen: nothing to thaw")
+    if not mat.is_editable:
+        raise FreezeError(f"material {mat.name!r} is linked from a library: make it local "
+                          f"first")
     tree = mat.node_tree
     for from_node, from_id, to_node, to_id in record["links"]:
         for name, side, ident in ((from_node, "outputs", from_id), (to_node, "inputs", to_id)):

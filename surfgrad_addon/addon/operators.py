@@ -32,32 +32,50 @@ def _active_tree(context):
     if mat is None:
         raise SurfgradError(f"{obj.name!r} has no material: add one in the Material "
                             f"Properties first")
+    if not mat.is_editable:
+        raise SurfgradError(_linked_text(repr(mat.name)))
     if mat.node_tree is None:
         mat.use_nodes = True
     return mat, mat.node_tree
 
 
+def _linked_text(what):
+    return (f"{what} is linked from a library (or override data), so an edit would not be "
+            f"saved: make it local first (Object > Relations > Make Local)")
+
+
+def require_editable(tree):
+    """Refuse a node tree whose edits would be lost: linked from a library (a linked
+    material's tree is too), or override data. Python may add nodes to such a tree, but the
+    file never saves them."""
+    if not tree.is_editable:
+        owner = next((m for m in bpy.data.materials if m.node_tree == tree), None)
+        raise SurfgradError(_linked_text(f"material {owner.name!r}" if owner is not None
+                                         else f"node tree {tree.name!r}"))
+
+
 def _is_world_tree(tree):
-    return any(owner.node_tree == tree for owner in (*bpy.data.worlds, *bpy.data.linestyles)
-               if getattr(owner, "node_tree", None) is not None)
+    """True for the nodes of a World, a light (the editor shows them in Object mode when the
+    active object is a light) or a line style: no surface there to bump."""
+    owners = (*bpy.data.worlds, *bpy.data.lights, *bpy.data.linestyles)
+    return any(getattr(owner, "node_tree", None) == tree for owner in owners)
 
 
 def shown_tree(context):
     """The node tree to edit: the one the Shader Editor shows (pinned, or a group entered),
     else (no editor, or it shows nothing) the active object's active material. Raises
-    SurfgradError where it makes no sense: the editor shows the World or a line style."""
+    SurfgradError where it makes no sense: the editor shows the World, a light or a line
+    style."""
     space = getattr(context, "space_data", None)
     if space is not None and space.type == 'NODE_EDITOR' and \
             getattr(space, "tree_type", None) == "ShaderNodeTree":
         tree = space.edit_tree
         if space.shader_type != 'OBJECT' or (tree is not None and _is_world_tree(tree)):
-            raise SurfgradError("The Shader Editor shows the World's (or a line style's) "
-                                "nodes: layer stacks and decals go in a material; switch "
-                                "the editor to Object and show a material")
+            raise SurfgradError("The Shader Editor shows the World's (or a light's or a "
+                                "line style's) nodes: layer stacks and decals go in a "
+                                "material; switch the editor to Object and show a material")
         if tree is not None:
-            if not tree.is_editable:
-                raise SurfgradError(f"{tree.name!r} is not editable (linked or override "
-                                    f"data): make it local first")
+            require_editable(tree)
             return tree
     return _active_tree(context)[1]
 
@@ -94,6 +112,7 @@ def _group_node(tree, builder, location, label=None):
 def add_layer_stack(tree, uv_map=""):
     """SG Normal Map -> SG Combine -> SG Resolve -> the surface shader's Normal. Returns the
     new nodes. An existing link into the shader's Normal is replaced (and reported)."""
+    require_editable(tree)
     shader = _surface_shader(tree)
     _prebuild(G.resolve_group, G.combine_group, lambda: G.normal_map_group(uv_map))
     x, y = shader.location
@@ -114,9 +133,18 @@ def convert_node(tree, node):
     with the same look; the node's input and output links are carried over. Returns the
     SG Resolve node that now feeds what the old node fed."""
     links = tree.links
+    require_editable(tree)
     if node.bl_idname not in ("ShaderNodeNormalMap", "ShaderNodeBump"):
         raise SurfgradError(f"{node.name!r} is a {node.bl_idname}: select a Normal Map or a "
                             f"Bump node to convert")
+    if node.mute:            # the groups would not be muted: the look would change
+        raise SurfgradError(f"{node.name!r} is muted: unmute it (M) to convert it, or "
+                            f"delete it")
+    width = node.inputs.get("Filter Width")
+    if width is not None and width.is_linked:   # the group takes its width as a constant
+        raise SurfgradError(f"{node.name!r} has a link into Filter Width, which the "
+                            f"surface-gradient group takes as a value: remove the link and "
+                            f"type the width, then convert")
     if node.bl_idname == "ShaderNodeNormalMap" and node.space != "TANGENT":
         raise SurfgradError(f"{node.name!r} is an {node.space.lower()}-space Normal Map: "
                             f"use SG Object Normal for object or world space maps")
@@ -208,6 +236,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     whose Axis X/Y are driven by the empty's rotation. Returns (empty, decal node)."""
     if shape not in DECAL_SHAPES:
         raise SurfgradError(f"decal shape {shape!r}: use one of {', '.join(DECAL_SHAPES)}")
+    require_editable(tree)
     _prebuild(G.projector_coordinates_group, G.decal_coordinates_group, G.decal_group)
     empty = bpy.data.objects.new(name, None)
     display, outlines = DECAL_DISPLAY[shape]
@@ -249,7 +278,11 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
 
 # Rows of the inverse of a 3 x 3 matrix (a b c / d e f / g h i) by cofactors over the
 # determinant: simple expressions, which drivers run without auto-run Python scripts.
+# A division by zero would mark the driver invalid for good (Blender evaluates it no more,
+# even once the scale is back), so a projector scaled to zero on an axis gets the inverse of a
+# tiny one instead (ZERO_SIZE_INVERSE on the diagonal): it covers nothing until it grows again.
 _DET = "(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g))"
+ZERO_SIZE_INVERSE = 1e6
 _INVERSE_ROWS = (("e * i - f * h", "c * h - b * i", "b * f - c * e"),
                  ("f * g - d * i", "a * i - c * g", "c * d - a * f"),
                  ("d * h - e * g", "b * g - a * h", "a * e - b * d"))
@@ -275,12 +308,14 @@ def drive_projector(node, obj):
                 var.name, var.type = name, "SINGLE_PROP"
                 var.targets[0].id = obj
                 var.targets[0].data_path = f"matrix_world[{k % 3}][{k // 3}]"
-            drv.expression = f"({cofactor}) / {_DET}"
+            fallback = ZERO_SIZE_INVERSE if i == "XYZ".index(axis) else 0.0
+            drv.expression = f"({cofactor}) / {_DET} if {_DET} != 0 else {fallback:g}"
 
 
 def drive_axis(socket, obj, column):
     """Drive a vector socket with the unit world direction of obj's local axis `column`
-    (simple expressions only, so they run without auto-run Python scripts)."""
+    (simple expressions only, so they run without auto-run Python scripts); zero while the
+    axis is scaled to zero (a division by zero would stop the driver for good)."""
     names = "abc"
     for i in range(3):
         fcurve = socket.driver_add("default_value", i)
@@ -293,7 +328,8 @@ def drive_axis(socket, obj, column):
             var.targets[0].id = obj
             # RNA indexes matrices column first: [column][row].
             var.targets[0].data_path = f"matrix_world[{column}][{row}]"
-        drv.expression = f"{names[i]} / sqrt(a * a + b * b + c * c)"
+        drv.expression = (f"{names[i]} / sqrt(a * a + b * b + c * c) "
+                          f"if a * a + b * b + c * c > 0 else 0")
 
 
 # Operators ------------------------------------------------------------------------------------

@@ -31,7 +31,7 @@ def sampler_zone(nodes, links, tex=None, location=(0.0, 0.0)):
     vector_source = None
     if tex is not None:
         if tex.inputs["Vector"].is_linked:
-            vector_source = tex.inputs["Vector"].links[0].from_socket
+            vector_source = _outside_zones(tex.inputs["Vector"].links[0].from_socket)
         if any(out.is_linked for out in tex.outputs):
             tex = copy_image_texture(nodes, tex)
         elif vector_source is not None:
@@ -40,6 +40,30 @@ def sampler_zone(nodes, links, tex=None, location=(0.0, 0.0)):
         links.new(tex.outputs["Color"], zout.inputs["Color"])
         tex.location = (x - 260, y)
     return zout, tex, vector_source
+
+
+def _outside_zones(socket):
+    """`socket`, or where it is inside another Sampler zone (the texture is one a group
+    samples already), what feeds that zone's group's UV: a link out of a zone is invalid and
+    makes everything downstream of it invalid, up to the Material Output. None when there is
+    no such socket (the group's UV then stays the active UV map)."""
+    node = socket.node
+    if node.bl_idname != ZONE_INPUT:
+        upstream, seen = [node], set()
+        while upstream:                       # a Mapping inside the zone is inside it too
+            n = upstream.pop()
+            if n.name in seen:
+                continue
+            seen.add(n.name)
+            if n.bl_idname == ZONE_INPUT:
+                return None
+            upstream += [lk.from_node for s in n.inputs for lk in s.links]
+        return socket
+    for link in node.paired_output.outputs[0].links:
+        uv = link.to_node.inputs.get("UV")
+        if uv is not None and uv.is_linked:
+            return uv.links[0].from_socket
+    return None
 
 
 # What makes an Image Texture node sample as it does (node and image-user settings).
