@@ -119,12 +119,21 @@ def update_precise_far(obj):
     """Switch the Precise Far From Origin input of every surfgrad group node in obj's materials
     on where obj reaches farther than 64 m from the origin, off nearer (off, the groups' precise
     route costs nothing at render time). Returns how many group nodes were set."""
-    from .addon.far_precision import needs_precise_far, set_precise_far
+    from .addon.far_precision import PRECISE_FAR, needs_precise_far, set_precise_far
     if obj is None or not hasattr(obj, "material_slots"):
         raise ValueError("give an object with material slots")
+    materials = [slot.material for slot in obj.material_slots
+                 if slot.material is not None and slot.material.node_tree is not None]
+    # A linked material takes the values but never saves them: refuse before setting any.
+    linked = sorted({m.name for m in materials if not m.is_editable and any(
+        n.bl_idname == "ShaderNodeGroup" and PRECISE_FAR.name in n.inputs
+        for n in m.node_tree.nodes)})
+    if linked:
+        raise ValueError(f"material {linked[0]!r} is linked from a library, so Precise Far "
+                         f"From Origin set there would not be saved: make it local first "
+                         f"(Object > Relations > Make Local)")
     on = needs_precise_far(obj)
-    return sum(set_precise_far(slot.material.node_tree, on) for slot in obj.material_slots
-               if slot.material is not None and slot.material.node_tree is not None)
+    return sum(set_precise_far(m.node_tree, on) for m in materials)
 
 
 # The defaults are the bake request's (addon/bake_request.py), written once there.

@@ -34,6 +34,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
 from support.freeze_scene import layered_material  # noqa: E402
@@ -290,3 +291,34 @@ def test_a_lights_nodes_shown_are_refused(fresh):
     shown = types.SimpleNamespace(object=obj, space_data=space, scene=bpy.context.scene)
     _refused_unchanged(light.node_tree, lambda: O.shown_tree(shown),
                        "shows the World's \\(or a light's")
+
+
+def test_precise_far_is_not_set_in_a_linked_material(fresh, tmp_path):
+    """api.update_precise_far set the input in a linked material too, where the file never
+    saves it; it now refuses before setting any. A local material is set as before."""
+    mat, tree, _bsdf = diffuse_material("Far Library")
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = G.triplanar_coordinates_group()      # one of the groups with the input
+    path = tmp_path / "far_library.blend"
+    bpy.data.libraries.write(str(path), {mat}, fake_user=True)
+    bpy.data.materials.remove(mat)
+    with bpy.data.libraries.load(str(path), link=True) as (_, into):
+        into.materials = ["Far Library"]
+    linked_mat = bpy.data.materials["Far Library"]
+    local, local_tree, _ = diffuse_material("Far Local")
+    local_node = local_tree.nodes.new("ShaderNodeGroup")
+    local_node.node_tree = G.triplanar_coordinates_group()
+    mesh = bpy.data.meshes.new("Far")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0)], [], [(0, 1, 2)])
+    mesh.materials.append(local)
+    mesh.materials.append(linked_mat)
+    far = bpy.data.objects.new("Far", mesh)
+    far.location = (10000.0, 0.0, 0.0)
+    bpy.context.scene.collection.objects.link(far)
+    bpy.context.view_layer.update()
+    name = "Precise Far From Origin"
+    with pytest.raises(ValueError, match=f"'Far Library' is {LINKED}"):
+        api.update_precise_far(far)
+    assert local_node.inputs[name].default_value is False      # nothing set: all or nothing
+    far.data.materials.pop(index=1)
+    assert api.update_precise_far(far) == 1 and local_node.inputs[name].default_value is True
