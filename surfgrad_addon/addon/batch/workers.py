@@ -288,7 +288,9 @@ class InProcess:
             reply["attempt"] = req["attempt"]
             retry = reply["status"] == "error" and reply.get("kind") == "crash" \
                 and req["attempt"] <= self.retries
-            with self.lock:
+            # A commit: a stop waits for the reply to be recorded (the main thread would park
+            # holding the lock the stop's manifest write needs).
+            with interrupts.committing(), self.lock:
                 more = on_reply(req, reply, retry) or []
             if retry:
                 more = [dict(req, attempt=req["attempt"] + 1)] + \
