@@ -58,6 +58,18 @@ def _file_state():
             sorted(g.name for g in bpy.data.node_groups))
 
 
+def _linked_back(mat, tmp_path):
+    """`mat` written to a library file, removed here and linked back from it."""
+    name, path = mat.name, tmp_path / f"{mat.name}.blend"
+    bpy.data.libraries.write(str(path), {mat}, fake_user=True)
+    bpy.data.materials.remove(mat)
+    with bpy.data.libraries.load(str(path), link=True) as (_, into):
+        into.materials = [name]
+    linked = bpy.data.materials[name]
+    assert linked.library is not None
+    return linked
+
+
 @pytest.fixture()
 def linked(fresh, tmp_path):
     """A plane whose material (a Normal Map into a Diffuse BSDF, frozen-looking record on
@@ -68,13 +80,7 @@ def linked(fresh, tmp_path):
     tree.nodes.active = nmap
     mat[F.RECORD] = json.dumps({"image": "x", "image_created": True, "file": "",
                                 "links": [], "added": [], "moved": {}, "frame": ""})
-    path = tmp_path / "library.blend"
-    bpy.data.libraries.write(str(path), {mat}, fake_user=True)
-    bpy.data.materials.remove(mat)
-    with bpy.data.libraries.load(str(path), link=True) as (_, into):
-        into.materials = ["Library Material"]
-    mat = bpy.data.materials["Library Material"]
-    assert mat.library is not None
+    mat = _linked_back(mat, tmp_path)
     mesh = bpy.data.meshes.new("Plane")
     mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [], [(0, 1, 2, 3)])
     mesh.materials.append(mat)
@@ -299,12 +305,7 @@ def test_precise_far_is_not_set_in_a_linked_material(fresh, tmp_path):
     mat, tree, _bsdf = diffuse_material("Far Library")
     node = tree.nodes.new("ShaderNodeGroup")
     node.node_tree = G.triplanar_coordinates_group()      # one of the groups with the input
-    path = tmp_path / "far_library.blend"
-    bpy.data.libraries.write(str(path), {mat}, fake_user=True)
-    bpy.data.materials.remove(mat)
-    with bpy.data.libraries.load(str(path), link=True) as (_, into):
-        into.materials = ["Far Library"]
-    linked_mat = bpy.data.materials["Far Library"]
+    linked_mat = _linked_back(mat, tmp_path)
     local, local_tree, _ = diffuse_material("Far Local")
     local_node = local_tree.nodes.new("ShaderNodeGroup")
     local_node.node_tree = G.triplanar_coordinates_group()
