@@ -129,9 +129,8 @@ def update_precise_far(obj):
         n.bl_idname == "ShaderNodeGroup" and PRECISE_FAR.name in n.inputs
         for n in m.node_tree.nodes)})
     if linked:
-        raise ValueError(f"material {linked[0]!r} is linked from a library, so Precise Far "
-                         f"From Origin set there would not be saved: make it local first "
-                         f"(Object > Relations > Make Local)")
+        from .addon.material_inputs import linked_text
+        raise ValueError(linked_text(f"material {linked[0]!r}"))
     on = needs_precise_far(obj)
     return sum(set_precise_far(m.node_tree, on) for m in materials)
 

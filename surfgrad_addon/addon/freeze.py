@@ -21,6 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import normal_bake as NB
+from .material_inputs import linked_text
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
@@ -168,8 +169,7 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         raise FreezeError(f"{obj.name!r} has no active material with nodes: add a material "
                           f"with a surface-gradient stack first")
     if mat.library is not None or getattr(mat, "override_library", None) is not None:
-        raise FreezeError(f"material {mat.name!r} is linked from a library: make it local "
-                          f"first")
+        raise FreezeError(linked_text(f"material {mat.name!r}"))
     if RECORD in mat:
         raise FreezeError(f"material {mat.name!r} is frozen already: thaw it first")
     others = _other_meshes_using(obj, mat)
@@ -356,8 +356,7 @@ def thaw(mat):
     if record is None:
         raise FreezeError(f"material {mat.name!r} is not frozen: nothing to thaw")
     if not mat.is_editable:
-        raise FreezeError(f"material {mat.name!r} is linked from a library: make it local "
-                          f"first")
+        raise FreezeError(linked_text(f"material {mat.name!r}"))
     tree = mat.node_tree
     for from_node, from_id, to_node, to_id in record["links"]:
         for name, side, ident in ((from_node, "outputs", from_id), (to_node, "inputs", to_id)):

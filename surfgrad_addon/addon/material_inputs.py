@@ -84,6 +84,12 @@ def library_problem(mat):
     return None
 
 
+def linked_text(what):
+    """Why an edit of `what` (a material, a node tree) is refused: the file would not save it."""
+    return (f"{what} is linked from a library (or override data), so an edit would not be "
+            f"saved: make it local first (Object > Relations > Make Local)")
+
+
 def no_tree_problem(mat):
     """A material without a node tree (Use Nodes never turned on, before 5.0): the bake writes
     through an Image Texture node in each material, and has nowhere to put one."""

@@ -13,6 +13,7 @@ from bpy.props import EnumProperty, StringProperty
 from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
 from .enum_input import set_choice
+from .material_inputs import linked_text
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .far_precision import needs_precise_far, set_precise_far_on_node
@@ -33,15 +34,10 @@ def _active_tree(context):
         raise SurfgradError(f"{obj.name!r} has no material: add one in the Material "
                             f"Properties first")
     if not mat.is_editable:
-        raise SurfgradError(_linked_text(repr(mat.name)))
+        raise SurfgradError(linked_text(repr(mat.name)))
     if mat.node_tree is None:
         mat.use_nodes = True
     return mat, mat.node_tree
-
-
-def _linked_text(what):
-    return (f"{what} is linked from a library (or override data), so an edit would not be "
-            f"saved: make it local first (Object > Relations > Make Local)")
 
 
 def require_editable(tree):
@@ -50,7 +46,7 @@ def require_editable(tree):
     file never saves them."""
     if not tree.is_editable:
         owner = next((m for m in bpy.data.materials if m.node_tree == tree), None)
-        raise SurfgradError(_linked_text(f"material {owner.name!r}" if owner is not None
+        raise SurfgradError(linked_text(f"material {owner.name!r}" if owner is not None
                                          else f"node tree {tree.name!r}"))
 
 
