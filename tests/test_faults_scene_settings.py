@@ -343,3 +343,26 @@ def test_a_blend_a_newer_line_saved_is_opened_with_a_warning_on_stderr(tmp_path,
             f"{major}.{minor + 1}, newer than this Blender ({major}.{minor}): what that line "
             f"added to the file may be lost") in err
     assert "no object named 'Nope'" in err
+
+
+def test_a_request_reads_the_rendered_mesh_once(fresh, tmp_path, monkeypatch):
+    """The checks' tiles, the checks' mesh arrays and the bake's tile plan each read the mesh
+    as the bake renders it; for an object with modifiers each read was a render-mode pass
+    (three per bake). Now one per request, and the map is the same."""
+    from surfgrad_addon import api
+    from surfgrad_addon.addon import render_mesh
+    from surfgrad_addon.harness import scenes
+    passes, real = [], render_mesh.read_in_render_mode
+
+    def counted(*args, **kwargs):
+        passes.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(render_mesh, "read_in_render_mode", counted)
+    obj = scenes.new_scene(("Sphere",))["Sphere"]
+    mat, _tree, _bsdf = diffuse_material("Plain")
+    obj.data.materials.append(mat)
+    obj.modifiers.new("Subdivision", "SUBSURF").render_levels = 2
+    bpy.context.view_layer.update()
+    path = api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=16, log=lambda *_: None)
+    assert len(passes) == 1 and Path(path).is_file()

@@ -31,7 +31,7 @@ from ..reference import input_checks as IC
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
 from . import normal_bake as NB
-from .bake_uvs import read_as_baked
+from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed
 from .image_checks import image_problems, output_input_problems
 
@@ -192,6 +192,11 @@ def warn_stderr(message):
 def check(request, obj=None, warn=warn_stderr):
     """Check everything about `request` before baking; returns a CheckedRequest (its warnings
     already passed to `warn`) or raises BakeRequestError naming every problem and its fix."""
+    with one_read():                      # the tiles and the mesh checks: one read of the mesh
+        return _check(request, obj, warn)
+
+
+def _check(request, obj, warn):
     problems = request.own_problems()
     if problems:                  # a bad option: name it before looking at the scene
         raise BakeRequestError(problems)
@@ -235,16 +240,17 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
     (paths, tiles, uv_map, depth, warnings, timings). Raises BakeRequestError before anything
     is written, or BakeFailed when the bake itself fails."""
     import bpy
-    checked = check(request, obj, warn)
-    obj = obj or bpy.data.objects[request.object]
     r = request
-    try:
-        result = NB.bake_normal_tiles(obj, r.output, r.space, r.resolution, checked.uv_map,
-                                      r.margin, r.samples, checked.depth, r.tiles,
-                                      r.empty_tiles, overwrite=r.overwrite, log=log,
-                                      threads=r.threads)
-    except RuntimeError as err:           # the bake operator or the image write
-        raise BakeFailed(f"the bake of {obj.name!r} failed: {err}") from None
+    with one_read():                      # the bake plans its tiles from the checked read
+        checked = check(request, obj, warn)
+        obj = obj or bpy.data.objects[request.object]
+        try:
+            result = NB.bake_normal_tiles(obj, r.output, r.space, r.resolution,
+                                          checked.uv_map, r.margin, r.samples, checked.depth,
+                                          r.tiles, r.empty_tiles, overwrite=r.overwrite,
+                                          log=log, threads=r.threads)
+        except RuntimeError as err:       # the bake operator or the image write
+            raise BakeFailed(f"the bake of {obj.name!r} failed: {err}") from None
     result["warnings"] = list(dict.fromkeys(checked.warnings + result.get("warnings", [])))
     return result
 
@@ -252,11 +258,13 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
 # The checks ---------------------------------------------------------------------------------
 
 def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
-    """The evaluated mesh as the bake sees it (bake_uvs.read_as_baked: modifiers at their
+    """The evaluated mesh as the bake sees it (bake_uvs.baked_mesh: modifiers at their
     render settings): finite positions, faces with area, finite UVs with area in `uv_map`;
     far from the origin, and texels of `tiles` that overlapping UV islands contest at
     `resolution`, add warnings."""
-    positions, tris, matrix, uv = read_as_baked(obj, lambda ev: _mesh_arrays(ev, uv_map))
+    baked = baked_mesh(obj)
+    positions, tris, matrix = baked.positions, baked.triangles, baked.matrix
+    uv = baked.triangle_uvs.get(uv_map) if uv_map else None
     nt = len(tris)
     what = f"mesh {obj.data.name!r} of object {obj.name!r}"
     out = []
@@ -295,30 +303,6 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
         warnings += overlap_warnings(uv, tiles, resolution, f"UV map {uv_map!r} of object "
                                                             f"{obj.name!r}")
     return out
-
-
-def _mesh_arrays(eval_obj, uv_map):
-    """(positions, triangles' vertices, world matrix, triangles' UVs of uv_map or None) of an
-    evaluated object, in float64."""
-    mesh = eval_obj.to_mesh()
-    try:
-        mesh.calc_loop_triangles()
-        nv, nl, nt = len(mesh.vertices), len(mesh.loops), len(mesh.loop_triangles)
-        positions = np.empty(nv * 3, np.float64)
-        mesh.vertices.foreach_get("co", positions)
-        tris = np.empty(nt * 3, np.int64)
-        mesh.loop_triangles.foreach_get("vertices", tris)
-        tri_loops = np.empty(nt * 3, np.int64)
-        mesh.loop_triangles.foreach_get("loops", tri_loops)
-        matrix = np.array(eval_obj.matrix_world, dtype=np.float64)
-        uv = None
-        if uv_map and uv_map in mesh.uv_layers:
-            uv = np.empty(nl * 2, np.float64)
-            mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
-            uv = uv.reshape(-1, 2)[tri_loops].reshape(-1, 3, 2)
-    finally:
-        eval_obj.to_mesh_clear()
-    return positions.reshape(-1, 3), tris.reshape(-1, 3), matrix, uv
 
 
 def zero_scale_problem(obj, matrix):

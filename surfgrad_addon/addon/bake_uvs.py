@@ -9,6 +9,9 @@ with exit 0. An object without modifiers is read from the viewport's depsgraph
 (the same mesh, and no render-mode pass); one with modifiers through render_mesh.py.
 """
 
+from contextlib import contextmanager
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..reference import tiles as T
@@ -33,6 +36,28 @@ def read_as_baked(obj, read):
     return read(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
 
 
+def _triangle_uvs(mesh, uv_map, loops):
+    uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
+    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
+
+
+def _tiles_of(tri_uv, faces):
+    outside = np.unique(faces[T.triangles_outside(tri_uv)])
+    return T.tiles_with_uvs(tri_uv), int(len(outside))
+
+
+def _triangles(mesh):
+    """(loops (T*3,), faces (T,)) of the mesh's loop triangles."""
+    mesh.calc_loop_triangles()
+    nt = len(mesh.loop_triangles)
+    loops = np.empty(nt * 3, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("loops", loops)
+    faces = np.empty(nt, dtype=np.int64)
+    mesh.loop_triangles.foreach_get("polygon_index", faces)
+    return loops, faces
+
+
 def uv_tiles(mesh, uv_map):
     """The UDIM tiles the faces of `uv_map` cover, sorted, and how many faces lie (partly)
     outside the UDIM range (u in 0..10, v >= 0). Exact (reference/tiles.py): a tile counts
@@ -40,26 +65,68 @@ def uv_tiles(mesh, uv_map):
     a face across the range's border still names the tiles its inside part covers."""
     if len(mesh.polygons) == 0:
         return [], 0
-    mesh.calc_loop_triangles()
-    nt = len(mesh.loop_triangles)
-    loops = np.empty(nt * 3, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    faces = np.empty(nt, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("polygon_index", faces)
-    uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
-    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
-    uv = uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
-    outside = np.unique(faces[T.triangles_outside(uv)])
-    return T.tiles_with_uvs(uv), int(len(outside))
+    loops, faces = _triangles(mesh)
+    return _tiles_of(_triangle_uvs(mesh, uv_map, loops), faces)
+
+
+@dataclass(frozen=True)
+class BakedMesh:
+    """The mesh the bake renders, in float64: every UV map's tiles (uv_tiles), the vertex
+    positions, the triangles' vertices, the world matrix and each UV map's triangle UVs."""
+    layout: dict
+    positions: np.ndarray
+    triangles: np.ndarray
+    matrix: np.ndarray
+    triangle_uvs: dict
+
+
+_reads = {"cache": None}      # {object pointer: BakedMesh} inside one_read()
+
+
+@contextmanager
+def one_read():
+    """Within this block each object's rendered mesh is read once: a request's checks and
+    its bake want it three times, and for an object with modifiers each read is a
+    render-mode pass. Nothing may change the mesh within the block."""
+    if _reads["cache"] is not None:
+        yield
+        return
+    _reads["cache"] = {}
+    try:
+        yield
+    finally:
+        _reads["cache"] = None
+
+
+def baked_mesh(obj):
+    """The BakedMesh of obj (read once per object inside one_read())."""
+    cache = _reads["cache"]
+    key = obj.as_pointer()
+    if cache is not None and key in cache:
+        return cache[key]
+
+    def read(evaluated):
+        mesh = evaluated.to_mesh()
+        try:
+            loops, faces = _triangles(mesh)
+            positions = np.empty(len(mesh.vertices) * 3, np.float64)
+            mesh.vertices.foreach_get("co", positions)
+            tris = np.empty(len(loops), np.int64)
+            mesh.loop_triangles.foreach_get("vertices", tris)
+            uvs = {uv.name: _triangle_uvs(mesh, uv.name, loops) for uv in mesh.uv_layers}
+            layout = {name: _tiles_of(uv, faces) if len(mesh.polygons) else ([], 0)
+                      for name, uv in uvs.items()}
+            return BakedMesh(layout, positions.reshape(-1, 3), tris.reshape(-1, 3),
+                             np.array(evaluated.matrix_world, dtype=np.float64), uvs)
+        finally:
+            evaluated.to_mesh_clear()
+    result = read_as_baked(obj, read)
+    if cache is not None:
+        cache[key] = result
+    return result
 
 
 def baked_uv_tiles(obj):
     """{UV map name: (tiles, faces outside the UDIM range)} of every UV map of the mesh the
     bake renders (uv_tiles on it)."""
-    def read(evaluated):
-        mesh = evaluated.to_mesh()
-        try:
-            return {uv.name: uv_tiles(mesh, uv.name) for uv in mesh.uv_layers}
-        finally:
-            evaluated.to_mesh_clear()
-    return read_as_baked(obj, read)
+    return baked_mesh(obj).layout
