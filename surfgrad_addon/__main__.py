@@ -3,6 +3,7 @@ checkout. Not part of the extension zip."""
 
 import sys
 
+from .addon.command_line import leave
 from .harness.cli import main
 
-sys.exit(main())
+sys.exit(leave(main()))

@@ -11,9 +11,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from surfgrad_addon.addon.command_line import leave  # noqa: E402
 from surfgrad_addon.harness.cli import main  # noqa: E402
 
 argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-code = main(argv, in_blender=True)
+code = leave(main(argv, in_blender=True))
 if code:
     sys.exit(code)

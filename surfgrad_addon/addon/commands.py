@@ -165,11 +165,16 @@ def execute(argv):
     return CL.run(SHIPPED, args)
 
 
+def _execute_and_leave(argv):
+    """execute for Blender's -c, after which Blender exits (command_line.leave)."""
+    return CL.leave(execute(argv))
+
+
 def register():
     global _handle
     import bpy
     if _handle is None and hasattr(bpy.utils, "register_cli_command"):
-        _handle = bpy.utils.register_cli_command(COMMAND, execute)
+        _handle = bpy.utils.register_cli_command(COMMAND, _execute_and_leave)
 
 
 def unregister():

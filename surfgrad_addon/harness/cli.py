@@ -383,4 +383,4 @@ def main(argv=None, in_blender=False):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(CL.leave(main()))

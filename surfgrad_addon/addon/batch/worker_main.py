@@ -60,7 +60,8 @@ def main():
     load_package()
     session = importlib.import_module(f"{PACKAGE}.addon.batch.session")
     interrupts = importlib.import_module(f"{PACKAGE}.addon.interrupts")
-    return serve(session.run_request, interrupts.stoppable)
+    command_line = importlib.import_module(f"{PACKAGE}.addon.command_line")
+    return command_line.leave(serve(session.run_request, interrupts.stoppable))
 
 
 if __name__ == "__main__":

@@ -6,7 +6,8 @@ For each size, `repeats` pairs of child processes run one after the other (inter
 order alternating, so the load of a shared machine falls on both alike):
 - **bake alone**: a child that does what compare does up to its bake and nothing after: the
   test scene, the method's images and node graph, the same bake (bake_vector_in_pieces) read
-  back into memory (`python -m <this module> --bake-alone ...`);
+  back into memory, then leaving as compare's command line does (command_line.leave)
+  (`python -m <this module> --bake-alone ...`);
 - **compare**: `python -m surfgrad_addon compare --object Sphere ...`, start to JSON and heat
   map written.
 Each child is timed from launch to exit, wall and CPU (user + system, all its threads). Per
@@ -197,3 +198,6 @@ def _main():
 
 if __name__ == "__main__":
     _main()
+    # Both children leave the same way (compare's does through its command line).
+    from surfgrad_addon.addon.command_line import leave
+    sys.exit(leave(0))
