@@ -4,6 +4,8 @@ Each runs in a fresh child: kernels a process has loaded once stay loaded."""
 
 import json
 
+import numpy as np
+
 import pytest
 
 from support.child import run_python
@@ -87,3 +89,27 @@ def test_the_command_line_exits_with_its_code_after_leaving(tmp_path):
                           tmp_path / "x.json"])
     assert refused.returncode == 2 and "Nothing" in refused.stderr
     assert not (tmp_path / "x.json").exists()
+
+
+def test_the_warm_up_mesh_is_two_triangles_of_the_same_arrays():
+    """Whatever the mesh's size, the warm-up rasterises two triangles, with the real mesh's
+    array types (so the kernels it loads are the real pass's) and UVs over the whole square
+    (so texels reach every kernel)."""
+    from surfgrad_addon import reference as R
+    from surfgrad_addon.harness.compare import WARM_UP, warm_up_mesh
+    big = R.meshes.uv_sphere(segments=64, rings=32)
+    small = warm_up_mesh(big)
+    assert len(big.triangles) > 3000 and len(small.triangles) == 2
+    assert small.positions is big.positions and small.matrix_world is big.matrix_world
+    assert set(small.uv_maps) == set(big.uv_maps) and set(small.tangents) == set(big.tangents)
+    for name in big.uv_maps:
+        assert small.uv_maps[name].dtype == np.asarray(big.uv_maps[name]).dtype
+        assert np.array_equal(small.tangents[name], big.tangents[name][:2])
+        assert np.array_equal(small.tangent_signs[name], big.tangent_signs[name][:2])
+    assert np.array_equal(small.corner_normals, big.corner_normals[:2])
+    td = R.rasterize(small, "UVMap", WARM_UP, WARM_UP)
+    assert td.covered.all()                     # every texel: every kernel sees texels
+    one = warm_up_mesh(R.MeshArrays(positions=np.eye(3), triangles=np.array([[0, 1, 2]]),
+                                    corner_normals=np.tile([0.0, 0.0, 1.0], (1, 3, 1)),
+                                    uv_maps={"UV": np.zeros((1, 3, 2), dtype=np.float32)}))
+    assert len(one.triangles) == 1 and one.uv_maps["UV"].dtype == np.float32
