@@ -291,6 +291,43 @@ def backfacing_warning(mesh, report):
             f"normals face away from the face, so Cycles shades its back side there (normals "
             f"flipped). If that is not meant, recalculate the normals (Mesh > Normals > "
             f"Recalculate Outside) or fix the custom normals.")
+def degenerate_triangles(mesh):
+    """(T,) True where a triangle has no area in 3D (its corners coincide or lie on a line):
+    Cycles can shade no surface there, and its bake writes a zero vector into the texels such
+    a triangle claims in UV, whatever the material. The geometric normals are taken here
+    (once per mesh, cached) without numpy's division warning: normalize() of a zero cross
+    product is NaN by design."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ng = mesh.geometric_normals_world
+    return ~np.isfinite(ng).all(axis=1)
+
+
+def without_degenerate(td, covered, degenerate):
+    """The bake's coverage with the texels of triangles without area taken out (counted as
+    "outside" by compare_tile: the reference does not model them). A pass over the triangle
+    image only when the mesh has such triangles."""
+    if not degenerate.any():
+        return covered
+    claimed = td.triangle >= 0
+    claimed[claimed] = degenerate[td.triangle[claimed]]
+    return covered & ~claimed
+
+
+def degenerate_warning(mesh, degenerate, texels):
+    """A warning naming the faces without area whose texels were not compared, or None."""
+    if not texels:
+        return None
+    faces = np.flatnonzero(degenerate)
+    if mesh.triangle_faces is not None:
+        faces = np.unique(mesh.triangle_faces[faces])
+    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
+                                              if len(faces) > 8 else "")
+    return (f"{mesh.name!r}: {texels} texels of {int(degenerate.sum())} triangles without "
+            f"area in 3D (faces {shown}) are not compared (counted as outside): Cycles shades "
+            f"no surface there and its bake writes a zero vector, whatever the material. If "
+            f"that is not meant, remove them (Mesh > Clean Up > Degenerate Dissolve).")
+
+
 # The warm-up's image size (load_kernels): texels enough to reach every kernel, and cheap.
 WARM_UP = 32
 
@@ -321,6 +358,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         raise CompareError(str(err)) from err
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     facts = B.running_line()
+    degenerate = degenerate_triangles(mesh)
+    degenerate_texels = 0
 
     def rasterized(number):
         """(TexelData, seconds) of one tile: reference time. After the bake, not before it:
@@ -359,6 +398,10 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
         tds.append(td)
+        kept = without_degenerate(td, covered, degenerate)
+        if kept is not covered:
+            degenerate_texels += int(np.count_nonzero(covered & ~kept))
+            covered = kept
         r, heat, seconds = compare_tile(td, lambda block: M.resolve(reference(inp, block)),
                                         pixels, covered)
         reference_seconds += seconds
@@ -374,7 +417,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
                            f"(excluded: {report['excluded']}); raise --resolution")
     warnings = [w for w in [tile_note, overlap_warning(mesh, inp.uv_map, tds),
-                            backfacing_warning(mesh, report)] if w]
+                            backfacing_warning(mesh, report),
+                            degenerate_warning(mesh, degenerate, degenerate_texels)] if w]
     for w in warnings:
         if log:
             log(f"warning: {w}")
