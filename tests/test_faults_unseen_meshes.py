@@ -154,3 +154,27 @@ def test_triangles_without_area_are_left_out_and_named(empty_file):
     assert f"{claimed.sum()} texels of {no_area.sum()} triangles without area" in text[0]
     assert f"faces {', '.join(map(str, faces[:8]))} and {len(faces) - 8} more" in text[0]
     assert any(line.startswith("warning: ") and "without area" in line for line in logged)
+
+
+def test_a_mesh_or_uv_map_collapsed_everywhere_is_refused_in_the_bakes_words(empty_file):
+    """3. Before: every face collapsed onto a line (UVs fine) gave exit 0 with 180 deg on
+    every texel; every UV on one point inside the 0..1 square was refused as "faces outside
+    the UDIM tiles ... move the islands into the UV square". Now both are refused with the
+    bake request's words (reference/input_checks)."""
+    flat_line = _grid("OnALine")
+    co = np.empty(len(flat_line.data.vertices) * 3)
+    flat_line.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    co[:, 1:] = 0.0
+    flat_line.data.vertices.foreach_set("co", co.ravel())
+    flat_line.data.update()
+    with pytest.raises(compare.CompareError, match=r"^every face of mesh 'OnALine' of object "
+                                                   r"'OnALine' has zero area \(collapsed"):
+        compare.compare(flat_line, "normal-map", 32)
+    one_point = _grid("OnePoint")
+    one_point.data.uv_layers["UVMap"].uv.foreach_set(
+        "vector", np.full(len(one_point.data.loops) * 2, 0.5))
+    with pytest.raises(compare.CompareError, match=r"^UV map 'UVMap' of object 'OnePoint' has "
+                                                   r"no area \(every face collapsed to a point "
+                                                   r"or a line in UV space\)"):
+        compare.compare(one_point, "normal-map", 32)

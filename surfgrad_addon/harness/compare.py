@@ -356,6 +356,14 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         mesh = mesh_arrays_from_object(obj)
     except MeshDataError as err:
         raise CompareError(str(err)) from err
+    # A mesh or a UV map collapsed everywhere: the bake request's words (input_checks).
+    world = mesh.positions @ np.asarray(mesh.matrix_world)[:3, :3].T + \
+        np.asarray(mesh.matrix_world)[:3, 3]
+    problem = R.input_checks.collapsed_mesh_problem(
+        f"mesh {obj.data.name!r} of object {obj.name!r}", world, mesh.triangles) or \
+        R.input_checks.collapsed_uv_problem(inp.uv_map, obj.name, mesh.uv(inp.uv_map))
+    if problem:
+        raise CompareError(problem)
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     facts = B.running_line()
     degenerate = degenerate_triangles(mesh)
