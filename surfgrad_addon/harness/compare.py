@@ -291,15 +291,16 @@ def backfacing_warning(mesh, report):
             f"normals face away from the face, so Cycles shades its back side there (normals "
             f"flipped). If that is not meant, recalculate the normals (Mesh > Normals > "
             f"Recalculate Outside) or fix the custom normals.")
-def degenerate_triangles(mesh):
-    """(T,) True where a triangle has no area in 3D (its corners coincide or lie on a line):
-    Cycles can shade no surface there, and its bake writes a zero vector into the texels such
-    a triangle claims in UV, whatever the material. The geometric normals are taken here
+def degenerate_triangles(mesh, world):
+    """(T,) True where a triangle has no area in 3D: its corners coincide or lie on a line, to
+    within float32 rounding (input_checks.zero_area_mask, world positions (V, 3)). Cycles has
+    no surface to shade there: its bake writes a zero vector, or a normal made of rounding
+    noise (a float32 sliver), whatever the material. The geometric normals are taken here
     (once per mesh, cached) without numpy's division warning: normalize() of a zero cross
     product is NaN by design."""
     with np.errstate(invalid="ignore", divide="ignore"):
         ng = mesh.geometric_normals_world
-    return ~np.isfinite(ng).all(axis=1)
+    return ~np.isfinite(ng).all(axis=1) | R.input_checks.zero_area_mask(world, mesh.triangles)
 
 
 def without_degenerate(td, covered, degenerate):
@@ -323,9 +324,10 @@ def degenerate_warning(mesh, degenerate, texels):
     shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
                                               if len(faces) > 8 else "")
     return (f"{mesh.name!r}: {texels} texels of {int(degenerate.sum())} triangles without "
-            f"area in 3D (faces {shown}) are not compared (counted as outside): Cycles shades "
-            f"no surface there and its bake writes a zero vector, whatever the material. If "
-            f"that is not meant, remove them (Mesh > Clean Up > Degenerate Dissolve).")
+            f"area in 3D (faces {shown}) are not compared (counted as outside): Cycles has no "
+            f"surface to shade there and bakes a zero vector (or a normal made of float32 "
+            f"rounding), whatever the material. If that is not meant, remove them (Mesh > "
+            f"Clean Up > Degenerate Dissolve).")
 
 
 # The warm-up's image size (load_kernels): texels enough to reach every kernel, and cheap.
@@ -366,7 +368,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         raise CompareError(problem)
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     facts = B.running_line()
-    degenerate = degenerate_triangles(mesh)
+    degenerate = degenerate_triangles(mesh, world)
     degenerate_texels = 0
 
     def rasterized(number):
