@@ -35,6 +35,8 @@ from ..reference import methods as M
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
+from .no_area import (collapsed_problem, degenerate_triangles, degenerate_warning,
+                      without_degenerate, world_positions)
 from . import scale_limits
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
@@ -291,45 +293,6 @@ def backfacing_warning(mesh, report):
             f"normals face away from the face, so Cycles shades its back side there (normals "
             f"flipped). If that is not meant, recalculate the normals (Mesh > Normals > "
             f"Recalculate Outside) or fix the custom normals.")
-def degenerate_triangles(mesh, world):
-    """(T,) True where a triangle has no area in 3D: its corners coincide or lie on a line, to
-    within float32 rounding (input_checks.zero_area_mask, world positions (V, 3)). Cycles has
-    no surface to shade there: its bake writes a zero vector, or a normal made of rounding
-    noise (a float32 sliver), whatever the material. The geometric normals are taken here
-    (once per mesh, cached) without numpy's division warning: normalize() of a zero cross
-    product is NaN by design."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ng = mesh.geometric_normals_world
-    return ~np.isfinite(ng).all(axis=1) | R.input_checks.zero_area_mask(world, mesh.triangles)
-
-
-def without_degenerate(td, covered, degenerate):
-    """The bake's coverage with the texels of triangles without area taken out (counted as
-    "outside" by compare_tile: the reference does not model them). A pass over the triangle
-    image only when the mesh has such triangles."""
-    if not degenerate.any():
-        return covered
-    claimed = td.triangle >= 0
-    claimed[claimed] = degenerate[td.triangle[claimed]]
-    return covered & ~claimed
-
-
-def degenerate_warning(mesh, degenerate, texels):
-    """A warning naming the faces without area whose texels were not compared, or None."""
-    if not texels:
-        return None
-    faces = np.flatnonzero(degenerate)
-    if mesh.triangle_faces is not None:
-        faces = np.unique(mesh.triangle_faces[faces])
-    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
-                                              if len(faces) > 8 else "")
-    return (f"{mesh.name!r}: {texels} texels of {int(degenerate.sum())} triangles without "
-            f"area in 3D (faces {shown}) are not compared (counted as outside): Cycles has no "
-            f"surface to shade there and bakes a zero vector (or a normal made of float32 "
-            f"rounding), whatever the material. If that is not meant, remove them (Mesh > "
-            f"Clean Up > Degenerate Dissolve).")
-
-
 # The warm-up's image size (load_kernels): texels enough to reach every kernel, and cheap.
 WARM_UP = 32
 
@@ -358,12 +321,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         mesh = mesh_arrays_from_object(obj)
     except MeshDataError as err:
         raise CompareError(str(err)) from err
-    # A mesh or a UV map collapsed everywhere: the bake request's words (input_checks).
-    world = mesh.positions @ np.asarray(mesh.matrix_world)[:3, :3].T + \
-        np.asarray(mesh.matrix_world)[:3, 3]
-    problem = R.input_checks.collapsed_mesh_problem(
-        f"mesh {obj.data.name!r} of object {obj.name!r}", world, mesh.triangles) or \
-        R.input_checks.collapsed_uv_problem(inp.uv_map, obj.name, mesh.uv(inp.uv_map))
+    world = world_positions(mesh)
+    problem = collapsed_problem(mesh, world, obj, inp.uv_map)
     if problem:
         raise CompareError(problem)
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
