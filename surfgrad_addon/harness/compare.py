@@ -36,7 +36,7 @@ from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far imp
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 from .no_area import (collapsed_problem, degenerate_triangles, degenerate_warning,
-                      without_degenerate, world_positions)
+                      faces_text, without_degenerate, world_positions)
 from . import scale_limits
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
@@ -284,10 +284,7 @@ def backfacing_warning(mesh, report):
     tris = report.get("backfacing_triangles") or []
     if not tris:
         return None
-    faces = sorted({int(mesh.triangle_faces[t]) if mesh.triangle_faces is not None else int(t)
-                    for t in tris})
-    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
-                                              if len(faces) > 8 else "")
+    shown = faces_text(mesh, tris)
     return (f"{mesh.name!r}: {report['excluded']['backfacing']} texels of {len(tris)} "
             f"triangles (faces {shown}) are not compared (backfacing): their vertex or corner "
             f"normals face away from the face, so Cycles shades its back side there (normals "

@@ -50,15 +50,22 @@ def without_degenerate(td, covered, degenerate):
     return covered & ~claimed
 
 
+def faces_text(mesh, triangles):
+    """The mesh faces of the given triangles as compare's warnings name them: the first 8 in
+    order, then how many more (the triangles themselves where the faces are unknown)."""
+    faces = np.asarray(triangles, dtype=np.int64)
+    if mesh.triangle_faces is not None:
+        faces = np.asarray(mesh.triangle_faces)[faces]
+    faces = np.unique(faces)
+    return ", ".join(map(str, faces[:8].tolist())) + (f" and {len(faces) - 8} more"
+                                                      if len(faces) > 8 else "")
+
+
 def degenerate_warning(mesh, degenerate, texels):
     """A warning naming the faces without area whose texels were not compared, or None."""
     if not texels:
         return None
-    faces = np.flatnonzero(degenerate)
-    if mesh.triangle_faces is not None:
-        faces = np.unique(mesh.triangle_faces[faces])
-    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
-                                              if len(faces) > 8 else "")
+    shown = faces_text(mesh, np.flatnonzero(degenerate))
     return (f"{mesh.name!r}: {texels} texels of {int(degenerate.sum())} triangles without "
             f"area in 3D (faces {shown}) are not compared (counted as outside): Cycles has no "
             f"surface to shade there and bakes a zero vector (or a normal made of float32 "
