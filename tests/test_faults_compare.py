@@ -23,6 +23,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from support.child import run_python  # noqa: E402
+from support.cycles_tangents import tangent_errors  # noqa: E402
 from surfgrad_addon.addon import normal_bake as NB  # noqa: E402
 from surfgrad_addon.harness import asset_scenes as A, bake as B, compare  # noqa: E402
 from surfgrad_addon.harness import texel_report as TR  # noqa: E402
@@ -331,23 +332,9 @@ def test_mirror_and_array_tangents_are_cycles_mikktspace_on_the_render_mesh(empt
     perpendicular to N) equals MikkTSpace on the render mesh's own triangles with its shading
     normals, as the reference computes it, at every contested texel."""
     obj = _mirror_array(flip_u=True)
-
-    def tangent(nodes, links):
-        node = nodes.new("ShaderNodeTangent")
-        node.direction_type = "UV_MAP"
-        node.uv_map = "UVMap"
-        return node.outputs["Tangent"]
-    px, cov, _ = B.bake_vector(obj, tangent, RES, RES, "UVMap")
-    mesh = mesh_arrays_from_object(obj)
-    td = R.rasterize(mesh, "UVMap", RES, RES, facts=B.running_line())
-    t, _ = td.tangent("UVMap")
-    n = td.shading_normal
-    c = np.cross(t, n)
-    expected = np.cross(n, c / np.linalg.norm(c, axis=1, keepdims=True))
+    err, use, td = tangent_errors(obj, "UVMap", RES)
     x, y = td.pixel[:, 0], td.pixel[:, 1]
-    use = cov[y, x] & ~td.on_edge[y, x]
     assert td.contested[y, x][use].all() and use.sum() > 300
-    err = compare.angle_deg(px[y, x][use], expected[use])
     assert err.max() < 0.01, err.max()
 
 

@@ -280,19 +280,18 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
     if problem:
         return [problem]
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
-    if IC.zero_area_mask(world, tris).all():
-        out.append(f"every face of {what} has zero area (collapsed to a point or a line, or "
-                   f"scaled to 0), so there is no surface to bake: fix the mesh or the "
-                   f"object's scale")
+    problem = IC.collapsed_mesh_problem(what, world, tris)
+    if problem:
+        out.append(problem)
     if uv is not None:
         problem = IC.finite_problem(f"the UVs of UV map {uv_map!r} of object {obj.name!r}",
                                     uv, "unwrap it again (UV > Unwrap)")
         if problem:
             out.append(problem)
-        elif not (IC.uv_triangle_areas(uv) > 0).any():
-            out.append(f"UV map {uv_map!r} of object {obj.name!r} has no area (every face "
-                       f"collapsed to a point or a line in UV space), so the bake would "
-                       f"cover no texel: unwrap it (UV > Unwrap)")
+        else:
+            problem = IC.collapsed_uv_problem(uv_map, obj.name, uv)
+            if problem:
+                out.append(problem)
     far = float(np.max(np.linalg.norm(world, axis=1))) if len(world) else 0.0  # Euclidean
     if far > FAR_FROM_ORIGIN_M:
         warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: the bake "

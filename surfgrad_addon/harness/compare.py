@@ -36,6 +36,8 @@ from ..reference import methods as M
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
+from .no_area import (collapsed_problem, degenerate_triangles, degenerate_warning,
+                      faces_text, without_degenerate, world_positions)
 from . import scale_limits
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
@@ -283,10 +285,7 @@ def backfacing_warning(mesh, report):
     tris = report.get("backfacing_triangles") or []
     if not tris:
         return None
-    faces = sorted({int(mesh.triangle_faces[t]) if mesh.triangle_faces is not None else int(t)
-                    for t in tris})
-    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
-                                              if len(faces) > 8 else "")
+    shown = faces_text(mesh, tris)
     return (f"{mesh.name!r}: {report['excluded']['backfacing']} texels of {len(tris)} "
             f"triangles (faces {shown}) are not compared (backfacing): their vertex or corner "
             f"normals face away from the face, so Cycles shades its back side there (normals "
@@ -343,8 +342,14 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         mesh = mesh_arrays_from_object(obj)
     except MeshDataError as err:
         raise CompareError(str(err)) from err
+    world = world_positions(mesh)
+    problem = collapsed_problem(mesh, world, obj, inp.uv_map)
+    if problem:
+        raise CompareError(problem)
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     facts = B.running_line()
+    degenerate = degenerate_triangles(mesh, world)
+    degenerate_texels = 0
 
     def rasterized(number):
         """(TexelData, seconds) of one tile: reference time. After the bake, not before it:
@@ -383,6 +388,10 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
         tds.append(td)
+        kept = without_degenerate(td, covered, degenerate)
+        if kept is not covered:
+            degenerate_texels += int(np.count_nonzero(covered & ~kept))
+            covered = kept
         r, heat, seconds = compare_tile(td, lambda block: M.resolve(reference(inp, block)),
                                         pixels, covered)
         reference_seconds += seconds
@@ -398,7 +407,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
                            f"(excluded: {report['excluded']}); raise --resolution")
     warnings = [w for w in [tile_note, overlap_warning(mesh, inp.uv_map, tds),
-                            backfacing_warning(mesh, report)] if w]
+                            backfacing_warning(mesh, report),
+                            degenerate_warning(mesh, degenerate, degenerate_texels)] if w]
     for w in warnings:
         if log:
             log(f"warning: {w}")

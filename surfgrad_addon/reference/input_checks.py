@@ -62,6 +62,25 @@ def zero_area_mask(positions, triangles):
     return triangle_areas(p, triangles) <= RELATIVE_AREA_EPS * extent * extent
 
 
+def collapsed_mesh_problem(what, world_positions, triangles):
+    """None unless every face of the mesh (`what`, e.g. "mesh 'M' of object 'O'") has zero
+    area in world space; then the message and the fix (the bake request and compare)."""
+    if not zero_area_mask(world_positions, triangles).all():
+        return None
+    return (f"every face of {what} has zero area (collapsed to a point or a line, or scaled "
+            f"to 0), so there is no surface to bake: fix the mesh or the object's scale")
+
+
+def collapsed_uv_problem(uv_map, obj_name, uv_triangles):
+    """None unless no triangle of UV map `uv_map` of object `obj_name` has area in UV
+    space; then the message and the fix (the bake request and compare)."""
+    if (uv_triangle_areas(uv_triangles) > 0).any():
+        return None
+    return (f"UV map {uv_map!r} of object {obj_name!r} has no area (every face collapsed to a "
+            f"point or a line in UV space), so the bake would cover no texel: unwrap it (UV > "
+            f"Unwrap)")
+
+
 def uv_triangle_areas(uv_triangles):
     """(T,) areas in UV space of UV triangles (T, 3, 2)."""
     uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)

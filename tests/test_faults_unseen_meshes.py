@@ -1,0 +1,167 @@
+"""Red team 29a: `compare` on meshes the project had not seen, each built here by code.
+
+1. Custom split normals (a per-corner jitter, as imported or hand-edited normals are) and a
+   Mirror modifier whose mesh crosses the mirror plane (the copy meets the original along
+   non-manifold edges): MikkTSpace welds corners whose normals are bitwise equal. The
+   reference re-encoded the normals as custom normals of its temporary triangle mesh (split
+   in that mesh's own normal spaces), so corners Cycles welds no longer welded. Before: a
+   correct SG Normal Map at p99 0.29 / max 0.66 deg (custom normals) and p99 0.52 / max 0.85
+   (mirror) at 64^2, over the bar; the Tangent node baked by Cycles was 0.8 / 1.2 deg from the
+   reference's. Now the exact floats (free normals, 4.5 and later).
+2. Triangles without area in 3D (a collapsed row of quads, a sliver of three collinear points)
+   whose UVs have area: Cycles shades no surface there and bakes a zero vector. Before: those
+   texels were compared at 180 deg (and on 4.2 the mesh was refused: "corner_normals contain
+   non-finite values"). Now they are counted as outside and named in a warning.
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from support.cycles_tangents import tangent_errors  # noqa: E402
+from surfgrad_addon.harness import bake as B, compare  # noqa: E402
+from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
+import surfgrad_addon.reference as R  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+RES = 64
+P99, MAX = 0.1, 0.5                    # compare's bar (tests/test_faults_compare.py)
+N = 8                                  # the grid's quads per side
+
+
+@pytest.fixture
+def empty_file():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy
+
+
+def _grid(name="Unseen", bend=0.3):
+    """An N x N grid over -1..1 with a bump, smooth, UVs from x and y (0.05..0.95)."""
+    xs = np.linspace(-1.0, 1.0, N + 1)
+    gx, gy = np.meshgrid(xs, xs)
+    z = bend * np.exp(-1.5 * (gx ** 2 + gy ** 2)) + 0.05 * np.sin(3 * gx) * np.cos(2 * gy)
+    verts = np.stack([gx, gy, z], -1).reshape(-1, 3)
+    faces = [(j * (N + 1) + i, j * (N + 1) + i + 1, (j + 1) * (N + 1) + i + 1,
+              (j + 1) * (N + 1) + i) for j in range(N) for i in range(N)]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts.tolist(), [], faces)
+    corner = verts[[v for f in faces for v in f]]
+    mesh.uv_layers.new(name="UVMap").uv.foreach_set(
+        "vector", ((corner[:, :2] + 1) / 2 * 0.9 + 0.05).ravel())
+    mesh.polygons.foreach_set("use_smooth", np.ones(len(faces), dtype=bool))
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def _custom_normals():
+    obj = _grid("CustomNormals")
+    mesh = obj.data
+    rng = np.random.default_rng(1)
+    vertex = np.array([mesh.vertices[loop.vertex_index].normal for loop in mesh.loops])
+    n = vertex + rng.normal(0.0, 0.15, vertex.shape)
+    mesh.normals_split_custom_set((n / np.linalg.norm(n, axis=1, keepdims=True)).tolist())
+    return obj
+
+
+def _mirror_across_its_plane():
+    obj = _grid("MirrorAcross")
+    obj.modifiers.new("Mirror", "MIRROR").use_mirror_u = True
+    return obj
+
+
+def _within_bar(report):
+    assert report["texels_compared"] > 2000, report
+    assert report["p99_deg"] <= P99 and report["max_deg"] <= MAX, report
+
+
+@pytest.mark.skipif(bpy.app.version < (4, 5, 0), reason="4.2 has no free (float) normals: "
+                    "the reference still re-encodes custom normals (REDTEAM29A, not fixed)")
+@pytest.mark.parametrize("build", [_custom_normals, _mirror_across_its_plane],
+                         ids=["custom_split_normals", "mirror_across_its_plane"])
+def test_tangents_weld_as_cycles_welds_them(empty_file, build):
+    obj = build()
+    report = compare.compare(obj, "normal-map", RES)
+    _within_bar(report)
+    # The frame itself: Cycles' UV tangent against the reference's MikkTSpace tangent.
+    err, used, _ = tangent_errors(obj, "UVMap", RES)
+    assert used.sum() > 2000
+    assert err.max() < 0.01, err.max()
+
+
+def _with_triangles_without_area():
+    """The grid with the vertices of column 4 moved onto column 3 (a row of quads collapsed
+    to lines: no area in 3D, UVs unchanged) and a flat sliver of three collinear points in
+    its own UV strip (u 0.96..0.99)."""
+    obj = _grid("NoArea")
+    mesh = obj.data
+    co = np.empty(len(mesh.vertices) * 3)
+    mesh.vertices.foreach_get("co", co)
+    co = co.reshape(N + 1, N + 1, 3)
+    co[:, 4] = co[:, 3]
+    mesh.vertices.foreach_set("co", co.ravel())
+    verts = [tuple(v) for v in co.reshape(-1, 3)] + [(1.2, 0.0, 0.0), (1.3, 0.0, 0.0),
+                                                      (1.4, 0.0, 0.0)]
+    faces = [list(p.vertices) for p in mesh.polygons] + [[len(verts) - 3, len(verts) - 2,
+                                                          len(verts) - 1]]
+    uv = np.empty(len(mesh.loops) * 2)
+    mesh.uv_layers["UVMap"].uv.foreach_get("vector", uv)
+    uv = np.concatenate([uv, [0.96, 0.2, 0.97, 0.5, 0.99, 0.8]])
+    new = bpy.data.meshes.new("NoArea")
+    new.from_pydata(verts, [], faces)
+    new.uv_layers.new(name="UVMap").uv.foreach_set("vector", uv)
+    new.polygons.foreach_set("use_smooth", [True] * (len(faces) - 1) + [False])
+    new.update()
+    obj.data = new
+    return obj
+
+
+def test_triangles_without_area_are_left_out_and_named(empty_file):
+    obj = _with_triangles_without_area()
+    logged = []
+    report, heat = compare.compare_object(obj, "normal-map", RES, log=logged.append)
+    _within_bar(report)
+    # Independently: the texels the reference gives to a triangle whose corners have no
+    # area (cross product zero), all of which the bake covers (with a zero vector).
+    mesh = mesh_arrays_from_object(obj)
+    p = mesh.positions[mesh.triangles]
+    no_area = np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1) == 0
+    assert no_area.sum() == 2 * N + 1                 # N collapsed quads and the sliver
+    td = R.rasterize(mesh, "UVMap", RES, RES, facts=B.running_line())
+    claimed = td.covered & no_area[np.maximum(td.triangle, 0)]
+    assert claimed.sum() > 100
+    assert report["excluded"]["outside"] == claimed.sum()
+    assert (heat.reasons == 3)[claimed].all()
+    faces = sorted({int(mesh.triangle_faces[t]) for t in np.flatnonzero(no_area)})
+    text = [w for w in report["warnings"] if "without area" in w]
+    assert len(text) == 1
+    assert f"{claimed.sum()} texels of {no_area.sum()} triangles without area" in text[0]
+    assert f"faces {', '.join(map(str, faces[:8]))} and {len(faces) - 8} more" in text[0]
+    assert any(line.startswith("warning: ") and "without area" in line for line in logged)
+
+
+def test_a_mesh_or_uv_map_collapsed_everywhere_is_refused_in_the_bakes_words(empty_file):
+    """3. Before: every face collapsed onto a line (UVs fine) gave exit 0 with 180 deg on
+    every texel; every UV on one point inside the 0..1 square was refused as "faces outside
+    the UDIM tiles ... move the islands into the UV square". Now both are refused with the
+    bake request's words (reference/input_checks)."""
+    flat_line = _grid("OnALine")
+    co = np.empty(len(flat_line.data.vertices) * 3)
+    flat_line.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    co[:, 1:] = 0.0
+    flat_line.data.vertices.foreach_set("co", co.ravel())
+    flat_line.data.update()
+    with pytest.raises(compare.CompareError, match=r"^every face of mesh 'OnALine' of object "
+                                                   r"'OnALine' has zero area \(collapsed"):
+        compare.compare(flat_line, "normal-map", 32)
+    one_point = _grid("OnePoint")
+    one_point.data.uv_layers["UVMap"].uv.foreach_set(
+        "vector", np.full(len(one_point.data.loops) * 2, 0.5))
+    with pytest.raises(compare.CompareError, match=r"^UV map 'UVMap' of object 'OnePoint' has "
+                                                   r"no area \(every face collapsed to a point "
+                                                   r"or a line in UV space\)"):
+        compare.compare(one_point, "normal-map", 32)
