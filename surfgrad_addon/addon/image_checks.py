@@ -83,13 +83,16 @@ def image_problems(obj, covered=()):
         on_disk = image.packed_file is None and image.filepath
         if on_disk and image.source == "SEQUENCE" and hasattr(node, "image_user"):
             # the frame the bake reads now, not the file the path names
-            problem = MI.sequence_problem(
-                image, node, bpy.path.abspath(image.filepath, library=image.library),
-                bpy.context.scene)
+            file = bpy.path.abspath(image.filepath, library=image.library)
+            problem = MI.sequence_problem(image, node, file, bpy.context.scene) or \
+                file_problem(f"image sequence {image.name!r}", MI.sequence_frame_path(
+                    file, MI.sequence_frame(node.image_user, bpy.context.scene.frame_current)))
         else:
             problem = one_image_problem(image)
         if not problem and on_disk and image.source == "TILED" and covered:
             problem = MI.missing_tiles_problem(image, covered)
+        if not problem and on_disk and image.source == "TILED":
+            problem = _tile_files_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
     return out
@@ -167,12 +170,16 @@ def one_image_problem(image):
             return (f"{what} reads {missing[0]!r}, which does not exist: Cycles would bake "
                     f"its magenta 'missing' colour; put the file there, fix the path "
                     f"(File > External Data > Find Missing Files), or pack it")
-        if image.source in ("MOVIE", "SEQUENCE"):
-            return None                         # frames: present is what can be checked
+        if image.source == "SEQUENCE":
+            return None                         # its frame file: image_problems loads it
     had_data = image.has_data
     try:
         w, h = image.size
         if w == 0 or h == 0:
+            if image.source == "MOVIE":         # a movie Blender cannot decode: magenta
+                return (f"movie {what[6:]} ({image.filepath!r}) could not be read (damaged, "
+                        f"or this Blender cannot decode it): {MI.MAGENTA}; render it to an "
+                        f"image sequence (PNG or EXR) and use that")
             return (f"{what} ({'packed' if packed else repr(image.filepath)}) could not be "
                     f"read (damaged, or a format Blender does not open): re-save it as PNG "
                     f"or EXR")
@@ -184,3 +191,44 @@ def one_image_problem(image):
     finally:
         if not had_data and image.has_data:
             image.buffers_free()
+
+
+def _tile_files_problem(image, covered):
+    """The first tile of the UDIM tiles the bake reads (`covered`, else all) whose file is
+    damaged: the image's own load reads one tile only, and Cycles bakes magenta for a tile
+    it cannot read."""
+    import bpy
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    for tile in image.tiles:
+        if covered and tile.number not in covered:
+            continue
+        problem = file_problem(f"tiled image {image.name!r} (tile {tile.number})",
+                               T.tile_path(path, tile.number))
+        if problem:
+            return problem
+    return None
+
+
+def file_problem(what, path):
+    """None when the image file `path` (a UDIM tile's, a sequence frame's) loads with finite
+    pixels, else what is wrong and the fix. Loaded into a probe image of its own, removed
+    again, so the file's own images stay as they were."""
+    import bpy
+    try:
+        probe = bpy.data.images.load(str(path), check_existing=False)
+    except RuntimeError:
+        probe = None
+    try:
+        if probe is None or 0 in probe.size[:]:
+            return (f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
+                    f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG "
+                    f"or EXR")
+        if probe.is_float:
+            w, h = probe.size
+            px = np.empty(w * h * probe.channels, dtype=np.float32)
+            probe.pixels.foreach_get(px)
+            return IC.pixels_problem(f"{what} ({str(path)!r})", px)
+        return None
+    finally:
+        if probe is not None:
+            bpy.data.images.remove(probe)

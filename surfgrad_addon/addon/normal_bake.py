@@ -301,6 +301,8 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
             raise BakeFailed(f"Blender wrote no file {missing[0]}")
         if depth == "half":
             _to_half_exr(bpy, scene, temps.values())
+        for t in tiles:
+            _check_written(bpy, temps[t], finals[t], resolution)
         with interrupts.committing():             # a stop sees every tile or none
             for t in tiles:
                 _publish(temps[t], finals[t], overwrite)
@@ -352,6 +354,27 @@ def _to_half_exr(bpy, scene, paths):
                 os.replace(half, path)
             finally:
                 bpy.data.images.remove(img)
+
+
+def _check_written(bpy, temp, final, resolution):
+    """Read a written file back before it is put in place: Blender's image writers do not
+    report a failed write (a full disk, a file-size limit), and leave a cut-off file that
+    would be published as the map with exit code 0."""
+    probe = None
+    try:
+        probe = bpy.data.images.load(str(temp), check_existing=False)
+        size = tuple(probe.size)
+    except RuntimeError:
+        size = (0, 0)
+    finally:
+        if probe is not None:
+            bpy.data.images.remove(probe)
+    if size != (resolution, resolution):
+        raise BakeFailed(
+            f"the file written for {str(final)!r} is incomplete ({temp.stat().st_size} bytes "
+            f"could not be read back as a {resolution} x {resolution} image): the disk is "
+            f"full or a file-size limit (ulimit -f) was hit; free space in "
+            f"{str(final.parent)!r} (or raise the limit) and bake again")
 
 
 def _publish(temp, final, overwrite):

@@ -44,15 +44,50 @@ def _manifest_problem(path):
 
 
 def read(path):
-    """The manifest at `path`, or None if there is none (or it is no manifest)."""
+    """The manifest at `path`, or None if there is none. A damaged or edited one, or a file
+    that is no manifest, is refused (BatchError): read as none, the run would replace it
+    and forget what it recorded, or trip over a value of the wrong type."""
+    fix = "restore it, or move it away and bake again (--overwrite to replace the maps it " \
+          "recorded)"
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
-        return data if isinstance(data, dict) and isinstance(data.get("assets"), dict) else None
-    except (FileNotFoundError, json.JSONDecodeError):
+    except FileNotFoundError:
         return None
+    except json.JSONDecodeError as e:
+        raise BatchError(f"manifest {path} is damaged (not valid JSON: {e.msg}, line "
+                         f"{e.lineno}): {fix}") from None
     except UnicodeDecodeError:
         raise BatchError(f"manifest {path} is not UTF-8 text (not a surfgrad manifest); give "
                          f"another --manifest path or remove that file") from None
+    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
+        raise BatchError(f"manifest {path} is not a surfgrad manifest (no \"assets\" table); "
+                         f"give another --manifest path or move that file away")
+    problem = _shape_problem(data)
+    if problem:
+        raise BatchError(f"manifest {path} was edited or damaged: {problem}; {fix}")
+    return data
+
+
+def _shape_problem(data):
+    """The first value the batch reads from an earlier manifest that has the wrong type."""
+    tables = [(f"assets[{k!r}]", v) for k, v in data["assets"].items()]
+    if not isinstance(data.get("files", {}), dict):
+        return "\"files\" is not a table"
+    tables += [(f"files[{k!r}]", v) for k, v in data.get("files", {}).items()]
+    for where, value in tables:
+        if not isinstance(value, dict):
+            return f"{where} is not a table"
+    for key, asset in data["assets"].items():
+        written = asset.get("files") or {}
+        if not isinstance(written, dict) or not all(
+                isinstance(r, dict) and isinstance(r.get("path"), str) and
+                isinstance(r.get("sha256"), str) for r in written.values()):
+            return f"assets[{key!r}][\"files\"] is not a table of {{path, sha256}} records"
+    for key, f in data.get("files", {}).items():
+        deps = f.get("dependencies", [])
+        if not isinstance(deps, list) or not all(isinstance(d, str) for d in deps):
+            return f"files[{key!r}][\"dependencies\"] is not a list of paths"
+    return None
 
 
 # One manifest write at a time. A stop (write_last) takes it for good before its own write:
