@@ -1,0 +1,291 @@
+"""Fault injection, red team 29b: what a pipeline meets beyond the scene. Image files the
+check only looked for (a damaged UDIM tile past the first, an image sequence's frame file, a
+movie Blender cannot decode) baked Cycles' magenta with exit code 0; a full disk or a
+file-size limit cut the map's file short and the cut-off file was published with exit code 0;
+a damaged or edited batch manifest was taken as none (and replaced) or stopped the batch with
+a traceback; a batch killed with SIGKILL left its worker baking to the end of its bake."""
+
+import hashlib
+import json
+import os
+import resource
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon.batch import MANIFEST_NAME  # noqa: E402
+from support.child import ROOT  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+
+def _sha(path):
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _write_png(path, size=16):
+    """A tangent-space normal map with a tilt that varies over the texels."""
+    y, x = np.mgrid[0:size, 0:size] / size
+    nx, ny = 0.4 * np.sin(2 * np.pi * x), 0.4 * np.cos(2 * np.pi * y)
+    rgba = np.stack([nx, ny, np.sqrt(1 - nx * nx - ny * ny), np.ones_like(nx)], -1)
+    rgba[..., :3] = rgba[..., :3] * 0.5 + 0.5
+    img = bpy.data.images.new("tmp_png", size, size)
+    img.pixels.foreach_set(rgba.astype(np.float32).ravel())
+    img.filepath_raw, img.file_format = str(path), "PNG"
+    img.save()
+    bpy.data.images.remove(img)
+
+
+def _scene(blend, image_path, source="FILE", second_tile=False):
+    """`blend`: object Plane (2 x 2 quads, UVs in tile 1001, or the right half moved to 1002)
+    whose material reads `image_path` (source `source`) through a Normal Map node."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    verts = [(x / 2, y / 2, 0.0) for y in range(3) for x in range(3)]
+    faces = [(y * 3 + x, y * 3 + x + 1, y * 3 + x + 4, y * 3 + x + 3)
+             for y in range(2) for x in range(2)]
+    mesh = bpy.data.meshes.new("Plane")
+    mesh.from_pydata(verts, [], faces)
+    uv = np.asarray([(verts[i][0], verts[i][1]) for f in faces for i in f], np.float32)
+    if second_tile:
+        uv[4:8, 0] += 1.0                           # the second face into tile 1002
+    mesh.uv_layers.new(name="UVMap").data.foreach_set("uv", uv.ravel())
+    obj = bpy.data.objects.new("Plane", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    mat, tree, bsdf = diffuse_material("Mat")
+    node = tree.nodes.new("ShaderNodeTexImage")
+    image = bpy.data.images.load(str(image_path), check_existing=False)
+    image.source = source
+    if source == "TILED":
+        image.filepath = str(image_path).replace(".1001.", ".<UDIM>.")
+        image.tiles.new(1002)
+    image.colorspace_settings.name = "Non-Color"
+    node.image = image
+    nm = tree.nodes.new("ShaderNodeNormalMap")
+    tree.links.new(node.outputs["Color"], nm.inputs["Color"])
+    tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+    obj.data.materials.append(mat)
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    return blend
+
+
+def _damaged(kind, tmp_path):
+    """(blend, the damaged file, output) for a file the image reads beyond its first."""
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    if kind == "udim_tile":                          # tile 1002's file cut in half
+        for t in (1001, 1002):
+            _write_png(tex / f"n.{t}.png")
+        blend = _scene(tmp_path / "s.blend", tex / "n.1001.png", "TILED", second_tile=True)
+        bad = tex / "n.1002.png"
+        bad.write_bytes(bad.read_bytes()[:bad.stat().st_size // 2])
+        return blend, bad, tmp_path / "out" / "map.<UDIM>.png"
+    if kind == "sequence_frame":                     # the current frame's file is text
+        for f in (1, 2, 3):
+            _write_png(tex / f"seq.{f:04d}.png")
+        blend = _scene(tmp_path / "s.blend", tex / "seq.0001.png", "SEQUENCE")
+        bad = tex / "seq.0001.png"
+    else:                                            # "movie": a file no decoder opens
+        bad = tex / "clip.mp4"
+        bad.write_text("not a movie\n")
+        blend = _scene(tmp_path / "s.blend", bad, "MOVIE")
+    bad.write_text("not an image\n")
+    return blend, bad, tmp_path / "out" / "map.png"
+
+
+@pytest.mark.parametrize("kind", ["udim_tile", "sequence_frame", "movie"])
+def test_a_damaged_tile_frame_or_movie_is_refused_before_baking(kind, tmp_path, capsys):
+    """Before: exit 0 and a map of Cycles' magenta where the file is read (tile 1002 of the
+    UDIM map, the whole map for the frame and the movie)."""
+    blend, bad, output = _damaged(kind, tmp_path)
+    output.parent.mkdir()
+    before = _sha(blend)
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(output), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    line = err.strip().splitlines()[-1]
+    assert line.startswith("surfgrad: error: ") and "magenta" in line, err
+    if kind == "movie":
+        assert "movie 'clip.mp4'" in line and "image sequence" in line
+    else:
+        assert repr(str(bad)) in line and "re-save it as PNG or EXR" in line
+    assert list(output.parent.iterdir()) == []
+    assert _sha(blend) == before
+
+
+def test_damaged_sequence_and_tile_files_of_good_images_still_bake(tmp_path, capsys):
+    """The same scenes with whole files bake (the probes load them and free them again)."""
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    for t in (1001, 1002):
+        _write_png(tex / f"n.{t}.png")
+    blend = _scene(tmp_path / "s.blend", tex / "n.1001.png", "TILED", second_tile=True)
+    out = tmp_path / "out"
+    out.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out / "map.<UDIM>.png"), "--resolution", "16"])
+    assert rc == exit_codes.OK, capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == ["map.1001.png", "map.1002.png"]
+    assert [i.name for i in bpy.data.images] == ["n.1001.png"]      # no probe left behind
+
+
+@pytest.mark.tier("child")
+def test_a_map_cut_short_by_a_file_size_limit_is_not_published(tmp_path):
+    """A full disk, simulated with a file-size limit (RLIMIT_FSIZE; Python ignores SIGXFSZ,
+    so the write fails as on a full disk). Before: exit 0 and a cut-off PNG as the map."""
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "s.blend", tmp_path / "n.png")
+    out = tmp_path / "out"
+    out.mkdir()
+    limit = 8192                                    # a 256^2 map of this scene: ~25 kB
+
+    def small_files():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    run = subprocess.run([sys.executable, "-m", "surfgrad_addon", "bake-normal-map",
+                          "--blend", str(blend), "--object", "Plane", "--output",
+                          str(out / "map.png"), "--resolution", "256"], cwd=str(ROOT),
+                         env=env, capture_output=True, text=True, timeout=300,
+                         preexec_fn=small_files)
+    assert run.returncode == exit_codes.BAKE_FAILED, run.stderr[-2000:]
+    line = run.stderr.strip().splitlines()[-1]
+    assert line.startswith("surfgrad: error: ") and "map.png" in line and \
+        "disk is full" in line, run.stderr[-2000:]
+    assert "Traceback" not in run.stderr
+    assert list(out.iterdir()) == []                # neither the map nor its temporary
+
+
+def _damage_truncated(text):
+    return text[:len(text) // 2]
+
+
+def _damage_asset_entry(text):
+    data = json.loads(text)
+    data["assets"][next(iter(data["assets"]))] = 5
+    return json.dumps(data)
+
+
+def _damage_files_list(text):
+    data = json.loads(text)
+    data["files"] = []
+    return json.dumps(data)
+
+
+def _damage_written_record(text):
+    data = json.loads(text)
+    next(iter(data["assets"].values()))["files"] = {"1001": "map.png"}
+    return json.dumps(data)
+
+
+def _foreign_json(text):
+    return json.dumps({"name": "the studio's own settings"})
+
+
+@pytest.mark.parametrize("damage, said", [
+    (_damage_truncated, "is damaged (not valid JSON"),
+    (_damage_asset_entry, "is not a table"),
+    (_damage_files_list, "\"files\" is not a table"),
+    (_damage_written_record, "is not a table of {path, sha256} records"),
+    (_foreign_json, "is not a surfgrad manifest"),
+])
+def test_a_damaged_or_edited_manifest_is_refused_and_kept(damage, said, tmp_path, capsys):
+    """Before: a damaged (or foreign) file was taken as no manifest and replaced, and the
+    run failed every asset with 'exists; pass --overwrite'; an edited one stopped the batch
+    with a traceback (AttributeError). Now: exit 2 before anything is scanned, naming the
+    manifest and the fix; the manifest and the maps are left as they were."""
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    out = tmp_path / "maps"
+    args = ["bake-batch", str(blend), "--output", str(out / "{file}_{object}.png"),
+            "--resolution", "16", "--workers", "0"]
+    assert commands.execute(args) == exit_codes.OK, capsys.readouterr().err
+    capsys.readouterr()
+    manifest = out / MANIFEST_NAME
+    manifest.write_text(damage(manifest.read_text()))
+    kept = {p.name: _sha(p) for p in out.iterdir()}
+    rc = commands.execute(args)
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    line = err.strip().splitlines()[-1]
+    assert line.startswith(f"surfgrad: error: manifest {manifest} ") and said in line, err
+    assert "Traceback" not in err
+    assert {p.name: _sha(p) for p in out.iterdir()} == kept
+
+
+def _children(pid):
+    """Process ids whose parent is `pid` (Linux /proc)."""
+    out = set()
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[1]) == pid:
+            out.add(int(stat.parent.name))
+    return out
+
+
+def _alive(pids):
+    out = []
+    for pid in pids:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            continue
+        if state != "Z":
+            out.append(pid)
+    return out
+
+
+@pytest.mark.tier("child")
+@pytest.mark.skipif(not Path("/proc/self/stat").is_file(), reason="reads /proc")
+def test_a_batch_killed_with_sigkill_takes_its_workers_with_it(tmp_path):
+    """A farm's hard kill (or the OOM killer) of the batch: its workers, each in a process
+    group of its own, went on baking to the end of the bake (~25 s here) and burnt the
+    node's CPUs. Now each notices its parent gone and stops as on SIGTERM: within seconds,
+    no map or temporary file left, and a rerun bakes the asset."""
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    out = tmp_path / "maps"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(PYTHONPATH=str(ROOT), TMPDIR=str(tmp_path))
+    args = [sys.executable, "-m", "surfgrad_addon", "bake-batch", str(blend), "--output",
+            str(out / "{file}_{object}.png"), "--workers", "1"]
+    proc = subprocess.Popen(args + ["--resolution", "1024", "--samples", "64"], cwd=str(ROOT),
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    manifest = out / MANIFEST_NAME
+    workers, t0 = set(), time.monotonic()
+    try:
+        while time.monotonic() - t0 < 120:          # scanned (manifest written), baking
+            workers |= _children(proc.pid)
+            if workers and manifest.is_file() and json.loads(manifest.read_text())["files"]:
+                break
+            assert proc.poll() is None
+            time.sleep(0.1)
+        time.sleep(2.0)
+        proc.kill()
+        proc.wait(10)
+        t1 = time.monotonic()
+        while _alive(workers) and time.monotonic() - t1 < 10:
+            time.sleep(0.1)
+        left = _alive(workers)
+    finally:
+        for pid in _alive(workers):
+            os.kill(pid, signal.SIGKILL)
+    assert workers and left == [], f"workers still baking 10 s after the batch died: {left}"
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME]
+    rerun = subprocess.run(args + ["--resolution", "16"], cwd=str(ROOT), env=env,
+                           capture_output=True, text=True, timeout=300)
+    assert rerun.returncode == 0, rerun.stderr[-2000:]
+    assert (out / "a_Plane.png").is_file()
