@@ -289,3 +289,58 @@ def test_a_batch_killed_with_sigkill_takes_its_workers_with_it(tmp_path):
                            capture_output=True, text=True, timeout=300)
     assert rerun.returncode == 0, rerun.stderr[-2000:]
     assert (out / "a_Plane.png").is_file()
+
+
+@pytest.mark.tier("child")
+def test_a_second_batch_on_the_same_manifest_is_refused_while_the_first_runs(tmp_path):
+    """Two runs into one output folder (two artists, a farm task retried beside the one
+    still running). Before: both baked; the one that wrote its manifest last dropped the
+    other's records (a run that failed every asset with 'exists' dropped the records of the maps it found),
+    and every later run failed those assets until --overwrite. Now the second is refused, exit
+    2, naming the manifest; the first bakes on; after it ends the folder is free again."""
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    out = tmp_path / "maps"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(PYTHONPATH=str(ROOT))
+    args = [sys.executable, "-m", "surfgrad_addon", "bake-batch", str(blend), "--output",
+            str(out / "{file}_{object}.png"), "--workers", "0"]
+    first = subprocess.Popen(args + ["--resolution", "1024", "--samples", "64"],
+                             cwd=str(ROOT), env=env, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE, text=True)
+    manifest = out / MANIFEST_NAME
+    try:
+        t0 = time.monotonic()
+        while not (manifest.is_file() and json.loads(manifest.read_text())["files"]):
+            assert first.poll() is None and time.monotonic() - t0 < 120
+            time.sleep(0.1)
+        kept = manifest.read_bytes()
+        second = subprocess.run(args + ["--resolution", "16"], cwd=str(ROOT), env=env,
+                                capture_output=True, text=True, timeout=300)
+        assert first.poll() is None, "the first run ended before the second was tried"
+    finally:
+        first.send_signal(signal.SIGTERM)
+        first.communicate(timeout=60)
+    assert second.returncode == exit_codes.BAD_REQUEST, second.stderr[-2000:]
+    line = second.stderr.strip().splitlines()[-1]
+    assert line.startswith(f"surfgrad: error: manifest {manifest} is in use by another "
+                           f"bake-batch run"), second.stderr[-2000:]
+    assert not (out / "a_Plane.png").exists() and kept  # the second baked nothing
+    assert first.returncode == exit_codes.TERMINATED
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME]    # no lock file left
+    third = subprocess.run(args + ["--resolution", "16"], cwd=str(ROOT), env=env,
+                           capture_output=True, text=True, timeout=300)
+    assert third.returncode == 0, third.stderr[-2000:]
+    assert sorted(p.name for p in out.iterdir()) == ["a_Plane.png", MANIFEST_NAME]
+
+
+def test_a_folder_given_as_the_blend_is_named_a_folder(tmp_path, capsys):
+    """Before: '.blend file 'rock.blend' does not exist' for a folder named rock.blend."""
+    folder = tmp_path / "rock.blend"
+    folder.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(folder), "--object", "Rock",
+                           "--output", str(tmp_path / "n.png")])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST
+    assert err.strip().splitlines()[-1] == (f"surfgrad: error: .blend file {str(folder)!r} is "
+                                            f"a folder: give a .blend file")

@@ -459,7 +459,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
         check_output_path(p, overwrite)
     D.check(cycles_device)
     if blend:
-        if not Path(blend).is_file():
+        if not Path(blend).exists():           # a folder: open_mainfile names it
             raise CompareError(f".blend file {blend!r} does not exist")
         from ..addon.open_blend import open_mainfile
         open_mainfile(blend)               # scripts off, whatever the Preferences say

@@ -117,6 +117,51 @@ def _write_json(path, data):
     os.replace(temp, path)
 
 
+# Manifests this process holds: path -> (lock file descriptor, lock path, folder it made).
+_HELD = {}
+
+
+def hold(path):
+    """Take the manifest for this run (an exclusive lock on `.NAME.lock` beside it), or
+    BatchError when another run holds it: two runs writing one manifest each write it whole
+    from what they read at the start, and the last one's write drops the other's records (its
+    maps then look like foreign files, refused without --overwrite). The system drops the lock
+    when the process ends, SIGKILL included; re-entrant within a process. No-op without
+    fcntl (Windows)."""
+    try:
+        import fcntl
+    except ImportError:
+        return
+    path = Path(path)
+    if path in _HELD:
+        return
+    made = None if path.parent.exists() else path.parent
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock = path.with_name(f".{path.name}.lock")
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise BatchError(f"manifest {path} is in use by another bake-batch run (it holds "
+                         f"{lock}): wait for that run to end, or give this one another "
+                         f"--manifest and output folder") from None
+    _HELD[path] = (fd, lock, made)
+
+
+def release(path):
+    """Give the manifest back (hold), removing the lock file and a folder hold made empty."""
+    fd, lock, made = _HELD.pop(Path(path), (None, None, None))
+    if fd is None:
+        return
+    for remove in (lock.unlink, *((made.rmdir,) if made else ())):
+        try:
+            remove()
+        except OSError:                           # (a folder with the maps in it stays)
+            pass
+    os.close(fd)
+
+
 def asset_key(blend, obj):
     """An asset's key in the manifest: "file:object" ("file:*" for the file itself)."""
     return f"{blend}:{obj}"
