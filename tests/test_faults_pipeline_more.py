@@ -295,7 +295,7 @@ def test_a_batch_killed_with_sigkill_takes_its_workers_with_it(tmp_path):
 def test_a_second_batch_on_the_same_manifest_is_refused_while_the_first_runs(tmp_path):
     """Two runs into one output folder (two artists, a farm task retried beside the one
     still running). Before: both baked; the one that wrote its manifest last dropped the
-    other's records (a run that failed every asset with 'exists' dropped the records of the maps it found),
+    other's records (one that failed every asset with 'exists' kept no record of the maps),
     and every later run failed those assets until --overwrite. Now the second is refused, exit
     2, naming the manifest; the first bakes on; after it ends the folder is free again."""
     _write_png(tmp_path / "n.png")
@@ -325,7 +325,7 @@ def test_a_second_batch_on_the_same_manifest_is_refused_while_the_first_runs(tmp
     line = second.stderr.strip().splitlines()[-1]
     assert line.startswith(f"surfgrad: error: manifest {manifest} is in use by another "
                            f"bake-batch run"), second.stderr[-2000:]
-    assert not (out / "a_Plane.png").exists() and kept  # the second baked nothing
+    assert not (out / "a_Plane.png").exists() and kept     # the second baked nothing
     assert first.returncode == exit_codes.TERMINATED
     assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME]    # no lock file left
     third = subprocess.run(args + ["--resolution", "16"], cwd=str(ROOT), env=env,
