@@ -344,3 +344,36 @@ def test_a_folder_given_as_the_blend_is_named_a_folder(tmp_path, capsys):
     assert rc == exit_codes.BAD_REQUEST
     assert err.strip().splitlines()[-1] == (f"surfgrad: error: .blend file {str(folder)!r} is "
                                             f"a folder: give a .blend file")
+
+
+def test_an_asset_list_with_home_paths_duplicates_and_relative_paths(tmp_path, monkeypatch,
+                                                                     capsys):
+    """Before: `~/assets/a.blend` in a list was read as a folder named '~' beside the list
+    ('.../~/assets/a.blend: no such file', exit 1); the shell expands it on the command line
+    only. Duplicates and a relative path naming the same file bake it once."""
+    home = tmp_path / "home"
+    (home / "assets").mkdir(parents=True)
+    _write_png(home / "assets" / "n.png")
+    _scene(home / "assets" / "a.blend", home / "assets" / "n.png")
+    monkeypatch.setenv("HOME", str(home))
+    listed = home / "assets" / "list.txt"
+    listed.write_text("~/assets/a.blend\n~/assets/a.blend:Plane\na.blend\n")
+    out = tmp_path / "maps"
+    rc = commands.execute(["bake-batch", "--asset-list", str(listed), "--output",
+                           str(out / "{file}_{object}.png"), "--resolution", "16",
+                           "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.OK, err
+    assert sorted(p.name for p in out.iterdir()) == ["a_Plane.png", MANIFEST_NAME]
+    assets = json.loads((out / MANIFEST_NAME).read_text())["assets"]
+    assert list(assets) == [f"{home / 'assets' / 'a.blend'}:Plane"]
+
+
+def test_a_folder_given_as_the_asset_list_is_named_a_folder(tmp_path, capsys):
+    """Before: 'asset list DIR: no such file' for a folder that exists."""
+    rc = commands.execute(["bake-batch", "--asset-list", str(tmp_path), "--output",
+                           str(tmp_path / "maps" / "{file}_{object}.png")])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert err.strip().splitlines()[-1].startswith(
+        f"surfgrad: error: asset list {tmp_path} is a folder: give the list's file")
