@@ -138,6 +138,19 @@ def test_damaged_sequence_and_tile_files_of_good_images_still_bake(tmp_path, cap
     assert [i.name for i in bpy.data.images] == ["n.1001.png"]      # no probe left behind
 
 
+def _run_with_file_limit(limit, args):
+    """`python -m surfgrad_addon ARGS` where no file may grow past `limit` bytes
+    (RLIMIT_FSIZE: Python ignores SIGXFSZ, so a write past it fails as on a full disk)."""
+    def small_files():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    return subprocess.run([sys.executable, "-m", "surfgrad_addon", *map(str, args)],
+                          cwd=str(ROOT), env=env, capture_output=True, text=True, timeout=300,
+                          preexec_fn=small_files)
+
+
 @pytest.mark.tier("child")
 def test_a_map_cut_short_by_a_file_size_limit_is_not_published(tmp_path):
     """A full disk, simulated with a file-size limit (RLIMIT_FSIZE; Python ignores SIGXFSZ,
@@ -146,24 +159,54 @@ def test_a_map_cut_short_by_a_file_size_limit_is_not_published(tmp_path):
     blend = _scene(tmp_path / "s.blend", tmp_path / "n.png")
     out = tmp_path / "out"
     out.mkdir()
-    limit = 8192                                    # a 256^2 map of this scene: ~25 kB
-
-    def small_files():
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(ROOT)
-    run = subprocess.run([sys.executable, "-m", "surfgrad_addon", "bake-normal-map",
-                          "--blend", str(blend), "--object", "Plane", "--output",
-                          str(out / "map.png"), "--resolution", "256"], cwd=str(ROOT),
-                         env=env, capture_output=True, text=True, timeout=300,
-                         preexec_fn=small_files)
+    run = _run_with_file_limit(8192, [             # a 256^2 map of this scene: ~25 kB
+        "bake-normal-map", "--blend", blend, "--object", "Plane", "--output", out / "map.png",
+        "--resolution", "256"])
     assert run.returncode == exit_codes.BAKE_FAILED, run.stderr[-2000:]
     line = run.stderr.strip().splitlines()[-1]
     assert line.startswith("surfgrad: error: ") and "map.png" in line and \
         "disk is full" in line, run.stderr[-2000:]
     assert "Traceback" not in run.stderr
     assert list(out.iterdir()) == []                # neither the map nor its temporary
+
+
+@pytest.mark.tier("child")
+def test_an_exr_blender_cannot_write_is_one_line_naming_the_map(tmp_path):
+    """Before: Blender's two lines ('Could not write image: Invalid argument', then the
+    temporary file's name), saying neither the map nor the fix."""
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "s.blend", tmp_path / "n.png")
+    out = tmp_path / "out"
+    out.mkdir()
+    run = _run_with_file_limit(8192, ["bake-normal-map", "--blend", blend, "--object",
+                                      "Plane", "--output", out / "map.exr", "--resolution",
+                                      "256"])
+    assert run.returncode == exit_codes.BAKE_FAILED, run.stderr[-2000:]
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith("surfgrad: error: ") and repr(str(out / "map.exr")) in last and \
+        "the disk may be full" in last, run.stderr[-2000:]
+    assert list(out.iterdir()) == []
+
+
+@pytest.mark.tier("child")
+def test_a_manifest_the_disk_cannot_take_is_one_line_and_leaves_no_temporary(tmp_path):
+    """The maps fit, the manifest does not (a 2 kB limit: a 16^2 map is under 1 kB, the
+    manifest over 2 kB). Before: a traceback (OSError: File too large) and the manifest's
+    cut-off temporary file left beside the maps."""
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    out = tmp_path / "maps"
+    run = _run_with_file_limit(2048, ["bake-batch", blend, "--output",
+                                      out / "{file}_{object}.png", "--resolution", "16",
+                                      "--workers", "0"])
+    assert run.returncode == exit_codes.BAKE_FAILED, run.stderr[-2000:]
+    assert "Traceback" not in run.stderr
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"surfgrad: error: manifest {out / MANIFEST_NAME} could not be "
+                           f"written") and "free space" in last, run.stderr[-2000:]
+    # An earlier, smaller write (after the scan) stays whole; no temporary, no lock file.
+    assert sorted(p.name for p in out.iterdir()) == ["a_Plane.png", MANIFEST_NAME]
+    assert json.loads((out / MANIFEST_NAME).read_text())["files"]
 
 
 def _damage_truncated(text):

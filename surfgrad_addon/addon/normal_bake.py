@@ -295,7 +295,14 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
         temps = {t: tile_path(temp, t) for t in tiles}
         image.filepath_raw = str(temp.resolve())
         image.file_format = fmt
-        image.save()
+        try:
+            image.save()
+        except RuntimeError as err:          # Blender's two lines: "Could not write ...: EINVAL"
+            reason = str(err).strip().splitlines()[0].removeprefix("Error: ")
+            raise BakeFailed(f"Blender could not write the map for {str(output)!r} ({reason}): "
+                             f"free space in {str(output.parent)!r} (the disk may be full), "
+                             f"check that the folder still takes files, and bake again") \
+                from None
         missing = [str(p) for p in temps.values() if not p.is_file()]
         if missing:
             raise BakeFailed(f"Blender wrote no file {missing[0]}")

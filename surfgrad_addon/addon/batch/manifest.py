@@ -3,10 +3,12 @@ writing it whole, one write at a time."""
 
 import json
 import os
+import sys
 import threading
 from pathlib import Path
 
 from .. import bake_request as BR
+from ..exit_codes import BakeFailed
 from .. import normal_bake as NB
 from .plan import BatchError
 
@@ -97,24 +99,53 @@ _WRITE_LOCK = threading.Lock()
 
 
 def write(path, data):
-    """Write the manifest whole: a temporary file, then renamed over the old one."""
+    """Write the manifest whole: a temporary file, then renamed over the old one. One that
+    cannot be written (a full disk) is left as it was: the run goes on, and its last write
+    (write_final) says so."""
     with _WRITE_LOCK:
-        _write_json(path, data)
+        try:
+            _write_json(path, data)
+        except OSError:
+            pass
+
+
+def write_final(path, data):
+    """The run's last write: BakeFailed (exit code 1), one line, when it cannot be written."""
+    with _WRITE_LOCK:
+        try:
+            _write_json(path, data)
+        except OSError as err:
+            raise BakeFailed(_unwritten(path, err)) from None
 
 
 def write_last(path, data):
     """The stop's write: holds the write lock for good (the process ends after this, and no
     other write may follow or overlap)."""
     _WRITE_LOCK.acquire(timeout=5)
-    _write_json(path, data)
+    try:
+        _write_json(path, data)
+    except OSError as err:
+        print(f"surfgrad: error: {_unwritten(path, err)}", file=sys.stderr, flush=True)
+
+
+def _unwritten(path, err):
+    return (f"manifest {path} could not be written ({err.strerror}): it does not record "
+            f"this run; free space in {str(Path(path).parent)!r} (the disk may be full) and "
+            f"bake again (--overwrite to replace the maps it could not record)")
 
 
 def _write_json(path, data):
+    """Write `data` to a temporary file and rename it to `path`; a failed write leaves no
+    temporary (OSError)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temp = path.with_name(f".{path.name}.part{os.getpid()}")
-    temp.write_text(json.dumps(data, indent=1, sort_keys=False))
-    os.replace(temp, path)
+    try:
+        temp.write_text(json.dumps(data, indent=1, sort_keys=False))
+        os.replace(temp, path)
+    finally:
+        if temp.exists():
+            temp.unlink()
 
 
 # Manifests this process holds: path -> (lock file descriptor, lock path, folder it made).

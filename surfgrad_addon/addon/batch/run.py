@@ -261,8 +261,10 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     report["total_s"] = time.perf_counter() - t_start
     report["counts"] = dict(progress.counts)
     report["manifest"] = str(manifest_path)
-    M.write(manifest_path, M.merged(previous, report, files))
-    M.release(manifest_path)
+    try:
+        M.write_final(manifest_path, M.merged(previous, report, files))
+    finally:
+        M.release(manifest_path)
     c = progress.counts
     log(f"[batch] {c['baked']} baked, {c['skipped']} skipped, {c['failed']} failed in "
         f"{report['total_s']:.1f} s; manifest {manifest_path}")
