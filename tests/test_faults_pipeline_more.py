@@ -420,3 +420,24 @@ def test_a_folder_given_as_the_asset_list_is_named_a_folder(tmp_path, capsys):
     assert rc == exit_codes.BAD_REQUEST, err
     assert err.strip().splitlines()[-1].startswith(
         f"surfgrad: error: asset list {tmp_path} is a folder: give the list's file")
+
+
+@pytest.mark.parametrize("space, warned", [("sRGB", True), ("Non-Color", False)])
+def test_an_srgb_normal_map_is_baked_with_a_warning(space, warned, tmp_path, capsys):
+    """The most common artist slip: a normal map left in sRGB. Before: exit 0, not a word,
+    and a map bent by up to 0.31 per channel from the Non-Color one. Now the same map (it is
+    what Cycles renders) with a warning naming the image, the node and the fix."""
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "s.blend", tmp_path / "n.png")
+    bpy.data.images["n.png"].colorspace_settings.name = space
+    bpy.ops.wm.save_mainfile()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(tmp_path / "map.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.OK, err
+    warning = (f"surfgrad: warning: image 'n.png' is read in colour space {space!r} by Normal "
+               f"Map node 'Normal Map' (material 'Mat'): ")
+    assert (warning in err) == warned, err
+    if warned:
+        assert "set the image's Color Space to Non-Color" in err
+    assert (tmp_path / "map.png").is_file()

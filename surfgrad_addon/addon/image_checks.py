@@ -98,6 +98,36 @@ def image_problems(obj, covered=()):
     return out
 
 
+def colour_space_warnings(obj):
+    """A warning per image read as colour into a Normal Map node's Color (through reroutes):
+    sRGB (or any colour space that is not data) bends every texel's normal, and the bake,
+    like Cycles' render, takes the bent one. The usual fix is the image's colour space."""
+    out, memo = [], {}
+    for slot in obj.material_slots:
+        mat = slot.material
+        if mat is None or mat.node_tree is None:
+            continue
+        for node, path in material_nodes(mat, memo):
+            if node.bl_idname != "ShaderNodeNormalMap" or not node.inputs["Color"].is_linked:
+                continue
+            source = node.inputs["Color"].links[0].from_node
+            while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
+                source = source.inputs[0].links[0].from_node
+            image = getattr(source, "image", None) if \
+                source.bl_idname == "ShaderNodeTexImage" else None
+            if image is None or image.colorspace_settings.is_data:
+                continue
+            text = (f"image {image.name!r} is read in colour space "
+                    f"{image.colorspace_settings.name!r} by Normal Map node {path!r} "
+                    f"(material {mat.name!r}): a normal map is data, and this bends every "
+                    f"normal (the bake takes them as Cycles renders them); set the image's "
+                    f"Color Space to Non-Color (Image Texture node, or the Image Editor's "
+                    f"sidebar)")
+            if text not in out:
+                out.append(text)
+    return out
+
+
 def output_input_problems(obj, finals):
     """An output file that is the file of an image the object's materials read (a texture
     named like the map, or a pattern that lands on one): the bake would replace its own input,
