@@ -441,3 +441,39 @@ def test_an_srgb_normal_map_is_baked_with_a_warning(space, warned, tmp_path, cap
     if warned:
         assert "set the image's Color Space to Non-Color" in err
     assert (tmp_path / "map.png").is_file()
+
+
+def _linked_from_missing_library(tmp_path):
+    """tmp_path/shot.blend links object Plane from lib.blend, which is then moved away."""
+    _write_png(tmp_path / "n.png")
+    lib = _scene(tmp_path / "lib.blend", tmp_path / "n.png")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with bpy.data.libraries.load(str(lib), link=True) as (_, into):
+        into.objects = ["Plane"]
+    bpy.context.scene.collection.objects.link(into.objects[0])
+    shot = tmp_path / "shot.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(shot), compress=False)
+    lib.rename(tmp_path / "lib_moved.blend")
+    return shot, lib
+
+
+def test_an_object_whose_library_is_missing_is_named_as_such(tmp_path, capsys):
+    """Before: bake-normal-map said "object 'Plane' is a empty, not a mesh: pick a mesh
+    object"; bake-batch of the whole file said it had no mesh object with a material, and of
+    file:Plane that Plane is an empty. Now all three name the missing library and the fix."""
+    shot, lib = _linked_from_missing_library(tmp_path)
+    said = (f"object 'Plane' is linked from library '//lib.blend' ({lib}), which is missing, "
+            f"so Blender left an empty placeholder: put the library file there or relink it")
+    rc = commands.execute(["bake-normal-map", "--blend", str(shot), "--object", "Plane",
+                           "--output", str(tmp_path / "map.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST and said in err.strip().splitlines()[-1], err
+    for entry in (str(shot), f"{shot}:Plane"):
+        rc = commands.execute(["bake-batch", entry, "--output",
+                               str(tmp_path / "maps" / "{file}_{object}.png"),
+                               "--resolution", "16", "--workers", "0"])
+        err = capsys.readouterr().err
+        assert rc == exit_codes.BAKE_FAILED, err
+        assert err.strip().splitlines()[-1] == f"surfgrad: error: shot.blend:Plane: {said} " \
+            f"(File > External Data > Find Missing Files)", err
+    assert not (tmp_path / "map.png").exists()

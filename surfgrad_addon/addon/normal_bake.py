@@ -30,6 +30,7 @@ from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, own_materials, visible_for_bake
 from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
 from .exit_codes import BakeFailed
+from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
 from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
 
@@ -128,6 +129,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     import bpy
     if obj is None:
         raise NormalBakeError("pick a mesh object to bake (--object NAME)")
+    if missing_library_problem(obj):          # its placeholder is an empty: say why
+        raise NormalBakeError(missing_library_problem(obj))
     if obj.type != "MESH":
         raise NormalBakeError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh: pick "
                               f"a mesh object to bake (--object NAME)")
