@@ -477,3 +477,25 @@ def test_an_object_whose_library_is_missing_is_named_as_such(tmp_path, capsys):
         assert err.strip().splitlines()[-1] == f"surfgrad: error: shot.blend:Plane: {said} " \
             f"(File > External Data > Find Missing Files)", err
     assert not (tmp_path / "map.png").exists()
+
+
+@pytest.mark.tier("child")
+def test_ctrl_c_while_the_command_starts_is_one_line_and_exit_130(tmp_path):
+    """Ctrl-C in the first half second (Python, numpy and bpy loading, before the command's
+    own stop is in place). Before: a KeyboardInterrupt traceback from inside an import, and
+    the process killed by SIGINT."""
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "s.blend", tmp_path / "n.png")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    proc = subprocess.Popen([sys.executable, "-m", "surfgrad_addon", "bake-normal-map",
+                             "--blend", str(blend), "--object", "Plane", "--output",
+                             str(tmp_path / "map.png")], cwd=str(ROOT), env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(0.1)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == exit_codes.INTERRUPTED, err[-2000:]
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err[-2000:]
+    assert err.strip().splitlines()[-1].startswith("surfgrad: interrupted by SIGINT: stopped")
+    assert not (tmp_path / "map.png").exists()
