@@ -499,3 +499,23 @@ def test_ctrl_c_while_the_command_starts_is_one_line_and_exit_130(tmp_path):
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err[-2000:]
     assert err.strip().splitlines()[-1].startswith("surfgrad: interrupted by SIGINT: stopped")
     assert not (tmp_path / "map.png").exists()
+
+
+@pytest.mark.tier("child")
+def test_the_main_job_on_a_full_disk_is_one_line_and_leaves_its_folder(tmp_path):
+    """`run.sh main` (demo) when its disk fills (a file-size limit here). Before: a numpy
+    traceback ('OSError: 12288 requested and 10208 written'), naming no folder and no fix.
+    The folder keeps what it held; no hidden working folder is left."""
+    out = tmp_path / "demo"
+    out.mkdir()
+    (out / "summary.md").write_text("the last complete run\n")
+    run = _run_with_file_limit(8192, ["demo", "--out", out, "--overwrite", "--no-bake",
+                                      "--resolution", "64"])
+    assert run.returncode == exit_codes.BAKE_FAILED, run.stderr[-2000:]
+    assert "Traceback" not in run.stderr, run.stderr[-2000:]
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"surfgrad: error: the run could not write its files for "
+                           f"{str(out)!r}") and "free space" in last, last
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]
+    assert [p.name for p in out.iterdir()] == ["summary.md"]
+    assert (out / "summary.md").read_text() == "the last complete run\n"
