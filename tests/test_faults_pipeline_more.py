@@ -519,3 +519,18 @@ def test_the_main_job_on_a_full_disk_is_one_line_and_leaves_its_folder(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]
     assert [p.name for p in out.iterdir()] == ["summary.md"]
     assert (out / "summary.md").read_text() == "the last complete run\n"
+
+
+@pytest.mark.tier("child")
+def test_compare_on_a_full_disk_leaves_no_cut_off_report(tmp_path):
+    """Before: a PIL traceback, exit 1, and a cut-off heat map (and the JSON) left where
+    the report goes. A 2 kB file-size limit: the JSON (~1 kB) fits, the heat map does not."""
+    out = tmp_path / "report" / "torus.json"
+    run = _run_with_file_limit(2048, ["compare", "--object", "Torus", "--method",
+                                      "normal-map", "--resolution", "64", "--json", out])
+    assert run.returncode == exit_codes.BAKE_FAILED, run.stderr[-2000:]
+    assert "Traceback" not in run.stderr, run.stderr[-2000:]
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"surfgrad: error: could not write {str(out)!r} and its heat map") \
+        and "free space" in last, last
+    assert list(tmp_path.iterdir()) == []            # nor the folder made for it
