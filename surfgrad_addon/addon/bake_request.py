@@ -33,7 +33,7 @@ from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed
-from .image_checks import image_problems, output_input_problems
+from .image_checks import colour_space_warnings, image_problems, output_input_problems
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -224,6 +224,7 @@ def _check(request, obj, warn):
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
     problems += image_problems(obj, tiles)          # the tiles this bake writes
+    warnings += colour_space_warnings(obj)
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)

@@ -9,11 +9,16 @@ override bakes that material instead: both are lifted for the bake, like the hid
 
 from contextlib import contextmanager
 
+from .material_inputs import missing_library_problem
+
 
 def bake_target_problem(obj, view_layer):
     """None when obj can be baked, else a message naming the problem and the fix."""
     if obj is None:
         return "no object given: pick a mesh object to bake"
+    missing = missing_library_problem(obj)     # (its placeholder is an empty)
+    if missing:
+        return missing
     if obj.type != "MESH":
         return f"object {obj.name!r} is a {obj.type.lower()}, not a mesh: pick a mesh object"
     for what, block in (("object", obj), ("mesh", obj.data)):

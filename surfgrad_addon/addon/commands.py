@@ -135,7 +135,7 @@ def run_bake_normal_map(args):
 def _bake_normal_map(args):
     from .bake_request import BakeRequest, bake
     if args.blend:
-        if not Path(args.blend).is_file():
+        if not Path(args.blend).exists():      # a folder: open_mainfile names it
             raise ValueError(f".blend file {args.blend!r} does not exist")
         from .open_blend import open_mainfile
         open_mainfile(args.blend)          # scripts off, whatever the Preferences say

@@ -83,15 +83,48 @@ def image_problems(obj, covered=()):
         on_disk = image.packed_file is None and image.filepath
         if on_disk and image.source == "SEQUENCE" and hasattr(node, "image_user"):
             # the frame the bake reads now, not the file the path names
-            problem = MI.sequence_problem(
-                image, node, bpy.path.abspath(image.filepath, library=image.library),
-                bpy.context.scene)
+            file = bpy.path.abspath(image.filepath, library=image.library)
+            problem = MI.sequence_problem(image, node, file, bpy.context.scene) or \
+                file_problem(f"image sequence {image.name!r}", MI.sequence_frame_path(
+                    file, MI.sequence_frame(node.image_user, bpy.context.scene.frame_current)))
         else:
             problem = one_image_problem(image)
         if not problem and on_disk and image.source == "TILED" and covered:
             problem = MI.missing_tiles_problem(image, covered)
+        if not problem and on_disk and image.source == "TILED":
+            problem = _tile_files_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
+    return out
+
+
+def colour_space_warnings(obj):
+    """A warning per image read as colour into a Normal Map node's Color (through reroutes):
+    sRGB (or any colour space that is not data) bends every texel's normal, and the bake,
+    like Cycles' render, takes the bent one. The usual fix is the image's colour space."""
+    out, memo = [], {}
+    for slot in obj.material_slots:
+        mat = slot.material
+        if mat is None or mat.node_tree is None:
+            continue
+        for node, path in material_nodes(mat, memo):
+            if node.bl_idname != "ShaderNodeNormalMap" or not node.inputs["Color"].is_linked:
+                continue
+            source = node.inputs["Color"].links[0].from_node
+            while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
+                source = source.inputs[0].links[0].from_node
+            image = getattr(source, "image", None) if \
+                source.bl_idname == "ShaderNodeTexImage" else None
+            if image is None or image.colorspace_settings.is_data:
+                continue
+            text = (f"image {image.name!r} is read in colour space "
+                    f"{image.colorspace_settings.name!r} by Normal Map node {path!r} "
+                    f"(material {mat.name!r}): a normal map is data, and this bends every "
+                    f"normal (the bake takes them as Cycles renders them); set the image's "
+                    f"Color Space to Non-Color (Image Texture node, or the Image Editor's "
+                    f"sidebar)")
+            if text not in out:
+                out.append(text)
     return out
 
 
@@ -167,12 +200,16 @@ def one_image_problem(image):
             return (f"{what} reads {missing[0]!r}, which does not exist: Cycles would bake "
                     f"its magenta 'missing' colour; put the file there, fix the path "
                     f"(File > External Data > Find Missing Files), or pack it")
-        if image.source in ("MOVIE", "SEQUENCE"):
-            return None                         # frames: present is what can be checked
+        if image.source == "SEQUENCE":
+            return None                         # its frame file: image_problems loads it
     had_data = image.has_data
     try:
         w, h = image.size
         if w == 0 or h == 0:
+            if image.source == "MOVIE":         # a movie Blender cannot decode: magenta
+                return (f"movie {what[6:]} ({image.filepath!r}) could not be read (damaged, "
+                        f"or this Blender cannot decode it): {MI.MAGENTA}; render it to an "
+                        f"image sequence (PNG or EXR) and use that")
             return (f"{what} ({'packed' if packed else repr(image.filepath)}) could not be "
                     f"read (damaged, or a format Blender does not open): re-save it as PNG "
                     f"or EXR")
@@ -184,3 +221,44 @@ def one_image_problem(image):
     finally:
         if not had_data and image.has_data:
             image.buffers_free()
+
+
+def _tile_files_problem(image, covered):
+    """The first tile of the UDIM tiles the bake reads (`covered`, else all) whose file is
+    damaged: the image's own load reads one tile only, and Cycles bakes magenta for a tile
+    it cannot read."""
+    import bpy
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    for tile in image.tiles:
+        if covered and tile.number not in covered:
+            continue
+        problem = file_problem(f"tiled image {image.name!r} (tile {tile.number})",
+                               T.tile_path(path, tile.number))
+        if problem:
+            return problem
+    return None
+
+
+def file_problem(what, path):
+    """None when the image file `path` (a UDIM tile's, a sequence frame's) loads with finite
+    pixels, else what is wrong and the fix. Loaded into a probe image of its own, removed
+    again, so the file's own images stay as they were."""
+    import bpy
+    try:
+        probe = bpy.data.images.load(str(path), check_existing=False)
+    except RuntimeError:
+        probe = None
+    try:
+        if probe is None or 0 in probe.size[:]:
+            return (f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
+                    f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG "
+                    f"or EXR")
+        if probe.is_float:
+            w, h = probe.size
+            px = np.empty(w * h * probe.channels, dtype=np.float32)
+            probe.pixels.foreach_get(px)
+            return IC.pixels_problem(f"{what} ({str(path)!r})", px)
+        return None
+    finally:
+        if probe is not None:
+            bpy.data.images.remove(probe)

@@ -84,6 +84,25 @@ def library_problem(mat):
     return None
 
 
+def missing_library_problem(block, what="object"):
+    """A block (an object) linked from a library that is missing, or that no longer holds it:
+    Blender keeps an empty placeholder under its name, which is no mesh to bake."""
+    import bpy
+    lib = getattr(block, "library", None)
+    if lib is None:
+        return None
+    path = bpy.path.abspath(lib.filepath)
+    if not Path(path).is_file():
+        return (f"{what} {block.name!r} is linked from library {lib.filepath!r} ({path}), "
+                f"which is missing, so Blender left an empty placeholder: put the library "
+                f"file there or relink it (File > External Data > Find Missing Files)")
+    if getattr(block, "is_missing", False):
+        return (f"{what} {block.name!r} is linked from library {lib.filepath!r}, which no "
+                f"longer holds it (renamed or removed there), so Blender left an empty "
+                f"placeholder: restore it in the library, or relink it")
+    return None
+
+
 def linked_text(what):
     """Why an edit of `what` (a material, a node tree) is refused: the file would not save it."""
     return (f"{what} is linked from a library (or override data), so an edit would not be "

@@ -30,6 +30,7 @@ from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, own_materials, visible_for_bake
 from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
 from .exit_codes import BakeFailed
+from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
 from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
 
@@ -128,6 +129,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     import bpy
     if obj is None:
         raise NormalBakeError("pick a mesh object to bake (--object NAME)")
+    if missing_library_problem(obj):          # its placeholder is an empty: say why
+        raise NormalBakeError(missing_library_problem(obj))
     if obj.type != "MESH":
         raise NormalBakeError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh: pick "
                               f"a mesh object to bake (--object NAME)")
@@ -295,12 +298,21 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
         temps = {t: tile_path(temp, t) for t in tiles}
         image.filepath_raw = str(temp.resolve())
         image.file_format = fmt
-        image.save()
+        try:
+            image.save()
+        except RuntimeError as err:          # Blender's two lines: "Could not write ...: EINVAL"
+            reason = str(err).strip().splitlines()[0].removeprefix("Error: ")
+            raise BakeFailed(f"Blender could not write the map for {str(output)!r} ({reason}): "
+                             f"free space in {str(output.parent)!r} (the disk may be full), "
+                             f"check that the folder still takes files, and bake again") \
+                from None
         missing = [str(p) for p in temps.values() if not p.is_file()]
         if missing:
             raise BakeFailed(f"Blender wrote no file {missing[0]}")
         if depth == "half":
             _to_half_exr(bpy, scene, temps.values())
+        for t in tiles:
+            _check_written(bpy, temps[t], finals[t], resolution)
         with interrupts.committing():             # a stop sees every tile or none
             for t in tiles:
                 _publish(temps[t], finals[t], overwrite)
@@ -352,6 +364,27 @@ def _to_half_exr(bpy, scene, paths):
                 os.replace(half, path)
             finally:
                 bpy.data.images.remove(img)
+
+
+def _check_written(bpy, temp, final, resolution):
+    """Read a written file back before it is put in place: Blender's image writers do not
+    report a failed write (a full disk, a file-size limit), and leave a cut-off file that
+    would be published as the map with exit code 0."""
+    probe = None
+    try:
+        probe = bpy.data.images.load(str(temp), check_existing=False)
+        size = tuple(probe.size)
+    except RuntimeError:
+        size = (0, 0)
+    finally:
+        if probe is not None:
+            bpy.data.images.remove(probe)
+    if size != (resolution, resolution):
+        raise BakeFailed(
+            f"the file written for {str(final)!r} is incomplete ({temp.stat().st_size} bytes "
+            f"could not be read back as a {resolution} x {resolution} image): the disk is "
+            f"full or a file-size limit (ulimit -f) was hit; free space in "
+            f"{str(final.parent)!r} (or raise the limit) and bake again")
 
 
 def _publish(temp, final, overwrite):

@@ -17,6 +17,9 @@ def open_mainfile(path, load_ui=False):
     import bpy
     if Path(path).is_dir():
         raise BlendOpenError(f".blend file {str(path)!r} is a folder: give a .blend file")
+    if Path(path).exists() and not Path(path).is_file():     # a pipe would block the read
+        raise BlendOpenError(f".blend file {str(path)!r} is not a regular file (a pipe or "
+                             f"device?): give a .blend file")
     try:
         bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=load_ui, use_scripts=False)
         newer = _newer_than_running(path, bpy.app.version)

@@ -469,15 +469,26 @@ def _write_report(json_out, report, heat_path, heat, overwrite):
     """The JSON and its heat map, both or neither: a stop (Ctrl-C) waits for the pair and
     then removes it, and the folders made for it (interrupts.committing, placed)."""
     from ..addon import interrupts
+    from ..addon.exit_codes import BakeFailed
     with interrupts.committing():
-        for d in reversed([d for d in (json_out.parent, *json_out.parent.parents)
-                           if not d.exists()]):
+        made = [d for d in (json_out.parent, *json_out.parent.parents) if not d.exists()]
+        for d in reversed(made):
             d.mkdir()
             interrupts.placed(d)
         for path in (json_out, heat_path):
             interrupts.placed(path)
-        json_out.write_text(json.dumps(report, indent=2))
-        write_heat_map(heat_path, heat, overwrite)
+        try:
+            json_out.write_text(json.dumps(report, indent=2))
+            write_heat_map(heat_path, heat, overwrite)
+        except OSError as err:           # a full disk: no cut-off file left as the report
+            for path in (json_out, heat_path, *made):
+                if path.is_file():
+                    path.unlink()
+                elif path.is_dir() and not any(path.iterdir()):
+                    path.rmdir()
+            raise BakeFailed(f"could not write {str(json_out)!r} and its heat map ({err}): "
+                             f"free space in {str(json_out.parent)!r} (the disk may be full) "
+                             f"or check the folder's permissions, and compare again") from None
 
 
 def run(blend, object_name, method, resolution, json_out, uv_map=None, image=None,
@@ -493,7 +504,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
         check_output_path(p, overwrite)
     D.check(cycles_device)
     if blend:
-        if not Path(blend).is_file():
+        if not Path(blend).exists():           # a folder: open_mainfile names it
             raise CompareError(f".blend file {blend!r} does not exist")
         from ..addon.open_blend import open_mainfile
         open_mainfile(blend)               # scripts off, whatever the Preferences say

@@ -12,6 +12,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..addon import interrupts
+from ..addon.exit_codes import BakeFailed
 
 
 def problem(final, overwrite):
@@ -53,6 +54,11 @@ def staged(final, overwrite):
             yield work
             with interrupts.committing():          # a stop waits for the move, whole
                 _publish(work, final)
+        except OSError as err:        # a full disk mid-run: numpy says only "N requested
+            forget()                  # and M written", with no file name
+            raise BakeFailed(f"the run could not write its files for {str(final)!r} ({err}): "
+                             f"free space on that disk (or check the folder's permissions) "
+                             f"and run again; {str(final)!r} is left as it was") from None
         except BaseException:
             forget()
             raise

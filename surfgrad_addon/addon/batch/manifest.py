@@ -3,10 +3,12 @@ writing it whole, one write at a time."""
 
 import json
 import os
+import sys
 import threading
 from pathlib import Path
 
 from .. import bake_request as BR
+from ..exit_codes import BakeFailed
 from .. import normal_bake as NB
 from .plan import BatchError
 
@@ -44,15 +46,50 @@ def _manifest_problem(path):
 
 
 def read(path):
-    """The manifest at `path`, or None if there is none (or it is no manifest)."""
+    """The manifest at `path`, or None if there is none. A damaged or edited one, or a file
+    that is no manifest, is refused (BatchError): read as none, the run would replace it
+    and forget what it recorded, or trip over a value of the wrong type."""
+    fix = "restore it, or move it away and bake again (--overwrite to replace the maps it " \
+          "recorded)"
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
-        return data if isinstance(data, dict) and isinstance(data.get("assets"), dict) else None
-    except (FileNotFoundError, json.JSONDecodeError):
+    except FileNotFoundError:
         return None
+    except json.JSONDecodeError as e:
+        raise BatchError(f"manifest {path} is damaged (not valid JSON: {e.msg}, line "
+                         f"{e.lineno}): {fix}") from None
     except UnicodeDecodeError:
         raise BatchError(f"manifest {path} is not UTF-8 text (not a surfgrad manifest); give "
                          f"another --manifest path or remove that file") from None
+    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
+        raise BatchError(f"manifest {path} is not a surfgrad manifest (no \"assets\" table); "
+                         f"give another --manifest path or move that file away")
+    problem = _shape_problem(data)
+    if problem:
+        raise BatchError(f"manifest {path} was edited or damaged: {problem}; {fix}")
+    return data
+
+
+def _shape_problem(data):
+    """The first value the batch reads from an earlier manifest that has the wrong type."""
+    tables = [(f"assets[{k!r}]", v) for k, v in data["assets"].items()]
+    if not isinstance(data.get("files", {}), dict):
+        return "\"files\" is not a table"
+    tables += [(f"files[{k!r}]", v) for k, v in data.get("files", {}).items()]
+    for where, value in tables:
+        if not isinstance(value, dict):
+            return f"{where} is not a table"
+    for key, asset in data["assets"].items():
+        written = asset.get("files") or {}
+        if not isinstance(written, dict) or not all(
+                isinstance(r, dict) and isinstance(r.get("path"), str) and
+                isinstance(r.get("sha256"), str) for r in written.values()):
+            return f"assets[{key!r}][\"files\"] is not a table of {{path, sha256}} records"
+    for key, f in data.get("files", {}).items():
+        deps = f.get("dependencies", [])
+        if not isinstance(deps, list) or not all(isinstance(d, str) for d in deps):
+            return f"files[{key!r}][\"dependencies\"] is not a list of paths"
+    return None
 
 
 # One manifest write at a time. A stop (write_last) takes it for good before its own write:
@@ -62,24 +99,98 @@ _WRITE_LOCK = threading.Lock()
 
 
 def write(path, data):
-    """Write the manifest whole: a temporary file, then renamed over the old one."""
+    """Write the manifest whole: a temporary file, then renamed over the old one. One that
+    cannot be written (a full disk) is left as it was: the run goes on, and its last write
+    (write_final) says so."""
     with _WRITE_LOCK:
-        _write_json(path, data)
+        try:
+            _write_json(path, data)
+        except OSError:
+            pass
+
+
+def write_final(path, data):
+    """The run's last write: BakeFailed (exit code 1), one line, when it cannot be written."""
+    with _WRITE_LOCK:
+        try:
+            _write_json(path, data)
+        except OSError as err:
+            raise BakeFailed(_unwritten(path, err)) from None
 
 
 def write_last(path, data):
     """The stop's write: holds the write lock for good (the process ends after this, and no
     other write may follow or overlap)."""
     _WRITE_LOCK.acquire(timeout=5)
-    _write_json(path, data)
+    try:
+        _write_json(path, data)
+    except OSError as err:
+        print(f"surfgrad: error: {_unwritten(path, err)}", file=sys.stderr, flush=True)
+
+
+def _unwritten(path, err):
+    return (f"manifest {path} could not be written ({err.strerror}): it does not record "
+            f"this run; free space in {str(Path(path).parent)!r} (the disk may be full) and "
+            f"bake again (--overwrite to replace the maps it could not record)")
 
 
 def _write_json(path, data):
+    """Write `data` to a temporary file and rename it to `path`; a failed write leaves no
+    temporary (OSError)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temp = path.with_name(f".{path.name}.part{os.getpid()}")
-    temp.write_text(json.dumps(data, indent=1, sort_keys=False))
-    os.replace(temp, path)
+    try:
+        temp.write_text(json.dumps(data, indent=1, sort_keys=False))
+        os.replace(temp, path)
+    finally:
+        if temp.exists():
+            temp.unlink()
+
+
+# Manifests this process holds: path -> (lock file descriptor, lock path, folder it made).
+_HELD = {}
+
+
+def hold(path):
+    """Take the manifest for this run (an exclusive lock on `.NAME.lock` beside it), or
+    BatchError when another run holds it: two runs writing one manifest each write it whole
+    from what they read at the start, and the last one's write drops the other's records (its
+    maps then look like foreign files, refused without --overwrite). The system drops the lock
+    when the process ends, SIGKILL included; re-entrant within a process. No-op without
+    fcntl (Windows)."""
+    try:
+        import fcntl
+    except ImportError:
+        return
+    path = Path(path)
+    if path in _HELD:
+        return
+    made = None if path.parent.exists() else path.parent
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock = path.with_name(f".{path.name}.lock")
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise BatchError(f"manifest {path} is in use by another bake-batch run (it holds "
+                         f"{lock}): wait for that run to end, or give this one another "
+                         f"--manifest and output folder") from None
+    _HELD[path] = (fd, lock, made)
+
+
+def release(path):
+    """Give the manifest back (hold), removing the lock file and a folder hold made empty."""
+    fd, lock, made = _HELD.pop(Path(path), (None, None, None))
+    if fd is None:
+        return
+    for remove in (lock.unlink, *((made.rmdir,) if made else ())):
+        try:
+            remove()
+        except OSError:                           # (a folder with the maps in it stays)
+            pass
+    os.close(fd)
 
 
 def asset_key(blend, obj):

@@ -245,8 +245,12 @@ def grouped_entries(blends):
 
 def read_asset_list(path):
     """An asset list: one `file.blend` or `file.blend:Object` a line (# comments); relative
-    paths are taken from the list's folder. Returns the entries with absolute paths."""
+    paths are taken from the list's folder, `~` is the home folder (as a shell would have it
+    on the command line). Returns the entries with absolute paths."""
     path = Path(path)
+    if path.is_dir():
+        raise BatchError(f"asset list {path} is a folder: give the list's file (one .blend "
+                         f"path a line), or the .blend files themselves")
     if not path.is_file():
         raise BatchError(f"asset list {path}: no such file")
     entries = []
@@ -256,7 +260,7 @@ def read_asset_list(path):
         if not line or line.startswith("#"):
             continue
         blend, obj = split_entry(line)
-        p = Path(blend)
+        p = Path(blend).expanduser()
         p = p if p.is_absolute() else path.parent / p
         entries.append(f"{p}:{obj}" if obj else str(p))
     return entries

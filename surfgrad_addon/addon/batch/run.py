@@ -48,7 +48,12 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     per_file, whole = P.grouped_entries(blends)
     blends = list(per_file)
     manifest_path = M.checked_path(manifest, output)
-    previous = M.read(manifest_path) or {"assets": {}}
+    M.hold(manifest_path)                 # one run per manifest (released below)
+    try:
+        previous = M.read(manifest_path) or {"assets": {}}
+    except P.BatchError:
+        M.release(manifest_path)
+        raise
     blender_version = bpy.app.version_string
     t_start = time.perf_counter()
     report = {"surfgrad": VERSION, "blender": blender_version,
@@ -102,6 +107,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                                                      f"was baked")
             report["interrupted"] = signal_name
             M.write_last(manifest_path, M.merged(previous, report, files))
+            M.release(manifest_path)
             interrupts.say(f"[batch] {signal_name}: stopped {n} worker process(es); "
                            f"{len(left)} asset(s) not baked, recorded as interrupted in "
                            f"{manifest_path}")
@@ -247,12 +253,18 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             M.write(manifest_path, M.merged(previous, report, files))
             pool.map(requests, on_reply)
         report["process_start_s"] = pool.start_times()
+    except BaseException:
+        M.release(manifest_path)          # a refusal, an error: the run ends here
+        raise
     finally:
         pool.close()
     report["total_s"] = time.perf_counter() - t_start
     report["counts"] = dict(progress.counts)
     report["manifest"] = str(manifest_path)
-    M.write(manifest_path, M.merged(previous, report, files))
+    try:
+        M.write_final(manifest_path, M.merged(previous, report, files))
+    finally:
+        M.release(manifest_path)
     c = progress.counts
     log(f"[batch] {c['baked']} baked, {c['skipped']} skipped, {c['failed']} failed in "
         f"{report['total_s']:.1f} s; manifest {manifest_path}")

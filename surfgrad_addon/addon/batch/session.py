@@ -9,6 +9,7 @@ from pathlib import Path
 from .. import bake_request as BR
 from .. import interrupts
 from ..image_checks import image_problems
+from ..material_inputs import missing_library_problem
 from .. import normal_bake as NB
 
 FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT", "die-once:OBJECT", "hang:OBJECT"
@@ -42,11 +43,17 @@ def scan_open_file(objects=None, collections=None, everything=False):
         chosen += [o for o in coll.all_objects if o.type == "MESH"]
     if everything or (not objects and not collections):
         chosen += [o for o in mesh_objects if any(s.material for s in o.material_slots)]
+        # placeholders of objects whose library is missing: named, not silently left out
+        chosen += [o for o in bpy.data.objects if o.library and missing_library_problem(o)]
     seen, assets = set(), []
     for obj in chosen:
         if obj.name in seen:
             continue
         seen.add(obj.name)
+        missing = missing_library_problem(obj)
+        if missing:
+            errors.append({"object": obj.name, "error": missing})
+            continue
         entry = {"object": obj.name, "type": obj.type, "uv_maps": {}, "active_uv": None,
                  "materials": 0}
         if obj.type == "MESH":

@@ -40,6 +40,25 @@ def reply(data):
     sys.stdout.flush()
 
 
+def watch_parent(poll_s=0.5):
+    """A batch killed with SIGKILL (a farm's hard kill, the OOM killer) cannot stop its
+    workers, each in a process group of its own: the one baking would go on to the end of its
+    bake, and write a map no manifest records. Once the parent is gone (this worker is
+    re-parented) the worker sends itself SIGTERM: its temporary files go, it exits 143."""
+    import os
+    import signal
+    import threading
+    import time
+    parent = os.getppid()
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(poll_s)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    threading.Thread(target=watch, daemon=True, name="surfgrad-parent-watch").start()
+
+
 def serve(run_request, stoppable):
     """Answer requests from stdin until it ends; returns the exit code."""
     import bpy  # noqa: F401 - loaded before "ready": the process start includes it
@@ -48,6 +67,7 @@ def serve(run_request, stoppable):
     # then fails that asset without a retry); the batch itself stops workers with SIGKILL.
     # The maps of earlier requests stay: the batch has recorded them as baked.
     with stoppable("the worker", keep_placed=True):
+        watch_parent()
         for line in sys.stdin:
             line = line.strip()
             if not line:
