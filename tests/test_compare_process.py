@@ -1,5 +1,5 @@
 """What a compare process pays beside its bake, once: the compiled kernels it loads before its
-timed passes (harness/compare.py load_kernels) and how it leaves (addon/command_line.py leave).
+timed passes (harness/kernel_warm_up.py load_kernels) and how it leaves (addon/command_line.py leave).
 Each runs in a fresh child: kernels a process has loaded once stay loaded."""
 
 import json
@@ -96,7 +96,7 @@ def test_the_warm_up_mesh_is_two_triangles_of_the_same_arrays():
     array types (so the kernels it loads are the real pass's) and UVs over the whole square
     (so texels reach every kernel)."""
     from surfgrad_addon import reference as R
-    from surfgrad_addon.harness.compare import WARM_UP, warm_up_mesh
+    from surfgrad_addon.harness.kernel_warm_up import WARM_UP, warm_up_mesh
     big = R.meshes.uv_sphere(segments=64, rings=32)
     small = warm_up_mesh(big)
     assert len(big.triangles) > 3000 and len(small.triangles) == 2
