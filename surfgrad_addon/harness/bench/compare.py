@@ -52,7 +52,9 @@ def _timed(cmd, root):
     line."""
     cpu0 = _children_cpu()
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=root, capture_output=True, text=True)
+    # Both children allocate as compare's command line does (surfgrad_addon/__main__.py).
+    env = dict(os.environ, NUMPY_MADVISE_HUGEPAGE=os.environ.get("NUMPY_MADVISE_HUGEPAGE", "0"))
+    proc = subprocess.run(cmd, cwd=root, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     cpu = _children_cpu() - cpu0              # the waited-for child's (and its children's)
     if proc.returncode != 0:
