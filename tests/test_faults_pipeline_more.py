@@ -556,3 +556,35 @@ def test_compare_on_a_full_disk_leaves_no_cut_off_report(tmp_path):
     assert last.startswith(f"surfgrad: error: could not write {str(out)!r} and its heat map") \
         and "free space" in last, last
     assert sorted(p.name for p in tmp_path.iterdir()) == ["warm"]   # nor the folder made
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="no fcntl: the lock is a no-op there")
+def test_the_lock_taken_is_the_one_at_the_path_when_the_holder_lets_go_meanwhile(
+        tmp_path, monkeypatch):
+    """The run that held a manifest removes its lock file as it lets go. A run that opened
+    that file just before, and locks it just after, holds a lock on a removed file, and a
+    third run would lock the new one beside it: two runs on one manifest. hold() takes the
+    lock at the path."""
+    import fcntl
+    from surfgrad_addon.addon.batch import manifest as M
+    path = tmp_path / "maps" / MANIFEST_NAME
+    path.parent.mkdir()
+    lock = path.with_name(f".{path.name}.lock")
+    lock.write_text("")
+    real_flock, calls = fcntl.flock, []
+
+    def holder_lets_go_first(fd, op):
+        if not calls:                       # the other run removes its lock file now
+            lock.unlink()
+            lock.write_text("")
+        calls.append(op)
+        return real_flock(fd, op)
+    monkeypatch.setattr(fcntl, "flock", holder_lets_go_first)
+    try:
+        M.hold(path)
+        fd = M._HELD[path][0]
+        assert os.fstat(fd).st_ino == os.stat(lock).st_ino
+        assert len(calls) == 2              # the first lock held a removed file
+    finally:
+        M.release(path)
+    assert not lock.exists()

@@ -76,6 +76,21 @@ def test_a_failure_leaves_the_folder_as_it_was(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]
 
 
+def test_only_a_write_the_disk_refused_becomes_the_full_disk_message(tmp_path):
+    """A full disk mid-run is one line naming the folder (BakeFailed); an OSError of the run's
+    own, a missing input, passes unchanged, and neither leaves anything."""
+    import errno
+    from surfgrad_addon.addon.exit_codes import BakeFailed
+    final = tmp_path / "demo"
+    with pytest.raises(BakeFailed, match="free space on that disk"):
+        with staged(final, overwrite=False):
+            raise OSError(errno.ENOSPC, "No space left on device")
+    with pytest.raises(FileNotFoundError, match="input.exr"):
+        with staged(final, overwrite=False):
+            raise FileNotFoundError(errno.ENOENT, "No such file", "input.exr")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_refused_before_anything_is_made(tmp_path):
     final = tmp_path / "demo"
     final.mkdir()

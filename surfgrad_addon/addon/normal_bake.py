@@ -129,8 +129,9 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     import bpy
     if obj is None:
         raise NormalBakeError("pick a mesh object to bake (--object NAME)")
-    if missing_library_problem(obj):          # its placeholder is an empty: say why
-        raise NormalBakeError(missing_library_problem(obj))
+    missing = missing_library_problem(obj)    # its placeholder is an empty: say why
+    if missing:
+        raise NormalBakeError(missing)
     if obj.type != "MESH":
         raise NormalBakeError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh: pick "
                               f"a mesh object to bake (--object NAME)")

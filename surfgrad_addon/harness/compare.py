@@ -291,6 +291,8 @@ def backfacing_warning(mesh, report):
             f"normals face away from the face, so Cycles shades its back side there (normals "
             f"flipped). If that is not meant, recalculate the normals (Mesh > Normals > "
             f"Recalculate Outside) or fix the custom normals.")
+
+
 def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, device="CPU"):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
     and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""

@@ -6,6 +6,7 @@ the folder keeps exactly what it held before: a stopped rerun with --overwrite l
 complete run in place, not a mix of two runs under the old report page.
 """
 
+import errno
 import os
 import shutil
 from contextlib import contextmanager
@@ -13,6 +14,13 @@ from pathlib import Path
 
 from ..addon import interrupts
 from ..addon.exit_codes import BakeFailed
+
+
+# Write errors that mean the disk (or the folder) took no more: a full disk, a quota, a
+# file-size limit, a folder made read-only; None is numpy's short write ("N requested and M
+# written"). Any other OSError (a missing input, say) is the run's own and passes unchanged.
+_NO_ROOM = {None, *(getattr(errno, name, None)
+                    for name in ("ENOSPC", "EDQUOT", "EFBIG", "EROFS", "EACCES", "EPERM"))}
 
 
 def problem(final, overwrite):
@@ -54,8 +62,11 @@ def staged(final, overwrite):
             yield work
             with interrupts.committing():          # a stop waits for the move, whole
                 _publish(work, final)
-        except OSError as err:        # a full disk mid-run: numpy says only "N requested
-            forget()                  # and M written", with no file name
+        except OSError as err:
+            forget()
+            if err.errno not in _NO_ROOM:
+                raise
+            # A full disk mid-run: numpy says only "N requested and M written", no file name.
             raise BakeFailed(f"the run could not write its files for {str(final)!r} ({err}): "
                              f"free space on that disk (or check the folder's permissions) "
                              f"and run again; {str(final)!r} is left as it was") from None

@@ -169,14 +169,23 @@ def hold(path):
     made = None if path.parent.exists() else path.parent
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = path.with_name(f".{path.name}.lock")
-    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
+    while True:
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise BatchError(f"manifest {path} is in use by another bake-batch run (it holds "
+                             f"{lock}): wait for that run to end, or give this one another "
+                             f"--manifest and output folder") from None
+        # The run that held it removes the lock file as it lets go (release): a lock taken on
+        # the file it removed holds nothing, so take the one now at that path.
+        try:
+            if os.stat(lock).st_ino == os.fstat(fd).st_ino:
+                break
+        except FileNotFoundError:
+            pass
         os.close(fd)
-        raise BatchError(f"manifest {path} is in use by another bake-batch run (it holds "
-                         f"{lock}): wait for that run to end, or give this one another "
-                         f"--manifest and output folder") from None
     _HELD[path] = (fd, lock, made)
 
 
