@@ -2,6 +2,7 @@
 checkout. Not part of the extension zip."""
 
 import os
+import signal
 import sys
 
 # numpy asks the kernel for transparent huge pages for its large arrays (madvise). Where the
@@ -11,13 +12,22 @@ import sys
 # import, so it is set before anything imports it; a value the user set stays.
 os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
 
+# Ctrl-C is held while the modules load: a KeyboardInterrupt raised inside a C extension's
+# import of numpy (numba's) is printed and swallowed there, and the command then ran to the
+# end with exit 0 (seen on 4.5). Let go once they are loaded, a pending Ctrl-C stops here.
+_HOLD = hasattr(signal, "pthread_sigmask")
+if _HOLD:
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+
 try:
     from .addon.command_line import leave
     from .harness.cli import main
+    if _HOLD:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     code = leave(main())
 except KeyboardInterrupt:
-    # Ctrl-C outside a command's own stop (interrupts.stoppable): while Python, numpy and
-    # bpy load (about half a second), before anything is written. One line, not a traceback.
+    # Ctrl-C outside a command's own stop (interrupts.stoppable): while the modules load
+    # (held until then) or before the stop is in place; nothing is written yet. One line.
     print("surfgrad: interrupted by SIGINT: stopped; exit code 130", file=sys.stderr,
           flush=True)
     code = 130
