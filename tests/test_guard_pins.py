@@ -3,15 +3,15 @@ on every line, and the guard itself: every output a finite unit normal, the shad
 where the vector has no direction (zero, NaN, +-Inf), on front and back faces.
 
 The guard's pieces (per-sample values, so that no constant folding decides them):
-- a World-space Normal Map node replaces a zero result by the shading normal on every line and
-  a NaN or Inf one only where the line's facts say so (5.0+); on 4.2/4.5 a NaN passes;
-- Vector Math Maximum/Minimum against finite constants turn NaN and +-Inf into finite values
-  (what 4.2/4.5's guard clamps with);
-- Face Forward keeps its first vector where the dot product is NaN;
-- Multiply Add d * 0 + d is NaN for an infinite d (it is not folded to d).
+- Vector Math Normalize gives NaN for a NaN or Inf vector, zero for a zero one and a unit
+  vector for a finite one, overflowing squared lengths included;
+- Vector Math Maximum against a finite constant turns a NaN component into that constant;
+- Multiply Add d * 0 + d is NaN for an infinite d (it is not folded to d);
+- the Mix node is a (1 - f) + b f, so factors 0 and 1 select exactly.
+The World-space Normal Map node's own handling of zero and non-finite results (which an
+earlier guard used) is pinned too: docs/versions.md states it per line.
 Front faces are Cycles EMIT bakes (support/bake_probe); back faces a tiny render from behind.
 """
-
 import math
 import tempfile
 from pathlib import Path
@@ -71,7 +71,7 @@ def _safe(g, v):
 
 def test_world_normal_map_node_replaces_what_the_line_says():
     """Zero -> the shading normal on every line; NaN and Inf -> the shading normal exactly
-    where LineFacts.normal_map_replaces_non_finite (5.0+), else not."""
+    where LineFacts.normal_map_replaces_non_finite (5.0+), else not (docs/versions.md)."""
     def decoded(kind):
         def build(g, uv):
             v = _vectors(g, uv)[kind]
@@ -105,13 +105,56 @@ def test_vector_maximum_minimum_turn_non_finite_into_finite():
                                                       (SIZE * SIZE, 1)))
 
 
-def test_face_forward_keeps_its_vector_where_the_dot_is_nan():
-    """Face Forward(a, i, r) = dot(r, i) < 0 ? a : -a: a NaN dot is not < 0, so -a (the guard
-    passes -u as a, so that a NaN vector keeps u, the shading normal)."""
+def _finite_flags(g, v):
+    """Per component 1 where it is finite, 0 where NaN or Inf (a bake writes no NaN itself):
+    (x > -3e38) (x < 3e38), both false for NaN."""
+    def flag(x):
+        return g.math(Math.MULTIPLY, g.math(Math.GREATER_THAN, x, -3e38),
+                      g.math(Math.LESS_THAN, x, 3e38))
+    return g.combine(*[flag(x) for x in g.separate(v)])
+
+
+def test_vector_normalize_is_nan_for_non_finite_and_zero_for_zero():
+    """Normalize: not finite for a NaN or an infinite vector (a NaN in some component), (0, 0, 0)
+    for a zero one, a unit vector for a finite one, and finite where the squared length
+    overflows."""
+    def flags(kind):
+        return _bake_vector(lambda g, uv: _finite_flags(g, g.normalize(_vectors(g, uv)[kind])))
+    for kind in ("nan", "+inf", "-inf z"):
+        assert (flags(kind).min(axis=1) == 0.0).all(), (kind, flags(kind)[0])
+    assert np.array_equal(_bake_vector(lambda g, uv: g.normalize(_vectors(g, uv)["zero"])),
+                          np.zeros((SIZE * SIZE, 3)))
+    unit = _bake_vector(lambda g, uv: g.normalize(_vectors(g, uv)["finite"]))
+    assert np.allclose(np.linalg.norm(unit, axis=1), 1.0, atol=1e-6), unit[0]
+
+    def huge(g, uv):
+        one = _per_sample(g, uv)[0]
+        big = g.math(Math.MULTIPLY, one, 1e30)
+        return _finite_flags(g, g.normalize(g.combine(big, big, 0.0)))
+    assert (_bake_vector(huge) == 1.0).all()
+
+
+def test_vector_maximum_alone_turns_nan_into_its_bound():
+    """Maximum(v, -2): -2 in each NaN component, a finite component as it is."""
     def build(g, uv):
-        vs = _vectors(g, uv)
-        return g.vmath(VMath.FACEFORWARD, (0.0, 0.0, 1.0), vs["nan"], (1.0, 0.0, 0.0))
-    assert np.array_equal(_bake_vector(build), np.tile(-UP, (SIZE * SIZE, 1)))
+        one, zero, inf, nan = _per_sample(g, uv)
+        return g.vmath(VMath.MAXIMUM, g.combine(nan, g.math(Math.MULTIPLY, one, 0.5), nan),
+                       (-2.0, -2.0, -2.0))
+    assert np.array_equal(_bake_vector(build), np.tile([-2.0, 0.5, -2.0], (SIZE * SIZE, 1)))
+
+
+def test_mix_selects_exactly_at_factors_0_and_1():
+    """Mix(f, a, b) = a (1 - f) + b f: a at 0 and b at 1 bit for bit (an interpolation a + f (b -
+    a) would round b), with a finite other side."""
+    a, b_ = (0.3, -0.2, 0.9), (0.1, 0.7, -0.7)
+
+    def build(f):
+        def mix(g, uv):
+            fac = g.math(Math.MULTIPLY, _per_sample(g, uv)[0], f)
+            return g.mix_vector(fac, a, b_)
+        return mix
+    assert np.array_equal(_bake_vector(build(0.0)), np.tile(np.float32(a), (SIZE * SIZE, 1)))
+    assert np.array_equal(_bake_vector(build(1.0)), np.tile(np.float32(b_), (SIZE * SIZE, 1)))
 
 
 def test_multiply_add_by_zero_is_not_folded_away():
@@ -139,7 +182,7 @@ def test_safe_normal_front_faces(kind):
     assert np.allclose(out, want, atol=1e-6), (kind, out[0])
 
 
-# Back faces: a render from under the plane (Cycles' Normal Map node negates its result there).
+# Back faces: a render from under the plane (Cycles' shading normal is negated there).
 
 def _render_from_behind(build):
     """Render build(g, uv) -> vector socket as colour 0.5 v + 0.5 through Emission, camera under

@@ -5,13 +5,13 @@ shading-normal fallback (.SG Safe Normal), the Bump-node surface gradient (.SG S
 import bpy
 
 from ..node_vocabulary import Math, VMath
-from ..node_builder import ensure_group, running_line
+from ..node_builder import ensure_group
 from ...reference import socket_specs as S
 from ...reference.group_interfaces import INTERFACES
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, TSPACE_Z_CLAMP
 
 
-VERSION = 21
+VERSION = 22
 
 
 class FeatureUnavailable(ValueError):
@@ -102,9 +102,6 @@ def sign_nonneg(b, x):
 # Squared lengths at or under this have no direction: is_zero's test (|v| <= FLT_EPSILON,
 # Cycles' and EEVEE's Compare) on the squared length.
 NO_DIRECTION_SQUARED = FLT_EPSILON * FLT_EPSILON
-# Every finite component a unit-normal computation can use stays inside (Vector Math
-# Maximum/Minimum, which drop a NaN and clamp an Inf).
-FINITE_BOUND = 1e30
 
 
 def has_direction(b, v):
@@ -118,29 +115,15 @@ def safe_normal_group():
     def build(b):
         v = b.input(S.NOISE_VECTOR)
         ns = b.geometry("Normal")
-        with b.frame("v where it has a direction, else the shading normal"):
-            if running_line().normal_map_replaces_non_finite:
-                # 5.0+: Cycles' Normal Map node below replaces a NaN or Inf by the shading
-                # normal itself; an Inf becomes NaN here (Inf * 0 in the Mix) so that the
-                # turn below keeps that normal. Zero: EEVEE's node would normalise it to NaN.
-                v = b.mix_vector(has_direction(b, v), ns, v)
-            else:
-                # 4.2/4.5: their Normal Map node lets NaN and Inf through, so they never reach
-                # it: clamped finite (Vector Maximum/Minimum drop a NaN), then the shading
-                # normal is mixed in (a finite v times a Factor of 0 is 0).
-                finite = b.vmath(VMath.MINIMUM, b.vmath(VMath.MAXIMUM, v, (-FINITE_BOUND,) * 3),
-                                 (FINITE_BOUND,) * 3)
-                v = b.mix_vector(has_direction(b, v), ns, finite)
-        with b.frame("normalize(v), or the shading normal where v is NaN"):
-            # A World-space Normal Map node normalises (c - 0.5) * 2; Cycles' replaces a zero
-            # or non-finite result by the shading normal (arithmetic cannot remove a NaN,
-            # this node can) and negates its result on back faces; EEVEE's does neither. So
-            # its result u is turned back where it points against v (Cycles' back faces):
-            # Face Forward(-u, v, u) is u where dot(u, v) >= 0 and where it is NaN (v NaN, u
-            # the shading normal), -u where it is negative.
-            u = b.normal_map(b.vmath(VMath.MULTIPLY_ADD, v, (0.5, 0.5, 0.5), (0.5, 0.5, 0.5)),
-                             "WORLD")
-            out = b.vmath(VMath.FACEFORWARD, b.scale(u, -1.0), v, u)
+        with b.frame("normalize(v) where v has a direction, else the shading normal"):
+            # Vector Normalize is NaN for a NaN or Inf v (and 0 for a zero or overflowing one);
+            # Vector Maximum against -2 turns a NaN component into -2 (it drops a NaN) and
+            # leaves a unit vector as it is, so the Mix, a (1 - f) + b f, gives the shading
+            # normal exactly where v has no direction and the unit vector exactly elsewhere.
+            # The same on every line and renderer, in arithmetic nodes only (tests/
+            # test_guard_pins.py pins each piece).
+            unit = b.vmath(VMath.MAXIMUM, b.normalize(v), (-2.0, -2.0, -2.0))
+            out = b.mix_vector(has_direction(b, v), ns, unit)
         b.output(S.NORMAL_OUT, out)
     return ensure(".SG Safe Normal", build)
 
@@ -212,7 +195,9 @@ def listing2_colour(b, color, directx):
     the centred m (c - 0.5 is exact there); x and y pass as they are (a per-axis Mix)."""
     ax, ay, az = b.separate(b.vmath(VMath.ABSOLUTE, b.vmath(VMath.SUBTRACT, color,
                                                            (0.5, 0.5, 0.5))))
-    # 0.5 + max(p, q) = max(0.5 + p, 0.5 + q), rounded alike; q = M / 128 is exact.
+    # 0.5 + max(p, q) = max(0.5 + p, 0.5 + q), rounded alike; q = M / 128 is exact. Scalar Math
+    # nodes here: a sample runs a Vector Math node at about three times a Math node's cost
+    # (docs/performance.md, instructions per node).
     blue = b.math(Math.MAXIMUM, b.math(Math.ADD, az, 0.5), b.math(
         Math.MULTIPLY_ADD, b.math(Math.MAXIMUM, ax, ay), TSPACE_Z_CLAMP, 0.5))
     return b.mix_vector((0.0, 0.0, 1.0), flip_green_colour(b, color, directx), blue,
