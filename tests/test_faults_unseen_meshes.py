@@ -16,6 +16,7 @@
    non-finite values"). Now they are counted as outside and named in a warning.
 4. Parallax where the shading normal nearly lies in its face (mixed winding): left out as
    "grazing", float32 cannot follow the march there (reference/parallax_conditioning.py).
+5. A flat float32 sliver (collinear in reals, not in float32): without area (no_area.py).
 """
 
 import numpy as np
@@ -206,6 +207,52 @@ def test_triangles_without_area_are_left_out_and_named(empty_file):
     assert f"{claimed.sum()} texels of {no_area.sum()} triangles without area" in text[0]
     assert f"faces {', '.join(map(str, faces[:8]))} and {len(faces) - 8} more" in text[0]
     assert any(line.startswith("warning: ") and "without area" in line for line in logged)
+
+
+def test_a_float32_sliver_counts_as_without_area(empty_file):
+    """5. A flat triangle of three points on a diagonal, (1.1, 0.3, 0.7) + k (0.1, 0.1, 0.1):
+    collinear in reals, not in float32, its area 2e-9 of its extent squared (far above
+    zero_area_mask's 1e-12). Its normal is float32 rounding and Cycles' and the reference's
+    disagreed there (before: one texel at 2.36 deg, max over the bar). Now it is one of the
+    triangles without area: outside, named."""
+    from surfgrad_addon.reference.input_checks import zero_area_mask
+    obj = _grid("Sliver")
+    mesh = obj.data
+    co = np.empty(len(mesh.vertices) * 3)
+    mesh.vertices.foreach_get("co", co)
+    verts = [tuple(v) for v in co.reshape(-1, 3)] + [
+        (1.1 + 0.1 * k, 0.3 + 0.1 * k, 0.7 + 0.1 * k) for k in range(3)]
+    faces = [list(p.vertices) for p in mesh.polygons] + [[len(verts) - 3, len(verts) - 2,
+                                                          len(verts) - 1]]
+    uv = np.empty(len(mesh.loops) * 2)
+    mesh.uv_layers["UVMap"].uv.foreach_get("vector", uv)
+    new = bpy.data.meshes.new("Sliver")
+    new.from_pydata(verts, [], faces)
+    new.uv_layers.new(name="UVMap").uv.foreach_set(
+        "vector", np.concatenate([uv, [0.96, 0.2, 0.97, 0.5, 0.99, 0.8]]))
+    new.polygons.foreach_set("use_smooth", [True] * (len(faces) - 1) + [False])
+    new.update()
+    obj.data = new
+    report, heat = compare.compare_object(obj, "normal-map", RES, log=lambda *_: None)
+    _within_bar(report)
+    arrays = mesh_arrays_from_object(obj)
+    sliver = len(arrays.triangles) - 1
+    p = arrays.positions[arrays.triangles[sliver]]
+    assert not zero_area_mask(arrays.positions, arrays.triangles)[sliver]
+    # Independently: its float32 cross product is rounding (a bit of each float32 edge moves
+    # it by more than its own length).
+    e = (p[1:] - p[0]).astype(np.float32)
+    nudged = e.copy()
+    nudged[0, 0] = np.nextafter(e[0, 0], np.float32(1))
+    c, c2 = np.cross(e[0], e[1]), np.cross(nudged[0], nudged[1])
+    assert np.linalg.norm(c2 - c) > 0.01 * np.linalg.norm(c)
+    td = R.rasterize(arrays, "UVMap", RES, RES, facts=B.running_line())
+    claimed = td.covered & (td.triangle == sliver)
+    assert claimed.sum() > 0 and report["excluded"]["outside"] == claimed.sum()
+    assert (heat.reasons[claimed] == 3).all()
+    text = [w for w in report["warnings"] if "without area" in w]
+    assert len(text) == 1 and f"{claimed.sum()} texels of 1 triangles" in text[0]
+    assert f"faces {len(faces) - 1})" in text[0]
 
 
 def test_a_mesh_or_uv_map_collapsed_everywhere_is_refused_in_the_bakes_words(empty_file):
