@@ -152,6 +152,10 @@ def test_grazing_texels_of_the_parallax_march_are_left_out_and_named(empty_file)
     text = [w for w in report["warnings"] if "(grazing)" in w]
     assert len(text) == 1 and text[0].startswith(f"'MixedWinding': {grazing} texels of ")
     assert any(line.startswith("warning: ") and "(grazing)" in line for line in logged)
+    # The heat map draws them in backfacing's colour (its palette is full).
+    from surfgrad_addon.harness import heat_map
+    index = heat_map.heat_map_indices(heat)
+    assert (index[heat.reasons == 6] == heat_map.LEVELS + 4).all()
     # A method without a view keeps every texel it compared: no grazing reason at all.
     other, other_heat = compare.compare_object(obj, "normal-map", RES, log=lambda *_: None)
     assert "grazing" not in other["excluded"] and not (other_heat.reasons == 6).any()
