@@ -27,12 +27,12 @@ MAX_PAIRINGS = 24          # pairings tried per edge (an edge of 4 faces has 2)
 
 def fan_mesh(bpy, positions, triangles, values, flat):
     """(mesh, extra triangles (X, 3) vertex indices, their corner normals (X, 3, 3)), or None
-    where nothing is paired or joined (the plain triangle mesh does as well): the
-    temporary mesh of `triangles` (T, 3) over `positions` with its non-manifold edges paired
-    and its split fans joined, for corner normals `values` (T, 3, 3) float32 (what the fans
-    must hold; `flat` (T,) the flat triangles, whose corners keep their face's normal). The
-    mesh's first 3T corners are the triangles' in order; the extra triangles
-    follow. Normals and UVs are the caller's to set."""
+    where nothing is paired or joined (the plain triangle mesh does as well): the temporary
+    mesh of `triangles` (T, 3) over `positions` with its non-manifold edges paired and its
+    split fans joined, for corner normals `values` (T, 3, 3) float32 (what the fans must hold;
+    `flat` (T,) the flat triangles, whose corners keep their face's normal). Its first 3T
+    corners are the triangles' in order, the extra triangles' follow. Normals and UVs are the
+    caller's to set."""
     tris = np.asarray(triangles, dtype=np.int64)
     t = len(tris)
     flat = np.zeros(t, dtype=bool) if flat is None else np.asarray(flat, dtype=bool)
@@ -77,7 +77,7 @@ class _Sides:
         self.start, self.end, self.nxt, self.normal = start, end, nxt, normal
 
     def joins(self, s1, s2):
-        """The two corners pairs (at start[s1], at end[s1]) the sides s1, s2 join as one edge
+        """The pairs of corners (at start[s1], at end[s1]) that sides s1, s2 join as one edge
         of two faces, or None where they cannot: the same direction (a flipped face) or
         different normals at either end (a sharp edge)."""
         if self.start[s1] != self.end[s2]:
