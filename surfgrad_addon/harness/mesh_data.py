@@ -13,7 +13,7 @@ from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.raster import MeshArrays
 from ..reference.vecmath import cross, normalize
-from .weld_fans import fan_mesh
+from .weld_fans import fan_mesh, normal_classes
 
 
 # How far Blender 4.2's encoded custom normals decode from the normal set on well-formed fans
@@ -257,14 +257,14 @@ def _mark_normal_seams(tmp, values):
     # Each corner touches two edges of its triangle: the one to the next corner and the one
     # from the previous corner (corners are 3 per triangle, in order).
     prev_edge = corner_edge.reshape(-1, 3)[:, [2, 0, 1]].reshape(-1)
-    bits = (np.asarray(values, dtype=np.float32) + np.float32(0.0)).view(np.uint32)  # -0 == 0
-    rows = np.concatenate([
-        np.column_stack([corner_edge, corner_vert, bits]),
-        np.column_stack([prev_edge, corner_vert, bits])]).astype(np.int64)
-    distinct = np.unique(rows, axis=0)
-    ends, count = np.unique(distinct[:, :2], axis=0, return_counts=True)
+    normal = np.tile(normal_classes(values), 2)
+    end = np.concatenate([corner_edge, prev_edge]) * len(tmp.vertices) + np.tile(corner_vert, 2)
+    order = np.argsort(end, kind="stable")
+    end, normal = end[order], normal[order]
+    # An (edge, vertex) whose corners differ has two neighbours (in that order) that differ.
+    differ = (end[1:] == end[:-1]) & (normal[1:] != normal[:-1])
     sharp = np.zeros(len(tmp.edges), dtype=bool)
-    sharp[ends[count > 1, 0]] = True
+    sharp[end[1:][differ] // len(tmp.vertices)] = True
     if sharp.any():
         tmp.edges.foreach_set("use_edge_sharp", sharp)
 

@@ -40,9 +40,7 @@ def fan_mesh(bpy, positions, triangles, values, flat):
     end = tris[:, [1, 2, 0]].reshape(-1)                  # ... to corner nxt[s]
     nxt = np.arange(3 * t).reshape(-1, 3)[:, [1, 2, 0]].reshape(-1)
     prv = np.arange(3 * t).reshape(-1, 3)[:, [2, 0, 1]].reshape(-1)
-    bits = (np.asarray(values, dtype=np.float32).reshape(-1, 3) + np.float32(0.0)).view(np.uint32)
-    _, normal = np.unique(bits, axis=0, return_inverse=True)
-    normal = normal.reshape(-1)
+    normal = normal_classes(values)
     key = np.minimum(start, end) * len(positions) + np.maximum(start, end)
     _, edge_of_side, count = np.unique(key, return_inverse=True, return_counts=True)
     edge_of_side = edge_of_side.reshape(-1)
@@ -67,6 +65,17 @@ def fan_mesh(bpy, positions, triangles, values, flat):
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(all_tris), 3, dtype=np.int32))
     mesh.update()                 # no validate(): it would merge the paired edges again
     return mesh, extra.reshape(-1, 3), extra_normals.reshape(-1, 3, 3)
+
+
+def normal_classes(values):
+    """(N,) int64 for the N float32 normals `values` (..., 3): equal exactly where their bits
+    are (-0 taken as 0)."""
+    bits = (np.asarray(values, dtype=np.float32).reshape(-1, 3) + np.float32(0.0)).view(np.uint32)
+    order = np.lexsort(bits.T[::-1])
+    step = np.any(bits[order][1:] != bits[order][:-1], axis=1)
+    classes = np.empty(len(bits), dtype=np.int64)
+    classes[order] = np.concatenate([[0], np.cumsum(step)])
+    return classes
 
 
 class _Sides:
@@ -231,21 +240,30 @@ def _bridges(sides, prv, values, flat, edges, corner_edge):
         if np.array_equal(new, parent):
             break
         parent = new
+    # The (vertex, normal) groups of smooth corners in more than one fan (sorted by group, then
+    # fan: a group holds more than one fan where its first and last fans differ).
     vertex = sides.start
-    smooth = ~np.repeat(flat, 3)             # a flat face's corners keep its own normal
-    rows = np.unique(np.stack([vertex, sides.normal, parent], axis=1)[smooth], axis=0)
-    _, first, counts = np.unique(rows[:, :2], axis=0, return_index=True, return_counts=True)
+    smooth = np.flatnonzero(~np.repeat(flat, 3))          # flat corners keep their own normal
+    group = vertex[smooth] * (int(normal.max()) + 1) + normal[smooth]
+    order = np.lexsort((parent[smooth], group))
+    corners, group = smooth[order], group[order]
+    first = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    last = np.r_[first[1:], len(group)]
+    split = np.flatnonzero(parent[corners[first]] != parent[corners[last - 1]])
     extra, extra_normals = [], []
-    corner_edge = list(corner_edge)
-    edges = [tuple(e) for e in edges]
+    if len(split) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3), dtype=np.float32), corner_edge, edges
+    corner_edge = corner_edge.tolist()
+    edges = [tuple(e) for e in edges.tolist()]
     values = np.asarray(values, dtype=np.float32).reshape(-1, 3)
-    for i in np.flatnonzero(counts > 1).tolist():
-        v, normal = rows[first[i], 0], rows[first[i], 1]
+    for g in split.tolist():
+        members = corners[first[g]:last[g]]
+        v = int(vertex[members[0]])
         fan_ends = []
-        for label in rows[first[i]:first[i] + counts[i], 2].tolist():
-            members = np.flatnonzero((parent == label) & (vertex == v))
-            out = [c for c in members.tolist() if uses[corner_edge[c]] == 1]
-            into = [c for c in members.tolist() if uses[corner_edge[prv[c]]] == 1]
+        for label in np.unique(parent[members]).tolist():
+            fan = members[parent[members] == label].tolist()
+            out = [c for c in fan if uses[corner_edge[c]] == 1]
+            into = [c for c in fan if uses[corner_edge[prv[c]]] == 1]
             fan_ends.append((out[0] if out else None, into[0] if into else None))
         # Chain them: fans without a free start first, without a free end last.
         fan_ends.sort(key=lambda f: (f[1] is not None, f[0] is None))
@@ -256,7 +274,7 @@ def _bridges(sides, prv, values, flat, edges, corner_edge):
             if x == y:
                 continue
             # (x, v, y): x -> v against `out` (v -> x), v -> y against the side into `into`.
-            extra.extend((x, int(v), y))
+            extra.extend((x, v, y))
             corner_edge.extend((corner_edge[out], corner_edge[prv[into]], len(edges)))
             edges.append((y, x))
             extra_normals.extend((values[sides.nxt[out]], values[out], values[prv[into]]))
