@@ -69,7 +69,8 @@ def test_every_texel_explained_on_real_assets(assets, asset, method):
     assert np.isfinite(heat).sum() == report["texels_compared"]
     assert (heat.reasons == compare.CONTESTED).sum() == report["texels_contested"]
     for code, (name, _) in compare.EXCLUSION_REASONS.items():
-        assert (heat.reasons == code).sum() == report["excluded"][name]
+        # (a reason a method does not report, "grazing" of the view-dependent ones: none)
+        assert (heat.reasons == code).sum() == report["excluded"].get(name, 0)
     if report["texels_contested"]:
         assert report["contested_max_deg"] <= 0.5
         assert len(report["warnings"]) == 1 and "Overlapping faces" in report["warnings"][0]

@@ -40,6 +40,7 @@ from .no_area import (collapsed_problem, degenerate_triangles, degenerate_warnin
 from . import scale_limits
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
+from .grazing import grazing_warning
 from .heat_map import write_heat_map
 from .kernel_warm_up import load_kernels
 # EXCLUSION_REASONS and CONTESTED (texel_report's) named here too for the tests that read them
@@ -194,7 +195,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         # Far out: a second user keeps the mesh in object space (before the mesh is read).
         with m.scene(obj, inp), precise_far(obj, log):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
-                                         tiles=tiles, device=device)
+                                         tiles=tiles, device=device, spread=m.spread)
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
         if limit:
             report["warnings"].append(limit)
@@ -293,9 +294,11 @@ def backfacing_warning(mesh, report):
             f"Recalculate Outside) or fix the custom normals.")
 
 
-def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, device="CPU"):
+def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, device="CPU",
+                  spread=None):
     """Bake graph(inp, nodes, links) on obj and compare with reference(inp, td): the report
-    and the per-texel error image (an ErrorImage; tiles side by side in tile order)."""
+    and the per-texel error image (an ErrorImage; tiles side by side in tile order). spread:
+    a view-dependent method's spread(inp, td) (its "grazing" texels are left out)."""
     method = getattr(graph, "__name__", "graph")
     try:
         mesh = mesh_arrays_from_object(obj)
@@ -352,7 +355,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
             degenerate_texels += int(np.count_nonzero(covered & ~kept))
             covered = kept
         r, heat, seconds = compare_tile(td, lambda block: M.resolve(reference(inp, block)),
-                                        pixels, covered)
+                                        pixels, covered, spread and (lambda b: spread(inp, b)))
         reference_seconds += seconds
         r["tile"] = number
         tile_reports.append(r)
@@ -367,6 +370,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
                            f"(excluded: {report['excluded']}); raise --resolution")
     warnings = [w for w in [tile_note, overlap_warning(mesh, inp.uv_map, tds),
                             backfacing_warning(mesh, report),
+                            grazing_warning(mesh, report),
                             degenerate_warning(mesh, degenerate, degenerate_texels)] if w]
     for w in warnings:
         if log:

@@ -21,6 +21,9 @@ from .pictures import write_png
 
 HEAT_COLOURS = {0: (0.05, 0.05, 0.2), 1: (0.9, 0.1, 0.8), 2: (1.0, 0.55, 0.0),
                 3: (0.0, 0.8, 0.8), 4: (0.2, 0.9, 0.2)}
+# Reasons drawn in another's colour (the palette's 256 slots are taken): grazing (6, the
+# shading normal nearly in its face) as backfacing (4, beyond it).
+HEAT_ALIASES = {6: 4}
 # Error levels 0..LEVELS - 1 (v = (level / (LEVELS - 1))^2); a reason code c (a key of
 # HEAT_COLOURS) has palette slot LEVELS + c: 256 entries in all.
 LEVELS = 251
@@ -64,6 +67,8 @@ def _reason_slots():
     slots = np.zeros(256, dtype=np.uint8)
     for code in HEAT_COLOURS:
         slots[code & 255] = LEVELS + code
+    for code, shown in HEAT_ALIASES.items():
+        slots[code & 255] = LEVELS + shown
     return slots
 
 

@@ -13,6 +13,12 @@ from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.raster import MeshArrays
 from ..reference.vecmath import cross, normalize
+from .weld_fans import fan_mesh, normal_classes
+
+
+# How far Blender 4.2's encoded custom normals decode from the normal set on well-formed fans
+# (measured up to 1.2e-3 on per-corner jitter): a joined fan decoding within it is as good.
+DECODE_RESOLUTION = 2e-3
 
 
 class MeshDataError(ValueError):
@@ -136,22 +142,39 @@ def triangle_mikktspace(arrays, flat=None):
     Cycles' does (as custom normals they would be quantised, nearly coplanar neighbours would
     weld: up to 1.1 degrees; as the face's corner normals, a flat quad's normal, they were up
     to 33 degrees off on flat faces mixed with smooth ones). Works on a temporary mesh that is
-    removed afterwards."""
+    removed afterwards.
+
+    MikkTSpace welds corners whose position, normal and UV are bitwise equal, as Cycles' does
+    with the float normals it reads. Where the line stores free normals (a float
+    "custom_normal" corner attribute, 4.5 and later) the temporary mesh gets them exactly.
+    Without (4.2) custom normals are re-encoded in the temporary mesh's own normal spaces, one
+    per smooth fan, so corners Cycles welds did not weld where its fans split them (measured:
+    0.8 degrees of tangent on custom normals, 1.2 on a Mirror crossing its plane): there the
+    mesh is weld_fans.fan_mesh, whose fans are the groups Cycles welds."""
     import bpy
 
     tmp = bpy.data.meshes.new(".surfgrad_tangents")
     try:
         tmp.from_pydata(arrays.positions.tolist(), [], arrays.triangles.tolist())
-        smooth = np.ones(len(tmp.polygons), dtype=bool) if flat is None else ~np.asarray(flat)
+        flat = None if flat is None or not np.any(flat) else np.asarray(flat, dtype=bool)
+        smooth = np.ones(len(tmp.polygons), dtype=bool) if flat is None else ~flat
         tmp.polygons.foreach_set("use_smooth", smooth)
-        # Cycles feeds MikkTSpace a flat triangle's own normal (Mesh::Triangle::compute_normal),
-        # not its face's corner normals; a custom normal would override the flat face's own
-        # normal on the temporary mesh, so flat corners get none (zero = Blender's default).
-        _set_corner_normals(tmp, arrays.corner_normals, flat)
+        values = _intended_normals(tmp, arrays.corner_normals, flat)
+        extra = 0
+        if not _free_normals(tmp, values.reshape(-1)):
+            # No float normals (4.2): encoded ones, on a mesh whose fans are the groups Cycles
+            # welds where that decodes as well (weld_fans.py).
+            _encode_normals(tmp, values, ~smooth)
+            tmp, extra = _with_welded_fans(bpy, tmp, arrays, values, smooth)
+        # The extra triangles' UVs lie beyond every real one: MikkTSpace welds none of theirs.
+        beyond = max([float(np.abs(uv).max()) for uv in arrays.uv_maps.values()] + [0.0]) + 8.0
+        extra_uv = beyond + np.tile([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], (extra, 1)) + \
+            np.repeat(np.arange(extra) * 2.0, 3)[:, None]
         for name, uv in arrays.uv_maps.items():
             tmp.uv_layers.new(name=name)
-            tmp.uv_layers[name].uv.foreach_set("vector", uv.reshape(-1))
-        n = len(tmp.loops)
+            tmp.uv_layers[name].uv.foreach_set(
+                "vector", np.concatenate([uv.reshape(-1, 2), extra_uv]).reshape(-1))
+        n = 3 * len(arrays.triangles)
         tangents, signs = {}, {}
         for name in arrays.uv_maps:
             try:
@@ -159,39 +182,91 @@ def triangle_mikktspace(arrays, flat=None):
             except RuntimeError as err:
                 raise MeshDataError(f"object {arrays.name!r}: MikkTSpace tangents for UV map "
                                     f"{name!r} failed ({err})") from err
-            tangents[name] = _get(tmp.loops, "tangent", n, 3).reshape(-1, 3, 3)
-            signs[name] = _get(tmp.loops, "bitangent_sign", n, 1).reshape(-1, 3)
+            tangents[name] = _get(tmp.loops, "tangent", n + 3 * extra, 3)[:n].reshape(-1, 3, 3)
+            signs[name] = _get(tmp.loops, "bitangent_sign", n + 3 * extra, 1)[:n].reshape(-1, 3)
         return tangents, signs
     finally:
+        if tmp is not None:
+            bpy.data.meshes.remove(tmp)
+
+
+def _with_welded_fans(bpy, tmp, arrays, values, smooth):
+    """(mesh, extra triangles): weld_fans.fan_mesh of the triangles with `values` encoded,
+    where it differs from the plain mesh `tmp` (encoded already) and decodes no corner worse
+    than it beyond DECODE_RESOLUTION (joining fans can put corners in a fan whose normal space
+    Blender encodes badly: folded n-gon triangles, 0.7 deg), else tmp itself; the other mesh is
+    removed."""
+    made = fan_mesh(bpy, arrays.positions, arrays.triangles, values, ~smooth)
+    if made is None:
+        return tmp, 0
+    fans, extra_tris, extra_normals = made
+    flat = np.concatenate([~smooth, np.zeros(len(extra_tris), dtype=bool)])
+    fans.polygons.foreach_set("use_smooth", ~flat)
+    _encode_normals(fans, np.concatenate([values, extra_normals]), flat)
+    n = values.size
+    want = values.reshape(-1, 3).astype(np.float64)
+    plain = np.linalg.norm(_get(tmp.corner_normals, "vector", n // 3, 3) - want, axis=1)
+    joined = np.linalg.norm(_get(fans.corner_normals, "vector", len(fans.loops), 3)[:n // 3]
+                            - want, axis=1)
+    if np.all(joined <= np.maximum(plain, DECODE_RESOLUTION)):
         bpy.data.meshes.remove(tmp)
+        return fans, len(extra_tris)
+    bpy.data.meshes.remove(fans)
+    return tmp, 0
 
 
-def _set_corner_normals(tmp, corner_normals, flat):
-    """Give the temporary triangle mesh `tmp` the corner normals (T, 3, 3) MikkTSpace is to see
-    (flat triangles: their own normal). MikkTSpace welds corners whose position, normal and UV
-    are bitwise equal, as Cycles' does with the float normals it reads: custom normals set
-    through normals_split_custom_set are re-encoded in the temporary mesh's own normal spaces
-    (split at its non-manifold and sharp edges), so corners Cycles welds can differ in the last
-    bits and not weld (measured: 0.8 degrees of tangent on custom normals, 1.2 on a Mirror
-    crossing its plane). Where the line stores free normals (a float "custom_normal" corner
-    attribute, 4.5 and later) they are given exactly."""
-    custom = np.asarray(corner_normals, dtype=np.float64)
-    flat = None if flat is None or not np.any(flat) else np.asarray(flat)
-    face_normals = None
-    if flat is not None:
-        # A flat triangle: Blender's face normal of it, what the zero custom normal of the
-        # encoded route gives (read before the attribute is added: Blender then leaves
-        # polygon_normals zero).
-        face_normals = np.empty(len(tmp.polygons) * 3, dtype=np.float32)
-        tmp.polygon_normals.foreach_get("vector", face_normals)
-    values = custom.astype(np.float32)
-    if flat is not None:
-        values = np.where(flat[:, None, None], face_normals.reshape(-1, 1, 3), values)
-    if _free_normals(tmp, values.reshape(-1)):
-        return
-    if flat is not None:
-        custom = np.where(flat[:, None, None], 0.0, custom)
+def _intended_normals(tmp, corner_normals, flat):
+    """(T, 3, 3) float32: the corner normals MikkTSpace is to see on the temporary triangle
+    mesh `tmp`: the given ones, and on a flat triangle (`flat`, or None) Blender's face normal
+    of it, what Cycles feeds MikkTSpace there (Mesh::Triangle::compute_normal) and what a flat
+    face without custom normals gives (read before any attribute is added: Blender then leaves
+    polygon_normals zero)."""
+    values = np.asarray(corner_normals, dtype=np.float32)
+    if flat is None:
+        return values
+    face_normals = np.empty(len(tmp.polygons) * 3, dtype=np.float32)
+    tmp.polygon_normals.foreach_get("vector", face_normals)
+    return np.where(flat[:, None, None], face_normals.reshape(-1, 1, 3), values)
+
+
+def _encode_normals(tmp, values, flat):
+    """Set `values` (T, 3, 3) as tmp's custom normals (lines without free normals): flat
+    triangles get none (their face's own normal), the edges across which the normals differ
+    are marked sharp first (_mark_normal_seams)."""
+    custom = np.where(flat[:, None, None], 0.0, np.asarray(values, dtype=np.float64))
+    _mark_normal_seams(tmp, np.asarray(values, dtype=np.float32).reshape(-1, 3))
     tmp.normals_split_custom_set(custom.reshape(-1, 3).tolist())
+
+
+def _mark_normal_seams(tmp, values):
+    """Mark sharp the edges of the temporary triangle mesh `tmp` across which the corner
+    normals `values` (corners x 3, float32) differ at either end, before its custom normals are
+    encoded (lines without free normals: 4.2). Blender encodes one normal per smooth fan, and on
+    its own it splits a fan whose normals differ where its walk round the vertex happens to
+    meet the difference, which can cut between the two triangles of one quad corner (one
+    normal in Cycles, so welded there): measured on per-corner jitter, 28 of 256 welded groups
+    split and the tangents 0.8 deg off. With these edges sharp every fan holds one normal and
+    corners of equal normals across a smooth edge stay in one fan, so they decode bitwise
+    equal and weld as Cycles' do (the decoded value is still the encoding's, within ~1e-3 of
+    Cycles' float). Fans split at non-manifold edges still decode apart: no edge flag joins them."""
+    nl = len(tmp.loops)
+    corner_vert = np.empty(nl, dtype=np.int64)
+    corner_edge = np.empty(nl, dtype=np.int64)
+    tmp.loops.foreach_get("vertex_index", corner_vert)
+    tmp.loops.foreach_get("edge_index", corner_edge)
+    # Each corner touches two edges of its triangle: the one to the next corner and the one
+    # from the previous corner (corners are 3 per triangle, in order).
+    prev_edge = corner_edge.reshape(-1, 3)[:, [2, 0, 1]].reshape(-1)
+    normal = np.tile(normal_classes(values), 2)
+    end = np.concatenate([corner_edge, prev_edge]) * len(tmp.vertices) + np.tile(corner_vert, 2)
+    order = np.argsort(end, kind="stable")
+    end, normal = end[order], normal[order]
+    # An (edge, vertex) whose corners differ has two neighbours (in that order) that differ.
+    differ = (end[1:] == end[:-1]) & (normal[1:] != normal[:-1])
+    sharp = np.zeros(len(tmp.edges), dtype=bool)
+    sharp[end[1:][differ] // len(tmp.vertices)] = True
+    if sharp.any():
+        tmp.edges.foreach_set("use_edge_sharp", sharp)
 
 
 def _free_normals(tmp, values):

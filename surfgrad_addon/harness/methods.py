@@ -73,6 +73,7 @@ class Method:
     scene_only = property(lambda self: self.spec.scene_only)
     mikktspace = property(lambda self: self.spec.mikktspace)
     same_reference_as = property(lambda self: self.spec.same_reference_as)
+    spread = property(lambda self: self.spec.spread)
 
     def at(self, **given):
         """This method with the named parameters set (the others kept); an unknown name is a

@@ -11,6 +11,11 @@ before, compare scored those texels at 180 degrees against a correct group.
 import numpy as np
 
 from .. import reference as R
+from ..reference.vecmath import FLT_EPSILON
+
+# A triangle whose float32 normal is uncertain by this much cannot be held to compare's max
+# bar (0.5 deg, tests/test_bake_compare.py): float32_slivers counts it as without area.
+SLIVER_ANGLE = np.radians(0.5)
 
 
 def world_positions(mesh):
@@ -29,14 +34,37 @@ def collapsed_problem(mesh, world, obj, uv_map):
 
 def degenerate_triangles(mesh, world):
     """(T,) True where a triangle has no area in 3D: its corners coincide or lie on a line, to
-    within float32 rounding (input_checks.zero_area_mask, world positions (V, 3)). Cycles has
+    within float32 rounding (input_checks.zero_area_mask, world positions (V, 3); and
+    float32_slivers). Cycles has
     no surface to shade there: its bake writes a zero vector, or a normal made of rounding
     noise (a float32 sliver), whatever the material. The geometric normals are taken here
     (once per mesh, cached) without numpy's division warning: normalize() of a zero cross
     product is NaN by design."""
     with np.errstate(invalid="ignore", divide="ignore"):
         ng = mesh.geometric_normals_world
-    return ~np.isfinite(ng).all(axis=1) | R.input_checks.zero_area_mask(world, mesh.triangles)
+    # Cycles holds the positions in world space where it applied the transform, else in
+    # object space (addon/cycles_geometry.py): its float32 rounding is of those.
+    held = world if mesh.transform_applied else np.asarray(mesh.positions, dtype=np.float64)
+    return (~np.isfinite(ng).all(axis=1) | R.input_checks.zero_area_mask(world, mesh.triangles)
+            | float32_slivers(held, mesh.triangles))
+
+
+def float32_slivers(positions, triangles):
+    """(T,) True where a triangle's normal is float32 rounding: the rounding bound of the
+    float32 cross product of its edges, FLT_EPSILON times the sums of its terms' magnitudes
+    (|e1y e2z| + |e1z e2y|, ...: Cycles' Mesh::Triangle::compute_normal, and Blender's face
+    normal, the reference's MikkTSpace input, alike), turns the normal by SLIVER_ANGLE or more.
+    Three points on a diagonal, collinear in reals but not in float32, have an area far above
+    zero_area_mask's (2e-9 of their extent squared) and a normal that points anywhere there
+    (measured: one texel at 2.4 deg); a thin sliver along an axis keeps an exact normal (its
+    terms vanish) and stays compared."""
+    p = np.asarray(positions, dtype=np.float64)[np.asarray(triangles)]
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    cross = np.linalg.norm(np.cross(e1, e2), axis=1)
+    # cross = e1[yzx] e2[zxy] - e1[zxy] e2[yzx]: the magnitudes of the two products.
+    terms = (np.abs(e1[:, [1, 2, 0]] * e2[:, [2, 0, 1]])
+             + np.abs(e1[:, [2, 0, 1]] * e2[:, [1, 2, 0]]))
+    return FLT_EPSILON * np.linalg.norm(terms, axis=1) >= np.tan(SLIVER_ANGLE) * cross
 
 
 def without_degenerate(td, covered, degenerate):

@@ -44,7 +44,10 @@ def _commands(out):
 def _reason_names():
     from .compare import CONTESTED, EXCLUSION_REASONS
     names = {CONTESTED: "contested: overlapping UV islands (error in the table)"}
-    names.update({code: f"excluded: {name}" for code, (name, _) in EXCLUSION_REASONS.items()})
+    from .heat_map import HEAT_ALIASES
+    for code, (name, _) in EXCLUSION_REASONS.items():
+        shown = HEAT_ALIASES.get(code, code)          # drawn in another reason's colour
+        names[shown] = f"{names[shown]}, {name}" if shown in names else f"excluded: {name}"
     return names
 
 

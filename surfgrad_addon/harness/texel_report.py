@@ -13,6 +13,7 @@ import time
 import numpy as np
 
 from ..reference import methods as M
+from . import grazing as G
 from ..reference.agreement import COUNTS as AGREEMENT_COUNTS, texel_agreement
 
 # Why a covered texel is not compared (codes in ErrorImage.reasons, keys in the report's
@@ -30,6 +31,11 @@ EXCLUSION_REASONS = {
                       "in along -N (integrator/init_from_bake.h), so Cycles finds the back "
                       "face and flips N, Ng, dPdu and dPdv there (geom/shader_data.h), and "
                       "every node shades the back side; the references model the front side"),
+    6: ("grazing", "a view-dependent method (parallax) where the shading normal nearly lies in "
+                   "its face: Listing 11's solve is conditioned by dot(shading, geometric), so "
+                   "float32 rounding of the normal moves the march's samples by a texel "
+                   "fraction no float32 route avoids (reference/parallax_conditioning.py); "
+                   "only methods with a spread report it"),
 }
 # dot(shading normal, geometric normal) below this is "backfacing": the bake's float32 sign
 # test can go either way within the rounding of the (packed) stored normals.
@@ -51,11 +57,13 @@ class ErrorImage(np.ndarray):
         self.reasons = getattr(obj, "reasons", None)
 
 
-def compare_tile(td, reference, pixels, covered):
+def compare_tile(td, reference, pixels, covered, spread=None):
     """One image's comparison, block by block (reference/raster.py: the reference's working
     memory and the comparison's are one block's; the errors and the error image are whole):
     the report fields, its ErrorImage and the seconds the reference took (the block pass's
-    wall time times the reference's share of the block threads' time)."""
+    wall time times the reference's share of the block threads' time). spread(block) -> (N,)
+    (a view-dependent method's, texels): its texels past harness/grazing's bound are left
+    out as "grazing" (a reason only such methods report)."""
     h, w = covered.shape
     reasons = np.zeros((h, w), dtype=np.int8)
     reasons[covered ^ td.covered] = OUTSIDE
@@ -70,11 +78,13 @@ def compare_tile(td, reference, pixels, covered):
         a = texel_agreement(block.pixel, pixels, covered, td.contested, td.on_edge, ref,
                             block.shading_normal, block.geometric_normal,
                             M.unit_base_normal(block), BACKFACING_DOT, reasons)
+        grazing = () if spread is None else G.leave_out(a, block, spread(block), pixels,
+                                                         reasons)
         err = a.error()
         heat_flat[a.flat[:a.n]] = err           # blocks hold distinct texels
         tilt_bake, tilt_ref = a.tilts()
         backfacing = np.unique(block.tri[a.backfacing]) if a.backfacing.any() else ()
-        return (err, err[a.marked[:a.n]], backfacing, float(tilt_bake.sum()),
+        return (err, err[a.marked[:a.n]], (backfacing, grazing), float(tilt_bake.sum()),
                 float(tilt_ref.sum()), a.counts, t1 - t0, time.perf_counter() - t1)
 
     errs = np.empty(td.texel_count)            # the compared texels' errors, block after block
@@ -82,13 +92,15 @@ def compare_tile(td, reference, pixels, covered):
     contested_errs = []
     sums = dict.fromkeys(("tilt_bake", "tilt_ref", *AGREEMENT_COUNTS), 0)
     sums["backfacing_triangles"] = set()
+    sums["grazing_triangles"] = set()
     wall, thread_seconds = [0.0], [0.0, 0.0]
-    for _, _, _, (err, contested, backfacing, tilt_bake, tilt_ref, counts, ref_s,
+    for _, _, _, (err, contested, (backfacing, grazing), tilt_bake, tilt_ref, counts, ref_s,
                   stat_s) in M.evaluated_blocks(measure, td, seconds=wall):
         errs[n_errs:n_errs + len(err)] = err
         n_errs += len(err)
         contested_errs.append(contested)
         sums["backfacing_triangles"].update(int(t) for t in backfacing)
+        sums["grazing_triangles"].update(int(t) for t in grazing)
         sums["tilt_bake"] += tilt_bake
         sums["tilt_ref"] += tilt_ref
         for name, count in zip(AGREEMENT_COUNTS, counts.tolist()):
@@ -98,7 +110,8 @@ def compare_tile(td, reference, pixels, covered):
     contested_err = np.concatenate(contested_errs) if contested_errs else np.zeros(0)
     # One comparison per reason (a 4096^2 image: 5 ms each; np.bincount took 0.1 s).
     excluded = {name: int(np.count_nonzero(reasons == code))
-                for code, (name, _) in EXCLUSION_REASONS.items()}
+                for code, (name, _) in EXCLUSION_REASONS.items()
+                if code != G.GRAZING or spread is not None}
     busy = sum(thread_seconds)
     r = {
         "texels_covered": int(np.count_nonzero(covered | td.covered)),
@@ -126,6 +139,7 @@ def merge(tile_reports):
     err = (tile_reports[0]["_err"] if len(tile_reports) == 1 else
            np.concatenate([t["_err"] for t in tile_reports]))
     backfacing = set().union(*(t["_sums"].pop("backfacing_triangles") for t in tile_reports))
+    grazing = set().union(*(t["_sums"].pop("grazing_triangles") for t in tile_reports))
     sums = {k: sum(t["_sums"][k] for t in tile_reports) for k in tile_reports[0]["_sums"]}
     covered = sum(t["texels_covered"] for t in tile_reports)
     compared = sums["compared"]
@@ -146,6 +160,7 @@ def merge(tile_reports):
         "texels_contested": contested,
         "texels_excluded": n_excl, "excluded": excluded,
         "backfacing_triangles": sorted(int(t) for t in backfacing),
+        **({"grazing_triangles": sorted(grazing)} if "grazing" in excluded else {}),
         "excluded_fraction": n_excl / max(1, covered),
         **error_stats(err),
         "contested_max_deg": max(cmax) if cmax else None,

@@ -24,6 +24,7 @@ from .group_interfaces import REST_ATTRIBUTE
 from .height_blend import HEIGHT_BLEND_CONTRAST, surfgrad_height_blend
 from .image_sampling import sample_image
 from .listings import resolve_normal_from_surface_gradient, surfgrad_from_perturbed_normal
+from .parallax_conditioning import march_spread_texels
 from .vecmath import normalize
 
 # The comparison's settings, shared by graphs (harness/method_graphs) and references.
@@ -75,6 +76,9 @@ class MethodSpec:
     scene_only: bool = False           # its reference needs Blender's evaluated scene
     mikktspace: bool = False           # it reads the MikkTSpace frame (SG Normal Map)
     same_reference_as: Optional[str] = None   # another method's reference (a Sampler group's)
+    # spread(inputs, td) -> (N,) float32 spread of a view-dependent reference in texels of its
+    # images (compare leaves out the texels where it is too large: "grazing").
+    spread: Optional[Callable] = None
 
     def values(self, **given):
         """Every parameter's value, as (name, value) pairs in declaration order: the defaults
@@ -175,13 +179,21 @@ def _layered(inp, td, detail_strength, noise_amount):
     return n, sg1 + sg2 + sg3
 
 
+def _parallax_view(td):
+    return normalize(M.unit_base_normal(td) + np.array(VIEW_TILT))
+
+
 def _parallax(inp, td):
-    n = M.unit_base_normal(td)
-    view = normalize(n + np.array(VIEW_TILT))
-    offs = M.parallax_offset(td, inp.pixels("height"), view, parallax_depth(inp), POM_STEPS,
-                             inp.uv_map)
+    offs = M.parallax_offset(td, inp.pixels("height"), _parallax_view(td), parallax_depth(inp),
+                             POM_STEPS, inp.uv_map)
     return M.normal_map_surfgrad(td, inp.pixels("normal"), inp.uv_map,
                                  st=td.uv(inp.uv_map) + offs)
+
+
+def _parallax_spread(inp, td):
+    # In texels of the finer of the two images the march reads (height, then the normal map).
+    width = max(inp.pixels("height").shape[1], inp.pixels("normal").shape[1])
+    return march_spread_texels(td, _parallax_view(td), parallax_depth(inp), width, inp.uv_map)
 
 
 def _post_resolve(inp, td, strength):
@@ -272,7 +284,7 @@ _SPECS = (
                parameters=(_strength(("SG Decal",), M.decal_surfgrad), *_decal_settings(1.0))),
     MethodSpec("decal-overwrite", _decal_overwrite, adds="projector", stability=False,
                parameters=_decal_settings(OVERWRITE_OPACITY)),
-    MethodSpec("parallax", _parallax, mikktspace=True),
+    MethodSpec("parallax", _parallax, mikktspace=True, spread=_parallax_spread),
     # Two resolves of the methods the suite already runs.
     MethodSpec("post-resolve", _post_resolve, stability=False, mikktspace=True,
                parameters=(_strength(("SG Triplanar",), M.triplanar_surfgrad,
@@ -302,7 +314,7 @@ _SPECS = (
                parameters=(_bump_scale(("SG Triplanar Height (Sampler)",),
                                        M.triplanar_height_surfgrad),)),
     MethodSpec("parallax-sampler", _parallax, group="SG Parallax (Sampler)", stability=False,
-               mikktspace=True, same_reference_as="parallax"),
+               mikktspace=True, same_reference_as="parallax", spread=_parallax_spread),
     # Layers blended by height (reference/height_blend.py), over methods the suite runs.
     MethodSpec("height-blend", _height_blend, stability=False, parameters=(
         Parameter("contrast", HEIGHT_BLEND_CONTRAST, "Contrast", ("SG Height Blend",),
