@@ -36,11 +36,11 @@ from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far imp
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 from .no_area import (collapsed_problem, degenerate_triangles, degenerate_warning,
-                      faces_text, without_degenerate, world_positions)
+                      without_degenerate, world_positions)
 from . import scale_limits
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
-from .grazing import grazing_warning
+from .facing_exclusions import backfacing_warning, grazing_warning
 from .heat_map import write_heat_map
 from .kernel_warm_up import load_kernels
 # EXCLUSION_REASONS and CONTESTED (texel_report's) named here too for the tests that read them
@@ -279,19 +279,6 @@ def overlap_warning(mesh, uv_map, td_list):
             f"face (overlapping UV islands, e.g. mirrored halves stacked on each other); a bake "
             f"keeps only the face last in mesh order there (so does the reference). "
             f"Overlapping faces ({len(pairs)} pairs): {shown}{more}.")
-
-
-def backfacing_warning(mesh, report):
-    """A warning naming the faces whose shading normals face away from them, or None."""
-    tris = report.get("backfacing_triangles") or []
-    if not tris:
-        return None
-    shown = faces_text(mesh, tris)
-    return (f"{mesh.name!r}: {report['excluded']['backfacing']} texels of {len(tris)} "
-            f"triangles (faces {shown}) are not compared (backfacing): their vertex or corner "
-            f"normals face away from the face, so Cycles shades its back side there (normals "
-            f"flipped). If that is not meant, recalculate the normals (Mesh > Normals > "
-            f"Recalculate Outside) or fix the custom normals.")
 
 
 def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, device="CPU",

@@ -13,7 +13,7 @@ import time
 import numpy as np
 
 from ..reference import methods as M
-from . import grazing as G
+from . import facing_exclusions as G
 from ..reference.agreement import COUNTS as AGREEMENT_COUNTS, texel_agreement
 
 # Why a covered texel is not compared (codes in ErrorImage.reasons, keys in the report's
@@ -62,7 +62,7 @@ def compare_tile(td, reference, pixels, covered, spread=None):
     memory and the comparison's are one block's; the errors and the error image are whole):
     the report fields, its ErrorImage and the seconds the reference took (the block pass's
     wall time times the reference's share of the block threads' time). spread(block) -> (N,)
-    (a view-dependent method's, texels): its texels past harness/grazing's bound are left
+    (a view-dependent method's, texels): its texels past harness/facing_exclusions' bound are left
     out as "grazing" (a reason only such methods report)."""
     h, w = covered.shape
     reasons = np.zeros((h, w), dtype=np.int8)

@@ -1,5 +1,5 @@
 """Where a view-dependent reference (the parallax march) is ill-conditioned in float32: the
-texels compare leaves out as "grazing" (harness/grazing.py).
+texels compare leaves out as "grazing" (harness/facing_exclusions.py).
 
 Listing 11 takes the view's tangent part to texture space by solving
 dir_t = a dPdx + b dPdy in the plane perpendicular to the shading normal n. The system's

@@ -1,9 +1,10 @@
-"""compare's "grazing" texels: where a view-dependent reference (the parallax march) is
-ill-conditioned in float32, so that no float32 evaluation can follow it
-(reference/parallax_conditioning.py derives the spread). They are left out like backfacing
-texels, counted under their own reason and named in a warning.
+"""Texels compare leaves out for how the shading normal lies, and the warnings that name
+them: backfacing (the normal faces away from its face, so Cycles shades the back side) and
+grazing, where a view-dependent reference (the parallax march) is ill-conditioned in float32,
+so that no float32 evaluation can follow it (reference/parallax_conditioning.py derives the
+spread). Grazing texels are left out like backfacing ones, under their own reason.
 
-The bound is the float32 one compare already uses for world-projected coordinates
+The grazing bound is the float32 one compare already uses for world-projected coordinates
 (scale_limits.TEXEL_FRACTION): a texel is left out where FLT_EPSILON of its shading normal,
 amplified by the march's conditioning, moves the march's sample points by that fraction of a
 texel of the images it reads.
@@ -60,3 +61,16 @@ def grazing_warning(mesh, report):
             f"neighbouring faces), where the parallax march amplifies float32 rounding "
             f"beyond {TEXEL_FRACTION:g} texel. If that is not meant, recalculate the normals "
             f"(Mesh > Normals > Recalculate Outside).")
+
+
+def backfacing_warning(mesh, report):
+    """A warning naming the faces whose shading normals face away from them, or None."""
+    tris = report.get("backfacing_triangles") or []
+    if not tris:
+        return None
+    shown = faces_text(mesh, tris)
+    return (f"{mesh.name!r}: {report['excluded']['backfacing']} texels of {len(tris)} "
+            f"triangles (faces {shown}) are not compared (backfacing): their vertex or corner "
+            f"normals face away from the face, so Cycles shades its back side there (normals "
+            f"flipped). If that is not meant, recalculate the normals (Mesh > Normals > "
+            f"Recalculate Outside) or fix the custom normals.")
