@@ -216,17 +216,19 @@ def flip_green_colour(b, color, directx):
 
 
 def unpack_normal(b, color):
-    """m = 2 c - 1: a tangent-space normal from its colour."""
-    return b.vmath(VMath.SUBTRACT, b.vmath(VMath.MULTIPLY, color, (2.0, 2.0, 2.0)),
-                   (1.0, 1.0, 1.0))
+    """m = 2 c - 1: a tangent-space normal from its colour (one Multiply Add: 2 c is exact, so
+    it rounds once, as c * 2 - 1 does)."""
+    return b.vmath(VMath.MULTIPLY_ADD, color, (2.0, 2.0, 2.0), (-1.0, -1.0, -1.0))
 
 
-def decode_tangent_normal(b, color, directx=None):
+def decode_tangent_normal(b, color, directx=None, weight=None):
     """m = 2 c - 1 (m.y negated for a DirectX map) and Listing 2's derivative (abs z, 1/128
-    clamp), as two float sockets."""
+    clamp), as two float sockets. With a `weight` w, the derivative times -w: w m.xy / z in one
+    division (triplanar_surface_gradient takes the sign back for free)."""
     mx, my, mz = b.separate(unpack_normal(b, color))
     my = flip_green(b, my, directx)
-    inv = b.math(Math.DIVIDE, -1.0, b.math(Math.MAXIMUM, listing2_z(b, mx, my, mz), DIVIDE_FLOOR))
+    inv = b.math(Math.DIVIDE, -1.0 if weight is None else weight,
+                 b.math(Math.MAXIMUM, listing2_z(b, mx, my, mz), DIVIDE_FLOOR))
     return b.math(Math.MULTIPLY, mx, inv), b.math(Math.MULTIPLY, my, inv)
 
 

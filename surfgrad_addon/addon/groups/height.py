@@ -8,7 +8,7 @@ from . import common
 from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, bump_surface_gradient, ensure,
                      images_stale, normal_input, scaled_position_inputs, sub_group,
                      surfgrad_reaching, texel_count_inputs, uv_gradients_group, uv_input)
-from .projection import triplanar_surface_gradient, triplanar_weights
+from .projection import triplanar_surface_gradient, triplanar_weights, weighted_derivatives
 
 
 def height_image_node(b, image, vector, interpolation, extension):
@@ -179,7 +179,7 @@ def _triplanar_height_body(b, taps_for, sizes):
             du, dv = _height_derivatives(b, taps, uv, w, h, "one-texel")
             derivs.append((b.math(Math.MULTIPLY, du, b.math(Math.MULTIPLY, scale, w)),
                            b.math(Math.MULTIPLY, dv, b.math(Math.MULTIPLY, scale, h))))
-    sg = triplanar_surface_gradient(b, n, weights, derivs)
+    sg = triplanar_surface_gradient(b, n, weighted_derivatives(b, weights, derivs))
     b.output(S.SURFACE_GRADIENT_OUT, b.scale(sg, bump))
 
 

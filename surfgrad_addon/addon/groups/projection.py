@@ -26,17 +26,23 @@ def triplanar_weights(b, n, k):
         return tuple(b.math(Math.DIVIDE, c, total) for c in (wx, wy, wz))
 
 
-def triplanar_surface_gradient(b, n, weights, derivs):
+def triplanar_surface_gradient(b, n, weighted, negated=False):
     """Listing 13: the volume gradient of Eq. 19 from the planes' derivatives (sampled at
-    (z, y), (x, z), (x, y)), projected by Listing 8."""
-    w0, w1, w2 = weights
-    (dxx, dxy), (dyx, dyy), (dzx, dzy) = derivs
+    (z, y), (x, z), (x, y)), each already times its plane's weight, projected by Listing 8.
+    `negated`: the derivatives came negated (decode_tangent_normal with a weight); Listing 8 is
+    linear, so swapping its subtraction's operands gives the gradient, exactly."""
+    (dxx, dxy), (dyx, dyy), (dzx, dzy) = weighted
     with b.frame("Listing 13: volume gradient of Eq. 19, then Listing 8"):
-        grad = b.combine(
-            b.math(Math.ADD, b.math(Math.MULTIPLY, w2, dzx), b.math(Math.MULTIPLY, w1, dyx)),
-            b.math(Math.ADD, b.math(Math.MULTIPLY, w2, dzy), b.math(Math.MULTIPLY, w0, dxy)),
-            b.math(Math.ADD, b.math(Math.MULTIPLY, w0, dxx), b.math(Math.MULTIPLY, w1, dyy)))
-        return b.sub(grad, b.scale(n, b.dot(n, grad)))
+        grad = b.combine(b.math(Math.ADD, dzx, dyx), b.math(Math.ADD, dzy, dxy),
+                         b.math(Math.ADD, dxx, dyy))
+        along_n = b.scale(n, b.dot(n, grad))
+        return b.sub(along_n, grad) if negated else b.sub(grad, along_n)
+
+
+def weighted_derivatives(b, weights, derivs):
+    """Each plane's derivative (du, dv) times its Listing 14 weight."""
+    return [(b.math(Math.MULTIPLY, w, du), b.math(Math.MULTIPLY, w, dv))
+            for w, (du, dv) in zip(weights, derivs)]
 
 
 def triplanar_coordinates_group():
@@ -54,11 +60,17 @@ def plane_coordinates(b, p):
     return b.combine(z, y), b.combine(x, z), b.combine(x, y)
 
 
-def triplanar_outputs(b, n, weights, derivs, strength):
-    """Listing 13 on the planes' derivatives, scaled by strength, and the blend weights."""
-    sg = triplanar_surface_gradient(b, n, weights, derivs)
+def triplanar_outputs(b, n, weights, negated_derivs, strength):
+    """Listing 13 on the planes' weighted, negated derivatives (decode_tangent_normal with each
+    plane's weight), scaled by strength, and the blend weights."""
+    sg = triplanar_surface_gradient(b, n, negated_derivs, negated=True)
     b.output(S.SURFACE_GRADIENT_OUT, by_strength(b, sg, strength))
     b.output(S.WEIGHTS_OUT, b.combine(*weights))
+
+
+def plane_derivatives(b, colors, directx, weights):
+    """Listing 2 per plane, each times -(its weight): one division per plane for both."""
+    return [decode_tangent_normal(b, c, directx, w) for c, w in zip(colors, weights)]
 
 
 def triplanar_group():
@@ -68,8 +80,8 @@ def triplanar_group():
         directx = directx_input(b)
         k, strength = triplanar_blend_inputs(b)
         weights = triplanar_weights(b, n, k)
-        with b.frame("Listing 2 per plane"):
-            derivs = [decode_tangent_normal(b, c, directx) for c in colors]
+        with b.frame("Listing 2 per plane, times its weight"):
+            derivs = plane_derivatives(b, colors, directx, weights)
         triplanar_outputs(b, n, weights, derivs, strength)
     return ensure("SG Triplanar", build)
 
@@ -89,7 +101,7 @@ def triplanar_sampler_group():
         weights = triplanar_weights(b, n, k)
         with b.frame("Eq. 19 planes: X samples (z, y), Y (x, z), Z (x, y); Listing 2 each"):
             colors = [taps.color(uv) for uv in plane_coordinates(b, p)]
-            derivs = [decode_tangent_normal(b, c, directx) for c in colors]
+            derivs = plane_derivatives(b, colors, directx, weights)
         triplanar_outputs(b, n, weights, derivs, strength)
     return ensure(name, build)
 
