@@ -3,18 +3,24 @@ each worker's empty surfgrad-worker-* folder in $TMPDIR; a map the disk cut shor
 second time in a fresh process; a grey, grey+alpha or -1..1 float image feeding a Normal Map
 baked without a word."""
 
+import json
 import os
+import resource
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from surfgrad_addon.addon import exit_codes  # noqa: E402
+from surfgrad_addon.addon.batch import MANIFEST_NAME  # noqa: E402
 from support.child import ROOT  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -74,3 +80,87 @@ def test_an_idle_worker_whose_batch_was_killed_removes_its_temp_folder(tmp_path)
     left = sorted(p.name for p in temp.iterdir())
     assert [n for n in left if n.startswith("surfgrad-worker-")] == \
         ["surfgrad-worker-not-mine"], left
+
+
+def _normal_texels(size=16):
+    """A tangent-space normal map, encoded 0..1, whose tilt varies over the texels (RGBA)."""
+    y, x = np.mgrid[0:size, 0:size] / size
+    nx, ny = 0.4 * np.sin(2 * np.pi * x), 0.4 * np.cos(2 * np.pi * y)
+    rgba = np.stack([nx, ny, np.sqrt(1 - nx * nx - ny * ny), np.ones_like(nx)], -1)
+    rgba[..., :3] = rgba[..., :3] * 0.5 + 0.5
+    return rgba
+
+
+def _write_image(path, rgba, file_format="PNG", float_buffer=False, **settings):
+    """Write `rgba` (H, W, 4) to `path` with Blender's writer; settings: the image's
+    file-format options (color_mode, color_depth) through a scene's image settings."""
+    h, w = rgba.shape[:2]
+    img = bpy.data.images.new("tmp_img", w, h, float_buffer=float_buffer)
+    img.pixels.foreach_set(rgba.astype(np.float32).ravel())
+    scene = bpy.context.scene
+    s = scene.render.image_settings
+    s.file_format = file_format
+    s.color_mode = settings.get("color_mode", "RGBA")
+    if "color_depth" in settings:
+        s.color_depth = settings["color_depth"]
+    img.save_render(str(path), scene=scene)
+    bpy.data.images.remove(img)
+
+
+def _scene(blend, image_path, via="ShaderNodeNormalMap", space="Non-Color"):
+    """`blend`: object Plane (2 x 2 quads filling the 0-1 UV square) whose material reads
+    `image_path` (colour space `space`) into node `via`'s Color input."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    verts = [(x / 2, y / 2, 0.0) for y in range(3) for x in range(3)]
+    faces = [(y * 3 + x, y * 3 + x + 1, y * 3 + x + 4, y * 3 + x + 3)
+             for y in range(2) for x in range(2)]
+    mesh = bpy.data.meshes.new("Plane")
+    mesh.from_pydata(verts, [], faces)
+    uv = np.asarray([(verts[i][0], verts[i][1]) for f in faces for i in f], np.float32)
+    mesh.uv_layers.new(name="UVMap").data.foreach_set("uv", uv.ravel())
+    obj = bpy.data.objects.new("Plane", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    mat, tree, bsdf = diffuse_material("Mat")
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.load(str(image_path), check_existing=False)
+    tex.image.colorspace_settings.name = space
+    nm = tree.nodes.new(via)
+    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
+    tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+    obj.data.materials.append(mat)
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    return blend
+
+
+@pytest.mark.tier("child")
+@pytest.mark.parametrize("workers", ["0", "1"])
+def test_a_batch_map_the_disk_cuts_short_fails_at_once_without_a_retry(workers, tmp_path):
+    """A full disk (a file-size limit: 8 kB, a 256^2 map is ~25 kB, the manifest fits).
+    Before: '... is incomplete ... - retrying once in a fresh process', the bake done twice
+    and failed the same way. Now the asset fails at its first attempt with the same line
+    bake-normal-map prints, and nothing but the manifest is left."""
+    _write_image(tmp_path / "n.png", _normal_texels())
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    out = tmp_path / "maps"
+
+    def small_files():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (8192, 8192))
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    run = subprocess.run([sys.executable, "-m", "surfgrad_addon", "bake-batch", str(blend),
+                          "--output", str(out / "{file}_{object}.png"), "--resolution", "256",
+                          "--workers", workers], cwd=str(ROOT), env=env, capture_output=True,
+                         text=True, timeout=300, preexec_fn=small_files)
+    assert run.returncode == exit_codes.BAKE_FAILED, run.stderr[-3000:]
+    text = run.stdout + run.stderr
+    assert "retrying" not in text and "Traceback" not in text, text[-3000:]
+    entry = json.loads((out / MANIFEST_NAME).read_text())["assets"][f"{blend}:Plane"]
+    assert entry["status"] == "failed" and entry["kind"] == "output"
+    assert len(entry["attempts"]) == 1
+    said = (f"the bake of 'Plane' failed: the file written for {str(out / 'a_Plane.png')!r} "
+            f"is incomplete (cut off after ")
+    assert entry["error"].startswith(said), entry["error"]
+    assert "the disk is full or a file-size limit (ulimit -f) was hit" in entry["error"]
+    assert f"a.blend:Plane: {said}" in run.stderr, run.stderr[-3000:]
+    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME]

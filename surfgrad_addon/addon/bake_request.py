@@ -32,7 +32,7 @@ from ..reference import tiles as T
 from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from .bake_uvs import baked_mesh, one_read
-from .exit_codes import BakeFailed
+from .exit_codes import BakeFailed, MapNotWritten
 from .image_checks import colour_space_warnings, image_problems, output_input_problems
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
@@ -251,7 +251,9 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
                                           r.tiles, r.empty_tiles, overwrite=r.overwrite,
                                           log=log, threads=r.threads)
         except RuntimeError as err:       # the bake operator or the image write
-            raise BakeFailed(f"the bake of {obj.name!r} failed: {err}") from None
+            # (MapNotWritten keeps its kind: a batch does not retry it)
+            failed = MapNotWritten if isinstance(err, MapNotWritten) else BakeFailed
+            raise failed(f"the bake of {obj.name!r} failed: {err}") from None
     result["warnings"] = list(dict.fromkeys(checked.warnings + result.get("warnings", [])))
     return result
 
