@@ -17,7 +17,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.addon import exit_codes  # noqa: E402
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.batch import MANIFEST_NAME  # noqa: E402
 from support.child import ROOT  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
@@ -107,9 +108,10 @@ def _write_image(path, rgba, file_format="PNG", float_buffer=False, **settings):
     bpy.data.images.remove(img)
 
 
-def _scene(blend, image_path, via="ShaderNodeNormalMap", space="Non-Color"):
+def _scene(blend, image_path, via="ShaderNodeNormalMap", space="Non-Color", pack=False):
     """`blend`: object Plane (2 x 2 quads filling the 0-1 UV square) whose material reads
-    `image_path` (colour space `space`) into node `via`'s Color input."""
+    `image_path` (colour space `space`; packed into the .blend if `pack`) into the Color
+    input of node `via`: a node type, or a surfgrad group's name (through SG Resolve)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     verts = [(x / 2, y / 2, 0.0) for y in range(3) for x in range(3)]
     faces = [(y * 3 + x, y * 3 + x + 1, y * 3 + x + 4, y * 3 + x + 3)
@@ -124,9 +126,21 @@ def _scene(blend, image_path, via="ShaderNodeNormalMap", space="Non-Color"):
     tex = tree.nodes.new("ShaderNodeTexImage")
     tex.image = bpy.data.images.load(str(image_path), check_existing=False)
     tex.image.colorspace_settings.name = space
-    nm = tree.nodes.new(via)
-    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
-    tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+    if pack:
+        tex.image.pack()
+    if via.startswith("SG "):
+        nm = tree.nodes.new("ShaderNodeGroup")
+        nm.node_tree = api.node_group(via)
+        resolve = tree.nodes.new("ShaderNodeGroup")
+        resolve.node_tree = api.node_group("SG Resolve")
+        tree.links.new(nm.outputs["Surface Gradient"], resolve.inputs["Surface Gradient"])
+        tree.links.new(resolve.outputs["Normal"], bsdf.inputs["Normal"])
+    else:
+        nm = tree.nodes.new(via)
+        tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(tex.outputs["Color"], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], nm.inputs["Color"])
     obj.data.materials.append(mat)
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
     return blend
@@ -164,3 +178,103 @@ def test_a_batch_map_the_disk_cuts_short_fails_at_once_without_a_retry(workers, 
     assert "the disk is full or a file-size limit (ulimit -f) was hit" in entry["error"]
     assert f"a.blend:Plane: {said}" in run.stderr, run.stderr[-3000:]
     assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME]
+
+
+def _grey_png(path, mode):
+    """The normal map's R as a PNG of colour type grey ('L') or grey and alpha ('LA'), as
+    Pillow writes them (Blender's writer makes no grey+alpha PNG); 'RGB': the same grey in
+    three channels, what Blender makes of the others once loaded."""
+    from PIL import Image
+    grey = np.round(_normal_texels()[::-1, :, 0] * 255).astype(np.uint8)
+    planes = {"L": [grey], "LA": [grey, np.full_like(grey, 255)], "RGB": [grey] * 3}[mode]
+    Image.fromarray(np.dstack(planes) if len(planes) > 1 else grey, mode).save(path)
+
+
+def _bake(blend, output, capsys):
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(output), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.OK, err
+    return err
+
+
+@pytest.mark.parametrize("mode, via, pack", [
+    ("L", "ShaderNodeNormalMap", False), ("LA", "ShaderNodeNormalMap", False),
+    ("L", "SG Normal Map", False), ("LA", "SG Tangent Normal", True)])
+def test_a_grey_normal_map_is_baked_as_rendered_with_a_warning(mode, via, pack, tmp_path,
+                                                               capsys):
+    """A grey (1 channel) or grey+alpha (2) PNG as the normal map. Before: exit 0, not a word,
+    every normal leaning along (1, 1). Now the same map (what Cycles renders: the map of an RGB
+    file holding the grey thrice, texel for texel) with a warning naming the image, the node,
+    what the file holds and the fix; packed images are read from their packed data."""
+    _grey_png(tmp_path / "grey.png", mode)
+    _grey_png(tmp_path / "rgb.png", "RGB")
+    kind = "Normal Map" if via == "ShaderNodeNormalMap" else via
+    name = "Normal Map" if via == "ShaderNodeNormalMap" else "Group"      # Blender's names
+    err = _bake(_scene(tmp_path / "g.blend", tmp_path / "grey.png", via, pack=pack),
+                tmp_path / "grey_map.png", capsys)
+    channels, what = {"L": (1, "1 channel"), "LA": (2, "2 channels")}[mode]
+    where = "packed" if pack else "grey.png"
+    said = {"L": "grey PNG", "LA": "grey and alpha PNG"}[mode]
+    assert (f"surfgrad: warning: image 'grey.png', read by {kind} node '{name}' (material "
+            f"'Mat'), holds {what} in its file ({where}: {said}): Blender spreads the grey "
+            f"over R, G and B") in err, err
+    assert "save the normal map as RGB (three channels)" in err
+    rgb = _bake(_scene(tmp_path / "c.blend", tmp_path / "rgb.png", via, pack=pack),
+                tmp_path / "rgb_map.png", capsys)
+    assert "surfgrad: warning" not in rgb, rgb
+    assert (tmp_path / "grey_map.png").read_bytes() == (tmp_path / "rgb_map.png").read_bytes()
+
+
+def test_a_grey_jpeg_is_warned_and_an_unread_format_is_not(tmp_path, capsys):
+    """A grey JPEG: its frame header says 1 component (past an APP segment). A grey TIFF: a
+    header not read here, so no word (never a guess)."""
+    from PIL import Image
+    grey = np.round(_normal_texels()[:, :, 0] * 255).astype(np.uint8)
+    Image.fromarray(grey, "L").save(tmp_path / "g.jpg", quality=95, dpi=(72, 72))
+    err = _bake(_scene(tmp_path / "j.blend", tmp_path / "g.jpg"), tmp_path / "j.png", capsys)
+    assert "holds 1 channel in its file (g.jpg: grey JPEG)" in err, err
+    Image.fromarray(grey, "L").save(tmp_path / "g.tif")
+    err = _bake(_scene(tmp_path / "t.blend", tmp_path / "g.tif"), tmp_path / "t.png", capsys)
+    assert "surfgrad: warning" not in err, err
+
+
+@pytest.mark.parametrize("encoding, warned", [("-1..1", True), ("0..1", False)])
+def test_a_float_normal_map_stored_in_minus_one_to_one_is_warned(encoding, warned, tmp_path,
+                                                                 capsys):
+    """A float EXR holding n in -1..1 (not n * 0.5 + 0.5). Before: exit 0, not a word, every
+    normal pulled toward (-1, -1). Now a warning with the share below 0; a 0..1 one says
+    nothing."""
+    rgba = _normal_texels()
+    if encoding == "-1..1":
+        rgba[..., :3] = rgba[..., :3] * 2 - 1
+    _write_image(tmp_path / "n.exr", rgba, "OPEN_EXR", float_buffer=True, color_depth="32")
+    err = _bake(_scene(tmp_path / "f.blend", tmp_path / "n.exr"), tmp_path / "m.png", capsys)
+    below = [round(100 * np.mean(rgba[..., c] < 0)) for c in (0, 1)]
+    said = (f"surfgrad: warning: image 'n.exr', read by Normal Map node 'Normal Map' "
+            f"(material 'Mat'), has {below[0]}% of its texels below 0 in R and {below[1]}% in "
+            f"G: it looks stored in -1..1")
+    assert (said in err) == warned, err
+    assert ("surfgrad: warning" in err) == warned, err
+    if warned:
+        assert min(below) > 5 and "store it as n * 0.5 + 0.5" in err
+
+
+@pytest.mark.tier("child")
+def test_a_batch_records_the_grey_normal_map_warning(tmp_path):
+    """The warning reaches bake-batch's output and its manifest, as the sRGB one does."""
+    _grey_png(tmp_path / "grey.png", "L")
+    blend = _scene(tmp_path / "a.blend", tmp_path / "grey.png")
+    out = tmp_path / "maps"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    run = subprocess.run([sys.executable, "-m", "surfgrad_addon", "bake-batch", str(blend),
+                          "--output", str(out / "{file}_{object}.png"), "--resolution", "16",
+                          "--workers", "1"], cwd=str(ROOT), env=env, capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-3000:]
+    said = ("image 'grey.png', read by Normal Map node 'Normal Map' (material 'Mat'), holds "
+            "1 channel in its file (grey.png: grey PNG)")
+    assert f"surfgrad: warning: a.blend:Plane: {said}" in run.stderr, run.stderr[-3000:]
+    entry = json.loads((out / MANIFEST_NAME).read_text())["assets"][f"{blend}:Plane"]
+    assert [w for w in entry["warnings"] if w.startswith(said)], entry["warnings"]

@@ -34,6 +34,7 @@ from . import normal_bake as NB
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
 from .image_checks import colour_space_warnings, image_problems, output_input_problems
+from .normal_map_checks import normal_map_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -225,6 +226,7 @@ def _check(request, obj, warn):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
     problems += image_problems(obj, tiles)          # the tiles this bake writes
     warnings += colour_space_warnings(obj)
+    warnings += normal_map_warnings(obj)            # grey files, -1..1 floats
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)
