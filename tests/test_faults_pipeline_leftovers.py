@@ -278,3 +278,33 @@ def test_a_batch_records_the_grey_normal_map_warning(tmp_path):
     assert f"surfgrad: warning: a.blend:Plane: {said}" in run.stderr, run.stderr[-3000:]
     entry = json.loads((out / MANIFEST_NAME).read_text())["assets"][f"{blend}:Plane"]
     assert [w for w in entry["warnings"] if w.startswith(said)], entry["warnings"]
+
+
+@pytest.mark.parametrize("command", ["bake-normal-map", "bake-batch"])
+def test_an_output_written_blenders_way_is_refused_not_put_in_the_root(command, tmp_path,
+                                                                        capsys):
+    """`--output //maps/n.png`, Blender's 'beside the .blend', copied from its interface.
+    Before: exit 0 and the map written to /maps/n.png, the file system's root (a root farm
+    node takes it; elsewhere 'not writable'). Now refused, exit 2, nothing written."""
+    _write_image(tmp_path / "n.png", _normal_texels())
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    name = f"surfgrad-probe-{os.getpid()}"
+    if command == "bake-normal-map":
+        args = ["--blend", str(blend), "--object", "Plane", "--output", f"//{name}.png"]
+        said = f"output '//{name}.png' starts with '//'"
+    else:
+        args = [str(blend), "--output", f"//{name}/{{object}}.png", "--workers", "0"]
+        said = f"output pattern '//{name}/{{object}}.png' starts with '//'"
+    try:
+        rc = commands.execute([command, *args, "--resolution", "16"])
+        err = capsys.readouterr().err
+        assert rc == exit_codes.BAD_REQUEST, err
+        line = err.strip().splitlines()[-1]
+        assert line.startswith(f"surfgrad: error: {said}, Blender's 'beside the .blend "
+                               f"file'") and "give the folder itself" in line, err
+        assert not Path(f"/{name}.png").exists() and not Path(f"/{name}").exists()
+    finally:
+        Path(f"/{name}.png").unlink(missing_ok=True)
+        if Path(f"/{name}").is_dir():
+            import shutil
+            shutil.rmtree(f"/{name}")

@@ -85,7 +85,23 @@ def _name_max(folder):
         return 255
 
 
+def blend_relative_problem(output, what="output"):
+    """What is wrong with an output path written Blender's way, '//maps/n.png' for 'beside the
+    .blend file': a path given to a command or the API is a file-system path, where it names
+    the root folder ('/maps/n.png'). None for any other path, and on Windows (where
+    //server/share is a network path)."""
+    text = str(output)
+    if os.name == "nt" or not text.startswith("//") or text.startswith("///"):
+        return None
+    return (f"{what} {text!r} starts with '//', Blender's 'beside the .blend file', which a "
+            f"path given here does not mean (the map would go to {'/' + text.lstrip('/')!r}): "
+            f"give the folder itself, absolute or relative to the current folder")
+
+
 def _check_output(output):
+    problem = blend_relative_problem(output)
+    if problem:
+        raise NormalBakeError(problem)
     longest = _name_max(output.parent) - TEMP_NAME_EXTRA
     if len(os.fsencode(output.name)) > longest:
         raise NormalBakeError(f"output file name {output.name[:40]!r}... is "

@@ -116,13 +116,13 @@ def _files(image):
 def _range_problem(image):
     """A float image with more than NEGATIVE_SHARE of its texels below 0 in R or G (its first
     tile, for a tiled one), or None."""
-    if not image.is_float or image.source not in ("FILE", "TILED"):
+    if image.source not in ("FILE", "TILED"):
         return None
-    had_data = image.has_data
+    had_data = image.has_data       # (is_float, size and channels load the image)
     try:
         w, h = image.size
         channels = image.channels
-        if w * h == 0 or channels < 2:
+        if not image.is_float or w * h == 0 or channels < 2:
             return None
         px = np.empty(w * h * channels, dtype=np.float32)
         image.pixels.foreach_get(px)

@@ -131,6 +131,9 @@ def _safe(name):
 def check_pattern(pattern):
     """The output pattern's problems, before anything runs."""
     pattern = str(pattern)
+    problem = NB.blend_relative_problem(pattern, "output pattern")
+    if problem:
+        raise BatchError(problem)
     name = Path(pattern).name
     if not name:
         raise BatchError(f"output pattern {pattern!r} ends in a folder: give a file name")
