@@ -308,3 +308,30 @@ def test_an_output_written_blenders_way_is_refused_not_put_in_the_root(command, 
         if Path(f"/{name}").is_dir():
             import shutil
             shutil.rmtree(f"/{name}")
+
+
+@pytest.mark.parametrize("errno_name, fix", [
+    ("EROFS", "check that {folder!r} still takes files (its permissions, a read-only mount)"),
+    ("ENOSPC", "free space in {folder!r} (the disk may be full)")])
+def test_a_manifest_a_folder_refuses_names_the_folder_not_a_full_disk(errno_name, fix,
+                                                                     tmp_path, monkeypatch):
+    """The output folder made read-only during a batch (probed: an ext4 folder made immutable
+    after the first map; the rest failed 'not writable' one by one). Before: the run's last
+    line said 'free space ... (the disk may be full)' for a folder that had room. Simulated
+    here (the suite may run as root, whom permissions do not bind): the rename fails."""
+    import errno
+    from surfgrad_addon.addon.batch import manifest as M
+    code = getattr(errno, errno_name)
+
+    def refuse(*_):
+        raise OSError(code, os.strerror(code))
+
+    monkeypatch.setattr(M.os, "replace", refuse)
+    path = tmp_path / MANIFEST_NAME
+    with pytest.raises(exit_codes.BakeFailed) as err:
+        M.write_final(path, {"assets": {}, "files": {}})
+    assert str(err.value) == (
+        f"manifest {path} could not be written ({os.strerror(code)}): it does not record this "
+        f"run; {fix.format(folder=str(tmp_path))} and bake again (--overwrite to replace the "
+        f"maps it could not record)")
+    assert list(tmp_path.iterdir()) == []               # no temporary left
