@@ -335,3 +335,51 @@ def test_a_manifest_a_folder_refuses_names_the_folder_not_a_full_disk(errno_name
         f"run; {fix.format(folder=str(tmp_path))} and bake again (--overwrite to replace the "
         f"maps it could not record)")
     assert list(tmp_path.iterdir()) == []               # no temporary left
+
+
+def _without_root_reads():
+    """The command prefix that makes file permissions bind this process: none for a user;
+    for root, setpriv dropping the capabilities that let root read any file."""
+    if os.geteuid() != 0:
+        return []
+    import shutil
+    if not shutil.which("setpriv"):
+        pytest.skip("root, and no setpriv to drop CAP_DAC_OVERRIDE")
+    return ["setpriv", "--bounding-set", "-dac_override,-dac_read_search", "--"]
+
+
+@pytest.mark.tier("child")
+@pytest.mark.skipif(not hasattr(os, "geteuid"), reason="POSIX permissions")
+@pytest.mark.parametrize("command", ["bake-normal-map", "bake-batch"])
+def test_a_texture_this_user_may_not_read_is_named_as_such(command, tmp_path):
+    """A texture whose read permission is denied (another user's file, mode 600). Before:
+    'could not be read (damaged, or a format Blender does not open): re-save it as PNG or
+    EXR', the wrong fix; bake-batch also printed a PermissionError traceback from a pool
+    thread (the input hash of the file's dependencies), which killed that thread."""
+    (tmp_path / "tex").mkdir()
+    texture = tmp_path / "tex" / "n.png"
+    _write_image(texture, _normal_texels())
+    blend = _scene(tmp_path / "a.blend", texture)
+    texture.chmod(0)
+    out = tmp_path / "out"
+    out.mkdir()
+    args = {"bake-normal-map": ["--blend", blend, "--object", "Plane", "--output",
+                                out / "n.png"],
+            "bake-batch": [blend, "--output", out / "{object}.png", "--workers", "1"]}[command]
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    try:
+        run = subprocess.run([*_without_root_reads(), sys.executable, "-m", "surfgrad_addon",
+                              command, *map(str, args), "--resolution", "16"], cwd=str(ROOT),
+                             env=env, capture_output=True, text=True, timeout=300)
+    finally:
+        texture.chmod(0o644)
+    want = {"bake-normal-map": exit_codes.BAD_REQUEST, "bake-batch": exit_codes.BAKE_FAILED}
+    assert run.returncode == want[command], run.stderr[-3000:]
+    text = run.stdout + run.stderr
+    assert "Traceback" not in text and "damaged" not in text, text[-3000:]
+    line = run.stderr.strip().splitlines()[-1]
+    assert f"image 'n.png' reads {str(texture)!r}, which cannot be opened (Permission " \
+           f"denied): Cycles would bake its magenta 'missing' colour; let this user read it " \
+           f"(its permissions or owner), or pack it" in line, text[-3000:]
+    assert [p.name for p in out.iterdir() if p.suffix == ".png"] == []

@@ -206,6 +206,10 @@ def one_image_problem(image):
     try:
         w, h = image.size
         if w == 0 or h == 0:
+            problem = not packed and next(filter(None, (
+                unreadable_problem(what, p) for p in _image_files(image))), None)
+            if problem:
+                return problem
             if image.source == "MOVIE":         # a movie Blender cannot decode: magenta
                 return (f"movie {what[6:]} ({image.filepath!r}) could not be read (damaged, "
                         f"or this Blender cannot decode it): {MI.MAGENTA}; render it to an "
@@ -250,9 +254,9 @@ def file_problem(what, path):
         probe = None
     try:
         if probe is None or 0 in probe.size[:]:
-            return (f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
-                    f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG "
-                    f"or EXR")
+            return unreadable_problem(what, path) or (
+                f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
+                f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG or EXR")
         if probe.is_float:
             w, h = probe.size
             px = np.empty(w * h * probe.channels, dtype=np.float32)
@@ -262,3 +266,18 @@ def file_problem(what, path):
     finally:
         if probe is not None:
             bpy.data.images.remove(probe)
+
+
+def unreadable_problem(what, path):
+    """What is wrong when this process may not read the image file `path` (a permission, a
+    file another user owns), else None: Blender says only that it could not load it, which
+    reads as a damaged file."""
+    try:
+        with open(path, "rb") as f:
+            f.read(1)
+    except OSError as err:
+        if isinstance(err, (FileNotFoundError, IsADirectoryError)):
+            return None
+        return (f"{what} reads {str(path)!r}, which cannot be opened ({err.strerror}): "
+                f"{MI.MAGENTA}; let this user read it (its permissions or owner), or pack it")
+    return None
