@@ -299,15 +299,42 @@ def test_an_output_written_blenders_way_is_refused_not_put_in_the_root(command, 
         rc = commands.execute([command, *args, "--resolution", "16"])
         err = capsys.readouterr().err
         assert rc == exit_codes.BAD_REQUEST, err
-        line = err.strip().splitlines()[-1]
-        assert line.startswith(f"surfgrad: error: {said}, Blender's 'beside the .blend "
-                               f"file'") and "give the folder itself" in line, err
-        assert not Path(f"/{name}.png").exists() and not Path(f"/{name}").exists()
+        _assert_refused_blend_relative(err, said, name)
     finally:
-        Path(f"/{name}.png").unlink(missing_ok=True)
-        if Path(f"/{name}").is_dir():
-            import shutil
-            shutil.rmtree(f"/{name}")
+        _remove_from_root(name)
+
+
+def _assert_refused_blend_relative(err, said, name):
+    line = err.strip().splitlines()[-1]
+    assert line.startswith(f"surfgrad: error: {said}, Blender's 'beside the .blend file', "
+                           f"which a path given here does not mean (it would be written in "
+                           f"the root: '/{name}") and "give the folder itself" in line, err
+    assert not list(Path("/").glob(f"{name}*"))
+
+
+def _remove_from_root(name):
+    import shutil
+    for p in Path("/").glob(f"{name}*"):
+        shutil.rmtree(p) if p.is_dir() else p.unlink()
+
+
+@pytest.mark.tier("child")
+def test_a_compare_report_written_blenders_way_is_refused_not_put_in_the_root():
+    """`compare --json //t.json`. Before: exit 0, /t.json and /t_error.png written in the
+    file system's root."""
+    name = f"surfgrad-probe-{os.getpid()}"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(ROOT)
+    try:
+        run = subprocess.run([sys.executable, "-m", "surfgrad_addon", "compare", "--object",
+                              "Torus", "--method", "normal-map", "--resolution", "16",
+                              "--json", f"//{name}.json"], cwd=str(ROOT), env=env,
+                             capture_output=True, text=True, timeout=300)
+        assert run.returncode == exit_codes.BAD_REQUEST, run.stderr[-3000:]
+        _assert_refused_blend_relative(run.stderr, f"output '//{name}.json' starts with '//'",
+                                       name)
+    finally:
+        _remove_from_root(name)
 
 
 @pytest.mark.parametrize("errno_name, fix", [
