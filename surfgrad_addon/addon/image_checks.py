@@ -98,14 +98,15 @@ def image_problems(obj, covered=()):
     return out
 
 
-def colour_space_warnings(obj):
+def colour_space_warnings(obj, only=None):
     """A warning per image read as colour into a Normal Map node's Color (through reroutes):
     sRGB (or any colour space that is not data) bends every texel's normal, and the bake,
-    like Cycles' render, takes the bent one. The usual fix is the image's colour space."""
+    like Cycles' render, takes the bent one. The usual fix is the image's colour space.
+    only: that material alone (the one a freeze bakes)."""
     out, memo = [], {}
     for slot in obj.material_slots:
         mat = slot.material
-        if mat is None or mat.node_tree is None:
+        if mat is None or mat.node_tree is None or only not in (None, mat):
             continue
         for node, path in material_nodes(mat, memo):
             if node.bl_idname != "ShaderNodeNormalMap" or not node.inputs["Color"].is_linked:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..reference import tiles as T
-from .image_checks import material_nodes
+from .image_checks import colour_space_warnings, material_nodes
 from .image_headers import file_channels
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
@@ -29,14 +29,14 @@ _GROUP_NAME = re.compile(rf"({'|'.join(map(re.escape, NORMAL_MAP_GROUPS))})( \[.
 NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filtering, has any
 
 
-def normal_map_images(obj):
+def normal_map_images(obj, only=None):
     """[(material, what the node is and its path, image)] for every image node whose Color
     output is read (through reroutes) into the Color input of a Normal Map node, an SG Normal
-    Map or an SG Tangent Normal the object's materials reach."""
+    Map or an SG Tangent Normal the object's materials (or material `only`) reach."""
     out, memo = [], {}
     for slot in obj.material_slots:
         mat = slot.material
-        if mat is None or mat.node_tree is None:
+        if mat is None or mat.node_tree is None or only not in (None, mat):
             continue
         for node, path in material_nodes(mat, memo):
             kind = _normal_map_kind(node)
@@ -61,11 +61,11 @@ def _normal_map_kind(node):
     return match.group(1) if match else None
 
 
-def normal_map_warnings(obj):
+def normal_map_warnings(obj, only=None):
     """The warnings for every image normal_map_images finds: too few channels in its file,
     or a float image stored in -1..1. Each image is read once."""
     out, seen = [], {}
-    for mat, node, image in normal_map_images(obj):
+    for mat, node, image in normal_map_images(obj, only):
         if image.name not in seen:
             seen[image.name] = (_channels_problem(image), _range_problem(image))
         for problem in seen[image.name]:
@@ -138,3 +138,10 @@ def _range_problem(image):
             f"as 0..1 (0.5 is no tilt), so every normal is pulled toward (-1, -1) (the bake "
             f"takes them as Cycles renders them); store it as n * 0.5 + 0.5 (re-export it as "
             f"a 0..1 tangent-space normal map)")
+
+
+def input_warnings(obj, only=None):
+    """Every warning about the normal maps the object's materials (or `only`) read: colour
+    space, channels, range. The Freeze operator reports them (bake_request.check warns the
+    same for the commands)."""
+    return colour_space_warnings(obj, only) + normal_map_warnings(obj, only)
