@@ -109,19 +109,12 @@ def _write_image(path, rgba, file_format="PNG", float_buffer=False, **settings):
 
 
 def _scene(blend, image_path, via="ShaderNodeNormalMap", space="Non-Color", pack=False):
-    """`blend`: object Plane (2 x 2 quads filling the 0-1 UV square) whose material reads
+    """`blend`: object Plane (one quad filling the 0-1 UV square) whose material reads
     `image_path` (colour space `space`; packed into the .blend if `pack`) into the Color
     input of node `via`: a node type, or a surfgrad group's name (through SG Resolve)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    verts = [(x / 2, y / 2, 0.0) for y in range(3) for x in range(3)]
-    faces = [(y * 3 + x, y * 3 + x + 1, y * 3 + x + 4, y * 3 + x + 3)
-             for y in range(2) for x in range(2)]
-    mesh = bpy.data.meshes.new("Plane")
-    mesh.from_pydata(verts, [], faces)
-    uv = np.asarray([(verts[i][0], verts[i][1]) for f in faces for i in f], np.float32)
-    mesh.uv_layers.new(name="UVMap").data.foreach_set("uv", uv.ravel())
-    obj = bpy.data.objects.new("Plane", mesh)
-    bpy.context.scene.collection.objects.link(obj)
+    bpy.ops.mesh.primitive_plane_add(size=1.0)      # one quad, UVs filling 0-1 ("UVMap")
+    obj = bpy.context.object
     mat, tree, bsdf = diffuse_material("Mat")
     tex = tree.nodes.new("ShaderNodeTexImage")
     tex.image = bpy.data.images.load(str(image_path), check_existing=False)

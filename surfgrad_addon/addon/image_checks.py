@@ -103,30 +103,34 @@ def colour_space_warnings(obj, only=None):
     sRGB (or any colour space that is not data) bends every texel's normal, and the bake,
     like Cycles' render, takes the bent one. The usual fix is the image's colour space.
     only: that material alone (the one a freeze bakes)."""
-    out, memo = [], {}
+    out = []
+    for mat, node, path in objects_nodes(obj, only):
+        if node.bl_idname != "ShaderNodeNormalMap":
+            continue
+        image = image_feeding(node.inputs["Color"])
+        if image is None or image.colorspace_settings.is_data:
+            continue
+        text = (f"image {image.name!r} is read in colour space "
+                f"{image.colorspace_settings.name!r} by Normal Map node {path!r} "
+                f"(material {mat.name!r}): a normal map is data, and this bends every "
+                f"normal (the bake takes them as Cycles renders them); set the image's "
+                f"Color Space to Non-Color (Image Texture node, or the Image Editor's "
+                f"sidebar)")
+        if text not in out:
+            out.append(text)
+    return out
+
+
+def objects_nodes(obj, only=None):
+    """(material, node, path) for every node the object's materials (or material `only`)
+    read through the output Cycles renders (material_nodes)."""
+    memo = {}
     for slot in obj.material_slots:
         mat = slot.material
         if mat is None or mat.node_tree is None or only not in (None, mat):
             continue
         for node, path in material_nodes(mat, memo):
-            if node.bl_idname != "ShaderNodeNormalMap" or not node.inputs["Color"].is_linked:
-                continue
-            source = node.inputs["Color"].links[0].from_node
-            while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
-                source = source.inputs[0].links[0].from_node
-            image = getattr(source, "image", None) if \
-                source.bl_idname == "ShaderNodeTexImage" else None
-            if image is None or image.colorspace_settings.is_data:
-                continue
-            text = (f"image {image.name!r} is read in colour space "
-                    f"{image.colorspace_settings.name!r} by Normal Map node {path!r} "
-                    f"(material {mat.name!r}): a normal map is data, and this bends every "
-                    f"normal (the bake takes them as Cycles renders them); set the image's "
-                    f"Color Space to Non-Color (Image Texture node, or the Image Editor's "
-                    f"sidebar)")
-            if text not in out:
-                out.append(text)
-    return out
+            yield mat, node, path
 
 
 def output_input_problems(obj, finals):
@@ -169,6 +173,17 @@ def uv_reference_problems(obj):
     finally:
         eval_obj.to_mesh_clear()
     return out
+
+
+def image_feeding(socket):
+    """The image of the Image Texture node whose output reaches `socket` (through reroutes),
+    or None."""
+    if socket is None or not socket.is_linked:
+        return None
+    source = socket.links[0].from_node
+    while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
+        source = source.inputs[0].links[0].from_node
+    return getattr(source, "image", None) if source.bl_idname == "ShaderNodeTexImage" else None
 
 
 def _image_files(image):

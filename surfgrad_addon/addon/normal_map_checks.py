@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..reference import tiles as T
-from .image_checks import colour_space_warnings, material_nodes
+from .image_checks import colour_space_warnings, image_feeding, objects_nodes
 from .image_headers import file_channels
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
@@ -33,23 +33,12 @@ def normal_map_images(obj, only=None):
     """[(material, what the node is and its path, image)] for every image node whose Color
     output is read (through reroutes) into the Color input of a Normal Map node, an SG Normal
     Map or an SG Tangent Normal the object's materials (or material `only`) reach."""
-    out, memo = [], {}
-    for slot in obj.material_slots:
-        mat = slot.material
-        if mat is None or mat.node_tree is None or only not in (None, mat):
-            continue
-        for node, path in material_nodes(mat, memo):
-            kind = _normal_map_kind(node)
-            socket = node.inputs.get("Color") if kind else None
-            if socket is None or not socket.is_linked:
-                continue
-            source = socket.links[0].from_node
-            while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
-                source = source.inputs[0].links[0].from_node
-            image = getattr(source, "image", None) if \
-                source.bl_idname == "ShaderNodeTexImage" else None
-            if image is not None:
-                out.append((mat, f"{kind} node {path!r}", image))
+    out = []
+    for mat, node, path in objects_nodes(obj, only):
+        kind = _normal_map_kind(node)
+        image = image_feeding(node.inputs.get("Color")) if kind else None
+        if image is not None:
+            out.append((mat, f"{kind} node {path!r}", image))
     return out
 
 
