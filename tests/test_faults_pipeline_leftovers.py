@@ -273,7 +273,7 @@ def test_a_batch_records_the_grey_normal_map_warning(tmp_path):
     assert [w for w in entry["warnings"] if w.startswith(said)], entry["warnings"]
 
 
-@pytest.mark.parametrize("command", ["bake-normal-map", "bake-batch"])
+@pytest.mark.parametrize("command", ["bake-normal-map", "bake-batch", "--manifest"])
 def test_an_output_written_blenders_way_is_refused_not_put_in_the_root(command, tmp_path,
                                                                         capsys):
     """`--output //maps/n.png`, Blender's 'beside the .blend', copied from its interface.
@@ -285,11 +285,16 @@ def test_an_output_written_blenders_way_is_refused_not_put_in_the_root(command, 
     if command == "bake-normal-map":
         args = ["--blend", str(blend), "--object", "Plane", "--output", f"//{name}.png"]
         said = f"output '//{name}.png' starts with '//'"
-    else:
+    elif command == "bake-batch":
         args = [str(blend), "--output", f"//{name}/{{object}}.png", "--workers", "0"]
         said = f"output pattern '//{name}/{{object}}.png' starts with '//'"
+    else:
+        args = [str(blend), "--output", str(tmp_path / "maps" / "{object}.png"),
+                "--workers", "0", "--manifest", f"//{name}.json"]
+        said = f"manifest '//{name}.json' starts with '//'"
     try:
-        rc = commands.execute([command, *args, "--resolution", "16"])
+        rc = commands.execute([command if command != "--manifest" else "bake-batch", *args,
+                               "--resolution", "16"])
         err = capsys.readouterr().err
         assert rc == exit_codes.BAD_REQUEST, err
         _assert_refused_blend_relative(err, said, name)

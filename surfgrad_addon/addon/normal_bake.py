@@ -88,7 +88,8 @@ def _name_max(folder):
 def blend_relative_problem(output, what="output"):
     """What is wrong with an output path written Blender's way, '//maps/n.png' for 'beside the
     .blend file': a path given to a command or the API is a file-system path, where it names
-    the root folder ('/maps/n.png'). bake-normal-map, bake-batch and compare refuse it. None for any other path, and on Windows (where
+    the root folder ('/maps/n.png'). bake-normal-map, bake-batch (its pattern and
+    --manifest) and compare refuse it. None for any other path, and on Windows (where
     //server/share is a network path)."""
     text = str(output)
     if os.name == "nt" or not text.startswith("//") or text.startswith("///"):

@@ -30,6 +30,9 @@ def default_manifest(pattern):
 def checked_path(manifest, pattern):
     """The manifest's path (`manifest`, else default_manifest(pattern)), or BatchError if it
     cannot be written there."""
+    problem = manifest and NB.blend_relative_problem(manifest, "manifest")
+    if problem:
+        raise BatchError(problem)
     path = Path(manifest) if manifest else default_manifest(pattern)
     problem = BR.folder_problem(path.parent) or _manifest_problem(path)
     if problem:
