@@ -232,6 +232,64 @@ def test_a_grey_jpeg_is_warned_and_an_unread_format_is_not(tmp_path, capsys):
     assert "surfgrad: warning" not in err, err
 
 
+def _exr_of_channels(path, planes):
+    """An uncompressed single-part half EXR holding exactly `planes` ({name: (H, W) array},
+    row 0 at v = 0), written by hand from the OpenEXR file layout: Blender's writer always
+    writes R, G and B."""
+    import struct
+
+    def attr(name, kind, data):
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
+    names = sorted(planes)
+    h, w = next(iter(planes.values())).shape
+    chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", 1, 0, 1, 1)
+                      for n in names) + b"\0"
+    box = struct.pack("<4i", 0, 0, w - 1, h - 1)
+    header = (attr("channels", "chlist", chlist) + attr("compression", "compression", b"\0")
+              + attr("dataWindow", "box2i", box) + attr("displayWindow", "box2i", box)
+              + attr("lineOrder", "lineOrder", b"\0")
+              + attr("pixelAspectRatio", "float", struct.pack("<f", 1))
+              + attr("screenWindowCenter", "v2f", struct.pack("<2f", 0, 0))
+              + attr("screenWindowWidth", "float", struct.pack("<f", 1)) + b"\0")
+    head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + header
+    rows = [struct.pack("<ii", y, 2 * w * len(names))
+            + b"".join(planes[n][h - 1 - y].astype("<f2").tobytes() for n in names)
+            for y in range(h)]                  # EXR's first line is the top: v = 1
+    offsets, at = [], len(head) + 8 * h
+    for row in rows:
+        offsets.append(at)
+        at += len(row)
+    path.write_bytes(head + struct.pack(f"<{h}Q", *offsets) + b"".join(rows))
+
+
+@pytest.mark.parametrize("channels", ["Y", "YA", "RG"])
+def test_an_exr_without_r_g_and_b_is_baked_as_rendered_with_a_warning(channels, tmp_path,
+                                                                      capsys):
+    """EXR normal maps with a grey channel (Y, Y+A), or without B (a two-channel R, G map whose
+    B a game engine rebuilds). Blender spreads Y over R, G and B, and reads a missing B as 0:
+    every normal into the surface. Before: not a word. Now the same map (for Y: that of an RGB
+    EXR holding the grey thrice) and a warning naming what the file holds."""
+    t = _normal_texels()
+    planes = {"Y": {"Y": t[..., 0]}, "YA": {"Y": t[..., 0], "A": t[..., 3]},
+              "RG": {"R": t[..., 0], "G": t[..., 1]}}[channels]
+    _exr_of_channels(tmp_path / "n.exr", planes)
+    err = _bake(_scene(tmp_path / "e.blend", tmp_path / "n.exr"), tmp_path / "m.png", capsys)
+    held = {"Y": "1 channel in its file (n.exr: Y (grey) EXR): Blender spreads the grey",
+            "YA": "2 channels in its file (n.exr: Y (grey) and A EXR): Blender spreads the "
+                  "grey",
+            "RG": "2 channels in its file (n.exr: R and G EXR): Blender reads its missing B "
+                  "as 0, which a normal map reads as -1"}[channels]
+    assert f"surfgrad: warning: image 'n.exr', read by Normal Map node 'Normal Map' " \
+           f"(material 'Mat'), holds {held}" in err, err
+    assert err.count("surfgrad: warning") == 1, err
+    if channels == "Y":
+        _exr_of_channels(tmp_path / "rgb.exr", {c: t[..., 0] for c in "RGB"})
+        rgb = _bake(_scene(tmp_path / "c.blend", tmp_path / "rgb.exr"), tmp_path / "c.png",
+                    capsys)
+        assert "surfgrad: warning" not in rgb, rgb
+        assert (tmp_path / "m.png").read_bytes() == (tmp_path / "c.png").read_bytes()
+
+
 @pytest.mark.parametrize("encoding, warned", [("-1..1", True), ("0..1", False)])
 def test_a_float_normal_map_stored_in_minus_one_to_one_is_warned(encoding, warned, tmp_path,
                                                                  capsys):

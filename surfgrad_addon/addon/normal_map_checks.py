@@ -3,10 +3,11 @@ they are: the bake takes the normals Cycles renders, so it never changes them, b
 bends them, naming the image, the node and the fix (as image_checks.colour_space_warnings
 does for an sRGB one).
 
-- An image whose file holds one or two channels (a grey or grey+alpha PNG, a grey JPEG):
-  Blender reports 4 channels once it is loaded, having spread the grey over R, G and B, so
-  every normal leans along (1, 1) in the tangent plane. The file's header says it
-  (image_headers.py); formats it does not cover are not warned about.
+- An image whose file holds one or two channels (a grey or grey+alpha PNG, a grey JPEG or
+  EXR): Blender reports 4 channels once it is loaded, having spread the grey over R, G and
+  B, so every normal leans along (1, 1) in the tangent plane. An EXR without B (a two-channel
+  R, G normal map): Blender reads B as 0, and every normal points into the surface. The
+  file's header says it (image_headers.py); formats it does not cover are not warned about.
 - A float image whose normals are stored in -1..1, not 0..1 (more than NEGATIVE_SHARE of its
   texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
   tilt, so every normal is pulled toward (-1, -1).
@@ -68,19 +69,25 @@ def normal_map_warnings(obj, only=None):
 
 def _channels_problem(image):
     """What is wrong with the channels of the image's file (the first of its UDIM tiles that
-    has too few), or None: fine, or a format whose header is not read."""
+    has too few), or None: fine, or a format whose header is not read (image_headers)."""
     for what, opened in _files(image):
         try:
             with opened() as f:
                 found = file_channels(f)
         except OSError:
             continue                    # unreadable: image_checks refuses what matters
-        if found and found[0] < 3:
-            channels, kind, fmt = found
-            return (f"holds {channels} channel{'s' * (channels > 1)} in its file ({what}: "
-                    f"{kind} {fmt}): Blender spreads the grey over R, G and B, so every "
-                    f"normal leans along (1, 1) in the tangent plane (the bake takes them as "
-                    f"Cycles renders them); save the normal map as RGB (three channels)")
+        if not found or not found.lacking:
+            continue
+        held = (f"holds {found.channels} channel{'s' * (found.channels > 1)} in its file "
+                f"({what}: {found.kind} {found.format})")
+        if found.lacking == "grey":
+            return (f"{held}: Blender spreads the grey over R, G and B, so every normal leans "
+                    f"along (1, 1) in the tangent plane (the bake takes them as Cycles renders "
+                    f"them); save the normal map as RGB (three channels)")
+        return (f"{held}: Blender reads its missing {' and '.join(found.lacking)} as 0, which "
+                f"a normal map reads as -1 (no B: every normal points into the surface; the "
+                f"bake takes them as Cycles renders them); save the normal map with R, G and "
+                f"B (rebuild B from R and G first)")
     return None
 
 
