@@ -338,6 +338,9 @@ def test_a_batch_killed_with_sigkill_takes_its_workers_with_it(tmp_path):
         for pid in _alive(workers):
             os.kill(pid, signal.SIGKILL)
     assert workers and left == [], f"workers still baking 10 s after the batch died: {left}"
+    # Nor the worker's temp folder (red team 30b: it was left empty; the killed batch's own
+    # blender_* session folder stays, nobody can remove it).
+    assert not list(tmp_path.glob("surfgrad-worker-*"))
     # No map, no temporary; the killed run's lock file stays (the system dropped its lock).
     lock = f".{MANIFEST_NAME}.lock"
     assert sorted(p.name for p in out.iterdir()) == [lock, MANIFEST_NAME]

@@ -32,8 +32,9 @@ from ..reference import tiles as T
 from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from .bake_uvs import baked_mesh, one_read
-from .exit_codes import BakeFailed
+from .exit_codes import BakeFailed, MapNotWritten
 from .image_checks import colour_space_warnings, image_problems, output_input_problems
+from .normal_map_checks import normal_map_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -225,6 +226,7 @@ def _check(request, obj, warn):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
     problems += image_problems(obj, tiles)          # the tiles this bake writes
     warnings += colour_space_warnings(obj)
+    warnings += normal_map_warnings(obj)            # grey files, -1..1 floats
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)
@@ -251,7 +253,9 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
                                           r.tiles, r.empty_tiles, overwrite=r.overwrite,
                                           log=log, threads=r.threads)
         except RuntimeError as err:       # the bake operator or the image write
-            raise BakeFailed(f"the bake of {obj.name!r} failed: {err}") from None
+            # (MapNotWritten keeps its kind: a batch does not retry it)
+            failed = MapNotWritten if isinstance(err, MapNotWritten) else BakeFailed
+            raise failed(f"the bake of {obj.name!r} failed: {err}") from None
     result["warnings"] = list(dict.fromkeys(checked.warnings + result.get("warnings", [])))
     return result
 

@@ -22,6 +22,12 @@ class BakeFailed(RuntimeError):
     """A bake that was accepted but did not complete (exit code BAKE_FAILED)."""
 
 
+class MapNotWritten(BakeFailed):
+    """The bake's map could not be written whole (a full disk, a file-size limit, a folder
+    that no longer takes files): a fresh process would meet the same, so a batch does not
+    retry it."""
+
+
 def code_for(error):
     """The exit code for an exception that ends a command (its message is printed)."""
     if isinstance(error, BakeFailed):

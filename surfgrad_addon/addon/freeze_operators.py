@@ -12,6 +12,7 @@ import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from . import freeze as F
+from .normal_map_checks import input_warnings
 
 STAGES = ("checked", "baked", "wired")
 
@@ -46,6 +47,10 @@ unlinked, in a frame (Thaw brings it back)"""
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
+        # What bends the normal maps the stack reads: reported once the freeze is done.
+        obj = context.object
+        mat = getattr(obj, "active_material", None)
+        self._warnings = input_warnings(obj, mat) if mat is not None else []
         self._steps = F.freeze_steps(context.object, self.resolution, self.uv_map,
                                      self.filepath, self.overwrite, self.samples)
         if not self.interactive or context.window is None or bpy.app.background:
@@ -108,6 +113,8 @@ unlinked, in a frame (Thaw brings it back)"""
             where = record["file"] or "packed into the .blend"
             self.report({'INFO'}, f"Froze the stack into {record['image']!r} ({where}); "
                                   f"Thaw Surface Gradient Stack brings it back")
+            for warning in self._warnings:      # last: the status bar shows the warning
+                self.report({'WARNING'}, warning)
         return outcome
 
 

@@ -98,34 +98,39 @@ def image_problems(obj, covered=()):
     return out
 
 
-def colour_space_warnings(obj):
+def colour_space_warnings(obj, only=None):
     """A warning per image read as colour into a Normal Map node's Color (through reroutes):
     sRGB (or any colour space that is not data) bends every texel's normal, and the bake,
-    like Cycles' render, takes the bent one. The usual fix is the image's colour space."""
-    out, memo = [], {}
+    like Cycles' render, takes the bent one. The usual fix is the image's colour space.
+    only: that material alone (the one a freeze bakes)."""
+    out = []
+    for mat, node, path in objects_nodes(obj, only):
+        if node.bl_idname != "ShaderNodeNormalMap":
+            continue
+        image = image_feeding(node.inputs["Color"])
+        if image is None or image.colorspace_settings.is_data:
+            continue
+        text = (f"image {image.name!r} is read in colour space "
+                f"{image.colorspace_settings.name!r} by Normal Map node {path!r} "
+                f"(material {mat.name!r}): a normal map is data, and this bends every "
+                f"normal (the bake takes them as Cycles renders them); set the image's "
+                f"Color Space to Non-Color (Image Texture node, or the Image Editor's "
+                f"sidebar)")
+        if text not in out:
+            out.append(text)
+    return out
+
+
+def objects_nodes(obj, only=None):
+    """(material, node, path) for every node the object's materials (or material `only`)
+    read through the output Cycles renders (material_nodes)."""
+    memo = {}
     for slot in obj.material_slots:
         mat = slot.material
-        if mat is None or mat.node_tree is None:
+        if mat is None or mat.node_tree is None or only not in (None, mat):
             continue
         for node, path in material_nodes(mat, memo):
-            if node.bl_idname != "ShaderNodeNormalMap" or not node.inputs["Color"].is_linked:
-                continue
-            source = node.inputs["Color"].links[0].from_node
-            while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
-                source = source.inputs[0].links[0].from_node
-            image = getattr(source, "image", None) if \
-                source.bl_idname == "ShaderNodeTexImage" else None
-            if image is None or image.colorspace_settings.is_data:
-                continue
-            text = (f"image {image.name!r} is read in colour space "
-                    f"{image.colorspace_settings.name!r} by Normal Map node {path!r} "
-                    f"(material {mat.name!r}): a normal map is data, and this bends every "
-                    f"normal (the bake takes them as Cycles renders them); set the image's "
-                    f"Color Space to Non-Color (Image Texture node, or the Image Editor's "
-                    f"sidebar)")
-            if text not in out:
-                out.append(text)
-    return out
+            yield mat, node, path
 
 
 def output_input_problems(obj, finals):
@@ -170,6 +175,17 @@ def uv_reference_problems(obj):
     return out
 
 
+def image_feeding(socket):
+    """The image of the Image Texture node whose output reaches `socket` (through reroutes),
+    or None."""
+    if socket is None or not socket.is_linked:
+        return None
+    source = socket.links[0].from_node
+    while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
+        source = source.inputs[0].links[0].from_node
+    return getattr(source, "image", None) if source.bl_idname == "ShaderNodeTexImage" else None
+
+
 def _image_files(image):
     """The files an unpacked file image reads (one per UDIM tile for a tiled one)."""
     import bpy
@@ -206,6 +222,10 @@ def one_image_problem(image):
     try:
         w, h = image.size
         if w == 0 or h == 0:
+            problem = not packed and next(filter(None, (
+                unreadable_problem(what, p) for p in _image_files(image))), None)
+            if problem:
+                return problem
             if image.source == "MOVIE":         # a movie Blender cannot decode: magenta
                 return (f"movie {what[6:]} ({image.filepath!r}) could not be read (damaged, "
                         f"or this Blender cannot decode it): {MI.MAGENTA}; render it to an "
@@ -250,9 +270,9 @@ def file_problem(what, path):
         probe = None
     try:
         if probe is None or 0 in probe.size[:]:
-            return (f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
-                    f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG "
-                    f"or EXR")
+            return unreadable_problem(what, path) or (
+                f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
+                f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG or EXR")
         if probe.is_float:
             w, h = probe.size
             px = np.empty(w * h * probe.channels, dtype=np.float32)
@@ -262,3 +282,18 @@ def file_problem(what, path):
     finally:
         if probe is not None:
             bpy.data.images.remove(probe)
+
+
+def unreadable_problem(what, path):
+    """What is wrong when this process may not read the image file `path` (a permission, a
+    file another user owns), else None: Blender says only that it could not load it, which
+    reads as a damaged file."""
+    try:
+        with open(path, "rb") as f:
+            f.read(1)
+    except OSError as err:
+        if isinstance(err, (FileNotFoundError, IsADirectoryError)):
+            return None
+        return (f"{what} reads {str(path)!r}, which cannot be opened ({err.strerror}): "
+                f"{MI.MAGENTA}; let this user read it (its permissions or owner), or pack it")
+    return None

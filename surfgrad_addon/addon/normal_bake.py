@@ -29,7 +29,7 @@ from . import interrupts
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, own_materials, visible_for_bake
 from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
-from .exit_codes import BakeFailed
+from .exit_codes import BakeFailed, MapNotWritten
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
 from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
@@ -85,7 +85,25 @@ def _name_max(folder):
         return 255
 
 
+def blend_relative_problem(output, what="output"):
+    """What is wrong with an output path written Blender's way, '//maps/n.png' for 'beside the
+    .blend file': a path given to a command or the API is a file-system path, where it names
+    the root folder ('/maps/n.png'). bake-normal-map, bake-batch (its pattern and
+    --manifest) and compare refuse it. None for any other path, and on Windows (where
+    //server/share is a network path)."""
+    text = str(output)
+    if os.name == "nt" or not text.startswith("//") or text.startswith("///"):
+        return None
+    return (f"{what} {text!r} starts with '//', Blender's 'beside the .blend file', which a "
+            f"path given here does not mean (it would be written in the root: "
+            f"{'/' + text.lstrip('/')!r}): "
+            f"give the folder itself, absolute or relative to the current folder")
+
+
 def _check_output(output):
+    problem = blend_relative_problem(output)
+    if problem:
+        raise NormalBakeError(problem)
     longest = _name_max(output.parent) - TEMP_NAME_EXTRA
     if len(os.fsencode(output.name)) > longest:
         raise NormalBakeError(f"output file name {output.name[:40]!r}... is "
@@ -303,7 +321,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
             image.save()
         except RuntimeError as err:          # Blender's two lines: "Could not write ...: EINVAL"
             reason = str(err).strip().splitlines()[0].removeprefix("Error: ")
-            raise BakeFailed(f"Blender could not write the map for {str(output)!r} ({reason}): "
+            raise MapNotWritten(f"Blender could not write the map for {str(output)!r} ({reason}): "
                              f"free space in {str(output.parent)!r} (the disk may be full), "
                              f"check that the folder still takes files, and bake again") \
                 from None
@@ -391,7 +409,7 @@ def _check_written(bpy, temp, final, resolution):
             if probe is not None:
                 bpy.data.images.remove(probe)
     if not whole:
-        raise BakeFailed(
+        raise MapNotWritten(
             f"the file written for {str(final)!r} is incomplete (cut off after "
             f"{temp.stat().st_size} bytes): the disk is full or a file-size limit (ulimit -f) "
             f"was hit; free space in "

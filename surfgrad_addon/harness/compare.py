@@ -29,7 +29,7 @@ import numpy as np
 from .. import reference as R
 from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
-from ..addon.normal_bake import resolution_problem
+from ..addon.normal_bake import blend_relative_problem, resolution_problem
 from ..addon.precise_bake import precise_far
 from ..reference import methods as M
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
@@ -396,6 +396,9 @@ def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
 def check_output_path(path, overwrite, what="output"):
     """Refuse, before anything is baked, an output path that cannot be written: a folder,
     an existing file without --overwrite, a parent that is a file or not writable."""
+    problem = blend_relative_problem(path, what)
+    if problem:
+        raise CompareError(problem)
     p = Path(path)
     if p.is_dir():
         raise CompareError(f"{what} {str(p)!r} is a folder; give a file path (e.g. "

@@ -14,10 +14,14 @@ the blocks they run on spread over the cores (methods.evaluated_blocks), as Cycl
 spreads its own.
 
 Kernels are compiled once per machine and cached on disk (numba's cache=True, next to this
-package or in the user's cache directory), so a fresh process loads them in milliseconds.
+package or in the user's cache directory), so a fresh process loads them in milliseconds. A
+cache that cannot be written (a full disk, a file-size limit, a read-only checkout) costs only
+that speed: one warning line, and the kernels run uncached with the same numbers
+(_guard_cache).
 """
 
 import os
+import sys
 
 import numpy as np
 
@@ -48,9 +52,65 @@ def kernel(inline=False):
     def wrap(fn):
         if numba is None:
             return fn
-        return numba.njit(cache=True, nogil=True, error_model="numpy",
-                          inline="always" if inline else "never")(fn)
+        options = dict(nogil=True, error_model="numpy", inline="always" if inline else "never")
+        try:
+            dispatcher = numba.njit(cache=True, **options)(fn)
+        except RuntimeError as error:       # numba found no folder it can write its cache in
+            if "cannot cache" not in str(error):
+                raise
+            cache_unwritable(_in_tree_cache(), "no folder numba tried takes files")
+            return numba.njit(**options)(fn)
+        _guard_cache(dispatcher)
+        return dispatcher
     return wrap
+
+
+_CACHE_FAILED = []      # the folder whose write failed: warned once, no more writes tried
+
+
+def _in_tree_cache():
+    """Where numba keeps this package's kernels by default (its in-tree locator)."""
+    return os.environ.get("NUMBA_CACHE_DIR") or os.path.join(os.path.dirname(__file__),
+                                                             "__pycache__")
+
+
+def cache_unwritable(folder, reason):
+    """Warn once per process that kernels run uncached, naming the folder and the fix."""
+    if _CACHE_FAILED:
+        return
+    _CACHE_FAILED.append(folder)
+    print(f"surfgrad: warning: the reference's compiled kernels could not be cached in "
+          f"{folder!r} ({reason}): each run compiles them again (a slower start, the same "
+          f"numbers); free space there, make it writable, or set NUMBA_CACHE_DIR to a folder "
+          f"that takes files", file=sys.stderr, flush=True)
+
+
+def _guard_cache(dispatcher):
+    """Make the dispatcher's disk cache fail soft: numba raises a failed cache write (ENOSPC,
+    EFBIG under `ulimit -f`, EACCES) out of the call that compiled the kernel, often from deep
+    in another kernel's type inference. The kernel is already compiled then, so the write's
+    failure is only a warning; later writes are skipped, and an unreadable cache is a miss."""
+    cache = getattr(dispatcher, "_cache", None)
+    save, load = getattr(cache, "save_overload", None), getattr(cache, "load_overload", None)
+    if save is None or load is None:
+        return
+
+    def save_overload(sig, data):
+        if _CACHE_FAILED:
+            return
+        try:
+            save(sig, data)
+        except OSError as error:
+            cache_unwritable(getattr(cache, "cache_path", _in_tree_cache()),
+                             error.strerror or str(error))
+
+    def load_overload(sig, target_context):
+        try:
+            return load(sig, target_context)
+        except OSError:
+            return None
+
+    cache.save_overload, cache.load_overload = save_overload, load_overload
 
 
 

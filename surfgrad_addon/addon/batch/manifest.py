@@ -1,6 +1,7 @@
 """The batch's manifest (JSON, beside the outputs): where it goes, reading it back, and
 writing it whole, one write at a time."""
 
+import errno
 import json
 import os
 import sys
@@ -29,6 +30,9 @@ def default_manifest(pattern):
 def checked_path(manifest, pattern):
     """The manifest's path (`manifest`, else default_manifest(pattern)), or BatchError if it
     cannot be written there."""
+    problem = manifest and NB.blend_relative_problem(manifest, "manifest")
+    if problem:
+        raise BatchError(problem)
     path = Path(manifest) if manifest else default_manifest(pattern)
     problem = BR.folder_problem(path.parent) or _manifest_problem(path)
     if problem:
@@ -128,10 +132,17 @@ def write_last(path, data):
         print(f"surfgrad: error: {_unwritten(path, err)}", file=sys.stderr, flush=True)
 
 
+# A folder that stopped taking files (permissions changed, remounted read-only, immutable)
+REFUSED = (errno.EACCES, errno.EPERM, errno.EROFS)
+
+
 def _unwritten(path, err):
+    folder = repr(str(Path(path).parent))
+    fix = (f"check that {folder} still takes files (its permissions, a read-only mount)"
+           if err.errno in REFUSED else f"free space in {folder} (the disk may be full)")
     return (f"manifest {path} could not be written ({err.strerror}): it does not record "
-            f"this run; free space in {str(Path(path).parent)!r} (the disk may be full) and "
-            f"bake again (--overwrite to replace the maps it could not record)")
+            f"this run; {fix} and bake again (--overwrite to replace the maps it could not "
+            f"record)")
 
 
 def _write_json(path, data):

@@ -131,6 +131,9 @@ def _safe(name):
 def check_pattern(pattern):
     """The output pattern's problems, before anything runs."""
     pattern = str(pattern)
+    problem = NB.blend_relative_problem(pattern, "output pattern")
+    if problem:
+        raise BatchError(problem)
     name = Path(pattern).name
     if not name:
         raise BatchError(f"output pattern {pattern!r} ends in a folder: give a file name")
@@ -166,8 +169,19 @@ def input_hash(blend, dependencies=()):
     h = hashlib.sha256(sha256_file(blend).encode())
     for dep in sorted(dependencies):
         h.update(dep.encode())
-        h.update(sha256_file(dep).encode() if Path(dep).is_file() else b"missing")
+        h.update(_file_hash(dep).encode())
     return h.hexdigest()
+
+
+def _file_hash(path):
+    """A dependency's sha256, or what stands for one it cannot read: the image checks name a
+    missing or unreadable image (and its fix) when the asset is baked."""
+    if not Path(path).is_file():
+        return "missing"
+    try:
+        return sha256_file(path)
+    except OSError:                 # (permission denied): a pool thread must not die of it
+        return "unreadable"
 
 
 def checked_options(output, workers, worker_timeout, threads, empty_tiles, tiles, settings_file,
@@ -307,6 +321,6 @@ def unchanged_outputs(prev):
         return False
     for rec in files.values():
         p = Path(rec["path"])
-        if not p.is_file() or sha256_file(p) != rec["sha256"]:
+        if _file_hash(p) != rec["sha256"]:
             return False
     return True

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from .. import bake_request as BR
 from .. import interrupts
+from ..exit_codes import MapNotWritten
 from ..image_checks import image_problems
 from ..material_inputs import missing_library_problem
 from .. import normal_bake as NB
@@ -109,7 +110,8 @@ def open_blend(path):
 def run_request(request, log=lambda *_: None):
     """Do one request in this session: {"op": "scan", blend, objects, collections} or
     {"op": "bake", blend, object, output, settings, tiles, empty_tiles, overwrite}. Returns the
-    reply dict (status "ok", or "error" with kind "input" / "crash" and the message)."""
+    reply dict (status "ok", or "error" with kind "input" / "output" / "crash" and the
+    message; only a crash is retried)."""
     t0, cpu0 = time.perf_counter(), time.process_time()
     reply = {"op": request["op"], "id": request.get("id")}
     try:
@@ -139,6 +141,8 @@ def run_request(request, log=lambda *_: None):
         reply["status"] = "ok"
     except NB.NormalBakeError as err:
         reply.update(status="error", kind="input", error=str(err))
+    except MapNotWritten as err:                # a full disk: the same in a fresh process
+        reply.update(status="error", kind="output", error=str(err))
     except Exception as err:                    # noqa: BLE001 - reported, retried once
         reply.update(status="error", kind="crash", error=f"{type(err).__name__}: {err}")
     reply["total_s"] = time.perf_counter() - t0

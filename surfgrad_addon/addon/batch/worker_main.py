@@ -21,6 +21,8 @@ import sys
 from pathlib import Path
 
 RESULT_MARK = "@@surfgrad-batch "          # a worker's reply line (other output is its log)
+TEMPDIR_PREFIX = "surfgrad-worker-"         # the temp folder the batch makes for each worker
+OWN_TEMPDIR = "SURFGRAD_WORKER_TMPDIR"      # names it to the worker (also its TMPDIR)
 PACKAGE = "_surfgrad_batch"                 # the name the worker loads surfgrad under
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]     # surfgrad's folder (its __init__.py)
 
@@ -59,20 +61,40 @@ def watch_parent(poll_s=0.5):
     threading.Thread(target=watch, daemon=True, name="surfgrad-parent-watch").start()
 
 
-def serve(run_request, stoppable):
+def remove_own_tempdir():
+    """Remove the temp folder the batch made for this worker (workers.Worker), Blender's
+    session folder in it included. The batch removes it once the worker has ended; a batch
+    killed with SIGKILL cannot, so the worker does on its way out. Only that folder: the one
+    OWN_TEMPDIR names, when it is also TMPDIR and a surfgrad-worker-* folder (never a temp
+    folder a user set)."""
+    import os
+    import shutil
+    own = os.environ.get(OWN_TEMPDIR, "")
+    if not own or os.environ.get("TMPDIR") != own:
+        return
+    folder = Path(own)
+    if folder.name.startswith(TEMPDIR_PREFIX) and folder.is_dir() and not folder.is_symlink():
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def serve(run_request, interrupts):
     """Answer requests from stdin until it ends; returns the exit code."""
     import bpy  # noqa: F401 - loaded before "ready": the process start includes it
     reply({"op": "ready"})
     # SIGTERM / SIGINT sent to this worker: its temporary files go, exit 143 / 130 (the batch
     # then fails that asset without a retry); the batch itself stops workers with SIGKILL.
     # The maps of earlier requests stay: the batch has recorded them as baked.
-    with stoppable("the worker", keep_placed=True):
+    with interrupts.stoppable("the worker", keep_placed=True), \
+            interrupts.on_stop(lambda name: remove_own_tempdir()):
         watch_parent()
         for line in sys.stdin:
             line = line.strip()
             if not line:
                 continue
             reply(run_request(json.loads(line), log=lambda *a: print(*a, flush=True)))
+    # Input ends when the batch is done with this worker, or died (its end of the pipe
+    # closes before this process is re-parented, so getppid cannot tell which yet).
+    remove_own_tempdir()
     return 0
 
 
@@ -81,7 +103,7 @@ def main():
     session = importlib.import_module(f"{PACKAGE}.addon.batch.session")
     interrupts = importlib.import_module(f"{PACKAGE}.addon.interrupts")
     command_line = importlib.import_module(f"{PACKAGE}.addon.command_line")
-    return command_line.leave(serve(session.run_request, interrupts.stoppable))
+    return command_line.leave(serve(session.run_request, interrupts))
 
 
 if __name__ == "__main__":

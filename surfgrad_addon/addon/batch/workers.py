@@ -17,7 +17,7 @@ from pathlib import Path
 
 from .. import interrupts
 from . import worker_main
-from .worker_main import RESULT_MARK
+from .worker_main import OWN_TEMPDIR, RESULT_MARK, TEMPDIR_PREFIX
 from .session import run_request
 
 
@@ -46,9 +46,11 @@ class Worker:
     def __init__(self, command, env=None):
         # Its own temp folder: Blender's session folder (TMPDIR/blender_XXXXXX) of a worker
         # that is killed (stop, timeout) is removed with it (interrupts.py).
-        self.tempdir = tempfile.mkdtemp(prefix="surfgrad-worker-")
+        # A worker whose batch was killed removes it itself (worker_main.remove_own_tempdir).
+        self.tempdir = tempfile.mkdtemp(prefix=TEMPDIR_PREFIX)
         env = dict(os.environ if env is None else env)
         env.update(TMPDIR=self.tempdir, TEMP=self.tempdir, TMP=self.tempdir)
+        env[OWN_TEMPDIR] = self.tempdir
         self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, bufsize=1, env=env,
                                      start_new_session=True)

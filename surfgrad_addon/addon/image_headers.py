@@ -1,0 +1,121 @@
+"""How many channels an image file itself holds, read from its header: Blender reports 4
+(Image.channels) for every image once loaded, whatever the file held. Only formats whose
+header says it exactly and cheaply: PNG (the IHDR chunk's colour type, byte 25), baseline or
+progressive JPEG (the frame header's component count) and single-part scanline or tiled
+OpenEXR (the header's `channels` list, default layer only). Other formats, and multi-part,
+deep or multi-layer EXRs, give None (unknown), never a guess.
+
+What Blender makes of too few (checked on 4.2 and 5.2): a grey file (PNG grey, JPEG with one
+component, EXR `Y`) is spread over R, G and B; an EXR colour channel the file lacks reads 0."""
+
+import struct
+from typing import NamedTuple
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# PNG colour type (IHDR) -> (channels, what they are): PNG spec, section 11.2.2.
+PNG_COLOUR_TYPES = {0: (1, "grey"), 2: (3, "RGB"), 3: (3, "palette of RGB colours"),
+                    4: (2, "grey and alpha"), 6: (4, "RGB and alpha")}
+# JPEG start-of-frame markers (SOF0-SOF15 but DHT C4, JPG C8 and DAC CC): ITU T.81, B.1.1.3.
+JPEG_FRAMES = set(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}
+JPEG_COMPONENTS = {1: "grey", 3: "YCbCr colour", 4: "CMYK"}
+JPEG_SCAN_LIMIT = 1 << 20           # a frame header this far in is no file we read cheaply
+EXR_MAGIC = b"\x76\x2f\x31\x01"
+EXR_MULTI_OR_DEEP = 0x1800          # version flags: multi-part (0x1000), deep data (0x800)
+EXR_HEADER_LIMIT = 1 << 16          # a header larger than this is not read
+COLOURS = ("R", "G", "B")
+
+
+class FileChannels(NamedTuple):
+    channels: int       # in the file, alpha included
+    kind: str           # what they are, in words
+    format: str         # PNG, JPEG, EXR
+    lacking: str        # "" (R, G and B there), "grey" (one grey channel), else e.g. "B"
+
+
+def file_channels(f):
+    """FileChannels from the start of the binary file object `f`, or None where the header
+    does not say (another format, or a damaged header)."""
+    head = f.read(33)
+    if head.startswith(PNG_SIGNATURE):
+        if len(head) < 33 or head[12:16] != b"IHDR":
+            return None
+        known = PNG_COLOUR_TYPES.get(head[25])
+        return FileChannels(*known, "PNG", "grey" if known[0] < 3 else "") if known else None
+    if head.startswith(b"\xff\xd8"):
+        f.seek(2)
+        return _jpeg_channels(f)
+    if head.startswith(EXR_MAGIC):
+        f.seek(0)
+        return _exr_channels(f.read(EXR_HEADER_LIMIT))
+    return None
+
+
+def _exr_channels(data):
+    """The channel names of a single-part EXR's header (OpenEXR file layout: magic, version,
+    then name\\0 type\\0 size value attributes up to an empty name)."""
+    if len(data) < 8 or struct.unpack("<i", data[4:8])[0] & EXR_MULTI_OR_DEEP:
+        return None
+    at = 8
+    while at < len(data) and data[at] != 0:
+        name_end = data.find(b"\0", at)
+        type_end = data.find(b"\0", name_end + 1)
+        if name_end < 0 or type_end < 0 or type_end + 5 > len(data):
+            return None
+        size = struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
+        value = data[type_end + 5:type_end + 5 + size]
+        if data[at:name_end] == b"channels" and data[name_end + 1:type_end] == b"chlist":
+            return _exr_verdict(_chlist_names(value))
+        at = type_end + 5 + size
+    return None
+
+
+def _chlist_names(value):
+    """Names in a chlist value: name\\0 then 16 bytes (type, linear, sampling), ended by \\0."""
+    names, at = [], 0
+    while at < len(value) and value[at] != 0:
+        end = value.find(b"\0", at)
+        if end < 0:
+            return None
+        names.append(value[at:end].decode("latin-1"))
+        at = end + 1 + 16
+    return names
+
+
+def _exr_verdict(names):
+    if not names or any("." in n for n in names):      # a multi-layer file: not read
+        return None
+    present = [c for c in COLOURS if c in names]
+    order = [*COLOURS, "Y", "A"]
+    kind = " and ".join("Y (grey)" if n == "Y" else n for n in
+                        sorted(names, key=lambda n: (order.index(n) if n in order else 9, n)))
+    if present:
+        return FileChannels(len(names), kind, "EXR",
+                            "".join(c for c in COLOURS if c not in present))
+    if "Y" in names and not {"RY", "BY"} & set(names):
+        return FileChannels(len(names), kind, "EXR", "grey")
+    return None                     # luminance-chroma, or no colour channel we know
+
+
+def _jpeg_channels(f):
+    """Walk the JPEG's marker segments (lengths only) to its frame header."""
+    while f.tell() < JPEG_SCAN_LIMIT:
+        marker = f.read(2)
+        while len(marker) == 2 and marker[0] == 0xFF and marker[1] == 0xFF:   # fill bytes
+            marker = marker[1:] + f.read(1)
+        if len(marker) < 2 or marker[0] != 0xFF or marker[1] in (0xD9, 0xDA):
+            return None                 # end of image or start of scan: no frame header
+        if 0xD0 <= marker[1] <= 0xD7 or marker[1] == 0x01:
+            continue                    # markers without a segment
+        size = f.read(2)
+        if len(size) < 2:
+            return None
+        length = struct.unpack(">H", size)[0]
+        if marker[1] in JPEG_FRAMES:
+            frame = f.read(6)           # precision, height, width, components
+            if len(frame) < 6:
+                return None
+            n = frame[5]
+            return FileChannels(n, JPEG_COMPONENTS.get(n, f"{n} components"), "JPEG",
+                                "grey" if n == 1 else "")
+        f.seek(length - 2, 1)
+    return None

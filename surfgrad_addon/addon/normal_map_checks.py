@@ -1,0 +1,143 @@
+"""Normal maps an artist got wrong, warned before a bake (bake_request.check) and baked as
+they are: the bake takes the normals Cycles renders, so it never changes them, but says what
+bends them, naming the image, the node and the fix (as image_checks.colour_space_warnings
+does for an sRGB one).
+
+- An image whose file holds one or two channels (a grey or grey+alpha PNG, a grey JPEG or
+  EXR): Blender reports 4 channels once it is loaded, having spread the grey over R, G and
+  B, so every normal leans along (1, 1) in the tangent plane. An EXR without B (a two-channel
+  R, G normal map): Blender reads B as 0, and every normal points into the surface. The
+  file's header says it (image_headers.py); formats it does not cover are not warned about.
+- A float image whose normals are stored in -1..1, not 0..1 (more than NEGATIVE_SHARE of its
+  texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
+  tilt, so every normal is pulled toward (-1, -1).
+"""
+
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..reference import tiles as T
+from .image_checks import colour_space_warnings, image_feeding, objects_nodes
+from .image_headers import file_channels
+
+# The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
+NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
+# ... with a per-UV-map suffix ("SG Normal Map [Detail]") or Blender's copy number (".001")
+_GROUP_NAME = re.compile(rf"({'|'.join(map(re.escape, NORMAL_MAP_GROUPS))})( \[.*\])?(\.\d+)?")
+NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filtering, has any
+
+
+def normal_map_images(obj, only=None):
+    """[(material, what the node is and its path, image)] for every image node whose Color
+    output is read (through reroutes) into the Color input of a Normal Map node, an SG Normal
+    Map or an SG Tangent Normal the object's materials (or material `only`) reach."""
+    out = []
+    for mat, node, path in objects_nodes(obj, only):
+        kind = _normal_map_kind(node)
+        image = image_feeding(node.inputs.get("Color")) if kind else None
+        if image is not None:
+            out.append((mat, f"{kind} node {path!r}", image))
+    return out
+
+
+def _normal_map_kind(node):
+    if node.bl_idname == "ShaderNodeNormalMap":
+        return "Normal Map"
+    tree = getattr(node, "node_tree", None) if node.bl_idname == "ShaderNodeGroup" else None
+    match = _GROUP_NAME.fullmatch(tree.name) if tree is not None else None
+    return match.group(1) if match else None
+
+
+def normal_map_warnings(obj, only=None):
+    """The warnings for every image normal_map_images finds: too few channels in its file,
+    or a float image stored in -1..1. Each image is read once."""
+    out, seen = [], {}
+    for mat, node, image in normal_map_images(obj, only):
+        if image.name not in seen:
+            seen[image.name] = (_channels_problem(image), _range_problem(image))
+        for problem in seen[image.name]:
+            if problem:
+                text = (f"image {image.name!r}, read by {node} (material {mat.name!r}), "
+                        f"{problem}")
+                if text not in out:
+                    out.append(text)
+    return out
+
+
+def _channels_problem(image):
+    """What is wrong with the channels of the image's file (the first of its UDIM tiles that
+    has too few), or None: fine, or a format whose header is not read (image_headers)."""
+    for what, opened in _files(image):
+        try:
+            with opened() as f:
+                found = file_channels(f)
+        except OSError:
+            continue                    # unreadable: image_checks refuses what matters
+        if not found or not found.lacking:
+            continue
+        held = (f"holds {found.channels} channel{'s' * (found.channels > 1)} in its file "
+                f"({what}: {found.kind} {found.format})")
+        if found.lacking == "grey":
+            return (f"{held}: Blender spreads the grey over R, G and B, so every normal leans "
+                    f"along (1, 1) in the tangent plane (the bake takes them as Cycles renders "
+                    f"them); save the normal map as RGB (three channels)")
+        return (f"{held}: Blender reads its missing {' and '.join(found.lacking)} as 0, which "
+                f"a normal map reads as -1 (no B: every normal points into the surface; the "
+                f"bake takes them as Cycles renders them); save the normal map with R, G and "
+                f"B (rebuild B from R and G first)")
+    return None
+
+
+def _files(image):
+    """(what, a function opening it) for the files an image reads: its packed data, its file,
+    or each UDIM tile's; nothing for sequences, movies and generated images."""
+    import bpy
+    packed = getattr(image, "packed_file", None)
+    if packed is not None:
+        data = packed.data
+        return [("packed", lambda: io.BytesIO(data))]
+    if image.source not in ("FILE", "TILED") or not image.filepath:
+        return []
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    if image.source == "TILED":
+        paths = [T.tile_path(path, t.number) for t in image.tiles]
+    else:
+        paths = [Path(path)]
+    return [(Path(p).name, lambda p=p: open(p, "rb")) for p in paths]
+
+
+def _range_problem(image):
+    """A float image with more than NEGATIVE_SHARE of its texels below 0 in R or G (its first
+    tile, for a tiled one), or None."""
+    if image.source not in ("FILE", "TILED"):
+        return None
+    had_data = image.has_data       # (is_float, size and channels load the image)
+    try:
+        w, h = image.size
+        channels = image.channels
+        if not image.is_float or w * h == 0 or channels < 2:
+            return None
+        px = np.empty(w * h * channels, dtype=np.float32)
+        image.pixels.foreach_get(px)
+        px = px.reshape(-1, channels)
+        shares = [float(np.mean(px[:, c] < 0)) for c in (0, 1)]
+    finally:
+        if not had_data and image.has_data:
+            image.buffers_free()
+    if max(shares) <= NEGATIVE_SHARE:
+        return None
+    return (f"has {100 * shares[0]:.0f}% of its texels below 0 in R and "
+            f"{100 * shares[1]:.0f}% in G: it looks stored in -1..1, but a normal map is read "
+            f"as 0..1 (0.5 is no tilt), so every normal is pulled toward (-1, -1) (the bake "
+            f"takes them as Cycles renders them); store it as n * 0.5 + 0.5 (re-export it as "
+            f"a 0..1 tangent-space normal map)")
+
+
+def input_warnings(obj, only=None):
+    """Every warning about the normal maps the object's materials (or `only`) read: colour
+    space, channels, range. The Freeze operator reports them (bake_request.check warns the
+    same for the commands)."""
+    return colour_space_warnings(obj, only) + normal_map_warnings(obj, only)
