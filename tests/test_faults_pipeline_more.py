@@ -459,6 +459,37 @@ def test_an_srgb_normal_map_is_baked_with_a_warning(space, warned, tmp_path, cap
     assert (tmp_path / "map.png").is_file()
 
 
+def test_an_srgb_map_into_sg_normal_map_is_warned_too(tmp_path, capsys):
+    """Before: the sRGB warning looked at Normal Map nodes only, so the same slip into SG Normal
+    Map (the extension's own group) baked without a word."""
+    from surfgrad_addon.addon import groups as G
+    _write_png(tmp_path / "n.png")
+    blend = _scene(tmp_path / "s.blend", tmp_path / "n.png")
+    mat = bpy.data.materials["Mat"]
+    tree = mat.node_tree
+    nm = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeNormalMap")
+    image_node = nm.inputs["Color"].links[0].from_node
+    bsdf = nm.outputs["Normal"].links[0].to_node
+    sg = tree.nodes.new("ShaderNodeGroup")
+    sg.node_tree = G.normal_map_group()
+    resolve = tree.nodes.new("ShaderNodeGroup")
+    resolve.node_tree = G.resolve_group()
+    tree.nodes.remove(nm)
+    tree.links.new(image_node.outputs["Color"], sg.inputs["Color"])
+    tree.links.new(sg.outputs[0], resolve.inputs["Surface Gradient"])
+    tree.links.new(resolve.outputs["Normal"], bsdf.inputs["Normal"])
+    bpy.data.images["n.png"].colorspace_settings.name = "sRGB"
+    node_name = sg.name                     # the file is opened again by the command
+    bpy.ops.wm.save_mainfile()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(tmp_path / "map.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.OK, err
+    assert (f"surfgrad: warning: image 'n.png' is read in colour space 'sRGB' by SG Normal Map "
+            f"node '{node_name}' (material 'Mat'): ") in err, err
+    assert (tmp_path / "map.png").is_file()
+
+
 def _linked_from_missing_library(tmp_path):
     """tmp_path/shot.blend links object Plane from lib.blend, which is then moved away."""
     _write_png(tmp_path / "n.png")

@@ -125,6 +125,33 @@ def render_cost_table(docs):
     return rows
 
 
+def render_cost_instructions_table(docs):
+    """`shader_instructions`' counts: instructions inside Cycles' shader interpreter per frame
+    (callgrind), each SG material and its twin, before (the commit the JSON names) and now."""
+    d = load(docs, "render_cost_instructions.json")
+    rows = ["| material | before | now | its twin | ratio to the twin, before -> now "
+            "| above the twin, before -> now |", "|---|---|---|---|---|---|"]
+    count = {r["key"]: r for r in d["rows"]}
+
+    def m(x):
+        return f"{x / 1e6:.2f}M"
+    for r in d["rows"]:
+        if "twin" not in r:
+            continue
+        twin = count[r["twin"]]
+        b, t_b = r.get("instructions_before"), twin.get("instructions_before")
+        was = f"{r['ratio_before']:.2f}x" if "ratio_before" in r else "-"
+        above_b = m(b - t_b) if b is not None and t_b is not None else "-"
+        rows.append(f"| {r['label']} | {m(b) if b is not None else '-'} | "
+                    f"**{m(r['instructions'])}** | {m(twin['instructions'])} | {was} -> "
+                    f"**{r['ratio']:.2f}x** | {above_b} -> "
+                    f"**{m(r['instructions'] - twin['instructions'])}** |")
+    rows.append(f"\nBlender {d['blender']}, {d['size']}² pixels, {d['samples']} samples, one "
+                f"thread; {d['counted']}; before = {d.get('before_commit', '-')}, now = "
+                f"{d['commit']}.")
+    return rows
+
+
 def noise_footprint_table(docs):
     """SG Noise with and without Filter Footprint on a receding plane (bench/noise_footprint)."""
     d = load(docs, "noise_footprint.json")
@@ -206,6 +233,7 @@ TABLES = {"bench-compare": bench_compare_table,
           "bench-batch": bench_batch_table,
           "render-cost-folded": render_cost_folded_table,
           "render-cost": render_cost_table,
+          "render-cost-instructions": render_cost_instructions_table,
           "noise-footprint": noise_footprint_table,
           "post-resolve": post_resolve_table}
 # The committed JSON each table reads (every docs/*.json must be read by one: a test checks).
@@ -215,6 +243,7 @@ SOURCES = {"bench-compare": ("bench_compare.json",),
            "render-cost-folded": ("render_cost_folded.json",),
            "render-cost": ("render_cost.json", "render_cost_before.json",
                            "render_cost_earlier.json"),
+           "render-cost-instructions": ("render_cost_instructions.json",),
            "noise-footprint": ("noise_footprint.json",),
            "post-resolve": ("exhibits/post-resolve.json",)}
 

@@ -33,8 +33,8 @@ from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
-from .image_checks import colour_space_warnings, image_problems, output_input_problems
-from .normal_map_checks import normal_map_warnings
+from .image_checks import image_problems, output_input_problems
+from .normal_map_checks import colour_space_warnings, normal_map_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision

@@ -98,29 +98,6 @@ def image_problems(obj, covered=()):
     return out
 
 
-def colour_space_warnings(obj, only=None):
-    """A warning per image read as colour into a Normal Map node's Color (through reroutes):
-    sRGB (or any colour space that is not data) bends every texel's normal, and the bake,
-    like Cycles' render, takes the bent one. The usual fix is the image's colour space.
-    only: that material alone (the one a freeze bakes)."""
-    out = []
-    for mat, node, path in objects_nodes(obj, only):
-        if node.bl_idname != "ShaderNodeNormalMap":
-            continue
-        image = image_feeding(node.inputs["Color"])
-        if image is None or image.colorspace_settings.is_data:
-            continue
-        text = (f"image {image.name!r} is read in colour space "
-                f"{image.colorspace_settings.name!r} by Normal Map node {path!r} "
-                f"(material {mat.name!r}): a normal map is data, and this bends every "
-                f"normal (the bake takes them as Cycles renders them); set the image's "
-                f"Color Space to Non-Color (Image Texture node, or the Image Editor's "
-                f"sidebar)")
-        if text not in out:
-            out.append(text)
-    return out
-
-
 def objects_nodes(obj, only=None):
     """(material, node, path) for every node the object's materials (or material `only`)
     read through the output Cycles renders (material_nodes)."""

@@ -1,7 +1,10 @@
 """Normal maps an artist got wrong, warned before a bake (bake_request.check) and baked as
 they are: the bake takes the normals Cycles renders, so it never changes them, but says what
-bends them, naming the image, the node and the fix (as image_checks.colour_space_warnings
-does for an sRGB one).
+bends them, naming the image, the node and the fix.
+
+- An image read in a colour space that is not data (sRGB, the usual slip): the colour is
+  converted before the node decodes it, which bends every normal; the fix is the image's
+  colour space.
 
 - An image whose file holds one or two channels (a grey or grey+alpha PNG, a grey JPEG or
   EXR): Blender reports 4 channels once it is loaded, having spread the grey over R, G and
@@ -20,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..reference import tiles as T
-from .image_checks import colour_space_warnings, image_feeding, objects_nodes
+from .image_checks import image_feeding, objects_nodes
 from .image_headers import file_channels
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
@@ -49,6 +52,24 @@ def _normal_map_kind(node):
     tree = getattr(node, "node_tree", None) if node.bl_idname == "ShaderNodeGroup" else None
     match = _GROUP_NAME.fullmatch(tree.name) if tree is not None else None
     return match.group(1) if match else None
+
+
+def colour_space_warnings(obj, only=None):
+    """A warning per image read as colour into the Color of a Normal Map node, an SG Normal Map
+    or an SG Tangent Normal (normal_map_images): sRGB (or any colour space that is not data)
+    bends every texel's normal, and the bake, like Cycles' render, takes the bent one."""
+    out = []
+    for mat, node, image in normal_map_images(obj, only):
+        if image.colorspace_settings.is_data:
+            continue
+        text = (f"image {image.name!r} is read in colour space "
+                f"{image.colorspace_settings.name!r} by {node} (material {mat.name!r}): a "
+                f"normal map is data, and this bends every normal (the bake takes them as "
+                f"Cycles renders them); set the image's Color Space to Non-Color (Image Texture "
+                f"node, or the Image Editor's sidebar)")
+        if text not in out:
+            out.append(text)
+    return out
 
 
 def normal_map_warnings(obj, only=None):
