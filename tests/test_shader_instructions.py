@@ -3,6 +3,7 @@ Cycles' shader interpreter is the same on every run of a material, grows with wh
 runs, and its table's ratios are the counts' own."""
 
 import shutil
+import sys
 
 import pytest
 
@@ -63,3 +64,16 @@ def test_a_before_root_that_is_no_checkout_is_refused(capsys, tmp_path):
     assert SI.main(["--keys", "none", "--before-root", str(tmp_path), "--out", str(out)]) == 2
     assert "is no surfgrad checkout" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
+def test_a_failing_child_is_named_with_its_own_last_line(tmp_path):
+    """A checkout whose bench cannot run: the error names the material and the child's own
+    error, not valgrind's summary."""
+    root = tmp_path / "broken"
+    (root / "surfgrad_addon").mkdir(parents=True)
+    with pytest.raises(SI.InstructionCountError) as caught:
+        SI.count("none", root, python=sys.executable, timeout=300)
+    text = str(caught.value)
+    assert text.startswith("none: the child failed (exit 1): ") and "==" not in text, text
+    assert "Error" in text, text

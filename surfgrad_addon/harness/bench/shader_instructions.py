@@ -84,7 +84,9 @@ def count(key, root=ROOT, python=None, size=SIZE, samples=SAMPLES, timeout=900):
         except subprocess.TimeoutExpired:
             raise InstructionCountError(f"{key}: the render under valgrind took over {timeout} s")
         if done.returncode != 0 or f"{RENDERED} {key}" not in done.stdout:
-            tail = (done.stderr or done.stdout).strip().splitlines()[-3:]
+            # The child's own last lines, not valgrind's summary (its lines start with ==pid==).
+            tail = [line for line in (done.stderr + done.stdout).strip().splitlines()
+                    if not line.startswith("==")][-3:]
             raise InstructionCountError(f"{key}: the child failed (exit {done.returncode}): "
                                         + " | ".join(tail))
         total = summary_of(out)
