@@ -83,11 +83,12 @@ def render_cost_folded_table(docs):
 
 def render_cost_table(docs):
     """`bench-render`'s render times: docs/render_cost.json (this code) against
-    docs/render_cost_before.json (the commit before) and docs/render_cost_earlier.json (an
-    earlier run the same day, before the per-map procedural basis), all on the same machine:
+    docs/render_cost_before.json (commit 1519e9c, before issue 21's smaller graphs) and
+    docs/render_cost_earlier.json (the previous run: the groups at 6d0bcb0, before the
+    arithmetic guard and the triplanar weighting), all on the same machine:
     each SG material's ratio to its built-in twin (medians of interleaved rounds), the target,
     Cycles' SVM program size after folding, EEVEE's first (compiling) and later renders, the
-    look. Two runs of nearly the same code show the run-to-run spread."""
+    look."""
     now = load(docs, "render_cost.json")
     before, earlier = load(docs, "render_cost_before.json"), load(docs, "render_cost_earlier.json")
     was = {r["key"]: r for r in before["rows"]}
@@ -96,7 +97,7 @@ def render_cost_table(docs):
 
     def ratio(row):
         return f"{row['ratio']:.2f}x" if "ratio" in row else "-"
-    rows = ["| material | ratio to its twin, before | earlier run | now | target "
+    rows = ["| material | ratio to its twin, before | previous run | now | target "
             "| SVM words after folding, before -> now (twin) | EEVEE first / later, now "
             "| look (mean / max deg, against) |",
             "|---|---|---|---|---|---|---|---|"]
@@ -146,9 +147,9 @@ def render_cost_instructions_table(docs):
                     f"**{m(r['instructions'])}** | {m(twin['instructions'])} | {was} -> "
                     f"**{r['ratio']:.2f}x** | {above_b} -> "
                     f"**{m(r['instructions'] - twin['instructions'])}** |")
-    rows.append(f"\nBlender {d['blender']}, {d['size']}² pixels, {d['samples']} samples, one "
-                f"thread; {d['counted']}; before = {d.get('before_commit', '-')}, now = "
-                f"{d['commit']}.")
+    counted = d["counted"].replace("*svm_eval_nodes*", "`svm_eval_nodes`")   # not italics
+    rows.append(f"\nBlender {d['blender']}, {d['size']}² pixels, {d['samples']} samples; "
+                f"{counted}; before = {d.get('before_commit', '-')}, now = {d['commit']}.")
     return rows
 
 
