@@ -42,9 +42,15 @@ def test_quick_render_cost_bench(tmp_path):
     for key in ("tri-sg", "uv2-sg"):
         assert rows[key]["look"]["max_deg"] < 0.5
     # Where the cost comes from: one Normal Map node per SG Normal Map layer (Listings 3 and 9
-    # through Blender's own node) plus the one of SG Resolve's final guard.
-    assert rows["nm-sg"]["normal_map_nodes"] == 2
-    assert rows["layers3-sg"]["normal_map_nodes"] == 4
+    # through Blender's own node); SG Resolve's guard has none (arithmetic nodes only).
+    assert rows["nm-sg"]["normal_map_nodes"] == 1
+    assert rows["layers3-sg"]["normal_map_nodes"] == 3
+    # Each layer of a stack reads its own image (identical layers would be merged by Cycles).
+    assert rows["layers3-sg"]["image_lookups"] == rows["layers3-builtin"]["image_lookups"] == 3
+    # A third layer adds at least what one image lookup and Normal Map node add to a material
+    # (a merged, repeated layer added only its SG Combine).
+    assert rows["layers3-sg"]["svm"] - rows["layers2-sg"]["svm"] > \
+        rows["nm-builtin"]["svm"] - rows["none"]["svm"]
     assert result["marginal_layer"].keys() == {"sg_s", "builtin_s"}
     # The default device: the CPU, named in the JSON and the table's heading.
     assert result["cycles_device"] == "CPU" and (result["size"], result["samples"]) == (96, 8)

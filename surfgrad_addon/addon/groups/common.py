@@ -196,8 +196,8 @@ def listing2_colour(b, color, directx):
     ax, ay, az = b.separate(b.vmath(VMath.ABSOLUTE, b.vmath(VMath.SUBTRACT, color,
                                                            (0.5, 0.5, 0.5))))
     # 0.5 + max(p, q) = max(0.5 + p, 0.5 + q), rounded alike; q = M / 128 is exact. Scalar Math
-    # nodes here: a sample runs a Vector Math node at about three times a Math node's cost
-    # (docs/performance.md, instructions per node).
+    # nodes here: a sample runs a Vector Math node at several times a Math node's instructions
+    # (docs/performance.md, "Instructions per frame").
     blue = b.math(Math.MAXIMUM, b.math(Math.ADD, az, 0.5), b.math(
         Math.MULTIPLY_ADD, b.math(Math.MAXIMUM, ax, ay), TSPACE_Z_CLAMP, 0.5))
     return b.mix_vector((0.0, 0.0, 1.0), flip_green_colour(b, color, directx), blue,

@@ -17,14 +17,15 @@ def noise_texture(g):
     return n.outputs["Fac"]
 
 
-def _nm_builtin(g, ctx, uv_map="UVMap"):
+def _nm_builtin(g, ctx, uv_map="UVMap", image=None):
     nm = g.node("ShaderNodeNormalMap", space="TANGENT", uv_map=uv_map)
-    g.link(g.image(ctx["normal"], g.uv(uv_map)), nm.inputs["Color"])
+    g.link(g.image(image or ctx["normal"], g.uv(uv_map)), nm.inputs["Color"])
     return nm.outputs["Normal"]
 
 
-def _nm_sg_layer(g, ctx, uv_map="UVMap"):
-    node = g.group(G.normal_map_group(uv_map), Color=g.image(ctx["normal"], g.uv(uv_map)))
+def _nm_sg_layer(g, ctx, uv_map="UVMap", image=None):
+    node = g.group(G.normal_map_group(uv_map), Color=g.image(image or ctx["normal"],
+                                                             g.uv(uv_map)))
     return node.outputs["Surface Gradient"]
 
 
@@ -78,11 +79,14 @@ def _uv2_sg(g, ctx):
     return g.resolve(tn.outputs["Surface Gradient"])
 
 
+# A stack's layers each read their own image (ctx["layers"]): layers that read the same image
+# through the same nodes are one to Cycles, which merges identical nodes, and a stack of them
+# would cost about one layer.
 def layers_builtin(count):
     def build(g, ctx):
         total = None
         for k in range(count):
-            n = _nm_builtin(g, ctx, ("UVMap", "Detail")[k % 2])
+            n = _nm_builtin(g, ctx, ("UVMap", "Detail")[k % 2], ctx["layers"][k])
             total = n if total is None else g.add(total, n)
         return g.normalize(total) if count > 1 else total
     return build
@@ -92,7 +96,7 @@ def layers_sg(count):
     def build(g, ctx):
         total = None
         for k in range(count):
-            sg = _nm_sg_layer(g, ctx, ("UVMap", "Detail")[k % 2])
+            sg = _nm_sg_layer(g, ctx, ("UVMap", "Detail")[k % 2], ctx["layers"][k])
             if total is None:
                 total = sg
             else:
@@ -203,10 +207,18 @@ def cases():
 # Scene ------------------------------------------------------------------------------------------
 
 
+MAX_LAYERS = 4
+
+
 def images(normal_size=256, height_size=64):
-    """ctx for the builders: the normal-map and height-map images as Blender float images."""
+    """ctx for the builders: the normal-map and height-map images as Blender float images, and
+    one normal map per stack layer ("layers": the first is "normal", the others the same
+    pattern with a different number of tiles, so each is an image of its own)."""
     from ..compare import bpy_float_image
-    return {"normal": bpy_float_image("rc_normal", R.images.hemisphere_tile_image(normal_size)),
+    normal = bpy_float_image("rc_normal", R.images.hemisphere_tile_image(normal_size))
+    layers = [normal] + [bpy_float_image(f"rc_normal_layer{k}", R.images.hemisphere_tile_image(
+        normal_size, tiles=4 + k)) for k in range(1, MAX_LAYERS)]
+    return {"normal": normal, "layers": layers,
             "height": bpy_float_image("rc_height",
                                       R.images.wave_height_image(height_size, (4.0, 2.0)))}
 
