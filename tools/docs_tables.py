@@ -149,7 +149,8 @@ def render_cost_instructions_table(docs):
                     f"**{m(r['instructions'] - twin['instructions'])}** |")
     counted = d["counted"].replace("*svm_eval_nodes*", "`svm_eval_nodes`")   # not italics
     rows.append(f"\nBlender {d['blender']}, {d['size']}² pixels, {d['samples']} samples; "
-                f"{counted}; before = {d.get('before_commit', '-')}, now = {d['commit']}.")
+                f"{counted}; before = {d.get('before_commit', '-')}, now = {d['commit']}."
+                + (f" {d['note']} (stacks_commit = {d['stacks_commit']})" if "note" in d else ""))
     return rows
 
 
