@@ -538,10 +538,14 @@ def test_ctrl_c_while_the_command_starts_is_one_line_and_exit_130(tmp_path):
     # Once through, so no module is compiled to bytecode while the signal comes.
     subprocess.run([sys.executable, "-m", "surfgrad_addon", "--help"], cwd=str(ROOT), env=env,
                    capture_output=True, timeout=120)
+    # Ctrl-C as in a terminal: the child starts with SIGINT at its default, whatever this
+    # process inherited (a shell's background job ignores SIGINT, and Python then keeps it
+    # ignored: the command ran to the end with exit 0 when the tests ran under `cmd &`).
     proc = subprocess.Popen([sys.executable, "-m", "surfgrad_addon", "bake-normal-map",
                              "--blend", str(blend), "--object", "Plane", "--output",
                              str(tmp_path / "map.png")], cwd=str(ROOT), env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # Inside the imports (until about 0.3 s, when the command's own stop takes over), past
     # the interpreter's own start-up (a few hundredths), which no code of ours can cover.
     time.sleep(0.15)
