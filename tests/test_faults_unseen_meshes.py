@@ -298,3 +298,38 @@ def test_a_mesh_or_uv_map_collapsed_everywhere_is_refused_in_the_bakes_words(emp
                                                    r"no area \(every face collapsed to a point "
                                                    r"or a line in UV space\)"):
         compare.compare(one_point, "normal-map", 32)
+
+
+class _Fault(Exception):
+    pass
+
+
+@pytest.mark.parametrize("where", ["encoding the fans", "filling the fan mesh"])
+def test_a_failure_in_the_fan_welding_leaves_no_temporary_mesh(empty_file, monkeypatch, where):
+    """4.2's welded-fan mesh (weld_fans.fan_mesh) is removed when anything after its creation
+    fails, as the plain temporary mesh is: the user's file keeps only its own meshes."""
+    from surfgrad_addon.harness import mesh_data, weld_fans
+    obj = _mirror_across_its_plane()        # 4.2 welds its fans (extra triangles)
+    calls = []
+    if where == "encoding the fans":
+        original = mesh_data._encode_normals
+
+        def encode(tmp, values, flat):
+            calls.append(tmp.name)
+            if len(calls) == 2:             # the first encodes the plain mesh, the second the fans
+                raise _Fault(where)
+            return original(tmp, values, flat)
+        monkeypatch.setattr(mesh_data, "_encode_normals", encode)
+    else:
+        def fill(*args):
+            calls.append(where)
+            raise _Fault(where)
+        monkeypatch.setattr(weld_fans, "_fill", fill)
+    before = sorted(m.name for m in bpy.data.meshes)
+    try:
+        mesh_arrays_from_object(obj)
+    except _Fault:
+        pass
+    if len(calls) < (2 if where == "encoding the fans" else 1):
+        pytest.skip("this line stores free normals: no welded-fan mesh is made")
+    assert sorted(m.name for m in bpy.data.meshes) == before

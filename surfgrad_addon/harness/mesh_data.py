@@ -200,14 +200,18 @@ def _with_welded_fans(bpy, tmp, arrays, values, smooth):
     if made is None:
         return tmp, 0
     fans, extra_tris, extra_normals = made
-    flat = np.concatenate([~smooth, np.zeros(len(extra_tris), dtype=bool)])
-    fans.polygons.foreach_set("use_smooth", ~flat)
-    _encode_normals(fans, np.concatenate([values, extra_normals]), flat)
-    n = values.size
-    want = values.reshape(-1, 3).astype(np.float64)
-    plain = np.linalg.norm(_get(tmp.corner_normals, "vector", n // 3, 3) - want, axis=1)
-    joined = np.linalg.norm(_get(fans.corner_normals, "vector", len(fans.loops), 3)[:n // 3]
-                            - want, axis=1)
+    try:
+        flat = np.concatenate([~smooth, np.zeros(len(extra_tris), dtype=bool)])
+        fans.polygons.foreach_set("use_smooth", ~flat)
+        _encode_normals(fans, np.concatenate([values, extra_normals]), flat)
+        n = values.size
+        want = values.reshape(-1, 3).astype(np.float64)
+        plain = np.linalg.norm(_get(tmp.corner_normals, "vector", n // 3, 3) - want, axis=1)
+        joined = np.linalg.norm(_get(fans.corner_normals, "vector", len(fans.loops), 3)[:n // 3]
+                                - want, axis=1)
+    except BaseException:
+        bpy.data.meshes.remove(fans)      # the caller removes tmp; leave no second mesh
+        raise
     if np.all(joined <= np.maximum(plain, DECODE_RESOLUTION)):
         bpy.data.meshes.remove(tmp)
         return fans, len(extra_tris)

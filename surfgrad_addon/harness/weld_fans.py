@@ -54,6 +54,15 @@ def fan_mesh(bpy, positions, triangles, values, flat):
         return None                   # the plain triangle mesh's fans are already Cycles' welds
     all_tris = np.concatenate([tris, extra.reshape(-1, 3)]).astype(np.int64)
     mesh = bpy.data.meshes.new(".surfgrad_tangents")
+    try:
+        _fill(mesh, positions, edges, corner_edge, all_tris)
+    except BaseException:
+        bpy.data.meshes.remove(mesh)      # a failed fill leaves no temporary mesh behind
+        raise
+    return mesh, extra.reshape(-1, 3), extra_normals.reshape(-1, 3, 3)
+
+
+def _fill(mesh, positions, edges, corner_edge, all_tris):
     mesh.vertices.add(len(positions))
     mesh.vertices.foreach_set("co", np.asarray(positions, dtype=np.float32).reshape(-1))
     mesh.edges.add(len(edges))
@@ -64,7 +73,6 @@ def fan_mesh(bpy, positions, triangles, values, flat):
     mesh.polygons.add(len(all_tris))
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(all_tris), 3, dtype=np.int32))
     mesh.update()                 # no validate(): it would merge the paired edges again
-    return mesh, extra.reshape(-1, 3), extra_normals.reshape(-1, 3, 3)
 
 
 def normal_classes(values):
