@@ -1,6 +1,8 @@
 """The harness's node vocabulary for bake materials: NodeOps (the group builder's arithmetic) plus
 the material helpers every method, bench scenario and demo exhibit uses."""
 
+from contextlib import nullcontext
+
 from ..addon import groups as G
 from ..addon.enum_input import set_choice
 from ..addon.node_builder import NodeOps
@@ -37,6 +39,10 @@ class Graph(NodeOps):
             else:
                 self.link(value, socket)
         return node
+
+    def frame(self, label):
+        """The group builders' frames: a material built from their pieces gets none."""
+        return nullcontext()
 
     def uv(self, name):
         return self.node("ShaderNodeUVMap", uv_map=name).outputs["UV"]

@@ -5,7 +5,7 @@ whatever else the machine is doing, where render times on a shared 2-core machin
 in a ratio (docs/performance.md): it tells two versions of a group apart to the node.
 
     python -m surfgrad_addon.harness.bench.shader_instructions [--out FILE] [--before-root DIR]
-        [--keys KEY ...] [--jobs N]
+        [--keys KEY ...] [--jobs N] [--parts]
 
 The scene is bench-render's (render_cost.build_scene: the UV sphere, Principled BSDF, the sun)
 at 32 x 32 pixels and 4 samples on one thread. `--before-root` counts the same materials with
@@ -41,7 +41,13 @@ key, size, samples = sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 scene, obj, ctx = RC.build_scene(size, samples)
 scene.render.threads_mode = "FIXED"
 scene.render.threads = 1
-build = next(c for c in M.cases() if c[0] == key)[2]
+cases = M.cases()
+try:                                    # the parts of --parts, where the checkout has them
+    from surfgrad_addon.harness.bench import cost_parts
+    cases = cases + cost_parts.cases()
+except ImportError:
+    pass
+build = next(c for c in cases if c[0] == key)[2]
 obj.data.materials.clear()
 obj.data.materials.append(M.material("SG instructions " + key, build, ctx))
 bpy.ops.render.render(write_still=False)
@@ -147,12 +153,14 @@ def main(argv=None):
     p.add_argument("--keys", nargs="+", help="bench-render material keys (default: every "
                    "material with a twin, the twins and 'none')")
     p.add_argument("--jobs", type=int, help="children at a time (default: the cores)")
+    p.add_argument("--parts", action="store_true", help="take the materials that miss their "
+                   "target apart into their listings (cost_parts) instead")
     args = p.parse_args(argv)
     import bpy
-    from . import render_materials as M
-    cases = M.cases()
+    from . import cost_parts, render_materials as M
+    cases = M.cases() + (cost_parts.cases() if args.parts else [])
     known = [c[0] for c in cases]
-    keys = args.keys or default_keys(cases)
+    keys = args.keys or (cost_parts.keys() if args.parts else default_keys(cases))
     unknown = [k for k in keys if k not in known]
     try:
         if unknown:
@@ -171,6 +179,9 @@ def main(argv=None):
     result = {"blender": bpy.app.version_string, "size": SIZE, "samples": SAMPLES,
               "counted": f"instructions inside {INTERPRETER} (valgrind callgrind), one thread",
               "commit": _commit(ROOT), "rows": rows_of(cases, now, before)}
+    if args.parts:
+        result["counts"] = now
+        result["parts"] = cost_parts.rows(now)
     if before is not None:
         result["before_commit"] = _commit(args.before_root)
     out = Path(args.out)
@@ -179,6 +190,11 @@ def main(argv=None):
     for r in result["rows"]:
         ratio = f"  {r['ratio']:.3f}x its twin" if "ratio" in r else ""
         print(f"{r['instructions']:>12,}  {r['label']}{ratio}")
+    for whole in result.get("parts", []):
+        print(f"{whole['overhead']:>12,}  above its twin: {whole['label']}")
+        for part in whole["parts"]:
+            print(f"{part['instructions']:>16,}  {part['label']}")
+        print(f"{whole['remainder']:>16,}  remainder")
     print(f"wrote {out}")
     return 0
 
