@@ -154,6 +154,29 @@ def render_cost_instructions_table(docs):
     return rows
 
 
+def render_cost_parts_table(docs):
+    """`shader_instructions --parts`: each material that misses its target, its instructions
+    above the twin taken apart into its listings (harness/bench/cost_parts.py)."""
+    d = load(docs, "render_cost_parts.json")
+    rows = ["| material: above its twin | part | instructions | share |", "|---|---|---|---|"]
+
+    def m(x):
+        return f"{x / 1e6:.2f}M"
+    for whole in d["parts"]:
+        rows.append(f"| **{whole['label']}** | all it runs above {whole['twin']} | "
+                    f"**{m(whole['overhead'])}** | 100% |")
+        for part in whole["parts"]:
+            rows.append(f"| | {part['label']} | {m(part['instructions'])} | "
+                        f"{100 * part['share']:.0f}% |")
+        rows.append(f"| | what the parts leave (nodes shared between parts, and how Cycles "
+                    f"orders them) | {m(whole['remainder'])} | "
+                    f"{100 * whole['remainder'] / whole['overhead']:.0f}% |")
+    counted = d["counted"].replace("*svm_eval_nodes*", "`svm_eval_nodes`")
+    rows.append(f"\nBlender {d['blender']}, {d['size']}² pixels, {d['samples']} samples; "
+                f"{counted}; groups at {d['commit']}.")
+    return rows
+
+
 def noise_footprint_table(docs):
     """SG Noise with and without Filter Footprint on a receding plane (bench/noise_footprint)."""
     d = load(docs, "noise_footprint.json")
@@ -236,6 +259,7 @@ TABLES = {"bench-compare": bench_compare_table,
           "render-cost-folded": render_cost_folded_table,
           "render-cost": render_cost_table,
           "render-cost-instructions": render_cost_instructions_table,
+          "render-cost-parts": render_cost_parts_table,
           "noise-footprint": noise_footprint_table,
           "post-resolve": post_resolve_table}
 # The committed JSON each table reads (every docs/*.json must be read by one: a test checks).
@@ -246,6 +270,7 @@ SOURCES = {"bench-compare": ("bench_compare.json",),
            "render-cost": ("render_cost.json", "render_cost_before.json",
                            "render_cost_earlier.json"),
            "render-cost-instructions": ("render_cost_instructions.json",),
+           "render-cost-parts": ("render_cost_parts.json",),
            "noise-footprint": ("noise_footprint.json",),
            "post-resolve": ("exhibits/post-resolve.json",)}
 

@@ -91,6 +91,15 @@ def tri_lookups(g, ctx):
     return g.add(g.add(colors[0], colors[1]), colors[2])
 
 
+def tri_group(g, ctx):
+    """SG Triplanar on its three lookups, its surface gradient to the BSDF."""
+    coords = g.group(G.triplanar_coordinates_group())
+    tri = g.group(G.triplanar_group())
+    for axis in "XYZ":
+        g.link(g.image(ctx["normal"], coords.outputs[f"UV {axis}"]), tri.inputs[f"Color {axis}"])
+    return tri.outputs["Surface Gradient"]
+
+
 def tri_weights(g, ctx):
     """Listing 14's blend weights on the shading normal (the group's default sharpness)."""
     k = G.triplanar_group().interface.items_tree["Sharpness"].default_value
@@ -131,7 +140,7 @@ PARTS = [
     Part("part-nm-listing5", "Listing 5 (with its facing-away branch)", nm_listing5,
          "nm-builtin", "nm-sg"),
     Part("part-nm-resolve", RESOLVE, nm_resolve, "nm-builtin", "nm-sg"),
-    Part("part-nm-hand", "for scale, not a part: issue 21's hand chain (Listing 5 without its "
+    Part("part-nm-hand", "for scale (not a part): issue 21's hand chain (Listing 5 without its "
          "branch, normalize without the guard)", nm_hand_chain, "nm-builtin", "nm-sg",
          for_scale=True),
     Part("part-bump-inverted", "the Bump node inverted (Dot, Divide, Multiply Add) and "
@@ -139,7 +148,11 @@ PARTS = [
     Part("part-bump-resolve", RESOLVE, bump_resolve, "bump-builtin", "bump-sg"),
     Part("part-tri-lookups", "SG Triplanar Coordinates and three image lookups, beyond one "
          "lookup on the UV map", tri_lookups, "part-lookup-uv", "tri-sg"),
-    Part("part-tri-weights", "Listing 14's weights", tri_weights, "none", "tri-sg"),
+    Part("part-tri-group", "SG Triplanar: Listing 14's weights, Listing 2 per plane times "
+         "its weight, Listing 13", tri_group, "part-tri-lookups", "tri-sg"),
+    Part("part-tri-weights", "of which Listing 14's weights alone (not a part)", tri_weights,
+         "none", "tri-sg", for_scale=True),
+    Part("part-tri-resolve", RESOLVE, nm_resolve, "nm-builtin", "tri-sg"),
     Part("tri-builtin", "less the twin's Box lookup and Normal Map node beyond one lookup on "
          "the UV map", None, "part-lookup-uv", "tri-sg", sign=-1),
     Part("part-uv2-gradients", "the UV gradients (two inverted Bump nodes, six UV "
@@ -192,3 +205,11 @@ def rows(now):
         out.append({"key": whole, "label": labels[whole], "twin": twins[whole],
                     "overhead": overhead, "parts": parts, "remainder": overhead - summed})
     return out
+
+
+def build_materials():
+    """In svm_counts' child: every material keys() names, each named by its key."""
+    ctx = M.images(normal_size=16, height_size=16)      # the counts do not depend on the size
+    found = {c[0]: c[2] for c in M.cases() + cases()}
+    for key in keys():
+        M.material(key, found[key], ctx)
