@@ -121,7 +121,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                       f": {entry['error']}" if entry["status"] == "failed" else "")
 
     def plan_file(blend):
-        """The bake requests of one scanned file; its failed and skipped assets reported."""
+        """(the bake requests of one scanned file, its failed and skipped entries)."""
         f, name = files[blend], Path(blend).name
         entries, jobs = [], []
         if "scan_error" in f:
@@ -181,10 +181,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         for entry in entries:
             report["assets"][M.asset_key(blend, entry.get("object") or "*")] = entry
         progress.known += len(entries)
-        for entry in entries:
-            if entry.get("status") in ("failed", "skipped"):
-                step_entry(entry)
-        return jobs
+        return jobs, [e for e in entries if e.get("status") in ("failed", "skipped")]
 
     def on_reply(req, reply, retry):
         if req["op"] == "scan":
@@ -242,9 +239,13 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             pool.map([{"op": "scan", "file": b, "blend": None if open_file else b,
                        "timeout": worker_timeout or P.SCAN_TIMEOUT_S,
                        **files[b]["selection"]} for b in to_scan], on_reply)
-            requests = []
+            requests, settled = [], []
             for blend in files:
-                requests += plan_file(blend)
+                jobs, done = plan_file(blend)
+                requests += jobs
+                settled += done
+            for entry in settled:          # once every file is planned: the total is known
+                step_entry(entry)
             problems = collisions + sorted({p for p in map(BR.folder_problem, folders) if p})
             if problems:
                 raise P.BatchError(P.joined(problems) + "\n(nothing was baked)")
