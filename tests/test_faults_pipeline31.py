@@ -181,9 +181,11 @@ def test_a_batch_whose_output_is_closed_stops_cleanly_and_records_what_is_left(t
     assert run.stderr.strip().splitlines()[-1] == \
         "surfgrad: interrupted by SIGPIPE (the program reading its output ended): stopped " \
         "the batch; exit code 141"
+    # R1's progress line is the first write that fails: R1 is baked (and kept), R2 is not.
     m = json.loads((out / MANIFEST_NAME).read_text())
-    status = sorted(e["status"] for e in m["assets"].values())
-    assert status == ["baked", "interrupted", "interrupted"], status
+    status = {e["object"]: e["status"] for e in m["assets"].values()}
+    assert status == {"R0": "baked", "R1": "baked", "R2": "interrupted"}, status
+    assert _files(out) == sorted([MANIFEST_NAME, "a0_R0.png", "a1_R1.png"])
 
 
 def test_openjd_task_takes_paths_with_shell_characters_as_they_are(tmp_path):
