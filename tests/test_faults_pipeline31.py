@@ -215,3 +215,34 @@ def test_openjd_task_takes_paths_with_shell_characters_as_they_are(tmp_path):
     made = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*.*")
                   if p.suffix in (".png", ".json"))
     assert made == [f"{folder.name}/a_Rock.png", f"{folder.name}/m/asset-0-tile-1001.json"]
+
+
+def _blender_opening_a_file():
+    """Every documented command line in which Blender itself opens a .blend before our script
+    runs (`blender -b FILE ... --python SCRIPT`), as (where, the line with its continuation)."""
+    files = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md")),
+             *sorted((ROOT / "surfgrad_addon").rglob("*.py")), ROOT / "run.sh"]
+    for path in files:
+        if not path.is_file():
+            continue
+        lines = path.read_text(errors="replace").splitlines()
+        for n, line in enumerate(lines):
+            if "blender -b " in line and "--factory-startup" not in line:
+                whole = line + " " + (lines[n + 1] if n + 1 < len(lines) else "")
+                if "--python" in whole:
+                    yield f"{path.relative_to(ROOT)}:{n + 1}", line
+
+
+@pytest.mark.tier("blender")
+def test_every_documented_blender_b_line_keeps_the_files_scripts_off():
+    """`blender -b scene.blend --python bake_normal_map.py`: Blender opens the file before our
+    script can, honouring the user's Auto Run preference, so the file's registered text blocks
+    and Python drivers ran. Before: none of the seven documented lines had --disable-autoexec."""
+    lines = list(_blender_opening_a_file())
+    where = {w.split(":")[0] for w, _ in lines}
+    assert {"docs/pipelines.md", "docs/proof.md", "surfgrad_addon/bake_normal_map.py",
+            "surfgrad_addon/blender_cli.py"} <= where, where
+    for w, line in lines:
+        after_b = line[line.index("blender -b ") + len("blender -b "):].split()
+        # before the file: Blender applies its options in order
+        assert after_b[0] == "--disable-autoexec", f"{w}: {line.strip()}"
