@@ -246,3 +246,32 @@ def test_every_documented_blender_b_line_keeps_the_files_scripts_off():
         after_b = line[line.index("blender -b ") + len("blender -b "):].split()
         # before the file: Blender applies its options in order
         assert after_b[0] == "--disable-autoexec", f"{w}: {line.strip()}"
+
+
+@pytest.mark.tier("bake")
+def test_a_compressed_blend_from_a_newer_line_is_opened_with_a_warning(tmp_path, capsys,
+                                                                       monkeypatch):
+    """A 5.2 file saved compressed (zstd: the header is not readable without zstd) opened on
+    4.5 or 5.0: before, no surfgrad warning (Blender's went to stdout), exit 0. Probed for
+    real with 4.5.15; here the running line is taken as one line older than this one, and the
+    version comes from the file Blender loaded."""
+    from surfgrad_addon.addon import commands, open_blend
+    plain = BA.write_asset(tmp_path / "p.blend", ("Rock",), tiles=(1001,), image_size=16)
+    bpy.ops.wm.open_mainfile(filepath=str(plain), use_scripts=False)
+    blend = tmp_path / "c.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=True)
+    assert blend.read_bytes()[:4] == b"\x28\xb5\x2f\xfd"          # a zstd frame
+    assert open_blend.saved_by(blend.read_bytes()[:17]) is None    # the header says nothing
+    major, minor = bpy.app.version[:2]
+    older = (major, minor - 1) if minor else (major - 1, 5)
+    monkeypatch.setattr(open_blend, "running_line", lambda: older, raising=False)
+    out = tmp_path / "out"
+    out.mkdir()
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
+                           "--output", str(out / "n.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert (f"surfgrad: warning: .blend file {str(blend)!r} was saved by Blender "
+            f"{major}.{minor}, newer than this Blender ({older[0]}.{older[1]}): what that line "
+            f"added to the file may be lost") in err
