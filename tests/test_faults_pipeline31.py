@@ -275,3 +275,52 @@ def test_a_compressed_blend_from_a_newer_line_is_opened_with_a_warning(tmp_path,
     assert (f"surfgrad: warning: .blend file {str(blend)!r} was saved by Blender "
             f"{major}.{minor}, newer than this Blender ({older[0]}.{older[1]}): what that line "
             f"added to the file may be lost") in err
+
+
+def _linked_material_scene(tmp_path, override):
+    """scene.blend: object Rock whose material is Rock_SG linked from lib.blend (relative
+    path), or a library override of it."""
+    lib = BA.write_asset(tmp_path / "lib.blend", ("Rock",), tiles=(1001,), image_size=16)
+    scene = BA.write_asset(tmp_path / "scene.blend", ("Rock",), tiles=(1001,), image_size=16)
+    bpy.ops.wm.open_mainfile(filepath=str(scene), use_scripts=False)
+    with bpy.data.libraries.load(str(lib), link=True, relative=True) as (_src, dst):
+        dst.materials = ["Rock_SG"]
+    mat = dst.materials[0]
+    if override:
+        mat = mat.override_create(remap_local_usages=True)
+    bpy.data.objects["Rock"].data.materials[0] = mat
+    bpy.ops.wm.save_as_mainfile(filepath=str(scene), compress=False)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return scene
+
+
+@pytest.mark.tier("bake")
+def test_a_material_linked_from_a_library_is_refused_with_the_fix(tmp_path, capsys):
+    """Before: exit 1, `the bake of 'Rock' did not finish ({'CANCELLED'}); Blender gave no
+    reason` (Blender's reason, 'No active and selected image texture node found in material',
+    went to stdout). A library override of the same material bakes, the same map as the
+    library's own file gives."""
+    from surfgrad_addon.addon import commands, exit_codes
+    scene = _linked_material_scene(tmp_path, override=False)
+    before = scene.read_bytes()
+    out = tmp_path / "out"
+    out.mkdir()
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(scene), "--object", "Rock",
+                           "--output", str(out / "n.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert err.strip().splitlines()[-1] == (
+        "surfgrad: error: material 'Rock_SG' is linked from library '//lib.blend': Cycles "
+        "bakes into an Image Texture node of each material, which a linked material does not "
+        "take (Blender cancels the bake); make it local (Object > Relations > Make Local > "
+        "Selected Objects, Data and Materials) or give it a library override")
+    assert list(out.iterdir()) == [] and scene.read_bytes() == before
+    over = _linked_material_scene(tmp_path / "o", override=True)
+    rc = commands.execute(["bake-normal-map", "--blend", str(over), "--object", "Rock",
+                           "--output", str(out / "over.png"), "--resolution", "16"])
+    rc_lib = commands.execute(["bake-normal-map", "--blend", str(tmp_path / "o" / "lib.blend"),
+                               "--object", "Rock", "--output", str(out / "lib.png"),
+                               "--resolution", "16"])
+    assert (rc, rc_lib) == (0, 0), capsys.readouterr().err
+    assert (out / "over.png").read_bytes() == (out / "lib.png").read_bytes()
