@@ -324,3 +324,33 @@ def test_a_material_linked_from_a_library_is_refused_with_the_fix(tmp_path, caps
                                "--resolution", "16"])
     assert (rc, rc_lib) == (0, 0), capsys.readouterr().err
     assert (out / "over.png").read_bytes() == (out / "lib.png").read_bytes()
+
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("too_long", ["folder_name", "path"])
+def test_a_batch_output_folder_too_long_for_the_file_system_is_one_line(tmp_path, capsys,
+                                                                         too_long):
+    """Before: an OSError traceback ([Errno 36] File name too long, from Path.exists in the
+    folder check), exit 1. A folder name past NAME_MAX (255 bytes) made by {file}_{object}
+    from a 240-character object name (5.x names take 255), or a pattern past PATH_MAX."""
+    from surfgrad_addon.addon import commands, exit_codes
+    name = "R" * 240 if bpy.app.version >= (5, 0, 0) else "R" * 60
+    blend = BA.write_asset(tmp_path / "a.blend", (name,), tiles=(1001,), image_size=16)
+    if too_long == "folder_name":
+        # 'a_' + the name + '_UVMap_' + padding: 262 bytes, one folder name
+        folder = tmp_path / "maps" / ("{file}_{object}_{uv}_" + "m" * (262 - len(name) - 9))
+    else:
+        folder = tmp_path.joinpath(*["d" * 200] * 22)
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(folder / "n.png"),
+                           "--manifest", str(tmp_path / "m.json"), "--resolution", "16",
+                           "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err[-3000:]
+    assert "Traceback" not in err
+    line = err.strip().splitlines()
+    assert line[-1] == "(nothing was baked)"
+    assert line[-2].startswith("surfgrad: error: output folder '") and line[-2].endswith(
+        "cannot be used (File name too long): give a shorter folder path (most file systems "
+        "take 255 bytes a name, 4096 a path)"), line[-2]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend"]
