@@ -354,3 +354,25 @@ def test_a_batch_output_folder_too_long_for_the_file_system_is_one_line(tmp_path
         "cannot be used (File name too long): give a shorter folder path (most file systems "
         "take 255 bytes a name, 4096 a path)"), line[-2]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend"]
+
+
+@pytest.mark.tier("blender")
+def test_two_files_of_one_name_on_one_output_are_named_by_their_paths(tmp_path, capsys):
+    """a/x.blend and b/x.blend, both with object Rock, into {file}_{object}.png. Before: refused
+    as `x.blend:Rock and x.blend:Rock would both write ...: make the output pattern tell them
+    apart ({file}, {object}, {uv})`: neither file named, and no token can tell them apart."""
+    from surfgrad_addon.addon import commands, exit_codes
+    a = BA.write_asset(tmp_path / "a" / "x.blend", ("Rock",), tiles=(1001,), image_size=16)
+    b = BA.write_asset(tmp_path / "b" / "x.blend", ("Rock",), tiles=(1001,), image_size=16)
+    out = tmp_path / "out"
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(a), str(b), "--output",
+                           str(out / "{file}_{object}.png"), "--resolution", "16",
+                           "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert err.strip().splitlines()[-2:] == [
+        f"surfgrad: error: {b}:Rock and {a}:Rock would both write {out / 'x_Rock.png'}: no "
+        f"token tells files of one name in two folders apart; bake them in two runs with "
+        f"their own output folders, or rename one", "(nothing was baked)"]
+    assert not out.exists()

@@ -151,11 +151,18 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             out = P.expand(output, name, a["object"], uv)
             entry["output"] = out
             if out in outputs_seen:
-                collisions.append(f"{name}:{a['object']} and {outputs_seen[out]} would both "
-                                  f"write {out}: make the output pattern tell them apart "
-                                  f"({', '.join(P.TOKENS)})")
+                other, other_blend = outputs_seen[out]
+                if other == f"{name}:{a['object']}":     # same names, files in two folders
+                    collisions.append(
+                        f"{blend}:{a['object']} and {other_blend}:{a['object']} would both "
+                        f"write {out}: no token tells files of one name in two folders apart; "
+                        f"bake them in two runs with their own output folders, or rename one")
+                else:
+                    collisions.append(f"{name}:{a['object']} and {other} would both write "
+                                      f"{out}: make the output pattern tell them apart "
+                                      f"({', '.join(P.TOKENS)})")
                 continue
-            outputs_seen[out] = f"{name}:{a['object']}"
+            outputs_seen[out] = (f"{name}:{a['object']}", blend)
             entry["input_hash"] = f["input_hash"]
             entry["settings_hash"] = P.settings_hash(s, out, blender_version, VERSION)
             prev = previous["assets"].get(key, {})
