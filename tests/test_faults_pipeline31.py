@@ -8,11 +8,9 @@ folder named with `$HOME` in it was expanded and the maps went elsewhere with ex
 
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -26,60 +24,57 @@ from support.child import ROOT  # noqa: E402
 
 pytestmark = pytest.mark.tier("child")
 
-TEMPLATE = ROOT / "tools" / "farm" / "openjd" / "surfgrad-bake.yaml"
 
+class Child:
+    """`python -m surfgrad_addon ARGS` in the background, its signals set as a terminal or a
+    farm leaves them (`ignore`: inherited as ignored, as nohup does with SIGHUP). stderr, and
+    stdout unless the test reads it from a pipe, go to files in `logs`."""
 
-class Run:
-    """`python -m surfgrad_addon ARGS` in the background, stdout and stderr collected."""
-
-    def __init__(self, args, cwd, env=None, ignore=(), read_stdout=True):
+    def __init__(self, args, logs, env=None, ignore=(), stdout_pipe=False):
         full = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
         full.update(PYTHONPATH=str(ROOT), PYTHONUNBUFFERED="1", **(env or {}))
 
-        def start():                  # as a farm or terminal leaves it (nohup: SIGHUP ignored)
+        def dispositions():
             for s in (signal.SIGHUP, signal.SIGQUIT, signal.SIGUSR1, signal.SIGINT):
                 signal.signal(s, signal.SIG_IGN if s in ignore else signal.SIG_DFL)
+        logs.mkdir(exist_ok=True)
+        self.logs = logs
+        err = open(logs / "stderr.txt", "w")
+        out = subprocess.PIPE if stdout_pipe else open(logs / "stdout.txt", "w")
         self.proc = subprocess.Popen([sys.executable, "-m", "surfgrad_addon", *map(str, args)],
-                                     cwd=str(cwd), env=full, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, text=True, preexec_fn=start)
-        self.out, self.err = [], []
-        self.threads = [threading.Thread(target=self._pump, args=(self.proc.stderr, self.err),
-                                         daemon=True)]
-        if read_stdout:
-            self.threads.append(threading.Thread(target=self._pump,
-                                                 args=(self.proc.stdout, self.out), daemon=True))
-        for t in self.threads:
-            t.start()
+                                     cwd=str(logs), env=full, stdout=out, stderr=err,
+                                     text=True, preexec_fn=dispositions)
+        err.close()
+        if not stdout_pipe:
+            out.close()
 
-    @staticmethod
-    def _pump(stream, into):
-        for line in stream:
-            into.append(line)
+    def _log(self, name):
+        path = self.logs / name
+        return path.read_text(errors="replace") if path.exists() else ""
+
+    @property
+    def stdout(self):
+        return self._log("stdout.txt")
+
+    @property
+    def stderr(self):
+        return self._log("stderr.txt")
 
     def wait_for(self, text, timeout=120):
         t0 = time.monotonic()
         while text not in self.stdout:
-            assert self.proc.poll() is None, self.stdout[-2000:] + self.stderr[-2000:]
-            assert time.monotonic() - t0 < timeout, self.stdout[-2000:]
+            if self.proc.poll() is not None or time.monotonic() - t0 > timeout:
+                self.proc.kill()
+                raise AssertionError(f"no {text!r}:\n{self.stdout[-2000:]}{self.stderr[-2000:]}")
             time.sleep(0.05)
 
-    def finish(self, timeout=120):
+    def end(self, timeout=120):
+        """The exit code (the child is killed if it runs past `timeout`)."""
         try:
-            code = self.proc.wait(timeout=timeout)
+            return self.proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
             self.proc.kill()
             raise
-        for t in self.threads:
-            t.join(5)
-        return code
-
-    @property
-    def stdout(self):
-        return "".join(self.out)
-
-    @property
-    def stderr(self):
-        return "".join(self.err)
 
 
 def _files(folder):
@@ -98,13 +93,13 @@ def test_a_hangup_quit_or_scheduler_signal_stops_the_bake_cleanly(asset, tmp_pat
     out, temp = tmp_path / "out", tmp_path / "tmp"
     out.mkdir()
     temp.mkdir()
-    run = Run(["bake-normal-map", "--blend", asset, "--object", "Rock", "--output",
-               out / "rock.png", "--resolution", "512", "--samples", "64"], tmp_path,
-              env={"TMPDIR": str(temp)})
+    run = Child(["bake-normal-map", "--blend", asset, "--object", "Rock", "--output",
+                 out / "rock.png", "--resolution", "512", "--samples", "64"], tmp_path / "logs",
+                 env={"TMPDIR": str(temp)})
     run.wait_for("[2/3] baking")
     time.sleep(0.5)                               # inside Cycles' bake
     run.proc.send_signal(signum)
-    code = run.finish(60)
+    code = run.end(60)
     assert code == 128 + signum, (code, run.stderr[-2000:])
     assert run.stderr.strip().splitlines()[-1] == \
         f"surfgrad: interrupted by {signum.name}: stopped the bake; exit code {128 + signum}"
@@ -117,12 +112,12 @@ def test_a_hangup_inherited_as_ignored_leaves_the_bake_running(asset, tmp_path):
     handlers keep an inherited ignore)."""
     out = tmp_path / "out"
     out.mkdir()
-    run = Run(["bake-normal-map", "--blend", asset, "--object", "Rock", "--output",
-               out / "rock.png", "--resolution", "256", "--samples", "16"], tmp_path,
-              ignore=(signal.SIGHUP,))
+    run = Child(["bake-normal-map", "--blend", asset, "--object", "Rock", "--output",
+                 out / "rock.png", "--resolution", "256", "--samples", "16"], tmp_path / "logs",
+                 ignore=(signal.SIGHUP,))
     run.wait_for("[2/3] baking")
     run.proc.send_signal(signal.SIGHUP)
-    assert run.finish() == 0, run.stderr[-2000:]
+    assert run.end() == 0, run.stderr[-2000:]
     assert _files(out) == ["rock.png"]
 
 
@@ -138,10 +133,10 @@ def test_a_hangup_stops_a_batch_which_a_rerun_resumes_with_a_readable_count(tmp_
     blends = [BA.write_asset(tmp_path / "in" / f"a{i}.blend", (f"R{i}",), tiles=(1001,),
                              image_size=16, seed=i) for i in range(3)]
     out = tmp_path / "maps"
-    run = Run(_batch(blends, out), tmp_path)
+    run = Child(_batch(blends, out), tmp_path / "logs")
     run.wait_for("] baked a0.blend:R0")
     run.proc.send_signal(signal.SIGHUP)
-    code = run.finish(60)
+    code = run.end(60)
     assert code == 129, run.stderr[-2000:]
     assert run.stderr.strip().splitlines()[-1] == \
         "surfgrad: interrupted by SIGHUP: stopped the batch; exit code 129"
@@ -151,8 +146,8 @@ def test_a_hangup_stops_a_batch_which_a_rerun_resumes_with_a_readable_count(tmp_
     assert "interrupted" in status.values(), status
     assert _files(out) == sorted([MANIFEST_NAME] + [f"a{i}_R{i}.png" for i, s in
                                                     enumerate(status.values()) if s == "baked"])
-    rerun = Run(_batch(blends, out), tmp_path)
-    assert rerun.finish(300) == 0, rerun.stderr[-2000:]
+    rerun = Child(_batch(blends, out), tmp_path / "logs")
+    assert rerun.end(300) == 0, rerun.stderr[-2000:]
     lines = [line for line in rerun.stdout.splitlines() if line.startswith("[") and "/" in
              line.split("]")[0]]
     assert lines[0].startswith("[1/3] skipped a0.blend:R0 "), lines
@@ -168,14 +163,14 @@ def test_a_batch_whose_output_is_closed_stops_cleanly_and_records_what_is_left(t
     blends = [BA.write_asset(tmp_path / "in" / f"a{i}.blend", (f"R{i}",), tiles=(1001,),
                              image_size=16, seed=i) for i in range(3)]
     out = tmp_path / "maps"
-    run = Run(_batch(blends, out), tmp_path, read_stdout=False)
+    run = Child(_batch(blends, out), tmp_path / "logs", stdout_pipe=True)
     seen = ""
     while "] baked a0.blend:R0" not in seen:
         line = run.proc.stdout.readline()
         assert line, run.stderr[-2000:]
         seen += line
     run.proc.stdout.close()                       # the reader goes, as `head` does
-    code = run.finish(120)
+    code = run.end(120)
     assert code == 141, run.stderr[-3000:]
     assert "Traceback" not in run.stderr and "BrokenPipeError" not in run.stderr, run.stderr
     assert run.stderr.strip().splitlines()[-1] == \
@@ -191,31 +186,18 @@ def test_a_batch_whose_output_is_closed_stops_cleanly_and_records_what_is_left(t
 def test_openjd_task_takes_paths_with_shell_characters_as_they_are(tmp_path):
     """Before: the task script had the paths pasted into it, so bash expanded `$HOME` in a
     folder name (the maps went to '.../maps /root ...', exit 0) and a '"' broke the script."""
-    openjd = next((str(c) for c in (os.environ.get("SURFGRAD_OPENJD"),
-                                     Path(sys.executable).parent / "openjd",
-                                     shutil.which("openjd")) if c and Path(c).is_file()), None)
-    if openjd is None:
-        pytest.skip("openjd-cli is not installed here (requirements.txt pins it for 5.2)")
+    from test_farm import _openjd, _openjd_run
+    openjd = _openjd()
     BA.write_asset(tmp_path / "in" / "a.blend", ("Rock",), tiles=(1001,), image_size=16)
     lst = tmp_path / "assets.txt"
     lst.write_text("in/a.blend\n")
     folder = tmp_path / 'maps $HOME "q" `x` ü'
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    env["PYTHONPATH"] = str(ROOT)
-    params = {"AssetList": str(lst), "AssetIndices": "0", "Tiles": "1001",
-              "OutputPattern": str(folder / "{file}_{object}.png"),
-              "ManifestDir": str(folder / "m"), "Resolution": 16, "Samples": 1,
-              "Launcher": f"{sys.executable} -m surfgrad_addon"}
-    args = [openjd, "run", str(TEMPLATE)]
-    for k, v in params.items():
-        args += ["-p", f"{k}={v}"]
-    res = subprocess.run(args, cwd=tmp_path, env=env, capture_output=True, text=True,
-                         timeout=300)
+    res = _openjd_run(openjd, tmp_path, lst, "0", folder)      # tiles 1001-1002
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
     made = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*.*")
                   if p.suffix in (".png", ".json"))
-    assert made == [f"{folder.name}/a_Rock.png", f"{folder.name}/m/asset-0-tile-1001.json"]
-
+    assert made == [f"{folder.name}/a_Rock.1001.png"] + [
+        f"{folder.name}/manifests/asset-0-tile-{t}.json" for t in (1001, 1002)]
 
 def _blender_opening_a_file():
     """Every documented command line in which Blender itself opens a .blend before our script
@@ -248,6 +230,16 @@ def test_every_documented_blender_b_line_keeps_the_files_scripts_off():
         assert after_b[0] == "--disable-autoexec", f"{w}: {line.strip()}"
 
 
+def _bake_here(capsys, blend, output):
+    """bake-normal-map of object Rock in this process at 16^2: (exit code, stderr)."""
+    from surfgrad_addon.addon import commands
+    output.parent.mkdir(exist_ok=True)
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
+                           "--output", str(output), "--resolution", "16"])
+    return rc, capsys.readouterr().err
+
+
 @pytest.mark.tier("bake")
 def test_a_compressed_blend_from_a_newer_line_is_opened_with_a_warning(tmp_path, capsys,
                                                                        monkeypatch):
@@ -255,7 +247,7 @@ def test_a_compressed_blend_from_a_newer_line_is_opened_with_a_warning(tmp_path,
     4.5 or 5.0: before, no surfgrad warning (Blender's went to stdout), exit 0. Probed for
     real with 4.5.15; here the running line is taken as one line older than this one, and the
     version comes from the file Blender loaded."""
-    from surfgrad_addon.addon import commands, open_blend
+    from surfgrad_addon.addon import open_blend
     plain = BA.write_asset(tmp_path / "p.blend", ("Rock",), tiles=(1001,), image_size=16)
     bpy.ops.wm.open_mainfile(filepath=str(plain), use_scripts=False)
     blend = tmp_path / "c.blend"
@@ -265,12 +257,7 @@ def test_a_compressed_blend_from_a_newer_line_is_opened_with_a_warning(tmp_path,
     major, minor = bpy.app.version[:2]
     older = (major, minor - 1) if minor else (major - 1, 5)
     monkeypatch.setattr(open_blend, "running_line", lambda: older, raising=False)
-    out = tmp_path / "out"
-    out.mkdir()
-    capsys.readouterr()
-    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
-                           "--output", str(out / "n.png"), "--resolution", "16"])
-    err = capsys.readouterr().err
+    rc, err = _bake_here(capsys, blend, tmp_path / "out" / "n.png")
     assert rc == 0, err
     assert (f"surfgrad: warning: .blend file {str(blend)!r} was saved by Blender "
             f"{major}.{minor}, newer than this Blender ({older[0]}.{older[1]}): what that line "
@@ -300,15 +287,11 @@ def test_a_material_linked_from_a_library_is_refused_with_the_fix(tmp_path, caps
     reason` (Blender's reason, 'No active and selected image texture node found in material',
     went to stdout). A library override of the same material bakes, the same map as the
     library's own file gives."""
-    from surfgrad_addon.addon import commands, exit_codes
+    from surfgrad_addon.addon import exit_codes
     scene = _linked_material_scene(tmp_path, override=False)
     before = scene.read_bytes()
     out = tmp_path / "out"
-    out.mkdir()
-    capsys.readouterr()
-    rc = commands.execute(["bake-normal-map", "--blend", str(scene), "--object", "Rock",
-                           "--output", str(out / "n.png"), "--resolution", "16"])
-    err = capsys.readouterr().err
+    rc, err = _bake_here(capsys, scene, out / "n.png")
     assert rc == exit_codes.BAD_REQUEST, err
     assert err.strip().splitlines()[-1] == (
         "surfgrad: error: material 'Rock_SG' is linked from library '//lib.blend': Cycles "
@@ -317,12 +300,9 @@ def test_a_material_linked_from_a_library_is_refused_with_the_fix(tmp_path, caps
         "Selected Objects, Data and Materials) or give it a library override")
     assert list(out.iterdir()) == [] and scene.read_bytes() == before
     over = _linked_material_scene(tmp_path / "o", override=True)
-    rc = commands.execute(["bake-normal-map", "--blend", str(over), "--object", "Rock",
-                           "--output", str(out / "over.png"), "--resolution", "16"])
-    rc_lib = commands.execute(["bake-normal-map", "--blend", str(tmp_path / "o" / "lib.blend"),
-                               "--object", "Rock", "--output", str(out / "lib.png"),
-                               "--resolution", "16"])
-    assert (rc, rc_lib) == (0, 0), capsys.readouterr().err
+    rc, err = _bake_here(capsys, over, out / "over.png")
+    rc_lib, err_lib = _bake_here(capsys, tmp_path / "o" / "lib.blend", out / "lib.png")
+    assert (rc, rc_lib) == (0, 0), err + err_lib
     assert (out / "over.png").read_bytes() == (out / "lib.png").read_bytes()
 
 
@@ -373,6 +353,6 @@ def test_two_files_of_one_name_on_one_output_are_named_by_their_paths(tmp_path, 
     assert rc == exit_codes.BAD_REQUEST, err
     assert err.strip().splitlines()[-2:] == [
         f"surfgrad: error: {b}:Rock and {a}:Rock would both write {out / 'x_Rock.png'}: no "
-        f"token tells files of one name in two folders apart; bake them in two runs with "
-        f"their own output folders, or rename one", "(nothing was baked)"]
+        f"output token can tell them apart (one file name, two folders); bake them in two "
+        f"runs with their own output folders, or rename one", "(nothing was baked)"]
     assert not out.exists()

@@ -155,8 +155,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                 if other == f"{name}:{a['object']}":     # same names, files in two folders
                     collisions.append(
                         f"{blend}:{a['object']} and {other_blend}:{a['object']} would both "
-                        f"write {out}: no token tells files of one name in two folders apart; "
-                        f"bake them in two runs with their own output folders, or rename one")
+                        f"write {out}: no output token can tell them apart (one file name, "
+                        f"two folders); bake them in two runs with their own output folders, "
+                        f"or rename one")
                 else:
                     collisions.append(f"{name}:{a['object']} and {other} would both write "
                                       f"{out}: make the output pattern tell them apart "
