@@ -356,3 +356,17 @@ def test_two_files_of_one_name_on_one_output_are_named_by_their_paths(tmp_path, 
         f"output token can tell them apart (one file name, two folders); bake them in two "
         f"runs with their own output folders, or rename one", "(nothing was baked)"]
     assert not out.exists()
+
+
+@pytest.mark.tier("bake")
+def test_an_object_named_dot_dot_stays_in_the_output_folder(tmp_path, capsys):
+    """`maps/{object}/n.png` with an object named '..' (a name Blender takes). Before: the map
+    was written at '<tmp>/n.png', beside `maps`, exit 0."""
+    from surfgrad_addon.addon import commands
+    blend = BA.write_asset(tmp_path / "in" / "a.blend", ("..",), tiles=(1001,), image_size=16)
+    root = tmp_path / "out"
+    rc = commands.execute(["bake-batch", str(blend), "--output",
+                           str(root / "maps" / "{object}" / "n.png"), "--resolution", "16",
+                           "--workers", "0"])
+    assert rc == 0, capsys.readouterr().err
+    assert sorted(str(p.relative_to(root)) for p in root.rglob("*.png")) == ["maps/__/n.png"]
