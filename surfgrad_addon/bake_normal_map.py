@@ -1,11 +1,14 @@
 """Bake an object's material into a normal map file, inside Blender:
 
-    blender -b scene.blend --python-exit-code 1 --python surfgrad_addon/bake_normal_map.py \\
+    blender -b --disable-autoexec scene.blend \\
+        --python-exit-code 1 --python surfgrad_addon/bake_normal_map.py \\
         -- --object Rock --output rock_normal.png [--space tangent|object] [--resolution 2048] \\
         [--uv-map NAME] [--margin 16] [--overwrite]
 
 The same as `python -m surfgrad_addon bake-normal-map --blend scene.blend ...` with the bpy
-module. See surfgrad_addon/addon/normal_bake.py.
+module. See surfgrad_addon/addon/normal_bake.py. --disable-autoexec comes before the file:
+Blender opens it before this script runs, with the user's Auto Run preference otherwise, so
+the file's text blocks and Python drivers would run.
 """
 
 import sys

@@ -1,6 +1,7 @@
 """Run surfgrad's command line inside Blender:
 
-    blender -b FILE --python-exit-code 1 --python surfgrad_addon/blender_cli.py -- compare ...
+    blender -b --disable-autoexec FILE \\
+        --python-exit-code 1 --python surfgrad_addon/blender_cli.py -- compare ...
 
 Arguments after `--` are those of `python -m surfgrad_addon`. Without --blend, `compare` works
 on the file Blender opened.

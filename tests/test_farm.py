@@ -5,7 +5,6 @@ line bakes when run."""
 
 import json
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -122,11 +121,11 @@ def test_openjd_outputs_resolve_to_absolute_paths_on_submission(farm_assets, tmp
     script = text[text.index("data: |") + len("data: |"):text.index("actions:")]
     script = "\n".join(line[12:] for line in script.splitlines())
     for output, manifests in (("maps/x.png", "/m"), ("/o/x.png", "m")):
-        values = {"Param.OutputPattern": output, "Param.ManifestDir": manifests,
-                  "Param.Launcher": "false"}
-        body = re.sub(r"\{\{([^}]+)\}\}", lambda m: values.get(m.group(1), "0"), script)
-        res = subprocess.run(["bash", "-c", body], cwd=tmp_path, capture_output=True,
-                             text=True, timeout=60)
+        # The script's arguments, in the order of the template's args (Launcher first).
+        argv = ["false", "list.txt", "0", "1001", output, manifests, "16", "1", "0",
+                "tangent", "auto", "no"]
+        res = subprocess.run(["bash", "-c", script, "bash", *argv], cwd=tmp_path,
+                             capture_output=True, text=True, timeout=60)
         assert res.returncode == 2, res.stderr
         assert "is relative: a farm task runs in a temporary folder" in res.stderr
 

@@ -19,6 +19,7 @@ written and the .blend is as it was (images loaded for the check are freed again
 are printed to stderr (where a user looks), and returned.
 """
 
+import errno
 import os
 import sys
 import tempfile
@@ -356,14 +357,36 @@ def output_problems(output, finals, overwrite):
     return out
 
 
+def _exists(path):
+    """Whether `path` exists; OSError for one the file system cannot name (too long), which
+    Path.exists takes as "no" on some Python versions (the folder was then made later and the
+    batch stopped with a traceback)."""
+    try:
+        os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+    return True
+
+
 def folder_problem(folder):
     """None when a file can be created in `folder` (tried: a probe file is made and removed),
     else what is wrong and the fix. A missing folder is checked at its nearest existing parent
     (bake-batch creates the rest)."""
     folder = Path(folder) if str(folder) else Path(".")
     probe_in = folder
-    while not probe_in.exists() and probe_in.parent != probe_in:
-        probe_in = probe_in.parent
+    try:
+        while not _exists(probe_in) and probe_in.parent != probe_in:
+            probe_in = probe_in.parent
+        # a folder still to be made whose name the file system will not take (the lookup
+        # of a missing parent stops before the name's length is checked)
+        name_max = NB._name_max(probe_in)
+        if any(len(os.fsencode(part)) > name_max for part in folder.parts):
+            raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG))
+    except OSError as err:     # a path or a folder name too long for the file system
+        shown = str(folder) if len(str(folder)) <= 120 else f"{str(folder)[:120]}..."
+        return (f"output folder {shown!r} ({len(os.fsencode(folder))} bytes) cannot be used "
+                f"({err.strerror}): give a shorter folder path (most file systems take 255 "
+                f"bytes a name, 4096 a path)")
     if not probe_in.is_dir():
         return f"output folder {str(folder)!r}: {str(probe_in)!r} is a file, not a folder"
     try:

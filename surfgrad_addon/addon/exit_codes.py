@@ -9,6 +9,9 @@
          Nothing was written and the .blend is unchanged
     130  interrupted (SIGINT, Ctrl-C)
     143  terminated (SIGTERM)
+    128 + n  stopped the same way by another signal n a terminal or a farm sends: 129 SIGHUP,
+         131 SIGQUIT, 138 SIGUSR1, 140 SIGUSR2, 141 SIGPIPE (the program reading our output
+         ended); an inherited ignore (nohup's SIGHUP) is kept
 """
 
 OK = 0

@@ -34,9 +34,21 @@ from contextlib import contextmanager
 from pathlib import Path
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# Signals a terminal or a farm sends whose default action ends the process at once, leaving
+# a map's temporary file, Blender's session folder and an unrecorded manifest: SIGHUP (the
+# terminal closed), SIGQUIT (Ctrl+Backslash), SIGUSR1 / SIGUSR2 (a scheduler's notice before it
+# kills or suspends: Slurm's --signal, SGE's -notify). They stop as SIGTERM does, exit
+# 128 + n; one this process inherited as ignored (nohup's SIGHUP) stays ignored.
+OTHER_SIGNALS = tuple(getattr(signal, n) for n in ("SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2")
+                      if hasattr(signal, n))
+# SIGPIPE: the program reading our output (`| head`, a log collector) has gone. Python
+# ignores it and raises BrokenPipeError at the next progress line instead, a traceback that
+# ended a batch midway (from a pool thread) with its unfinished assets unrecorded. Caught,
+# it stops like the others (exit 141); Python's start-up ignore is not the user's choice.
+BROKEN_PIPE = getattr(signal, "SIGPIPE", None)
 _WAKE_END = 0                               # byte that ends the watcher (no signal is 0)
 _state = {"active": False, "what": "the command", "cleanups": [], "placed": [],
-          "keep_placed": False}
+          "keep_placed": False, "caught": frozenset(int(s) for s in SIGNALS)}
 _stopping = threading.Lock()
 _committing = threading.RLock()
 _stop_begun = threading.Event()
@@ -47,7 +59,8 @@ PARK_WAIT_S = 2.0                           # and this long for the main thread 
 
 
 def exit_code(signum):
-    """The shell's code for a process ended by `signum`: 130 for SIGINT, 143 for SIGTERM."""
+    """The shell's code for a process ended by `signum`: 130 for SIGINT, 143 for SIGTERM
+    (129 SIGHUP, 131 SIGQUIT, 138 SIGUSR1, 140 SIGUSR2)."""
     return 128 + int(signum)
 
 
@@ -62,14 +75,17 @@ def say(text):
 
 @contextmanager
 def stoppable(what="the command", keep_placed=False):
-    """Within this block SIGINT and SIGTERM stop the process cleanly (see the module's
-    docstring). Only in the main thread (elsewhere signals cannot be handled: a no-op); a
-    nested block keeps the outer one. keep_placed: a stop leaves the files placed()."""
+    """Within this block SIGINT and SIGTERM (and OTHER_SIGNALS) stop the process cleanly (see
+    the module's docstring). Only in the main thread (elsewhere signals cannot be handled: a
+    no-op); a nested block keeps the outer one. keep_placed: a stop leaves the files placed()."""
     if _state["active"] or threading.current_thread() is not threading.main_thread():
         yield
         return
     read_fd, write_fd = os.pipe()
-    previous = {s: signal.getsignal(s) for s in SIGNALS}
+    caught = SIGNALS + tuple(s for s in OTHER_SIGNALS
+                             if signal.getsignal(s) is not signal.SIG_IGN) \
+        + ((BROKEN_PIPE,) if BROKEN_PIPE is not None else ())
+    previous = {s: signal.getsignal(s) for s in caught}
     try:
         os.set_blocking(write_fd, False)
         old_fd = signal.set_wakeup_fd(write_fd, warn_on_full_buffer=False)
@@ -80,9 +96,10 @@ def stoppable(what="the command", keep_placed=False):
         os.close(write_fd)
         yield
         return
-    for s in SIGNALS:
+    for s in caught:
         signal.signal(s, _note)
-    _state.update(active=True, what=what, placed=[], keep_placed=keep_placed)
+    _state.update(active=True, what=what, placed=[], keep_placed=keep_placed,
+                  caught=frozenset(int(s) for s in caught))
     watcher = threading.Thread(target=_watch, args=(read_fd,), daemon=True,
                                name="surfgrad-interrupts")
     watcher.start()
@@ -144,7 +161,7 @@ def _watch(read_fd):
         for byte in data:
             if byte == _WAKE_END:
                 return
-            if byte in (int(s) for s in SIGNALS):
+            if byte in _state["caught"]:
                 stop(byte)
 
 
@@ -171,7 +188,8 @@ def stop(signum):
     except Exception:                             # noqa: BLE001
         pass
     remove_blender_tempdir()
-    say(f"surfgrad: interrupted by {name}: stopped {_state['what']}; exit code "
+    why = " (the program reading its output ended)" if signum == BROKEN_PIPE else ""
+    say(f"surfgrad: interrupted by {name}{why}: stopped {_state['what']}; exit code "
         f"{exit_code(signum)}")
     os._exit(exit_code(signum))
 
@@ -199,6 +217,15 @@ def remove_blender_tempdir():
         return None
     shutil.rmtree(folder, ignore_errors=True)
     return folder
+
+
+def await_stop(wait_s=PARK_WAIT_S):
+    """For a thread whose output broke (BrokenPipeError): the SIGPIPE that came with it is
+    stopping the process, so wait here for the end (the main thread parks) instead of printing
+    a traceback over the stop's line. Returns when no stop comes within wait_s."""
+    if _state["active"] and BROKEN_PIPE is not None and int(BROKEN_PIPE) in _state["caught"] \
+            and _stop_begun.wait(wait_s):
+        _park() if _is_main() else threading.Event().wait()
 
 
 @contextmanager

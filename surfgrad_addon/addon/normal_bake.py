@@ -2,7 +2,8 @@
 
 For pipeline TDs, headless:
 
-    blender -b scene.blend --python-exit-code 1 --python surfgrad_addon/bake_normal_map.py \\
+    blender -b --disable-autoexec scene.blend \\
+        --python-exit-code 1 --python surfgrad_addon/bake_normal_map.py \\
         -- --object Rock --output rock_normal.png --space tangent --resolution 2048
     python -m surfgrad_addon bake-normal-map --blend scene.blend --object Rock \\
         --output "rock_normal.<UDIM>.exr" --space object --samples 16 --depth half

@@ -22,10 +22,13 @@ def open_mainfile(path, load_ui=False):
                              f"device?): give a .blend file")
     try:
         bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=load_ui, use_scripts=False)
-        newer = _newer_than_running(path, bpy.app.version)
+        # The loaded file's own version: the header of a compressed (zstd) file, Blender's
+        # default for many artists, is not readable here and gave no warning.
+        running = running_line()
+        newer = _newer_line(tuple(bpy.data.version[:2]), running)
         if newer:            # Blender says so on stdout only, where a farm log buries it
             print(f"surfgrad: warning: .blend file {str(path)!r} was saved by Blender {newer}, "
-                  f"newer than this Blender ({bpy.app.version[0]}.{bpy.app.version[1]}): "
+                  f"newer than this Blender ({running[0]}.{running[1]}): "
                   f"what that line added to the file may be lost and the map may differ; "
                   f"bake with Blender {newer} or later", file=sys.stderr, flush=True)
     except RuntimeError as err:       # Blender's own text starts "Error: ": say it once
@@ -59,13 +62,25 @@ def saved_by(header):
     return number // 100, number % 100
 
 
+def running_line():
+    """(major, minor) of the running Blender."""
+    import bpy
+    return tuple(bpy.app.version[:2])
+
+
+def _newer_line(version, running):
+    """'X.Y' when `version` is a newer Blender line than `running`, else None."""
+    if version is None or tuple(version) <= tuple(running[:2]):
+        return None
+    return f"{version[0]}.{version[1]}"
+
+
 def _newer_than_running(path, running):
-    """'X.Y' when `path` was saved by a newer Blender line than `running`, else None."""
+    """'X.Y' when `path` was saved by a newer Blender line than `running` (read from its
+    header: for a file Blender could not open), else None."""
     try:
         with open(path, "rb") as f:
             version = saved_by(f.read(17))
     except OSError:
         return None
-    if version is None or version <= tuple(running[:2]):
-        return None
-    return f"{version[0]}.{version[1]}"
+    return _newer_line(version, running)

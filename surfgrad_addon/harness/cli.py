@@ -35,8 +35,8 @@ DESCRIPTION = f"""Command line: {PROG} <command> ...
   bench-far        every method 0, 1 km and 10 km from the origin against the reference,
                    beside Blender's built-in node for the same job (JSON and Markdown)
   compare          bake a method's node groups with Cycles and compare with the reference
-                   (needs bpy; also: blender -b FILE --python-exit-code 1 --python
-                   surfgrad_addon/blender_cli.py -- compare ...)
+                   (needs bpy; also: blender -b --disable-autoexec FILE
+                   --python-exit-code 1 --python surfgrad_addon/blender_cli.py -- compare ...)
 """
 
 

@@ -124,8 +124,10 @@ _UNSAFE = re.compile(r'[\\/:*?"<>|\x00-\x1f]')
 
 
 def _safe(name):
-    """A name as a file-name part (no folder separators or characters Windows refuses)."""
-    return _UNSAFE.sub("_", name).strip() or "_"
+    """A name as a file-name part (no folder separators or characters Windows refuses; not
+    '.' or '..', which as a whole folder name would put the map in another folder)."""
+    safe = _UNSAFE.sub("_", name).strip() or "_"
+    return "_" * len(safe) if set(safe) == {"."} else safe
 
 
 def check_pattern(pattern):

@@ -121,7 +121,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                       f": {entry['error']}" if entry["status"] == "failed" else "")
 
     def plan_file(blend):
-        """The bake requests of one scanned file; its failed and skipped assets reported."""
+        """(the bake requests of one scanned file, its failed and skipped entries)."""
         f, name = files[blend], Path(blend).name
         entries, jobs = [], []
         if "scan_error" in f:
@@ -151,11 +151,19 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             out = P.expand(output, name, a["object"], uv)
             entry["output"] = out
             if out in outputs_seen:
-                collisions.append(f"{name}:{a['object']} and {outputs_seen[out]} would both "
-                                  f"write {out}: make the output pattern tell them apart "
-                                  f"({', '.join(P.TOKENS)})")
+                other, other_blend = outputs_seen[out]
+                if other == f"{name}:{a['object']}":     # same names, files in two folders
+                    collisions.append(
+                        f"{blend}:{a['object']} and {other_blend}:{a['object']} would both "
+                        f"write {out}: no output token can tell them apart (one file name, "
+                        f"two folders); bake them in two runs with their own output folders, "
+                        f"or rename one")
+                else:
+                    collisions.append(f"{name}:{a['object']} and {other} would both write "
+                                      f"{out}: make the output pattern tell them apart "
+                                      f"({', '.join(P.TOKENS)})")
                 continue
-            outputs_seen[out] = f"{name}:{a['object']}"
+            outputs_seen[out] = (f"{name}:{a['object']}", blend)
             entry["input_hash"] = f["input_hash"]
             entry["settings_hash"] = P.settings_hash(s, out, blender_version, VERSION)
             prev = previous["assets"].get(key, {})
@@ -181,10 +189,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         for entry in entries:
             report["assets"][M.asset_key(blend, entry.get("object") or "*")] = entry
         progress.known += len(entries)
-        for entry in entries:
-            if entry.get("status") in ("failed", "skipped"):
-                step_entry(entry)
-        return jobs
+        return jobs, [e for e in entries if e.get("status") in ("failed", "skipped")]
 
     def on_reply(req, reply, retry):
         if req["op"] == "scan":
@@ -242,9 +247,13 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             pool.map([{"op": "scan", "file": b, "blend": None if open_file else b,
                        "timeout": worker_timeout or P.SCAN_TIMEOUT_S,
                        **files[b]["selection"]} for b in to_scan], on_reply)
-            requests = []
+            requests, settled = [], []
             for blend in files:
-                requests += plan_file(blend)
+                jobs, done = plan_file(blend)
+                requests += jobs
+                settled += done
+            for entry in settled:          # once every file is planned: the total is known
+                step_entry(entry)
             problems = collisions + sorted({p for p in map(BR.folder_problem, folders) if p})
             if problems:
                 raise P.BatchError(P.joined(problems) + "\n(nothing was baked)")

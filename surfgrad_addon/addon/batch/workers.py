@@ -35,7 +35,8 @@ def worker_command():
 
 
 TIMED_OUT = "timed out"                     # Worker.call's answer when a request overran
-STOP_CODES = {130: "SIGINT", 143: "SIGTERM", -2: "SIGINT", -15: "SIGTERM"}
+STOP_CODES = {code: s.name for s in interrupts.SIGNALS + interrupts.OTHER_SIGNALS
+              for code in (interrupts.exit_code(s), -int(s))}    # 130 / -2: "SIGINT", ...
 
 
 class Worker:
@@ -194,6 +195,9 @@ class Pool:
                         local.extend(more[:1])
                         for m in more[1:]:
                             urgent.put(m)
+                except BrokenPipeError:           # our output was closed: a stop is under way
+                    interrupts.await_stop()
+                    raise
                 finally:
                     with lock:
                         busy[0] -= 1
