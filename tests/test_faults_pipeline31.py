@@ -183,6 +183,53 @@ def test_a_batch_whose_output_is_closed_stops_cleanly_and_records_what_is_left(t
     assert _files(out) == sorted([MANIFEST_NAME, "a0_R0.png", "a1_R1.png"])
 
 
+def test_a_bake_whose_output_is_closed_stops_cleanly_and_writes_no_map(tmp_path):
+    """`bake-normal-map ... | true`: the reader is gone before the bake's first line. Before,
+    a BrokenPipeError traceback, exit 1 (the bake's own stoppable block had ended when the
+    error reached the command line)."""
+    blend = BA.write_asset(tmp_path / "in" / "a.blend", ("R0",), tiles=(1001,), image_size=16,
+                           seed=1)
+    out = tmp_path / "n.png"
+    run = Child(["bake-normal-map", "--blend", blend, "--object", "R0", "--output", out,
+                 "--resolution", "16"], tmp_path / "logs", stdout_pipe=True)
+    run.proc.stdout.close()
+    code = run.end(120)
+    assert code == 141, run.stderr[-3000:]
+    assert "Traceback" not in run.stderr, run.stderr
+    assert run.stderr.strip().splitlines()[-1] == \
+        "surfgrad: interrupted by SIGPIPE (the program reading its output ended): stopped " \
+        "the bake; exit code 141"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "logs"]
+
+
+DEAD_WORKER = """
+import subprocess, sys
+sys.path.insert(0, sys.argv[1])
+from surfgrad_addon.addon import interrupts
+with interrupts.stoppable("the batch"):
+    worker = subprocess.Popen([sys.executable, "-c", "pass"], stdin=subprocess.PIPE, text=True)
+    worker.wait()
+    try:                                    # what Worker.call does with its next request
+        worker.stdin.write("x" * 100000 + "\\n")
+        worker.stdin.flush()
+    except (BrokenPipeError, OSError) as err:
+        print("the write failed:", type(err).__name__)
+    print("the batch goes on")
+"""
+
+
+def test_a_write_to_a_worker_that_died_does_not_stop_the_batch(tmp_path):
+    """A pipe to a worker that died breaks too: the batch must see it as the worker's death
+    (Worker.call returns None and the asset is retried), not as its own output closed. With
+    SIGPIPE caught as a stop signal, this write ended the process with 141 and 'the program
+    reading its output ended'."""
+    done = subprocess.run([sys.executable, "-c", DEAD_WORKER, str(ROOT)], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["the write failed: BrokenPipeError",
+                                        "the batch goes on"], done.stdout + done.stderr
+
+
 def test_openjd_task_takes_paths_with_shell_characters_as_they_are(tmp_path):
     """Before: the task script had the paths pasted into it, so bash expanded `$HOME` in a
     folder name (the maps went to '.../maps /root ...', exit 0) and a '"' broke the script."""

@@ -60,10 +60,6 @@ def leave(code):
 def _run(command, args):
     try:
         code = command.run(args)
-    except BrokenPipeError:                # our output was closed: a stop is under way
-        from . import interrupts
-        interrupts.await_stop()
-        raise
     except (FileExistsError, ValueError, KeyError, RuntimeError) as err:
         print(f"surfgrad: error: {err}", file=sys.stderr)
         return code_for(err)

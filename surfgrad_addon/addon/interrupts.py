@@ -41,10 +41,11 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # 128 + n; one this process inherited as ignored (nohup's SIGHUP) stays ignored.
 OTHER_SIGNALS = tuple(getattr(signal, n) for n in ("SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2")
                       if hasattr(signal, n))
-# SIGPIPE: the program reading our output (`| head`, a log collector) has gone. Python
-# ignores it and raises BrokenPipeError at the next progress line instead, a traceback that
-# ended a batch midway (from a pool thread) with its unfinished assets unrecorded. Caught,
-# it stops like the others (exit 141); Python's start-up ignore is not the user's choice.
+# The program reading our output (`| head`, a log collector) has gone: Python ignores SIGPIPE
+# and raises BrokenPipeError at the next progress line instead, a traceback that ended a batch
+# midway (from a pool thread) with its unfinished assets unrecorded. output_closed() stops as
+# a SIGPIPE would (exit 141). The signal itself stays ignored: it also comes with a write to a
+# worker that died, which the batch retries (workers.Worker.call), and must not stop the batch.
 BROKEN_PIPE = getattr(signal, "SIGPIPE", None)
 _WAKE_END = 0                               # byte that ends the watcher (no signal is 0)
 _state = {"active": False, "what": "the command", "cleanups": [], "placed": [],
@@ -83,8 +84,7 @@ def stoppable(what="the command", keep_placed=False):
         return
     read_fd, write_fd = os.pipe()
     caught = SIGNALS + tuple(s for s in OTHER_SIGNALS
-                             if signal.getsignal(s) is not signal.SIG_IGN) \
-        + ((BROKEN_PIPE,) if BROKEN_PIPE is not None else ())
+                             if signal.getsignal(s) is not signal.SIG_IGN)
     previous = {s: signal.getsignal(s) for s in caught}
     try:
         os.set_blocking(write_fd, False)
@@ -105,6 +105,9 @@ def stoppable(what="the command", keep_placed=False):
     watcher.start()
     try:
         yield
+    except BrokenPipeError:                      # our output's reader went (`| head`)
+        output_closed()
+        raise
     finally:
         _state.update(active=False, placed=[])   # first: a stop from here on waits for no park
         for s, handler in previous.items():
@@ -219,13 +222,16 @@ def remove_blender_tempdir():
     return folder
 
 
-def await_stop(wait_s=PARK_WAIT_S):
-    """For a thread whose output broke (BrokenPipeError): the SIGPIPE that came with it is
-    stopping the process, so wait here for the end (the main thread parks) instead of printing
-    a traceback over the stop's line. Returns when no stop comes within wait_s."""
-    if _state["active"] and BROKEN_PIPE is not None and int(BROKEN_PIPE) in _state["caught"] \
-            and _stop_begun.wait(wait_s):
-        _park() if _is_main() else threading.Event().wait()
+def output_closed():
+    """Our output's reader went away (a BrokenPipeError on stdout or stderr): stop as a SIGPIPE
+    would, exit 141, from whichever thread met it; a stop already under way ends the process
+    instead. Outside a stoppable block: returns (the caller re-raises)."""
+    if not _state["active"] or BROKEN_PIPE is None:
+        return
+    if _is_main():
+        _main_parked.set()                  # the main thread runs the stop: nothing to wait for
+    stop(int(BROKEN_PIPE))
+    _park() if _is_main() else threading.Event().wait()    # another thread's stop ends us
 
 
 @contextmanager

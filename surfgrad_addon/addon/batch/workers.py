@@ -195,8 +195,8 @@ class Pool:
                         local.extend(more[:1])
                         for m in more[1:]:
                             urgent.put(m)
-                except BrokenPipeError:           # our output was closed: a stop is under way
-                    interrupts.await_stop()
+                except BrokenPipeError:           # our output was closed: stop (exit 141)
+                    interrupts.output_closed()
                     raise
                 finally:
                     with lock:
