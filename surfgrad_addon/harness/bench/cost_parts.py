@@ -200,7 +200,8 @@ def rows(now):
         for p in (p for p in PARTS if p.whole == whole):
             cost = p.sign * (now[p.key] - now[p.base])
             parts.append({"key": p.key, "label": p.label, "instructions": cost,
-                          "share": cost / overhead, "for_scale": p.for_scale})
+                          "share": cost / overhead if overhead else None,
+                          "for_scale": p.for_scale})
             summed += 0 if p.for_scale else cost
         out.append({"key": whole, "label": labels[whole], "twin": twins[whole],
                     "overhead": overhead, "parts": parts, "remainder": overhead - summed})
