@@ -166,8 +166,8 @@ def render_cost_parts_table(docs):
         rows.append(f"| **{whole['label']}** | all it runs above {whole['twin']} | "
                     f"**{m(whole['overhead'])}** | 100% |")
         for part in whole["parts"]:
-            rows.append(f"| | {part['label']} | {m(part['instructions'])} | "
-                        f"{100 * part['share']:.0f}% |")
+            share = "-" if part["share"] is None else f"{100 * part['share']:.0f}%"
+            rows.append(f"| | {part['label']} | {m(part['instructions'])} | {share} |")
         rows.append(f"| | what the parts leave (nodes shared between parts, and how Cycles "
                     f"orders them) | {m(whole['remainder'])} | "
                     f"{100 * whole['remainder'] / whole['overhead']:.0f}% |")
