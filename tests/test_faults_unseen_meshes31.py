@@ -1,0 +1,148 @@
+"""Red team 31a: `compare` and the bake request on meshes the project had not seen, built here.
+
+1. A loose vertex far out (a bad import or a script often leaves one): the test for faces
+   without area measured each triangle against the extent of every vertex, loose ones too.
+   A 2 m grid with one loose vertex 1000 km out had every face "without area": compare and
+   `bake-normal-map` refused it ("every face of mesh ... has zero area ... fix the mesh or
+   the object's scale", exit 2) though Cycles bakes it as it bakes the grid alone; with the
+   vertex 100 km out a finer grid's faces would be left out of the comparison as "without
+   area". Now the extent is that of the vertices the triangles use
+   (reference/input_checks.zero_area_mask).
+2. Meshes whose triangulation or tangent welding could split Cycles from the reference, held
+   to compare's bar on every line: non-planar quads split on either diagonal (the first
+   corner rotated), concave (dart) quads, a cone pole of 256 triangles, UV islands mirrored
+   at a seam whose vertices (and UVs) they share, so the tangent sign flips across welded
+   positions.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import bake_request  # noqa: E402
+from surfgrad_addon.harness import compare  # noqa: E402
+from surfgrad_addon.reference import input_checks  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+RES = 64
+P99, MAX = 0.1, 0.5                    # compare's bar (tests/test_faults_compare.py)
+
+
+@pytest.fixture
+def empty_file():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy
+
+
+def _object(name, verts, faces, uvs, smooth=True):
+    """A mesh object from vertex positions, faces and per-corner UVs (UV map 'UVMap')."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([tuple(map(float, v)) for v in verts], [], [tuple(f) for f in faces])
+    mesh.uv_layers.new(name="UVMap").uv.foreach_set(
+        "vector", np.asarray(uvs, dtype=np.float64).ravel())
+    mesh.polygons.foreach_set("use_smooth", np.full(len(faces), smooth))
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def _xy_uvs(verts, faces):
+    corner = np.asarray(verts, dtype=np.float64)[[v for f in faces for v in f]]
+    return corner[:, :2] * 0.45 + 0.5
+
+
+def _grid(n=8, amp=0.0, rotate=0, seed=3):
+    """An n x n grid over -1..1 with a bump (and random heights of `amp`: non-planar quads);
+    each quad's corners rotated by `rotate` (-1: alternating 0 and 1), so Blender splits it
+    on the other diagonal."""
+    xs = np.linspace(-1.0, 1.0, n + 1)
+    gx, gy = np.meshgrid(xs, xs)
+    z = 0.3 * np.exp(-1.5 * (gx ** 2 + gy ** 2)) + amp * np.random.default_rng(seed).uniform(
+        -1.0, 1.0, gx.shape)
+    verts = np.stack([gx, gy, z], -1).reshape(-1, 3)
+    faces = []
+    for j in range(n):
+        for i in range(n):
+            q = [j * (n + 1) + i, j * (n + 1) + i + 1, (j + 1) * (n + 1) + i + 1,
+                 (j + 1) * (n + 1) + i]
+            r = rotate if rotate >= 0 else (i + j) % 2
+            faces.append(q[r:] + q[:r])
+    return verts, faces
+
+
+def _within_bar(report, least=1000):
+    assert report["texels_compared"] > least, report
+    assert report["p99_deg"] <= P99 and report["max_deg"] <= MAX, report
+
+
+def test_a_loose_vertex_far_out_leaves_the_faces_their_area(empty_file):
+    """1. Before: the grid with a loose vertex 1000 km out was refused by compare and by the
+    bake request as a mesh whose every face has zero area; now compared within the bar, and
+    the bake request finds no problem with it."""
+    verts, faces = _grid()
+    verts = np.vstack([verts, [[1.0e6, 0.0, 0.0]]])          # no face uses it
+    obj = _object("Stray", verts, faces, _xy_uvs(verts, faces))
+    # The bake request (bake-normal-map, bake-batch, api) and compare.
+    warnings = []
+    problems = bake_request.mesh_problems(obj, "UVMap", warnings)
+    assert not any("zero area" in p for p in problems), problems
+    report = compare.compare(obj, "normal-map", RES)
+    _within_bar(report, 3000)
+    assert report["excluded"]["outside"] == 0
+    obj.data.calc_loop_triangles()
+    tris = np.array([t.vertices[:] for t in obj.data.loop_triangles])
+    # Independently: a triangle has no area when it is small against the faces' own extent
+    # (2 m here), whatever a vertex that no face uses adds.
+    areas = input_checks.triangle_areas(verts, tris)
+    assert areas.min() > 1e-3 and not input_checks.zero_area_mask(verts, tris).any()
+    assert input_checks.collapsed_mesh_problem("the grid", verts, tris) is None
+    # The mask still finds a triangle collapsed onto a line beside good ones.
+    line = np.vstack([verts, [[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0]]])
+    with_line = np.vstack([tris, [[len(verts), len(verts) + 1, len(verts) + 2]]])
+    assert input_checks.zero_area_mask(line, with_line).tolist() == [False] * len(tris) + [True]
+
+
+def _nonplanar_both_diagonals():
+    verts, faces = _grid(6, amp=0.35, rotate=-1)
+    return _object("NonPlanar", verts, faces, _xy_uvs(verts, faces))
+
+
+def _concave_darts():
+    verts, faces = [], []
+    for k in range(4):
+        x0, b = -1.0 + 0.5 * k, 4 * k
+        verts += [(x0, -0.8, 0.0), (x0 + 0.45, -0.8, 0.15), (x0 + 0.12, -0.2, 0.2),
+                  (x0, 0.8, -0.15)]
+        faces.append([b + 1, b + 2, b + 3, b] if k % 2 else [b, b + 1, b + 2, b + 3])
+    return _object("Darts", verts, faces, _xy_uvs(verts, faces))
+
+
+def _cone_pole():
+    n = 256
+    verts = [(0.0, 0.0, 0.8)] + [(math.cos(2 * math.pi * k / n), math.sin(2 * math.pi * k / n),
+                                  0.0) for k in range(n)]
+    faces = [(0, 1 + k, 1 + (k + 1) % n) for k in range(n)]
+    return _object("Pole", verts, faces, _xy_uvs(verts, faces))
+
+
+def _mirrored_at_a_shared_seam():
+    verts, faces = _grid()
+    corner = verts[[v for f in faces for v in f]]
+    uvs = np.stack([0.1 + 0.8 * np.abs(corner[:, 0]), corner[:, 1] * 0.45 + 0.5], -1)
+    return _object("SharedSeam", verts, faces, uvs)
+
+
+@pytest.mark.parametrize("build", [_nonplanar_both_diagonals, _concave_darts, _cone_pole,
+                                   _mirrored_at_a_shared_seam],
+                         ids=["nonplanar_quads_both_diagonals", "concave_quads", "pole_256",
+                              "mirrored_islands_sharing_the_seam"])
+def test_triangulations_and_welds_cycles_may_split_differently(empty_file, build):
+    """2. Measured at 64^2 (5.2.3, 5.0, 4.5, 4.2): max 0.0015 / 0.0031 / 0.0015 / 0.0012 deg;
+    the bar is p99 0.1, max 0.5."""
+    obj = build()
+    _within_bar(compare.compare(obj, "normal-map", RES), 500)
