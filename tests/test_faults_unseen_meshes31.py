@@ -146,3 +146,36 @@ def test_triangulations_and_welds_cycles_may_split_differently(empty_file, build
     the bar is p99 0.1, max 0.5."""
     obj = build()
     _within_bar(compare.compare(obj, "normal-map", RES), 500)
+
+
+@pytest.mark.parametrize("sharp_face", [True, False], ids=["smooth_faces", "no_sharp_face"])
+def test_custom_normals_on_faces_are_not_what_cycles_shades_with(empty_file, sharp_face):
+    """3. Free custom normals on the FACE domain (a FACE 'custom_normal' attribute, as an
+    importer or a Set Mesh Normal node writes it; 4.5 and later): Cycles reads corner
+    normals only for the CORNER domain; otherwise it shades faces marked smooth with
+    Blender's vertex normals, and without a 'sharp_face' attribute every face flat
+    (cycles/blender/mesh.cc create_mesh). The reference took the face normals. Before, a
+    correct SG Normal Map scored p99 20.2 / max 23.1 deg (faces marked smooth) and p99 37.0 /
+    max 39.8 (no sharp_face attribute) at 64^2 on 4.5, 5.0 and 5.2."""
+    verts, faces = _grid()
+    obj = _object("FaceNormals", verts, faces, _xy_uvs(verts, faces))
+    mesh = obj.data
+    normals = mesh.attributes.new("custom_normal", "FLOAT_VECTOR", "FACE")
+    n = np.random.default_rng(4).normal(0.0, 0.15, (len(mesh.polygons), 3)) + (0.0, 0.0, 1.0)
+    normals.data.foreach_set("vector", (n / np.linalg.norm(n, axis=1, keepdims=True)).ravel())
+    if not sharp_face and mesh.attributes.get("sharp_face") is not None:
+        mesh.attributes.remove(mesh.attributes["sharp_face"])
+    mesh.update()
+    if mesh.normals_domain != "FACE":
+        pytest.skip(f"Blender {bpy.app.version_string} has no free normals: a FACE "
+                    f"'custom_normal' is a plain attribute (normals domain "
+                    f"{mesh.normals_domain})")
+    assert (mesh.attributes.get("sharp_face") is not None) == sharp_face
+    # The custom face normals (Blender's corner normals now) are far from the faces' own.
+    face = np.empty(len(mesh.polygons) * 3)
+    mesh.polygons.foreach_get("normal", face)
+    corner = np.empty(len(mesh.loops) * 3)
+    mesh.corner_normals.foreach_get("vector", corner)
+    assert not np.allclose(corner.reshape(-1, 3)[::4], face.reshape(-1, 3), atol=0.05)
+    for method in ("normal-map", "object-normal"):
+        _within_bar(compare.compare(obj, method, RES), 3000)
