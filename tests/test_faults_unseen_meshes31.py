@@ -179,3 +179,47 @@ def test_custom_normals_on_faces_are_not_what_cycles_shades_with(empty_file, sha
     assert not np.allclose(corner.reshape(-1, 3)[::4], face.reshape(-1, 3), atol=0.05)
     for method in ("normal-map", "object-normal"):
         _within_bar(compare.compare(obj, method, RES), 3000)
+
+
+def _custom_normals_on_flat_faces():
+    """Custom split normals (a per-corner jitter) on a grid whose every face is flat."""
+    verts, faces = _grid()
+    obj = _object("FlatCustom", verts, faces, _xy_uvs(verts, faces), smooth=False)
+    mesh = obj.data
+    rng = np.random.default_rng(1)
+    vertex = np.array([mesh.vertices[loop.vertex_index].normal for loop in mesh.loops])
+    n = vertex + rng.normal(0.0, 0.15, vertex.shape)
+    mesh.normals_split_custom_set((n / np.linalg.norm(n, axis=1, keepdims=True)).tolist())
+    return obj
+
+
+def _nonplanar_flat_and_smooth_with_sharp_edges():
+    """Non-planar quads (either diagonal), every third flat, every fifth edge sharp: a
+    hard-surface mesh as modellers leave it."""
+    verts, faces = _grid(6, amp=0.35, rotate=-1)
+    obj = _object("HardSurface", verts, faces, _xy_uvs(verts, faces))
+    mesh = obj.data
+    mesh.polygons.foreach_set("use_smooth", np.arange(len(faces)) % 3 != 0)
+    mesh.edges.foreach_set("use_edge_sharp", np.arange(len(mesh.edges)) % 5 == 0)
+    mesh.update()
+    return obj
+
+
+@pytest.mark.parametrize("build", [_custom_normals_on_flat_faces,
+                                   _nonplanar_flat_and_smooth_with_sharp_edges],
+                         ids=["custom_normals_on_flat_faces",
+                              "nonplanar_flat_and_smooth_with_sharp_edges"])
+def test_flat_faces_under_corner_normals_give_mikktspace_what_cycles_gives(empty_file, build):
+    """4. Where Cycles shades with corner normals (custom normals, sharp edges), up to 5.0 it
+    takes every triangle as smooth, so MikkTSpace sees a flat face's corner normals (the
+    custom ones, or the polygon's normal of a non-planar quad), not each triangle's own
+    (LineFacts.corner_normals_keep_flat_faces; 5.2 keeps flat faces flat). Before, on 4.2,
+    4.5 and 5.0 at 64^2: p99 7.7 / max 17.9 deg (custom normals on flat faces) and p99 28.5 /
+    max 41.4 (the hard-surface mesh) on a correct SG Normal Map; 5.2 was right."""
+    from support.cycles_tangents import tangent_errors
+    obj = build()
+    _within_bar(compare.compare(obj, "normal-map", RES), 3000)
+    # The frame itself: Cycles' UV tangent (its Tangent node, baked) against the reference's.
+    err, used, _ = tangent_errors(obj, "UVMap", RES)
+    assert used.sum() > 2000
+    assert err.max() < 0.01, err.max()
