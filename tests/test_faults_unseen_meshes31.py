@@ -185,11 +185,11 @@ def _custom_normals_on_flat_faces():
     """Custom split normals (a per-corner jitter) on a grid whose every face is flat."""
     verts, faces = _grid()
     obj = _object("FlatCustom", verts, faces, _xy_uvs(verts, faces), smooth=False)
-    mesh = obj.data
-    rng = np.random.default_rng(1)
-    vertex = np.array([mesh.vertices[loop.vertex_index].normal for loop in mesh.loops])
-    n = vertex + rng.normal(0.0, 0.15, vertex.shape)
-    mesh.normals_split_custom_set((n / np.linalg.norm(n, axis=1, keepdims=True)).tolist())
+    # Jittered about the corner's vertex position from the grid's centre, not its normal.
+    corner = np.asarray(verts, dtype=np.float64)[[v for f in faces for v in f]]
+    jitter = np.random.default_rng(1).normal(0.0, 0.15, corner.shape)
+    n = jitter + np.column_stack([0.2 * corner[:, 0], 0.2 * corner[:, 1], np.ones(len(corner))])
+    obj.data.normals_split_custom_set((n / np.linalg.norm(n, axis=1, keepdims=True)).tolist())
     return obj
 
 
