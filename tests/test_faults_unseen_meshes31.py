@@ -148,6 +148,18 @@ def test_triangulations_and_welds_cycles_may_split_differently(empty_file, build
     _within_bar(compare.compare(obj, "normal-map", RES), 500)
 
 
+def _with_free_normals(name, domain):
+    """The grid with a float 'custom_normal' attribute on `domain` (FACE or CORNER): up
+    jittered by N(0, 0.15) per element, as an importer or a Set Mesh Normal node writes it."""
+    verts, faces = _grid()
+    obj = _object(name, verts, faces, _xy_uvs(verts, faces))
+    mesh = obj.data
+    normals = mesh.attributes.new("custom_normal", "FLOAT_VECTOR", domain)
+    n = np.random.default_rng(4).normal(0.0, 0.15, (len(normals.data), 3)) + (0.0, 0.0, 1.0)
+    normals.data.foreach_set("vector", (n / np.linalg.norm(n, axis=1, keepdims=True)).ravel())
+    return obj
+
+
 @pytest.mark.parametrize("sharp_face", [True, False], ids=["smooth_faces", "no_sharp_face"])
 def test_custom_normals_on_faces_are_not_what_cycles_shades_with(empty_file, sharp_face):
     """3. Free custom normals on the FACE domain (a FACE 'custom_normal' attribute, as an
@@ -157,12 +169,8 @@ def test_custom_normals_on_faces_are_not_what_cycles_shades_with(empty_file, sha
     (cycles/blender/mesh.cc create_mesh). The reference took the face normals. Before, a
     correct SG Normal Map scored p99 20.2 / max 23.1 deg (faces marked smooth) and p99 37.0 /
     max 39.8 (no sharp_face attribute) at 64^2 on 4.5, 5.0 and 5.2."""
-    verts, faces = _grid()
-    obj = _object("FaceNormals", verts, faces, _xy_uvs(verts, faces))
+    obj = _with_free_normals("FaceNormals", "FACE")
     mesh = obj.data
-    normals = mesh.attributes.new("custom_normal", "FLOAT_VECTOR", "FACE")
-    n = np.random.default_rng(4).normal(0.0, 0.15, (len(mesh.polygons), 3)) + (0.0, 0.0, 1.0)
-    normals.data.foreach_set("vector", (n / np.linalg.norm(n, axis=1, keepdims=True)).ravel())
     if not sharp_face and mesh.attributes.get("sharp_face") is not None:
         mesh.attributes.remove(mesh.attributes["sharp_face"])
     mesh.update()
@@ -223,3 +231,24 @@ def test_flat_faces_under_corner_normals_give_mikktspace_what_cycles_gives(empty
     err, used, _ = tangent_errors(obj, "UVMap", RES)
     assert used.sum() > 2000
     assert err.max() < 0.01, err.max()
+
+
+@pytest.mark.parametrize("hard", [False, True], ids=["smooth", "flat_faces_and_sharp_edges"])
+def test_free_corner_normals_shade_as_cycles_splits_their_vertices(empty_file, hard):
+    """5. Free custom normals on the corners (a float 'custom_normal' corner attribute, 4.5 and
+    later): 5.0 and 4.5 split the vertices only at sharp edges and flat faces, and each vertex
+    shades with the normal of its corner written last (harness/free_normal_fans.py;
+    LineFacts.free_corner_normals_split). Before, a correct SG Normal Map scored p99 24.8 /
+    max 40.9 deg at 64^2 on 4.5 and 5.0 (5.2 was right); the fans must follow the sharp edges
+    and flat faces (the second case)."""
+    obj = _with_free_normals("FreeCorners", "CORNER")
+    mesh = obj.data
+    if hard:
+        mesh.polygons.foreach_set("use_smooth", np.arange(len(mesh.polygons)) % 3 != 0)
+        mesh.edges.foreach_set("use_edge_sharp", np.arange(len(mesh.edges)) % 5 == 0)
+    mesh.update()
+    if mesh.normals_domain != "CORNER" or not mesh.has_custom_normals:
+        pytest.skip(f"Blender {bpy.app.version_string} has no free normals: a CORNER "
+                    f"'custom_normal' is a plain attribute")
+    for method in ("normal-map", "object-normal"):
+        _within_bar(compare.compare(obj, method, RES), 3000)

@@ -13,6 +13,7 @@ from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.raster import MeshArrays
 from ..reference.vecmath import cross, normalize
+from .free_normal_fans import has_free_corner_normals, last_written_normals
 from .weld_fans import fan_mesh, normal_classes
 
 
@@ -54,6 +55,8 @@ def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
                 or has_sharp_edges):
             flat = flat_triangles(mesh, nt) if facts.corner_normals_keep_flat_faces else \
                 np.zeros(nt, dtype=bool)
+            if not facts.free_corner_normals_split and has_free_corner_normals(mesh):
+                corner = last_written_normals(mesh, tri_loops)
             return corner, flat
     flat = flat_triangles(mesh, nt)
     if domain == "FACE":
