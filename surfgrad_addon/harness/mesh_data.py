@@ -13,6 +13,7 @@ from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.raster import MeshArrays
 from ..reference.vecmath import cross, normalize
+from .free_normal_fans import has_free_corner_normals, last_written_normals
 from .weld_fans import fan_mesh, normal_classes
 
 
@@ -38,9 +39,11 @@ def flat_triangles(mesh, nt=None):
 
 
 def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
-    """(T, 3, 3) the normals Cycles shades each triangle corner with
+    """((T, 3, 3) the normals Cycles shades each triangle corner with
     (LineFacts.sharp_faces_give_corner_normals): corner normals, vertex normals for smooth
-    faces, or the triangle's own geometric normal for flat ones."""
+    faces, or the triangle's own geometric normal for flat ones; (T,) True where Cycles takes
+    the triangle as flat, so MikkTSpace sees its own normal there
+    (LineFacts.corner_normals_keep_flat_faces))."""
     nl, nv, nt = len(mesh.loops), len(mesh.vertices), len(tri_loops)
     corner = _get(mesh.corner_normals, "vector", nl, 3)[tri_loops]
     domain = mesh.normals_domain
@@ -50,10 +53,23 @@ def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
             _get(sharp_edge.data, "value", len(mesh.edges), 1, bool).any())
         if (facts.sharp_faces_give_corner_normals or mesh.has_custom_normals
                 or has_sharp_edges):
-            return corner
+            flat = flat_triangles(mesh, nt) if facts.corner_normals_keep_flat_faces else \
+                np.zeros(nt, dtype=bool)
+            if not facts.free_corner_normals_split and has_free_corner_normals(mesh):
+                corner = last_written_normals(mesh, tri_loops)
+            return corner, flat
     flat = flat_triangles(mesh, nt)
+    if domain == "FACE":
+        # Free custom normals on the faces (a FACE 'custom_normal', 4.5 and later) are not
+        # Cycles' normals: it reads corner normals only for the CORNER domain, else Blender's
+        # vertex normals for faces marked smooth, and with no 'sharp_face' attribute at all
+        # it makes every face of a FACE-domain mesh flat (cycles/blender/mesh.cc
+        # create_mesh). Before, a correct SG Normal Map scored p99 20 / max 23 deg there.
+        if mesh.attributes.get("sharp_face") is None:
+            flat[:] = True
+        corner = _get(mesh.vertex_normals, "vector", nv, 3)[tri_verts]
     if not flat.any():
-        return corner
+        return corner, flat
     p = positions[tri_verts]
     with np.errstate(invalid="ignore", divide="ignore"):
         tri_normal = normalize(cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
@@ -63,7 +79,19 @@ def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
     # Per-vertex normals (custom ones included) are the corner normals of a POINT domain.
     vertex = corner if domain == "POINT" else \
         _get(mesh.vertex_normals, "vector", nv, 3)[tri_verts]
-    return np.where(flat[:, None, None], tri_normal[:, None, :], vertex)
+    return np.where(flat[:, None, None], tri_normal[:, None, :], vertex), flat
+
+
+def _unit(normals):
+    """The normals with those that are not unit length (free normals hold whatever vector was
+    set: a Set Mesh Normal node fed an unnormalised vector) normalised, as Cycles 5.2 hands them
+    to MikkTSpace (measured: a correct SG Normal Map at p99 1.55 / max 3.28 deg before, 0.0010 /
+    0.0015 now). Unit ones keep their exact floats: MikkTSpace welds bitwise-equal normals."""
+    length = np.linalg.norm(normals, axis=-1, keepdims=True)
+    off = np.abs(length - 1.0) > 1e-5
+    if not off.any():
+        return normals
+    return np.where(off, normals / np.where(length > 0.0, length, 1.0), normals)
 
 
 def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None):
@@ -107,9 +135,9 @@ def _evaluated_arrays(obj, depsgraph, facts):
         positions = _get(mesh.vertices, "co", nv, 3)
         tri_loops = _get(mesh.loop_triangles, "loops", nt, 3, np.int64)
         tri_verts = _get(mesh.loop_triangles, "vertices", nt, 3, np.int64)
-        corner_normals = cycles_normals(mesh, positions, tri_loops, tri_verts, facts)
+        corner_normals, flat = cycles_normals(mesh, positions, tri_loops, tri_verts, facts)
+        corner_normals = _unit(corner_normals)
         triangle_faces = _get(mesh.loop_triangles, "polygon_index", nt, 1, np.int64)
-        flat = flat_triangles(mesh, nt)
         names = [layer.name for layer in mesh.uv_layers]
         uv_maps = {name: _get(mesh.uv_layers[name].uv, "vector", nl, 2)[tri_loops]
                    for name in names}

@@ -52,6 +52,16 @@ class LineFacts:
     # to 5.0 only sharp edges or custom normals give corner normals (otherwise smooth faces
     # shade with vertex normals and flat faces with their triangle's normal).
     sharp_faces_give_corner_normals: bool = True
+    # Which normal MikkTSpace sees on a flat face where Cycles shades with corner normals
+    # (custom normals, sharp edges; on 5.2 also flat and smooth faces mixed): 5.2 keeps the
+    # face flat, so its triangles give their own geometric normal; up to 5.0 Cycles takes
+    # every triangle as smooth there, and MikkTSpace gets the corner normals (measured: custom
+    # split normals on flat faces, a correct SG Normal Map p99 7.7 / max 17.9 deg before).
+    corner_normals_keep_flat_faces: bool = True
+    # Free corner normals (a float 'custom_normal' corner attribute, 4.5 and later): 5.2 splits
+    # the vertices where they differ; 5.0 and 4.5 only at sharp edges and flat faces, and each
+    # vertex then shades with the normal of its corner written last (harness/free_normal_fans.py).
+    free_corner_normals_split: bool = True
     # A shader node group can have Menu sockets and a Menu Switch node (5.0 and later); 4.2 and
     # 4.5 refuse NodeSocketMenu in a shader tree, so an enumeration is an integer there.
     menu_sockets: bool = True
@@ -70,7 +80,8 @@ _UP_TO_5_0 = dict(bake_differential_scale=0.25, bump_filter_width=True, packed_n
                  normal_map_unit_normal=False, normal_map_replaces_non_finite=True,
                  normal_map_convention=False,
                  modifier_properties=False, bake_applies_target_colorspace=False,
-                 sharp_faces_give_corner_normals=False)
+                 sharp_faces_give_corner_normals=False, corner_normals_keep_flat_faces=False,
+                 free_corner_normals_split=False)
 LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,

@@ -6,8 +6,8 @@ collapsed mesh is refused with the same words on either path.
 
 import numpy as np
 
-# A face whose area is below this share of the mesh's squared extent is taken as zero area
-# (collapsed in float32: Cycles cannot place a texel on it).
+# A face whose area is below this share of the squared extent of the mesh's faces is taken as
+# zero area (collapsed in float32: Cycles cannot place a texel on it).
 RELATIVE_AREA_EPS = 1e-12
 _CHUNK = 1 << 24            # values per slice when counting non-finite ones (bounded memory)
 
@@ -54,12 +54,19 @@ def triangle_areas(positions, triangles):
 
 def zero_area_mask(positions, triangles):
     """(T,) True where a triangle has no area (collapsed to a line or a point), measured
-    against the mesh's own size."""
+    against the size of the mesh's faces: the extent of the vertices its triangles use. A
+    loose vertex (no face uses it; a bad import often leaves one far out) is not part of
+    any surface Cycles shades: counted in the extent, one 1000 km out made every face of a
+    2 m grid 'no area', and the bake and compare refused it."""
     p = np.asarray(positions, dtype=np.float64)
-    if len(p) == 0:
-        return np.ones(len(triangles), bool)
-    extent = float(np.max(p.max(axis=0) - p.min(axis=0)))
-    return triangle_areas(p, triangles) <= RELATIVE_AREA_EPS * extent * extent
+    tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(p) == 0 or len(tris) == 0:
+        return np.ones(len(tris), bool)
+    used = np.zeros(len(p), bool)
+    used[tris.ravel()] = True
+    q = p[used]
+    extent = float(np.max(q.max(axis=0) - q.min(axis=0)))
+    return triangle_areas(p, tris) <= RELATIVE_AREA_EPS * extent * extent
 
 
 def collapsed_mesh_problem(what, world_positions, triangles):
