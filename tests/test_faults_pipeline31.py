@@ -328,29 +328,103 @@ def _linked_material_scene(tmp_path, override):
     return scene
 
 
+def _slots_state():
+    """What the open file's object Rock holds: each slot's link, its material (name, library
+    path) and the mesh's; and every material of the file."""
+    obj = bpy.data.objects["Rock"]
+
+    def named(mat):
+        return None if mat is None else (mat.name, mat.library and mat.library.filepath)
+    return ([(s.link, named(s.material)) for s in obj.material_slots],
+            [named(m) for m in obj.data.materials],
+            sorted((m.name, bool(m.library), m.users) for m in bpy.data.materials))
+
+
 @pytest.mark.tier("bake")
-def test_a_material_linked_from_a_library_is_refused_with_the_fix(tmp_path, capsys):
-    """Before: exit 1, `the bake of 'Rock' did not finish ({'CANCELLED'}); Blender gave no
-    reason` (Blender's reason, 'No active and selected image texture node found in material',
-    went to stdout). A library override of the same material bakes, the same map as the
-    library's own file gives."""
-    from surfgrad_addon.addon import exit_codes
+def test_a_material_linked_from_a_library_bakes_as_the_local_one(tmp_path, capsys,
+                                                                 monkeypatch):
+    """Before: exit 2, `material 'Rock_SG' is linked from library '//lib.blend': Cycles bakes
+    into an Image Texture node of each material, which a linked material does not take ...;
+    make it local ...` (and before that, exit 1: Blender cancelled the bake). Now the bake
+    goes through a temporary local copy: the same bytes as the material made local, as the
+    library's own file and as a library override give; the .blend on disk is unchanged, and
+    in a live session the slots and the file's materials are as before, after a bake (slot on
+    the mesh or on the object) and after a failed one."""
+    from surfgrad_addon.addon import exit_codes, normal_bake as NB
     scene = _linked_material_scene(tmp_path, override=False)
     before = scene.read_bytes()
     out = tmp_path / "out"
     rc, err = _bake_here(capsys, scene, out / "n.png")
-    assert rc == exit_codes.BAD_REQUEST, err
-    assert err.strip().splitlines()[-1] == (
-        "surfgrad: error: material 'Rock_SG' is linked from library '//lib.blend': Cycles "
-        "bakes into an Image Texture node of each material, which a linked material does not "
-        "take (Blender cancels the bake); make it local (Object > Relations > Make Local > "
-        "Selected Objects, Data and Materials) or give it a library override")
-    assert list(out.iterdir()) == [] and scene.read_bytes() == before
+    assert rc == 0, err
+    assert scene.read_bytes() == before
+    assert sorted(p.name for p in out.iterdir()) == ["n.png"]
+    # The same material made local, in a file of its own.
+    bpy.ops.wm.open_mainfile(filepath=str(scene), use_scripts=False)
+    linked = bpy.data.objects["Rock"].data.materials[0]
+    assert linked.library is not None
+    local = linked.make_local()
+    bpy.data.objects["Rock"].data.materials[0] = local
+    assert bpy.data.objects["Rock"].data.materials[0].library is None
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "local.blend"), compress=False)
+    rc_local, err_local = _bake_here(capsys, tmp_path / "local.blend", out / "local.png")
+    rc_lib, err_lib = _bake_here(capsys, tmp_path / "lib.blend", out / "lib.png")
+    assert (rc_local, rc_lib) == (0, 0), err_local + err_lib
+    assert (out / "n.png").read_bytes() == (out / "local.png").read_bytes() == \
+        (out / "lib.png").read_bytes()
+    # A library override bakes as before: the same map.
     over = _linked_material_scene(tmp_path / "o", override=True)
     rc, err = _bake_here(capsys, over, out / "over.png")
-    rc_lib, err_lib = _bake_here(capsys, tmp_path / "o" / "lib.blend", out / "lib.png")
-    assert (rc, rc_lib) == (0, 0), err + err_lib
+    assert rc == 0, err
     assert (out / "over.png").read_bytes() == (out / "lib.png").read_bytes()
+    # A live session: the slot on the mesh, then on the object; then a bake that fails.
+    bpy.ops.wm.open_mainfile(filepath=str(scene), use_scripts=False)
+    obj = bpy.data.objects["Rock"]
+    state = _slots_state()
+    assert state[0][0][1] == ("Rock_SG", "//lib.blend")
+    quiet = dict(resolution=16, log=lambda *a: None)
+    NB.bake_normal_map(obj, out / "live.png", **quiet)
+    assert _slots_state() == state
+    assert (out / "live.png").read_bytes() == (out / "lib.png").read_bytes()
+    linked = obj.data.materials[0]
+    obj.data.materials[0] = None
+    obj.material_slots[0].link = "OBJECT"
+    obj.material_slots[0].material = linked
+    state = _slots_state()
+    assert state[0] == [("OBJECT", ("Rock_SG", "//lib.blend"))] and state[1] == [None]
+    NB.bake_normal_map(obj, out / "object_slot.png", **quiet)
+    assert _slots_state() == state
+    assert (out / "object_slot.png").read_bytes() == (out / "lib.png").read_bytes()
+
+    def full_disk(*_):
+        raise exit_codes.MapNotWritten("the disk is full")
+    monkeypatch.setattr(NB, "_check_written", full_disk)
+    with pytest.raises(exit_codes.MapNotWritten):
+        NB.bake_normal_map(obj, out / "failed.png", **quiet)
+    assert _slots_state() == state and not (out / "failed.png").exists()
+
+
+@pytest.mark.tier("bake")
+def test_bake_batch_and_compare_take_a_linked_material(tmp_path, capsys):
+    """Before: bake-batch refused the asset (exit 2, the same 'linked from library' line).
+    Its map is the library's own; compare (which bakes its own material) runs too; the .blend
+    on disk is unchanged."""
+    from surfgrad_addon.addon import commands
+    from surfgrad_addon.harness.cli import main
+    scene = _linked_material_scene(tmp_path, override=False)
+    before = scene.read_bytes()
+    out = tmp_path / "out"
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(scene), "--output", str(out / "{object}.png"),
+                           "--resolution", "16", "--workers", "0"])
+    assert rc == 0, capsys.readouterr().err
+    rc_lib, err_lib = _bake_here(capsys, tmp_path / "lib.blend", out / "lib.png")
+    assert rc_lib == 0, err_lib
+    assert (out / "Rock.png").read_bytes() == (out / "lib.png").read_bytes()
+    code = main(["compare", "--blend", str(scene), "--object", "Rock", "--method",
+                 "normal-map", "--resolution", "16", "--json", str(out / "c.json")])
+    assert code == 0, capsys.readouterr().err
+    assert json.loads((out / "c.json").read_text())["texels_compared"] > 100
+    assert scene.read_bytes() == before
 
 
 @pytest.mark.tier("blender")

@@ -70,10 +70,9 @@ def missing_tiles_problem(image, covered):
 
 
 def library_problem(mat):
-    """A material linked from a library file: missing (Blender keeps an empty placeholder,
-    which bakes a flat map), or present, where Cycles takes no bake target from it (it said
-    only "No active and selected image texture node found" on stdout and cancelled). A
-    library override is local data and bakes."""
+    """A material linked from a library file that is missing: Blender keeps an empty
+    placeholder, which bakes a flat map. One whose library is present bakes through a
+    temporary local copy (linked_materials.py); a library override is local data and bakes."""
     import bpy
     lib = mat.library
     if lib is None:
@@ -83,10 +82,7 @@ def library_problem(mat):
         return (f"material {mat.name!r} is linked from library {lib.filepath!r} ({path}), "
                 f"which is missing: the bake would use an empty placeholder; put the library "
                 f"file there or relink it (File > External Data > Find Missing Files)")
-    return (f"material {mat.name!r} is linked from library {lib.filepath!r}: Cycles bakes "
-            f"into an Image Texture node of each material, which a linked material does not "
-            f"take (Blender cancels the bake); make it local (Object > Relations > Make Local "
-            f"> Selected Objects, Data and Materials) or give it a library override")
+    return None
 
 
 def missing_library_problem(block, what="object"):

@@ -31,6 +31,7 @@ from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, own_materials, visible_for_bake
 from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
+from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
 from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
@@ -217,8 +218,16 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
                       overwrite=False, log=print, threads=None):
     """Bake obj's materials into normal map file(s) at `output` (with <UDIM>: one file per
     tile). threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch
-    of several processes gives each its share). Returns a dict: paths {tile: Path}, tiles,
+    of several processes gives each its share). Materials linked from a library bake through
+    temporary local copies (linked_materials.py). Returns a dict: paths {tile: Path}, tiles,
     uv_map, depth, warnings, bake_s, save_s."""
+    with local_copies(obj):
+        return _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth,
+                           tiles, empty_tiles, overwrite, log, threads)
+
+
+def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, tiles,
+                empty_tiles, overwrite, log, threads):
     import bpy
 
     output = check_output(output)
