@@ -491,3 +491,49 @@ def test_an_object_named_dot_dot_stays_in_the_output_folder(tmp_path, capsys):
                            "--workers", "0"])
     assert rc == 0, capsys.readouterr().err
     assert sorted(str(p.relative_to(root)) for p in root.rglob("*.png")) == ["maps/__/n.png"]
+
+
+def _rock_and_rock(tmp_path):
+    return BA.write_asset(tmp_path / "in" / "x.blend", ("Rock", "rock"), tiles=(1001,),
+                          image_size=16)
+
+
+@pytest.mark.tier("bake")
+def test_outputs_one_only_in_case_are_refused_where_the_file_system_ignores_case(
+        tmp_path, capsys, monkeypatch):
+    """Objects Rock and rock into maps/{object}.png: on a file system that ignores case (macOS,
+    Windows, SMB) the second map replaced the first with exit 0. Such a file system is faked
+    here (this one keeps case: the probe says so, below)."""
+    from surfgrad_addon.addon import commands, exit_codes
+    from surfgrad_addon.addon.batch import output_names
+    blend = _rock_and_rock(tmp_path)
+    out = tmp_path / "maps"
+    monkeypatch.setattr(output_names, "ignores_case", lambda folder: True)
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(out / "{object}.png"),
+                           "--resolution", "16", "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert err.strip().splitlines()[-2:] == [
+        f"surfgrad: error: x.blend:rock and x.blend:Rock would write {out / 'rock.png'} and "
+        f"{out / 'Rock.png'}, one file on this file system (it ignores case): the second map "
+        f"would replace the first; rename one, or make the output pattern tell them apart",
+        "(nothing was baked)"]
+    assert not out.exists()
+
+
+@pytest.mark.tier("bake")
+def test_a_file_system_that_keeps_case_bakes_both_and_the_probe_leaves_nothing(tmp_path,
+                                                                             capsys):
+    from surfgrad_addon.addon import commands
+    from surfgrad_addon.addon.batch import output_names
+    blend = _rock_and_rock(tmp_path)
+    out = tmp_path / "maps"
+    probe_in = tmp_path / "probe"
+    probe_in.mkdir()
+    assert output_names.ignores_case(str(probe_in / "not" / "yet")) is False
+    assert list(probe_in.iterdir()) == []
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(out / "{object}.png"),
+                           "--resolution", "16", "--workers", "0"])
+    assert rc == 0, capsys.readouterr().err
+    assert {"Rock.png", "rock.png"} <= set(_files(out))

@@ -10,6 +10,7 @@ from .. import interrupts
 from .. import normal_bake as NB
 from . import manifest as M
 from . import plan as P
+from .output_names import output_key
 from .progress import Progress
 from .workers import InProcess, Pool
 
@@ -150,9 +151,16 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry["settings"] = s
             out = P.expand(output, name, a["object"], uv)
             entry["output"] = out
-            if out in outputs_seen:
-                other, other_blend = outputs_seen[out]
-                if other == f"{name}:{a['object']}":     # same names, files in two folders
+            seen_as = output_key(out)
+            if seen_as in outputs_seen:
+                other, other_blend, other_out = outputs_seen[seen_as]
+                if other_out != out:                     # one file where case is ignored
+                    collisions.append(
+                        f"{name}:{a['object']} and {other} would write {out} and "
+                        f"{other_out}, one file on this file system (it ignores case): the "
+                        f"second map would replace the first; rename one, or make the output "
+                        f"pattern tell them apart")
+                elif other == f"{name}:{a['object']}":     # same names, files in two folders
                     collisions.append(
                         f"{blend}:{a['object']} and {other_blend}:{a['object']} would both "
                         f"write {out}: no output token can tell them apart (one file name, "
@@ -163,7 +171,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                                       f"{out}: make the output pattern tell them apart "
                                       f"({', '.join(P.TOKENS)})")
                 continue
-            outputs_seen[out] = (f"{name}:{a['object']}", blend)
+            outputs_seen[seen_as] = (f"{name}:{a['object']}", blend, out)
             entry["input_hash"] = f["input_hash"]
             entry["settings_hash"] = P.settings_hash(s, out, blender_version, VERSION)
             prev = previous["assets"].get(key, {})
