@@ -5,11 +5,9 @@ assumed: a probe file is made in the nearest folder that exists and looked up in
 
 import os
 import uuid
-from functools import lru_cache
 from pathlib import Path
 
 
-@lru_cache(maxsize=None)
 def ignores_case(folder):
     """True when the file system holding `folder` (or its nearest existing parent) finds a file
     under a name in another case; False where it does not, or where no probe can be made (the
@@ -17,15 +15,28 @@ def ignores_case(folder):
     folder = Path(folder)
     while not _is_dir(folder) and folder.parent != folder:
         folder = folder.parent
+    return _probe(str(folder))
+
+
+_ANSWERS = {}
+
+
+def _probe(existing):
+    """One probe per existing folder (a batch's outputs mostly share one), not one per asset;
+    a folder where no probe could be made is asked again next time (it may take files then)."""
+    if existing in _ANSWERS:
+        return _ANSWERS[existing]
+    folder = Path(existing)
     probe = folder / f".surfgrad-case-probe-{uuid.uuid4().hex}"
     try:
         probe.touch(exist_ok=False)
     except OSError:
         return False
     try:
-        return os.path.exists(folder / probe.name.upper())
+        _ANSWERS[existing] = os.path.exists(folder / probe.name.upper())
     finally:
         probe.unlink(missing_ok=True)
+    return _ANSWERS[existing]
 
 
 def _is_dir(path):
