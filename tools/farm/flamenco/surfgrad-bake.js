@@ -12,9 +12,12 @@ const JOB_TYPE = {
   description: "Bake materials into normal maps, one task per object and UDIM tile",
   settings: [
     { key: "objects", type: "string", required: true,
-      eval: "','.join(o.name for o in C.selected_objects if o.type == 'MESH')",
+      // A comma or backslash inside a name is escaped with a backslash (parseObjects).
+      eval: "','.join(o.name.replace('\\\\', '\\\\\\\\').replace(',', '\\\\,') " +
+            "for o in C.selected_objects if o.type == 'MESH')",
       evalInfo: { showLinkButton: true, description: "The selected mesh objects" },
-      description: "Mesh objects to bake, separated by commas" },
+      description: "Mesh objects to bake, separated by commas; write a comma or backslash " +
+                   "inside a name as \\, or \\\\" },
     { key: "tiles", type: "string", default: "1001",
       description: "UDIM tiles, e.g. '1001-1004' or '1001,1003'; tiles an object has no UVs " +
                    "in are skipped" },
@@ -69,6 +72,46 @@ function parseTiles(text) {
   return tiles.sort((a, b) => a - b);
 }
 
+// Object names from the comma-separated list; a backslash escapes the next character, so a
+// name holding a comma ("Rock, big" as "Rock\, big") stays one name. Repeats are dropped.
+function parseObjects(text) {
+  const names = [];
+  let name = "";
+  const finish = () => {
+    const n = name.trim();
+    if (n && !names.includes(n)) names.push(n);
+    name = "";
+  };
+  const chars = Array.from(String(text));
+  for (let i = 0; i < chars.length; i++) {
+    if (chars[i] === "\\" && i + 1 < chars.length) name += chars[++i];
+    else if (chars[i] === ",") finish();
+    else name += chars[i];
+  }
+  finish();
+  return names;
+}
+
+// The per-task manifest file names: an object name may hold '/', '\', ':' or be '..', which
+// in a path would leave the manifest folder; those characters and leading dots become '_', and
+// names that then meet (also when they differ only in case: macOS and Windows folders ignore
+// case) get a number, so no two tasks write one manifest.
+function manifestNames(objects, tiles) {
+  const used = new Set();
+  const names = new Map();
+  for (const name of objects) {
+    let safe = name.replace(/[\/\\:*?"<>|\x00-\x1f]/g, "_");
+    safe = safe.replace(/^\.+/, (dots) => "_".repeat(dots.length));   // not hidden, not '..'
+    let base = safe;
+    for (let k = 2; tiles.some((t) => used.has(`${base}-${t}`.toLowerCase())); k++) {
+      base = `${safe}_${k}`;
+    }
+    for (const t of tiles) used.add(`${base}-${t}`.toLowerCase());
+    names.set(name, base);
+  }
+  return names;
+}
+
 // A setting as submitted, else the job type's default (the Manager applies none).
 function setting(s, key) {
   const value = s[key];
@@ -101,14 +144,14 @@ function absoluteOutput(s, key, resolvedKey) {
 
 function compileJob(job) {
   const s = job.settings;
-  const objects = String(setting(s, "objects")).split(",").map((n) => n.trim())
-    .filter((n) => n);
+  const objects = parseObjects(setting(s, "objects"));
   if (!objects.length) throw "objects: name at least one mesh object to bake";
   const blendfile = String(setting(s, "blendfile"));
   if (!blendfile) throw "blendfile: the job needs the blend file to bake";
   const tiles = parseTiles(setting(s, "tiles"));
   const output = absoluteOutput(s, "output_pattern", "output_path");
   const manifests = absoluteOutput(s, "manifest_dir", "manifest_path").replace(/[\\/]+$/, "");
+  const manifestName = manifestNames(objects, tiles);
   for (const name of objects) {
     for (const tile of tiles) {
       const task = author.Task(`bake ${name} ${tile}`, "blender");
@@ -125,7 +168,7 @@ function compileJob(job) {
           "bake-batch", "--open-file", `--objects=${name}`,
           "--tiles", String(tile), "--if-tile-empty", "skip",
           "--output", output,
-          "--manifest", `${manifests}/${name}-${tile}.json`,
+          "--manifest", `${manifests}/${manifestName.get(name)}-${tile}.json`,
           "--resolution", String(setting(s, "resolution")),
           "--samples", String(setting(s, "samples")),
           "--margin", String(setting(s, "margin")), "--space", String(setting(s, "space")),

@@ -1,0 +1,112 @@
+"""Object names a Flamenco job carries: the `objects` setting is one comma-separated string, so
+a name holding a comma must survive the trip (the add-on's eval escapes it, the job type
+splits on unescaped commas only), and a name that is a path to the file system ('..', 'a/b')
+must not move a task's manifest out of the manifest folder or onto another task's."""
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from support.child import ROOT, run_python
+
+pytestmark = pytest.mark.tier("child")
+
+JOB_TYPE = ROOT / "tools" / "farm" / "flamenco" / "surfgrad-bake.js"
+
+
+def _compile(settings):
+    node = shutil.which("node")
+    if not node:
+        pytest.skip("node is not installed (the Flamenco job type is JavaScript)")
+    res = subprocess.run([node, str(ROOT / "tests" / "support" / "flamenco_compile.js"),
+                          str(JOB_TYPE), json.dumps(settings)], capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 0, res.stderr
+    return json.loads(res.stdout)
+
+
+class _Obj:
+    def __init__(self, name, kind="MESH"):
+        self.name, self.type = name, kind
+
+
+class _Context:
+    def __init__(self, objects):
+        self.selected_objects = objects
+
+
+def _as_addon_evaluates(names):
+    """The `objects` value the Flamenco add-on computes: the job type's own eval expression,
+    run in Python on selected objects with these names (and one non-mesh, left out)."""
+    base = {"objects": "A", "blendfile": "/p/a.blend", "output_pattern": "/p/{object}.png",
+            "manifest_dir": "/p/m"}
+    spec = next(s for s in _compile(base)["job_type"]["settings"] if s["key"] == "objects")
+    selected = [_Obj(n) for n in names] + [_Obj("Camera, main", "CAMERA")]
+    return eval(spec["eval"], {"C": _Context(selected)})
+
+
+NAMES = ["Rock, big", "Tree", "back\\slash", "trailing\\", "a,b,,c", ",lead"]
+
+
+def _tasks(objects, tiles="1001"):
+    job = _compile({"objects": objects, "tiles": tiles, "blendfile": "/p/a.blend",
+                    "output_pattern": "/p/maps/{object}.png", "manifest_dir": "/p/m"})
+    assert "error" not in job, job
+    out = []
+    for task in job["tasks"]:
+        args = task["commands"][0]["parameters"]["args"]
+        (obj,) = [a[len("--objects="):] for a in args if a.startswith("--objects=")]
+        out.append((obj, args[args.index("--tiles") + 1], args[args.index("--manifest") + 1]))
+    return out
+
+
+def test_selected_names_with_commas_and_backslashes_each_become_one_task():
+    value = _as_addon_evaluates(NAMES)
+    assert [obj for obj, _, _ in _tasks(value)] == NAMES
+    # What an artist types: commas between names, spaces around them ignored, a repeat once.
+    assert [obj for obj, _, _ in _tasks(" Tree , Bush,Tree, Rock\\, big")] == \
+        ["Tree", "Bush", "Rock, big"]
+
+
+def test_manifest_names_stay_in_the_folder_and_apart():
+    names = ["..", ".", "a/b", "a_b", "A_B", "../../etc/x", "C:\\x", "Tree"]
+    tasks = _tasks(",".join(n.replace("\\", "\\\\").replace(",", "\\,") for n in names),
+                   "1001-1002")
+    assert [obj for obj, _, _ in tasks[::2]] == names
+    manifests = [Path(m) for _, _, m in tasks]
+    assert all(m.parent == Path("/p/m") for m in manifests), manifests
+    assert all(not m.name.startswith(".") for m in manifests), manifests
+    # One manifest per task, also where the folder ignores case.
+    assert len({m.name.lower() for m in manifests}) == len(tasks)
+    # A name that is safe keeps its manifest name (resubmitted jobs find their manifests).
+    assert ("Tree", "1002", "/p/m/Tree-1002.json") in tasks
+
+
+def test_a_task_for_an_object_named_with_a_comma_and_a_slash_bakes_it(tmp_path):
+    """The compiled command, run as a worker's Blender would, bakes exactly that object and
+    writes its manifest inside the manifest folder."""
+    from surfgrad_addon.harness import batch_assets as BA
+    blend = tmp_path / "a.blend"
+    BA.write_asset(blend, ("Rock, big/1", "Rock"), tiles=(1001,), image_size=16)
+    job = _compile({"objects": _as_addon_evaluates(["Rock, big/1"]), "tiles": "1001",
+                    "blendfile": str(blend), "resolution": 16, "samples": 1, "margin": 2,
+                    "output_pattern": str(tmp_path / "maps" / "{object}.png"),
+                    "manifest_dir": str(tmp_path / "m")})
+    (task,) = job["tasks"]
+    p = task["commands"][0]["parameters"]
+    expr = p["args"][p["args"].index("--python-expr") + 1]
+    code = ("import sys, bpy\n"
+            f"bpy.ops.wm.open_mainfile(filepath={p['blendfile']!r})\n"
+            "import surfgrad_addon.addon.commands\n"
+            f"sys.argv = ['blender', '-b', '-y', {p['blendfile']!r}] + {p['args']!r}\n"
+            f"exec({expr!r})\n")
+    res = run_python(["-c", code])
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    made = sorted(str(f.relative_to(tmp_path)) for f in tmp_path.rglob("*") if f.is_file())
+    assert [m for m in made if m != "a.blend"] == ["m/Rock, big_1-1001.json",
+                                                   "maps/Rock, big_1.png"], made
+    manifest = json.loads((tmp_path / "m" / "Rock, big_1-1001.json").read_text())
+    assert "Rock, big/1" in json.dumps(manifest)
