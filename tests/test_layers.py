@@ -90,3 +90,19 @@ def test_the_method_registry_and_the_main_jobs_reference_stage_need_no_bpy():
     assert {"normal-map", "height-map-forward", "height-map-hq", "decal-box", "decal-cone",
             "decal-overwrite", "blend-rnm", "baseline-geiss-triplanar"} <= set(names)
     assert "displace-bump" not in names and not [n for n in names if "sampler" in n]
+
+
+def test_the_numpy_tier_runs_where_bpy_cannot_be_imported():
+    """`pytest -m numpy` (README: the tiers) in an interpreter that refuses bpy: every
+    numpy-tier test passes there. In the whole suite a numpy-tier test can import a module
+    that an earlier test already loaded with bpy behind it, which the tier guard cannot see
+    (scale_limits once took a constant from the bpy-built groups, and test_compare_kernels
+    failed when run alone)."""
+    from support.child import NO_BPY, run_python
+    code = NO_BPY + ("import pytest\n"
+                     "sys.exit(pytest.main(['-m', 'numpy', '-q', '-p', 'no:cacheprovider', "
+                     "'-x', 'tests']))\n")
+    out = run_python(["-c", code], env={"SURFGRAD_REPORT_DIR": ""}, timeout=900)
+    summary = out.stdout.strip().splitlines()[-1] if out.stdout.strip() else ""
+    assert out.returncode == 0, out.stdout[-4000:] + out.stderr[-2000:]
+    assert " passed" in summary and "failed" not in summary and "error" not in summary, summary

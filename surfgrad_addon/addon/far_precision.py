@@ -8,7 +8,7 @@ harness's bakes for the object they render.
 """
 
 from ..reference.socket_specs import PRECISE_FAR
-from .groups.common import FAR_METRES
+from .far_limits import FAR_METRES
 from .precise_bake import distance_from_origin
 
 

@@ -15,7 +15,7 @@
 
 import numpy as np
 
-from ..addon.groups.common import FAR_REPEATS
+from ..addon.far_limits import FAR_REPEATS
 
 # Methods whose texture coordinate is the world position x Scale (Scale 1 in compare).
 WORLD_PROJECTED = ("triplanar", "triplanar-height", "triplanar-sampler",

@@ -21,13 +21,14 @@ def run_python(args, cwd=None, env=None, timeout=300, checkout=True):
                           capture_output=True, text=True, timeout=timeout)
 
 
-# Python source that makes the child refuse bpy (and mathutils, bmesh): prefix it to `-c` code
-# to prove something imports without Blender.
+# Python source that makes the child refuse bpy (and mathutils, bmesh) as a Python without
+# Blender does (ModuleNotFoundError: pytest.importorskip skips): prefix it to `-c` code to prove
+# something imports without Blender.
 NO_BPY = ("import sys\n"
           "class Block:\n"
           "    def find_spec(self, name, path=None, target=None):\n"
           "        if name.split('.')[0] in ('bpy', 'mathutils', 'bmesh'):\n"
-          "            raise ImportError('blocked: ' + name)\n"
+          "            raise ModuleNotFoundError('blocked: ' + name, name=name)\n"
           "sys.meta_path.insert(0, Block())\n")
 
 

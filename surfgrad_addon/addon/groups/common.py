@@ -6,6 +6,7 @@ import bpy
 
 from ..node_vocabulary import Math, VMath
 from ..node_builder import ensure_group
+from ..far_limits import FAR_METRES, FAR_REPEATS  # noqa: F401 (projection.py reads FAR_METRES here)
 from ...reference import socket_specs as S
 from ...reference.group_interfaces import INTERFACES
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, TSPACE_Z_CLAMP
@@ -309,15 +310,6 @@ def object_position(b):
         return select(b, b.is_zero(attr), attr, coords)
 
 
-# Beyond this distance from the origin (metres) float32 world positions step by 7.6e-6 m or
-# more: projector coordinates switch to their precise route there. Near the origin the Texture
-# Coordinate node itself is used (EEVEE picks its image mip levels the same way as before).
-FAR_METRES = 64.0
-
-
-# Beyond this many texture repeats from the texture's origin the object's origin is far: its
-# world coordinate is taken modulo one repeat (float32 steps there exceed 1e-5 of a repeat).
-FAR_REPEATS = 64.0
 
 
 def _fraction_of_product(b, t, s):
