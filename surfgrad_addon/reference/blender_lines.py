@@ -26,7 +26,8 @@ class LineFacts:
     # one differential, as if Filter Width were 1.
     bump_filter_width: bool
     # Cycles stores vertex normals octahedral-encoded in 2 x 16 bits (5.1 and later): the
-    # shading normal interpolates the decoded normals (up to ~0.005 degrees from float32).
+    # shading normal interpolates the decoded normals (up to ~0.005 degrees from float32), and
+    # MikkTSpace reads them decoded; up to 5.0 it reads them as Blender gave them.
     packed_normals: bool
     # The Normal Map node (tangent space, smooth) builds its frame on a unit normal: the stored
     # corner normals back in object space, interpolated and normalised (5.2); up to 5.0 on the

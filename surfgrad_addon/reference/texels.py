@@ -215,17 +215,24 @@ class TexelData:
     @cached_property
     def normal_map_normal_object(self):
         """The object-space normal Cycles' Normal Map node builds its tangent frame on (smooth
-        shading). Up to 5.0: the unnormalised interpolation of the object's corner normals.
+        shading). Up to 5.0: the unnormalised interpolation of the stored vertex normals taken
+        back to object space (each unit when the transform is applied, as given otherwise).
         In 5.2: the stored corner normals (world space and packed when the transform is
         applied) taken back to object space, interpolated and normalised."""
         corners, unit = self.normal_map_normal_corners()
-        return self._interpolate_unit(corners) if unit else self.normal_object
+        return self._interpolate_unit(corners) if unit else self._interpolate(corners)
 
     def normal_map_normal_corners(self):
         """The corner normals normal_map_normal_object interpolates (T, 3, 3), and whether
         it normalises the result (5.2)."""
         if not self.facts.normal_map_unit_normal:
-            return self.mesh.corner_normals, False
+            if not self.mesh.transform_applied:
+                return self.mesh.corner_normals, False
+            # Stored normalised in world space and brought back to object space normalised
+            # (triangle_smooth_normal_unnormalized, object_inverse_normal_transform): unit,
+            # whatever length free normals were set with (a Set Mesh Normal node).
+            return self.per_triangle("normal_map_corner_normals", lambda: normalize(
+                np.asarray(self.mesh.corner_normals, dtype=np.float64))), False
         if self.mesh.transform_applied:
             m3 = np.asarray(self.mesh.matrix_world, dtype=np.float64)[:3, :3]
             return self.per_triangle("normal_map_corner_normals",
