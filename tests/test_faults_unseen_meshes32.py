@@ -11,6 +11,11 @@
    face 1000 km out made every face of a 2 m grid "without area" (compare and the bake
    request refused the mesh) and one 100 km out left a finer grid's texels out of compare.
    Now each triangle is measured against its own size (reference/input_checks.zero_area_mask).
+3. Free normals set to zero (a Set Mesh Normal node fed a zero vector, a script normalising a
+   zero attribute): 4.5 and 5.0 store them as they are; Cycles interpolates the zeros and
+   shades with the geometric normal where the interpolation is zero (triangle_smooth_normal).
+   The reference divided by their length: NaN, and a correct group was called 180 deg wrong.
+   5.2's MikkTSpace reads its packed normals, decoded, never zero (finding 1's rule).
 """
 
 import numpy as np
@@ -141,3 +146,47 @@ def test_a_separate_face_far_out_leaves_the_faces_elsewhere_their_area(empty_fil
         [False] * len(tris) + [True]
     flat = verts * (1.0, 0.0, 0.0)
     assert input_checks.collapsed_mesh_problem("the parts", flat, tris) is not None
+
+
+@pytest.mark.parametrize("domain", ["POINT", "CORNER"])
+def test_free_normals_set_to_zero_shade_as_cycles_shades_them(empty_file, domain):
+    """3. Point normals (x 0.4, y -0.3, 1) with the nine about the centre zero (eight whole
+    triangles zero) and one more alone, or those normals on the corners with every seventh
+    corner zero. Before, at 64^2 on 4.5 and 5.0: p99 180 / max 180 deg on normal-map and
+    object-normal alike (mean 39.7, POINT; 76.2, CORNER), and numpy's "invalid value
+    encountered in divide" on stderr. 5.2 shaded right (its packed normals are never zero)
+    but MikkTSpace got the zeros, where Cycles' gets its decoded packed normal: p99 2.38 /
+    max 3.29 (POINT), 3.82 / 14.40 (CORNER) on normal-map.
+    Also under a rotation and non-uniform scale, and shared by a second object (Cycles then
+    keeps the mesh in object space)."""
+    verts, faces, uvs = _grid(uv_size=0.9)
+    obj = _object("ZeroNormals", [(verts, faces, uvs)])
+    mesh = obj.data
+    n = np.column_stack([0.4 * verts[:, 0], -0.3 * verts[:, 1], np.ones(len(verts))])
+    if domain == "POINT":
+        n[(np.abs(verts[:, 0]) < 0.3) & (np.abs(verts[:, 1]) < 0.3)] = 0.0
+        n[10] = 0.0
+    else:
+        n = n[[v for f in faces for v in f]]
+        n[::7] = 0.0
+    mesh.attributes.new("custom_normal", "FLOAT_VECTOR", domain).data.foreach_set(
+        "vector", n.ravel())
+    mesh.update()
+    if not mesh.has_custom_normals:
+        pytest.skip(f"Blender {bpy.app.version_string} has no free normals: a "
+                    f"'custom_normal' attribute is a plain one")
+    corner = np.empty(len(mesh.loops) * 3)
+    mesh.corner_normals.foreach_get("vector", corner)
+    zero = np.linalg.norm(corner.reshape(-1, 3), axis=1) == 0.0
+    assert zero.sum() == (40 if domain == "POINT" else 37)          # 10 vertices x 4 corners
+    for method in ("normal-map", "object-normal"):
+        report = compare.compare(obj, method, RES)
+        _within_bar(report, 3000)
+        assert report["excluded"]["outside"] == 0, report
+    obj.scale = (1.5, 0.7, 1.1)
+    obj.rotation_euler = (0.3, -0.2, 0.6)
+    _within_bar(compare.compare(obj, "normal-map", RES), 3000)
+    shared = bpy.data.objects.new("Shared", mesh)
+    bpy.context.scene.collection.objects.link(shared)
+    shared.location = (4.0, 0.0, 0.0)
+    _within_bar(compare.compare(obj, "normal-map", RES), 3000)
