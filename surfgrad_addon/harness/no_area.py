@@ -55,7 +55,7 @@ def float32_slivers(positions, triangles):
     (|e1y e2z| + |e1z e2y|, ...: Cycles' Mesh::Triangle::compute_normal, and Blender's face
     normal, the reference's MikkTSpace input, alike), turns the normal by SLIVER_ANGLE or more.
     Three points on a diagonal, collinear in reals but not in float32, have an area far above
-    zero_area_mask's (2e-9 of their extent squared) and a normal that points anywhere there
+    zero_area_mask's (2e-9 of their longest edge squared) and a normal that points anywhere there
     (measured: one texel at 2.4 deg); a thin sliver along an axis keeps an exact normal (its
     terms vanish) and stays compared."""
     p = np.asarray(positions, dtype=np.float64)[np.asarray(triangles)]
