@@ -16,6 +16,13 @@
    shades with the geometric normal where the interpolation is zero (triangle_smooth_normal).
    The reference divided by their length: NaN, and a correct group was called 180 deg wrong.
    5.2's MikkTSpace reads its packed normals, decoded, never zero (finding 1's rule).
+4. Faces snapped onto float32's grid (0.1 mm quads whose vertices lie 5 km from the object's
+   origin: a georeferenced import): Cycles shades what float32 kept, flipped and collapsed
+   triangles with vertex normals anywhere. 4.5 and later reproduce it exactly (5.2 since
+   finding 1's rule: before, p99 41.9 / max 165 deg on a correct group); 4.2's MikkTSpace input
+   passes through Blender's encoded normals and cannot (p99 40 / max 141), so 4.2 leaves such
+   faces out (no_area.below_float32_step, LineFacts.free_normals) and refuses a mesh of
+   nothing else. The mesh extent had excluded them beside a larger part by accident.
 """
 
 import numpy as np
@@ -25,6 +32,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import bake_request  # noqa: E402
 from surfgrad_addon.harness import compare  # noqa: E402
+from surfgrad_addon.addon.node_builder import running_line  # noqa: E402
 from surfgrad_addon.reference import input_checks  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -190,3 +198,49 @@ def test_free_normals_set_to_zero_shade_as_cycles_shades_them(empty_file, domain
     bpy.context.scene.collection.objects.link(shared)
     shared.location = (4.0, 0.0, 0.0)
     _within_bar(compare.compare(obj, "normal-map", RES), 3000)
+
+
+def test_free_normals_are_this_lines_storage(empty_file):
+    """LineFacts.free_normals: a float CORNER 'custom_normal' is read as the mesh's custom
+    normals exactly where the table says (4.5 and later)."""
+    verts, faces, uvs = _grid(2)
+    mesh = _object("Facts", [(verts, faces, uvs)]).data
+    n = np.tile([0.0, 0.6, 0.8], (len(mesh.loops), 1))
+    mesh.attributes.new("custom_normal", "FLOAT_VECTOR", "CORNER").data.foreach_set(
+        "vector", n.ravel())
+    mesh.update()
+    assert running_line().free_normals == mesh.has_custom_normals
+
+
+SNAPPED = dict(n=4, size=4.0e-4, offset=(5.0e3, 0.0, 0.0))     # 0.1 mm quads, 5 km out
+
+
+def test_faces_snapped_by_float32_beside_a_good_part(empty_file):
+    """4. A 2 m grid and a 0.4 mm grid of 0.1 mm quads 5 km out in the same mesh. Compared
+    within the bar on every line; on 4.2 the snapped faces' 169 texels are left out and named
+    (with the zero-area test measured against each face's own size alone: p99 3.9 / max 86 deg
+    there); 4.5 and later compare them too (before, the mesh extent left them out)."""
+    grid = _grid(8)
+    snapped = _grid(uv_corner=(0.75, 0.75), uv_size=0.2, **SNAPPED)
+    obj = _object("Snapped", [grid, snapped])
+    report = compare.compare(obj, "normal-map", RES)
+    _within_bar(report, 1500)
+    left_out = report["excluded"]["outside"]
+    if running_line().free_normals:
+        assert left_out == 0, report
+    else:
+        assert left_out == 169, report
+        assert any("without area" in w and "faces 64," in w for w in report["warnings"])
+
+
+def test_a_mesh_snapped_by_float32_everywhere(empty_file):
+    """4. The 0.1 mm quads alone, 5 km from their object's origin, filling the UV square.
+    Before: a correct group scored p99 41.9 / max 165 deg on 5.2 and 40.2 / 141 on 4.2 (exit
+    0). Now 4.5 and later compare it within the bar and 4.2 refuses it, saying why."""
+    obj = _object("SnappedAlone", [_grid(uv_size=0.9, **SNAPPED)])
+    if running_line().free_normals:
+        _within_bar(compare.compare(obj, "normal-map", RES), 2500)
+        return
+    with pytest.raises(compare.CompareError, match="smaller than float32 can place at its "
+                                                   "coordinates"):
+        compare.compare(obj, "normal-map", RES)

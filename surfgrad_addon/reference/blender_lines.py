@@ -63,6 +63,10 @@ class LineFacts:
     # the vertices where they differ; 5.0 and 4.5 only at sharp edges and flat faces, and each
     # vertex then shades with the normal of its corner written last (harness/free_normal_fans.py).
     free_corner_normals_split: bool = True
+    # Custom normals can be free floats (a float 'custom_normal' corner attribute, 4.5 and
+    # later); 4.2 encodes them in each smooth fan's normal space, so the reference's MikkTSpace
+    # input passes through that encoding (harness/mesh_data.triangle_mikktspace).
+    free_normals: bool = True
     # A shader node group can have Menu sockets and a Menu Switch node (5.0 and later); 4.2 and
     # 4.5 refuse NodeSocketMenu in a shader tree, so an enumeration is an integer there.
     menu_sockets: bool = True
@@ -86,7 +90,8 @@ _UP_TO_5_0 = dict(bake_differential_scale=0.25, bump_filter_width=True, packed_n
 LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,
-                        "normal_map_replaces_non_finite": False, "menu_sockets": False}),
+                        "normal_map_replaces_non_finite": False, "menu_sockets": False,
+                        "free_normals": False}),
     "4.5": LineFacts(line="4.5", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "normal_map_replaces_non_finite": False,
                         "menu_sockets": False}),
