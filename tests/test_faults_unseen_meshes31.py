@@ -257,10 +257,11 @@ def test_free_corner_normals_shade_as_cycles_splits_their_vertices(empty_file, h
 def test_free_normals_that_are_not_unit_length_are_normalised(empty_file):
     """6. Free normals hold whatever vector was set (a Set Mesh Normal node fed an unnormalised
     vector): 5.2 hands MikkTSpace unit normals. Before, a correct SG Normal Map scored p99 1.55
-    / max 3.28 deg at 64^2 on 5.2 (point normals of length 1 .. 1.12). 4.5 and 5.0 do something
-    else there (p99 2.7 before, 1.55 now: not modelled, REDTEAM31A.md), so the test skips them."""
+    / max 3.28 deg at 64^2 on 5.2 (point normals of length 1 .. 1.12). 4.5 and 5.0 hand
+    MikkTSpace the normals as they are: tests/test_faults_unseen_meshes32.py holds them."""
     if bpy.app.version < (5, 2, 0):
-        pytest.skip("4.5 and 5.0: unnormalised free normals are not modelled (p99 1.55 deg)")
+        pytest.skip("4.5 and 5.0: tests/test_faults_unseen_meshes32.py "
+                    "(test_free_normals_of_any_length_give_mikktspace_what_cycles_reads)")
     verts, faces = _grid()
     obj = _object("LongNormals", verts, faces, _xy_uvs(verts, faces))
     mesh = obj.data

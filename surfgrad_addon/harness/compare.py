@@ -35,8 +35,8 @@ from ..reference import methods as M
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
 from .mesh_data import MeshDataError, mesh_arrays_from_object
-from .no_area import (collapsed_problem, degenerate_triangles, degenerate_warning,
-                      without_degenerate, world_positions)
+from .no_area import (all_degenerate_problem, collapsed_problem, degenerate_triangles,
+                      degenerate_warning, without_degenerate, world_positions)
 from . import scale_limits
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
@@ -297,7 +297,10 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         raise CompareError(problem)
     tiles, faces_outside, tile_note = target_tiles(mesh, inp.uv_map, obj.name, tiles)
     facts = B.running_line()
-    degenerate = degenerate_triangles(mesh, world)
+    degenerate = degenerate_triangles(mesh, world, facts)
+    problem = all_degenerate_problem(obj, degenerate)
+    if problem:
+        raise CompareError(problem)
     degenerate_texels = 0
 
     def rasterized(number):

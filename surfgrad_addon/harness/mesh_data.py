@@ -11,6 +11,7 @@ import numpy as np
 
 from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
+from ..reference.blender_lines import octahedral_unit_vectors
 from ..reference.raster import MeshArrays
 from ..reference.vecmath import cross, normalize
 from .free_normal_fans import has_free_corner_normals, last_written_normals
@@ -82,16 +83,18 @@ def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
     return np.where(flat[:, None, None], tri_normal[:, None, :], vertex), flat
 
 
-def _unit(normals):
-    """The normals with those that are not unit length (free normals hold whatever vector was
-    set: a Set Mesh Normal node fed an unnormalised vector) normalised, as Cycles 5.2 hands them
-    to MikkTSpace (measured: a correct SG Normal Map at p99 1.55 / max 3.28 deg before, 0.0010 /
-    0.0015 now). Unit ones keep their exact floats: MikkTSpace welds bitwise-equal normals."""
-    length = np.linalg.norm(normals, axis=-1, keepdims=True)
-    off = np.abs(length - 1.0) > 1e-5
-    if not off.any():
-        return normals
-    return np.where(off, normals / np.where(length > 0.0, length, 1.0), normals)
+def _mikktspace_normals(corner_normals, packed_normals):
+    """The corner normals Cycles hands MikkTSpace. 5.2 (`packed_normals`) reads its stored
+    normals, octahedral-packed and decoded: unit, and corners of one direction bitwise equal
+    whatever length free normals were set with (a Set Mesh Normal node fed an unnormalised
+    vector), so MikkTSpace welds them (measured on 5.2: a correct SG Normal Map at p99 1.55 /
+    max 3.28 deg with the raw normals, 0.35 / 0.54 with each normalised, where corners of a
+    vertex differ in length only). Up to 5.0 MikkTSpace reads Cycles' vertex normal attribute
+    as Blender gave it, lengths and all (measured on 4.5 and 5.0: p99 1.6 / max 2.8 deg with
+    unit normals, 0.0006 / 0.0015 with these)."""
+    if not packed_normals:
+        return corner_normals
+    return octahedral_unit_vectors(corner_normals)
 
 
 def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None):
@@ -112,7 +115,8 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
     else:
         arrays, flat = _evaluated_arrays(obj, depsgraph, facts)
     if need_tangents:
-        arrays.tangents, arrays.tangent_signs = triangle_mikktspace(arrays, flat)
+        arrays.tangents, arrays.tangent_signs = triangle_mikktspace(
+            arrays, flat, packed_normals=facts.packed_normals)
     return arrays
 
 
@@ -135,8 +139,9 @@ def _evaluated_arrays(obj, depsgraph, facts):
         positions = _get(mesh.vertices, "co", nv, 3)
         tri_loops = _get(mesh.loop_triangles, "loops", nt, 3, np.int64)
         tri_verts = _get(mesh.loop_triangles, "vertices", nt, 3, np.int64)
+        # As Blender gives them (free normals keep their length): the texels normalise where
+        # Cycles does (TexelData.shading_normal, normal_map_normal_corners).
         corner_normals, flat = cycles_normals(mesh, positions, tri_loops, tri_verts, facts)
-        corner_normals = _unit(corner_normals)
         triangle_faces = _get(mesh.loop_triangles, "polygon_index", nt, 1, np.int64)
         names = [layer.name for layer in mesh.uv_layers]
         uv_maps = {name: _get(mesh.uv_layers[name].uv, "vector", nl, 2)[tri_loops]
@@ -161,9 +166,11 @@ def _evaluated_arrays(obj, depsgraph, facts):
     return arrays, flat
 
 
-def triangle_mikktspace(arrays, flat=None):
+def triangle_mikktspace(arrays, flat=None, packed_normals=True):
     """MikkTSpace tangents and signs per triangle corner for every UV map, computed as Cycles
-    does: on the triangulated mesh (Cycles' own triangles) with the corner normals. Blender's
+    does: on the triangulated mesh (Cycles' own triangles) with the corner normals: with
+    `packed_normals` (5.2) as Cycles stores them, octahedral-packed and decoded (unit), up to
+    5.0 as Blender gives them (cycles/scene/mesh.cpp, MikkMeshWrapper::GetNormal). Blender's
     calc_tangents on the original quads splits some quads differently (their UV diagonals tie)
     and can differ by degrees. Triangles in `flat` (T,) are flat faces of the temporary mesh
     without custom normals, so MikkTSpace sees each one's own float32 triangle normal as
@@ -187,7 +194,8 @@ def triangle_mikktspace(arrays, flat=None):
         flat = None if flat is None or not np.any(flat) else np.asarray(flat, dtype=bool)
         smooth = np.ones(len(tmp.polygons), dtype=bool) if flat is None else ~flat
         tmp.polygons.foreach_set("use_smooth", smooth)
-        values = _intended_normals(tmp, arrays.corner_normals, flat)
+        values = _intended_normals(tmp, _mikktspace_normals(arrays.corner_normals,
+                                                            packed_normals), flat)
         extra = 0
         if not _free_normals(tmp, values.reshape(-1)):
             # No float normals (4.2): encoded ones, on a mesh whose fans are the groups Cycles

@@ -16,6 +16,9 @@ from ..reference.vecmath import FLT_EPSILON
 # A triangle whose float32 normal is uncertain by this much cannot be held to compare's max
 # bar (0.5 deg, tests/test_bake_compare.py): float32_slivers counts it as without area.
 SLIVER_ANGLE = np.radians(0.5)
+# below_float32_step: a face whose legs are at most this many float32 steps of its own largest
+# coordinate holds nothing but rounding.
+RESOLUTION_ULPS = 2.0
 
 
 def world_positions(mesh):
@@ -32,7 +35,7 @@ def collapsed_problem(mesh, world, obj, uv_map):
         R.input_checks.collapsed_uv_problem(uv_map, obj.name, mesh.uv(uv_map))
 
 
-def degenerate_triangles(mesh, world):
+def degenerate_triangles(mesh, world, facts):
     """(T,) True where a triangle has no area in 3D: its corners coincide or lie on a line, to
     within float32 rounding (input_checks.zero_area_mask, world positions (V, 3); and
     float32_slivers). Cycles has
@@ -45,8 +48,27 @@ def degenerate_triangles(mesh, world):
     # Cycles holds the positions in world space where it applied the transform, else in
     # object space (addon/cycles_geometry.py): its float32 rounding is of those.
     held = world if mesh.transform_applied else np.asarray(mesh.positions, dtype=np.float64)
-    return (~np.isfinite(ng).all(axis=1) | R.input_checks.zero_area_mask(world, mesh.triangles)
-            | float32_slivers(held, mesh.triangles))
+    out = (~np.isfinite(ng).all(axis=1) | R.input_checks.zero_area_mask(world, mesh.triangles)
+           | float32_slivers(held, mesh.triangles))
+    if not facts.free_normals:
+        out |= below_float32_step(held, mesh.triangles)
+    return out
+
+
+def below_float32_step(positions, triangles):
+    """(T,) True where a triangle is no bigger than float32 can place at its own coordinates:
+    its area at most that of a right triangle of legs RESOLUTION_ULPS float32 steps of its
+    largest coordinate. Such a face (0.1 mm quads 5 km out) was snapped onto float32's grid
+    when the mesh was stored: what is left is rounding (flipped and collapsed triangles, their
+    vertex normals anywhere). 4.5 and later reproduce Cycles there exactly; 4.2's reference,
+    whose MikkTSpace input passes through Blender's encoded normals (LineFacts.free_normals),
+    does not: p99 3.9 / max 86 deg on a correct group beside a good grid, 40 / 141 on such a
+    mesh alone, so on 4.2 compare leaves these faces out. The extent of the whole mesh had
+    stood in for this (and made a far separate part take every small face's area)."""
+    p = np.asarray(positions, dtype=np.float64)[np.asarray(triangles)]
+    step = RESOLUTION_ULPS * FLT_EPSILON * np.abs(p).max(axis=(1, 2))
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    return 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1) <= 0.5 * step * step
 
 
 def float32_slivers(positions, triangles):
@@ -55,7 +77,7 @@ def float32_slivers(positions, triangles):
     (|e1y e2z| + |e1z e2y|, ...: Cycles' Mesh::Triangle::compute_normal, and Blender's face
     normal, the reference's MikkTSpace input, alike), turns the normal by SLIVER_ANGLE or more.
     Three points on a diagonal, collinear in reals but not in float32, have an area far above
-    zero_area_mask's (2e-9 of their extent squared) and a normal that points anywhere there
+    zero_area_mask's (2e-9 of their longest edge squared) and a normal that points anywhere there
     (measured: one texel at 2.4 deg); a thin sliver along an axis keeps an exact normal (its
     terms vanish) and stays compared."""
     p = np.asarray(positions, dtype=np.float64)[np.asarray(triangles)]
@@ -65,6 +87,21 @@ def float32_slivers(positions, triangles):
     terms = (np.abs(e1[:, [1, 2, 0]] * e2[:, [2, 0, 1]])
              + np.abs(e1[:, [2, 0, 1]] * e2[:, [1, 2, 0]]))
     return FLT_EPSILON * np.linalg.norm(terms, axis=1) >= np.tan(SLIVER_ANGLE) * cross
+
+
+def all_degenerate_problem(obj, degenerate):
+    """None unless every triangle of obj's mesh is without area (degenerate_triangles); then
+    why and the fix. Faces snapped onto float32's grid everywhere (a small mesh whose vertices
+    lie far from its object's origin: a georeferenced import) pass the bake request's test,
+    which asks only whether faces collapsed; on 4.2 compare cannot hold them to its bar
+    (below_float32_step)."""
+    if len(degenerate) == 0 or not np.all(degenerate):
+        return None
+    return (f"every face of mesh {obj.data.name!r} of object {obj.name!r} has no area Cycles "
+            f"can shade: collapsed to a point or a line, or smaller than float32 can place at "
+            f"its coordinates (its vertices are far from the object's origin for its size), "
+            f"so the bake would be rounding: fix the mesh, or move its vertices nearer the "
+            f"object's origin (Object > Set Origin > Origin to Geometry)")
 
 
 def without_degenerate(td, covered, degenerate):

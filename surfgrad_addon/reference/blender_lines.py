@@ -26,7 +26,8 @@ class LineFacts:
     # one differential, as if Filter Width were 1.
     bump_filter_width: bool
     # Cycles stores vertex normals octahedral-encoded in 2 x 16 bits (5.1 and later): the
-    # shading normal interpolates the decoded normals (up to ~0.005 degrees from float32).
+    # shading normal interpolates the decoded normals (up to ~0.005 degrees from float32), and
+    # MikkTSpace reads them decoded; up to 5.0 it reads them as Blender gave them.
     packed_normals: bool
     # The Normal Map node (tangent space, smooth) builds its frame on a unit normal: the stored
     # corner normals back in object space, interpolated and normalised (5.2); up to 5.0 on the
@@ -62,6 +63,10 @@ class LineFacts:
     # the vertices where they differ; 5.0 and 4.5 only at sharp edges and flat faces, and each
     # vertex then shades with the normal of its corner written last (harness/free_normal_fans.py).
     free_corner_normals_split: bool = True
+    # Custom normals can be free floats (a float 'custom_normal' corner attribute, 4.5 and
+    # later); 4.2 encodes them in each smooth fan's normal space, so the reference's MikkTSpace
+    # input passes through that encoding (harness/mesh_data.triangle_mikktspace).
+    free_normals: bool = True
     # A shader node group can have Menu sockets and a Menu Switch node (5.0 and later); 4.2 and
     # 4.5 refuse NodeSocketMenu in a shader tree, so an enumeration is an integer there.
     menu_sockets: bool = True
@@ -85,7 +90,8 @@ _UP_TO_5_0 = dict(bake_differential_scale=0.25, bump_filter_width=True, packed_n
 LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,
-                        "normal_map_replaces_non_finite": False, "menu_sockets": False}),
+                        "normal_map_replaces_non_finite": False, "menu_sockets": False,
+                        "free_normals": False}),
     "4.5": LineFacts(line="4.5", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "normal_map_replaces_non_finite": False,
                         "menu_sockets": False}),

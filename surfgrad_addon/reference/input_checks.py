@@ -6,8 +6,9 @@ collapsed mesh is refused with the same words on either path.
 
 import numpy as np
 
-# A face whose area is below this share of the squared extent of the mesh's faces is taken as
-# zero area (collapsed in float32: Cycles cannot place a texel on it).
+# A triangle whose area is below this share of its own longest edge squared is taken as zero
+# area: collapsed to a line or a point (as a share of its own size, so a mesh's far-flung or
+# small parts do not change it).
 RELATIVE_AREA_EPS = 1e-12
 _CHUNK = 1 << 24            # values per slice when counting non-finite ones (bounded memory)
 
@@ -54,19 +55,19 @@ def triangle_areas(positions, triangles):
 
 def zero_area_mask(positions, triangles):
     """(T,) True where a triangle has no area (collapsed to a line or a point), measured
-    against the size of the mesh's faces: the extent of the vertices its triangles use. A
-    loose vertex (no face uses it; a bad import often leaves one far out) is not part of
-    any surface Cycles shades: counted in the extent, one 1000 km out made every face of a
-    2 m grid 'no area', and the bake and compare refused it."""
+    against its own size (its longest edge). Against the extent of the mesh, a separate face
+    or a loose vertex far out (a bad import, a stray part) made small faces elsewhere "no
+    area": a 2 m grid beside a 1 m face 1000 km out was refused by the bake and compare as
+    collapsed everywhere, and beside a face 100 km out its texels were left out of compare.
+    Rounding is float32_slivers' test (harness/no_area.py)."""
     p = np.asarray(positions, dtype=np.float64)
     tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(p) == 0 or len(tris) == 0:
         return np.ones(len(tris), bool)
-    used = np.zeros(len(p), bool)
-    used[tris.ravel()] = True
-    q = p[used]
-    extent = float(np.max(q.max(axis=0) - q.min(axis=0)))
-    return triangle_areas(p, tris) <= RELATIVE_AREA_EPS * extent * extent
+    c = p[tris]
+    edges = c[:, [1, 2, 0]] - c
+    longest = np.max(np.einsum("tij,tij->ti", edges, edges), axis=1)
+    return triangle_areas(p, tris) <= RELATIVE_AREA_EPS * longest
 
 
 def collapsed_mesh_problem(what, world_positions, triangles):

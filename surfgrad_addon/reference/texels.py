@@ -15,7 +15,7 @@ import numpy as np
 from . import compiled, raster_kernels
 from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
 from .mesh_arrays import MeshArrays
-from .vecmath import normalize, transform
+from .vecmath import normalize, safe_normalize, transform
 
 # Texels per evaluation block: a block's (n, 3) float64 arrays (0.4 MB) stay in a 2 MB L2.
 # Measured on the 2-core machine (bench-reference): 8K-32K are within 10%; 1M is 2-3x slower.
@@ -215,17 +215,26 @@ class TexelData:
     @cached_property
     def normal_map_normal_object(self):
         """The object-space normal Cycles' Normal Map node builds its tangent frame on (smooth
-        shading). Up to 5.0: the unnormalised interpolation of the object's corner normals.
+        shading). Up to 5.0: the unnormalised interpolation of the stored vertex normals taken
+        back to object space (each unit when the transform is applied, as given otherwise).
         In 5.2: the stored corner normals (world space and packed when the transform is
         applied) taken back to object space, interpolated and normalised."""
         corners, unit = self.normal_map_normal_corners()
-        return self._interpolate_unit(corners) if unit else self.normal_object
+        return self._interpolate_unit(corners) if unit else self._interpolate(corners)
 
     def normal_map_normal_corners(self):
         """The corner normals normal_map_normal_object interpolates (T, 3, 3), and whether
         it normalises the result (5.2)."""
         if not self.facts.normal_map_unit_normal:
-            return self.mesh.corner_normals, False
+            if not self.mesh.transform_applied:
+                return self.per_triangle("normal_map_corner_normals", lambda: self._ng_where_zero(
+                    np.asarray(self.mesh.corner_normals, dtype=np.float64))), False
+            # Stored normalised in world space and brought back to object space normalised
+            # (triangle_smooth_normal_unnormalized, object_inverse_normal_transform): unit,
+            # whatever length free normals were set with (a Set Mesh Normal node).
+            return self.per_triangle("normal_map_corner_normals", lambda: self._ng_where_zero(
+                safe_normalize(np.asarray(self.mesh.corner_normals, dtype=np.float64),
+                               0.0))), False
         if self.mesh.transform_applied:
             m3 = np.asarray(self.mesh.matrix_world, dtype=np.float64)[:3, :3]
             return self.per_triangle("normal_map_corner_normals",
@@ -245,7 +254,20 @@ class TexelData:
         if self.mesh.transform_applied:
             return self._interpolate_unit(self._stored_world_normals)
         n = self._interpolate(self._stored_object_normals)
-        return normalize(transform(n, self.mesh.normal_matrix.T))
+        return safe_normalize(transform(n, self.mesh.normal_matrix.T), self.geometric_normal)
+
+    def _ng_where_zero(self, corners):
+        """(T, 3, 3) `corners` with each triangle whose three normals are zero given its
+        world geometric normal at every corner: a zero interpolated normal is replaced by
+        Ng in Cycles (triangle_smooth_normal, triangle_smooth_normal_unnormalized), as free
+        normals set to zero (a Set Mesh Normal node fed a zero vector; 4.5 and 5.0 store
+        them as they are) give. Where only some are zero the interpolation is not."""
+        zero = ~np.any(corners.reshape(len(corners), -1), axis=1)
+        if not zero.any():
+            return corners
+        out = corners.copy()
+        out[zero] = self.mesh.geometric_normals_world[zero][:, None, :]
+        return out
 
     def _stored(self, unit_normals):
         """Unit normals as the renderer stores them (octahedral 16-bit where it packs)."""
@@ -264,8 +286,9 @@ class TexelData:
         line packs normals they are packed in object space, then decoded, transformed,
         normalised and packed again (measured: 5e-5 degrees against 0.003-0.006 for one
         packing)."""
-        return self.per_triangle("stored_world_normals", lambda: self._stored(
-            normalize(self._stored_object_normals @ self.mesh.normal_matrix.T)))
+        return self.per_triangle("stored_world_normals", lambda: self._ng_where_zero(
+            self._stored(safe_normalize(self._stored_object_normals @ self.mesh.normal_matrix.T,
+                                        0.0))))
 
     @cached_property
     def geometric_normal(self):
