@@ -32,6 +32,7 @@ from ..reference import input_checks as IC
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
 from . import normal_bake as NB
+from . import unrealized_instances as UI
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
 from .image_checks import image_problems, output_input_problems
@@ -213,8 +214,14 @@ def _check(request, obj, warn):
         uv_map, tiles, with_uvs, tile_warnings, outside = NB.plan_tile_layout(
             obj, request.output, request.uv_map, request.tiles, request.empty_tiles)
     except NB.NormalBakeError as err:
-        raise BakeRequestError([str(err)]) from None
+        raise BakeRequestError(UI.only_instances_problems(baked_mesh(obj), obj) or
+                               [str(err)]) from None
     problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution)
+    baked = baked_mesh(obj)
+    more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
+                                       uv_map, tiles, request.resolution, request.allow_partial)
+    problems += more
+    warnings += notes
     if outside and not request.allow_partial:
         problems.append(f"{outside} face(s) of UV map {uv_map!r} of object {obj.name!r} lie "
                         f"outside the UDIM range (u 0..10, v >= 0) and would not be baked: "

@@ -1,0 +1,265 @@
+"""Fault injection, red team 32b: what a pipeline TD meets that earlier rounds left.
+
+Geometry Nodes instances left unrealized (and vertex instancing) render with the object, but
+Blender's bake renders only its realized mesh: a part instanced with the object's material on
+its own UVs came out as the flat background with exit 0, and compare said nothing."""
+
+import json
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+pytestmark = pytest.mark.tier("bake")
+
+
+# Scenes ------------------------------------------------------------------------------------------
+
+def _grid(name, u0=0.0, u1=1.0, n=4):
+    """An n x n grid on [-1, 1]^2, gently waved, its UVs on u0..u1 x 0..1."""
+    me = bpy.data.meshes.new(name)
+    verts = [(x / n * 2 - 1, y / n * 2 - 1, 0.1 * np.sin(3 * x + y))
+             for y in range(n + 1) for x in range(n + 1)]
+    faces = [(y * (n + 1) + x, y * (n + 1) + x + 1, (y + 1) * (n + 1) + x + 1,
+              (y + 1) * (n + 1) + x) for y in range(n) for x in range(n)]
+    me.from_pydata(verts, [], faces)
+    uv = me.uv_layers.new(name="UVMap")
+    for loop in me.loops:
+        x, y, _ = verts[loop.vertex_index]
+        uv.data[loop.index].uv = (u0 + (x + 1) / 2 * (u1 - u0), (y + 1) / 2)
+    return me
+
+
+def _material(name):
+    """Noise -> Bump -> Principled: a normal that varies over the surface."""
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0):       # 5.0+: every material has its node tree
+        mat.use_nodes = True
+    nt = mat.node_tree
+    noise = nt.nodes.new("ShaderNodeTexNoise")
+    noise.inputs["Scale"].default_value = 8.0
+    bump = nt.nodes.new("ShaderNodeBump")
+    nt.links.new(noise.outputs["Fac"], bump.inputs["Height"])
+    nt.links.new(bump.outputs["Normal"], nt.nodes["Principled BSDF"].inputs["Normal"])
+    return mat
+
+
+def _object(me, name):
+    obj = bpy.data.objects.new(name, me)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def _instancing_modifier(obj, instance_of, realize=False, count=1, keep_own=True):
+    """Geometry Nodes: `count` instances of `instance_of` (an object, or None: the object's
+    own geometry) on points along x, joined with the object's own mesh (keep_own)."""
+    tree = bpy.data.node_groups.new("Inst", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    nodes, links = tree.nodes, tree.links
+    geo = nodes.new("NodeGroupInput").outputs[0]
+    if instance_of is None:
+        source = geo
+    else:
+        info = nodes.new("GeometryNodeObjectInfo")
+        info.inputs["Object"].default_value = instance_of
+        source = info.outputs["Geometry"]
+    line = nodes.new("GeometryNodeMeshLine")
+    line.inputs["Count"].default_value = count
+    line.inputs["Start Location"].default_value = (2.5, 0.0, 0.0)
+    line.inputs["Offset"].default_value = (2.5, 0.0, 0.0)
+    points = nodes.new("GeometryNodeMeshToPoints")
+    links.new(line.outputs[0], points.inputs[0])
+    inst = nodes.new("GeometryNodeInstanceOnPoints")
+    links.new(points.outputs[0], inst.inputs["Points"])
+    links.new(source, inst.inputs["Instance"])
+    out = inst.outputs[0]
+    if realize:
+        real = nodes.new("GeometryNodeRealizeInstances")
+        links.new(out, real.inputs[0])
+        out = real.outputs[0]
+    if keep_own:
+        join = nodes.new("GeometryNodeJoinGeometry")
+        links.new(out, join.inputs[0])
+        links.new(geo, join.inputs[0])
+        out = join.outputs[0]
+    links.new(out, nodes.new("NodeGroupOutput").inputs[0])
+    obj.modifiers.new("Instances", "NODES").node_group = tree
+
+
+def _save(path):
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+def _half_instanced(path, realize=False):
+    """Obj: a grid on the left half of the UV square; a second grid 'Part' with the same
+    material on the right half, instanced by Obj's Geometry Nodes (Part itself not rendered)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mat = _material("Mat")
+    own = _grid("Obj", 0.0, 0.5)
+    own.materials.append(mat)
+    obj = _object(own, "Obj")
+    part_mesh = _grid("Part", 0.5, 1.0)
+    part_mesh.materials.append(mat)
+    part = _object(part_mesh, "Part")
+    part.hide_render = True
+    _instancing_modifier(obj, part, realize=realize)
+    return _save(path)
+
+
+def _copies_and_scatter(path):
+    """Obj: a grid over the whole UV square with two instances of its own geometry (the same
+    UVs) and three of 'Grass', which has a material of its own."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    own = _grid("Obj")
+    own.materials.append(_material("Mat"))
+    obj = _object(own, "Obj")
+    grass_mesh = _grid("Grass")
+    grass_mesh.materials.append(_material("GrassMat"))
+    grass = _object(grass_mesh, "Grass")
+    grass.hide_render = True
+    _instancing_modifier(obj, None, count=2)
+    _instancing_modifier(obj, grass, count=3)       # a second modifier, on top
+    return _save(path)
+
+
+def _only_instances(path):
+    """Obj's Geometry Nodes turn its whole mesh into one instance (nothing realized)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    own = _grid("Obj")
+    own.materials.append(_material("Mat"))
+    obj = _object(own, "Obj")
+    tree = bpy.data.node_groups.new("ToInstance", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    to_instance = tree.nodes.new("GeometryNodeGeometryToInstance")
+    tree.links.new(tree.nodes.new("NodeGroupInput").outputs[0], to_instance.inputs[0])
+    tree.links.new(to_instance.outputs[0], tree.nodes.new("NodeGroupOutput").inputs[0])
+    obj.modifiers.new("GN", "NODES").node_group = tree
+    return _save(path)
+
+
+# Running the commands ----------------------------------------------------------------------------
+
+def _bake(capsys, blend, output, *extra):
+    """bake-normal-map of Obj in this process at 32^2, margin 0: (exit code, stderr)."""
+    from surfgrad_addon.addon import commands
+    output.parent.mkdir(exist_ok=True)
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Obj",
+                           "--output", str(output), "--resolution", "32", "--margin", "0",
+                           *extra])
+    return rc, capsys.readouterr().err
+
+
+def _flat_texels(path):
+    """Per half (left, right) of the map: texels that hold exactly the flat normal (0.5, 0.5,
+    1), the colour a bake leaves where no face is."""
+    img = bpy.data.images.load(str(path))
+    try:
+        w, h = img.size
+        px = np.array(img.pixels[:], dtype=np.float64).reshape(h, w, 4)[..., :3]
+    finally:
+        bpy.data.images.remove(img)
+    flat = np.all(np.abs(px - (0.5, 0.5, 1.0)) < 1e-6, axis=2)
+    return int(flat[:, :w // 2].sum()), int(flat[:, w // 2:].sum())
+
+
+# Unrealized instances ------------------------------------------------------------------------------
+
+def test_instances_of_the_material_where_the_mesh_leaves_texels_empty_are_refused(tmp_path,
+                                                                                     capsys):
+    """Before: exit 0, and the instanced half of the map was the flat background (512 of 512
+    texels at 32^2), nothing said. Now refused (exit 2) naming the part and the fix, no file
+    written, the .blend unchanged; --allow-partial bakes the rest with the warning; realized,
+    the same part is baked (the evidence that the refusal's map would be partial)."""
+    blend = _half_instanced(tmp_path / "half.blend")
+    before = blend.read_bytes()
+    out = tmp_path / "out"
+    rc, err = _bake(capsys, blend, out / "n.exr")
+    assert rc == 2, err
+    line = [x for x in err.splitlines() if x.startswith("surfgrad: error:")]
+    assert len(line) == 1 and "1 unrealized instance(s) of mesh 'Part' (16 faces)" in line[0]
+    assert "512 texel(s) (counted at 32^2 a tile) that the realized mesh leaves empty" in line[0]
+    assert "Realize Instances" in line[0] and "--allow-partial" in line[0]
+    assert "Traceback" not in err and not (out / "n.exr").exists()
+    assert list(out.iterdir()) == []
+    assert blend.read_bytes() == before
+
+    rc, err = _bake(capsys, blend, out / "partial.exr", "--allow-partial")
+    assert rc == 0, err
+    assert "surfgrad: warning: object 'Obj' renders 1 unrealized instance(s)" in err
+    assert "baked without them (--allow-partial)" in err
+    assert _flat_texels(out / "partial.exr") == (0, 512)       # the part is missing: flat
+
+    realized = _half_instanced(tmp_path / "realized.blend", realize=True)
+    rc, err = _bake(capsys, realized, out / "realized.exr")
+    assert rc == 0, err
+    assert "instance" not in err
+    assert _flat_texels(out / "realized.exr") == (0, 0)         # realized, it is baked
+
+
+def test_instanced_copies_and_a_scatter_of_other_materials_bake_with_a_warning(tmp_path,
+                                                                                capsys):
+    """Copies of the object's own mesh (its UVs: no texel left empty) and instances of another
+    material do not make this map partial: baked, exit 0, and (before: nothing) a warning on
+    stderr and in bake-batch's manifest naming them and the fix; compare warns too."""
+    from surfgrad_addon.addon import commands
+    from surfgrad_addon.harness.cli import main
+    blend = _copies_and_scatter(tmp_path / "copies.blend")
+    out = tmp_path / "out"
+    rc, err = _bake(capsys, blend, out / "n.png")
+    assert rc == 0, err
+    warning = [x for x in err.splitlines() if "unrealized" in x]
+    assert len(warning) == 1, err
+    assert "renders 5 unrealized instance(s) of mesh 'Obj', mesh 'Grass' (80 faces)" in warning[0]
+    assert "the map is complete without them" in warning[0] and "Realize Instances" in warning[0]
+    assert _flat_texels(out / "n.png") == (0, 0)
+
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(blend), "--objects", "Obj", "--output",
+                           str(out / "batch" / "{object}.png"), "--resolution", "32",
+                           "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    asset = json.loads((out / "batch" / "surfgrad-bake-manifest.json").read_text())["assets"]
+    (entry,) = asset.values()
+    assert entry["status"] == "baked"
+    assert any("5 unrealized instance(s)" in w for w in entry["warnings"]), entry
+
+    code = main(["compare", "--blend", str(blend), "--object", "Obj", "--method", "normal-map",
+                 "--resolution", "32", "--json", str(out / "c.json")])
+    assert code == 0, capsys.readouterr().err
+    warnings = json.loads((out / "c.json").read_text())["warnings"]
+    assert any("5 unrealized instance(s)" in w and "they are not compared" in w
+               for w in warnings), warnings
+
+
+def test_a_partial_instance_fails_its_batch_asset_with_the_line(tmp_path, capsys):
+    """bake-batch: the asset fails with the refusal's line (exit 1), in the manifest too."""
+    from surfgrad_addon.addon import commands
+    blend = _half_instanced(tmp_path / "half.blend")
+    out = tmp_path / "out"
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(blend), "--objects", "Obj", "--output",
+                           str(out / "{object}.png"), "--resolution", "32", "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert "half.blend:Obj: object 'Obj' renders 1 unrealized instance(s)" in err
+    assert not (out / "Obj.png").exists()
+    (entry,) = json.loads((out / "surfgrad-bake-manifest.json").read_text())["assets"].values()
+    assert entry["status"] == "failed" and "Realize Instances" in entry["error"]
+
+
+def test_a_mesh_made_all_of_instances_is_named_as_such(tmp_path, capsys):
+    """Before: exit 2 with 'UV map 'UVMap' ... is not on the mesh as it renders (a modifier
+    removes it ...)', which blamed the UV map. Now the line says the faces are instances."""
+    blend = _only_instances(tmp_path / "all.blend")
+    rc, err = _bake(capsys, blend, tmp_path / "out" / "n.png")
+    assert rc == 2, err
+    assert ("surfgrad: error: object 'Obj' renders all its faces as 1 unrealized instance(s) "
+            "and Blender's bake renders only the realized mesh, which has none: add a Realize "
+            "Instances node") in err
+    assert not (tmp_path / "out" / "n.png").exists()
