@@ -263,3 +263,132 @@ def test_a_mesh_made_all_of_instances_is_named_as_such(tmp_path, capsys):
             "and Blender's bake renders only the realized mesh, which has none: add a Realize "
             "Instances node") in err
     assert not (tmp_path / "out" / "n.png").exists()
+
+
+# A farm's limits and closed streams (child processes) ---------------------------------------
+
+def _command(args, cwd, preexec=None, **streams):
+    """`python -m surfgrad_addon ARGS` from this checkout: the finished CompletedProcess."""
+    import os
+    import subprocess
+    import sys
+    from support.child import ROOT
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(PYTHONPATH=str(ROOT), TMPDIR=str(cwd / "tmp"))
+    (cwd / "tmp").mkdir(exist_ok=True)
+    return subprocess.run([sys.executable, "-m", "surfgrad_addon", *map(str, args)], cwd=str(cwd),
+                          env=env, preexec_fn=preexec, timeout=300, **streams)
+
+
+def _cpu_limit(seconds):
+    """A soft CPU time limit (`ulimit -S -t`, SGE's s_cpu) for a child: SIGXCPU when reached."""
+    import resource
+
+    def limit():
+        hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
+        resource.setrlimit(resource.RLIMIT_CPU, (seconds, hard))
+    return limit
+
+
+@pytest.fixture
+def rock(tmp_path):
+    from surfgrad_addon.harness import batch_assets as BA
+    return BA.write_asset(tmp_path / "rock.blend", ("Rock",), tiles=(1001,), image_size=16)
+
+
+@pytest.mark.tier("child")
+def test_a_cpu_time_limit_stops_the_bake_cleanly_with_the_fix(rock, tmp_path):
+    """`ulimit -S -t 4` (SGE's s_cpu): SIGXCPU while Cycles bakes. Before: the process died
+    of it (-24; 152 in a shell), no line, Blender's session folder left in $TMPDIR. Now: exit
+    152, one line naming the limit and its fix, no map, no temporary file, no session folder.
+    (Starting takes about 1.2 s of CPU; the 512^2, 256-sample bake far more than 4 s.)"""
+    import subprocess
+    out = tmp_path / "out"
+    out.mkdir()
+    done = _command(["bake-normal-map", "--blend", rock, "--object", "Rock", "--output",
+                     out / "n.png", "--resolution", "512", "--samples", "256"], tmp_path,
+                    preexec=_cpu_limit(4), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                    text=True)
+    assert done.returncode == 152, done.stderr[-2000:]
+    assert done.stderr.strip().splitlines()[-1] == (
+        "surfgrad: interrupted by SIGXCPU (its CPU time limit was reached: raise `ulimit -t` "
+        "or the job's CPU time limit): stopped the bake; exit code 152")
+    assert "Traceback" not in done.stderr
+    assert list(out.iterdir()) == [] and list((tmp_path / "tmp").iterdir()) == []
+
+
+@pytest.mark.tier("child")
+def test_a_cpu_time_limit_in_a_batch_worker_fails_its_asset_once_with_the_fix(rock, tmp_path):
+    """The batch's worker reaches the limit. Before: it died of SIGXCPU, which read as a crash
+    (`died (exit code -24)`), and the asset was baked again in a fresh process (the same
+    limit: twice the time). Now the worker stops cleanly, the asset fails at once, naming
+    the limit."""
+    import subprocess
+    out = tmp_path / "maps"
+    done = _command(["bake-batch", rock, "--output", out / "{object}.png", "--resolution",
+                     "512", "--samples", "256", "--workers", "1"], tmp_path,
+                    preexec=_cpu_limit(6), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                    text=True)
+    assert done.returncode == 1, done.stderr[-2000:]
+    (entry,) = json.loads((out / "surfgrad-bake-manifest.json").read_text())["assets"].values()
+    assert entry["error"] == ("its worker process was stopped by SIGXCPU (its CPU time limit "
+                              "was reached: raise `ulimit -t` or the job's CPU time limit) "
+                              "(not retried)"), entry
+    assert len(entry["attempts"]) == 1 and "retrying" not in done.stdout
+    assert not (out / "Rock.png").exists() and list((tmp_path / "tmp").iterdir()) == []
+
+
+def _closed(fds):
+    """preexec: close these descriptors in the child (a shell's `>&-`, `2>&-`, `<&-`)."""
+    import os
+
+    def close():
+        for fd in fds:
+            os.close(fd)
+    return close
+
+
+@pytest.mark.tier("child")
+@pytest.mark.parametrize("command", ["bake-normal-map", "bake-batch-0", "bake-batch-1",
+                                     "compare"])
+def test_a_command_started_with_its_output_closed_runs_to_the_end(rock, tmp_path, command):
+    """`... >&-` (stdout closed at the start, as some daemons and schedulers start jobs).
+    Before: bake-normal-map ended with an AttributeError traceback ('NoneType' object has no
+    attribute 'flush'), exit 1, no map. Now every command runs and writes its files, and
+    says nothing on stderr."""
+    import subprocess
+    out = tmp_path / "out"
+    if command == "bake-normal-map":
+        args = ["bake-normal-map", "--blend", rock, "--object", "Rock", "--output",
+                out / "Rock.png", "--resolution", "32"]
+        out.mkdir()
+    elif command == "compare":
+        args = ["compare", "--blend", rock, "--object", "Rock", "--method", "normal-map",
+                "--resolution", "16", "--json", out / "c.json"]
+        out.mkdir()
+    else:
+        args = ["bake-batch", rock, "--output", out / "{object}.png", "--resolution", "32",
+                "--workers", command[-1]]
+    done = _command(args, tmp_path, preexec=_closed([1]), stderr=subprocess.PIPE, text=True)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "Traceback" not in done.stderr and "surfgrad" not in done.stderr
+    made = out / ("c.json" if command == "compare" else "Rock.png")
+    assert made.stat().st_size > 100
+    if command != "compare":
+        assert made.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert made.read_bytes()[-8:-4] == b"IEND"      # whole: nothing else written into it
+
+
+@pytest.mark.tier("child")
+def test_a_bake_started_with_every_stream_closed_still_bakes_and_says_nothing(rock, tmp_path):
+    """`>&- 2>&- <&-`: exit 0 and the map, the same bytes as with the streams open."""
+    import subprocess
+    out = tmp_path / "out"
+    out.mkdir()
+    base = ["bake-normal-map", "--blend", rock, "--object", "Rock", "--resolution", "32"]
+    done = _command(base + ["--output", out / "closed.png"], tmp_path, preexec=_closed([0, 1, 2]))
+    assert done.returncode == 0
+    done = _command(base + ["--output", out / "open.png"], tmp_path, stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL)
+    assert done.returncode == 0
+    assert (out / "closed.png").read_bytes() == (out / "open.png").read_bytes()

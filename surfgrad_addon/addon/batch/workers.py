@@ -35,8 +35,9 @@ def worker_command():
 
 
 TIMED_OUT = "timed out"                     # Worker.call's answer when a request overran
-STOP_CODES = {code: s.name for s in interrupts.SIGNALS + interrupts.OTHER_SIGNALS
-              for code in (interrupts.exit_code(s), -int(s))}    # 130 / -2: "SIGINT", ...
+STOP_CODES = {code: s.name + interrupts.why(s) for s in interrupts.SIGNALS +
+              interrupts.OTHER_SIGNALS for code in (interrupts.exit_code(s), -int(s))}
+# 130 / -2: "SIGINT", ...
 
 
 class Worker:
