@@ -5,9 +5,10 @@ import os
 import signal
 import sys
 
-# Closed stdout / stderr / stdin (`>&-`): before anything opens a file on their descriptors.
-from .addon.std_streams import reopen_closed
-reopen_closed()
+# Closed stdout / stderr / stdin (`>&-`): before anything opens a file on their descriptors;
+# a strict stdout made tolerant (paths that are not UTF-8).
+from .addon.std_streams import prepare
+prepare()
 
 # numpy asks the kernel for transparent huge pages for its large arrays (madvise). Where the
 # kernel compacts memory to find them (THP defrag "madvise", as on the development machine),

@@ -392,3 +392,70 @@ def test_a_bake_started_with_every_stream_closed_still_bakes_and_says_nothing(ro
                     stderr=subprocess.DEVNULL)
     assert done.returncode == 0
     assert (out / "closed.png").read_bytes() == (out / "open.png").read_bytes()
+
+
+# Paths that are not UTF-8 ------------------------------------------------------------------------
+
+@pytest.fixture
+def latin1_folder(tmp_path, rock):
+    """A folder whose name holds the Latin-1 byte of 'o-umlaut' (not UTF-8: an old share, an
+    unzipped archive), holding a copy of the rock asset."""
+    import os
+    import shutil
+    folder = os.path.join(os.fsencode(tmp_path), b"l\xf6n")
+    os.mkdir(folder)
+    shutil.copy(rock, os.path.join(folder, b"r.blend"))
+    return os.fsdecode(folder)          # '...l\udcf6n', as Python names it
+
+
+@pytest.mark.tier("child")
+def test_a_batch_worker_that_prints_a_non_utf8_path_is_not_taken_for_dead(latin1_folder,
+                                                                         tmp_path):
+    """bake-batch --workers 1 of a .blend in that folder. Before: Blender's `Read blend:` line
+    carries the path's raw byte, the batch's strict decode of the worker's output ended its
+    reader, the worker was taken as dead, killed (-9) after 10 s, retried, and the asset
+    failed after 22 s: `the worker process died (exit code -9)`. Now baked."""
+    import subprocess
+    done = _command(["bake-batch", f"{latin1_folder}/r.blend", "--output",
+                     f"{latin1_folder}/maps/{{file}}_{{object}}.png", "--resolution", "16",
+                     "--workers", "1"], tmp_path, stdout=subprocess.PIPE,
+                    stderr=subprocess.PIPE, errors="replace")
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert "1 baked, 0 skipped, 0 failed" in done.stdout
+    assert open(f"{latin1_folder}/maps/r_Rock.png", "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.tier("child")
+@pytest.mark.parametrize("command", ["bake-normal-map", "bake-batch"])
+def test_a_non_utf8_output_path_under_a_strict_utf8_stdout_is_named_not_an_error(
+        latin1_folder, tmp_path, command):
+    """A UTF-8 locale (en_US.UTF-8) makes Python's stdout strict; stood in for here by
+    PYTHONIOENCODING=utf-8:strict (this machine has only C locales). Before: bake-normal-map
+    wrote the map, then its `[3/3] wrote` line raised, so it said `surfgrad: error: 'utf-8'
+    codec can't encode character '\\udcf6'...` and exited 2 with the map in place;
+    bake-batch --workers 1 failed the asset the same way in its worker. Now exit 0, the
+    path's byte written as an escape."""
+    import os
+    import subprocess
+    if command == "bake-normal-map":
+        args = ["bake-normal-map", "--blend", f"{latin1_folder}/r.blend", "--object", "Rock",
+                "--output", f"{latin1_folder}/n.png", "--resolution", "16"]
+        made = f"{latin1_folder}/n.png"
+    else:
+        args = ["bake-batch", f"{latin1_folder}/r.blend", "--output",
+                f"{latin1_folder}/maps/{{object}}.png", "--resolution", "16", "--workers", "1"]
+        made = f"{latin1_folder}/maps/Rock.png"
+    env_before = os.environ.get("PYTHONIOENCODING")
+    os.environ["PYTHONIOENCODING"] = "utf-8:strict"
+    try:
+        done = _command(args, tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                        errors="replace")
+    finally:
+        if env_before is None:
+            del os.environ["PYTHONIOENCODING"]
+        else:
+            os.environ["PYTHONIOENCODING"] = env_before
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert "surfgrad: error" not in done.stderr and "Traceback" not in done.stderr
+    assert "l\\udcf6n" in done.stdout              # named, as an escape
+    assert open(made, "rb").read(8) == b"\x89PNG\r\n\x1a\n"

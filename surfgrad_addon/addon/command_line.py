@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from .exit_codes import OK, code_for
-from .std_streams import reopen_closed
+from .std_streams import prepare as prepare_streams
 
 
 @dataclass(frozen=True)
@@ -38,7 +38,7 @@ def parser(subcommands, prog, description, raw_description=False):
 def run(subcommands, args):
     """Run the parsed command: its exit code, errors reported as one line."""
     command = next(c for c in subcommands if c.name == args.command)
-    reopen_closed()              # `blender -c surfgrad ... >&-`: print would fail
+    prepare_streams()            # `blender -c surfgrad ... >&-`; non-UTF-8 paths
     if command.stops_itself:
         return _run(command, args)
     from . import interrupts

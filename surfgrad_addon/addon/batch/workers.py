@@ -55,6 +55,9 @@ class Worker:
         env[OWN_TEMPDIR] = self.tempdir
         self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, bufsize=1, env=env,
+                                     # Blender prints paths as their bytes, not always UTF-8:
+                                     # a strict decode ended the reader (the worker seemed dead)
+                                     errors="replace",
                                      start_new_session=True)
         self.tail = []
         self.started = time.perf_counter()
