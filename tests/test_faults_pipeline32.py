@@ -459,3 +459,49 @@ def test_a_non_utf8_output_path_under_a_strict_utf8_stdout_is_named_not_an_error
     assert "surfgrad: error" not in done.stderr and "Traceback" not in done.stderr
     assert "l\\udcf6n" in done.stdout              # named, as an escape
     assert open(made, "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+# An address-space limit (`ulimit -v`) ----------------------------------------------------------
+
+@pytest.mark.tier("child")
+def test_a_bake_that_cannot_fit_the_address_space_limit_is_refused_before_it_starts(rock,
+                                                                                     tmp_path):
+    """`ulimit -v 3900000` (3.7 GB; SGE's h_vmem sets the same limit) and a 4096^2 bake, which
+    adds at least 183 bytes a texel (2.8 GB) to the 1.5 GB a started command uses. Before:
+    Blender's allocation failed inside the bake (std::bad_alloc: exit 134, or a segmentation
+    fault: 139), no line of ours, its session folder left in $TMPDIR. Now refused, exit 2,
+    one line naming the limit and the fix, nothing written."""
+    import resource
+    import subprocess
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (3900000 * 1024, resource.RLIM_INFINITY))
+    out = tmp_path / "out"
+    out.mkdir()
+    done = _command(["bake-normal-map", "--blend", rock, "--object", "Rock", "--output",
+                     out / "n.exr", "--resolution", "4096"], tmp_path, preexec=limit,
+                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    assert done.returncode == 2, done.stderr[-2000:]
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("surfgrad: error: a 4096x4096 bake of 1 tile(s) needs at least "
+                           "2.8 GB of memory beyond the ")
+    assert line.endswith("more than its address-space limit of 3.7 GB (`ulimit -v`, or the "
+                         "job's memory limit such as SGE's h_vmem), where Blender's bake "
+                         "would crash: raise the limit or bake at a lower --resolution")
+    assert list(out.iterdir()) == [] and list((tmp_path / "tmp").iterdir()) == []
+
+
+@pytest.mark.tier("numpy")
+def test_the_memory_check_leaves_an_unlimited_process_and_small_bakes_alone(monkeypatch):
+    """No limit: nothing to check. Under a limit, a bake within it passes; the bound is the
+    measured 180 bytes a texel per tile."""
+    import resource
+    from surfgrad_addon.addon import memory_limit as ML
+    monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
+    assert ML.bake_memory_problem(16384, 10) is None
+    gb = 1024 ** 3
+    monkeypatch.setattr(resource, "getrlimit", lambda _: (4 * gb, resource.RLIM_INFINITY))
+    monkeypatch.setattr(ML, "address_space_in_use", lambda: 1 * gb)
+    # 3 GB of room: 4096^2 x 180 B = 2.81 GB fits one tile, not two
+    assert ML.bake_memory_problem(4096, 1) is None
+    assert "a 4096x4096 bake of 2 tile(s) needs at least 5.6 GB" in ML.bake_memory_problem(4096, 2)

@@ -36,6 +36,7 @@ from . import unrealized_instances as UI
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
 from .image_checks import image_problems, output_input_problems
+from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
@@ -233,6 +234,9 @@ def _check(request, obj, warn):
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
     problems += image_problems(obj, tiles)          # the tiles this bake writes
+    problem = bake_memory_problem(request.resolution, len(tiles))
+    if problem:
+        problems.append(problem)
     warnings += colour_space_warnings(obj)
     warnings += normal_map_warnings(obj)            # grey files, -1..1 floats
     depth = NB.depth_for(request.output, request.depth)
