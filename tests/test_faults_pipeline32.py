@@ -505,3 +505,47 @@ def test_the_memory_check_leaves_an_unlimited_process_and_small_bakes_alone(monk
     # 3 GB of room: 4096^2 x 180 B = 2.81 GB fits one tile, not two
     assert ML.bake_memory_problem(4096, 1) is None
     assert "a 4096x4096 bake of 2 tile(s) needs at least 5.6 GB" in ML.bake_memory_problem(4096, 2)
+
+
+# A texture changed between the check and the bake ------------------------------------------------
+
+def _rock_with_texture_on_disk(tmp_path):
+    """The rock asset with its normal map unpacked beside it (//textures/Rock_src.exr);
+    (blend, the texture's path)."""
+    from surfgrad_addon.harness import batch_assets as BA
+    blend = BA.write_asset(tmp_path / "rock.blend", ("Rock",), tiles=(1001,), image_size=16)
+    bpy.ops.wm.open_mainfile(filepath=str(blend), use_scripts=False)
+    bpy.ops.file.unpack_all(method="WRITE_LOCAL")
+    (image,) = [i for i in bpy.data.images if i.filepath]
+    png = tmp_path / bpy.path.abspath(image.filepath).split(str(tmp_path) + "/")[-1]
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    assert png.is_file() and png.stat().st_size > 100
+    return blend, png
+
+
+def test_a_texture_changed_between_the_check_and_the_bake_fails_the_bake(tmp_path, capsys,
+                                                                         monkeypatch):
+    """The texture is cut in half after the request's checks read it and before Cycles loads
+    it (an artist saving it on the share while the farm bakes). Before: exit 0, a map of
+    Cycles' magenta 'missing' colour (every texel (0.54, -0.54, 0.65) decoded). Now exit 1,
+    one line naming the file and the fix, no map."""
+    from surfgrad_addon.addon import bake_request, commands
+    blend, png = _rock_with_texture_on_disk(tmp_path)
+    whole = png.read_bytes()
+    real = bake_request.NB.bake_normal_tiles
+
+    def cut_then_bake(*args, **kwargs):
+        png.write_bytes(whole[:len(whole) // 2])
+        return real(*args, **kwargs)
+    monkeypatch.setattr(bake_request.NB, "bake_normal_tiles", cut_then_bake)
+    out = tmp_path / "out"
+    out.mkdir()
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
+                           "--output", str(out / "n.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    (line,) = [x for x in err.splitlines() if x.startswith("surfgrad: error:")]
+    assert f"{str(png)!r}" in line and "changed while it was baked" in line, line
+    assert list(out.iterdir()) == []

@@ -32,6 +32,7 @@ from ..reference import input_checks as IC
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
 from . import normal_bake as NB
+from . import input_stamps
 from . import unrealized_instances as UI
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
@@ -187,6 +188,7 @@ class CheckedRequest:
     depth: str
     finals: dict = field(default_factory=dict)      # tile -> the file it will be written to
     warnings: list = field(default_factory=list)
+    input_stamps: dict = field(default_factory=dict)    # input_stamps.stamps at the check
 
 
 def warn_stderr(message):
@@ -233,6 +235,7 @@ def _check(request, obj, warn):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
+    stamped = input_stamps.stamps(obj)              # before the checks read the files
     problems += image_problems(obj, tiles)          # the tiles this bake writes
     problem = bake_memory_problem(request.resolution, len(tiles))
     if problem:
@@ -247,7 +250,7 @@ def _check(request, obj, warn):
         raise BakeRequestError(problems)
     for w in warnings:
         warn(w)
-    return CheckedRequest(request, uv_map, tiles, with_uvs, depth, finals, warnings)
+    return CheckedRequest(request, uv_map, tiles, with_uvs, depth, finals, warnings, stamped)
 
 
 def bake(request, obj=None, log=print, warn=warn_stderr):
@@ -263,13 +266,20 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
             result = NB.bake_normal_tiles(obj, r.output, r.space, r.resolution,
                                           checked.uv_map, r.margin, r.samples, checked.depth,
                                           r.tiles, r.empty_tiles, overwrite=r.overwrite,
-                                          log=log, threads=r.threads)
+                                          log=log, threads=r.threads,
+                                          verify=lambda: _inputs_unchanged(checked))
         except RuntimeError as err:       # the bake operator or the image write
             # (MapNotWritten keeps its kind: a batch does not retry it)
             failed = MapNotWritten if isinstance(err, MapNotWritten) else BakeFailed
             raise failed(f"the bake of {obj.name!r} failed: {err}") from None
     result["warnings"] = list(dict.fromkeys(checked.warnings + result.get("warnings", [])))
     return result
+
+
+def _inputs_unchanged(checked):
+    problem = input_stamps.changed_problem(checked.input_stamps)
+    if problem:
+        raise BakeFailed(problem)
 
 
 # The checks ---------------------------------------------------------------------------------
