@@ -498,6 +498,7 @@ def test_the_memory_check_leaves_an_unlimited_process_and_small_bakes_alone(monk
     import resource
     from surfgrad_addon.addon import memory_limit as ML
     monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
+    monkeypatch.setattr(ML, "machine_memory", lambda: None)
     assert ML.bake_memory_problem(16384, 10) is None
     gb = 1024 ** 3
     monkeypatch.setattr(resource, "getrlimit", lambda _: (4 * gb, resource.RLIM_INFINITY))
@@ -549,3 +550,41 @@ def test_a_texture_changed_between_the_check_and_the_bake_fails_the_bake(tmp_pat
     (line,) = [x for x in err.splitlines() if x.startswith("surfgrad: error:")]
     assert f"{str(png)!r}" in line and "changed while it was baked" in line, line
     assert list(out.iterdir()) == []
+
+
+@pytest.mark.tier("numpy")
+def test_a_bake_larger_than_the_machine_is_refused_naming_its_memory(monkeypatch):
+    """No address-space limit, but a 16384^2 bake (at least 45 GB) on a machine of 24 GB and
+    no swap (this one): the OOM killer would end it (SIGKILL, no line; not run here, it would
+    take the shared machine's memory). Refused naming the machine's memory; a container's
+    lower cgroup limit is named instead where it has one."""
+    import resource
+    from surfgrad_addon.addon import memory_limit as ML
+    gb = 1024 ** 3
+    monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
+    monkeypatch.setattr(ML, "resident_in_use", lambda: gb // 2)
+    monkeypatch.setattr(ML, "_kb_line", lambda path, key: {"MemTotal": 24 * gb,
+                                                           "SwapTotal": 0}.get(key))
+    monkeypatch.setattr(ML, "CGROUP_LIMITS", ())
+    problem = ML.bake_memory_problem(16384, 1)
+    assert problem == ("a 16384x16384 bake of 1 tile(s) needs at least 45.0 GB of memory beyond "
+                       "the 0.5 GB this process holds, more than this machine's 24.0 GB of "
+                       "memory and 0.0 GB of swap, where the system would kill the bake: bake "
+                       "at a lower --resolution, or on a machine with more memory")
+    assert ML.bake_memory_problem(8192, 1) is None          # 11.3 GB: fits
+    assert ML.machine_memory()[0] == 24 * gb
+
+
+@pytest.mark.tier("numpy")
+def test_a_container_memory_limit_is_the_machine_for_the_check(monkeypatch, tmp_path):
+    import resource
+    from surfgrad_addon.addon import memory_limit as ML
+    gb = 1024 ** 3
+    (tmp_path / "memory.max").write_text(f"{4 * gb}\n")
+    (tmp_path / "v1").write_text("9223372036854771712\n")       # v1's "no limit"
+    monkeypatch.setattr(ML, "CGROUP_LIMITS", (str(tmp_path / "v1"), str(tmp_path / "memory.max")))
+    monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
+    monkeypatch.setattr(ML, "resident_in_use", lambda: 2 * gb)
+    assert ML.machine_memory()[0] == 4 * gb
+    assert "the memory limit of its control group (4.0 GB, " in ML.bake_memory_problem(4096, 1)
+    assert ML.bake_memory_problem(2048, 1) is None          # 0.7 GB: fits
