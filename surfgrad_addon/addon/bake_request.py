@@ -217,8 +217,7 @@ def _check(request, obj, warn):
         uv_map, tiles, with_uvs, tile_warnings, outside = NB.plan_tile_layout(
             obj, request.output, request.uv_map, request.tiles, request.empty_tiles)
     except NB.NormalBakeError as err:
-        raise BakeRequestError(UI.only_instances_problems(baked_mesh(obj), obj) or
-                               [str(err)]) from None
+        raise BakeRequestError(_only_instances(obj) or [str(err)]) from None
     problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution)
     baked = baked_mesh(obj)
     more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
@@ -274,6 +273,17 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
             raise failed(f"the bake of {obj.name!r} failed: {err}") from None
     result["warnings"] = list(dict.fromkeys(checked.warnings + result.get("warnings", [])))
     return result
+
+
+def _only_instances(obj):
+    """[the problem] when obj renders all its faces as instances (the layout's error then
+    blames its UV map), else []."""
+    if obj.type != "MESH":
+        return []
+    try:
+        return UI.only_instances_problems(baked_mesh(obj), obj)
+    except RuntimeError:                    # what the layout check met: its error stands
+        return []
 
 
 def _inputs_unchanged(checked):
