@@ -16,6 +16,7 @@ import numpy as np
 
 from ..reference import tiles as T
 from .bake_target import bake_target_problem
+from .mesh_triangles import triangle_uvs, triangles
 from .unrealized_instances import read_instances
 
 
@@ -39,10 +40,7 @@ def read_as_baked(obj, read):
     return read(obj.evaluated_get(depsgraph), depsgraph)
 
 
-def _triangle_uvs(mesh, uv_map, loops):
-    uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
-    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
-    return uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
+_triangle_uvs = triangle_uvs
 
 
 def _tiles_of(tri_uv, faces):
@@ -50,15 +48,7 @@ def _tiles_of(tri_uv, faces):
     return T.tiles_with_uvs(tri_uv), int(len(outside))
 
 
-def _triangles(mesh):
-    """(loops (T*3,), faces (T,)) of the mesh's loop triangles."""
-    mesh.calc_loop_triangles()
-    nt = len(mesh.loop_triangles)
-    loops = np.empty(nt * 3, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    faces = np.empty(nt, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("polygon_index", faces)
-    return loops, faces
+_triangles = triangles          # (loops (T*3,), faces (T,))
 
 
 def uv_tiles(mesh, uv_map):

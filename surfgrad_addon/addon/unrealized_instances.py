@@ -23,6 +23,7 @@ import numpy as np
 
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
+from .mesh_triangles import triangle_uvs, triangles
 
 CHECK_SIZE = 512           # texels a side the coverage is compared at (cost bound)
 FIX = ("add a Realize Instances node before the Group Output of its Geometry Nodes (or apply "
@@ -68,19 +69,10 @@ def read_instances(obj, depsgraph):
 
 def _mesh_record(o, instancer):
     mesh = o.data
-    mesh.calc_loop_triangles()
-    nt = len(mesh.loop_triangles)
-    loops = np.empty(nt * 3, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    index = np.empty(nt, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("material_index", index)
+    loops, index = triangles(mesh, "material_index")
     slots = [s.material.name if s.material else None for s in o.material_slots]
     materials = tuple(slots[i] if 0 <= i < len(slots) else None for i in index)
-    uvs = {}
-    for layer in mesh.uv_layers:
-        uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
-        layer.data.foreach_get("uv", uv)
-        uvs[layer.name] = uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
+    uvs = {layer.name: triangle_uvs(mesh, layer.name, loops) for layer in mesh.uv_layers}
     # A Geometry Nodes instance's object takes the instancer's name: name its mesh then.
     name = f"mesh {mesh.name!r}" if o.name == instancer else f"object {o.name!r}"
     return (name, len(mesh.polygons), materials, uvs)
