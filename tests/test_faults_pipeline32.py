@@ -167,7 +167,7 @@ def _flat_texels(path):
     return int(flat[:, :w // 2].sum()), int(flat[:, w // 2:].sum())
 
 
-# Unrealized instances ------------------------------------------------------------------------------
+# Unrealized instances ---------------------------------------------------------------------------
 
 def test_instances_of_the_material_where_the_mesh_leaves_texels_empty_are_refused(tmp_path,
                                                                                      capsys):

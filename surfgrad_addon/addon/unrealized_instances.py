@@ -118,7 +118,8 @@ def instance_problems(instances, obj, mesh_uv, uv_map, tiles, resolution, allow_
     # A tile only instances reach is not baked at all: all their texels there are missing.
     reached = sorted(set(tiles).union(*(T.tiles_with_uvs(uv) for uv in theirs)))
     for tile in reached if theirs else ():
-        base = _covered(mesh_uv, tile, size, edges=True) if mesh_uv is not None and tile in tiles else \
+        baked = mesh_uv is not None and tile in tiles
+        base = _covered(mesh_uv, tile, size, edges=True) if baked else \
             np.zeros(size * size, dtype=bool)
         reach = np.zeros(size * size, dtype=bool)
         for uv in theirs:
