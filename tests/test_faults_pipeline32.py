@@ -588,3 +588,28 @@ def test_a_container_memory_limit_is_the_machine_for_the_check(monkeypatch, tmp_
     assert ML.machine_memory()[0] == 4 * gb
     assert "the memory limit of its control group (4.0 GB, " in ML.bake_memory_problem(4096, 1)
     assert ML.bake_memory_problem(2048, 1) is None          # 0.7 GB: fits
+
+
+# An output folder behind a dangling link -------------------------------------------------------
+
+@pytest.mark.parametrize("below", ["", "sub/"])
+def test_a_batch_output_folder_behind_a_dangling_link_is_named_with_the_fix(rock, tmp_path,
+                                                                            capsys, below):
+    """`maps` is a symbolic link to a share that is not mounted. Before: exit 2 with
+    `surfgrad: error: [Errno 17] File exists: '.../maps'` (the checks walked past the link to
+    its writable parent; the folder's mkdir then stopped at it). Now the line names the link,
+    its target and the fix; nothing is made."""
+    from surfgrad_addon.addon import commands
+    link = tmp_path / "maps"
+    link.symlink_to(tmp_path / "share" / "maps")
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(rock), "--output", f"{link}/{below}{{object}}.png",
+                           "--resolution", "16", "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert (f"output folder {str(link) + ('/sub' if below else '')!r}: {str(link)!r} is a "
+            f"symbolic link to {str(tmp_path / 'share' / 'maps')!r}, which does not exist (an "
+            f"unmounted share or a moved folder?): mount or create it, or give another "
+            f"folder") in err
+    assert "Errno" not in err and not (tmp_path / "share").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["maps", "rock.blend"]

@@ -407,6 +407,11 @@ def folder_problem(folder):
     probe_in = folder
     try:
         while not _exists(probe_in) and probe_in.parent != probe_in:
+            if os.path.islink(probe_in):    # mkdir would stop at it: File exists
+                return (f"output folder {str(folder)!r}: {str(probe_in)!r} is a symbolic "
+                        f"link to {os.readlink(probe_in)!r}, which does not exist (an "
+                        f"unmounted share or a moved folder?): mount or create it, or give "
+                        f"another folder")
             probe_in = probe_in.parent
         # a folder still to be made whose name the file system will not take (the lookup
         # of a missing parent stops before the name's length is checked)
