@@ -613,3 +613,20 @@ def test_a_batch_output_folder_behind_a_dangling_link_is_named_with_the_fix(rock
             f"folder") in err
     assert "Errno" not in err and not (tmp_path / "share").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["maps", "rock.blend"]
+
+
+def test_a_bake_output_folder_that_is_a_dangling_link_says_so(rock, tmp_path, capsys):
+    """bake-normal-map into such a link. Before: `output folder '.../maps' does not exist:
+    create it first`, where creating it fails (`File exists`). Now the link and its missing
+    target are named."""
+    from surfgrad_addon.addon import commands
+    link = tmp_path / "maps"
+    link.symlink_to(tmp_path / "share" / "maps")
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(rock), "--object", "Rock",
+                           "--output", str(link / "n.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert (f"surfgrad: error: output folder {str(link)!r} does not exist (it is a symbolic "
+            f"link to {str(tmp_path / 'share' / 'maps')!r}, which does not exist: an unmounted "
+            f"share or a moved folder?): create it first") in err

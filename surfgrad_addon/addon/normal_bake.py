@@ -120,8 +120,11 @@ def _check_output(output):
         raise NormalBakeError(f"output folder {str(output.parent)!r} is a file, not a folder: "
                               f"give an output in a folder")
     if not output.parent.is_dir():
-        raise NormalBakeError(f"output folder {str(output.parent)!r} does not exist: create it "
-                              f"first")
+        link = os.path.islink(output.parent) and \
+            f" (it is a symbolic link to {os.readlink(output.parent)!r}, which does not exist: " \
+            f"an unmounted share or a moved folder?)"
+        raise NormalBakeError(f"output folder {str(output.parent)!r} does not exist"
+                              f"{link or ''}: create it first")
     return output
 
 
