@@ -5,6 +5,11 @@ import os
 import signal
 import sys
 
+# Closed stdout / stderr / stdin (`>&-`): before anything opens a file on their descriptors;
+# a strict stdout made tolerant (paths that are not UTF-8).
+from .addon.std_streams import prepare
+prepare()
+
 # numpy asks the kernel for transparent huge pages for its large arrays (madvise). Where the
 # kernel compacts memory to find them (THP defrag "madvise", as on the development machine),
 # each large array allocated after a bake stalled: compare's first 32 MB took 0.07 s instead

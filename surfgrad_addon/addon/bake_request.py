@@ -32,9 +32,12 @@ from ..reference import input_checks as IC
 from ..reference import tiles as T
 from ..reference import uv_overlap as UV
 from . import normal_bake as NB
+from . import input_stamps
+from . import unrealized_instances as UI
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
 from .image_checks import image_problems, output_input_problems
+from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
@@ -185,6 +188,7 @@ class CheckedRequest:
     depth: str
     finals: dict = field(default_factory=dict)      # tile -> the file it will be written to
     warnings: list = field(default_factory=list)
+    input_stamps: dict = field(default_factory=dict)    # input_stamps.stamps at the check
 
 
 def warn_stderr(message):
@@ -213,8 +217,13 @@ def _check(request, obj, warn):
         uv_map, tiles, with_uvs, tile_warnings, outside = NB.plan_tile_layout(
             obj, request.output, request.uv_map, request.tiles, request.empty_tiles)
     except NB.NormalBakeError as err:
-        raise BakeRequestError([str(err)]) from None
+        raise BakeRequestError(_only_instances(obj) or [str(err)]) from None
     problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution)
+    baked = baked_mesh(obj)
+    more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
+                                       uv_map, tiles, request.resolution, request.allow_partial)
+    problems += more
+    warnings += notes
     if outside and not request.allow_partial:
         problems.append(f"{outside} face(s) of UV map {uv_map!r} of object {obj.name!r} lie "
                         f"outside the UDIM range (u 0..10, v >= 0) and would not be baked: "
@@ -225,7 +234,11 @@ def _check(request, obj, warn):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
+    stamped = input_stamps.stamps(obj)              # before the checks read the files
     problems += image_problems(obj, tiles)          # the tiles this bake writes
+    problem = bake_memory_problem(request.resolution, len(tiles))
+    if problem:
+        problems.append(problem)
     warnings += colour_space_warnings(obj)
     warnings += normal_map_warnings(obj)            # grey files, -1..1 floats
     depth = NB.depth_for(request.output, request.depth)
@@ -236,7 +249,7 @@ def _check(request, obj, warn):
         raise BakeRequestError(problems)
     for w in warnings:
         warn(w)
-    return CheckedRequest(request, uv_map, tiles, with_uvs, depth, finals, warnings)
+    return CheckedRequest(request, uv_map, tiles, with_uvs, depth, finals, warnings, stamped)
 
 
 def bake(request, obj=None, log=print, warn=warn_stderr):
@@ -252,13 +265,31 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
             result = NB.bake_normal_tiles(obj, r.output, r.space, r.resolution,
                                           checked.uv_map, r.margin, r.samples, checked.depth,
                                           r.tiles, r.empty_tiles, overwrite=r.overwrite,
-                                          log=log, threads=r.threads)
+                                          log=log, threads=r.threads,
+                                          verify=lambda: _inputs_unchanged(checked))
         except RuntimeError as err:       # the bake operator or the image write
             # (MapNotWritten keeps its kind: a batch does not retry it)
             failed = MapNotWritten if isinstance(err, MapNotWritten) else BakeFailed
             raise failed(f"the bake of {obj.name!r} failed: {err}") from None
     result["warnings"] = list(dict.fromkeys(checked.warnings + result.get("warnings", [])))
     return result
+
+
+def _only_instances(obj):
+    """[the problem] when obj renders all its faces as instances (the layout's error then
+    blames its UV map), else []."""
+    if obj.type != "MESH":
+        return []
+    try:
+        return UI.only_instances_problems(baked_mesh(obj), obj)
+    except RuntimeError:                    # what the layout check met: its error stands
+        return []
+
+
+def _inputs_unchanged(checked):
+    problem = input_stamps.changed_problem(checked.input_stamps)
+    if problem:
+        raise BakeFailed(problem)
 
 
 # The checks ---------------------------------------------------------------------------------
@@ -376,6 +407,11 @@ def folder_problem(folder):
     probe_in = folder
     try:
         while not _exists(probe_in) and probe_in.parent != probe_in:
+            if os.path.islink(probe_in):    # mkdir would stop at it: File exists
+                return (f"output folder {str(folder)!r}: {str(probe_in)!r} is a symbolic "
+                        f"link to {os.readlink(probe_in)!r}, which does not exist (an "
+                        f"unmounted share or a moved folder?): mount or create it, or give "
+                        f"another folder")
             probe_in = probe_in.parent
         # a folder still to be made whose name the file system will not take (the lookup
         # of a missing parent stops before the name's length is checked)

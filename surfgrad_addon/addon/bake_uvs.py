@@ -16,6 +16,8 @@ import numpy as np
 
 from ..reference import tiles as T
 from .bake_target import bake_target_problem
+from .mesh_triangles import triangle_uvs, triangles
+from .unrealized_instances import read_instances
 
 
 def modified(obj):
@@ -25,21 +27,20 @@ def modified(obj):
 
 
 def read_as_baked(obj, read):
-    """read(evaluated object) for obj evaluated as the bake evaluates it; returns what read
-    returns."""
+    """read(evaluated object, depsgraph) for obj evaluated as the bake evaluates it; returns
+    what read returns."""
     import bpy
     # An object the bake refuses (linked, outside the view layer) is read as the viewport
     # has it: its refusal names the problem, the render-mode pass could not reach it.
     if modified(obj) and bake_target_problem(obj, bpy.context.view_layer) is None:
         from .render_mesh import read_in_render_mode
-        return read_in_render_mode(obj, lambda depsgraph: read(obj.evaluated_get(depsgraph)))
-    return read(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+        return read_in_render_mode(obj, lambda depsgraph: read(obj.evaluated_get(depsgraph),
+                                                                depsgraph))
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return read(obj.evaluated_get(depsgraph), depsgraph)
 
 
-def _triangle_uvs(mesh, uv_map, loops):
-    uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
-    mesh.uv_layers[uv_map].data.foreach_get("uv", uv)
-    return uv.reshape(-1, 2)[loops].reshape(-1, 3, 2)
+_triangle_uvs = triangle_uvs
 
 
 def _tiles_of(tri_uv, faces):
@@ -47,15 +48,7 @@ def _tiles_of(tri_uv, faces):
     return T.tiles_with_uvs(tri_uv), int(len(outside))
 
 
-def _triangles(mesh):
-    """(loops (T*3,), faces (T,)) of the mesh's loop triangles."""
-    mesh.calc_loop_triangles()
-    nt = len(mesh.loop_triangles)
-    loops = np.empty(nt * 3, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("loops", loops)
-    faces = np.empty(nt, dtype=np.int64)
-    mesh.loop_triangles.foreach_get("polygon_index", faces)
-    return loops, faces
+_triangles = triangles          # (loops (T*3,), faces (T,))
 
 
 def uv_tiles(mesh, uv_map):
@@ -72,12 +65,15 @@ def uv_tiles(mesh, uv_map):
 @dataclass(frozen=True)
 class BakedMesh:
     """The mesh the bake renders, in float64: every UV map's tiles (uv_tiles), the vertex
-    positions, the triangles' vertices, the world matrix and each UV map's triangle UVs."""
+    positions, the triangles' vertices, the world matrix and each UV map's triangle UVs; and
+    the meshes the object renders as instances, which the bake leaves out
+    (unrealized_instances.py)."""
     layout: dict
     positions: np.ndarray
     triangles: np.ndarray
     matrix: np.ndarray
     triangle_uvs: dict
+    instances: tuple = ()
 
 
 _reads = {"cache": None}      # {object pointer: BakedMesh} inside one_read()
@@ -105,7 +101,8 @@ def baked_mesh(obj):
     if cache is not None and key in cache:
         return cache[key]
 
-    def read(evaluated):
+    def read(evaluated, depsgraph):
+        instances = read_instances(evaluated, depsgraph)
         mesh = evaluated.to_mesh()
         try:
             loops, faces = _triangles(mesh)
@@ -117,7 +114,8 @@ def baked_mesh(obj):
             layout = {name: _tiles_of(uv, faces) if len(mesh.polygons) else ([], 0)
                       for name, uv in uvs.items()}
             return BakedMesh(layout, positions.reshape(-1, 3), tris.reshape(-1, 3),
-                             np.array(evaluated.matrix_world, dtype=np.float64), uvs)
+                             np.array(evaluated.matrix_world, dtype=np.float64), uvs,
+                             instances)
         finally:
             evaluated.to_mesh_clear()
     result = read_as_baked(obj, read)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from .exit_codes import OK, code_for
+from .std_streams import prepare as prepare_streams
 
 
 @dataclass(frozen=True)
@@ -37,6 +38,7 @@ def parser(subcommands, prog, description, raw_description=False):
 def run(subcommands, args):
     """Run the parsed command: its exit code, errors reported as one line."""
     command = next(c for c in subcommands if c.name == args.command)
+    prepare_streams()            # `blender -c surfgrad ... >&-`; non-UTF-8 paths
     if command.stops_itself:
         return _run(command, args)
     from . import interrupts

@@ -119,7 +119,7 @@ def output_input_problems(obj, finals):
         if image is None or image.packed_file is not None or not image.filepath or \
                 image.source in ("GENERATED", "VIEWER"):
             continue
-        for f in _image_files(image):
+        for f in image_files(image):
             reads.setdefault(Path(f).resolve(), (image.name, mat.name))
     out = []
     for final in finals.values():
@@ -163,7 +163,7 @@ def image_feeding(socket):
     return getattr(source, "image", None) if source.bl_idname == "ShaderNodeTexImage" else None
 
 
-def _image_files(image):
+def image_files(image):
     """The files an unpacked file image reads (one per UDIM tile for a tiled one)."""
     import bpy
     path = bpy.path.abspath(image.filepath, library=image.library)
@@ -183,12 +183,12 @@ def one_image_problem(image):
     if not packed:
         if not image.filepath:
             return f"{what} has no file path and is not packed: pick its file, or pack it"
-        folders = [str(p) for p in _image_files(image) if p.is_dir()]
+        folders = [str(p) for p in image_files(image) if p.is_dir()]
         if folders:
             return (f"{what} reads {folders[0]!r}, which is a folder, not an image file: "
                     f"Cycles would bake its magenta 'missing' colour; point the image at its "
                     f"file (File > External Data > Find Missing Files), or pack it")
-        missing = [str(p) for p in _image_files(image) if not p.is_file()]
+        missing = [str(p) for p in image_files(image) if not p.is_file()]
         if missing:
             return (f"{what} reads {missing[0]!r}, which does not exist: Cycles would bake "
                     f"its magenta 'missing' colour; put the file there, fix the path "
@@ -200,7 +200,7 @@ def one_image_problem(image):
         w, h = image.size
         if w == 0 or h == 0:
             problem = not packed and next(filter(None, (
-                unreadable_problem(what, p) for p in _image_files(image))), None)
+                unreadable_problem(what, p) for p in image_files(image))), None)
             if problem:
                 return problem
             if image.source == "MOVIE":         # a movie Blender cannot decode: magenta

@@ -37,10 +37,12 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Signals a terminal or a farm sends whose default action ends the process at once, leaving
 # a map's temporary file, Blender's session folder and an unrecorded manifest: SIGHUP (the
 # terminal closed), SIGQUIT (Ctrl+Backslash), SIGUSR1 / SIGUSR2 (a scheduler's notice before it
-# kills or suspends: Slurm's --signal, SGE's -notify). They stop as SIGTERM does, exit
+# kills or suspends: Slurm's --signal, SGE's -notify), SIGXCPU (the soft CPU time limit:
+# `ulimit -S -t`, SGE's s_cpu; its default action dumps core). They stop as SIGTERM does, exit
 # 128 + n; one this process inherited as ignored (nohup's SIGHUP) stays ignored.
-OTHER_SIGNALS = tuple(getattr(signal, n) for n in ("SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2")
-                      if hasattr(signal, n))
+OTHER_SIGNALS = tuple(getattr(signal, n) for n in ("SIGHUP", "SIGQUIT", "SIGUSR1", "SIGUSR2",
+                                                   "SIGXCPU") if hasattr(signal, n))
+CPU_LIMIT = getattr(signal, "SIGXCPU", None)
 # The program reading our output (`| head`, a log collector) has gone: Python ignores SIGPIPE
 # and raises BrokenPipeError at the next progress line instead, a traceback that ended a batch
 # midway (from a pool thread) with its unfinished assets unrecorded. output_closed() stops as
@@ -61,8 +63,15 @@ PARK_WAIT_S = 2.0                           # and this long for the main thread 
 
 def exit_code(signum):
     """The shell's code for a process ended by `signum`: 130 for SIGINT, 143 for SIGTERM
-    (129 SIGHUP, 131 SIGQUIT, 138 SIGUSR1, 140 SIGUSR2)."""
+    (129 SIGHUP, 131 SIGQUIT, 138 SIGUSR1, 140 SIGUSR2, 152 SIGXCPU)."""
     return 128 + int(signum)
+
+
+def why(signum):
+    """What a signal that does not say it itself means, as ' (...)' (or '')."""
+    return {BROKEN_PIPE: " (the program reading its output ended)",
+            CPU_LIMIT: " (its CPU time limit was reached: raise `ulimit -t` or the job's CPU "
+                       "time limit)"}.get(signum, "")
 
 
 def say(text):
@@ -191,8 +200,7 @@ def stop(signum):
     except Exception:                             # noqa: BLE001
         pass
     remove_blender_tempdir()
-    why = " (the program reading its output ended)" if signum == BROKEN_PIPE else ""
-    say(f"surfgrad: interrupted by {name}{why}: stopped {_state['what']}; exit code "
+    say(f"surfgrad: interrupted by {name}{why(signum)}: stopped {_state['what']}; exit code "
         f"{exit_code(signum)}")
     os._exit(exit_code(signum))
 

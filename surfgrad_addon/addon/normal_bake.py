@@ -120,8 +120,11 @@ def _check_output(output):
         raise NormalBakeError(f"output folder {str(output.parent)!r} is a file, not a folder: "
                               f"give an output in a folder")
     if not output.parent.is_dir():
-        raise NormalBakeError(f"output folder {str(output.parent)!r} does not exist: create it "
-                              f"first")
+        link = os.path.islink(output.parent) and \
+            f" (it is a symbolic link to {os.readlink(output.parent)!r}, which does not exist: " \
+            f"an unmounted share or a moved folder?)"
+        raise NormalBakeError(f"output folder {str(output.parent)!r} does not exist"
+                              f"{link or ''}: create it first")
     return output
 
 
@@ -215,19 +218,20 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
 
 def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,
                       margin=16, samples=1, depth=None, tiles=None, empty_tiles="error",
-                      overwrite=False, log=print, threads=None):
+                      overwrite=False, log=print, threads=None, verify=None):
     """Bake obj's materials into normal map file(s) at `output` (with <UDIM>: one file per
     tile). threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch
     of several processes gives each its share). Materials linked from a library bake through
-    temporary local copies (linked_materials.py). Returns a dict: paths {tile: Path}, tiles,
-    uv_map, depth, warnings, bake_s, save_s."""
+    temporary local copies (linked_materials.py). verify(): called once the files are written
+    and checked, before they are put in place (it raises to publish nothing). Returns a dict:
+    paths {tile: Path}, tiles, uv_map, depth, warnings, bake_s, save_s."""
     with local_copies(obj):
         return _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth,
-                           tiles, empty_tiles, overwrite, log, threads)
+                           tiles, empty_tiles, overwrite, log, threads, verify)
 
 
 def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, tiles,
-                empty_tiles, overwrite, log, threads):
+                empty_tiles, overwrite, log, threads, verify=None):
     import bpy
 
     output = check_output(output)
@@ -342,6 +346,8 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
             _to_half_exr(bpy, scene, temps.values())
         for t in tiles:
             _check_written(bpy, temps[t], finals[t], resolution)
+        if verify is not None:
+            verify()
         with interrupts.committing():             # a stop sees every tile or none
             for t in tiles:
                 _publish(temps[t], finals[t], overwrite)

@@ -29,6 +29,8 @@ import numpy as np
 from .. import reference as R
 from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
+from ..addon.bake_uvs import read_as_baked
+from ..addon import unrealized_instances as UI
 from ..addon.normal_bake import blend_relative_problem, resolution_problem
 from ..addon.precise_bake import precise_far
 from ..reference import methods as M
@@ -197,10 +199,13 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
                                          tiles=tiles, device=device, spread=m.spread)
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
-        if limit:
-            report["warnings"].append(limit)
-            if log:
-                log(f"warning: {limit}")
+        unbaked = UI.may_instance(obj) and UI.compare_warning(
+            read_as_baked(obj, UI.read_instances), obj)
+        for w in (limit, unbaked):
+            if w:
+                report["warnings"].append(w)
+                if log:
+                    log(f"warning: {w}")
         report["notes"] = notes
         report["method"] = method
         report["variant"] = inp.variant if len(m.variants) > 1 else None

@@ -17,6 +17,13 @@ _CHUNK = 1 << 20         # candidate texels per pass: bounded memory at any size
 def contested_texels(uv_triangles, size, uv_offset=(0.0, 0.0)):
     """How many texel centres of a size x size image of the unit square at uv_offset (a UDIM
     tile's corner) lie strictly inside two or more UV triangles (T, 3, 2) with area."""
+    return int(np.count_nonzero(claimed_texels(uv_triangles, size, uv_offset) >= 2))
+
+
+def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False):
+    """Per texel (size * size, row-major) of the unit square at uv_offset, how many UV
+    triangles (T, 3, 2) with area hold its centre strictly inside (edges=True: or on an
+    edge, within EDGE_EPS, so an island's texels on its inner edges count as covered)."""
     uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
     q = (uv - np.asarray(uv_offset, dtype=np.float64)) * size - 0.5   # centre of texel i is i
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
@@ -27,9 +34,9 @@ def contested_texels(uv_triangles, size, uv_offset=(0.0, 0.0)):
     count = span[:, 0] * span[:, 1]
     count[area == 0] = 0
     keep = np.flatnonzero(count)
-    if len(keep) == 0:
-        return 0
     claims = np.zeros(size * size, dtype=np.int32)
+    if len(keep) == 0:
+        return claims
     # Triangles in groups whose candidate texels fit one pass.
     bounds = np.searchsorted(np.cumsum(count[keep]), np.arange(_CHUNK, count.sum(), _CHUNK))
     for group in np.split(keep, bounds):
@@ -43,6 +50,6 @@ def contested_texels(uv_triangles, size, uv_offset=(0.0, 0.0)):
         for p0, p1 in ((a, b), (b, c), (c, a)):        # each edge's half-plane, inward side
             e = (p1[tri, 0] - p0[tri, 0]) * (y - p0[tri, 1]) - \
                 (p1[tri, 1] - p0[tri, 1]) * (x - p0[tri, 0])
-            inside &= s * e > EDGE_EPS * np.abs(area[tri])
+            inside &= s * e > (-1 if edges else 1) * EDGE_EPS * np.abs(area[tri])
         np.add.at(claims, y[inside] * size + x[inside], 1)
-    return int(np.count_nonzero(claims >= 2))
+    return claims

@@ -100,6 +100,7 @@ def serve(run_request, interrupts):
 
 def main():
     load_package()
+    importlib.import_module(f"{PACKAGE}.addon.std_streams").prepare()   # non-UTF-8 paths
     session = importlib.import_module(f"{PACKAGE}.addon.batch.session")
     interrupts = importlib.import_module(f"{PACKAGE}.addon.interrupts")
     command_line = importlib.import_module(f"{PACKAGE}.addon.command_line")

@@ -35,8 +35,9 @@ def worker_command():
 
 
 TIMED_OUT = "timed out"                     # Worker.call's answer when a request overran
-STOP_CODES = {code: s.name for s in interrupts.SIGNALS + interrupts.OTHER_SIGNALS
-              for code in (interrupts.exit_code(s), -int(s))}    # 130 / -2: "SIGINT", ...
+STOP_CODES = {code: s.name + interrupts.why(s) for s in interrupts.SIGNALS +
+              interrupts.OTHER_SIGNALS for code in (interrupts.exit_code(s), -int(s))}
+# 130 / -2: "SIGINT", ...
 
 
 class Worker:
@@ -54,6 +55,9 @@ class Worker:
         env[OWN_TEMPDIR] = self.tempdir
         self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, bufsize=1, env=env,
+                                     # Blender prints paths as their bytes, not always UTF-8:
+                                     # a strict decode ended the reader (the worker seemed dead)
+                                     errors="replace",
                                      start_new_session=True)
         self.tail = []
         self.started = time.perf_counter()

@@ -1,0 +1,53 @@
+"""The image files a bake reads, stamped when its request is checked and compared again
+before the map is put in place.
+
+The checks (image_checks.py) load each texture and free it again; Cycles loads it anew when
+the bake starts. A file replaced or rewritten in between (an artist saving the texture on the
+share while a farm bakes; a sync tool updating it) was baked as Cycles found it: cut off
+mid-write, it baked Cycles' magenta 'missing' colour over the whole map, with exit 0. A
+file's size, modification time and inode tell that it changed; the bake then fails instead
+of publishing a map of something no check saw.
+"""
+
+import os
+
+from . import material_inputs as MI
+from .image_checks import image_files, material_images
+
+
+def _stat(path):
+    try:
+        s = os.stat(path)
+    except OSError:
+        return None
+    return (s.st_size, s.st_mtime_ns, s.st_ino)
+
+
+def stamps(obj):
+    """{path: (size, mtime_ns, inode) or None} of every image file on disk obj's materials
+    read (each UDIM tile; a sequence's file for the current frame)."""
+    import bpy
+    paths = set()
+    for _mat, _path, node, image in material_images(obj):
+        if image is None or image.packed_file is not None or not image.filepath or \
+                image.source in ("GENERATED", "VIEWER"):
+            continue
+        if image.source == "SEQUENCE" and hasattr(node, "image_user"):
+            file = bpy.path.abspath(image.filepath, library=image.library)
+            paths.add(str(MI.sequence_frame_path(file, MI.sequence_frame(
+                node.image_user, bpy.context.scene.frame_current))))
+        else:
+            paths.update(str(p) for p in image_files(image))
+    return {p: _stat(p) for p in sorted(paths)}
+
+
+def changed_problem(before):
+    """None when every stamped file is as it was, else the problem naming the first that is
+    not and the fix."""
+    for path, stamp in before.items():
+        if _stat(path) != stamp:
+            return (f"image file {path!r} changed while it was baked (replaced or rewritten "
+                    f"after the checks read it), so the map may hold Cycles' magenta "
+                    f"'missing' colour or a mix of old and new: bake again once the file is "
+                    f"saved")
+    return None
