@@ -1,6 +1,7 @@
 """The images a bake reads, checked before it runs (bake_request.check): every image node the
 object's materials reach from the Material Output Cycles uses, through links and into node
-groups; each image set, present, loadable and with finite pixels; the UV maps nodes name.
+groups; each image set, present, loadable, with defined (image_channels.py) and finite pixels;
+the UV maps nodes name.
 Cycles would bake its magenta 'missing' colour for an image it cannot read, silently."""
 
 from pathlib import Path
@@ -10,6 +11,8 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
+from .image_channels import undefined_channel_problem
+from .node_builder import running_line
 
 
 def material_images(obj):
@@ -210,6 +213,10 @@ def one_image_problem(image):
             return (f"{what} ({'packed' if packed else repr(image.filepath)}) could not be "
                     f"read (damaged, or a format Blender does not open): re-save it as PNG "
                     f"or EXR")
+        # Before the pixels: garbage in them would make the NaN check's answer a matter of luck.
+        problem = undefined_channel_problem(image, running_line())
+        if problem:
+            return problem
         if image.is_float:                      # only float buffers can hold NaN / Inf
             px = np.empty(w * h * image.channels, dtype=np.float32)
             image.pixels.foreach_get(px)

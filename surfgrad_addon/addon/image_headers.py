@@ -5,8 +5,10 @@ progressive JPEG (the frame header's component count) and single-part scanline o
 OpenEXR (the header's `channels` list, default layer only). Other formats, and multi-part,
 deep or multi-layer EXRs, give None (unknown), never a guess.
 
-What Blender makes of too few (checked on 4.2 and 5.2): a grey file (PNG grey, JPEG with one
-component, EXR `Y`) is spread over R, G and B; an EXR colour channel the file lacks reads 0."""
+What Blender makes of too few (tests/test_exr_channels.py, every line): a grey file (PNG grey,
+JPEG with one component, EXR `Y`, or an EXR with one of R, G and B) is spread over R, G and B;
+an EXR with two of R, G and B loads them into R and G, and B is 0 on 4.2 but left
+uninitialised on 4.5 and later (LineFacts.exr_two_colours_fill_zero)."""
 
 import struct
 from typing import NamedTuple
@@ -30,6 +32,11 @@ class FileChannels(NamedTuple):
     kind: str           # what they are, in words
     format: str         # PNG, JPEG, EXR
     lacking: str        # "" (R, G and B there), "grey" (one grey channel), else e.g. "B"
+
+    @property
+    def two_colours(self):
+        """An EXR with two of R, G and B (Blender loads them into R and G; B: see above)."""
+        return self.format == "EXR" and len(self.lacking) == 1
 
 
 def file_channels(f):
@@ -88,6 +95,8 @@ def _exr_verdict(names):
     order = [*COLOURS, "Y", "A"]
     kind = " and ".join("Y (grey)" if n == "Y" else n for n in
                         sorted(names, key=lambda n: (order.index(n) if n in order else 9, n)))
+    if len(present) == 1:           # Blender spreads a lone R, G or B as grey
+        return FileChannels(len(names), kind, "EXR", "grey")
     if present:
         return FileChannels(len(names), kind, "EXR",
                             "".join(c for c in COLOURS if c not in present))

@@ -8,23 +8,22 @@ bends them, naming the image, the node and the fix.
 
 - An image whose file holds one or two channels (a grey or grey+alpha PNG, a grey JPEG or
   EXR): Blender reports 4 channels once it is loaded, having spread the grey over R, G and
-  B, so every normal leans along (1, 1) in the tangent plane. An EXR without B (a two-channel
-  R, G normal map): Blender reads B as 0, and every normal points into the surface. The
+  B, so every normal leans along (1, 1) in the tangent plane. An EXR with two colour channels
+  (an R, G normal map): 4.2 reads B as 0, and every normal points into the surface (4.5 and
+  later leave B undefined, which image_checks refuses: image_channels.py). The
   file's header says it (image_headers.py); formats it does not cover are not warned about.
 - A float image whose normals are stored in -1..1, not 0..1 (more than NEGATIVE_SHARE of its
   texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
   tilt, so every normal is pulled toward (-1, -1).
 """
 
-import io
 import re
-from pathlib import Path
 
 import numpy as np
 
-from ..reference import tiles as T
 from .image_checks import image_feeding, objects_nodes
-from .image_headers import file_channels
+from .image_channels import read_channels
+from .node_builder import running_line
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
 NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
@@ -91,13 +90,8 @@ def normal_map_warnings(obj, only=None):
 def _channels_problem(image):
     """What is wrong with the channels of the image's file (the first of its UDIM tiles that
     has too few), or None: fine, or a format whose header is not read (image_headers)."""
-    for what, opened in _files(image):
-        try:
-            with opened() as f:
-                found = file_channels(f)
-        except OSError:
-            continue                    # unreadable: image_checks refuses what matters
-        if not found or not found.lacking:
+    for what, found in read_channels(image):
+        if not found.lacking:
             continue
         held = (f"holds {found.channels} channel{'s' * (found.channels > 1)} in its file "
                 f"({what}: {found.kind} {found.format})")
@@ -105,29 +99,14 @@ def _channels_problem(image):
             return (f"{held}: Blender spreads the grey over R, G and B, so every normal leans "
                     f"along (1, 1) in the tangent plane (the bake takes them as Cycles renders "
                     f"them); save the normal map as RGB (three channels)")
-        return (f"{held}: Blender reads its missing {' and '.join(found.lacking)} as 0, which "
-                f"a normal map reads as -1 (no B: every normal points into the surface; the "
-                f"bake takes them as Cycles renders them); save the normal map with R, G and "
-                f"B (rebuild B from R and G first)")
+        b = ("reads B as 0, which a normal map reads as -1 (every normal points into the "
+             "surface; the bake takes them as Cycles renders them)"
+             if running_line().exr_two_colours_fill_zero else
+             "leaves B uninitialised (what Cycles renders from it changes from run to run; "
+             "a bake refuses it)")
+        return (f"{held}: Blender loads its two colour channels into R and G and {b}; save "
+                f"the normal map with R, G and B (rebuild B from R and G first)")
     return None
-
-
-def _files(image):
-    """(what, a function opening it) for the files an image reads: its packed data, its file,
-    or each UDIM tile's; nothing for sequences, movies and generated images."""
-    import bpy
-    packed = getattr(image, "packed_file", None)
-    if packed is not None:
-        data = packed.data
-        return [("packed", lambda: io.BytesIO(data))]
-    if image.source not in ("FILE", "TILED") or not image.filepath:
-        return []
-    path = bpy.path.abspath(image.filepath, library=image.library)
-    if image.source == "TILED":
-        paths = [T.tile_path(path, t.number) for t in image.tiles]
-    else:
-        paths = [Path(path)]
-    return [(Path(p).name, lambda p=p: open(p, "rb")) for p in paths]
 
 
 def _range_problem(image):

@@ -67,6 +67,9 @@ class LineFacts:
     # later); 4.2 encodes them in each smooth fan's normal space, so the reference's MikkTSpace
     # input passes through that encoding (harness/mesh_data.triangle_mikktspace).
     free_normals: bool = True
+    # An EXR holding two of R, G and B loads into R and G; 4.2 fills B with 0, 4.5 and later
+    # leave it uninitialised (other values on each load: tests/test_exr_channels.py).
+    exr_two_colours_fill_zero: bool = False
     # A shader node group can have Menu sockets and a Menu Switch node (5.0 and later); 4.2 and
     # 4.5 refuse NodeSocketMenu in a shader tree, so an enumeration is an integer there.
     menu_sockets: bool = True
@@ -91,7 +94,7 @@ LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,
                         "normal_map_replaces_non_finite": False, "menu_sockets": False,
-                        "free_normals": False}),
+                        "free_normals": False, "exr_two_colours_fill_zero": True}),
     "4.5": LineFacts(line="4.5", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "normal_map_replaces_non_finite": False,
                         "menu_sockets": False}),
