@@ -8,7 +8,15 @@ import io
 from pathlib import Path
 
 from ..reference import tiles as T
+from ..reference.blender_lines import facts_for
 from .image_headers import file_channels
+
+
+def running_facts():
+    """The running Blender's line facts (bpy imported here, when a check runs: the command
+    line imports this module without Blender)."""
+    import bpy
+    return facts_for(bpy.app.version)
 
 
 def file_openers(image):

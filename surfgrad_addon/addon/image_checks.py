@@ -11,8 +11,7 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
-from .image_channels import undefined_channel_problem
-from .node_builder import running_line
+from .image_channels import running_facts, undefined_channel_problem
 
 
 def material_images(obj):
@@ -214,7 +213,7 @@ def one_image_problem(image):
                     f"read (damaged, or a format Blender does not open): re-save it as PNG "
                     f"or EXR")
         # Before the pixels: garbage in them would make the NaN check's answer a matter of luck.
-        problem = undefined_channel_problem(image, running_line())
+        problem = undefined_channel_problem(image, running_facts())
         if problem:
             return problem
         if image.is_float:                      # only float buffers can hold NaN / Inf

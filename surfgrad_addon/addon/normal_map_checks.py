@@ -22,8 +22,7 @@ import re
 import numpy as np
 
 from .image_checks import image_feeding, objects_nodes
-from .image_channels import read_channels
-from .node_builder import running_line
+from .image_channels import read_channels, running_facts
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
 NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
@@ -101,7 +100,7 @@ def _channels_problem(image):
                     f"them); save the normal map as RGB (three channels)")
         b = ("reads B as 0, which a normal map reads as -1 (every normal points into the "
              "surface; the bake takes them as Cycles renders them)"
-             if running_line().exr_two_colours_fill_zero else
+             if running_facts().exr_two_colours_fill_zero else
              "leaves B uninitialised (what Cycles renders from it changes from run to run; "
              "a bake refuses it)")
         return (f"{held}: Blender loads its two colour channels into R and G and {b}; save "
