@@ -494,7 +494,7 @@ def test_a_bake_that_cannot_fit_the_address_space_limit_is_refused_before_it_sta
 @pytest.mark.tier("numpy")
 def test_the_memory_check_leaves_an_unlimited_process_and_small_bakes_alone(monkeypatch):
     """No limit: nothing to check. Under a limit, a bake within it passes; the bound is the
-    measured 180 bytes a texel per tile."""
+    measured 180 bytes a texel for the first tile, 50 for each further one."""
     import resource
     from surfgrad_addon.addon import memory_limit as ML
     monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
@@ -503,9 +503,15 @@ def test_the_memory_check_leaves_an_unlimited_process_and_small_bakes_alone(monk
     gb = 1024 ** 3
     monkeypatch.setattr(resource, "getrlimit", lambda _: (4 * gb, resource.RLIM_INFINITY))
     monkeypatch.setattr(ML, "address_space_in_use", lambda: 1 * gb)
-    # 3 GB of room: 4096^2 x 180 B = 2.81 GB fits one tile, not two
+    # 3 GB of room: 4096^2 x 180 B = 2.81 GB fits one tile, not two (+ 50 B a texel: 3.6 GB)
     assert ML.bake_memory_problem(4096, 1) is None
-    assert "a 4096x4096 bake of 2 tile(s) needs at least 5.6 GB" in ML.bake_memory_problem(4096, 2)
+    assert "a 4096x4096 bake of 2 tile(s) needs at least 3.6 GB" in ML.bake_memory_problem(4096, 2)
+    # A 16 GB machine: ten 4096^2 tiles (at least 9.8 GB; 28 GB counted at 180 B a tile) fit.
+    monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
+    monkeypatch.setattr(ML, "machine_memory", lambda: (16 * gb, "16 GB"))
+    monkeypatch.setattr(ML, "resident_in_use", lambda: gb // 2)
+    assert ML.bake_memory_problem(4096, 10) is None
+    assert "needs at least 16.9 GB" in ML.bake_memory_problem(4096, 19)
 
 
 # A texture changed between the check and the bake ------------------------------------------------
