@@ -17,12 +17,12 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import ROOT, run_python  # noqa: E402
+from support.flamenco import JOB_TYPE, compile_job, run_task_as_worker  # noqa: E402
 
 pytestmark = pytest.mark.tier("child")
 
 
 TEMPLATE = ROOT / "tools" / "farm" / "openjd" / "surfgrad-bake.yaml"
-JOB_TYPE = ROOT / "tools" / "farm" / "flamenco" / "surfgrad-bake.js"
 
 
 def _openjd():
@@ -130,20 +130,9 @@ def test_openjd_outputs_resolve_to_absolute_paths_on_submission(farm_assets, tmp
         assert "is relative: a farm task runs in a temporary folder" in res.stderr
 
 
-def _compile(settings, script=JOB_TYPE):
-    node = shutil.which("node")
-    if not node:
-        pytest.skip("node is not installed (the Flamenco job type is JavaScript)")
-    res = subprocess.run([node, str(ROOT / "tests" / "support" / "flamenco_compile.js"),
-                          str(script), json.dumps(settings)], capture_output=True, text=True,
-                         timeout=60)
-    assert res.returncode == 0, res.stderr
-    return json.loads(res.stdout)
-
-
 def _job_type():
     """The job type's settings, as the Manager lists them to the add-on."""
-    job = _compile({"objects": "A", "blendfile": "/p/a.blend", "output_pattern": "/p/{object}.png",
+    job = compile_job({"objects": "A", "blendfile": "/p/a.blend", "output_pattern": "/p/{object}.png",
                     "manifest_dir": "/p/m"})
     return job["job_type"]["settings"]
 
@@ -168,7 +157,7 @@ def test_flamenco_job_type_compiles_to_one_blender_task_per_object_and_tile(farm
     farm = tmp_path / "shaman" / "job-0001" / "b.blend"       # the farm's copy of the file
     farm.parent.mkdir(parents=True)
     shutil.copy(project, farm)
-    job = _compile(_as_addon_submits(project, farm, objects="Tree, Bush", tiles="1001-1002",
+    job = compile_job(_as_addon_submits(project, farm, objects="Tree, Bush", tiles="1001-1002",
                                      resolution=16, samples=2))
     keys = [s["key"] for s in job["job_type"]["settings"]]
     assert {"objects", "tiles", "output_pattern", "resolution", "samples", "blendfile"} <= \
@@ -194,22 +183,14 @@ def test_flamenco_job_type_compiles_to_one_blender_task_per_object_and_tile(farm
         assert args[args.index("--manifest") + 1].startswith(str(tmp_path / "in" / "maps"))
         assert args[args.index("--resolution") + 1] == "16"
     blend = str(project)
-    bad = _compile({"objects": "Tree", "tiles": "1001-99", "blendfile": blend,
+    bad = compile_job({"objects": "Tree", "tiles": "1001-99", "blendfile": blend,
                     "output_pattern": "/o/{object}.png", "manifest_dir": "/o"})
     assert "tiles '1001-99'" in bad["error"]
-    assert "objects" in _compile({"objects": " , ", "blendfile": blend})["error"]
+    assert "objects" in compile_job({"objects": " , ", "blendfile": blend})["error"]
 
-    # Run two of the commands as a worker's Blender would (the farm's copy opened, the
-    # extension's commands module loaded, the arguments on sys.argv), with the bpy module.
+    # Run two of the commands as a worker's Blender would.
     for task in job["tasks"][:2]:
-        p = task["commands"][0]["parameters"]
-        expr = p["args"][p["args"].index("--python-expr") + 1]
-        code = ("import sys, bpy\n"
-                f"bpy.ops.wm.open_mainfile(filepath={p['blendfile']!r})\n"
-                "import surfgrad_addon.addon.commands\n"
-                f"sys.argv = ['blender', '-b', '-y', {p['blendfile']!r}] + {p['args']!r}\n"
-                f"exec({expr!r})\n")
-        res = run_python(["-c", code])
+        res = run_task_as_worker(task)
         assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     maps = tmp_path / "in" / "maps"
     assert sorted(p.name for p in maps.glob("*.png")) == ["b_Tree.1001.png"]
@@ -224,7 +205,7 @@ def test_flamenco_job_type_takes_settings_as_the_manager_passes_them(tmp_path):
     and an output relative to the blend file is refused with the fix, not baked into the
     farm's copy of the file."""
     blend = "/farm/jobs/0001/b.blend"
-    job = _compile({"objects": "Tree", "blendfile": blend,
+    job = compile_job({"objects": "Tree", "blendfile": blend,
                     "output_pattern": "/proj/maps/{file}_{object}.<UDIM>.png",
                     "manifest_dir": "/proj/maps/manifests/"})
     (task,) = job["tasks"]
@@ -239,19 +220,19 @@ def test_flamenco_job_type_takes_settings_as_the_manager_passes_them(tmp_path):
                       "manifest_dir": "/m"},
                      {"objects": "Tree", "blendfile": blend, "output_pattern": "/o/x.png",
                       "manifest_dir": "//maps/manifests"}):
-        err = _compile(settings)["error"]
+        err = compile_job(settings)["error"]
         assert "is relative: on the farm it would resolve inside the job's copy" in err, err
         assert "give an absolute path" in err
-    assert "blendfile" in _compile({"objects": "Tree", "output_pattern": "/o/x.png",
+    assert "blendfile" in compile_job({"objects": "Tree", "output_pattern": "/o/x.png",
                                     "manifest_dir": "/m"})["error"]
     # The stand-in is as strict as the Manager: strict mode, settings exactly as submitted.
     sloppy = tmp_path / "sloppy.js"
     sloppy.write_text("const JOB_TYPE = {label: 'x', settings: [{key: 'n', type: 'int32', "
                       "default: 3}]};\n"
                       "function compileJob(job) { leaked = Object.keys(job.settings); }\n")
-    assert "leaked is not defined" in _compile({}, sloppy)["error"]
+    assert "leaked is not defined" in compile_job({}, sloppy)["error"]
     echo = tmp_path / "echo.js"
     echo.write_text("const JOB_TYPE = {label: 'x', settings: [{key: 'n', type: 'int32', "
                     "default: 3}]};\n"
                     "function compileJob(job) { throw JSON.stringify(job.settings); }\n")
-    assert json.loads(_compile({"m": 1}, echo)["error"]) == {"m": 1}
+    assert json.loads(compile_job({"m": 1}, echo)["error"]) == {"m": 1}

@@ -4,28 +4,13 @@ splits on unescaped commas only), and a name that is a path to the file system (
 must not move a task's manifest out of the manifest folder or onto another task's."""
 
 import json
-import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
 
-from support.child import ROOT, run_python
+from support.flamenco import compile_job, run_task_as_worker
 
 pytestmark = pytest.mark.tier("child")
-
-JOB_TYPE = ROOT / "tools" / "farm" / "flamenco" / "surfgrad-bake.js"
-
-
-def _compile(settings):
-    node = shutil.which("node")
-    if not node:
-        pytest.skip("node is not installed (the Flamenco job type is JavaScript)")
-    res = subprocess.run([node, str(ROOT / "tests" / "support" / "flamenco_compile.js"),
-                          str(JOB_TYPE), json.dumps(settings)], capture_output=True, text=True,
-                         timeout=60)
-    assert res.returncode == 0, res.stderr
-    return json.loads(res.stdout)
 
 
 class _Obj:
@@ -43,7 +28,7 @@ def _as_addon_evaluates(names):
     run in Python on selected objects with these names (and one non-mesh, left out)."""
     base = {"objects": "A", "blendfile": "/p/a.blend", "output_pattern": "/p/{object}.png",
             "manifest_dir": "/p/m"}
-    spec = next(s for s in _compile(base)["job_type"]["settings"] if s["key"] == "objects")
+    spec = next(s for s in compile_job(base)["job_type"]["settings"] if s["key"] == "objects")
     selected = [_Obj(n) for n in names] + [_Obj("Camera, main", "CAMERA")]
     return eval(spec["eval"], {"C": _Context(selected)})
 
@@ -52,7 +37,7 @@ NAMES = ["Rock, big", "Tree", "back\\slash", "trailing\\", "a,b,,c", ",lead"]
 
 
 def _tasks(objects, tiles="1001"):
-    job = _compile({"objects": objects, "tiles": tiles, "blendfile": "/p/a.blend",
+    job = compile_job({"objects": objects, "tiles": tiles, "blendfile": "/p/a.blend",
                     "output_pattern": "/p/maps/{object}.png", "manifest_dir": "/p/m"})
     assert "error" not in job, job
     out = []
@@ -91,19 +76,12 @@ def test_a_task_for_an_object_named_with_a_comma_and_a_slash_bakes_it(tmp_path):
     from surfgrad_addon.harness import batch_assets as BA
     blend = tmp_path / "a.blend"
     BA.write_asset(blend, ("Rock, big/1", "Rock"), tiles=(1001,), image_size=16)
-    job = _compile({"objects": _as_addon_evaluates(["Rock, big/1"]), "tiles": "1001",
+    job = compile_job({"objects": _as_addon_evaluates(["Rock, big/1"]), "tiles": "1001",
                     "blendfile": str(blend), "resolution": 16, "samples": 1, "margin": 2,
                     "output_pattern": str(tmp_path / "maps" / "{object}.png"),
                     "manifest_dir": str(tmp_path / "m")})
     (task,) = job["tasks"]
-    p = task["commands"][0]["parameters"]
-    expr = p["args"][p["args"].index("--python-expr") + 1]
-    code = ("import sys, bpy\n"
-            f"bpy.ops.wm.open_mainfile(filepath={p['blendfile']!r})\n"
-            "import surfgrad_addon.addon.commands\n"
-            f"sys.argv = ['blender', '-b', '-y', {p['blendfile']!r}] + {p['args']!r}\n"
-            f"exec({expr!r})\n")
-    res = run_python(["-c", code])
+    res = run_task_as_worker(task)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     made = sorted(str(f.relative_to(tmp_path)) for f in tmp_path.rglob("*") if f.is_file())
     assert [m for m in made if m != "a.blend"] == ["m/Rock, big_1-1001.json",
