@@ -17,7 +17,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from support.child import ROOT, run_python  # noqa: E402
-from support.flamenco import JOB_TYPE, compile_job, run_task_as_worker  # noqa: E402
+from support.flamenco import compile_job, run_task_as_worker  # noqa: E402
 
 pytestmark = pytest.mark.tier("child")
 
