@@ -60,11 +60,33 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
         raise ValueError(f"a node group named {name!r} already exists and is not a "
                          f"surface-gradient group; rename it so surfgrad can add its own")
     line = running_line().line
+    if stale is None:
+        # Copies Blender named "<name>.001" when a material was appended or linked in from a
+        # file with older groups: rebuilt here too, or the two versions stay mixed for good.
+        for copy in stale_copies(name, version, line, tree_type):
+            _rebuild(copy, description, build, interface, version, line)
     if (tree is not None and tree.get(VERSION_KEY) == version and tree.get(LINE_KEY) == line
             and not (stale and stale(tree))):
         return tree
     if tree is None:
         tree = bpy.data.node_groups.new(name, tree_type)
+    _rebuild(tree, description, build, interface, version, line)
+    return tree
+
+
+def stale_copies(name, version, line, tree_type):
+    """Our local groups named `name` plus Blender's ".NNN" suffix whose version or line is not
+    the running one (an image-bound group's copy names another image: never passed here)."""
+    prefix = name + "."
+    return [g for g in bpy.data.node_groups
+            if g.name.startswith(prefix) and g.name[len(prefix):].isdigit()
+            and g.bl_idname == tree_type and g.library is None and VERSION_KEY in g
+            and (g.get(VERSION_KEY) != version or g.get(LINE_KEY) != line)]
+
+
+def _rebuild(tree, description, build, interface, version, line):
+    """Build `tree` in place: its interface sockets keep their identifiers, so the links and
+    values of the group nodes that use it survive."""
     tree.nodes.clear()
     tree.description = description
     builder = GroupBuilder(tree)
@@ -74,7 +96,6 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     builder.finish()
     tree[VERSION_KEY] = version
     tree[LINE_KEY] = line
-    return tree
 
 
 def check_value(got, want, what):

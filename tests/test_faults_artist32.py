@@ -1,0 +1,78 @@
+"""An artist's file over time (red team 32c): a material appended from a file with older
+surface-gradient groups into a file that already has them gets Blender's "SG Decal.001"
+copies. Those used to stay at their old version (and old line's interior: an integer Shape on
+5.x, the old Bump step) for good, beside the current groups: adding groups rebuilt only the
+un-suffixed ones. Now a stale copy is rebuilt in place too, keeping its nodes' links and values.
+"""
+
+from pathlib import Path
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import enum_input  # noqa: E402
+from surfgrad_addon.addon.groups import VERSION  # noqa: E402
+from surfgrad_addon.addon.node_builder import LINE_KEY, VERSION_KEY, running_line  # noqa: E402
+
+pytestmark = pytest.mark.tier("blender")
+
+DEMO = Path(__file__).resolve().parent.parent / "demo.blend"
+CONE = "Decal shapes: cone surface gradient"
+
+
+def _current(tree):
+    return tree.get(VERSION_KEY) == VERSION and tree.get(LINE_KEY) == running_line().line
+
+
+def _group_nodes(mat, prefix):
+    return [n for n in mat.node_tree.nodes
+            if n.type == "GROUP" and n.node_tree and n.node_tree.name.startswith(prefix)]
+
+
+def test_an_older_copy_of_a_group_is_rebuilt_with_its_values_kept(fresh):
+    api.node_group("SG Decal")
+    old = api.node_group("SG Combine").copy()          # "SG Combine.001"
+    old[VERSION_KEY] = VERSION - 1
+    mat = bpy.data.materials.new("M")
+    mat.use_nodes = True
+    node = mat.node_tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = old
+    node.inputs["Scale B"].default_value = -3.5
+    value = mat.node_tree.nodes.new("ShaderNodeValue")
+    mat.node_tree.links.new(value.outputs[0], node.inputs["Scale A"])
+    api.node_group("SG Combine")
+    assert old.name == "SG Combine.001" and _current(old)
+    assert node.node_tree == old
+    assert node.inputs["Scale B"].default_value == pytest.approx(-3.5)
+    assert node.inputs["Scale A"].links[0].from_node == value
+
+
+def test_a_copy_of_the_current_version_or_a_users_group_is_left_alone(fresh):
+    tree = api.node_group("SG Combine")
+    same = tree.copy()
+    same.nodes.new("ShaderNodeMath").name = "mine"      # an edit of the artist's
+    foreign = bpy.data.node_groups.new("SG Combine.002", "ShaderNodeTree")   # not stamped
+    api.node_group("SG Combine")
+    assert "mine" in same.nodes
+    assert VERSION_KEY not in foreign and len(foreign.nodes) == 0
+
+
+@pytest.mark.skipif(not DEMO.exists(), reason="demo.blend not in this checkout")
+def test_a_material_appended_from_an_older_file_is_brought_up_to_date(fresh):
+    api.node_group("SG Decal")
+    with bpy.data.libraries.load(str(DEMO)) as (_, into):
+        into.materials = [CONE]
+    mat = bpy.data.materials[CONE]
+    (decal,) = _group_nodes(mat, "SG Decal.")
+    assert not _current(decal.node_tree)                 # demo.blend: older version, 4.5
+    chosen = enum_input.choice_index(decal.inputs["Shape"]) \
+        if decal.inputs["Shape"].type == "MENU" else decal.inputs["Shape"].default_value
+    assert chosen == 3                                   # Cone
+    api.node_group("SG Decal")
+    stale = [g.name for g in bpy.data.node_groups
+             if g.name.startswith("SG Decal.") and not _current(g)]
+    assert not stale
+    assert enum_input.choice_index(decal.inputs["Shape"]) == 3
+    assert all(lk.is_valid for lk in mat.node_tree.links)
