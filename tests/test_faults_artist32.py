@@ -3,6 +3,12 @@ surface-gradient groups into a file that already has them gets Blender's "SG Dec
 copies. Those used to stay at their old version (and old line's interior: an integer Shape on
 5.x, the old Bump step) for good, beside the current groups: adding groups rebuilt only the
 un-suffixed ones. Now a stale copy is rebuilt in place too, keeping its nodes' links and values.
+
+A material linked (not appended) from such a file brings its groups in as library data. Adding
+that group from the Add menu (or api.node_group) rebuilt the library's group in place, an edit
+never saved, and gave the artist's new node that library group: reopened, the node had the
+library's old version (an integer Shape again, the artist's choice gone) and depended on the
+library. Now surfgrad builds and uses its own local group beside the linked one.
 """
 
 from pathlib import Path
@@ -76,3 +82,23 @@ def test_a_material_appended_from_an_older_file_is_brought_up_to_date(fresh):
     assert not stale
     assert enum_input.choice_index(decal.inputs["Shape"]) == 3
     assert all(lk.is_valid for lk in mat.node_tree.links)
+
+
+def test_a_group_linked_from_a_library_is_neither_edited_nor_used(fresh, tmp_path):
+    old = api.node_group("SG Combine")
+    old[VERSION_KEY] = VERSION - 1
+    lib_mat = bpy.data.materials.new("Library")
+    lib_mat.use_nodes = True
+    lib_mat.node_tree.nodes.new("ShaderNodeGroup").node_tree = old
+    library = tmp_path / "library.blend"
+    bpy.data.libraries.write(str(library), {lib_mat}, fake_user=True)
+    bpy.data.materials.remove(lib_mat)
+    bpy.data.node_groups.remove(old)
+    with bpy.data.libraries.load(str(library), link=True) as (_, into):
+        into.materials = ["Library"]
+    (linked,) = [g for g in bpy.data.node_groups if g.library is not None]
+    nodes = sorted(n.name for n in linked.nodes)
+    tree = api.node_group("SG Combine")
+    assert tree.library is None and tree.name == "SG Combine" and _current(tree)
+    assert linked.get(VERSION_KEY) == VERSION - 1
+    assert sorted(n.name for n in linked.nodes) == nodes

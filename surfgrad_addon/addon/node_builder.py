@@ -51,7 +51,9 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     GroupInterface (its sockets, and the description unless one is given)."""
     if description is None:
         description = interface.describe()
-    tree = bpy.data.node_groups.get(name)
+    # The local group only: one linked from a library (with a material linked in) is the
+    # library's, and an edit of it is never saved: the new node would reopen on its old version.
+    tree = bpy.data.node_groups.get((name, None))
     if tree is not None and tree.bl_idname != tree_type:
         raise ValueError(f"a {tree.bl_idname} named {name!r} already exists; rename it so the "
                          f"surface-gradient group can be created")
