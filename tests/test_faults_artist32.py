@@ -9,6 +9,10 @@ that group from the Add menu (or api.node_group) rebuilt the library's group in 
 never saved, and gave the artist's new node that library group: reopened, the node had the
 library's old version (an integer Shape again, the artist's choice gone) and depended on the
 library. Now surfgrad builds and uses its own local group beside the linked one.
+
+A group built for an image (or, up to 4.5, a UV map) whose name is as long as Blender allows
+got a name Blender cut to fit: each Add or api.node_group made yet another copy of the group.
+Now the name is cut by surfgrad with a hash of the whole, the same for the same image.
 """
 
 from pathlib import Path
@@ -102,3 +106,17 @@ def test_a_group_linked_from_a_library_is_neither_edited_nor_used(fresh, tmp_pat
     assert tree.library is None and tree.name == "SG Combine" and _current(tree)
     assert linked.get(VERSION_KEY) == VERSION - 1
     assert sorted(n.name for n in linked.nodes) == nodes
+
+
+def test_a_group_for_a_long_image_name_is_built_once(fresh):
+    limit = bpy.types.ID.bl_rna.properties["name"].length_max - 1
+    one, two = (bpy.data.images.new("H" * (limit - 1) + c, 4, 4) for c in "AB")
+    assert len(one.name.encode()) == limit
+    first = api.node_group("SG Height Map HQ", image=one)
+    assert api.node_group("SG Height Map HQ", image=one) == first
+    other = api.node_group("SG Height Map HQ", image=two)
+    assert other != first
+    trees = [g for g in bpy.data.node_groups if g.name.startswith("SG Height Map HQ")]
+    assert len(trees) == 2
+    for tree, image in ((first, one), (other, two)):
+        assert {n.image for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"} == {image}

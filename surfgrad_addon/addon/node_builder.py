@@ -18,6 +18,7 @@ socket still exists, or was renamed: SocketSpec.renamed_from), so links and valu
 materials survive an add-on update. Enumerations: addon/enum_input.py.
 """
 
+import hashlib
 from contextlib import contextmanager
 
 import bpy
@@ -51,6 +52,7 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     GroupInterface (its sockets, and the description unless one is given)."""
     if description is None:
         description = interface.describe()
+    name = fitting_name(name)
     # The local group only: one linked from a library (with a material linked in) is the
     # library's, and an edit of it is never saved: the new node would reopen on its old version.
     tree = bpy.data.node_groups.get((name, None))
@@ -74,6 +76,18 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
         tree = bpy.data.node_groups.new(name, tree_type)
     _rebuild(tree, description, build, interface, version, line)
     return tree
+
+
+def fitting_name(name):
+    """`name` if Blender can name a data-block so (63 bytes up to 4.5, 255 from 5.0), else
+    its longest start that fits with a tag of the whole name's hash: Blender cut the name of
+    a group built for a long image or UV map name, so every use made another group."""
+    limit = bpy.types.ID.bl_rna.properties["name"].length_max - 1
+    raw = name.encode()
+    if len(raw) <= limit:
+        return name
+    tag = "~" + hashlib.sha1(raw).hexdigest()[:8]
+    return raw[:limit - len(tag)].decode(errors="ignore") + tag
 
 
 def stale_copies(name, version, line, tree_type):
