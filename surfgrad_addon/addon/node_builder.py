@@ -96,7 +96,7 @@ def stale_copies(name, version, line, tree_type):
     prefix = name + "."
     return [g for g in bpy.data.node_groups
             if g.name.startswith(prefix) and g.name[len(prefix):].isdigit()
-            and g.bl_idname == tree_type and g.library is None and VERSION_KEY in g
+            and g.bl_idname == tree_type and g.is_editable and VERSION_KEY in g
             and (g.get(VERSION_KEY) != version or g.get(LINE_KEY) != line)]
 
 
