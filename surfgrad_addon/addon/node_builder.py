@@ -91,13 +91,15 @@ def fitting_name(name):
 
 
 def stale_copies(name, version, line, tree_type):
-    """Our local groups named `name` plus Blender's ".NNN" suffix whose version or line is not
-    the running one (an image-bound group's copy names another image: never passed here)."""
+    """Our editable groups named `name` plus Blender's ".NNN" suffix of an older version or of
+    this one built on another line (a newer one is left alone; an image-bound group's copy
+    names another image: never asked for)."""
     prefix = name + "."
     return [g for g in bpy.data.node_groups
             if g.name.startswith(prefix) and g.name[len(prefix):].isdigit()
             and g.bl_idname == tree_type and g.is_editable and VERSION_KEY in g
-            and (g.get(VERSION_KEY) != version or g.get(LINE_KEY) != line)]
+            and (g[VERSION_KEY] == version and g.get(LINE_KEY) != line
+                 or isinstance(g[VERSION_KEY], int) and g[VERSION_KEY] < version)]
 
 
 def _rebuild(tree, description, build, interface, version, line):
