@@ -13,6 +13,10 @@ library. Now surfgrad builds and uses its own local group beside the linked one.
 A group built for an image (or, up to 4.5, a UV map) whose name is as long as Blender allows
 got a name Blender cut to fit: each Add or api.node_group made yet another copy of the group.
 Now the name is cut by surfgrad with a hash of the whole, the same for the same image.
+
+Convert to Surface Gradient of a node inside a Frame put the new nodes outside it, at the
+node's frame-relative location taken as absolute (far from where the node was, the frame left
+empty). Now they are in the node's frame where the node was.
 """
 
 from pathlib import Path
@@ -23,6 +27,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import enum_input  # noqa: E402
+from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.addon.groups import VERSION  # noqa: E402
 from surfgrad_addon.addon.node_builder import LINE_KEY, VERSION_KEY, running_line  # noqa: E402
 
@@ -120,3 +125,30 @@ def test_a_group_for_a_long_image_name_is_built_once(fresh):
     assert len(trees) == 2
     for tree, image in ((first, one), (other, two)):
         assert {n.image for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"} == {image}
+
+
+@pytest.mark.parametrize("kind", ["ShaderNodeNormalMap", "ShaderNodeBump"])
+def test_convert_keeps_the_new_nodes_in_the_nodes_frame(fresh, kind):
+    mat = bpy.data.materials.new("M")
+    mat.use_nodes = True
+    tree = mat.node_tree
+    shader = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    frame = tree.nodes.new("NodeFrame")
+    frame.location = (-2000.0, 800.0)
+    node = tree.nodes.new(kind)
+    node.parent = frame
+    node.location = (-300.0, 100.0)              # relative to the frame
+    if kind == "ShaderNodeBump":
+        node.inputs["Strength"].default_value = 0.5      # adds the strength helper too
+        value = tree.nodes.new("ShaderNodeValue")
+        tree.links.new(value.outputs[0], node.inputs["Distance"])
+        node.invert = True                              # adds a Math node
+    tree.links.new(node.outputs["Normal"], shader.inputs["Normal"])
+    before = set(tree.nodes)
+    resolve = O.convert_node(tree, node)
+    added = [n for n in tree.nodes if n not in before]
+    assert len(added) == (2 if kind == "ShaderNodeNormalMap" else 4)
+    assert all(n.parent == frame for n in added)
+    sg = resolve.inputs["Surface Gradient"].links[0].from_node
+    assert tuple(resolve.location) == pytest.approx((-80.0, 100.0))
+    assert tuple(sg.location)[1] == pytest.approx(100.0 - (160.0 if kind == "ShaderNodeBump" else 0))

@@ -154,6 +154,7 @@ def convert_node(tree, node):
                   *([G.bump_strength_group] if blends else []))
     outgoing = [lk.to_socket for lk in node.outputs["Normal"].links]
     x, y = node.location
+    existing = set(tree.nodes)
     if node.bl_idname == "ShaderNodeNormalMap":
         sg = _group_node(tree, lambda: G.normal_map_group(node.uv_map), (x, y))
         _move_input(tree, node.inputs["Color"], sg.inputs["Color"])
@@ -194,6 +195,12 @@ def convert_node(tree, node):
         links.new(sg.inputs["Normal"].links[0].from_socket, resolve.inputs["Normal"])
     for socket in outgoing:
         links.new(resolve.outputs[0], socket)
+    for new in [n for n in tree.nodes if n not in existing]:
+        # In the node's frame, placed as it was: locations are relative to the frame, and
+        # setting a parent keeps where the node is drawn, so the location goes back after.
+        location = tuple(new.location)
+        new.parent = node.parent
+        new.location = location
     tree.nodes.remove(node)
     return resolve
 
