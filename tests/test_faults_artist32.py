@@ -16,7 +16,8 @@ Now the name is cut by surfgrad with a hash of the whole, the same for the same 
 
 Convert to Surface Gradient of a node inside a Frame put the new nodes outside it, at the
 node's frame-relative location taken as absolute (far from where the node was, the frame left
-empty). Now they are in the node's frame where the node was.
+empty). Now they are in the node's frame where the node was; likewise Add Layer Stack's nodes
+beside a surface shader in a frame.
 """
 
 from pathlib import Path
@@ -152,3 +153,18 @@ def test_convert_keeps_the_new_nodes_in_the_nodes_frame(fresh, kind):
     sg = resolve.inputs["Surface Gradient"].links[0].from_node
     assert tuple(resolve.location) == pytest.approx((-80.0, 100.0))
     assert tuple(sg.location)[1] == pytest.approx(100.0 - (160.0 if kind == "ShaderNodeBump" else 0))
+
+
+def test_the_layer_stack_goes_in_the_shaders_frame(fresh):
+    mat = bpy.data.materials.new("M")
+    mat.use_nodes = True
+    tree = mat.node_tree
+    shader = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+    frame = tree.nodes.new("NodeFrame")
+    frame.location = (3000.0, -900.0)
+    shader.parent = frame
+    shader.location = (0.0, 0.0)
+    made = api.add_layer_stack(mat)
+    assert made["resolve"].parent == frame
+    assert tuple(made["resolve"].location) == pytest.approx((-260.0, -420.0))
+    assert {made[k].parent for k in ("combine", "normal_map")} == {frame}
