@@ -17,7 +17,7 @@ Now the name is cut by surfgrad with a hash of the whole, the same for the same 
 Convert to Surface Gradient of a node inside a Frame put the new nodes outside it, at the
 node's frame-relative location taken as absolute (far from where the node was, the frame left
 empty). Now they are in the node's frame where the node was; likewise Add Layer Stack's nodes
-beside a surface shader in a frame.
+beside a surface shader in a frame, and Freeze's frozen chain beside a shader in a frame.
 """
 
 from pathlib import Path
@@ -28,6 +28,9 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import enum_input  # noqa: E402
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
+from support.freeze_scene import layered_material  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.addon.groups import VERSION  # noqa: E402
 from surfgrad_addon.addon.node_builder import LINE_KEY, VERSION_KEY, running_line  # noqa: E402
@@ -168,3 +171,19 @@ def test_the_layer_stack_goes_in_the_shaders_frame(fresh):
     assert made["resolve"].parent == frame
     assert tuple(made["resolve"].location) == pytest.approx((-260.0, -420.0))
     assert {made[k].parent for k in ("combine", "normal_map")} == {frame}
+
+
+@pytest.mark.tier("bake")
+def test_the_frozen_chain_is_drawn_beside_a_shader_in_a_frame():
+    obj = test_scenes.new_scene(["Plane"])["Plane"]
+    mat, bsdf = layered_material(obj)
+    frame = mat.node_tree.nodes.new("NodeFrame")
+    frame.location = (3000.0, -900.0)
+    bsdf.parent = frame
+    bsdf.location = (0.0, 0.0)                          # drawn at (3000, -900)
+    record = F.freeze(obj, 16, log=lambda *_: None)
+    nodes = mat.node_tree.nodes
+    added = [nodes[n] for n in record["added"] if nodes[n].bl_idname != "NodeFrame"]
+    assert [tuple(n.location) for n in added] == [
+        pytest.approx((3000.0 - 760 + 260 * i, -900.0 - 420)) for i in range(3)]
+    assert all(n.parent is None for n in added)
