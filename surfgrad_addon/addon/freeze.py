@@ -268,11 +268,20 @@ def freeze(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwr
         return done.value
 
 
+def _drawn_at(node):
+    """Where `node` is drawn: its location is relative to its frame (and that frame's)."""
+    x, y = node.location
+    while node.parent is not None:
+        node = node.parent
+        x, y = x + node.location.x, y + node.location.y
+    return x, y
+
+
 def _wire(mat, tree, end, fed, uv_map, image):
     """Add the frozen chain, link it into the fed Normal inputs, frame the stack; returns the
     record (also stored on the material). Undone in full if anything fails."""
-    x = min(node.location.x for node, _ in fed)
-    y = min(node.location.y for node, _ in fed)
+    x = min(_drawn_at(node)[0] for node, _ in fed)
+    y = min(_drawn_at(node)[1] for node, _ in fed)
     record = {"image": image.name, "image_created": True, "file": "",
               "links": [[end.node.name, end.identifier, node.name, s.identifier]
                         for node, s in fed],

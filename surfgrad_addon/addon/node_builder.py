@@ -24,12 +24,8 @@ import bpy
 
 from ..reference.group_interfaces import plain_value
 from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
+from .group_names import LINE_KEY, VERSION_KEY, fitting_name, stale_copies
 from .node_vocabulary import VALUE_OPS, Math, VMath
-
-VERSION_KEY = "surfgrad_version"
-# The Blender line a group was built for: a few interiors differ by line (the interface never
-# does), so a file saved on one line gets its groups rebuilt when used on another.
-LINE_KEY = "surfgrad_line"
 
 
 def running_line():
@@ -51,7 +47,10 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     GroupInterface (its sockets, and the description unless one is given)."""
     if description is None:
         description = interface.describe()
-    tree = bpy.data.node_groups.get(name)
+    name = fitting_name(name)
+    # The local group only: one linked from a library (with a material linked in) is the
+    # library's, and an edit of it is never saved: the new node would reopen on its old version.
+    tree = bpy.data.node_groups.get((name, None))
     if tree is not None and tree.bl_idname != tree_type:
         raise ValueError(f"a {tree.bl_idname} named {name!r} already exists; rename it so the "
                          f"surface-gradient group can be created")
@@ -60,11 +59,23 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
         raise ValueError(f"a node group named {name!r} already exists and is not a "
                          f"surface-gradient group; rename it so surfgrad can add its own")
     line = running_line().line
+    if stale is None:
+        # Copies Blender named "<name>.001" when a material was appended or linked in from a
+        # file with older groups: rebuilt here too, or the two versions stay mixed for good.
+        for copy in stale_copies(name, version, line, tree_type):
+            _rebuild(copy, description, build, interface, version, line)
     if (tree is not None and tree.get(VERSION_KEY) == version and tree.get(LINE_KEY) == line
             and not (stale and stale(tree))):
         return tree
     if tree is None:
         tree = bpy.data.node_groups.new(name, tree_type)
+    _rebuild(tree, description, build, interface, version, line)
+    return tree
+
+
+def _rebuild(tree, description, build, interface, version, line):
+    """Build `tree` in place: its interface sockets keep their identifiers, so the links and
+    values of the group nodes that use it survive."""
     tree.nodes.clear()
     tree.description = description
     builder = GroupBuilder(tree)
@@ -74,7 +85,6 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     builder.finish()
     tree[VERSION_KEY] = version
     tree[LINE_KEY] = line
-    return tree
 
 
 def check_value(got, want, what):

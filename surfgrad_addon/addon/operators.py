@@ -105,6 +105,16 @@ def _group_node(tree, builder, location, label=None):
     return node
 
 
+def _into_frame(nodes, frame):
+    """Put new nodes, placed relative to a node in `frame` (or None), in that frame: node
+    locations are relative to their frame, and setting a parent keeps where a node is drawn,
+    so each location goes back after."""
+    for node in nodes:
+        location = tuple(node.location)
+        node.parent = frame
+        node.location = location
+
+
 def add_layer_stack(tree, uv_map=""):
     """SG Normal Map -> SG Combine -> SG Resolve -> the surface shader's Normal. Returns the
     new nodes. An existing link into the shader's Normal is replaced (and reported)."""
@@ -120,6 +130,7 @@ def add_layer_stack(tree, uv_map=""):
     links.new(normal_map.outputs[0], combine.inputs["A"])
     links.new(combine.outputs[0], resolve.inputs["Surface Gradient"])
     links.new(resolve.outputs[0], shader.inputs[NORMAL_SOCKET])
+    _into_frame((resolve, combine, normal_map), shader.parent)
     return {"resolve": resolve, "combine": combine, "normal_map": normal_map,
             "replaced": replaced}
 
@@ -154,6 +165,7 @@ def convert_node(tree, node):
                   *([G.bump_strength_group] if blends else []))
     outgoing = [lk.to_socket for lk in node.outputs["Normal"].links]
     x, y = node.location
+    existing = set(tree.nodes)
     if node.bl_idname == "ShaderNodeNormalMap":
         sg = _group_node(tree, lambda: G.normal_map_group(node.uv_map), (x, y))
         _move_input(tree, node.inputs["Color"], sg.inputs["Color"])
@@ -194,6 +206,7 @@ def convert_node(tree, node):
         links.new(sg.inputs["Normal"].links[0].from_socket, resolve.inputs["Normal"])
     for socket in outgoing:
         links.new(resolve.outputs[0], socket)
+    _into_frame([n for n in tree.nodes if n not in existing], node.parent)
     tree.nodes.remove(node)
     return resolve
 

@@ -1,0 +1,36 @@
+"""What names and stamps say about surface-gradient node groups in a file: the stamps our
+groups carry, the name a group gets where Blender would cut it, and the copies of a group that
+an append brought in ("SG Decal.001")."""
+
+import hashlib
+
+import bpy
+
+VERSION_KEY = "surfgrad_version"
+# The Blender line a group was built for: a few interiors differ by line (the interface never
+# does), so a file saved on one line gets its groups rebuilt when used on another.
+LINE_KEY = "surfgrad_line"
+
+
+def fitting_name(name):
+    """`name` if Blender can name a data-block so (63 bytes up to 4.5, 255 from 5.0), else
+    its longest start that fits with a tag of the whole name's hash: Blender cut the name of
+    a group built for a long image or UV map name, so every use made another group."""
+    limit = bpy.types.ID.bl_rna.properties["name"].length_max - 1
+    raw = name.encode()
+    if len(raw) <= limit:
+        return name
+    tag = "~" + hashlib.sha1(raw).hexdigest()[:8]
+    return raw[:limit - len(tag)].decode(errors="ignore") + tag
+
+
+def stale_copies(name, version, line, tree_type):
+    """Our editable groups named `name` plus Blender's ".NNN" suffix of an older version or of
+    this one built on another line (a newer one is left alone; an image-bound group's copy
+    names another image: never asked for)."""
+    prefix = name + "."
+    return [g for g in bpy.data.node_groups
+            if g.name.startswith(prefix) and g.name[len(prefix):].isdigit()
+            and g.bl_idname == tree_type and g.is_editable and VERSION_KEY in g
+            and (g[VERSION_KEY] == version and g.get(LINE_KEY) != line
+                 or isinstance(g[VERSION_KEY], int) and g[VERSION_KEY] < version)]
