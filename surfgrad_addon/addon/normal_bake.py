@@ -349,10 +349,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         if verify is not None:
             verify()
         with interrupts.committing():             # a stop sees every tile or none
-            for t in tiles:
-                _publish(temps[t], finals[t], overwrite)
-                interrupts.placed(finals[t])
-                result["paths"][t] = finals[t]
+            _publish_all(temps, finals, tiles, overwrite, result["paths"])
         result["save_s"] = time.perf_counter() - t0
         log(f"[3/3] wrote {', '.join(str(p) for p in finals.values())}")
         return result
@@ -430,6 +427,26 @@ def _check_written(bpy, temp, final, resolution):
             f"{temp.stat().st_size} bytes): the disk is full or a file-size limit (ulimit -f) "
             f"was hit; free space in "
             f"{str(final.parent)!r} (or raise the limit) and bake again")
+
+
+def _publish_all(temps, finals, tiles, overwrite, paths):
+    """Put every tile's file in place, or none: without overwrite a tile file that appeared
+    since the checks (another bake of the same names) stops the publish, and the tiles this
+    bake already put in place, new files, are removed again (before, they stayed: a partial
+    set of tiles with a non-zero exit)."""
+    done = []
+    try:
+        for t in tiles:
+            _publish(temps[t], finals[t], overwrite)
+            done.append(t)
+            interrupts.placed(finals[t])
+            paths[t] = finals[t]
+    except NormalBakeError:
+        if not overwrite:
+            for t in done:
+                finals[t].unlink(missing_ok=True)
+                paths.pop(t, None)
+        raise
 
 
 def _publish(temp, final, overwrite):
