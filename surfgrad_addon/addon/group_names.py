@@ -34,3 +34,16 @@ def stale_copies(name, version, line, tree_type):
             and g.bl_idname == tree_type and g.is_editable and VERSION_KEY in g
             and (g[VERSION_KEY] == version and g.get(LINE_KEY) != line
                  or isinstance(g[VERSION_KEY], int) and g[VERSION_KEY] < version)]
+
+
+def newer_group_problem(tree, name, version):
+    """None, or why group `tree` (named `name`) is not rebuilt to `version`: a newer surfgrad
+    made it (a colleague's file), and rebuilding would drop from every node using it what the
+    newer version added (an input, its value and its links), silently."""
+    made = tree.get(VERSION_KEY) if tree is not None else None
+    if not isinstance(made, int) or made <= version:
+        return None
+    return (f"node group {name!r} was made by a newer surfgrad (group version {made}; this "
+            f"extension makes {version}), and rebuilding it here would drop what that version "
+            f"added from every node using it: update the surfgrad extension, or rename that "
+            f"group to add this version beside it")

@@ -24,7 +24,8 @@ import bpy
 
 from ..reference.group_interfaces import plain_value
 from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
-from .group_names import LINE_KEY, VERSION_KEY, fitting_name, stale_copies
+from .group_names import (LINE_KEY, VERSION_KEY, fitting_name, newer_group_problem,
+                          stale_copies)
 from .node_vocabulary import VALUE_OPS, Math, VMath
 
 
@@ -58,6 +59,9 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
         # Ours carry the version stamp; a group without it is the user's: never rebuilt over.
         raise ValueError(f"a node group named {name!r} already exists and is not a "
                          f"surface-gradient group; rename it so surfgrad can add its own")
+    problem = newer_group_problem(tree, name, version)
+    if problem:
+        raise ValueError(problem)
     line = running_line().line
     if stale is None:
         # Copies Blender named "<name>.001" when a material was appended or linked in from a
