@@ -7,7 +7,8 @@
 - lower case names (`r`, `g`): Blender matches R, G, B, A, X and Z in either case, so `r` and `g`
   are a two-colour EXR; the check, case-sensitive, let it bake (B uninitialised);
 - `X`, `Y` and `Z` load into R, G and B; the check took the `Y` for grey and warned that every
-  normal leans along (1, 1) (a false warning)."""
+  normal leans along (1, 1) (a false warning);
+- a multilayer EXR reads 0 x 0 through bpy though Cycles renders it: it was refused as damaged."""
 
 import numpy as np
 import pytest
@@ -17,6 +18,7 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.image_headers import file_channels  # noqa: E402
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 from test_faults_pipeline_leftovers import (_exr_of_channels, _normal_texels,  # noqa: E402
                                             _scene)
 
@@ -123,3 +125,52 @@ def test_an_xyz_exr_loads_as_rgb_and_bakes_without_a_grey_warning(names, tmp_pat
                     capsys)
     assert rc == exit_codes.OK, err
     assert (tmp_path / "x.png").read_bytes() == (tmp_path / "c.png").read_bytes()
+
+
+def _emitted(image_path):
+    """What Cycles renders from `image_path` (an EMIT bake of its colour, 16 x 16), with none
+    of surfgrad's checks in the way."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_plane_add(size=1.0)
+    mat, tree, bsdf = diffuse_material("M")
+    tree.nodes.remove(bsdf)
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.load(str(image_path))
+    tex.image.colorspace_settings.name = "Non-Color"
+    emit = tree.nodes.new("ShaderNodeEmission")
+    out = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    tree.links.new(tex.outputs["Color"], emit.inputs["Color"])
+    tree.links.new(emit.outputs[0], out.inputs["Surface"])
+    target = tree.nodes.new("ShaderNodeTexImage")
+    target.image = bpy.data.images.new("t", 16, 16, float_buffer=True)
+    tree.nodes.active = target
+    bpy.context.object.data.materials.append(mat)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.device = "CPU"
+    bpy.ops.object.bake(type="EMIT")
+    px = np.empty(16 * 16 * 4, np.float32)
+    target.image.pixels.foreach_get(px)
+    return px
+
+
+def test_a_multilayer_exr_is_not_called_damaged(tmp_path, capsys):
+    """A multilayer EXR (channels `ViewLayer.Combined.R` ..., as Blender's renders write):
+    Cycles renders its pass, texel for texel the single-layer file's, but its image reads 0 x 0
+    through bpy. Before: refused as `could not be read (damaged, or a format Blender does not
+    open): re-save it as PNG or EXR` (it is an EXR, and not damaged). Now refused naming what
+    it is: its pixels cannot be checked here."""
+    t = _normal_texels()
+    _exr_of_channels(tmp_path / "ml.exr", {f"ViewLayer.Combined.{c}": t[..., i]
+                                           for i, c in enumerate("RGBA")})
+    _exr_of_channels(tmp_path / "rgb.exr", {c: t[..., i] for i, c in enumerate("RGBA")})
+    emitted = _emitted(tmp_path / "ml.exr")
+    assert np.array_equal(emitted, _emitted(tmp_path / "rgb.exr"))
+    assert abs(float(emitted.reshape(-1, 4)[:, 2].mean()) - float(t[..., 2].mean())) < 0.02
+    rc, err = _bake(_scene(tmp_path / "m.blend", tmp_path / "ml.exr"), tmp_path / "m.png",
+                    capsys)
+    assert rc == exit_codes.BAD_REQUEST and not (tmp_path / "m.png").exists(), err
+    assert ("image 'ml.exr' ('//ml.exr') is a multilayer OpenEXR: Cycles bakes the layer and "
+            "pass its Image Texture node picks, but surfgrad cannot read those pixels") in err
+    assert "damaged" not in err, err

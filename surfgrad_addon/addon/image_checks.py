@@ -205,6 +205,12 @@ def one_image_problem(image):
                 unreadable_problem(what, p) for p in image_files(image))), None)
             if problem:
                 return problem
+            if image.type == "MULTILAYER":      # set by the load above; Cycles reads it
+                return (f"{what} ({'packed' if packed else repr(image.filepath)}) is a "
+                        f"multilayer OpenEXR: Cycles bakes the layer and pass its Image Texture "
+                        f"node picks, but surfgrad cannot read those pixels to check them (for "
+                        f"NaN, channels and range): save that pass as a single-layer OpenEXR "
+                        f"and use that")
             if image.source == "MOVIE":         # a movie Blender cannot decode: magenta
                 return (f"movie {what[6:]} ({image.filepath!r}) could not be read (damaged, "
                         f"or this Blender cannot decode it): {MI.MAGENTA}; render it to an "
