@@ -174,3 +174,15 @@ def test_a_multilayer_exr_is_not_called_damaged(tmp_path, capsys):
     assert ("image 'ml.exr' ('//ml.exr') is a multilayer OpenEXR: Cycles bakes the layer and "
             "pass its Image Texture node picks, but surfgrad cannot read those pixels") in err
     assert "damaged" not in err, err
+
+
+def test_a_multilayer_udim_tile_or_frame_is_not_called_damaged(tmp_path):
+    """The same for the files a tiled image or a sequence reads beyond its first (each loaded
+    into a probe image by image_checks.file_problem)."""
+    from surfgrad_addon.addon import image_checks
+    t = _normal_texels()
+    path = tmp_path / "n.1002.exr"
+    _exr_of_channels(path, {f"ViewLayer.Combined.{c}": t[..., i] for i, c in enumerate("RGBA")})
+    said = image_checks.file_problem("tiled image 'n' (tile 1002)", path)
+    assert said.startswith(f"tiled image 'n' (tile 1002) reads {str(path)!r}, which is a "
+                           f"multilayer OpenEXR: Cycles bakes the layer and pass"), said

@@ -101,7 +101,7 @@ def _exr_verdict(names):
     if not names or any("." in n for n in names):      # a multi-layer file: not read
         return None
     # Blender matches R, G, B, A, X and Z in either case (measured on 4.2 and 5.2); a lower
-    # case y alone is grey on 5.2 but 0 on 4.2, so only an upper case Y is read as grey.
+    # case y alone is grey on 5.2 but 0 on 4.2 and 4.5, so only an upper case Y is grey.
     upper = {n.upper() for n in names}
     present = [c for c in COLOURS if c in upper]
     order = [*COLOURS, "Y", "A"]
