@@ -2,7 +2,9 @@
 where what Blender loads from them is not defined: an EXR with two of R, G and B. Blender
 loads the two into R and G; 4.2 fills B with 0, 4.5 and later leave it uninitialised, so the
 pixels Cycles bakes from differ from load to load (measured: B between -6e37 and NaN, a
-different map, or a refusal for non-finite pixels, on each run)."""
+different map, or a refusal for non-finite pixels, on each run). The same holds for R, G and B
+of an EXR with alpha and no colour channel (`A` alone, `Z` and `A`): measured as NaN, 3e34,
+or the previous load's pixels."""
 
 import io
 from pathlib import Path
@@ -64,4 +66,10 @@ def undefined_channel_problem(image, facts):
                     f"run to run; save it with R, G and B (for a two-channel normal map, "
                     f"rebuild B = sqrt(1 - R^2 - G^2) first), or with one channel for a grey "
                     f"map")
+        if found.unfilled:
+            return (f"image {image.name!r} holds no colour channel Blender reads in its file "
+                    f"({what}: {found.kind} {found.format}): Blender {facts.line} loads its "
+                    f"alpha only and leaves R, G and B uninitialised, so what Cycles bakes from "
+                    f"it changes from run to run; save it with R, G and B, or with one channel "
+                    f"(R or Y) for a grey map")
     return None

@@ -205,6 +205,9 @@ def one_image_problem(image):
                 unreadable_problem(what, p) for p in image_files(image))), None)
             if problem:
                 return problem
+            if image.type == "MULTILAYER":      # set by the load above; Cycles reads it
+                return multilayer_problem(
+                    f"{what} ({'packed' if packed else repr(image.filepath)})")
             if image.source == "MOVIE":         # a movie Blender cannot decode: magenta
                 return (f"movie {what[6:]} ({image.filepath!r}) could not be read (damaged, "
                         f"or this Blender cannot decode it): {MI.MAGENTA}; render it to an "
@@ -252,6 +255,8 @@ def file_problem(what, path):
     except RuntimeError:
         probe = None
     try:
+        if probe is not None and 0 in probe.size[:] and probe.type == "MULTILAYER":
+            return multilayer_problem(f"{what} reads {str(path)!r}, which")
         if probe is None or 0 in probe.size[:]:
             return unreadable_problem(what, path) or (
                 f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
@@ -265,6 +270,14 @@ def file_problem(what, path):
     finally:
         if probe is not None:
             bpy.data.images.remove(probe)
+
+
+def multilayer_problem(what):
+    """A multilayer EXR reads 0 x 0 through bpy (its pixels are the Image Texture node's
+    layer and pass), yet Cycles renders it: it is not damaged, but cannot be checked."""
+    return (f"{what} is a multilayer OpenEXR: Cycles bakes the layer and pass its Image "
+            f"Texture node picks, but surfgrad cannot read those pixels to check them (for "
+            f"NaN, channels and range): save that pass as a single-layer OpenEXR and use that")
 
 
 def unreadable_problem(what, path):

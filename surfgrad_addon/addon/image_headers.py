@@ -8,7 +8,9 @@ deep or multi-layer EXRs, give None (unknown), never a guess.
 What Blender makes of too few (tests/test_exr_channels.py, every line): a grey file (PNG grey,
 JPEG with one component, EXR `Y`, or an EXR with one of R, G and B) is spread over R, G and B;
 an EXR with two of R, G and B loads them into R and G, and B is 0 on 4.2 but left
-uninitialised on 4.5 and later (LineFacts.exr_two_colours_fill_zero)."""
+uninitialised on 4.5 and later (LineFacts.exr_two_colours_fill_zero); so are R, G and B of an
+EXR with alpha and no channel Blender loads as colour (tests/test_faults_images33.py). X, Y
+and Z load into R, G and B; channel names match in either case (but a lone y: see below)."""
 
 import struct
 from typing import NamedTuple
@@ -37,6 +39,13 @@ class FileChannels(NamedTuple):
     def two_colours(self):
         """An EXR with two of R, G and B (Blender loads them into R and G; B: see above)."""
         return self.format == "EXR" and len(self.lacking) == 1
+
+    @property
+    def unfilled(self):
+        """The colour channels Blender's load does not fill (0 on 4.2, uninitialised later: see
+        image_channels): B of an EXR with two of R, G and B, all three of one with alpha and no
+        colour; "" for any other file."""
+        return self.lacking if self.format == "EXR" and self.lacking != "grey" else ""
 
 
 def file_channels(f):
@@ -91,17 +100,25 @@ def _chlist_names(value):
 def _exr_verdict(names):
     if not names or any("." in n for n in names):      # a multi-layer file: not read
         return None
-    present = [c for c in COLOURS if c in names]
+    # Blender matches R, G, B, A, X and Z in either case (measured on 4.2 and 5.2); a lower
+    # case y alone is grey on 5.2 but 0 on 4.2 and 4.5, so only an upper case Y is grey.
+    upper = {n.upper() for n in names}
+    present = [c for c in COLOURS if c in upper]
     order = [*COLOURS, "Y", "A"]
     kind = " and ".join("Y (grey)" if n == "Y" else n for n in
-                        sorted(names, key=lambda n: (order.index(n) if n in order else 9, n)))
+                        sorted(names, key=lambda n: (order.index(n.upper())
+                                                     if n.upper() in order else 9, n)))
     if len(present) == 1:           # Blender spreads a lone R, G or B as grey
         return FileChannels(len(names), kind, "EXR", "grey")
     if present:
         return FileChannels(len(names), kind, "EXR",
                             "".join(c for c in COLOURS if c not in present))
-    if "Y" in names and not {"RY", "BY"} & set(names):
+    if {"X", "Y", "Z"} <= upper:    # loaded into R, G and B, in that order
+        return FileChannels(len(names), kind, "EXR", "")
+    if "Y" in names and not {"RY", "BY"} & upper:
         return FileChannels(len(names), kind, "EXR", "grey")
+    if "A" in upper and "Y" not in upper:   # alpha, and nothing Blender loads as colour
+        return FileChannels(len(names), kind, "EXR", "".join(COLOURS))
     return None                     # luminance-chroma, or no colour channel we know
 
 

@@ -98,6 +98,14 @@ def _channels_problem(image):
             return (f"{held}: Blender spreads the grey over R, G and B, so every normal leans "
                     f"along (1, 1) in the tangent plane (the bake takes them as Cycles renders "
                     f"them); save the normal map as RGB (three channels)")
+        if found.lacking == "RGB":
+            rgb = ("reads R, G and B as 0, which a normal map reads as (-1, -1, -1) (every "
+                   "normal points into the surface; the bake takes them as Cycles renders them)"
+                   if running_facts().exr_two_colours_fill_zero else
+                   "leaves R, G and B uninitialised (what Cycles renders from it changes from "
+                   "run to run; a bake refuses it)")
+            return (f"{held}: Blender loads its alpha only and {rgb}; save the normal map with "
+                    f"R, G and B")
         b = ("reads B as 0, which a normal map reads as -1 (every normal points into the "
              "surface; the bake takes them as Cycles renders them)"
              if running_facts().exr_two_colours_fill_zero else

@@ -68,7 +68,8 @@ class LineFacts:
     # input passes through that encoding (harness/mesh_data.triangle_mikktspace).
     free_normals: bool = True
     # An EXR holding two of R, G and B loads into R and G; 4.2 fills B with 0, 4.5 and later
-    # leave it uninitialised (other values on each load: tests/test_exr_channels.py).
+    # leave it uninitialised (other values on each load: tests/test_exr_channels.py). So
+    # are R, G and B of an EXR with alpha and no colour (tests/test_faults_images33.py).
     exr_two_colours_fill_zero: bool = False
     # A shader node group can have Menu sockets and a Menu Switch node (5.0 and later); 4.2 and
     # 4.5 refuse NodeSocketMenu in a shader tree, so an enumeration is an integer there.
