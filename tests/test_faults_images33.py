@@ -186,3 +186,27 @@ def test_a_multilayer_udim_tile_or_frame_is_not_called_damaged(tmp_path):
     said = image_checks.file_problem("tiled image 'n' (tile 1002)", path)
     assert said.startswith(f"tiled image 'n' (tile 1002) reads {str(path)!r}, which is a "
                            f"multilayer OpenEXR: Cycles bakes the layer and pass"), said
+
+
+@pytest.mark.tier("child")
+def test_a_multilayer_exr_cut_short_is_refused_without_a_load(tmp_path):
+    """4.2 never returned from loading a multilayer EXR cut short (bpy.data.images.load of it
+    hangs there): a bake of a file whose texture was cut so (a copy interrupted on the share)
+    hung the farm job silently. Every line refuses a multilayer file anyway, so the checks read
+    its header and never load it: one line, exit 2, no map, on every line. (Run in a child
+    with a time limit: a hang fails the test instead of the suite.)"""
+    from support.child import run_python
+    t = _normal_texels()
+    path = tmp_path / "ml.exr"
+    _exr_of_channels(path, {f"ViewLayer.Combined.{c}": t[..., i] for i, c in enumerate("RGBA")})
+    blend = _scene(tmp_path / "m.blend", path)           # whole while the scene is made
+    path.write_bytes(path.read_bytes()[:400])
+    res = run_python(["-m", "surfgrad_addon", "bake-normal-map", "--blend", str(blend),
+                      "--object", "Plane", "--output", str(tmp_path / "m.png"),
+                      "--resolution", "16"], timeout=120)
+    assert res.returncode == exit_codes.BAD_REQUEST, res.stdout[-2000:] + res.stderr[-2000:]
+    assert "is a multilayer OpenEXR" in res.stderr and "Traceback" not in res.stderr, res.stderr
+    assert not (tmp_path / "m.png").exists()
+    from surfgrad_addon.addon import image_checks
+    said = image_checks.file_problem("tiled image 'n' (tile 1002)", path)
+    assert "is a multilayer OpenEXR" in said, said

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..reference import tiles as T
 from ..reference.blender_lines import facts_for
-from .image_headers import file_channels
+from .image_headers import exr_layered, file_channels
 
 
 def running_facts():
@@ -72,4 +72,17 @@ def undefined_channel_problem(image, facts):
                     f"alpha only and leaves R, G and B uninitialised, so what Cycles bakes from "
                     f"it changes from run to run; save it with R, G and B, or with one channel "
                     f"(R or Y) for a grey map")
+    return None
+
+
+def layered_file(image):
+    """What names the first of the image's files that is a layered (multilayer) OpenEXR by its
+    header, or None: such a file is refused before Blender loads it (image_checks)."""
+    for what, opened in file_openers(image):
+        try:
+            with opened() as f:
+                if exr_layered(f):
+                    return what
+        except OSError:
+            continue
     return None

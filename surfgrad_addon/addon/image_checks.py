@@ -11,7 +11,8 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
-from .image_channels import running_facts, undefined_channel_problem
+from .image_channels import layered_file, running_facts, undefined_channel_problem
+from .image_headers import exr_layered
 
 
 def material_images(obj):
@@ -197,6 +198,9 @@ def one_image_problem(image):
                     f"(File > External Data > Find Missing Files), or pack it")
         if image.source == "SEQUENCE":
             return None                         # its frame file: image_problems loads it
+    if not image.has_data and layered_file(image):
+        # From the header, before a load: 4.2 never returns from one of such a file cut short.
+        return multilayer_problem(f"{what} ({'packed' if packed else repr(image.filepath)})")
     had_data = image.has_data
     try:
         w, h = image.size
@@ -250,6 +254,12 @@ def file_problem(what, path):
     pixels, else what is wrong and the fix. Loaded into a probe image of its own, removed
     again, so the file's own images stay as they were."""
     import bpy
+    try:
+        with open(path, "rb") as f:
+            if exr_layered(f):                  # before a load (see one_image_problem)
+                return multilayer_problem(f"{what} reads {str(path)!r}, which")
+    except OSError:
+        pass
     try:
         probe = bpy.data.images.load(str(path), check_existing=False)
     except RuntimeError:

@@ -66,6 +66,29 @@ def file_channels(f):
     return None
 
 
+def exr_layered(f):
+    """True where the binary file object `f` starts an OpenEXR with layers (multi-part, or a
+    channel name with a '.': what Blender loads as a multilayer image), from the header alone:
+    4.2 never returns from loading such a file cut short."""
+    data = f.read(EXR_HEADER_LIMIT)
+    if not data.startswith(EXR_MAGIC) or len(data) < 8:
+        return False
+    if struct.unpack("<i", data[4:8])[0] & 0x1000:
+        return True
+    at = 8
+    while at < len(data) and data[at] != 0:
+        name_end = data.find(b"\0", at)
+        type_end = data.find(b"\0", name_end + 1)
+        if name_end < 0 or type_end < 0 or type_end + 5 > len(data):
+            return False
+        size = struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
+        if data[at:name_end] == b"channels" and data[name_end + 1:type_end] == b"chlist":
+            names = _chlist_names(data[type_end + 5:type_end + 5 + size]) or []
+            return any("." in n for n in names)
+        at = type_end + 5 + size
+    return False
+
+
 def _exr_channels(data):
     """The channel names of a single-part EXR's header (OpenEXR file layout: magic, version,
     then name\\0 type\\0 size value attributes up to an empty name)."""

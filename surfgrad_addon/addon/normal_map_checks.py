@@ -22,7 +22,7 @@ import re
 import numpy as np
 
 from .image_checks import image_feeding, objects_nodes
-from .image_channels import read_channels, running_facts
+from .image_channels import layered_file, read_channels, running_facts
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
 NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
@@ -119,8 +119,8 @@ def _channels_problem(image):
 def _range_problem(image):
     """A float image with more than NEGATIVE_SHARE of its texels below 0 in R or G (its first
     tile, for a tiled one), or None."""
-    if image.source not in ("FILE", "TILED"):
-        return None
+    if image.source not in ("FILE", "TILED") or (not image.has_data and layered_file(image)):
+        return None                 # (a multilayer EXR: refused unloaded, image_checks)
     had_data = image.has_data       # (is_float, size and channels load the image)
     try:
         w, h = image.size
