@@ -25,6 +25,7 @@ JPEG_COMPONENTS = {1: "grey", 3: "YCbCr colour", 4: "CMYK"}
 JPEG_SCAN_LIMIT = 1 << 20           # a frame header this far in is no file we read cheaply
 EXR_MAGIC = b"\x76\x2f\x31\x01"
 EXR_MULTI_OR_DEEP = 0x1800          # version flags: multi-part (0x1000), deep data (0x800)
+EXR_MULTI_PART = 0x1000
 EXR_HEADER_LIMIT = 1 << 16          # a header larger than this is not read
 COLOURS = ("R", "G", "B")
 
@@ -73,27 +74,22 @@ def exr_layered(f):
     data = f.read(EXR_HEADER_LIMIT)
     if not data.startswith(EXR_MAGIC) or len(data) < 8:
         return False
-    if struct.unpack("<i", data[4:8])[0] & 0x1000:
+    if struct.unpack("<i", data[4:8])[0] & EXR_MULTI_PART:
         return True
-    at = 8
-    while at < len(data) and data[at] != 0:
-        name_end = data.find(b"\0", at)
-        type_end = data.find(b"\0", name_end + 1)
-        if name_end < 0 or type_end < 0 or type_end + 5 > len(data):
-            return False
-        size = struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
-        if data[at:name_end] == b"channels" and data[name_end + 1:type_end] == b"chlist":
-            names = _chlist_names(data[type_end + 5:type_end + 5 + size]) or []
-            return any("." in n for n in names)
-        at = type_end + 5 + size
-    return False
+    return any("." in n for n in _exr_channel_names(data) or ())
 
 
 def _exr_channels(data):
-    """The channel names of a single-part EXR's header (OpenEXR file layout: magic, version,
-    then name\\0 type\\0 size value attributes up to an empty name)."""
+    """FileChannels of a single-part EXR's header, or None."""
     if len(data) < 8 or struct.unpack("<i", data[4:8])[0] & EXR_MULTI_OR_DEEP:
         return None
+    names = _exr_channel_names(data)
+    return None if names is None else _exr_verdict(names)
+
+
+def _exr_channel_names(data):
+    """The channel names of an EXR header (OpenEXR file layout: magic, version, then
+    name\\0 type\\0 size value attributes up to an empty name), or None where not found."""
     at = 8
     while at < len(data) and data[at] != 0:
         name_end = data.find(b"\0", at)
@@ -101,9 +97,8 @@ def _exr_channels(data):
         if name_end < 0 or type_end < 0 or type_end + 5 > len(data):
             return None
         size = struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
-        value = data[type_end + 5:type_end + 5 + size]
         if data[at:name_end] == b"channels" and data[name_end + 1:type_end] == b"chlist":
-            return _exr_verdict(_chlist_names(value))
+            return _chlist_names(data[type_end + 5:type_end + 5 + size])
         at = type_end + 5 + size
     return None
 
