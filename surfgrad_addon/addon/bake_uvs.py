@@ -40,15 +40,9 @@ def read_as_baked(obj, read):
     return read(obj.evaluated_get(depsgraph), depsgraph)
 
 
-_triangle_uvs = triangle_uvs
-
-
 def _tiles_of(tri_uv, faces):
     outside = np.unique(faces[T.triangles_outside(tri_uv)])
     return T.tiles_with_uvs(tri_uv), int(len(outside))
-
-
-_triangles = triangles          # (loops (T*3,), faces (T,))
 
 
 def uv_tiles(mesh, uv_map):
@@ -58,8 +52,8 @@ def uv_tiles(mesh, uv_map):
     a face across the range's border still names the tiles its inside part covers."""
     if len(mesh.polygons) == 0:
         return [], 0
-    loops, faces = _triangles(mesh)
-    return _tiles_of(_triangle_uvs(mesh, uv_map, loops), faces)
+    loops, faces = triangles(mesh)
+    return _tiles_of(triangle_uvs(mesh, uv_map, loops), faces)
 
 
 @dataclass(frozen=True)
@@ -105,12 +99,12 @@ def baked_mesh(obj):
         instances = read_instances(evaluated, depsgraph)
         mesh = evaluated.to_mesh()
         try:
-            loops, faces = _triangles(mesh)
+            loops, faces = triangles(mesh)
             positions = np.empty(len(mesh.vertices) * 3, np.float64)
             mesh.vertices.foreach_get("co", positions)
             tris = np.empty(len(loops), np.int64)
             mesh.loop_triangles.foreach_get("vertices", tris)
-            uvs = {uv.name: _triangle_uvs(mesh, uv.name, loops) for uv in mesh.uv_layers}
+            uvs = {uv.name: triangle_uvs(mesh, uv.name, loops) for uv in mesh.uv_layers}
             layout = {name: _tiles_of(uv, faces) if len(mesh.polygons) else ([], 0)
                       for name, uv in uvs.items()}
             return BakedMesh(layout, positions.reshape(-1, 3), tris.reshape(-1, 3),
