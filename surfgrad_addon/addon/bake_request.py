@@ -36,6 +36,7 @@ from . import input_stamps
 from . import unrealized_instances as UI
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
+from .float_pixels import one_pixel_read
 from .image_checks import image_problems, output_input_problems
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
@@ -198,7 +199,7 @@ def warn_stderr(message):
 def check(request, obj=None, warn=warn_stderr):
     """Check everything about `request` before baking; returns a CheckedRequest (its warnings
     already passed to `warn`) or raises BakeRequestError naming every problem and its fix."""
-    with one_read():                      # the tiles and the mesh checks: one read of the mesh
+    with one_read(), one_pixel_read():     # one read of the mesh, and of each image's pixels
         return _check(request, obj, warn)
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
+from .float_pixels import pixel_facts
 from .image_channels import layered_file, running_facts, undefined_channel_problem
 from .image_headers import exr_layered
 
@@ -223,11 +224,8 @@ def one_image_problem(image):
         problem = undefined_channel_problem(image, running_facts())
         if problem:
             return problem
-        if image.is_float:                      # only float buffers can hold NaN / Inf
-            px = np.empty(w * h * image.channels, dtype=np.float32)
-            image.pixels.foreach_get(px)
-            return IC.pixels_problem(what, px)
-        return None
+        facts = pixel_facts(image)              # only float buffers can hold NaN / Inf
+        return facts and IC.nonfinite_pixels_problem(what, facts.nonfinite)
     finally:
         if not had_data and image.has_data:
             image.buffers_free()

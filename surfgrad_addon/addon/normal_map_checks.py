@@ -19,8 +19,7 @@ bends them, naming the image, the node and the fix.
 
 import re
 
-import numpy as np
-
+from .float_pixels import pixel_facts
 from .image_checks import image_feeding, objects_nodes
 from .image_channels import layered_file, read_channels, running_facts
 
@@ -121,19 +120,10 @@ def _range_problem(image):
     tile, for a tiled one), or None."""
     if image.source not in ("FILE", "TILED") or (not image.has_data and layered_file(image)):
         return None                 # (a multilayer EXR: refused unloaded, image_checks)
-    had_data = image.has_data       # (is_float, size and channels load the image)
-    try:
-        w, h = image.size
-        channels = image.channels
-        if not image.is_float or w * h == 0 or channels < 2:
-            return None
-        px = np.empty(w * h * channels, dtype=np.float32)
-        image.pixels.foreach_get(px)
-        px = px.reshape(-1, channels)
-        shares = [float(np.mean(px[:, c] < 0)) for c in (0, 1)]
-    finally:
-        if not had_data and image.has_data:
-            image.buffers_free()
+    facts = pixel_facts(image)      # (read once with image_checks' finite test: float_pixels)
+    if facts is None:
+        return None
+    shares = facts.share_below_zero()     # (0, 0) with fewer than two channels
     if max(shares) <= NEGATIVE_SHARE:
         return None
     return (f"has {100 * shares[0]:.0f}% of its texels below 0 in R and "

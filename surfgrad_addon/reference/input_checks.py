@@ -42,7 +42,13 @@ def pixels_problem(label, pixels):
     """None when an image's pixels are all finite, else what is wrong and the fix."""
     if all_finite(pixels):
         return None
-    n = nonfinite_count(pixels)
+    return nonfinite_pixels_problem(label, nonfinite_count(pixels))
+
+
+def nonfinite_pixels_problem(label, n):
+    """The refusal of an image with `n` (> 0) non-finite pixel values, or None for 0."""
+    if not n:
+        return None
     return (f"{label} has non-finite pixels (NaN or Inf, {n} value(s)); fix or clamp them "
             f"before using it (e.g. re-save it from an image editor, or a Math node clamp)")
 
