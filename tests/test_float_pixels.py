@@ -73,3 +73,58 @@ def test_the_checks_read_a_float_image_once(nan, tmp_path, monkeypatch):
         said = f"has {below[0]}% of its texels below 0 in R and {below[1]}% in G"
         assert min(below) > 5 and [w for w in warned if said in w], warned
     assert reads == ["n.exr"]
+
+
+@pytest.mark.tier("bake")
+def test_pixels_that_do_not_fit_the_process_are_a_refusal_not_a_traceback(tmp_path, capsys,
+                                                                           monkeypatch):
+    """Under `ulimit -v` an 8192^2 float EXR loaded (1 GB) but its copy for the check did not:
+    before, numpy's MemoryError ended the bake with a traceback (exit 1). Now exit 2, one line
+    naming the image, the limit and the fix, and no map. (Measured with ulimit -v 3.5 GB on
+    5.2.3; here the copy's allocation fails on purpose, the same on every line.)"""
+    pytest.importorskip("bpy")
+    from surfgrad_addon.addon import commands, exit_codes
+    from test_faults_pipeline_leftovers import _normal_texels, _scene, _write_image
+
+    _write_image(tmp_path / "n.exr", _normal_texels(), "OPEN_EXR", float_buffer=True,
+                 color_depth="32")
+    blend = _scene(tmp_path / "f.blend", tmp_path / "n.exr")
+    real_empty = np.empty
+
+    def empty(shape, dtype=float):
+        if dtype is np.float32 and shape == 16 * 16 * 4:        # the check's copy
+            raise MemoryError("Unable to allocate")
+        return real_empty(shape, dtype=dtype)
+
+    monkeypatch.setattr(FP.np, "empty", empty)
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(tmp_path / "m.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert "surfgrad: error: image 'n.exr': its pixels could not be read to check them" in err
+    assert "Traceback" not in err and not (tmp_path / "m.png").exists()
+
+
+@pytest.mark.tier("bake")
+def test_memory_running_out_mid_command_is_one_line_not_a_traceback(tmp_path, capsys,
+                                                                    monkeypatch):
+    """Any MemoryError a command meets (numpy's, under an address-space limit) ends it with
+    one line and exit 1, the map not written; before, a raw traceback."""
+    pytest.importorskip("bpy")
+    from surfgrad_addon.addon import commands, exit_codes, normal_bake
+    from test_faults_pipeline_leftovers import _normal_texels, _scene, _write_image
+
+    _write_image(tmp_path / "n.png", _normal_texels())
+    blend = _scene(tmp_path / "f.blend", tmp_path / "n.png")
+
+    def out_of_memory(*args, **kwargs):
+        raise MemoryError()
+
+    monkeypatch.setattr(normal_bake, "_publish_all", out_of_memory)
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(tmp_path / "m.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAKE_FAILED, err
+    assert "surfgrad: error: ran out of memory" in err and "Traceback" not in err, err
+    assert not (tmp_path / "m.png").exists() and list(tmp_path.glob("*.png")) == [
+        tmp_path / "n.png"], list(tmp_path.iterdir())

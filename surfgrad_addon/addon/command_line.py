@@ -10,7 +10,7 @@ import sys
 from dataclasses import dataclass
 from typing import Callable
 
-from .exit_codes import OK, code_for
+from .exit_codes import BAKE_FAILED, OK, code_for
 from .std_streams import prepare as prepare_streams
 
 
@@ -65,4 +65,11 @@ def _run(command, args):
     except (FileExistsError, ValueError, KeyError, RuntimeError) as err:
         print(f"surfgrad: error: {err}", file=sys.stderr)
         return code_for(err)
+    except MemoryError:
+        # numpy's, or Python's: an address-space limit (`ulimit -v`, SGE's h_vmem) or the
+        # machine's memory ran out mid-command. Staged outputs are removed on the way out.
+        print("surfgrad: error: ran out of memory (an address-space limit such as `ulimit -v` "
+              "or the job's h_vmem, or the machine's memory): raise the limit, or ask for less "
+              "(a lower --resolution, smaller images)", file=sys.stderr)
+        return BAKE_FAILED
     return OK if code is None else code

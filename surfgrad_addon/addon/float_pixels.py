@@ -13,6 +13,19 @@ import numpy as np
 
 _reads = {"cache": None}
 _SLICE_TEXELS = 1 << 22         # texels per slice of the counts (bounded temporaries)
+GB = 1024 ** 3
+
+
+class PixelsTooLarge(Exception):
+    """The copy of an image's pixels the checks read does not fit this process's memory."""
+
+    def __init__(self, image_name, nbytes):
+        self.image_name, self.nbytes = image_name, nbytes
+        super().__init__(
+            f"image {image_name!r}: its pixels could not be read to check them ({nbytes / GB:.1f}"
+            f" GB more than this process may have: an address-space limit such as `ulimit -v` "
+            f"or the job's h_vmem, or the machine's memory), and the bake needs them in memory "
+            f"too: raise the limit, or use a smaller image")
 
 
 @dataclass(frozen=True)
@@ -43,7 +56,8 @@ def one_pixel_read():
 
 def pixel_facts(image):
     """PixelFacts of `image`'s float pixels, or None where it holds none (not a float image,
-    or empty). An image this loads is freed again (it stays as unloaded as it was)."""
+    or empty). An image this loads is freed again (it stays as unloaded as it was). Raises
+    PixelsTooLarge where their copy does not fit the process's memory."""
     cache = _reads["cache"]
     key = image.as_pointer()
     if cache is not None and key in cache:
@@ -61,8 +75,11 @@ def _read(image):
         channels = image.channels
         if not image.is_float or w * h == 0 or channels == 0:
             return None
-        px = np.empty(w * h * channels, dtype=np.float32)
-        image.pixels.foreach_get(px)
+        try:
+            px = np.empty(w * h * channels, dtype=np.float32)
+            image.pixels.foreach_get(px)
+        except MemoryError:                 # (an address-space limit: `ulimit -v`, h_vmem)
+            raise PixelsTooLarge(image.name, w * h * channels * 4) from None
     finally:
         if not had_data and image.has_data:
             image.buffers_free()

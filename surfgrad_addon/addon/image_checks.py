@@ -11,7 +11,7 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
-from .float_pixels import pixel_facts
+from .float_pixels import PixelsTooLarge, pixel_facts
 from .image_channels import layered_file, running_facts, undefined_channel_problem
 from .image_headers import exr_layered
 
@@ -224,7 +224,10 @@ def one_image_problem(image):
         problem = undefined_channel_problem(image, running_facts())
         if problem:
             return problem
-        facts = pixel_facts(image)              # only float buffers can hold NaN / Inf
+        try:
+            facts = pixel_facts(image)          # only float buffers can hold NaN / Inf
+        except PixelsTooLarge as err:
+            return str(err)
         return facts and IC.nonfinite_pixels_problem(what, facts.nonfinite)
     finally:
         if not had_data and image.has_data:

@@ -19,7 +19,7 @@ bends them, naming the image, the node and the fix.
 
 import re
 
-from .float_pixels import pixel_facts
+from .float_pixels import PixelsTooLarge, pixel_facts
 from .image_checks import image_feeding, objects_nodes
 from .image_channels import layered_file, read_channels, running_facts
 
@@ -120,7 +120,10 @@ def _range_problem(image):
     tile, for a tiled one), or None."""
     if image.source not in ("FILE", "TILED") or (not image.has_data and layered_file(image)):
         return None                 # (a multilayer EXR: refused unloaded, image_checks)
-    facts = pixel_facts(image)      # (read once with image_checks' finite test: float_pixels)
+    try:
+        facts = pixel_facts(image)  # (read once with image_checks' finite test: float_pixels)
+    except PixelsTooLarge:
+        return None                 # (image_checks refuses the bake for it)
     if facts is None:
         return None
     shares = facts.share_below_zero()     # (0, 0) with fewer than two channels
