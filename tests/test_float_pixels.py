@@ -7,6 +7,8 @@ import pytest
 
 from surfgrad_addon.addon import float_pixels as FP
 
+pytestmark = pytest.mark.tier("numpy")
+
 
 def _naive(texels):
     """The counts, written out value by value against which the sliced sums are held."""
@@ -16,7 +18,6 @@ def _naive(texels):
     return nonfinite, below
 
 
-@pytest.mark.tier("numpy")
 @pytest.mark.parametrize("channels", [1, 3, 4])
 @pytest.mark.parametrize("slice_texels", [1, 7, 1 << 22])
 def test_the_sliced_counts_are_the_value_by_value_counts(channels, slice_texels, monkeypatch):
@@ -34,7 +35,6 @@ def test_the_sliced_counts_are_the_value_by_value_counts(channels, slice_texels,
     assert facts.share_below_zero() == tuple(n / 53 for n in below)
 
 
-@pytest.mark.tier("numpy")
 def test_values_at_float32s_limit_are_finite_and_one_nan_among_them_is_counted():
     """The float64 sum is a shortcut that float32's largest values cannot fool."""
     texels = np.full((8, 4), 3.0e38, np.float32)
