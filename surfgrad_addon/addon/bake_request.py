@@ -38,6 +38,7 @@ from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
 from .image_checks import image_problems, output_input_problems
+from .image_memory import images_memory
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 
@@ -236,12 +237,13 @@ def _check(request, obj, warn):
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
     stamped = input_stamps.stamps(obj)              # before the checks read the files
-    problems += image_problems(obj, tiles)          # the tiles this bake writes
-    problem = bake_memory_problem(request.resolution, len(tiles))
-    if problem:
-        problems.append(problem)
+    # Before the image checks load the images: one too large for the process crashed the load,
+    # so where they do not fit they are not loaded (nor checked further).
+    problem = bake_memory_problem(request.resolution, len(tiles), images_memory(obj, tiles))
+    problems += [problem] if problem else image_problems(obj, tiles)   # (its tiles)
     warnings += colour_space_warnings(obj)
-    warnings += normal_map_warnings(obj)            # grey files, -1..1 floats
+    if not problem:
+        warnings += normal_map_warnings(obj)        # grey files, -1..1 floats
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)

@@ -1,4 +1,5 @@
-"""How many channels an image file itself holds, read from its header: Blender reports 4
+"""How many channels an image file itself holds, and its size (pixel_size: the memory check
+counts images before they are loaded), read from its header: Blender reports 4
 (Image.channels) for every image once loaded, whatever the file held. Only formats whose
 header says it exactly and cheaply: PNG (the IHDR chunk's colour type, byte 25), baseline or
 progressive JPEG (the frame header's component count) and single-part scanline or tiled
@@ -67,6 +68,38 @@ def file_channels(f):
     return None
 
 
+class PixelSize(NamedTuple):
+    width: int
+    height: int
+    float_buffer: bool  # Blender loads it into a float buffer (EXR, 16-bit PNG), else bytes
+
+
+def pixel_size(f):
+    """PixelSize from the start of the binary file object `f` (PNG, JPEG, single-part EXR),
+    or None where the header does not say (another format, or a damaged header)."""
+    head = f.read(33)
+    if head.startswith(PNG_SIGNATURE):
+        if len(head) < 33 or head[12:16] != b"IHDR":
+            return None
+        w, h = struct.unpack(">II", head[16:24])
+        return PixelSize(w, h, head[24] == 16)
+    if head.startswith(b"\xff\xd8"):
+        f.seek(2)
+        frame = _jpeg_frame(f)
+        return frame and PixelSize(*struct.unpack(">HH", frame[3:5] + frame[1:3]), False)
+    if head.startswith(EXR_MAGIC):
+        f.seek(0)
+        data = f.read(EXR_HEADER_LIMIT)
+        if len(data) < 8 or struct.unpack("<i", data[4:8])[0] & EXR_MULTI_OR_DEEP:
+            return None
+        box = _exr_attribute(data, b"dataWindow", b"box2i")
+        if box is None or len(box) != 16:
+            return None
+        x0, y0, x1, y1 = struct.unpack("<iiii", box)
+        return PixelSize(x1 - x0 + 1, y1 - y0 + 1, True) if x1 >= x0 and y1 >= y0 else None
+    return None
+
+
 def exr_layered(f):
     """True where the binary file object `f` starts an OpenEXR with layers (multi-part, or a
     channel name with a '.': what Blender loads as a multilayer image), from the header alone:
@@ -88,8 +121,15 @@ def _exr_channels(data):
 
 
 def _exr_channel_names(data):
-    """The channel names of an EXR header (OpenEXR file layout: magic, version, then
-    name\\0 type\\0 size value attributes up to an empty name), or None where not found."""
+    """The channel names of an EXR header, or None where not found."""
+    value = _exr_attribute(data, b"channels", b"chlist")
+    return None if value is None else _chlist_names(value)
+
+
+def _exr_attribute(data, name, kind):
+    """The value bytes of attribute `name` of type `kind` in an EXR header (OpenEXR file
+    layout: magic, version, then name\\0 type\\0 size value attributes up to an empty name), or
+    None where not found."""
     at = 8
     while at < len(data) and data[at] != 0:
         name_end = data.find(b"\0", at)
@@ -97,8 +137,8 @@ def _exr_channel_names(data):
         if name_end < 0 or type_end < 0 or type_end + 5 > len(data):
             return None
         size = struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
-        if data[at:name_end] == b"channels" and data[name_end + 1:type_end] == b"chlist":
-            return _chlist_names(data[type_end + 5:type_end + 5 + size])
+        if data[at:name_end] == name and data[name_end + 1:type_end] == kind:
+            return data[type_end + 5:type_end + 5 + size]
         at = type_end + 5 + size
     return None
 
@@ -141,7 +181,18 @@ def _exr_verdict(names):
 
 
 def _jpeg_channels(f):
-    """Walk the JPEG's marker segments (lengths only) to its frame header."""
+    """FileChannels from the JPEG's frame header, or None."""
+    frame = _jpeg_frame(f)
+    if frame is None:
+        return None
+    n = frame[5]
+    return FileChannels(n, JPEG_COMPONENTS.get(n, f"{n} components"), "JPEG",
+                        "grey" if n == 1 else "")
+
+
+def _jpeg_frame(f):
+    """The first 6 bytes of the JPEG's frame header (precision, height, width, components),
+    walking its marker segments (lengths only), or None."""
     while f.tell() < JPEG_SCAN_LIMIT:
         marker = f.read(2)
         while len(marker) == 2 and marker[0] == 0xFF and marker[1] == 0xFF:   # fill bytes
@@ -155,11 +206,7 @@ def _jpeg_channels(f):
             return None
         length = struct.unpack(">H", size)[0]
         if marker[1] in JPEG_FRAMES:
-            frame = f.read(6)           # precision, height, width, components
-            if len(frame) < 6:
-                return None
-            n = frame[5]
-            return FileChannels(n, JPEG_COMPONENTS.get(n, f"{n} components"), "JPEG",
-                                "grey" if n == 1 else "")
+            frame = f.read(6)
+            return frame if len(frame) == 6 else None
         f.seek(length - 2, 1)
     return None

@@ -23,6 +23,14 @@ import resource
 
 BYTES_PER_TEXEL = 180
 BYTES_PER_FURTHER_TILE_TEXEL = 50
+# An image the bake reads, per texel of its file, at least: Blender's buffer (RGBA, float or
+# bytes) and one more copy: the check's of a float image's pixels (float_pixels, one image at
+# a time), and Cycles' for the bake (half floats at the least, or bytes). Measured on 5.2.3: an
+# 8192^2 float EXR raised a 256^2 bake's peak resident size by 2.2 GB (32 bytes a texel), and
+# under `ulimit -v` 2.5 GB Blender's load of it crashed (exit 139) before this was counted.
+IMAGE_BYTES_PER_TEXEL = {True: 16, False: 4}            # Blender's buffer: float, bytes
+CHECK_COPY_BYTES_PER_TEXEL = 16                          # float_pixels' copy (float RGBA)
+CYCLES_BYTES_PER_TEXEL = {True: 8, False: 4}             # Cycles' copy: half at least, bytes
 GB = 1024 ** 3
 # cgroup memory limits (a container's, a scheduler's job): v2, then v1; "max" or a huge
 # number means none.
@@ -75,12 +83,18 @@ def machine_memory():
     return best
 
 
-def bake_memory_problem(resolution, tiles):
-    """None, or the problem when `tiles` maps of resolution^2 cannot fit the soft address-space
-    limit (RLIMIT_AS) beside what this process already uses, or the machine's memory."""
+def bake_memory_problem(resolution, tiles, images=None):
+    """None, or the problem when `tiles` maps of resolution^2, and the images it reads
+    (`images`: an ImagesMemory, or None), cannot fit the soft address-space limit (RLIMIT_AS)
+    beside what this process already uses, or the machine's memory."""
     need = int(resolution) ** 2 * (BYTES_PER_TEXEL
                                    + BYTES_PER_FURTHER_TILE_TEXEL * (max(1, int(tiles)) - 1))
-    what = f"a {resolution}x{resolution} bake of {tiles} tile(s) needs at least " \
+    reading = ""
+    if images is not None and images.count:
+        need = max(need + images.baked, images.checked)
+        reading = f" reading {images.what}"
+    smaller = " or from smaller images" if reading else ""
+    what = f"a {resolution}x{resolution} bake of {tiles} tile(s){reading} needs at least " \
            f"{need / GB:.1f} GB of memory beyond the"
     limit = resource.getrlimit(resource.RLIMIT_AS)[0]
     used = address_space_in_use()
@@ -88,10 +102,10 @@ def bake_memory_problem(resolution, tiles):
         return (f"{what} {used / GB:.1f} GB this process uses, more than its address-space "
                 f"limit of {limit / GB:.1f} GB (`ulimit -v`, or the job's memory limit such "
                 f"as SGE's h_vmem), where Blender's bake would crash: raise the limit or bake "
-                f"at a lower --resolution")
+                f"at a lower --resolution{smaller}")
     machine, resident = machine_memory(), resident_in_use()
     if machine is not None and resident is not None and resident + need > machine[0]:
         return (f"{what} {resident / GB:.1f} GB this process holds, more than {machine[1]}, "
-                f"where the system would kill the bake: bake at a lower --resolution, or on "
-                f"a machine with more memory")
+                f"where the system would kill the bake: bake at a lower --resolution{smaller}, "
+                f"or on a machine with more memory")
     return None

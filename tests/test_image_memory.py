@@ -1,0 +1,121 @@
+"""The images a bake reads count in the request's memory check, from their files' headers,
+before any is loaded (addon/image_memory.py, image_headers.pixel_size, memory_limit). Before,
+only the bake's texels counted: under `ulimit -v` 2.5 GB (SGE's h_vmem) an 8192^2 float EXR
+crashed Blender's load (exit 139, no line), and an 8192^2 16-bit PNG was called damaged (the
+load's failed allocation reads as "unknown file-format")."""
+
+import struct
+import zlib
+
+import pytest
+
+pytestmark = pytest.mark.tier("numpy")
+
+
+def write_png16(path, width, height, rgb=(32768, 32768, 65535)):
+    """A valid 16-bit RGB PNG of one colour (PNG spec: IHDR, one IDAT, IEND), written row by
+    row, so a large one costs neither memory nor Blender's slow writer."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data)))
+    row = b"\0" + struct.pack(">HHH", *rgb) * width
+    z = zlib.compressobj(1)
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n"
+                + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 16, 2, 0, 0, 0)))
+        data = b"".join(z.compress(row) for _ in range(height)) + z.flush()
+        f.write(chunk(b"IDAT", data) + chunk(b"IEND", b""))
+
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("kind", ["png8 RGB", "png8 RGBA", "png8 BW", "png16", "jpeg", "exr half",
+                                  "exr float", "tiff", "hand png16"])
+def test_the_header_size_is_what_blender_loads(kind, tmp_path):
+    """Width, height and float buffer from the header alone, against the image Blender loads
+    from the same file; formats the header walk does not read give None."""
+    bpy = pytest.importorskip("bpy")
+    import numpy as np
+    from surfgrad_addon.addon.image_headers import pixel_size
+    w, h = 48, 20
+    path = tmp_path / "img"
+    if kind == "hand png16":
+        write_png16(path, w, h)
+    else:
+        img = bpy.data.images.new("src", w, h, float_buffer=True)
+        img.pixels.foreach_set(np.random.default_rng(0).random(w * h * 4).astype(np.float32))
+        s = bpy.context.scene.render.image_settings
+        fmt, _, rest = kind.partition(" ")
+        s.file_format = {"png8": "PNG", "png16": "PNG", "jpeg": "JPEG", "exr": "OPEN_EXR",
+                         "tiff": "TIFF"}[fmt]
+        s.color_mode = rest if fmt == "png8" else "RGB"
+        if fmt in ("png8", "png16"):
+            s.color_depth = "8" if fmt == "png8" else "16"
+        if fmt == "exr":
+            s.color_depth = "16" if rest == "half" else "32"
+        img.save_render(str(path), scene=bpy.context.scene)
+        bpy.data.images.remove(img)
+    with open(path, "rb") as f:
+        size = pixel_size(f)
+    loaded = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        if kind == "tiff":
+            assert size is None
+        else:
+            assert size is not None, kind
+            assert (size.width, size.height, size.float_buffer) == (
+                *loaded.size, loaded.is_float), kind
+    finally:
+        bpy.data.images.remove(loaded)
+
+
+def test_images_count_in_the_memory_check(monkeypatch):
+    """The bake's texels plus what its images hold, or the largest image's check copy where
+    that is more; the message names the largest image and the fix."""
+    import resource
+    from surfgrad_addon.addon import memory_limit as ML
+    from surfgrad_addon.addon.image_memory import ImagesMemory
+    gb = 1024 ** 3
+    monkeypatch.setattr(resource, "getrlimit", lambda _: (3 * gb, resource.RLIM_INFINITY))
+    monkeypatch.setattr(ML, "address_space_in_use", lambda: 1 * gb)
+    monkeypatch.setattr(ML, "machine_memory", lambda: None)
+    texels = 8192 * 8192
+    # an 8192^2 float image: 16 + 8 bytes a texel for the bake, 16 + 16 while checked
+    big = ImagesMemory(1, 24 * texels, 32 * texels, "1 image(s) (the largest 'n.exr', "
+                                                    "8192x8192 float)")
+    assert ML.bake_memory_problem(256, 1, big) is None                  # 1.5 + 0.01 GB of 2 GB of room
+    problem = ML.bake_memory_problem(2048, 1, big)                      # 1.5 + 0.7 GB
+    assert problem.startswith("a 2048x2048 bake of 1 tile(s) reading 1 image(s) (the largest "
+                              "'n.exr', 8192x8192 float) needs at least 2.2 GB of memory "), problem
+    assert problem.endswith("bake at a lower --resolution or from smaller images")
+    checked = ImagesMemory(1, 0, int(2.5 * gb), "x")                    # the check's copy
+    assert "needs at least 2.5 GB" in ML.bake_memory_problem(16, 1, checked)
+    assert ML.bake_memory_problem(2048, 1, ImagesMemory(0, 0, 0, "")) is None
+
+
+@pytest.mark.tier("child")
+def test_a_large_image_under_an_address_space_limit_is_refused_before_it_is_loaded(tmp_path):
+    """`ulimit -v` 2.5 GB and an 8192^2 16-bit PNG (1 GB as Blender's float buffer, 2 GB with
+    the check's copy) read by SG Normal Map: refused, exit 2, one line naming the image and the
+    fix, nothing written. Before: "could not be read (damaged ...)" (the same with an EXR was
+    exit 139)."""
+    pytest.importorskip("bpy")
+    import resource
+    import subprocess
+    from test_faults_pipeline32 import _command
+    from test_faults_pipeline_leftovers import _scene
+    write_png16(tmp_path / "big.png", 8192, 8192)
+    blend = _scene(tmp_path / "a.blend", tmp_path / "big.png", via="SG Normal Map")
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (2500000 * 1024, resource.RLIM_INFINITY))
+    out = tmp_path / "out"
+    out.mkdir()
+    done = _command(["bake-normal-map", "--blend", blend, "--object", "Plane", "--output",
+                     out / "n.png", "--resolution", "64"], tmp_path, preexec=limit,
+                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    assert done.returncode == 2, done.stderr[-2000:]
+    (line,) = [x for x in done.stderr.splitlines() if x.startswith("surfgrad: error")]
+    assert line.startswith("surfgrad: error: a 64x64 bake of 1 tile(s) reading 1 image(s) (the "
+                           "largest 'big.png', 8192x8192 float) needs at least 2.0 GB"), line
+    assert "address-space limit of 2.4 GB" in line and "damaged" not in line, line
+    assert list(out.iterdir()) == [] and list((tmp_path / "tmp").iterdir()) == []
