@@ -9,7 +9,7 @@ then adds a group node like Blender's own Add menu entries do.
 import bpy
 from bpy.props import BoolProperty, StringProperty
 
-from . import freeze_operators, groups, operators
+from . import freeze_operators, group_updates, groups, operators
 from ..reference import socket_specs as S
 from .all_or_nothing import all_or_nothing
 from .far_precision import needs_precise_far, set_precise_far_on_node
@@ -219,6 +219,7 @@ in this file first if needed"""
             and active_image(tree) is None
         empty_zone = self.group in groups.SAMPLER_GROUPS and (
             tree.nodes.active is None or tree.nodes.active.bl_idname != "ShaderNodeTexImage")
+        group_updates.take_notes()
         try:
             with all_or_nothing(tree):       # a half-built group is taken away again
                 node = add_group_node(tree, self.group, space.cursor_location)
@@ -226,7 +227,9 @@ in this file first if needed"""
                     set_precise_far_on_node(node)
         except (KeyError, ValueError) as ex:
             self.report({'ERROR'}, str(ex.args[0]))
+            group_updates.report_notes(self)
             return {'CANCELLED'}
+        group_updates.report_notes(self)
         if empty_zone:
             self.report({'INFO'}, f"{self.group} added with an empty Sampler zone: put an "
                         f"Image Texture in it (Vector from the zone, Color to its output) and "
@@ -269,7 +272,7 @@ class NODE_MT_surfgrad_add(_GroupMenu, bpy.types.Menu):
         layout.separator()
         for op in (operators.SURFGRAD_OT_add_layer_stack, operators.SURFGRAD_OT_convert_node,
                    operators.SURFGRAD_OT_add_decal_projector,
-                   *freeze_operators.CLASSES):
+                   *freeze_operators.CLASSES, group_updates.SURFGRAD_OT_update_groups):
             layout.operator(op.bl_idname, text=op.bl_label)
 
 
@@ -302,7 +305,8 @@ def draw_add_menu(self, context):
 
 
 CLASSES = (SURFGRAD_OT_add_group, NODE_MT_surfgrad_add, NODE_MT_surfgrad_geometry_add,
-           *operators.CLASSES, *freeze_operators.CLASSES)
+           *operators.CLASSES, *freeze_operators.CLASSES,
+           group_updates.SURFGRAD_OT_update_groups)
 MENU_HOOKS = ((ADD_MENU, draw_add_menu), (GEOMETRY_ADD_MENU, draw_geometry_add_menu))
 
 
