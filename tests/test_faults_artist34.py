@@ -28,7 +28,9 @@ from support.child import ROOT  # noqa: E402
 from surfgrad_addon.addon import group_updates as U  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.addon.bake_request import BakeRequest, BakeRequestError, bake  # noqa: E402
 from surfgrad_addon.addon.enum_input import set_choice  # noqa: E402
+from surfgrad_addon.addon.foreign_nodes import foreign_node_problems  # noqa: E402
 from surfgrad_addon.addon.group_names import LINE_KEY, VERSION_KEY  # noqa: E402
 from surfgrad_addon.addon.node_builder import running_line, take_notes  # noqa: E402
 from surfgrad_addon.reference import compositing as C  # noqa: E402
@@ -327,3 +329,32 @@ def test_a_52_group_renders_wrong_on_45_until_updated_and_its_choice_set(fresh, 
     assert _render_centre(tmp_path) == pytest.approx(pd, abs=2e-3)
     set_choice(node.inputs["Method"], 3)
     assert _render_centre(tmp_path) == pytest.approx(rnm, abs=2e-3)
+
+
+@pytest.mark.tier("child")
+def test_a_bake_of_a_52_group_on_45_is_refused_not_baked_as_zero(fresh, tmp_path):
+    """The headless bake would have baked the 4.5 look above (no blend) and exited 0."""
+    path = tmp_path / "blend_on_52.blend"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    made = subprocess.run([str(ROOT / ".venv" / "bin" / "python"), "-c", RENDER_SCENE,
+                           str(path)], cwd=str(ROOT), env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert made.returncode == 0, made.stderr[-2000:]
+    if running_line().line == "4.2":
+        return                                   # cannot open it (pinned above)
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    plane = bpy.data.objects["Plane"]
+    problems = foreign_node_problems(plane)
+    if MENUS:
+        assert problems == []
+        return
+    assert len(problems) == 1
+    assert "material 'Blend'" in problems[0] and "'Menu Switch' in node group " \
+        "'SG Blend Normals'" in problems[0] and "Update surfgrad Groups" in problems[0]
+    output = tmp_path / "plane_nrm.png"
+    with pytest.raises(BakeRequestError) as refused:
+        bake(BakeRequest.from_settings("Plane", str(output), {"resolution": 16}))
+    assert problems[0] in str(refused.value)
+    assert not output.exists()
+    U.update_stale_groups()                      # updated here: nothing left to refuse
+    assert foreign_node_problems(plane) == []

@@ -38,6 +38,7 @@ from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
 from .image_checks import image_problems, output_input_problems
 from .memory_limit import bake_memory_problem
+from .foreign_nodes import foreign_node_problems
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
@@ -234,6 +235,7 @@ def _check(request, obj, warn):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
+    problems += foreign_node_problems(obj)          # a newer line's nodes: baked as zero
     stamped = input_stamps.stamps(obj)              # before the checks read the files
     problems += image_problems(obj, tiles)          # the tiles this bake writes
     problem = bake_memory_problem(request.resolution, len(tiles))
