@@ -358,3 +358,18 @@ def test_a_bake_of_a_52_group_on_45_is_refused_not_baked_as_zero(fresh, tmp_path
     assert not output.exists()
     U.update_stale_groups()                      # updated here: nothing left to refuse
     assert foreign_node_problems(plane) == []
+
+
+def test_a_per_image_group_is_updated_for_its_image_and_a_copy_left_is_said(fresh):
+    image = bpy.data.images.new("Heights", 8, 4)
+    tree = G.height_map_group(image, "hq", "EXTEND")
+    copy = tree.copy()                               # "... [Heights].001", as an append makes
+    for group in (tree, copy):
+        group[VERSION_KEY] = G.VERSION - 1
+    updated, left = U.update_stale_groups()
+    assert updated == [tree.name]
+    assert tree[VERSION_KEY] == G.VERSION
+    taps = [n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"]
+    assert taps and all(t.image == image and t.extension == "EXTEND" for t in taps)
+    assert [name for name, _ in left] == [copy.name]
+    assert "add the group again" in left[0][1]

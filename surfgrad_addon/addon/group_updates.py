@@ -140,11 +140,13 @@ def update_stale_groups():
                                               "(add it again from the menu)"))
         else:
             calls.append((tree.name, call))
-    names = {g.name for g in stale}
     for _, call in calls:
         call()
-    updated = sorted(n for n in names if n in bpy.data.node_groups
-                     and bpy.data.node_groups[n] not in stale_groups())
+    still = {g.name for g in stale_groups()}
+    skipped = {name for name, _ in left}
+    left += [(name, "its rebuild did not reach it (add the group again from the menu)")
+             for name, _ in calls if name in still]
+    updated = sorted(g.name for g in stale if g.name not in still and g.name not in skipped)
     return updated, left
 
 
