@@ -171,6 +171,24 @@ def test_the_update_operator_reports_and_refuses_a_users_group(fresh):
         bpy.utils.unregister_class(U.SURFGRAD_OT_update_groups)
 
 
+def _open_saved_on_52(tmp_path, code):
+    """Run `code` (which saves the file named by its argument) on the 5.2 line in a child, open
+    the file here; False on 4.2, which cannot read a file written by 5.x (pinned here)."""
+    python = ROOT / ".venv" / "bin" / "python"
+    assert python.exists(), f"{python}: the 5.2 line's venv (bash run.sh test makes it)"
+    path = tmp_path / "saved_on_52.blend"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    made = subprocess.run([str(python), "-c", code, str(path)], cwd=str(ROOT), env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert made.returncode == 0 and path.exists(), made.stderr[-2000:]
+    if running_line().line == "4.2":
+        with pytest.raises(RuntimeError, match="not a blend file"):
+            bpy.ops.wm.open_mainfile(filepath=str(path))
+        return False
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    return True
+
+
 SAVE_ON_52 = """
 import sys, bpy
 from surfgrad_addon.addon import groups as G
@@ -190,20 +208,8 @@ bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])
 @pytest.mark.tier("child")
 def test_a_menu_choice_made_on_52_is_kept_or_named_on_this_line(fresh, tmp_path):
     """A file saved on 5.2 (the main line, in a child) with a Cone decal and an RNM blend."""
-    python = ROOT / ".venv" / "bin" / "python"
-    assert python.exists(), f"{python}: the 5.2 line's venv (bash run.sh test makes it)"
-    path = tmp_path / "saved_on_52.blend"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    out = subprocess.run([str(python), "-c", SAVE_ON_52, str(path)], cwd=str(ROOT), env=env,
-                         capture_output=True, text=True, timeout=300)
-    assert out.returncode == 0 and path.exists(), out.stderr[-2000:]
-    line = running_line().line
-    if line == "4.2":
-        # 4.2 cannot read a file written by 5.x (its header format): nothing to carry over.
-        with pytest.raises(RuntimeError, match="not a blend file"):
-            bpy.ops.wm.open_mainfile(filepath=str(path))
+    if not _open_saved_on_52(tmp_path, SAVE_ON_52):
         return
-    bpy.ops.wm.open_mainfile(filepath=str(path))
     nodes = bpy.data.materials["Rock"].node_tree.nodes
     decal, blend = nodes["Cone decal"], nodes["RNM blend"]
     take_notes()
@@ -299,20 +305,11 @@ def _blend_colour(method):
 @pytest.mark.tier("child")
 def test_a_52_group_renders_wrong_on_45_until_updated_and_its_choice_set(fresh, tmp_path):
     """The stale groups are wrong, not only old: 4.5 drops a 5.x group's Menu Switch, so SG
-    Blend Normals (RNM, saved on 5.2) renders no blend there (grey: a zero vector); updated it renders Partial
-    Derivative (the first item, with a warning naming the node), and set to RNM again what
-    5.2 renders."""
-    path = tmp_path / "blend_on_52.blend"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    made = subprocess.run([str(ROOT / ".venv" / "bin" / "python"), "-c", RENDER_SCENE,
-                           str(path)], cwd=str(ROOT), env=env, capture_output=True, text=True,
-                          timeout=300)
-    assert made.returncode == 0, made.stderr[-2000:]
-    if running_line().line == "4.2":      # test_a_menu_choice_made_on_52_... pins the refusal
-        with pytest.raises(RuntimeError, match="not a blend file"):
-            bpy.ops.wm.open_mainfile(filepath=str(path))
+    Blend Normals (RNM, saved on 5.2) renders no blend there (grey: a zero vector); updated,
+    it renders Partial Derivative (the first item, with a warning naming the node), and set to
+    RNM again what 5.2 renders."""
+    if not _open_saved_on_52(tmp_path, RENDER_SCENE):
         return
-    bpy.ops.wm.open_mainfile(filepath=str(path))
     node = bpy.data.materials["Blend"].node_tree.nodes["RNM blend"]
     rnm = _rendered_as(tmp_path, _blend_colour(C.blend_rnm))
     pd = _rendered_as(tmp_path, _blend_colour(C.blend_pd))
@@ -334,15 +331,8 @@ def test_a_52_group_renders_wrong_on_45_until_updated_and_its_choice_set(fresh, 
 @pytest.mark.tier("child")
 def test_a_bake_of_a_52_group_on_45_is_refused_not_baked_as_zero(fresh, tmp_path):
     """The headless bake would have baked the 4.5 look above (no blend) and exited 0."""
-    path = tmp_path / "blend_on_52.blend"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    made = subprocess.run([str(ROOT / ".venv" / "bin" / "python"), "-c", RENDER_SCENE,
-                           str(path)], cwd=str(ROOT), env=env, capture_output=True, text=True,
-                          timeout=300)
-    assert made.returncode == 0, made.stderr[-2000:]
-    if running_line().line == "4.2":
-        return                                   # cannot open it (pinned above)
-    bpy.ops.wm.open_mainfile(filepath=str(path))
+    if not _open_saved_on_52(tmp_path, RENDER_SCENE):
+        return
     plane = bpy.data.objects["Plane"]
     problems = foreign_node_problems(plane)
     if MENUS:
