@@ -27,6 +27,7 @@ bpy = pytest.importorskip("bpy")
 from support.child import ROOT  # noqa: E402
 from surfgrad_addon.addon import group_updates as U  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
+from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.addon.bake_request import BakeRequest, BakeRequestError, bake  # noqa: E402
 from surfgrad_addon.addon.enum_input import set_choice  # noqa: E402
@@ -363,3 +364,27 @@ def test_a_per_image_group_is_updated_for_its_image_and_a_copy_left_is_said(fres
     assert taps and all(t.image == image and t.extension == "EXTEND" for t in taps)
     assert [name for name, _ in left] == [copy.name]
     assert "add the group again" in left[0][1]
+
+
+def test_drivers_follow_their_inputs_when_a_rebuild_moves_them(fresh):
+    """A decal projector's drivers name SG Decal's Axis X and Axis Y by index. A group saved
+    before an input was added ahead of them (here DirectX) had them one place earlier: after
+    the rebuild their paths named DirectX and Axis X, so the decal's axes were driven wrong."""
+    tree = G.decal_group()
+    iface = tree.interface
+    iface.remove(next(it for it in iface.items_tree
+                      if it.item_type == "SOCKET" and it.name == "DirectX"))
+    tree[VERSION_KEY] = G.VERSION - 1
+    mat = new_material("Rock")
+    decal = mat.node_tree.nodes.new("ShaderNodeGroup")
+    decal.node_tree, decal.name = tree, 'Decal "A"'       # a name the path escapes
+    empty = bpy.data.objects.new("Projector", None)
+    for axis, column in (("Axis X", 0), ("Axis Y", 1)):
+        O.drive_axis(decal.inputs[axis], empty, column)
+    take_notes()
+    G.decal_group()
+    assert "DirectX" in decal.inputs
+    wanted = {decal.inputs[axis].path_from_id("default_value") for axis in ("Axis X", "Axis Y")}
+    paths = {fc.data_path for fc in mat.node_tree.animation_data.drivers}
+    assert paths == wanted
+    assert take_notes() == []

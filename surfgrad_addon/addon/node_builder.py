@@ -19,6 +19,7 @@ materials survive an add-on update. Enumerations: addon/enum_input.py.
 """
 
 import math
+import re
 from contextlib import contextmanager
 from typing import NamedTuple
 
@@ -96,6 +97,7 @@ def _check_build(name, tree_type, description, build, interface):
 def _rebuild(tree, description, build, interface, version, line):
     """Build `tree` in place: its interface sockets keep their identifiers, so the links and
     values of the group nodes that use it survive."""
+    driven = _driven_inputs(tree)
     tree.nodes.clear()
     tree.description = description
     builder = GroupBuilder(tree)
@@ -105,6 +107,7 @@ def _rebuild(tree, description, build, interface, version, line):
     builder.finish()
     if interface is not None:
         _carry_choices(builder, interface)
+    _follow_drivers(driven)
     tree[VERSION_KEY] = version
     tree[LINE_KEY] = line
 
@@ -527,6 +530,42 @@ def take_notes():
     notes = list(_NOTES)
     _NOTES.clear()
     return notes
+
+
+# A driver's path names a node's input by its index: nodes["Decal"].inputs[4].default_value.
+_INPUT_PATH = re.compile(r'nodes\["((?:[^"\\]|\\.)*)"\]\.inputs\[(\d+)\]')
+
+
+def _driven_inputs(tree):
+    """[(driver F-curve, group node, input identifier)] of the drivers on the inputs of the
+    group nodes using `tree` (the decal projector's): a rebuild that adds, removes or moves an
+    input changes the indices their paths hold."""
+    found = []
+    owners = [m.node_tree for m in bpy.data.materials if m.node_tree] + \
+        list(bpy.data.node_groups)
+    for owner in owners:
+        anim = owner.animation_data
+        for fcurve in anim.drivers if anim is not None else ():
+            match = _INPUT_PATH.match(fcurve.data_path)
+            node = match and owner.nodes.get(bpy.utils.unescape_identifier(match[1]))
+            if node and getattr(node, "node_tree", None) == tree \
+                    and int(match[2]) < len(node.inputs):
+                found.append((fcurve, node, node.inputs[int(match[2])].identifier))
+    return found
+
+
+def _follow_drivers(driven):
+    """Point each driver back at the input it drove (by identifier), wherever the rebuild put
+    it; one whose input is gone is a note."""
+    for fcurve, node, identifier in driven:
+        index = next((i for i, s in enumerate(node.inputs) if s.identifier == identifier), None)
+        match = _INPUT_PATH.match(fcurve.data_path)
+        if index is None:
+            _NOTES.append(f"{node.name!r} ({node.node_tree.name}): the input its driver "
+                          f"{fcurve.data_path!r} drove is gone: remove that driver")
+        elif int(match[2]) != index:
+            fcurve.data_path = (fcurve.data_path[:match.start(2)] + str(index)
+                                + fcurve.data_path[match.end(2):])
 
 
 def _constant_behind(socket):
