@@ -28,7 +28,7 @@ from support.child import ROOT  # noqa: E402
 from surfgrad_addon.addon import group_updates as U  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
-from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.addon.compat import animated_fcurves, new_material  # noqa: E402
 from surfgrad_addon.addon.bake_request import BakeRequest, BakeRequestError, bake  # noqa: E402
 from surfgrad_addon.addon.enum_input import set_choice  # noqa: E402
 from surfgrad_addon.addon.foreign_nodes import foreign_node_problems  # noqa: E402
@@ -367,9 +367,10 @@ def test_a_per_image_group_is_updated_for_its_image_and_a_copy_left_is_said(fres
 
 
 def test_drivers_follow_their_inputs_when_a_rebuild_moves_them(fresh):
-    """A decal projector's drivers name SG Decal's Axis X and Axis Y by index. A group saved
-    before an input was added ahead of them (here DirectX) had them one place earlier: after
-    the rebuild their paths named DirectX and Axis X, so the decal's axes were driven wrong."""
+    """A decal projector's drivers name SG Decal's Axis X and Axis Y by index (keyframes name
+    inputs so too). A group saved before an input was added ahead of them (here DirectX) had
+    them one place earlier: after the rebuild their paths named DirectX and Axis X, so the
+    decal's axes were driven wrong."""
     tree = G.decal_group()
     iface = tree.interface
     iface.remove(next(it for it in iface.items_tree
@@ -381,10 +382,13 @@ def test_drivers_follow_their_inputs_when_a_rebuild_moves_them(fresh):
     empty = bpy.data.objects.new("Projector", None)
     for axis, column in (("Axis X", 0), ("Axis Y", 1)):
         O.drive_axis(decal.inputs[axis], empty, column)
+    decal.inputs["Strength"].keyframe_insert("default_value", frame=1)    # keyed: the same
     take_notes()
     G.decal_group()
     assert "DirectX" in decal.inputs
     wanted = {decal.inputs[axis].path_from_id("default_value") for axis in ("Axis X", "Axis Y")}
-    paths = {fc.data_path for fc in mat.node_tree.animation_data.drivers}
-    assert paths == wanted
+    anim = mat.node_tree.animation_data
+    assert {fc.data_path for fc in anim.drivers} == wanted
+    assert {fc.data_path for fc in animated_fcurves(anim)} - wanted == \
+        {decal.inputs["Strength"].path_from_id("default_value")}
     assert take_notes() == []

@@ -27,6 +27,7 @@ import bpy
 
 from ..reference.group_interfaces import plain_value
 from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
+from .compat import animated_fcurves
 from .group_names import (LINE_KEY, VERSION_KEY, fitting_name, newer_group_problem,
                           stale_copies)
 from .node_vocabulary import VALUE_OPS, Math, VMath
@@ -532,20 +533,20 @@ def take_notes():
     return notes
 
 
-# A driver's path names a node's input by its index: nodes["Decal"].inputs[4].default_value.
+# A driver's or keyframe's path names a node's input by its index: nodes["Decal"].inputs[4].default_value.
 _INPUT_PATH = re.compile(r'nodes\["((?:[^"\\]|\\.)*)"\]\.inputs\[(\d+)\]')
 
 
 def _driven_inputs(tree):
-    """[(driver F-curve, group node, input identifier)] of the drivers on the inputs of the
-    group nodes using `tree` (the decal projector's): a rebuild that adds, removes or moves an
-    input changes the indices their paths hold."""
+    """[(F-curve, group node, input identifier)] of the drivers (the decal projector's) and
+    keyframes on the inputs of the group nodes using `tree`: a rebuild that adds, removes or
+    moves an input changes the indices their paths hold."""
     found = []
     owners = [m.node_tree for m in bpy.data.materials if m.node_tree] + \
         list(bpy.data.node_groups)
     for owner in owners:
         anim = owner.animation_data
-        for fcurve in anim.drivers if anim is not None else ():
+        for fcurve in animated_fcurves(anim) if anim is not None else ():
             match = _INPUT_PATH.match(fcurve.data_path)
             node = match and owner.nodes.get(bpy.utils.unescape_identifier(match[1]))
             if node and getattr(node, "node_tree", None) == tree \
@@ -555,14 +556,15 @@ def _driven_inputs(tree):
 
 
 def _follow_drivers(driven):
-    """Point each driver back at the input it drove (by identifier), wherever the rebuild put
-    it; one whose input is gone is a note."""
+    """Point each F-curve back at the input it animated (by identifier), wherever the rebuild
+    put it; one whose input is gone is a note."""
     for fcurve, node, identifier in driven:
         index = next((i for i, s in enumerate(node.inputs) if s.identifier == identifier), None)
         match = _INPUT_PATH.match(fcurve.data_path)
         if index is None:
-            _NOTES.append(f"{node.name!r} ({node.node_tree.name}): the input its driver "
-                          f"{fcurve.data_path!r} drove is gone: remove that driver")
+            _NOTES.append(f"{node.name!r} ({node.node_tree.name}): the input that "
+                          f"{fcurve.data_path!r} animated is gone: remove that driver or "
+                          f"keyframe")
         elif int(match[2]) != index:
             fcurve.data_path = (fcurve.data_path[:match.start(2)] + str(index)
                                 + fcurve.data_path[match.end(2):])
