@@ -18,6 +18,7 @@ rebuilds them all in place, values and links kept.
 
 import os
 import subprocess
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -28,6 +29,7 @@ from support.child import ROOT  # noqa: E402
 from surfgrad_addon.addon import group_updates as U  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
+from surfgrad_addon.addon import ui  # noqa: E402
 from surfgrad_addon.addon.compat import animated_fcurves, new_material  # noqa: E402
 from surfgrad_addon.addon.bake_request import BakeRequest, BakeRequestError, bake  # noqa: E402
 from surfgrad_addon.addon.enum_input import set_choice  # noqa: E402
@@ -392,3 +394,56 @@ def test_drivers_follow_their_inputs_when_a_rebuild_moves_them(fresh):
     assert {fc.data_path for fc in animated_fcurves(anim)} - wanted == \
         {decal.inputs["Strength"].path_from_id("default_value")}
     assert take_notes() == []
+
+
+def _override_material(tmp_path):
+    """A material of a library file (SG groups in it) made a library override here, on a
+    plane; returns (override, plane)."""
+    library = tmp_path / "library.blend"
+    bpy.ops.mesh.primitive_plane_add()
+    mat = new_material("Library Rock")
+    bpy.context.object.data.materials.append(mat)
+    O.add_layer_stack(mat.node_tree)
+    bpy.ops.wm.save_as_mainfile(filepath=str(library))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with bpy.data.libraries.load(str(library), link=True) as (_, into):
+        into.materials = ["Library Rock"]
+    override = bpy.data.materials["Library Rock"].override_create(remap_local_usages=True)
+    bpy.ops.mesh.primitive_plane_add()
+    bpy.context.object.data.materials.append(override)
+    return override, bpy.context.object
+
+
+def test_nodes_added_to_a_library_overrides_tree_are_not_saved(fresh, tmp_path):
+    """The Blender fact behind the refusal below, on every line: the override's tree says it is
+    editable and takes a node, and the saved file drops it."""
+    override, _ = _override_material(tmp_path)
+    count = len(override.node_tree.nodes)
+    assert override.is_editable and override.node_tree.is_editable
+    override.node_tree.nodes.new("ShaderNodeValue")
+    saved = tmp_path / "user.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(saved))
+    bpy.ops.wm.open_mainfile(filepath=str(saved))
+    reopened = next(m for m in bpy.data.materials if m.override_library is not None)
+    assert len(reopened.node_tree.nodes) == count
+
+
+def test_the_operators_refuse_a_library_overrides_material(fresh, tmp_path):
+    """Add Layer Stack, Add Decal Projector, Convert and the Add menu edited an override's
+    nodes and reported success; the saved file lost the edit."""
+    override, plane = _override_material(tmp_path)
+    tree = override.node_tree
+    count = len(tree.nodes)
+    node = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeGroup")
+    with pytest.raises(O.SurfgradError, match="override data"):
+        O.add_layer_stack(tree)
+    with pytest.raises(O.SurfgradError, match="override data"):
+        O.add_decal_projector(bpy.context, tree)
+    with pytest.raises(O.SurfgradError, match="override data"):
+        O.convert_node(tree, node)
+    context = SimpleNamespace(object=plane, space_data=None)
+    with pytest.raises(O.SurfgradError, match="override data"):
+        O.shown_tree(context)
+    editor = SimpleNamespace(type="NODE_EDITOR", tree_type="ShaderNodeTree", edit_tree=tree)
+    assert "override" in ui.shader_tree_problem(SimpleNamespace(space_data=editor))
+    assert len(tree.nodes) == count

@@ -13,7 +13,7 @@ from bpy.props import EnumProperty, StringProperty
 from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
 from .enum_input import set_choice
-from .material_inputs import linked_text
+from .material_inputs import edits_lost, linked_text
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .group_updates import draw_stale_warning, report_notes, take_notes
@@ -34,19 +34,24 @@ def _active_tree(context):
     if mat is None:
         raise SurfgradError(f"{obj.name!r} has no material: add one in the Material "
                             f"Properties first")
-    if not mat.is_editable:
+    if edits_lost(mat):
         raise SurfgradError(linked_text(repr(mat.name)))
     if mat.node_tree is None:
         mat.use_nodes = True
     return mat, mat.node_tree
 
 
+def tree_owner(tree):
+    """The material whose node tree `tree` is, or None (a node group)."""
+    return next((m for m in bpy.data.materials if m.node_tree == tree), None)
+
+
 def require_editable(tree):
     """Refuse a node tree whose edits would be lost: linked from a library (a linked
     material's tree is too), or override data. Python may add nodes to such a tree, but the
     file never saves them."""
-    if not tree.is_editable:
-        owner = next((m for m in bpy.data.materials if m.node_tree == tree), None)
+    owner = tree_owner(tree)
+    if edits_lost(tree, owner):
         raise SurfgradError(linked_text(f"material {owner.name!r}" if owner is not None
                                          else f"node tree {tree.name!r}"))
 
