@@ -40,10 +40,12 @@ def stale_text(stale):
     """What the sidebar says of `stale` groups (a list; empty: None)."""
     if not stale:
         return None
-    lines = sorted({str(g.get(LINE_KEY, "?")) for g in stale})
-    return (f"{len(stale)} surface-gradient group(s) were built by an older surfgrad or for "
-            f"Blender {', '.join(lines)}, and may render differently here: Update surfgrad "
-            f"Groups rebuilds them for Blender {running_line().line}")
+    here = running_line().line
+    lines = sorted({g.get(LINE_KEY) for g in stale} - {None, here})
+    where = f" or for Blender {', '.join(lines)}" if lines else ""
+    return (f"{len(stale)} surface-gradient group(s) were built by an older surfgrad{where}, "
+            f"and may render differently here: Update surfgrad Groups rebuilds them for "
+            f"Blender {here}")
 
 
 def _interior(tree, bl_idname, prop):
