@@ -447,3 +447,25 @@ def test_the_operators_refuse_a_library_overrides_material(fresh, tmp_path):
     editor = SimpleNamespace(type="NODE_EDITOR", tree_type="ShaderNodeTree", edit_tree=tree)
     assert "override" in ui.shader_tree_problem(SimpleNamespace(space_data=editor))
     assert len(tree.nodes) == count
+
+
+def test_a_choice_linked_from_a_computed_value_keeps_the_value_typed_under_it(fresh):
+    """A link from a node whose value is not known here (a Math node): the integer typed under
+    the link (4, Wedge) is kept, and the dropped link named."""
+    tree = G.decal_group()
+    _as_older_integer(tree, "Shape")
+    mat = new_material("Rock")
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    decal = nodes.new("ShaderNodeGroup")
+    decal.node_tree = tree
+    decal.inputs["Shape"].default_value = 4
+    math = nodes.new("ShaderNodeMath")
+    links.new(math.outputs[0], decal.inputs["Shape"])
+    take_notes()
+    G.decal_group()
+    notes = take_notes()
+    if not MENUS:
+        assert decal.inputs["Shape"].links[0].from_node == math and notes == []
+        return
+    assert decal.inputs["Shape"].default_value == "Wedge"
+    assert len(notes) == 1 and "'Math'" in notes[0] and "'Wedge'" in notes[0], notes
