@@ -54,13 +54,17 @@ def _as_older_integer(tree, name):
     tree[VERSION_KEY] = G.VERSION - 1
 
 
-def test_a_linked_integer_choice_keeps_what_its_link_gave_and_is_reported(fresh):
+def _older_decal_node():
+    """A node of SG Decal as an older surfgrad saved it (an integer Shape) in material Rock."""
     tree = G.decal_group()
     _as_older_integer(tree, "Shape")
-    mat = new_material("Rock")
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
-    decal = nodes.new("ShaderNodeGroup")
+    decal = new_material("Rock").node_tree.nodes.new("ShaderNodeGroup")
     decal.node_tree = tree
+    return decal, decal.id_data.nodes, decal.id_data.links
+
+
+def test_a_linked_integer_choice_keeps_what_its_link_gave_and_is_reported(fresh):
+    decal, nodes, links = _older_decal_node()
     decal.name = "Driven decal"
     value = nodes.new("ShaderNodeValue")
     value.outputs[0].default_value = 3.0          # Cone
@@ -452,12 +456,7 @@ def test_the_operators_refuse_a_library_overrides_material(fresh, tmp_path):
 def test_a_choice_linked_from_a_computed_value_keeps_the_value_typed_under_it(fresh):
     """A link from a node whose value is not known here (a Math node): the integer typed under
     the link (4, Wedge) is kept, and the dropped link named."""
-    tree = G.decal_group()
-    _as_older_integer(tree, "Shape")
-    mat = new_material("Rock")
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
-    decal = nodes.new("ShaderNodeGroup")
-    decal.node_tree = tree
+    decal, nodes, links = _older_decal_node()
     decal.inputs["Shape"].default_value = 4
     math = nodes.new("ShaderNodeMath")
     links.new(math.outputs[0], decal.inputs["Shape"])
