@@ -520,7 +520,7 @@ def test_install_menu_operator_and_clean_disable(installed):
     assert {e["operator"] for e in r["entries"]} == {"surfgrad.add_group"}
     assert r["tool_entries"] == ["surfgrad.add_layer_stack", "surfgrad.convert_node",
                                  "surfgrad.add_decal_projector", "surfgrad.freeze_stack",
-                                 "surfgrad.thaw_stack"]
+                                 "surfgrad.thaw_stack", "surfgrad.update_groups"]
     op = r["operators"]["surfgrad.add_group"]
     assert op["class"] == "SURFGRAD_OT_add_group"
     assert op["bl_options"] == ["REGISTER", "UNDO"]

@@ -473,7 +473,8 @@ def test_sidebar_panel_polls_only_in_a_shader_editor(session_report):
     assert p["poll_shader_editor"] is True
     assert p["poll_shader_editor_no_tree"] is True      # a Shader Editor, even without a tree
     assert p["poll_view3d"] is False and p["poll_geometry_editor"] is False
-    assert p["draws"] == [*OPERATORS, "surfgrad.freeze_stack", "surfgrad.thaw_stack"]
+    assert p["draws"] == [*OPERATORS, "surfgrad.freeze_stack", "surfgrad.thaw_stack",
+                          "surfgrad.update_groups"]
 
 
 def _finished_twice(r):

@@ -40,6 +40,7 @@ from .float_pixels import one_pixel_read
 from .image_checks import image_problems, output_input_problems
 from .image_memory import images_memory
 from .memory_limit import bake_memory_problem
+from .foreign_nodes import foreign_node_problems
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
@@ -236,6 +237,7 @@ def _check(request, obj, warn):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
+    problems += foreign_node_problems(obj)          # a newer line's nodes: baked as zero
     stamped = input_stamps.stamps(obj)              # before the checks read the files
     # Before the image checks load the images: one too large for the process crashed the load,
     # so where they do not fit they are not loaded (nor checked further).

@@ -4,6 +4,8 @@ place, decided by what the running Blender has rather than by its version number
 - Geometry Nodes modifier inputs: ID properties (`mod[identifier]`) up to 5.0; from 5.1
   `mod.properties.inputs.<identifier>.value`, and item assignment raises TypeError.
 - A new material has a node tree from 5.0; before, only after `use_nodes = True`.
+- An action's F-curves: `action.fcurves` up to 4.5; from 5.0 only in the channelbag of the
+  animation data's slot (bpy_extras.anim_utils).
 (tests/test_line_facts.py pins both on every line.)
 """
 
@@ -42,3 +44,16 @@ def set_input(mod, name, value):
     if abs(float(got) - float(value)) > 1e-6 * max(1.0, abs(float(value))):
         raise ValueError(f"the modifier {mod.name!r} input {name!r} reads back {got!r}, "
                          f"not {value!r}")
+
+
+def animated_fcurves(anim):
+    """The F-curves of animation data `anim`: its drivers and its action's keyframes."""
+    fcurves = list(anim.drivers)
+    action = anim.action
+    if action is not None and hasattr(action, "fcurves"):
+        fcurves += list(action.fcurves)
+    elif action is not None:
+        from bpy_extras.anim_utils import animdata_get_channelbag_for_assigned_slot
+        bag = animdata_get_channelbag_for_assigned_slot(anim)
+        fcurves += list(bag.fcurves) if bag is not None else []
+    return fcurves

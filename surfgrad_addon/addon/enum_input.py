@@ -26,7 +26,8 @@ def choose(b, selector, candidates):
 
 def menu_switch(b, selector, candidates, data_type="VECTOR"):
     """A Menu Switch on `selector` (a Menu group input) with the spec's items, candidates[k]
-    the k-th item's value; sets the Menu's default and carries an earlier integer's values."""
+    the k-th item's value; sets the Menu's default (the group nodes' earlier integers are
+    carried over after the build: node_builder._carry_choices)."""
     spec = b.declared_spec(selector)
     switch = b.node("GeometryNodeMenuSwitch", data_type=data_type)
     items = switch.enum_items
@@ -42,10 +43,6 @@ def menu_switch(b, selector, candidates, data_type="VECTOR"):
     item = b._item(selector.identifier)
     item.default_value = spec.default
     check_value(item.default_value, spec.default, f"{b.where}: {spec.name!r} default")
-    # An integer socket of an earlier version: its index becomes the item of that index.
-    for node, value in b.retyped.pop(spec.name, ()):
-        if isinstance(value, int) and 0 <= value < len(spec.items):
-            set_choice(node.inputs[selector.name], value)
     return switch.outputs[0]
 
 

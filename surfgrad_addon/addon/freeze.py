@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import normal_bake as NB
-from .material_inputs import linked_text
+from .material_inputs import edits_lost, linked_text
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
@@ -364,7 +364,7 @@ def thaw(mat):
     record = frozen_record(mat)
     if record is None:
         raise FreezeError(f"material {mat.name!r} is not frozen: nothing to thaw")
-    if not mat.is_editable:
+    if edits_lost(mat):
         raise FreezeError(linked_text(f"material {mat.name!r}"))
     tree = mat.node_tree
     for from_node, from_id, to_node, to_id in record["links"]:

@@ -104,6 +104,16 @@ def missing_library_problem(block, what="object"):
     return None
 
 
+def edits_lost(*blocks):
+    """True when an edit of these data-blocks (a material, its node tree) would never be saved:
+    linked from a library, or a library override. An override's node tree reports itself
+    editable on every line (4.2 to 5.2) and takes new nodes, but the file keeps only an
+    override's changed values: reopened, the nodes are gone."""
+    return any(b is not None and (not b.is_editable or b.library is not None
+                                  or getattr(b, "override_library", None) is not None)
+               for b in blocks)
+
+
 def linked_text(what):
     """Why an edit of `what` (a material, a node tree) is refused: the file would not save it."""
     return (f"{what} is linked from a library (or override data), so an edit would not be "

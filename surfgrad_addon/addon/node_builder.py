@@ -18,12 +18,16 @@ socket still exists, or was renamed: SocketSpec.renamed_from), so links and valu
 materials survive an add-on update. Enumerations: addon/enum_input.py.
 """
 
+import math
+import re
 from contextlib import contextmanager
+from typing import NamedTuple
 
 import bpy
 
 from ..reference.group_interfaces import plain_value
 from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
+from .compat import animated_fcurves
 from .group_names import (LINE_KEY, VERSION_KEY, fitting_name, newer_group_problem,
                           stale_copies)
 from .node_vocabulary import VALUE_OPS, Math, VMath
@@ -63,13 +67,16 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     if problem:
         raise ValueError(problem)
     line = running_line().line
-    if stale is None:
-        # Copies Blender named "<name>.001" when a material was appended or linked in from a
-        # file with older groups: rebuilt here too, or the two versions stay mixed for good.
-        for copy in stale_copies(name, version, line, tree_type):
-            _rebuild(copy, description, build, interface, version, line)
-    if (tree is not None and tree.get(VERSION_KEY) == version and tree.get(LINE_KEY) == line
-            and not (stale and stale(tree))):
+    # Copies Blender named "<name>.001" when a material was appended or linked in from a
+    # file with older groups: rebuilt here too, or the two versions stay mixed for good.
+    copies = stale_copies(name, version, line, tree_type) if stale is None else []
+    current = (tree is not None and tree.get(VERSION_KEY) == version
+               and tree.get(LINE_KEY) == line and not (stale and stale(tree)))
+    if copies or (tree is not None and not current):
+        _check_build(name, tree_type, description, build, interface)
+    for copy in copies:
+        _rebuild(copy, description, build, interface, version, line)
+    if current:
         return tree
     if tree is None:
         tree = bpy.data.node_groups.new(name, tree_type)
@@ -77,9 +84,21 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     return tree
 
 
+def _check_build(name, tree_type, description, build, interface):
+    """Build once into a scratch group, then remove it: what the build refuses (a group of the
+    user's under a helper's name, a node this line lacks) is refused before an existing group
+    is cleared, so a refusal leaves the artist's group, and every look using it, as it was."""
+    scratch = bpy.data.node_groups.new(f"{name} (build check)", tree_type)
+    try:
+        _rebuild(scratch, description, build, interface, 0, "")
+    finally:
+        bpy.data.node_groups.remove(scratch)
+
+
 def _rebuild(tree, description, build, interface, version, line):
     """Build `tree` in place: its interface sockets keep their identifiers, so the links and
     values of the group nodes that use it survive."""
+    driven = _driven_inputs(tree)
     tree.nodes.clear()
     tree.description = description
     builder = GroupBuilder(tree)
@@ -87,6 +106,9 @@ def _rebuild(tree, description, build, interface, version, line):
         builder.declare(interface.for_line(running_line().menu_sockets))
     build(builder)
     builder.finish()
+    if interface is not None:
+        _carry_choices(builder, interface)
+    _follow_drivers(driven)
     tree[VERSION_KEY] = version
     tree[LINE_KEY] = line
 
@@ -269,7 +291,7 @@ class GroupBuilder(NodeOps):
         self._specs = {}           # (in_out, name) -> (SocketSpec, identifier)
         self._used = set()
         self._fixed = False        # True once an interface is declared: nothing may be added
-        self.retyped = {}          # name -> [(group node, value)] of a socket that changed type
+        self.retyped = {}          # name -> [GroupNodeInput] of a socket that changed type
         self.group_in = self.nodes.new("NodeGroupInput")
         self.group_out = self.nodes.new("NodeGroupOutput")
 
@@ -300,7 +322,7 @@ class GroupBuilder(NodeOps):
             item.name = name        # renamed in place: same identifier, links and values kept
         if item is not None and item.socket_type != bl_type:
             # A new type (an integer become a Menu): the nodes' values, for the new socket.
-            self.retyped[name] = group_node_values(self.tree, item.identifier)
+            self.retyped[name] = group_node_inputs(self.tree, item.identifier)
             self.tree.interface.remove(item)
             item = None
         if item is None:
@@ -474,19 +496,126 @@ class GroupBuilder(NodeOps):
             n.location = (col * 220.0, -row * 170.0)
 
 
-def group_node_values(tree, identifier):
-    """[(node, value)] of input `identifier` on every group node of `tree` (in materials and
+class GroupNodeInput(NamedTuple):
+    """One group node's input as it was before a rebuild: where the node is, its value, and
+    the socket linked into it (None when unlinked)."""
+    owner: str                # "material 'Rock'" or "node group 'Mine'"
+    node: bpy.types.Node
+    value: object
+    source: object
+
+
+def group_node_inputs(tree, identifier):
+    """[GroupNodeInput] of input `identifier` on every group node of `tree` (in materials and
     node groups)."""
+    found = []
+    owners = [(f"material {m.name!r}", m.node_tree) for m in bpy.data.materials
+              if m.node_tree] + [(f"node group {g.name!r}", g) for g in bpy.data.node_groups]
+    for owner, owner_tree in owners:
+        for node in owner_tree.nodes:
+            if getattr(node, "node_tree", None) == tree:
+                for s in node.inputs:
+                    if s.identifier == identifier and hasattr(s, "default_value"):
+                        source = s.links[0].from_socket if s.is_linked else None
+                        found.append(GroupNodeInput(owner, node, s.default_value, source))
+    return found
+
+
+# What a rebuild could not carry over and the artist must hear of (a choice Blender cannot
+# read here, a link it cannot keep): the operators report these as warnings (take_notes).
+_NOTES = []
+
+
+def take_notes():
+    """The notes of the rebuilds since the last call (and forget them)."""
+    notes = list(_NOTES)
+    _NOTES.clear()
+    return notes
+
+
+# A driver's or keyframe's path names a node's input by its index: nodes["Decal"].inputs[4].default_value.
+_INPUT_PATH = re.compile(r'nodes\["((?:[^"\\]|\\.)*)"\]\.inputs\[(\d+)\]')
+
+
+def _driven_inputs(tree):
+    """[(F-curve, group node, input identifier)] of the drivers (the decal projector's) and
+    keyframes on the inputs of the group nodes using `tree`: a rebuild that adds, removes or
+    moves an input changes the indices their paths hold."""
     found = []
     owners = [m.node_tree for m in bpy.data.materials if m.node_tree] + \
         list(bpy.data.node_groups)
     for owner in owners:
-        for node in owner.nodes:
-            if getattr(node, "node_tree", None) == tree:
-                for s in node.inputs:
-                    if s.identifier == identifier and hasattr(s, "default_value"):
-                        found.append((node, s.default_value))
+        anim = owner.animation_data
+        for fcurve in animated_fcurves(anim) if anim is not None else ():
+            match = _INPUT_PATH.match(fcurve.data_path)
+            node = match and owner.nodes.get(bpy.utils.unescape_identifier(match[1]))
+            if node and getattr(node, "node_tree", None) == tree \
+                    and int(match[2]) < len(node.inputs):
+                found.append((fcurve, node, node.inputs[int(match[2])].identifier))
     return found
+
+
+def _follow_drivers(driven):
+    """Point each F-curve back at the input it animated (by identifier), wherever the rebuild
+    put it; one whose input is gone is a note."""
+    for fcurve, node, identifier in driven:
+        index = next((i for i, s in enumerate(node.inputs) if s.identifier == identifier), None)
+        match = _INPUT_PATH.match(fcurve.data_path)
+        if index is None:
+            _NOTES.append(f"{node.name!r} ({node.node_tree.name}): the input that "
+                          f"{fcurve.data_path!r} animated is gone: remove that driver or "
+                          f"keyframe")
+        elif int(match[2]) != index:
+            fcurve.data_path = (fcurve.data_path[:match.start(2)] + str(index)
+                                + fcurve.data_path[match.end(2):])
+
+
+def _constant_behind(socket):
+    """The value of a Value node that feeds `socket`'s link (through reroutes), else None."""
+    node = socket.node
+    while node.bl_idname == "NodeReroute" and node.inputs[0].is_linked:
+        node = node.inputs[0].links[0].from_node
+    return node.outputs[0].default_value if node.bl_idname == "ShaderNodeValue" else None
+
+
+def _carry_choices(b, interface):
+    """Each group node's choice from before its enumeration input changed type (an integer of
+    an older surfgrad or line become a Menu on 5.0+, a Menu made on 5.0+ become the integer of
+    4.5): the same item wherever it can be known, and otherwise a note naming the node: never
+    a silently different look."""
+    here = f"Blender {bpy.app.version_string}"
+    for name, uses in b.retyped.items():
+        spec = next((s for s in interface.inputs if s.name == name), None)
+        if spec is None or not spec.items:
+            continue
+        names = spec.item_names()
+        for use in uses:
+            socket = use.node.inputs.get(name)
+            if socket is None:
+                continue
+            where = f"{use.node.name!r} ({b.tree.name}) in {use.owner}"
+            index, why = None, ""
+            if isinstance(use.value, str):        # a Menu's item, if this line can read it
+                if use.value in names:
+                    index = names.index(use.value)
+                else:
+                    why = (f"its {name} menu (set on Blender 5.0 or later) cannot be read on "
+                           f"{here}")
+            else:
+                index = use.value
+                if use.source is not None:
+                    given = _constant_behind(use.source)
+                    if given is not None:
+                        index = math.floor(given + 0.5)
+                    why = (f"its {name} was linked from {use.source.node.name!r}, and a "
+                           f"{socket.type.lower()} input cannot take that link on {here}")
+                if not 0 <= index < len(names):
+                    why = why or f"its {name} was {use.value}, no item's number"
+                    index = None
+            chosen = 0 if index is None else index
+            socket.default_value = names[chosen] if socket.type == "MENU" else chosen
+            if why:
+                _NOTES.append(f"{where}: {why}; it is now {names[chosen]!r}: check it")
 
 
 def interface_signature(tree):

@@ -13,9 +13,10 @@ from bpy.props import EnumProperty, StringProperty
 from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
 from .enum_input import set_choice
-from .material_inputs import linked_text
+from .material_inputs import edits_lost, linked_text
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
+from .group_updates import draw_stale_warning, report_notes, take_notes
 from .far_precision import needs_precise_far, set_precise_far_on_node
 
 NORMAL_SOCKET = "Normal"
@@ -33,19 +34,24 @@ def _active_tree(context):
     if mat is None:
         raise SurfgradError(f"{obj.name!r} has no material: add one in the Material "
                             f"Properties first")
-    if not mat.is_editable:
+    if edits_lost(mat):
         raise SurfgradError(linked_text(repr(mat.name)))
     if mat.node_tree is None:
         mat.use_nodes = True
     return mat, mat.node_tree
 
 
+def tree_owner(tree):
+    """The material whose node tree `tree` is, or None (a node group)."""
+    return next((m for m in bpy.data.materials if m.node_tree == tree), None)
+
+
 def require_editable(tree):
     """Refuse a node tree whose edits would be lost: linked from a library (a linked
     material's tree is too), or override data. Python may add nodes to such a tree, but the
     file never saves them."""
-    if not tree.is_editable:
-        owner = next((m for m in bpy.data.materials if m.node_tree == tree), None)
+    owner = tree_owner(tree)
+    if edits_lost(tree, owner):
         raise SurfgradError(linked_text(f"material {owner.name!r}" if owner is not None
                                          else f"node tree {tree.name!r}"))
 
@@ -354,16 +360,19 @@ into SG Resolve, wired into the BSDF's Normal"""
                            "active render UV map)", default="")
 
     def execute(self, context):
+        take_notes()
         try:
             tree = shown_tree(context)
             with all_or_nothing(tree):
                 made = add_layer_stack(tree, self.uv_map)
         except (ValueError, RuntimeError) as err:      # SurfgradError, a foreign group
             self.report({'ERROR'}, str(err))
+            report_notes(self)
             return {'CANCELLED'}
         note = " (replaced the previous link into Normal)" if made["replaced"] else ""
         self.report({'INFO'}, f"Added SG Normal Map, SG Combine and SG Resolve{note}; link "
                               f"your normal map image into SG Normal Map's Color")
+        report_notes(self)
         return {'FINISHED'}
 
 
@@ -390,13 +399,16 @@ same look (links are kept)"""
             self.report({'ERROR'}, "No active node: click a Normal Map or Bump node first")
             return {'CANCELLED'}
         kind = node.bl_label
+        take_notes()
         try:
             with all_or_nothing(tree):
                 convert_node(tree, node)
         except (ValueError, RuntimeError) as err:      # SurfgradError, a foreign group
             self.report({'ERROR'}, str(err))
+            report_notes(self)
             return {'CANCELLED'}
         self.report({'INFO'}, f"Converted the {kind} node to surface gradients")
+        report_notes(self)
         return {'FINISHED'}
 
 
@@ -424,6 +436,7 @@ material; the decal's axes follow the empty"""
                 "ends, fading by the distance to its axis segment")))
 
     def execute(self, context):
+        take_notes()
         try:
             tree = shown_tree(context)
             image = bpy.data.images.get(self.image) if self.image else None
@@ -434,10 +447,12 @@ material; the decal's axes follow the empty"""
                 empty, _ = add_decal_projector(context, tree, image, shape=self.shape)
         except (ValueError, RuntimeError) as err:      # SurfgradError, a foreign group
             self.report({'ERROR'}, str(err))
+            report_notes(self)
             return {'CANCELLED'}
         self.report({'INFO'}, f"Added {empty.name!r} ({self.shape}): scale it to size the "
                               f"decal; link your surface gradients into SG Decal's Base "
                               f"Gradient (add or overwrite)")
+        report_notes(self)
         return {'FINISHED'}
 
 
@@ -459,6 +474,8 @@ class NODE_PT_surfgrad(bpy.types.Panel):
         col.operator(SURFGRAD_OT_add_decal_projector.bl_idname, icon="MOD_UVPROJECT")
         col.operator("surfgrad.freeze_stack", icon="FREEZE")      # freeze_operators.py
         col.operator("surfgrad.thaw_stack", icon="FILE_REFRESH")
+        col.operator("surfgrad.update_groups", icon="FILE_REFRESH")   # group_updates.py
+        draw_stale_warning(self.layout)
         draw_far_warning(self.layout, context)
 
 

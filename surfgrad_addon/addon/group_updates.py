@@ -1,0 +1,189 @@
+"""A file's stale surface-gradient groups and their update in place. A group built by an older
+surfgrad, or on another Blender line, renders as that one built it until something rebuilds
+it; some are wrong here (a group built on 5.0+ chooses with a Menu Switch, which 4.5 drops: the
+group outputs zero). Nothing is rebuilt when a file opens: the sidebar says so, and Update
+surfgrad Groups rebuilds them (node_builder.ensure_group keeps their nodes' values and links).
+"""
+
+import re
+import textwrap
+
+import bpy
+
+from . import groups as G
+from .group_names import LINE_KEY, VERSION_KEY
+from .all_or_nothing import all_or_nothing
+from .node_builder import running_line, take_notes
+
+_COPY = re.compile(r"\.\d+$")        # Blender's ".001" of an appended copy
+
+
+def report_notes(op):
+    """Warn of what the groups' rebuilds in an operator could not carry over (a choice this
+    Blender cannot read, a link it cannot keep), naming each node: where the artist looks."""
+    for text in take_notes():
+        op.report({'WARNING'}, text)
+
+
+def stale_groups():
+    """Our groups in this file (local, editable) built by an older surfgrad or for another
+    Blender line; a newer surfgrad's are left alone (node_builder refuses them)."""
+    line = running_line().line
+    return [g for g in bpy.data.node_groups
+            if g.library is None and g.override_library is None and g.is_editable
+            and isinstance(g.get(VERSION_KEY), int)
+            and (g[VERSION_KEY] < G.VERSION or g[VERSION_KEY] == G.VERSION
+                 and g.get(LINE_KEY) != line)]
+
+
+def stale_text(stale):
+    """What the sidebar says of `stale` groups (a list; empty: None)."""
+    if not stale:
+        return None
+    here = running_line().line
+    lines = sorted({g.get(LINE_KEY) for g in stale} - {None, here})
+    where = f" or for Blender {', '.join(lines)}" if lines else ""
+    return (f"{len(stale)} surface-gradient group(s) were built by an older surfgrad{where}, "
+            f"and may render differently here: Update surfgrad Groups rebuilds them for "
+            f"Blender {here}")
+
+
+def _interior(tree, bl_idname, prop):
+    """`prop` of the first node of type `bl_idname` in `tree` (None if there is none)."""
+    node = next((n for n in tree.nodes if n.bl_idname == bl_idname), None)
+    return None if node is None else getattr(node, prop)
+
+
+def _images(tree):
+    return [n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"]
+
+
+def _per_image(build, **options):
+    """A builder call for a per-image group: its image (one per plane for triplanar) and
+    extension as its Image Texture nodes hold them."""
+    def call(tree):
+        taps = _images(tree)
+        if not taps or any(t.image is None for t in taps):
+            return None
+        extension = {"extension": taps[0].extension}
+        if build is G.triplanar_height_group:
+            planes = [t.image for t in taps[::len(taps) // 3]] if len(taps) % 3 == 0 else []
+            return (lambda: build(images=planes, **extension)) if len(planes) == 3 else None
+        return lambda: build(image=taps[0].image, **options, **extension)
+    return call
+
+
+# Name (before " [" or " (filter") -> how to make its builder call from the tree.
+_BY_PREFIX = {
+    "SG Normal Map [": lambda t: (lambda uv=_interior(t, "ShaderNodeNormalMap", "uv_map"):
+                                  lambda: G.normal_map_group(uv))(),
+    "SG Procedural Basis [": lambda t: (lambda uv=_interior(t, "ShaderNodeUVMap", "uv_map"):
+                                        lambda: G.procedural_basis_group(uv))(),
+    ".SG MikkTSpace Frame": lambda t: (lambda uv=_interior(t, "ShaderNodeNormalMap", "uv_map"):
+                                       lambda: G.mikktspace_frame_group(uv))(),
+    "SG Height Map Forward (filter ": lambda t: (
+        lambda fw=float(t.name.split("(filter ")[1].split(")")[0]):
+        lambda: G.height_map_forward_group(fw))(),
+    "SG Height Map HQ [": _per_image(G.height_map_group, variant="hq"),
+    "SG Height Map One-Texel [": _per_image(G.height_map_group, variant="one-texel"),
+    "SG Triplanar Height [": _per_image(G.triplanar_height_group),
+    "SG Parallax [": _per_image(G.parallax_group),
+}
+_HELPERS = {".SG Safe Normal": G.safe_normal_group,
+            ".SG Surface Gradient": G.surface_gradient_group,
+            ".SG UV Gradients": G.uv_gradients_group,
+            ".SG Bump Strength": G.bump_strength_group,
+            ".SG Gradient Noise": G.gradient_noise_group,
+            ".SG Gradient Noise (Geometry)": lambda: G.gradient_noise_group("GeometryNodeTree")}
+
+
+def builder_call(tree):
+    """A call that rebuilds `tree` (or the group it is Blender's ".001" copy of, which rebuilds
+    the copy too), or None when its build cannot be told from the tree."""
+    name = _COPY.sub("", tree.name)
+    entry = G.BY_NAME.get(name)
+    if entry is not None and not entry.image_bound:
+        return entry.build
+    if name in _HELPERS:
+        return _HELPERS[name]
+    for prefix, recipe in _BY_PREFIX.items():
+        if name.startswith(prefix):
+            try:
+                return recipe(tree)
+            except (ValueError, IndexError):
+                return None
+    return None
+
+
+def _foreign_names():
+    """Groups of the user's (no stamp) under the name of one of ours: every rebuild that needs
+    it would be refused, so the update is refused before it starts."""
+    ours = set(G.BY_NAME) | set(_HELPERS)
+    return sorted(g.name for g in bpy.data.node_groups
+                  if g.library is None and g.name in ours and VERSION_KEY not in g)
+
+
+def update_stale_groups():
+    """Rebuild every stale group in place. Returns (updated names, [(name, why)] of those
+    left as they were). Raises ValueError, with nothing changed, when a group of the user's
+    holds one of our names (each rebuild also checks itself first: node_builder)."""
+    foreign = _foreign_names()
+    if foreign:
+        raise ValueError(f"node group(s) {', '.join(map(repr, foreign))} are not "
+                         f"surface-gradient groups but hold their names: rename them, then "
+                         f"update the groups")
+    stale = stale_groups()
+    calls, left = [], []
+    for tree in stale:
+        call = builder_call(tree)
+        reason = G.unavailable_reason(_COPY.sub("", tree.name))
+        if call is None or reason:
+            left.append((tree.name, reason or "its build cannot be told from the group "
+                                              "(add it again from the menu)"))
+        else:
+            calls.append((tree.name, call))
+    for _, call in calls:
+        call()
+    still = {g.name for g in stale_groups()}
+    skipped = {name for name, _ in left}
+    left += [(name, "its rebuild did not reach it (add the group again from the menu)")
+             for name, _ in calls if name in still]
+    updated = sorted(g.name for g in stale if g.name not in still and g.name not in skipped)
+    return updated, left
+
+
+class SURFGRAD_OT_update_groups(bpy.types.Operator):
+    """Rebuild this file's surface-gradient groups that an older surfgrad or another Blender \
+line built, for this one, keeping every node's values and links"""
+    bl_idname = "surfgrad.update_groups"
+    bl_label = "Update surfgrad Groups"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        take_notes()
+        try:
+            with all_or_nothing():
+                updated, left = update_stale_groups()
+        except (ValueError, RuntimeError) as err:
+            self.report({'ERROR'}, str(err))
+            report_notes(self)
+            return {'CANCELLED'}
+        if not updated and not left:
+            self.report({'INFO'}, "The surface-gradient groups are up to date")
+            return {'CANCELLED'}                 # nothing changed: no undo step
+        self.report({'INFO'}, f"Updated {len(updated)} surface-gradient group(s) for Blender "
+                              f"{running_line().line}: {', '.join(updated)}")
+        for name, why in left:
+            self.report({'WARNING'}, f"{name!r} left as it was: {why}")
+        report_notes(self)
+        return {'FINISHED'}
+
+
+def draw_stale_warning(layout):
+    """In the sidebar: the stale groups, if any, and the button that updates them."""
+    text = stale_text(stale_groups())
+    if text:
+        box = layout.box()
+        for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
+            box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+        box.operator(SURFGRAD_OT_update_groups.bl_idname, icon="FILE_REFRESH")
