@@ -31,6 +31,8 @@ from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.bake_uvs import read_as_baked
 from ..addon import unrealized_instances as UI
+from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
+                                  memory_problem)
 from ..addon.normal_bake import blend_relative_problem, resolution_problem
 from ..addon.precise_bake import precise_far
 from ..reference import methods as M
@@ -328,6 +330,9 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
     # Compiled kernels load once per process (like an import), reported apart from the timing.
     load_seconds = load_kernels(mesh, inp.uv_map, lambda block: M.resolve(reference(inp, block)),
                                 facts)
+    problem = compare_memory_problem(resolution, len(tiles))
+    if problem:                         # after the kernels load: their memory is counted
+        raise CompareError(problem)
     if tiles == [R.tiles.UDIM_FIRST]:
         # RGBA as read back (no copy): the comparison reads channels 0-2.
         pixels, covered, bake_seconds = B.bake_vector_in_pieces(
@@ -382,6 +387,27 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
     error = np.concatenate(heats, axis=1)
     reasons = np.concatenate([h.reasons for h in heats], axis=1)
     return report, ErrorImage(error, reasons)
+
+
+# What a compare holds per texel beyond the bake (the read-back pixels, coverage, reference
+# and error images), measured on 5.2.3: from 2048^2 to 4096^2 its peak virtual size grew by 26
+# bytes a texel and its peak resident size by 23 (a normal-map compare, one tile); rounded down.
+COMPARE_BYTES_PER_TEXEL = 20
+
+
+def compare_memory_problem(resolution, tiles):
+    """None, or the problem when a compare of `tiles` tiles at resolution^2 cannot fit this
+    process's address-space limit or the machine's memory (memory_limit.py). Before: under
+    `ulimit -v` it crashed inside Blender (exit 139, no line), or ended in a raw MemoryError
+    or OpenBLAS traceback. One tile bakes in pieces of at most B.PIECE_TEXELS^2 (the bake's
+    bytes per texel counted for a piece); several tiles bake whole."""
+    texels = int(resolution) ** 2
+    if tiles > 1:
+        bake = texels * (BYTES_PER_TEXEL + BYTES_PER_FURTHER_TILE_TEXEL * (tiles - 1))
+    else:
+        bake = min(texels, B.PIECE_TEXELS ** 2) * BYTES_PER_TEXEL
+    return memory_problem(bake + texels * tiles * COMPARE_BYTES_PER_TEXEL,
+                          f"a {resolution}x{resolution} compare of {tiles} tile(s)", "compare")
 
 
 def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,

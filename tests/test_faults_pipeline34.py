@@ -1,0 +1,168 @@
+"""Fault injection, red team 34b: what a pipeline meets that earlier rounds left.
+
+An address-space limit (`ulimit -v`, SGE's h_vmem) below what `compare` and `compare-all`
+need: the bake's own check (addon/memory_limit.py) was not made for them, so they crashed
+inside Blender with no line (exit 139) or ended in a raw MemoryError or OpenBLAS traceback
+(exit 1). A limit too low to load Blender at all crashed every command before any check ran
+(or hung on 4.2). And the extension's own route (`blender -c surfgrad`, commands.execute)
+started with its standard streams closed."""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip("bpy")
+
+pytestmark = pytest.mark.tier("child")
+
+GB = 1024 ** 3
+
+
+def _env(tmp_path):
+    from support.child import ROOT
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(PYTHONPATH=str(ROOT), TMPDIR=str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir(exist_ok=True)
+    return env
+
+
+def _address_space(limit_bytes):
+    """preexec: a soft and hard address-space limit for the child (`ulimit -v`)."""
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+    return limit
+
+
+def _command(args, tmp_path, limit_bytes):
+    """`python -m surfgrad_addon ARGS` under that limit: the finished CompletedProcess."""
+    return subprocess.run([sys.executable, "-m", "surfgrad_addon", *map(str, args)],
+                          cwd=str(tmp_path), env=_env(tmp_path), timeout=300,
+                          preexec_fn=_address_space(limit_bytes), stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, text=True)
+
+
+@pytest.fixture
+def rock(tmp_path):
+    from surfgrad_addon.harness import batch_assets as BA
+    return BA.write_asset(tmp_path / "rock.blend", ("Rock",), tiles=(1001,), image_size=16)
+
+
+LIMIT_TEXT = ("(`ulimit -v`, or the job's memory limit such as SGE's h_vmem), where Blender's "
+              "bake would crash: raise the limit or compare at a lower --resolution")
+
+
+@pytest.mark.parametrize("command", ["compare", "compare-all"])
+def test_a_compare_that_cannot_fit_the_address_space_limit_is_refused(rock, tmp_path, command):
+    """`ulimit -v` of 3 GB and an 8192^2 compare: its bake (pieces of 2048^2, 180 bytes a
+    texel), the read-back and reference images (20 bytes a texel at least, 26 measured) and
+    the bake's threads (128 MB) need at least 2.1 GB beside the 1.6 GB a started compare
+    holds. Before (5.2): a segmentation fault inside Blender (exit 139, no line), or at 2 to
+    2.5 GB a raw MemoryError / OpenBLAS traceback (exit 1); compare-all the same on its first
+    case. Now refused before the bake, exit 2, one line, nothing written."""
+    out = tmp_path / "out"
+    if command == "compare":
+        args = ["compare", "--blend", rock, "--object", "Rock", "--method", "normal-map",
+                "--resolution", "8192", "--json", out / "c.json"]
+    else:
+        args = ["compare-all", "--out", out, "--resolution", "8192", "--workers", "1"]
+    done = _command(args, tmp_path, 3 * GB)
+    assert done.returncode == 2, done.stderr[-2000:]
+    line = done.stderr.strip().splitlines()[-1]
+    assert line.startswith("surfgrad: error: a 8192x8192 compare of 1 tile(s) needs at least "
+                           "2.1 GB of memory beyond the "), line
+    assert line.endswith(f"more than its address-space limit of 3.0 GB {LIMIT_TEXT}"), line
+    assert "Traceback" not in done.stderr
+    assert not out.exists() and list((tmp_path / "tmp").iterdir()) == []
+
+
+@pytest.mark.parametrize("limit_gb", [0.95, 1.4])
+def test_a_limit_too_low_to_load_blender_is_refused_with_one_line(rock, tmp_path, limit_gb):
+    """`ulimit -v` of 0.95 GB: before, `import bpy` failed to map a library (ImportError
+    traceback, exit 1); 1.4 GB: it segfaulted while loading (exit 139, no line; on 4.2 the
+    process spun for good in OpenBLAS's retries, and SIGTERM did not end it). Now refused
+    before Blender's module loads: exit 2, one line naming the limit and the fix."""
+    out = tmp_path / "out"
+    out.mkdir()
+    done = _command(["bake-normal-map", "--blend", rock, "--object", "Rock", "--output",
+                     out / "n.png", "--resolution", "64"], tmp_path, int(limit_gb * GB))
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert done.stderr.strip().splitlines() == [
+        f"surfgrad: error: the address-space limit of {limit_gb:.2f} GB (`ulimit -v`, or the "
+        f"job's memory limit such as SGE's h_vmem) is below the 1.5 GB that loading Blender "
+        f"and a .blend takes before anything is baked, where Blender would crash: raise the "
+        f"limit"]
+    assert list(out.iterdir()) == []
+
+
+@pytest.mark.tier("numpy")
+def test_the_bakes_threads_are_counted_against_the_limit(monkeypatch):
+    """A 64^2 bake needs 0.7 MB for its texels, but Cycles' threads took more than 134 MB of
+    address space (5.2.3; 257 MB on 5.0.1): with 100 MB of room left it passed the check and
+    segfaulted in the bake (exit 139, no line). Now 128 MB are counted for any bake."""
+    import resource
+    from surfgrad_addon.addon import memory_limit as ML
+    mb = 1024 ** 2
+    monkeypatch.setattr(resource, "getrlimit", lambda _: (2 * GB, resource.RLIM_INFINITY))
+    monkeypatch.setattr(ML, "machine_memory", lambda: None)
+    monkeypatch.setattr(ML, "address_space_in_use", lambda: 2 * GB - 100 * mb)
+    assert ML.bake_memory_problem(64, 1).startswith(
+        "a 64x64 bake of 1 tile(s) needs at least 0.1 GB of memory beyond the 1.9 GB this "
+        "process uses, more than its address-space limit of 2.0 GB")
+    monkeypatch.setattr(ML, "address_space_in_use", lambda: 2 * GB - 130 * mb)
+    assert ML.bake_memory_problem(64, 1) is None            # 128.7 MB: fits
+
+
+@pytest.mark.tier("blender")
+def test_a_start_limit_leaves_commands_that_do_not_load_blender_alone():
+    """bench-reference runs without bpy: the start floor is not its business."""
+    from surfgrad_addon.harness import cli
+    (row,) = [c for c in cli.SUBCOMMANDS if c.name == "bench-reference"]
+    assert not row.loads_blender
+    assert all(c.loads_blender for c in cli.SUBCOMMANDS if c.name.startswith(("bake", "compare")))
+
+
+# The extension's command route with closed standard streams -------------------------------------
+
+EXECUTE = """
+import sys
+import bpy
+from surfgrad_addon.addon import commands
+sys.exit(commands._execute_and_leave(sys.argv[1:]))
+"""
+
+
+def _closed(fds):
+    def close():
+        for fd in fds:
+            os.close(fd)
+    return close
+
+
+@pytest.mark.parametrize("fds", [[1], [2], [0, 1, 2]])
+def test_blender_c_surfgrad_with_closed_streams_bakes_and_refuses_as_usual(rock, tmp_path, fds):
+    """`blender -c surfgrad ... >&-` (and `2>&-`, `<&-`), run as Blender's -c runs it
+    (commands' handler in a process that loaded bpy first): the map is written whole, the
+    same bytes as with the streams open, and a bad request still gives exit 2."""
+    out = tmp_path / "out"
+    out.mkdir()
+    base = ["bake-normal-map", "--blend", rock, "--resolution", "32"]
+
+    def run(args, **streams):
+        return subprocess.run([sys.executable, "-c", EXECUTE, *map(str, args)],
+                              cwd=str(tmp_path), env=_env(tmp_path), timeout=300, **streams)
+    closed = dict(preexec_fn=_closed(fds), stdout=None if 1 in fds else subprocess.DEVNULL,
+                  stderr=None if 2 in fds else subprocess.PIPE)
+    assert run(base + ["--object", "Rock", "--output", out / "closed.png"],
+               **closed).returncode == 0
+    assert run(base + ["--object", "Rock", "--output", out / "open.png"],
+               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode == 0
+    assert (out / "closed.png").read_bytes() == (out / "open.png").read_bytes()
+    bad = run(base + ["--object", "Nope", "--output", out / "x.png"], **closed)
+    assert bad.returncode == 2
+    if 2 not in fds:
+        assert b"surfgrad: error: no object named 'Nope'" in bad.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["closed.png", "open.png"]
