@@ -166,3 +166,42 @@ def test_blender_c_surfgrad_with_closed_streams_bakes_and_refuses_as_usual(rock,
     if 2 not in fds:
         assert b"surfgrad: error: no object named 'Nope'" in bad.stderr
     assert sorted(p.name for p in out.iterdir()) == ["closed.png", "open.png"]
+
+
+# Two compares writing the same report ------------------------------------------------------------
+
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("appears", [("c.json", "c_error.png"), ("c_error.png",)])
+def test_a_report_that_appears_while_compare_runs_is_left_and_this_one_fails(rock, tmp_path,
+                                                                              monkeypatch,
+                                                                              capsys, appears):
+    """Two compares started at once with the same --json (no --overwrite): both pass the
+    check, the first writes its pair. Before (two processes on 5.2): the second replaced the
+    first's JSON, met its heat map, then removed both as its own, exit 1 saying "the disk may
+    be full"; the first had exited 0 and its report was gone. Now the second fails naming the
+    file that appeared, leaves the first's files as they are and writes nothing. (The other
+    compare is played by writing its files while this one bakes.)"""
+    from surfgrad_addon.harness import cli
+    from surfgrad_addon.harness import compare as C
+    out = tmp_path / "out"
+    out.mkdir()
+    real = C.compare
+
+    def the_other_compare_writes_first(*args, **kwargs):
+        result = real(*args, **kwargs)
+        for name in appears:
+            (out / name).write_bytes(b"the other compare's " + name.encode())
+        return result
+    monkeypatch.setattr(C, "compare", the_other_compare_writes_first)
+    capsys.readouterr()
+    rc = cli.main(["compare", "--blend", str(rock), "--object", "Rock", "--method",
+                   "normal-map", "--resolution", "16", "--json", str(out / "c.json")])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert err.strip().splitlines()[-1] == (
+        f"surfgrad: error: {str(out / appears[0])!r} appeared while this compare ran (another "
+        f"compare writing the same report?) and is left as it is: give another --json, or "
+        f"pass --overwrite")
+    assert sorted(p.name for p in out.iterdir()) == sorted(appears)
+    for name in appears:
+        assert (out / name).read_bytes() == b"the other compare's " + name.encode()

@@ -18,6 +18,7 @@ grid (tiling UVs) on the 0..1 square a plain image bakes, or on the tiles asked 
 faces outside counted.
 """
 
+import errno
 import json
 import os
 import time
@@ -454,7 +455,11 @@ def check_output_path(path, overwrite, what="output"):
 
 def _write_report(json_out, report, heat_path, heat, overwrite):
     """The JSON and its heat map, both or neither: a stop (Ctrl-C) waits for the pair and
-    then removes it, and the folders made for it (interrupts.committing, placed)."""
+    then removes it, and the folders made for it (interrupts.committing, placed). Without
+    overwrite a file that appeared since the check (another compare writing the same report)
+    is left as it is and this one fails: before, the second compare replaced the first's
+    JSON, met its heat map, then removed both as its own ("the disk may be full"), and the
+    first had exited 0 with nothing left."""
     from ..addon import interrupts
     from ..addon.exit_codes import BakeFailed
     with interrupts.committing():
@@ -462,17 +467,27 @@ def _write_report(json_out, report, heat_path, heat, overwrite):
         for d in reversed(made):
             d.mkdir()
             interrupts.placed(d)
-        for path in (json_out, heat_path):
-            interrupts.placed(path)
+        ours = []                        # what this compare wrote (and removes on a failure)
         try:
-            json_out.write_text(json.dumps(report, indent=2))
+            with open(json_out, "w" if overwrite else "x") as f:
+                ours.append(json_out)
+                interrupts.placed(json_out)
+                f.write(json.dumps(report, indent=2))
+            if not overwrite and heat_path.exists():
+                raise FileExistsError(errno.EEXIST, "exists", str(heat_path))
+            ours.append(heat_path)
+            interrupts.placed(heat_path)
             write_heat_map(heat_path, heat, overwrite)
         except OSError as err:           # a full disk: no cut-off file left as the report
-            for path in (json_out, heat_path, *made):
+            for path in (*ours, *made):
                 if path.is_file():
                     path.unlink()
                 elif path.is_dir() and not any(path.iterdir()):
                     path.rmdir()
+            if isinstance(err, FileExistsError):
+                raise BakeFailed(f"{err.filename!r} appeared while this compare ran (another "
+                                 f"compare writing the same report?) and is left as it is: "
+                                 f"give another --json, or pass --overwrite") from None
             raise BakeFailed(f"could not write {str(json_out)!r} and its heat map ({err}): "
                              f"free space in {str(json_out.parent)!r} (the disk may be full) "
                              f"or check the folder's permissions, and compare again") from None
