@@ -205,3 +205,34 @@ def test_a_report_that_appears_while_compare_runs_is_left_and_this_one_fails(roc
     assert sorted(p.name for p in out.iterdir()) == sorted(appears)
     for name in appears:
         assert (out / name).read_bytes() == b"the other compare's " + name.encode()
+
+
+# An output that is the input ----------------------------------------------------------------------
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("clash", ["json is the blend", "heat map is the image"])
+def test_a_compare_output_that_is_its_input_is_refused_even_with_overwrite(rock, tmp_path,
+                                                                            capsys, clash):
+    """`compare --blend r.blend --json r.blend --overwrite` (a slip of tab completion).
+    Before: exit 0, the .blend replaced by the JSON report (its first bytes `{`). Likewise a
+    --json whose heat map (NAME_error.png) is the --image it reads. Now refused, exit 2,
+    both files as they were."""
+    import numpy as np
+    from surfgrad_addon.harness import cli
+    from surfgrad_addon.harness.pictures import write_png
+    image = tmp_path / "n_error.png"            # a flat tangent-space normal map
+    write_png(image, np.full((16, 16, 3), (0.5, 0.5, 1.0)))
+    json_out = rock if clash == "json is the blend" else tmp_path / "n.json"
+    before = {p: p.read_bytes() for p in (rock, image)}
+    capsys.readouterr()
+    rc = cli.main(["compare", "--blend", str(rock), "--object", "Rock", "--method",
+                   "normal-map", "--resolution", "16", "--json", str(json_out), "--overwrite"]
+                  + (["--image", str(image)] if clash == "heat map is the image" else []))
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    clashed = rock if clash == "json is the blend" else image
+    assert err.strip().splitlines() == [
+        f"surfgrad: error: output {str(clashed)!r} is the file {str(clashed)!r} this compare "
+        f"reads; give another --json"]
+    assert {p: p.read_bytes() for p in (rock, image)} == before
+    assert not (tmp_path / "n.json").exists() and not (tmp_path / "rock_error.png").exists()

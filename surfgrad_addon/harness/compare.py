@@ -453,6 +453,15 @@ def check_output_path(path, overwrite, what="output"):
                            f"writable; choose another folder")
 
 
+def _not_an_input(path, *inputs):
+    """Refuse an output that is one of the files the compare reads (--blend, --image): with
+    --overwrite, `--json scene.blend` replaced the user's .blend with the report, exit 0."""
+    for source in inputs:
+        if source and path.exists() and Path(source).exists() and os.path.samefile(path, source):
+            raise CompareError(f"output {str(path)!r} is the file {str(source)!r} this compare "
+                               f"reads; give another --json")
+
+
 def _write_report(json_out, report, heat_path, heat, overwrite):
     """The JSON and its heat map, both or neither: a stop (Ctrl-C) waits for the pair and
     then removes it, and the folders made for it (interrupts.committing, placed). Without
@@ -504,6 +513,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     heat_path = json_out.with_name(json_out.stem + "_error.png")
     for p in (json_out, heat_path):
         check_output_path(p, overwrite)
+        _not_an_input(p, blend, image)
     D.check(cycles_device)
     if blend:
         if not Path(blend).exists():           # a folder: open_mainfile names it
