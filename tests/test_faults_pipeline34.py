@@ -236,3 +236,63 @@ def test_a_compare_output_that_is_its_input_is_refused_even_with_overwrite(rock,
         f"reads; give another --json"]
     assert {p: p.read_bytes() for p in (rock, image)} == before
     assert not (tmp_path / "n.json").exists() and not (tmp_path / "rock_error.png").exists()
+
+
+# Names that are not UTF-8 -------------------------------------------------------------------------
+
+LATIN1 = b"R\xf6ck".decode("utf-8", "surrogateescape")      # 'Röck' typed in a Latin-1 terminal
+NOT_UTF8 = ("is not UTF-8 text (a terminal or file in another encoding, such as Latin-1?): "
+            "Blender's names are UTF-8; give the name in UTF-8")
+
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("route,option", [("python -m", "--object"), ("blender -c", "--object"),
+                                          ("compare", "--object"), ("blender -c", "--uv-map"),
+                                          ("bake-batch", "--objects")])
+def test_a_name_that_is_not_utf8_is_refused_with_one_line(rock, tmp_path, capsys, route,
+                                                          option):
+    """`--object $'R\\xf6ck'` (Python hands the byte over as a surrogate, as it does for
+    every argument). Before: `bpy.data.objects.get` raised a SystemError traceback, exit 1
+    (bake-normal-map, compare; `blender -c surfgrad` alike). Now exit 2, one line naming
+    the option, the bytes and the fix, nothing written."""
+    from surfgrad_addon.addon import commands
+    from surfgrad_addon.harness import cli
+    out = tmp_path / "out"
+    out.mkdir()
+    if route == "compare":
+        argv = ["compare", "--blend", str(rock), "--method", "normal-map", "--json",
+                str(out / "c.json"), "--object", LATIN1]
+    elif route == "bake-batch":
+        argv = ["bake-batch", str(rock), "--output", str(out / "{object}.png"), "--workers",
+                "0", "--objects", "Rock", LATIN1]
+    else:
+        argv = ["bake-normal-map", "--blend", str(rock), "--output", str(out / "n.png"),
+                "--object", "Rock", "--uv-map", LATIN1] if option == "--uv-map" else \
+            ["bake-normal-map", "--blend", str(rock), "--output", str(out / "n.png"),
+             "--object", LATIN1]
+    capsys.readouterr()
+    rc = (commands.execute if route == "blender -c" else cli.main)(argv)
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert err.strip().splitlines() == [f"surfgrad: error: {option} 'R\\xf6ck' {NOT_UTF8}"]
+    assert list(out.iterdir()) == []
+
+
+@pytest.mark.tier("bake")
+def test_a_batch_entry_naming_an_object_not_in_utf8_fails_that_asset_alone(rock, tmp_path,
+                                                                           capsys):
+    """`bake-batch rock.blend:$'R\\xf6ck' rock.blend:Rock`: before, the file's scan raised
+    the SystemError and every asset of the file failed with it ('could not read rock.blend:
+    SystemError: ...'). Now that entry fails with the line, Rock is baked."""
+    import json
+    from surfgrad_addon.harness import cli
+    out = tmp_path / "out"
+    rc = cli.main(["bake-batch", f"{rock}:{LATIN1}", f"{rock}:Rock", "--output",
+                   str(out / "{object}.png"), "--workers", "0", "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert f"object 'R\\xf6ck' {NOT_UTF8}" in err
+    manifest = json.loads((out / "surfgrad-bake-manifest.json").read_text())["assets"]
+    status = {a.get("object"): a["status"] for a in manifest.values()}
+    assert status == {"Rock": "baked", LATIN1: "failed"}, status
+    assert sorted(p.name for p in out.iterdir()) == ["Rock.png", "surfgrad-bake-manifest.json"]

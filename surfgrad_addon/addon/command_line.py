@@ -41,6 +41,11 @@ def run(subcommands, args):
     """Run the parsed command: its exit code, errors reported as one line."""
     command = next(c for c in subcommands if c.name == args.command)
     prepare_streams()            # `blender -c surfgrad ... >&-`; non-UTF-8 paths
+    problems = [p for p in map(_name_problem, NAME_OPTIONS, (getattr(args, n, None)
+                                                             for n in NAME_OPTIONS)) if p]
+    if problems:
+        print(f"surfgrad: error: {'; '.join(problems)}", file=sys.stderr)
+        return BAD_REQUEST
     if command.loads_blender and "bpy" not in sys.modules:
         # `ulimit -v` too low: importing bpy would crash or hang with no line (memory_limit.py)
         from .memory_limit import start_problem
@@ -54,6 +59,20 @@ def run(subcommands, args):
     # Ctrl-C / SIGTERM stop the command at once, exit 130 / 143, nothing written.
     with interrupts.stoppable(command.name):
         return _run(command, args)
+
+
+# Options that name things in the .blend (not paths, which may be any bytes).
+NAME_OPTIONS = ("object", "objects", "collections", "uv_map")
+
+
+def _name_problem(option, value):
+    """The problem of the first name of an option that is not UTF-8 (utf8_names.py)."""
+    from .utf8_names import problem
+    for name in [value] if isinstance(value, str) else value or ():
+        found = problem(f"--{option.replace('_', '-')}", name)
+        if found:
+            return found
+    return None
 
 
 def leave(code):
