@@ -296,3 +296,39 @@ def test_a_batch_entry_naming_an_object_not_in_utf8_fails_that_asset_alone(rock,
     status = {a.get("object"): a["status"] for a in manifest.values()}
     assert status == {"Rock": "baked", LATIN1: "failed"}, status
     assert sorted(p.name for p in out.iterdir()) == ["Rock.png", "surfgrad-bake-manifest.json"]
+
+
+# compare-all's tables on a full disk ----------------------------------------------------------
+
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("fails", ["compare.json", "heat map"])
+def test_compare_all_on_a_full_disk_leaves_nothing_and_says_one_line(tmp_path, monkeypatch,
+                                                                     fails):
+    """The disk fills (or `ulimit -f`) as compare-all writes compare.json, or a heat map.
+    Before (`ulimit -f 1`, 5.2): a raw `OSError: [Errno 27] File too large` traceback, exit
+    1, and a compare.json cut off at 1024 bytes left beside 40 heat maps. Now exit 1 (a
+    BakeFailed: one line), nothing left in the output folder, which it made."""
+    import errno
+    from pathlib import Path
+    from surfgrad_addon.addon.exit_codes import BakeFailed
+    from surfgrad_addon.harness import compare_all as CA
+    out = tmp_path / "deep" / "out"
+    full = OSError(errno.ENOSPC, "No space left on device")
+    if fails == "compare.json":
+        real = Path.write_text
+
+        def write_text(self, text, *args, **kwargs):
+            if self.name == "compare.json":
+                real(self, text[:1024], *args, **kwargs)        # what the disk took
+                raise full
+            return real(self, text, *args, **kwargs)
+        monkeypatch.setattr(Path, "write_text", write_text)
+    else:
+        monkeypatch.setattr(CA, "write_heat_map", lambda *a, **k: (_ for _ in ()).throw(full))
+    with pytest.raises(BakeFailed) as caught:
+        CA.run_all(out, resolution=16, log=lambda *_: None, workers=1, methods=["normal-map"])
+    assert str(caught.value) == (
+        f"could not write the tables and heat maps in {str(out)!r} ([Errno 28] No space left "
+        f"on device): free space there (the disk may be full) or check the folder's "
+        f"permissions, and compare again")
+    assert list(tmp_path.iterdir()) == []

@@ -157,8 +157,10 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
                                                   temp, cycles_device))
             reports = _collect(out, resolution, workers, methods, children, log,
                                cycles_device)
-        except BaseException:
+        except BaseException as err:
             forget()
+            if isinstance(err, OSError):        # a heat map the disk would not take
+                raise _not_written(out, err) from None
             raise
         finally:
             for k, child in enumerate(children, start=1):
@@ -171,10 +173,26 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
         with interrupts.committing():             # both tables or, on a stop, neither
             for p in (table_json, table_md):
                 interrupts.placed(p)
-            table_json.write_text(json.dumps(reports, indent=2))
-            table_md.write_text(table_markdown(reports, resolution, cycles_device, devices))
+            try:
+                table_json.write_text(json.dumps(reports, indent=2))
+                table_md.write_text(table_markdown(reports, resolution, cycles_device,
+                                                   devices))
+            except OSError as err:
+                # A full disk or a file-size limit: before, a cut-off compare.json was left
+                # with the heat maps and a raw OSError traceback. Now nothing is left.
+                for p in (table_json, table_md):
+                    p.unlink(missing_ok=True)
+                forget()
+                raise _not_written(out, err) from None
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
     return reports
+
+
+def _not_written(out, err):
+    from ..addon.exit_codes import BakeFailed
+    return BakeFailed(f"could not write the tables and heat maps in {str(out)!r} ({err}): "
+                      f"free space there (the disk may be full) or check the folder's "
+                      f"permissions, and compare again")
 
 
 def _collect(out, resolution, workers, methods, children, log, cycles_device="CPU"):
