@@ -21,6 +21,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from ..addon.exit_codes import BakeFailed
 from . import cycles_device as D
 from .compare import CompareError, compare_object
 from .heat_map import write_heat_map
@@ -189,7 +190,6 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
 
 
 def _not_written(out, err):
-    from ..addon.exit_codes import BakeFailed
     return BakeFailed(f"could not write the tables and heat maps in {str(out)!r} ({err}): "
                       f"free space there (the disk may be full) or check the folder's "
                       f"permissions, and compare again")
@@ -205,8 +205,9 @@ def _collect(out, resolution, workers, methods, children, log, cycles_device="CP
         shard_file = out / SHARD_FILE.format(k)
         if child.returncode != 0 or not shard_file.is_file():
             lines = (err or "").strip().splitlines()
-            raise CompareError(f"compare-all worker {k} failed (exit {child.returncode}): "
-                               f"{lines[-1] if lines else 'no output'}")
+            # A failure after baking began (exit 1), not a refused request (2, as before).
+            raise BakeFailed(f"compare-all worker {k} failed (exit {child.returncode}): "
+                             f"{lines[-1] if lines else 'no output'}")
         reports.update({int(i): r for i, r in json.loads(shard_file.read_text()).items()})
     return [reports[i] for i in sorted(reports)]
 
