@@ -332,3 +332,36 @@ def test_compare_all_on_a_full_disk_leaves_nothing_and_says_one_line(tmp_path, m
         f"on device): free space there (the disk may be full) or check the folder's "
         f"permissions, and compare again")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.tier("bake")
+def test_a_second_compare_all_into_the_same_folder_is_refused(tmp_path):
+    """Two compare-alls given one --out. Before (two processes on 5.2, 16^2 and 32^2, the
+    second started 8 s later): both exited 0; the tables left were the second's (the
+    first's replaced without --overwrite) and the heat maps a mix of the two runs. Now the
+    second is refused while the first holds the folder (a lock beside compare.json, as
+    bake-batch's manifest has; here held by hand), exit 2, nothing written; and a run that
+    ends lets go of it."""
+    import fcntl
+    from surfgrad_addon.harness import compare_all as CA
+    from surfgrad_addon.harness.compare import CompareError
+    out = tmp_path / "out"
+    out.mkdir()
+    lock = out / ".compare.json.lock"
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)        # the first run, still running
+    try:
+        with pytest.raises(CompareError) as caught:
+            CA.run_all(out, resolution=16, log=lambda *_: None, workers=1,
+                       methods=["normal-map"])
+    finally:
+        os.close(fd)
+    assert str(caught.value) == (
+        f"{str(out)!r} is in use by another compare-all run (it holds {str(lock)!r}): wait "
+        f"for that run to end, or give this one another --out")
+    assert sorted(p.name for p in out.iterdir()) == [".compare.json.lock"]
+    lock.unlink()
+    reports = CA.run_all(out, resolution=16, log=lambda *_: None, workers=1,
+                         methods=["normal-map"])
+    assert len(reports) == len(list((out / "heat").glob("*.png"))) > 0
+    assert sorted(p.name for p in out.iterdir()) == ["compare.json", "compare.md", "heat"]

@@ -21,6 +21,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from ..addon.batch.manifest import hold, release
+from ..addon.batch.plan import BatchError
 from ..addon.exit_codes import BakeFailed
 from . import cycles_device as D
 from .compare import CompareError, compare_object
@@ -119,6 +121,7 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
         raise CompareError(f"no method {unknown[0]!r}; use some of {sorted(METHODS)}")
     devices = D.check(cycles_device)
     created = [d for d in (*reversed(out.parents), out, out / "heat") if not d.exists()]
+    _hold(table_json)
     before = set((out / "heat").glob("*.png")) if (out / "heat").is_dir() else set()
     (out / "heat").mkdir(parents=True, exist_ok=True)
     temp = Path(tempfile.mkdtemp(prefix="surfgrad-compare-all-"))
@@ -137,6 +140,7 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
         for k in range(1, len(children) + 1):
             (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
             (out / SHARD_FILE.format(k)).with_suffix(".tmp").unlink(missing_ok=True)
+        release(table_json)                   # its lock file is in a folder removed next
         for d in reversed(created):
             try:
                 d.rmdir()
@@ -185,8 +189,22 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
                     p.unlink(missing_ok=True)
                 forget()
                 raise _not_written(out, err) from None
+    release(table_json)
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
     return reports
+
+
+def _hold(table_json):
+    """This run's hold on its output folder (the manifest's lock, on compare.json), or a
+    CompareError when another compare-all holds it. Two runs into one --out both passed the
+    check, both exited 0, and the tables and heat maps left were a mix of the two (the first's
+    replaced without --overwrite); one that failed removed the other's heat maps."""
+    try:
+        hold(table_json)
+    except BatchError:
+        raise CompareError(f"{str(table_json.parent)!r} is in use by another compare-all run "
+                           f"(it holds {str(table_json.with_name('.compare.json.lock'))!r}): "
+                           f"wait for that run to end, or give this one another --out") from None
 
 
 def _not_written(out, err):
