@@ -23,11 +23,15 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_a_failing_worker_is_named_and_no_table_is_written(tmp_path, monkeypatch):
     # The worker starts in a folder without the package: it cannot import it and exits 1.
+    # A failure after this process's share was baked: exit 1 (red team 34b; it was a
+    # CompareError, exit 2, "refused before anything was baked").
+    from surfgrad_addon.addon.exit_codes import BakeFailed, code_for
     monkeypatch.setattr(CA, "ROOT", tmp_path)
     monkeypatch.delenv("PYTHONPATH", raising=False)
     out = tmp_path / "out"
-    with pytest.raises(CompareError) as err:
+    with pytest.raises(BakeFailed) as err:
         CA.run_all(out, 16, workers=2, methods=["normal-map"], log=lambda *_: None)
+    assert code_for(err.value) == 1
     assert "compare-all worker 1 failed (exit 1)" in str(err.value)
     assert "No module named 'surfgrad_addon'" in str(err.value)
     assert not (out / "compare.md").exists() and not (out / "compare.json").exists()

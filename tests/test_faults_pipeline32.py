@@ -484,7 +484,7 @@ def test_a_bake_that_cannot_fit_the_address_space_limit_is_refused_before_it_sta
     assert done.returncode == 2, done.stderr[-2000:]
     (line,) = done.stderr.strip().splitlines()
     assert line.startswith("surfgrad: error: a 4096x4096 bake of 1 tile(s) needs at least "
-                           "2.8 GB of memory beyond the ")
+                           "2.9 GB of memory beyond the ")
     assert line.endswith("more than its address-space limit of 3.7 GB (`ulimit -v`, or the "
                          "job's memory limit such as SGE's h_vmem), where Blender's bake "
                          "would crash: raise the limit or bake at a lower --resolution")
@@ -505,7 +505,7 @@ def test_the_memory_check_leaves_an_unlimited_process_and_small_bakes_alone(monk
     monkeypatch.setattr(ML, "address_space_in_use", lambda: 1 * gb)
     # 3 GB of room: 4096^2 x 180 B = 2.81 GB fits one tile, not two (+ 50 B a texel: 3.6 GB)
     assert ML.bake_memory_problem(4096, 1) is None
-    assert "a 4096x4096 bake of 2 tile(s) needs at least 3.6 GB" in ML.bake_memory_problem(4096, 2)
+    assert "a 4096x4096 bake of 2 tile(s) needs at least 3.7 GB" in ML.bake_memory_problem(4096, 2)
     # A 16 GB machine: ten 4096^2 tiles (at least 9.8 GB; 28 GB counted at 180 B a tile) fit.
     monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
     monkeypatch.setattr(ML, "machine_memory", lambda: (16 * gb, "16 GB"))

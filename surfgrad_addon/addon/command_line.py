@@ -10,7 +10,7 @@ import sys
 from dataclasses import dataclass
 from typing import Callable
 
-from .exit_codes import BAKE_FAILED, OK, code_for
+from .exit_codes import BAD_REQUEST, BAKE_FAILED, OK, code_for
 from .std_streams import prepare as prepare_streams
 
 
@@ -18,12 +18,14 @@ from .std_streams import prepare as prepare_streams
 class Subcommand:
     """One subcommand: its name and help, what adds its options to its parser, and what runs
     it with the parsed options (returns the exit code; None means 0). Unless it stops itself
-    (installs its own Ctrl-C / SIGTERM handling), it runs inside interrupts.stoppable."""
+    (installs its own Ctrl-C / SIGTERM handling), it runs inside interrupts.stoppable. One
+    that loads Blender is refused under an address-space limit too low to load it."""
     name: str
     help: str
     arguments: Callable
     run: Callable
     stops_itself: bool = False
+    loads_blender: bool = True
 
 
 def parser(subcommands, prog, description, raw_description=False):
@@ -39,12 +41,38 @@ def run(subcommands, args):
     """Run the parsed command: its exit code, errors reported as one line."""
     command = next(c for c in subcommands if c.name == args.command)
     prepare_streams()            # `blender -c surfgrad ... >&-`; non-UTF-8 paths
+    problems = [p for p in map(_name_problem, NAME_OPTIONS, (getattr(args, n, None)
+                                                             for n in NAME_OPTIONS)) if p]
+    if problems:
+        print(f"surfgrad: error: {'; '.join(problems)}", file=sys.stderr)
+        return BAD_REQUEST
+    if command.loads_blender and "bpy" not in sys.modules:
+        # `ulimit -v` too low: importing bpy would crash or hang with no line (memory_limit.py)
+        from .memory_limit import start_problem
+        problem = start_problem()
+        if problem:
+            print(f"surfgrad: error: {problem}", file=sys.stderr)
+            return BAD_REQUEST
     if command.stops_itself:
         return _run(command, args)
     from . import interrupts
     # Ctrl-C / SIGTERM stop the command at once, exit 130 / 143, nothing written.
     with interrupts.stoppable(command.name):
         return _run(command, args)
+
+
+# Options that name things in the .blend (not paths, which may be any bytes).
+NAME_OPTIONS = ("object", "objects", "collections", "uv_map")
+
+
+def _name_problem(option, value):
+    """The problem of the first name of an option that is not UTF-8 (utf8_names.py)."""
+    from .utf8_names import problem
+    for name in [value] if isinstance(value, str) else value or ():
+        found = problem(f"--{option.replace('_', '-')}", name)
+        if found:
+            return found
+    return None
 
 
 def leave(code):

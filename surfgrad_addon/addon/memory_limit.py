@@ -17,6 +17,15 @@ Each further UDIM tile adds much less (its image and pixel buffers, not the bake
 set): peak resident size of one, two and four tiles at 1024^2 and 2048^2 on 5.2.3, 55 bytes a
 texel for each tile after the first (BYTES_PER_FURTHER_TILE_TEXEL, rounded down); counted at
 the first tile's 180 they made a 10-tile 4096^2 bake need 28 GB where it needs about 10.
+
+Whatever its size, a bake also takes address space for Cycles' threads (stacks, malloc
+arenas): a 64^2 bake crashed with 134 MB (5.2.3) and 257 MB (5.0.1) of room left beyond what
+the process held at the check (2 cores; more threads take more), so BYTES_PER_BAKE, rounded
+down, is counted against the address-space limit too. And before any check can run, loading
+Blender's module and a .blend takes most of that limit: under 1.5 GB a 64^2 bake segfaulted
+(5.2, 5.0, 4.5), or on 4.2 spun for good in OpenBLAS's retries of a failed allocation (a
+SIGTERM did not end it), with no line; at the check the process held 1.6 to 1.7 GB on every
+line. START_BYTES is that floor, checked before Blender's module loads (start_problem).
 """
 
 import resource
@@ -31,6 +40,8 @@ BYTES_PER_FURTHER_TILE_TEXEL = 50
 IMAGE_BYTES_PER_TEXEL = {True: 16, False: 4}            # Blender's buffer: float, bytes
 CHECK_COPY_BYTES_PER_TEXEL = 16                          # float_pixels' copy (float RGBA)
 CYCLES_BYTES_PER_TEXEL = {True: 8, False: 4}             # Cycles' copy: half at least, bytes
+BYTES_PER_BAKE = 128 * 1024 ** 2
+START_BYTES = 1536 * 1024 ** 2
 GB = 1024 ** 3
 # cgroup memory limits (a container's, a scheduler's job): v2, then v1; "max" or a huge
 # number means none.
@@ -93,19 +104,39 @@ def bake_memory_problem(resolution, tiles, images=None):
     if images is not None and images.count:
         need = max(need + images.baked, images.checked)
         reading = f" reading {images.what}"
-    smaller = " or from smaller images" if reading else ""
-    what = f"a {resolution}x{resolution} bake of {tiles} tile(s){reading} needs at least " \
-           f"{need / GB:.1f} GB of memory beyond the"
+    return memory_problem(need, f"a {resolution}x{resolution} bake of {tiles} tile(s){reading}",
+                          "bake", " or from smaller images" if reading else "")
+
+
+def memory_problem(need, what, verb, also=""):
+    """None, or the problem when `need` bytes more cannot fit the soft address-space limit
+    beside what this process uses, or the machine's memory; `what` needs them, the fix says
+    to `verb` at a lower --resolution (`also`: what else would do)."""
     limit = resource.getrlimit(resource.RLIMIT_AS)[0]
     used = address_space_in_use()
-    if limit != resource.RLIM_INFINITY and used is not None and used + need > limit:
-        return (f"{what} {used / GB:.1f} GB this process uses, more than its address-space "
-                f"limit of {limit / GB:.1f} GB (`ulimit -v`, or the job's memory limit such "
-                f"as SGE's h_vmem), where Blender's bake would crash: raise the limit or bake "
-                f"at a lower --resolution{smaller}")
+    if limit != resource.RLIM_INFINITY and used is not None and \
+            used + need + BYTES_PER_BAKE > limit:
+        return (f"{what} needs at least {(need + BYTES_PER_BAKE) / GB:.1f} GB of memory "
+                f"beyond the {used / GB:.1f} GB this process uses, more than its address-"
+                f"space limit of {limit / GB:.1f} GB (`ulimit -v`, or the job's memory limit "
+                f"such as SGE's h_vmem), where Blender's bake would crash: raise the limit or "
+                f"{verb} at a lower --resolution{also}")
     machine, resident = machine_memory(), resident_in_use()
     if machine is not None and resident is not None and resident + need > machine[0]:
-        return (f"{what} {resident / GB:.1f} GB this process holds, more than {machine[1]}, "
-                f"where the system would kill the bake: bake at a lower --resolution{smaller}, "
+        return (f"{what} needs at least {need / GB:.1f} GB of memory beyond the "
+                f"{resident / GB:.1f} GB this process holds, more than {machine[1]}, "
+                f"where the system would kill the bake: {verb} at a lower --resolution{also}, "
                 f"or on a machine with more memory")
     return None
+
+
+def start_problem():
+    """None, or the problem when the soft address-space limit is below START_BYTES: too
+    little to load Blender's module and bake anything (call it before bpy is imported)."""
+    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if limit == resource.RLIM_INFINITY or limit >= START_BYTES:
+        return None
+    return (f"the address-space limit of {limit / GB:.2f} GB (`ulimit -v`, or the job's "
+            f"memory limit such as SGE's h_vmem) is below the {START_BYTES / GB:.1f} GB that "
+            f"loading Blender and a .blend takes before anything is baked, where Blender "
+            f"would crash: raise the limit")

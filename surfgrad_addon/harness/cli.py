@@ -348,7 +348,7 @@ _BAKE_NORMAL_MAP, _BAKE_BATCH = SHIPPED
 SUBCOMMANDS = (
     CL.Subcommand("demo", "the main job (reference stage)", demo_arguments, demo_run),
     CL.Subcommand("bench-reference", "benchmark the reference evaluator",
-                  bench_reference_arguments, bench_reference_run),
+                  bench_reference_arguments, bench_reference_run, loads_blender=False),
     CL.Subcommand("bench-compare", "a whole compare's wall time against the bake alone, "
                   "interleaved child processes (JSON)", bench_compare_arguments,
                   bench_compare_run),

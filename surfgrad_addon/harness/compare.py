@@ -18,6 +18,7 @@ grid (tiling UVs) on the 0..1 square a plain image bakes, or on the tiles asked 
 faces outside counted.
 """
 
+import errno
 import json
 import os
 import time
@@ -31,6 +32,8 @@ from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.bake_uvs import read_as_baked
 from ..addon import unrealized_instances as UI
+from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
+                                  memory_problem)
 from ..addon.normal_bake import blend_relative_problem, resolution_problem
 from ..addon.precise_bake import precise_far
 from ..reference import methods as M
@@ -328,6 +331,9 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
     # Compiled kernels load once per process (like an import), reported apart from the timing.
     load_seconds = load_kernels(mesh, inp.uv_map, lambda block: M.resolve(reference(inp, block)),
                                 facts)
+    problem = compare_memory_problem(resolution, len(tiles))
+    if problem:                         # after the kernels load: their memory is counted
+        raise CompareError(problem)
     if tiles == [R.tiles.UDIM_FIRST]:
         # RGBA as read back (no copy): the comparison reads channels 0-2.
         pixels, covered, bake_seconds = B.bake_vector_in_pieces(
@@ -384,6 +390,27 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
     return report, ErrorImage(error, reasons)
 
 
+# What a compare holds per texel beyond the bake (the read-back pixels, coverage, reference
+# and error images), measured on 5.2.3: from 2048^2 to 4096^2 its peak virtual size grew by 26
+# bytes a texel and its peak resident size by 23 (a normal-map compare, one tile); rounded down.
+COMPARE_BYTES_PER_TEXEL = 20
+
+
+def compare_memory_problem(resolution, tiles):
+    """None, or the problem when a compare of `tiles` tiles at resolution^2 cannot fit this
+    process's address-space limit or the machine's memory (memory_limit.py). Before: under
+    `ulimit -v` it crashed inside Blender (exit 139, no line), or ended in a raw MemoryError
+    or OpenBLAS traceback. One tile bakes in pieces of at most B.PIECE_TEXELS^2 (the bake's
+    bytes per texel counted for a piece); several tiles bake whole."""
+    texels = int(resolution) ** 2
+    if tiles > 1:
+        bake = texels * (BYTES_PER_TEXEL + BYTES_PER_FURTHER_TILE_TEXEL * (tiles - 1))
+    else:
+        bake = min(texels, B.PIECE_TEXELS ** 2) * BYTES_PER_TEXEL
+    return memory_problem(bake + texels * tiles * COMPARE_BYTES_PER_TEXEL,
+                          f"a {resolution}x{resolution} compare of {tiles} tile(s)", "compare")
+
+
 def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
             with_heat_map=False, tiles=None, device="CPU"):
     """The public comparison (surfgrad_addon.harness.api.compare): compare_object, quiet, with
@@ -426,9 +453,22 @@ def check_output_path(path, overwrite, what="output"):
                            f"writable; choose another folder")
 
 
+def _not_an_input(path, *inputs):
+    """Refuse an output that is one of the files the compare reads (--blend, --image): with
+    --overwrite, `--json scene.blend` replaced the user's .blend with the report, exit 0."""
+    for source in inputs:
+        if source and path.exists() and Path(source).exists() and os.path.samefile(path, source):
+            raise CompareError(f"output {str(path)!r} is the file {str(source)!r} this compare "
+                               f"reads; give another --json")
+
+
 def _write_report(json_out, report, heat_path, heat, overwrite):
     """The JSON and its heat map, both or neither: a stop (Ctrl-C) waits for the pair and
-    then removes it, and the folders made for it (interrupts.committing, placed)."""
+    then removes it, and the folders made for it (interrupts.committing, placed). Without
+    overwrite a file that appeared since the check (another compare writing the same report)
+    is left as it is and this one fails: before, the second compare replaced the first's
+    JSON, met its heat map, then removed both as its own ("the disk may be full"), and the
+    first had exited 0 with nothing left."""
     from ..addon import interrupts
     from ..addon.exit_codes import BakeFailed
     with interrupts.committing():
@@ -436,17 +476,27 @@ def _write_report(json_out, report, heat_path, heat, overwrite):
         for d in reversed(made):
             d.mkdir()
             interrupts.placed(d)
-        for path in (json_out, heat_path):
-            interrupts.placed(path)
+        ours = []                        # what this compare wrote (and removes on a failure)
         try:
-            json_out.write_text(json.dumps(report, indent=2))
+            with open(json_out, "w" if overwrite else "x") as f:
+                ours.append(json_out)
+                interrupts.placed(json_out)
+                f.write(json.dumps(report, indent=2))
+            if not overwrite and heat_path.exists():
+                raise FileExistsError(errno.EEXIST, "exists", str(heat_path))
+            ours.append(heat_path)
+            interrupts.placed(heat_path)
             write_heat_map(heat_path, heat, overwrite)
         except OSError as err:           # a full disk: no cut-off file left as the report
-            for path in (json_out, heat_path, *made):
+            for path in (*ours, *made):
                 if path.is_file():
                     path.unlink()
                 elif path.is_dir() and not any(path.iterdir()):
                     path.rmdir()
+            if isinstance(err, FileExistsError):
+                raise BakeFailed(f"{err.filename!r} appeared while this compare ran (another "
+                                 f"compare writing the same report?) and is left as it is: "
+                                 f"give another --json, or pass --overwrite") from None
             raise BakeFailed(f"could not write {str(json_out)!r} and its heat map ({err}): "
                              f"free space in {str(json_out.parent)!r} (the disk may be full) "
                              f"or check the folder's permissions, and compare again") from None
@@ -463,6 +513,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     heat_path = json_out.with_name(json_out.stem + "_error.png")
     for p in (json_out, heat_path):
         check_output_path(p, overwrite)
+        _not_an_input(p, blend, image)
     D.check(cycles_device)
     if blend:
         if not Path(blend).exists():           # a folder: open_mainfile names it

@@ -21,6 +21,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+from ..addon.batch.manifest import hold, release
+from ..addon.batch.plan import BatchError
+from ..addon.exit_codes import BakeFailed
 from . import cycles_device as D
 from .compare import CompareError, compare_object
 from .heat_map import write_heat_map
@@ -118,6 +121,7 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
         raise CompareError(f"no method {unknown[0]!r}; use some of {sorted(METHODS)}")
     devices = D.check(cycles_device)
     created = [d for d in (*reversed(out.parents), out, out / "heat") if not d.exists()]
+    _hold(table_json)
     before = set((out / "heat").glob("*.png")) if (out / "heat").is_dir() else set()
     (out / "heat").mkdir(parents=True, exist_ok=True)
     temp = Path(tempfile.mkdtemp(prefix="surfgrad-compare-all-"))
@@ -136,6 +140,7 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
         for k in range(1, len(children) + 1):
             (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
             (out / SHARD_FILE.format(k)).with_suffix(".tmp").unlink(missing_ok=True)
+        release(table_json)                   # its lock file is in a folder removed next
         for d in reversed(created):
             try:
                 d.rmdir()
@@ -157,8 +162,10 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
                                                   temp, cycles_device))
             reports = _collect(out, resolution, workers, methods, children, log,
                                cycles_device)
-        except BaseException:
+        except BaseException as err:
             forget()
+            if isinstance(err, OSError):        # a heat map the disk would not take
+                raise _not_written(out, err) from None
             raise
         finally:
             for k, child in enumerate(children, start=1):
@@ -171,10 +178,39 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
         with interrupts.committing():             # both tables or, on a stop, neither
             for p in (table_json, table_md):
                 interrupts.placed(p)
-            table_json.write_text(json.dumps(reports, indent=2))
-            table_md.write_text(table_markdown(reports, resolution, cycles_device, devices))
+            try:
+                table_json.write_text(json.dumps(reports, indent=2))
+                table_md.write_text(table_markdown(reports, resolution, cycles_device,
+                                                   devices))
+            except OSError as err:
+                # A full disk or a file-size limit: before, a cut-off compare.json was left
+                # with the heat maps and a raw OSError traceback. Now nothing is left.
+                for p in (table_json, table_md):
+                    p.unlink(missing_ok=True)
+                forget()
+                raise _not_written(out, err) from None
+    release(table_json)
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
     return reports
+
+
+def _hold(table_json):
+    """This run's hold on its output folder (the manifest's lock, on compare.json), or a
+    CompareError when another compare-all holds it. Two runs into one --out both passed the
+    check, both exited 0, and the tables and heat maps left were a mix of the two (the first's
+    replaced without --overwrite); one that failed removed the other's heat maps."""
+    try:
+        hold(table_json)
+    except BatchError:
+        raise CompareError(f"{str(table_json.parent)!r} is in use by another compare-all run "
+                           f"(it holds {str(table_json.with_name('.compare.json.lock'))!r}): "
+                           f"wait for that run to end, or give this one another --out") from None
+
+
+def _not_written(out, err):
+    return BakeFailed(f"could not write the tables and heat maps in {str(out)!r} ({err}): "
+                      f"free space there (the disk may be full) or check the folder's "
+                      f"permissions, and compare again")
 
 
 def _collect(out, resolution, workers, methods, children, log, cycles_device="CPU"):
@@ -187,8 +223,9 @@ def _collect(out, resolution, workers, methods, children, log, cycles_device="CP
         shard_file = out / SHARD_FILE.format(k)
         if child.returncode != 0 or not shard_file.is_file():
             lines = (err or "").strip().splitlines()
-            raise CompareError(f"compare-all worker {k} failed (exit {child.returncode}): "
-                               f"{lines[-1] if lines else 'no output'}")
+            # A failure after baking began (exit 1), not a refused request (2, as before).
+            raise BakeFailed(f"compare-all worker {k} failed (exit {child.returncode}): "
+                             f"{lines[-1] if lines else 'no output'}")
         reports.update({int(i): r for i, r in json.loads(shard_file.read_text()).items()})
     return [reports[i] for i in sorted(reports)]
 

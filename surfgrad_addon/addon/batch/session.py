@@ -12,6 +12,7 @@ from ..exit_codes import MapNotWritten
 from ..image_checks import image_problems
 from ..material_inputs import missing_library_problem
 from .. import normal_bake as NB
+from .. import utf8_names
 
 FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT", "die-once:OBJECT", "hang:OBJECT"
 
@@ -27,6 +28,10 @@ def scan_open_file(objects=None, collections=None, everything=False):
     mesh_objects = [o for o in bpy.data.objects if o.type == "MESH"]
     if objects:
         for pattern in objects:
+            bad = utf8_names.problem("object", pattern)
+            if bad:
+                errors.append({"object": pattern, "error": bad})
+                continue
             exact = bpy.data.objects.get(pattern)       # a name with * or [ in it is a name
             hits = [exact] if exact else \
                 [o for o in bpy.data.objects if fnmatch.fnmatchcase(o.name, pattern)]
