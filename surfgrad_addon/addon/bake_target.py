@@ -4,11 +4,16 @@ Blender's bake operator works on selectable, visible objects of the active view 
 writes into the object's materials: an object linked from a library cannot take a temporary
 material, and one hidden in the viewport makes the operator fail with "context is incorrect".
 Holdout (the object's or a collection's) bakes zero-length normals and a view layer's material
-override bakes that material instead: both are lifted for the bake, like the hiding.
+override bakes that material instead: both are lifted for the bake, like the hiding. So are
+two flags that make Cycles leave the object out (cycles_geometry.py): every ray visibility off
+(Object > Visibility > Ray Visibility), and Show Instancer for Render off on an object that
+instances (a particle emitter, vertex or face instancing); either baked the background, a
+grey map of zero-length normals, with exit 0.
 """
 
 from contextlib import contextmanager
 
+from .cycles_geometry import RAYS
 from .material_inputs import missing_library_problem
 
 
@@ -54,6 +59,9 @@ _OBJECT_FLAGS = _HIDING + ("is_holdout",)
 # objects"); a holdout one bakes the grey map.
 _COLLECTION_FLAGS = _HIDING
 _LAYER_COLLECTION_FLAGS = ("hide_viewport", "holdout")
+# Cycles skips an object with every ray type off, and an instancer not shown in renders:
+# one ray (the camera's) and the instancer are turned on for the bake.
+_SHOWN_FLAGS = ("visible_camera", "show_instancer_for_render")
 
 
 def _chains(obj, layer_collection, above=()):
@@ -70,8 +78,9 @@ def _chains(obj, layer_collection, above=()):
 
 @contextmanager
 def visible_for_bake(obj, view_layer):
-    """Unhide obj (eye, monitor, pointer, camera) and the collections that hold it, and lift
-    holdout from both, for the bake; put every flag back after."""
+    """Unhide obj (eye, monitor, pointer, camera) and the collections that hold it, lift
+    holdout from both, and make Cycles keep obj (_SHOWN_FLAGS), for the bake; put every flag
+    back after."""
     blocks = [(obj, _OBJECT_FLAGS)]
     for chain in _chains(obj, view_layer.layer_collection):
         for layer in chain[1:]:                  # the root (scene collection) has no flags
@@ -82,14 +91,22 @@ def visible_for_bake(obj, view_layer):
             continue
         saved += [(block, name, getattr(block, name)) for name in names
                   if hasattr(block, name)]
+    shown = [] if getattr(obj, "library", None) is not None else \
+        [name for name in _SHOWN_FLAGS if not getattr(obj, name, True)]
+    if any(getattr(obj, ray, False) for ray in RAYS):
+        shown = [name for name in shown if name != "visible_camera"]   # a ray sees it already
     hidden = obj.hide_get(view_layer=view_layer)
     try:
         for block, name, _ in saved:
             setattr(block, name, False)
+        for name in shown:
+            setattr(obj, name, True)
         if hidden:
             obj.hide_set(False, view_layer=view_layer)
         yield
     finally:
+        for name in shown:
+            setattr(obj, name, False)
         if hidden:
             obj.hide_set(True, view_layer=view_layer)
         for block, name, value in reversed(saved):
