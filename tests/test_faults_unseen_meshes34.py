@@ -9,6 +9,15 @@ them up, built here.
    "no texel could be compared ...; raise --resolution" (exit 2). Now the bake turns on the
    camera ray (only when every ray is off) and the instancer for its duration, as it lifts
    hiding and holdout (addon/bake_target.visible_for_bake), and puts them back.
+2. Objects that render but are not meshes (a bevelled curve, a text, a NURBS surface, a
+   metaball, hair curves, a point cloud) were refused as "a font" / "a meta" / "a curves",
+   "pick a mesh object": now named as what they are, and those Object > Convert > Mesh turns
+   into faces get that fix.
+3. An object the bake cannot reach in the active scene's view layer was refused with "its
+   collection is excluded, or it belongs to another scene: enable its collection", whatever
+   the cause: now an object only a collection instance (an Empty instancing its collection)
+   shows is named as such, with the fix (link the collection, or make the instance real); an
+   object of another scene names that scene; an excluded collection is named.
 """
 
 import hashlib
@@ -19,6 +28,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import exit_codes  # noqa: E402
 from surfgrad_addon.addon.cycles_geometry import RAYS  # noqa: E402
 from surfgrad_addon.harness import compare  # noqa: E402
@@ -93,3 +103,107 @@ def test_compare_bakes_objects_cycles_leaves_out(empty_file, fault):
     _within_bar(report, 1500)
     assert report["excluded"]["outside"] == 0, report
     assert flags(obj) == kept
+
+
+def _non_meshes():
+    """Objects of every kind Cycles renders that is not a mesh, by name."""
+    curve = bpy.data.curves.new("Curve", "CURVE")
+    curve.bevel_depth = 0.2
+    points = curve.splines.new("BEZIER").bezier_points
+    points.add(1)
+    for p, x in zip(points, (0.0, 2.0)):
+        p.co, p.handle_left, p.handle_right = (x, 0, 0), (x - 0.5, 0, 0), (x + 0.5, 0, 0)
+    surface = bpy.data.curves.new("Surface", "SURFACE")
+    surface.splines.new("NURBS").points.add(15)
+    ball = bpy.data.metaballs.new("Metaball")
+    ball.elements.new()
+    data = {"Curve": curve, "Surface": surface, "Metaball": ball,
+            "Text": bpy.data.curves.new("Text", "FONT"),
+            "Hair": bpy.data.hair_curves.new("Hair"),
+            "Points": bpy.data.pointclouds.new("Points")}
+    for name, d in data.items():
+        bpy.context.scene.collection.objects.link(bpy.data.objects.new(name, d))
+    return sorted(data)
+
+
+# name -> how the refusal calls it; the first four convert into faces.
+CALLED = {"Curve": "a curve", "Surface": "a NURBS surface", "Text": "a text object",
+          "Metaball": "a metaball", "Hair": "a hair curves object", "Points": "a point cloud"}
+CONVERT = ", or convert it (Object > Convert > Mesh) and unwrap the mesh"
+
+
+@pytest.mark.tier("blender")
+def test_objects_that_render_but_are_not_meshes_are_refused_with_the_fix(empty_file, tmp_path):
+    """Before: "object 'Text' is a font, not a mesh: pick a mesh object" (also "a meta",
+    "a curves", "a pointcloud", "a surface"), from compare and the bake alike."""
+    assert _non_meshes() == sorted(CALLED)
+    for name, called in CALLED.items():
+        obj = bpy.data.objects[name]
+        fix = CONVERT if name in ("Curve", "Surface", "Text", "Metaball") else ""
+        with pytest.raises(compare.CompareError) as err:
+            compare.compare(obj, "normal-map", RES)
+        assert str(err.value) == f"object {name!r} is {called}, not a mesh: pick a mesh " \
+            f"object{fix}"
+        with pytest.raises(ValueError) as err:
+            api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=16)
+        assert f"object {name!r} is {called}, not a mesh: pick a mesh object to bake " \
+            f"(--object NAME){fix}" in str(err.value)
+    # The fix works where it is offered: the converted curve is a mesh with faces.
+    curve = bpy.data.objects["Curve"]
+    bpy.context.view_layer.objects.active = curve
+    curve.select_set(True)
+    bpy.ops.object.convert(target="MESH")
+    assert curve.type == "MESH" and len(curve.data.polygons) > 0
+
+
+def _only_in_an_instanced_collection():
+    obj = _object("Instanced", [_grid()])
+    library = bpy.data.collections.new("Library")
+    library.objects.link(obj)
+    bpy.context.scene.collection.objects.unlink(obj)
+    shelf = bpy.data.collections.new("Shelf")          # an instance of a parent collection
+    shelf.children.link(library)
+    empty = bpy.data.objects.new("Shelf instance", None)
+    empty.instance_type, empty.instance_collection = "COLLECTION", shelf
+    bpy.context.scene.collection.objects.link(empty)
+    return obj, ("object 'Instanced' is not in scene 'Scene' itself, only in collection "
+                 "'Shelf', which collection instance 'Shelf instance' shows (a bake needs the "
+                 "object): link collection 'Shelf' into scene 'Scene', or make the instance "
+                 "real (Object > Apply > Make Instances Real) and bake the copy")
+
+
+def _in_another_scene():
+    obj = _object("Elsewhere", [_grid()])
+    bpy.data.scenes.new("Layout").collection.objects.link(obj)
+    bpy.context.scene.collection.objects.unlink(obj)
+    return obj, ("object 'Elsewhere' is in scene(s) 'Layout', not in scene 'Scene', which the "
+                 "bake renders: save the file with that scene active (the bake uses the active "
+                 "scene), or link the object into scene 'Scene'")
+
+
+def _in_an_excluded_collection():
+    obj = _object("Excluded", [_grid()])
+    props = bpy.data.collections.new("Props")
+    bpy.context.scene.collection.children.link(props)
+    props.objects.link(obj)
+    bpy.context.scene.collection.objects.unlink(obj)
+    bpy.context.view_layer.layer_collection.children["Props"].exclude = True
+    return obj, ("object 'Excluded' is not in view layer 'ViewLayer': its collection "
+                 "('Props') is excluded from it; enable its collection (its checkbox in the "
+                 "Outliner)")
+
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("build", [_only_in_an_instanced_collection, _in_another_scene,
+                                   _in_an_excluded_collection])
+def test_an_object_outside_the_view_layer_is_refused_for_its_own_reason(empty_file, tmp_path,
+                                                                      build):
+    """Before: each was "object ... is not in view layer 'ViewLayer' (its collection is
+    excluded, or it belongs to another scene): enable its collection"."""
+    obj, said = build()
+    with pytest.raises(compare.CompareError) as err:
+        compare.compare(obj, "normal-map", RES)
+    assert str(err.value) == said
+    with pytest.raises(ValueError) as err:
+        api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=16)
+    assert said in str(err.value)

@@ -17,6 +17,24 @@ from .cycles_geometry import RAYS
 from .material_inputs import missing_library_problem
 
 
+# What to call an object type in a refusal (else its name: "an empty", "a light").
+_KINDS = {"CURVE": "a curve", "SURFACE": "a NURBS surface", "FONT": "a text object",
+          "META": "a metaball", "CURVES": "a hair curves object", "POINTCLOUD": "a point cloud",
+          "GPENCIL": "a grease pencil object", "GREASEPENCIL": "a grease pencil object"}
+# Those that Object > Convert > Mesh turns into faces a bake can take (hair curves and point
+# clouds become loose edges and vertices).
+_CONVERTIBLE = ("CURVE", "SURFACE", "FONT", "META")
+
+
+def not_a_mesh(name, kind, pick="pick a mesh object"):
+    """The refusal of object `name` of type `kind` (Object.type), with the fix."""
+    what = _KINDS.get(kind) or \
+        f"{'an' if kind[:1] in 'AEIOU' else 'a'} {kind.lower().replace('_', ' ')}"
+    fix = pick + (", or convert it (Object > Convert > Mesh) and unwrap the mesh"
+                  if kind in _CONVERTIBLE else "")
+    return f"object {name!r} is {what}, not a mesh: {fix}"
+
+
 def bake_target_problem(obj, view_layer):
     """None when obj can be baked, else a message naming the problem and the fix."""
     if obj is None:
@@ -25,7 +43,7 @@ def bake_target_problem(obj, view_layer):
     if missing:
         return missing
     if obj.type != "MESH":
-        return f"object {obj.name!r} is a {obj.type.lower()}, not a mesh: pick a mesh object"
+        return not_a_mesh(obj.name, obj.type)
     for what, block in (("object", obj), ("mesh", obj.data)):
         if getattr(block, "library", None) is not None:
             return (f"{what} {block.name!r} of {obj.name!r} is linked from library "
@@ -36,11 +54,40 @@ def bake_target_problem(obj, view_layer):
             return (f"mesh {block.name!r} of {obj.name!r} is a library override: make it local "
                     f"(Object > Relations > Make Local) to bake")
     if not _in_view_layer(obj, view_layer.layer_collection):
-        return (f"object {obj.name!r} is not in view layer {view_layer.name!r} (its collection "
-                f"is excluded, or it belongs to another scene): enable its collection")
+        return _outside_view_layer(obj, view_layer)
     if len(obj.data.polygons) == 0:
         return f"mesh {obj.data.name!r} of {obj.name!r} has no faces to bake"
     return None
+
+
+def _outside_view_layer(obj, view_layer):
+    """Why obj, not in view_layer, is not (another scene, only a collection instance shows it,
+    an excluded collection), and the fix."""
+    import bpy
+    scene = view_layer.id_data
+    here = f"scene {scene.name!r}"
+    others = [s.name for s in obj.users_scene if s != scene]
+    if scene not in obj.users_scene:
+        shown_by = [(o.name, o.instance_collection.name) for o in bpy.data.objects
+                    if o.instance_type == "COLLECTION" and o.instance_collection is not None
+                    and o.instance_collection.all_objects.get(obj.name) == obj]
+        if shown_by:
+            instance, collection = shown_by[0]
+            return (f"object {obj.name!r} is not in {here} itself, only in collection "
+                    f"{collection!r}, which collection instance {instance!r} shows (a bake "
+                    f"needs the object): link collection {collection!r} into {here}, or make "
+                    f"the instance real (Object > Apply > Make Instances Real) and bake the "
+                    f"copy")
+        if others:
+            return (f"object {obj.name!r} is in scene(s) {', '.join(map(repr, others))}, not "
+                    f"in {here}, which the bake renders: save the file with that scene active "
+                    f"(the bake uses the active scene), or link the object into {here}")
+        return (f"object {obj.name!r} is in no collection of {here}: link it into the scene "
+                f"(Object > Collection > Link to Collection)")
+    names = ", ".join(repr(c.name) for c in obj.users_collection)
+    return (f"object {obj.name!r} is not in view layer {view_layer.name!r}: its collection "
+            f"({names}) is excluded from it; enable its collection (its checkbox in the "
+            f"Outliner)")
 
 
 def _in_view_layer(obj, layer_collection):

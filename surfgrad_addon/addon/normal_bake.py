@@ -28,7 +28,7 @@ from pathlib import Path
 from ..reference import tiles as T
 from . import interrupts
 from .bake_console import heartbeat, quiet_bake
-from .bake_target import bake_target_problem, own_materials, visible_for_bake
+from .bake_target import bake_target_problem, not_a_mesh, own_materials, visible_for_bake
 from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
@@ -156,8 +156,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     if missing:
         raise NormalBakeError(missing)
     if obj.type != "MESH":
-        raise NormalBakeError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh: pick "
-                              f"a mesh object to bake (--object NAME)")
+        raise NormalBakeError(not_a_mesh(obj.name, obj.type,
+                                         "pick a mesh object to bake (--object NAME)"))
     problem = bake_target_problem(obj, bpy.context.view_layer)
     if problem:
         raise NormalBakeError(problem)

@@ -9,6 +9,7 @@ computed on the triangles with those normals as Cycles does.
 
 import numpy as np
 
+from ..addon.bake_target import not_a_mesh
 from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.blender_lines import octahedral_unit_vectors
@@ -106,8 +107,7 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
     if obj is None:
         raise MeshDataError("no object given")
     if obj.type != "MESH":
-        raise MeshDataError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh; pick a "
-                            f"mesh object (or convert it with Object > Convert > Mesh)")
+        raise MeshDataError(not_a_mesh(obj.name, obj.type))
     facts = facts or running_line()
     if depsgraph is None:
         from ..addon.render_mesh import read_in_render_mode
