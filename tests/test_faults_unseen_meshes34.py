@@ -27,6 +27,11 @@ them up, built here.
    over 2 frames; bake-normal-map's object-space map of that shape key was 16.2 deg (p99)
    off the same bake without motion blur, exit 0. Now a bake turns motion blur off for its
    duration (scene_state.without_motion_blur) and puts it back.
+5. A Geometry Nodes modifier reading the scene's Active Camera (camera culling, distance
+   LODs, a bend toward the camera): the reference read the render-mode mesh through a render
+   whose camera was always a temporary one at the origin, so it read another mesh than the
+   bake. Before, at 64^2 on 5.2: a correct SG Normal Map p99 44.4 / max 45.6 deg. Now the
+   scene's camera is kept for that render where there is one (addon/render_mesh.py).
 """
 
 import hashlib
@@ -41,6 +46,7 @@ from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import exit_codes  # noqa: E402
 from surfgrad_addon.addon.cycles_geometry import RAYS  # noqa: E402
 from surfgrad_addon.harness import compare  # noqa: E402
+from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 from test_faults_scene_settings import _bake, _pixels, _scene, plain  # noqa: E402,F401
 from test_faults_unseen_meshes31 import RES, _within_bar, empty_file  # noqa: E402,F401
@@ -283,3 +289,56 @@ def test_bake_normal_map_takes_the_current_frame_under_motion_blur(tmp_path):
     assert covered.sum() > 900
     np.testing.assert_allclose(blurred[covered], still[covered], atol=1e-5)
     assert np.ptp(still[covered][:, 0]) > 0.5          # the wave tilts the normals in x
+
+
+def _bend_by_the_active_camera(obj, k=0.05):
+    """A Geometry Nodes modifier: z += k * (the active camera's z) * x^2."""
+    ng = bpy.data.node_groups.new("Camera bend", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    new, link = ng.nodes.new, ng.links.new
+    gi, go = new("NodeGroupInput"), new("NodeGroupOutput")
+    info = new("GeometryNodeObjectInfo")
+    link(new("GeometryNodeInputActiveCamera").outputs[0], info.inputs["Object"])
+    position, camera = new("ShaderNodeSeparateXYZ"), new("ShaderNodeSeparateXYZ")
+    link(new("GeometryNodeInputPosition").outputs[0], position.inputs[0])
+    link(info.outputs["Location"], camera.inputs[0])
+    x2, scaled, offset = new("ShaderNodeMath"), new("ShaderNodeMath"), new("ShaderNodeCombineXYZ")
+    x2.operation = scaled.operation = "MULTIPLY"
+    link(position.outputs[0], x2.inputs[0])
+    link(position.outputs[0], x2.inputs[1])
+    link(x2.outputs[0], scaled.inputs[0])
+    link(camera.outputs[2], scaled.inputs[1])
+    link(scaled.outputs[0], offset.inputs[2])
+    times_k = new("ShaderNodeVectorMath")
+    times_k.operation = "SCALE"
+    link(offset.outputs[0], times_k.inputs[0])
+    times_k.inputs["Scale"].default_value = k
+    moved = new("GeometryNodeSetPosition")
+    link(gi.outputs[0], moved.inputs["Geometry"])
+    link(times_k.outputs[0], moved.inputs["Offset"])
+    link(moved.outputs[0], go.inputs[0])
+    obj.modifiers.new("Camera bend", "NODES").node_group = ng
+
+
+@pytest.mark.parametrize("excluded", [False, True], ids=["camera", "excluded_camera"])
+def test_geometry_nodes_reading_the_active_camera_are_read_as_baked(empty_file, excluded):
+    """5. The scene's camera 10 m up (also in a collection excluded from the view layer: it
+    still renders): the reference's mesh is the grid bent by 0.05 * 10 * x^2, and compare is
+    within the bar (before: p99 44.4 deg; the mesh unbent). The scene's camera stays, and no
+    camera is added."""
+    verts, faces, uvs = _grid()
+    obj = _object("Bent", [(verts, faces, uvs)])
+    _bend_by_the_active_camera(obj)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (0.0, 0.0, 10.0)
+    rig = bpy.data.collections.new("Rig")
+    bpy.context.scene.collection.children.link(rig)
+    rig.objects.link(camera)
+    bpy.context.view_layer.layer_collection.children["Rig"].exclude = excluded
+    bpy.context.scene.camera = camera
+    arrays = mesh_arrays_from_object(obj, need_tangents=False)
+    expected = verts + np.column_stack([np.zeros((len(verts), 2)), 0.5 * verts[:, 0] ** 2])
+    np.testing.assert_allclose(arrays.positions, expected, atol=1e-6)
+    _within_bar(compare.compare(obj, "normal-map", RES), 1500)
+    assert bpy.context.scene.camera == camera and len(bpy.data.cameras) == 1
