@@ -32,6 +32,11 @@ them up, built here.
    whose camera was always a temporary one at the origin, so it read another mesh than the
    bake. Before, at 64^2 on 5.2: a correct SG Normal Map p99 44.4 / max 45.6 deg. Now the
    scene's camera is kept for that render where there is one (addon/render_mesh.py).
+6. The active view layer with Use for Rendering off (a working layer, the final layers
+   elsewhere): the render-mode pass reached no view layer, so compare, and bake-normal-map on
+   any object with a modifier, were refused (exit 2: "could not evaluate ... the render-mode
+   pass did not reach view layer"), though Cycles bakes it (an unmodified object baked). Now
+   the pass turns it on for its duration.
 """
 
 import hashlib
@@ -342,3 +347,28 @@ def test_geometry_nodes_reading_the_active_camera_are_read_as_baked(empty_file, 
     np.testing.assert_allclose(arrays.positions, expected, atol=1e-6)
     _within_bar(compare.compare(obj, "normal-map", RES), 1500)
     assert bpy.context.scene.camera == camera and len(bpy.data.cameras) == 1
+
+
+def test_a_view_layer_off_for_renders_is_read_and_baked(tmp_path, capsys, empty_file):
+    """6. bake-normal-map of the stripes plane with a Subdivision modifier: with the view
+    layer off for renders, rc 0 and the map of the same file with it on (before: rc 2);
+    compare within the bar (before: RenderMeshError). The flag is back after."""
+    maps = {}
+    for use in (True, False):
+        _scene(tmp_path)
+        bpy.data.objects["Plane"].modifiers.new("Subdivision", "SUBSURF")
+        bpy.context.view_layer.use = use
+        blend = tmp_path / f"use_{use}.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+        rc, err = _bake(capsys, blend, tmp_path / f"use_{use}.png")
+        assert rc == exit_codes.OK, err[-2000:]
+        assert bpy.context.view_layer.use == use
+        maps[use] = _pixels(tmp_path / f"use_{use}.png")
+    assert np.abs(maps[False] - maps[True]).max() <= 1.5 / 255
+    assert np.ptp(maps[True][..., 0]) > 0.5                 # the stripes
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj = _object("Working layer", [_grid()])
+    obj.modifiers.new("Subdivision", "SUBSURF")
+    bpy.context.view_layer.use = False
+    _within_bar(compare.compare(obj, "normal-map", RES), 1500)
+    assert not bpy.context.view_layer.use
