@@ -26,7 +26,7 @@ them up, built here.
    2 frames, shutter 1), 16.6 / 17.8 (Start) and 22.3 / 23.4 (End) on a shape key animated
    over 2 frames; bake-normal-map's object-space map of that shape key was 16.2 deg (p99)
    off the same bake without motion blur, exit 0. Now a bake turns motion blur off for its
-   duration (scene_state.without_motion_blur) and puts it back.
+   duration (scene_state.without_render_effects) and puts it back.
 5. A Geometry Nodes modifier reading the scene's Active Camera (camera culling, distance
    LODs, a bend toward the camera): the reference read the render-mode mesh through a render
    whose camera was always a temporary one at the origin, so it read another mesh than the
@@ -37,6 +37,11 @@ them up, built here.
    any object with a modifier, were refused (exit 2: "could not evaluate ... the render-mode
    pass did not reach view layer"), though Cycles bakes it (an unmodified object baked). Now
    the pass turns it on for its duration.
+7. Simplify's camera culling or distance culling (Render > Simplify > Culling, with the
+   object's own Culling flags, as big scatter scenes use them) and the object outside the
+   camera's view or far from it: Cycles left it out of the bake as of the render, the
+   background again (grey, exit 0; compare "no texel could be compared"). Now a bake turns
+   both off for its duration (scene_state.without_render_effects), tested with finding 1.
 """
 
 import hashlib
@@ -90,10 +95,29 @@ def _hair_scalp(obj):
     return lambda o: o.show_instancer_for_render
 
 
+def _culled(by):
+    """A camera 100 m up looking away from the object, Simplify's culling `by` the camera's
+    view or its distance on for the scene and the object."""
+    def make(obj):
+        scene = bpy.context.scene
+        camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+        scene.collection.objects.link(camera)
+        scene.camera = camera
+        camera.location, camera.rotation_euler = (0.0, 0.0, 100.0), (3.14159, 0.0, 0.0)
+        scene.render.use_simplify = True
+        setattr(scene.cycles, f"use_{by}_cull", True)
+        setattr(obj.cycles, f"use_{by}_cull", True)
+        return lambda o: (getattr(bpy.context.scene.cycles, f"use_{by}_cull"),
+                          getattr(o.cycles, f"use_{by}_cull"))
+    return make
+
+
 # fault -> (what adds it to an object and returns how to read its flags, the flags as set)
 FAULTS = {"rays_off": (_rays_off, (False,) * len(RAYS)),
           "vertex_instancer_hidden": (_vertex_instancer, ("VERTS", False)),
-          "hair_scalp_hidden": (_hair_scalp, False)}
+          "hair_scalp_hidden": (_hair_scalp, False),
+          "camera_culled": (_culled("camera"), (True, True)),
+          "distance_culled": (_culled("distance"), (True, True))}
 
 
 @pytest.mark.parametrize("fault", sorted(FAULTS))

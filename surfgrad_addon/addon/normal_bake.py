@@ -34,7 +34,7 @@ from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
-from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_motion_blur
+from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_render_effects
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
@@ -294,7 +294,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
             scene.cycles.samples = samples
             scene.cycles.use_denoising = False
             scene.cycles.texture_limit_render = NO_TEXTURE_LIMIT
-            without_motion_blur(scene)
+            without_render_effects(scene)
             if threads:
                 scene.render.threads_mode = "FIXED"
                 scene.render.threads = threads
