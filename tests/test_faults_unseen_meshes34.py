@@ -42,6 +42,9 @@ them up, built here.
    camera's view or far from it: Cycles left it out of the bake as of the render, the
    background again (grey, exit 0; compare "no texel could be compared"). Now a bake turns
    both off for its duration (scene_state.without_render_effects), tested with finding 1.
+   And where Cycles bakes no texel of the object for a cause not known here, compare fails
+   the bake (exit 1: "Cycles baked no texel of ...: it left the object out of its render")
+   instead of refusing with "no texel could be compared ...; raise --resolution" (exit 2).
 """
 
 import hashlib
@@ -135,6 +138,22 @@ def test_objects_cycles_leaves_out_are_baked(tmp_path, capsys, plain, fault):
     assert np.abs(_pixels(tmp_path / "n.png") - plain).max() <= 1.5 / 255
     assert flags(bpy.data.objects["Plane"]) == kept      # the open file as it was
     assert _sha(blend) == before
+
+
+def test_compare_fails_a_bake_that_left_the_object_out(empty_file, monkeypatch):
+    """7. Culling left on (the lift patched away, standing for a cause not known yet): a
+    failed bake, not a refusal that asks for a higher resolution."""
+    from surfgrad_addon.addon.exit_codes import BakeFailed, code_for
+    from surfgrad_addon.harness import bake
+    monkeypatch.setattr(bake, "without_render_effects", lambda scene: None)
+    obj = _object("Culled", [_grid()])
+    _culled("camera")(obj)
+    with pytest.raises(BakeFailed) as err:
+        compare.compare(obj, "normal-map", RES)
+    assert str(err.value) == ("Cycles baked no texel of 'Culled', whose UVs cover 1521 at "
+                              "64^2: it left the object out of its render (a setting of the "
+                              "file that the bake does not lift); nothing was compared")
+    assert code_for(err.value) == exit_codes.BAKE_FAILED
 
 
 @pytest.mark.parametrize("fault", sorted(FAULTS))

@@ -30,6 +30,7 @@ from .. import reference as R
 from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.bake_uvs import read_as_baked
+from ..addon.exit_codes import BakeFailed
 from ..addon import unrealized_instances as UI
 from ..addon.normal_bake import blend_relative_problem, resolution_problem
 from ..addon.precise_bake import precise_far
@@ -337,11 +338,13 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
                                                         tiles, uv_map=inp.uv_map, device=device)
     reference_seconds = 0.0
+    baked_any = False
     tile_reports, heats, tds = [], [], []
     for number in tiles:
         td, seconds = rasterized(number)
         reference_seconds += seconds
         pixels, covered = baked_tiles.pop(number)
+        baked_any = baked_any or bool(covered.any())
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
         tds.append(td)
@@ -360,6 +363,13 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
                            f"{resolution}^2 (its islands are thinner than a texel or outside "
                            f"the UV square); raise --resolution or unwrap again")
     report = merge(tile_reports)
+    if not baked_any and report["excluded"]["outside"]:
+        # Not "raise --resolution": Cycles left the object out (a setting unknown to
+        # visible_for_bake and without_render_effects), a failed bake.
+        raise BakeFailed(f"Cycles baked no texel of {obj.name!r}, whose UVs cover "
+                         f"{sum(int(td.covered.sum()) for td in tds)} at {resolution}^2: it "
+                         f"left the object out of its render (a setting of the file that the "
+                         f"bake does not lift); nothing was compared")
     if report["texels_compared"] == 0:
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
                            f"(excluded: {report['excluded']}); raise --resolution")
