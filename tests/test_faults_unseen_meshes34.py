@@ -45,6 +45,11 @@ them up, built here.
    And where Cycles bakes no texel of the object for a cause not known here, compare fails
    the bake (exit 1: "Cycles baked no texel of ...: it left the object out of its render")
    instead of refusing with "no texel could be compared ...; raise --resolution" (exit 2).
+8. A UV map that a Geometry Nodes Store Named Attribute rewrites on another domain (points,
+   faces) or as a 3D vector: the mesh as it renders has it no longer as a UV map. compare
+   said "object ... has no UV map; add one (UV > Unwrap)" (it has one), or, with a second UV
+   map left, failed inside the reference with a KeyError; the bake named only "a modifier
+   removes it". Now both name the rendered mesh's UV maps and the node.
 """
 
 import hashlib
@@ -415,3 +420,49 @@ def test_a_view_layer_off_for_renders_is_read_and_baked(tmp_path, capsys, empty_
     bpy.context.view_layer.use = False
     _within_bar(compare.compare(obj, "normal-map", RES), 1500)
     assert not bpy.context.view_layer.use
+
+
+def _store_uvs_as(obj, name, domain, data_type="FLOAT2"):
+    """A Geometry Nodes modifier storing 0.3 * position + 0.5 under `name` on `domain`."""
+    ng = bpy.data.node_groups.new("Store UVs", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    new, link = ng.nodes.new, ng.links.new
+    gi, go = new("NodeGroupInput"), new("NodeGroupOutput")
+    store = new("GeometryNodeStoreNamedAttribute")
+    store.data_type, store.domain = data_type, domain
+    store.inputs["Name"].default_value = name
+    uv = new("ShaderNodeVectorMath")
+    uv.operation = "MULTIPLY_ADD"
+    uv.inputs[1].default_value, uv.inputs[2].default_value = (0.3, 0.3, 0.0), (0.5, 0.5, 0.0)
+    link(new("GeometryNodeInputPosition").outputs[0], uv.inputs[0])
+    link(uv.outputs[0], store.inputs["Value"])
+    link(gi.outputs[0], store.inputs["Geometry"])
+    link(store.outputs[0], go.inputs[0])
+    obj.modifiers.new("Store UVs", "NODES").node_group = ng
+
+
+@pytest.mark.parametrize("domain,data_type", [("POINT", "FLOAT2"), ("FACE", "FLOAT2"),
+                                              ("CORNER", "FLOAT_VECTOR")])
+@pytest.mark.parametrize("second", [False, True], ids=["one_uv_map", "two_uv_maps"])
+def test_a_uv_map_stored_as_another_attribute_is_named(empty_file, tmp_path, domain, data_type,
+                                                       second):
+    """8. Before: compare raised "has no UV map; add one" (one UV map) or a KeyError
+    'Second' from the reference (two)."""
+    obj = _object("Restored", [_grid()])
+    obj.data.materials.append(diffuse_material("Plain")[0])
+    if second:
+        obj.data.uv_layers.new(name="Second")
+    name = "Second" if second else "UVMap"
+    _store_uvs_as(obj, name, domain, data_type)
+    left = ["UVMap"] if second else []
+    said = (f"UV map {name!r} of object 'Restored' is not on the mesh as it renders (a "
+            f"modifier removes it, or a Geometry Nodes Store Named Attribute writes its name on "
+            f"another domain than Face Corner or as another type than 2D Vector; the rendered "
+            f"mesh has {left}): pick one of those, or fix the modifiers")
+    with pytest.raises(compare.CompareError) as err:
+        compare.compare(obj, "normal-map", RES, uv_map=name)
+    assert str(err.value) == said
+    with pytest.raises(ValueError) as err:
+        api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=16, uv_map=name)
+    assert said in str(err.value)

@@ -29,7 +29,7 @@ from ..reference import tiles as T
 from . import interrupts
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, not_a_mesh, own_materials, visible_for_bake
-from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
+from .bake_uvs import baked_uv_tiles, not_rendered_problem, uv_tiles  # noqa: F401  (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
@@ -170,9 +170,7 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
         raise NormalBakeError(f"object {obj.name!r} has no UV map {uv_map!r}; it has {names}")
     layout = baked_uv_tiles(obj)
     if uv_map not in layout:
-        raise NormalBakeError(f"UV map {uv_map!r} of object {obj.name!r} is not on the mesh as "
-                              f"it renders (a modifier removes it; the rendered mesh has "
-                              f"{sorted(layout)}): pick one of those, or fix the modifiers")
+        raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout))
     with_uvs, outside = layout[uv_map]
     warnings = []
     if outside:

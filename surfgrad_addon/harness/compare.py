@@ -29,7 +29,7 @@ import numpy as np
 from .. import reference as R
 from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
-from ..addon.bake_uvs import read_as_baked
+from ..addon.bake_uvs import not_rendered_problem, read_as_baked
 from ..addon.exit_codes import BakeFailed
 from ..addon import unrealized_instances as UI
 from ..addon.normal_bake import blend_relative_problem, resolution_problem
@@ -297,6 +297,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         mesh = mesh_arrays_from_object(obj)
     except MeshDataError as err:
         raise CompareError(str(err)) from err
+    if inp.uv_map not in mesh.uv_maps:
+        raise CompareError(not_rendered_problem(obj.name, inp.uv_map, mesh.uv_maps))
     world = world_positions(mesh)
     problem = collapsed_problem(mesh, world, obj, inp.uv_map)
     if problem:

@@ -10,6 +10,7 @@ computed on the triangles with those normals as Cycles does.
 import numpy as np
 
 from ..addon.bake_target import not_a_mesh
+from ..addon.bake_uvs import not_rendered_problem
 from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.blender_lines import octahedral_unit_vectors
@@ -131,6 +132,8 @@ def _evaluated_arrays(obj, depsgraph, facts):
     try:
         if len(mesh.polygons) == 0:
             raise MeshDataError(f"object {obj.name!r} has no faces to bake; add geometry")
+        if len(mesh.uv_layers) == 0 and len(obj.data.uv_layers):
+            raise MeshDataError(not_rendered_problem(obj.name, obj.data.uv_layers[0].name, []))
         if len(mesh.uv_layers) == 0:
             raise MeshDataError(f"object {obj.name!r} has no UV map; add one (UV > Unwrap) "
                                 f"before baking")
