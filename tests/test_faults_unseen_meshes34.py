@@ -50,6 +50,10 @@ them up, built here.
    said "object ... has no UV map; add one (UV > Unwrap)" (it has one), or, with a second UV
    map left, failed inside the reference with a KeyError; the bake named only "a modifier
    removes it". Now both name the rendered mesh's UV maps and the node.
+9. Faces with area on the mesh whose UVs are merged to a point or a line (a stray "Merge by
+   Distance" in the UV editor, an importer's zeroed UVs): the bake writes nothing for them, a
+   hole in the map, and said nothing (a known limit). Now the request warns, naming the faces
+   (input_checks.collapsed_uv_faces_warning); compare agrees with the bake there already.
 """
 
 import hashlib
@@ -61,7 +65,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
-from surfgrad_addon.addon import exit_codes  # noqa: E402
+from surfgrad_addon.addon import bake_request, exit_codes  # noqa: E402
 from surfgrad_addon.addon.cycles_geometry import RAYS  # noqa: E402
 from surfgrad_addon.harness import compare  # noqa: E402
 from surfgrad_addon.harness.mesh_data import mesh_arrays_from_object  # noqa: E402
@@ -466,3 +470,39 @@ def test_a_uv_map_stored_as_another_attribute_is_named(empty_file, tmp_path, dom
     with pytest.raises(ValueError) as err:
         api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=16, uv_map=name)
     assert said in str(err.value)
+
+
+def test_faces_whose_uvs_are_merged_to_a_point_are_named(empty_file):
+    """9. Faces 9, 10 and 30 of the grid (of 64) with their UVs merged to a point and a line:
+    a warning naming those three (before: none). The mesh untouched gives none; a face
+    collapsed on the mesh too is not named (it has no area to bake)."""
+    verts, faces, uvs = _grid()
+    obj = _object("Merged", [(verts, faces, uvs)])
+    layer = obj.data.uv_layers["UVMap"].uv
+    corner = np.empty(len(layer) * 2)
+    layer.foreach_get("vector", corner)
+    corner = corner.reshape(-1, 4, 2)                      # quads: 4 corners each
+    warnings = []
+    assert bake_request.mesh_problems(obj, "UVMap", warnings) == [] and warnings == []
+    corner[9] = corner[9, 0]                                # to a point
+    corner[10, 2:] = corner[10, :2]                         # to a line (two corners each)
+    corner[30] = (0.5, 0.5)
+    layer.foreach_set("vector", corner.ravel())
+    obj.data.update()
+    problems = bake_request.mesh_problems(obj, "UVMap", warnings)
+    assert problems == []
+    assert warnings == ["UV map 'UVMap' of object 'Merged': 3 face(s) with area on the mesh "
+                        "have none in UV space (their UVs collapsed to a point or a line: "
+                        "faces 9, 10, 30), so the bake writes no texel for them; unwrap them "
+                        "(UV > Unwrap)"]
+    # Face 30 collapsed on the mesh as well: no area to bake, not named.
+    flat = verts.copy()
+    flat[faces[30]] = verts[faces[30][0]]
+    obj.data.vertices.foreach_set("co", flat.ravel())
+    obj.data.update()
+    warnings = []
+    bake_request.mesh_problems(obj, "UVMap", warnings)
+    assert [w for w in warnings if "UV space" in w] == [
+        "UV map 'UVMap' of object 'Merged': 2 face(s) with area on the mesh have none in UV "
+        "space (their UVs collapsed to a point or a line: faces 9, 10), so the bake writes no "
+        "texel for them; unwrap them (UV > Unwrap)"]

@@ -77,6 +77,7 @@ class BakedMesh:
     matrix: np.ndarray
     triangle_uvs: dict
     instances: tuple = ()
+    triangle_faces: np.ndarray = None       # (T,) the face of each triangle
 
 
 _reads = {"cache": None}      # {object pointer: BakedMesh} inside one_read()
@@ -118,7 +119,7 @@ def baked_mesh(obj):
                       for name, uv in uvs.items()}
             return BakedMesh(layout, positions.reshape(-1, 3), tris.reshape(-1, 3),
                              np.array(evaluated.matrix_world, dtype=np.float64), uvs,
-                             instances)
+                             instances, faces)
         finally:
             evaluated.to_mesh_clear()
     result = read_as_baked(obj, read)
