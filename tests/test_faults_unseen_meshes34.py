@@ -348,13 +348,20 @@ def test_bake_normal_map_takes_the_current_frame_under_motion_blur(tmp_path):
     assert np.ptp(still[covered][:, 0]) > 0.5          # the wave tilts the normals in x
 
 
-def _bend_by_the_active_camera(obj, k=0.05):
-    """A Geometry Nodes modifier: z += k * (the active camera's z) * x^2."""
-    ng = bpy.data.node_groups.new("Camera bend", "GeometryNodeTree")
+def _geometry_nodes(obj, name):
+    """A Geometry Nodes modifier `name` on obj with a new group of one geometry in and out:
+    (nodes.new, links.new, the group input, the group output)."""
+    ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
     ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
     ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    new, link = ng.nodes.new, ng.links.new
-    gi, go = new("NodeGroupInput"), new("NodeGroupOutput")
+    obj.modifiers.new(name, "NODES").node_group = ng
+    return (ng.nodes.new, ng.links.new, ng.nodes.new("NodeGroupInput"),
+            ng.nodes.new("NodeGroupOutput"))
+
+
+def _bend_by_the_active_camera(obj, k=0.05):
+    """A Geometry Nodes modifier: z += k * (the active camera's z) * x^2."""
+    new, link, gi, go = _geometry_nodes(obj, "Camera bend")
     info = new("GeometryNodeObjectInfo")
     link(new("GeometryNodeInputActiveCamera").outputs[0], info.inputs["Object"])
     position, camera = new("ShaderNodeSeparateXYZ"), new("ShaderNodeSeparateXYZ")
@@ -375,7 +382,6 @@ def _bend_by_the_active_camera(obj, k=0.05):
     link(gi.outputs[0], moved.inputs["Geometry"])
     link(times_k.outputs[0], moved.inputs["Offset"])
     link(moved.outputs[0], go.inputs[0])
-    obj.modifiers.new("Camera bend", "NODES").node_group = ng
 
 
 @pytest.mark.parametrize("excluded", [False, True], ids=["camera", "excluded_camera"])
@@ -428,11 +434,7 @@ def test_a_view_layer_off_for_renders_is_read_and_baked(tmp_path, capsys, empty_
 
 def _store_uvs_as(obj, name, domain, data_type="FLOAT2"):
     """A Geometry Nodes modifier storing 0.3 * position + 0.5 under `name` on `domain`."""
-    ng = bpy.data.node_groups.new("Store UVs", "GeometryNodeTree")
-    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
-    new, link = ng.nodes.new, ng.links.new
-    gi, go = new("NodeGroupInput"), new("NodeGroupOutput")
+    new, link, gi, go = _geometry_nodes(obj, "Store UVs")
     store = new("GeometryNodeStoreNamedAttribute")
     store.data_type, store.domain = data_type, domain
     store.inputs["Name"].default_value = name
@@ -443,7 +445,6 @@ def _store_uvs_as(obj, name, domain, data_type="FLOAT2"):
     link(uv.outputs[0], store.inputs["Value"])
     link(gi.outputs[0], store.inputs["Geometry"])
     link(store.outputs[0], go.inputs[0])
-    obj.modifiers.new("Store UVs", "NODES").node_group = ng
 
 
 @pytest.mark.parametrize("domain,data_type", [("POINT", "FLOAT2"), ("FACE", "FLOAT2"),
