@@ -8,12 +8,12 @@ render one; but a render engine's render(depsgraph) receives it. So `read_in_ren
 registers a tiny temporary RenderEngine that does nothing but call `read(depsgraph)`, renders
 one frame of the context's view layer at 4 x 4 with it (no file written), and puts back
 everything it touched: the render settings, the view layer's Use for Rendering, the scene
-camera, the "Render Result" image if there was none, and the engine class. The scene's camera is kept where it has one (hidden,
-excluded or in no collection, it still renders): a Geometry Nodes setup reading the Active
-Camera (camera culling, distance LODs) evaluates as in the bake (before, a stand-in camera at
-the origin bent such a mesh otherwise: a correct group compared 44 deg wrong). Only a scene
-without a camera gets a temporary one (Blender refuses to render without). Render handlers of add-ons still run,
-as for any render.
+camera, the "Render Result" image if there was none, and the engine class. The scene's camera
+is kept where it has one (hidden, excluded or in no collection, it still renders): a Geometry
+Nodes setup reading the Active Camera (camera culling, distance LODs) evaluates as in the bake
+(before, a stand-in camera at the origin bent such a mesh otherwise: a correct group compared
+44 deg wrong). Only a scene without a camera gets a temporary one (Blender refuses to render
+without). Render handlers of add-ons still run, as for any render.
 """
 
 from contextlib import ExitStack
