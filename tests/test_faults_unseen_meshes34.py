@@ -31,7 +31,10 @@ them up, built here.
    LODs, a bend toward the camera): the reference read the render-mode mesh through a render
    whose camera was always a temporary one at the origin, so it read another mesh than the
    bake. Before, at 64^2 on 5.2: a correct SG Normal Map p99 44.4 / max 45.6 deg. Now the
-   scene's camera is kept for that render where there is one (addon/render_mesh.py).
+   scene's camera is kept for that render where there is one (addon/render_mesh.py). In a
+   scene without a camera the stand-in one (Blender renders nothing without) is scaled to
+   nothing, as Object Info reads no camera: a Transform by the camera's scale had compared a
+   correct group p99 4.58 / max 4.73 deg wrong.
 6. The active view layer with Use for Rendering off (a working layer, the final layers
    elsewhere): the render-mode pass reached no view layer, so compare, and bake-normal-map on
    any object with a modifier, were refused (exit 2: "could not evaluate ... the render-mode
@@ -507,3 +510,27 @@ def test_faces_whose_uvs_are_merged_to_a_point_are_named(empty_file):
         "UV map 'UVMap' of object 'Merged': 2 face(s) with area on the mesh have none in UV "
         "space (their UVs collapsed to a point or a line: faces 9, 10), so the bake writes no "
         "texel for them; unwrap them (UV > Unwrap)"]
+
+
+def test_geometry_nodes_reading_no_camera_are_read_as_baked(empty_file):
+    """5. No scene camera: a Transform scaled by (0.5, 1, 1) * the Active Camera's scale +
+    1, which the bake sees as no camera (scale 0: the grid unscaled). Within the bar (before:
+    p99 4.58 deg, the stand-in camera's scale 1 stretched the grid in the reference); the
+    scene has no camera after, and no camera data is left."""
+    verts, faces, uvs = _grid()
+    obj = _object("Scaled", [(verts, faces, uvs)])
+    new, link, gi, go = _geometry_nodes(obj, "Scale by camera")
+    info = new("GeometryNodeObjectInfo")
+    link(new("GeometryNodeInputActiveCamera").outputs[0], info.inputs["Object"])
+    scale = new("ShaderNodeVectorMath")
+    scale.operation = "MULTIPLY_ADD"
+    scale.inputs[1].default_value, scale.inputs[2].default_value = (0.5, 1, 1), (1, 1, 1)
+    link(info.outputs["Scale"], scale.inputs[0])
+    transform = new("GeometryNodeTransform")
+    link(gi.outputs[0], transform.inputs["Geometry"])
+    link(scale.outputs[0], transform.inputs["Scale"])
+    link(transform.outputs[0], go.inputs[0])
+    np.testing.assert_allclose(mesh_arrays_from_object(obj, need_tangents=False).positions,
+                               verts, atol=1e-6)
+    _within_bar(compare.compare(obj, "normal-map", RES), 1500)
+    assert bpy.context.scene.camera is None and len(bpy.data.cameras) == 0

@@ -13,7 +13,7 @@ is kept where it has one (hidden, excluded or in no collection, it still renders
 Nodes setup reading the Active Camera (camera culling, distance LODs) evaluates as in the bake
 (before, a stand-in camera at the origin bent such a mesh otherwise: a correct group compared
 44 deg wrong). Only a scene without a camera gets a temporary one (Blender refuses to render
-without). Render handlers of add-ons still run, as for any render.
+without), at the origin and scaled to nothing, as Object Info reads no camera. Render handlers of add-ons still run, as for any render.
 """
 
 from contextlib import ExitStack
@@ -84,6 +84,10 @@ def read_in_render_mode(obj, read, context=None):
         if scene.camera is None:
             data = bpy.data.cameras.new(".surfgrad_render_mesh")
             camera = bpy.data.objects.new(".surfgrad_render_mesh", data)
+            # Scaled to nothing at the origin: an Active Camera read through Object Info
+            # gives the zeros the bake's missing camera gives (at scale 1, a Transform by
+            # the camera's scale compared 4.6 deg wrong).
+            camera.scale = (0.0, 0.0, 0.0)
             scene.collection.objects.link(camera)
             stack.callback(_remove_camera, camera, data)
             stack.enter_context(restored(scene, ("camera",)))
