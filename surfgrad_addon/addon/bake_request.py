@@ -334,6 +334,10 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
             problem = IC.collapsed_uv_problem(uv_map, obj.name, uv)
             if problem:
                 out.append(problem)
+            else:
+                hole = IC.collapsed_uv_faces_warning(uv_map, obj.name, uv, world, tris,
+                                                     baked.triangle_faces)
+                warnings += [hole] if hole else []
     far = float(np.max(np.linalg.norm(world, axis=1))) if len(world) else 0.0  # Euclidean
     if far > FAR_FROM_ORIGIN_M:
         warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: the bake "

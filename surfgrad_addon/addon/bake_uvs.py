@@ -20,6 +20,15 @@ from .mesh_triangles import triangle_uvs, triangles
 from .unrealized_instances import read_instances
 
 
+def not_rendered_problem(obj_name, uv_map, rendered):
+    """The refusal of UV map `uv_map` of the object, which the mesh as it renders lacks (it
+    has the UV maps `rendered`), with the fix."""
+    return (f"UV map {uv_map!r} of object {obj_name!r} is not on the mesh as it renders (a "
+            f"modifier removes it, or a Geometry Nodes Store Named Attribute writes its name on "
+            f"another domain than Face Corner or as another type than 2D Vector; the rendered "
+            f"mesh has {sorted(rendered)}): pick one of those, or fix the modifiers")
+
+
 def modified(obj):
     """obj has modifiers: its rendered mesh may differ from the mesh data and, through their
     render and viewport switches and settings, from the viewport's."""
@@ -68,6 +77,7 @@ class BakedMesh:
     matrix: np.ndarray
     triangle_uvs: dict
     instances: tuple = ()
+    triangle_faces: np.ndarray = None       # (T,) the face of each triangle
 
 
 _reads = {"cache": None}      # {object pointer: BakedMesh} inside one_read()
@@ -109,7 +119,7 @@ def baked_mesh(obj):
                       for name, uv in uvs.items()}
             return BakedMesh(layout, positions.reshape(-1, 3), tris.reshape(-1, 3),
                              np.array(evaluated.matrix_world, dtype=np.float64), uvs,
-                             instances)
+                             instances, faces)
         finally:
             evaluated.to_mesh_clear()
     result = read_as_baked(obj, read)

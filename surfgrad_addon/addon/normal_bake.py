@@ -28,13 +28,13 @@ from pathlib import Path
 from ..reference import tiles as T
 from . import interrupts
 from .bake_console import heartbeat, quiet_bake
-from .bake_target import bake_target_problem, own_materials, visible_for_bake
-from .bake_uvs import baked_uv_tiles, uv_tiles  # noqa: F401  (uv_tiles: NB.uv_tiles)
+from .bake_target import bake_target_problem, not_a_mesh, own_materials, visible_for_bake
+from .bake_uvs import baked_uv_tiles, not_rendered_problem, uv_tiles  # noqa: F401  (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
-from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
+from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_render_effects
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
 RESOLUTION_RANGE = (4, 16384)        # texels per side: a map, and an image Blender can hold
@@ -156,8 +156,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     if missing:
         raise NormalBakeError(missing)
     if obj.type != "MESH":
-        raise NormalBakeError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh: pick "
-                              f"a mesh object to bake (--object NAME)")
+        raise NormalBakeError(not_a_mesh(obj.name, obj.type,
+                                         "pick a mesh object to bake (--object NAME)"))
     problem = bake_target_problem(obj, bpy.context.view_layer)
     if problem:
         raise NormalBakeError(problem)
@@ -170,9 +170,7 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
         raise NormalBakeError(f"object {obj.name!r} has no UV map {uv_map!r}; it has {names}")
     layout = baked_uv_tiles(obj)
     if uv_map not in layout:
-        raise NormalBakeError(f"UV map {uv_map!r} of object {obj.name!r} is not on the mesh as "
-                              f"it renders (a modifier removes it; the rendered mesh has "
-                              f"{sorted(layout)}): pick one of those, or fix the modifiers")
+        raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout))
     with_uvs, outside = layout[uv_map]
     warnings = []
     if outside:
@@ -294,6 +292,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
             scene.cycles.samples = samples
             scene.cycles.use_denoising = False
             scene.cycles.texture_limit_render = NO_TEXTURE_LIMIT
+            without_render_effects(scene)
             if threads:
                 scene.render.threads_mode = "FIXED"
                 scene.render.threads = threads

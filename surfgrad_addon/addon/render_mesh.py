@@ -7,10 +7,13 @@ set to false. Python's evaluated_depsgraph_get() is the viewport's, and Python c
 render one; but a render engine's render(depsgraph) receives it. So `read_in_render_mode`
 registers a tiny temporary RenderEngine that does nothing but call `read(depsgraph)`, renders
 one frame of the context's view layer at 4 x 4 with it (no file written), and puts back
-everything it touched: the render settings, the scene camera (a temporary one stands in:
-Blender refuses to render without one, and the scene's may be missing or hidden), the "Render
-Result" image if there was none, and the engine class. Render handlers of add-ons still run,
-as for any render.
+everything it touched: the render settings, the view layer's Use for Rendering, the scene
+camera, the "Render Result" image if there was none, and the engine class. The scene's camera
+is kept where it has one (hidden, excluded or in no collection, it still renders): a Geometry
+Nodes setup reading the Active Camera (camera culling, distance LODs) evaluates as in the bake
+(before, a stand-in camera at the origin bent such a mesh otherwise: a correct group compared
+44 deg wrong). Only a scene without a camera gets a temporary one (Blender refuses to render
+without), at the origin and scaled to nothing, as Object Info reads no camera. Render handlers of add-ons still run, as for any render.
 """
 
 from contextlib import ExitStack
@@ -73,13 +76,22 @@ def read_in_render_mode(obj, read, context=None):
         stack.callback(_remove_new_render_result, images_before)
         stack.enter_context(restored(scene, settings))
         stack.enter_context(visible_for_bake(obj, view_layer))
-        # Always a camera of our own: the scene's may be missing or outside the view layer.
-        data = bpy.data.cameras.new(".surfgrad_render_mesh")
-        camera = bpy.data.objects.new(".surfgrad_render_mesh", data)
-        scene.collection.objects.link(camera)
-        stack.callback(_remove_camera, camera, data)
-        stack.enter_context(restored(scene, ("camera",)))
-        scene.camera = camera
+        # A view layer off for renders ("Use for Rendering") renders nothing, though a bake
+        # takes it as it is: on for the pass (before, every modified object of such a file
+        # was refused, "the render-mode pass did not reach view layer").
+        stack.enter_context(restored(view_layer, ("use",)))
+        view_layer.use = True
+        if scene.camera is None:
+            data = bpy.data.cameras.new(".surfgrad_render_mesh")
+            camera = bpy.data.objects.new(".surfgrad_render_mesh", data)
+            # Scaled to nothing at the origin: an Active Camera read through Object Info
+            # gives the zeros the bake's missing camera gives (at scale 1, a Transform by
+            # the camera's scale compared 4.6 deg wrong).
+            camera.scale = (0.0, 0.0, 0.0)
+            scene.collection.objects.link(camera)
+            stack.callback(_remove_camera, camera, data)
+            stack.enter_context(restored(scene, ("camera",)))
+            scene.camera = camera
         r = scene.render
         r.engine = ENGINE_ID
         r.resolution_x = r.resolution_y = 4

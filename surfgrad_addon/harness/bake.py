@@ -15,7 +15,7 @@ import numpy as np
 from ..addon.compat import new_material
 from ..addon.node_builder import running_line  # noqa: F401 (the line whose bakes we model)
 from ..addon.bake_console import quiet_bake
-from ..addon.scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored
+from ..addon.scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_render_effects
 from ..addon.bake_target import bake_target_problem, own_materials, visible_for_bake
 from ..addon.exit_codes import BakeFailed
 from ..addon.interrupts import native_call
@@ -291,6 +291,7 @@ def _bake_into(obj, build, image, uv_map, displacement, log, device="CPU"):
                 _temporary_material(obj, material):
             cy = exact_cycles(scene, device)
             cy.texture_limit_render = NO_TEXTURE_LIMIT
+            without_render_effects(scene)
             cy.sample_clamp_direct = 0.0
             cy.sample_clamp_indirect = 0.0
             cy.bake_type = "EMIT"

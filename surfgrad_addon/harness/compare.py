@@ -30,7 +30,8 @@ import numpy as np
 from .. import reference as R
 from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
-from ..addon.bake_uvs import read_as_baked
+from ..addon.bake_uvs import not_rendered_problem, read_as_baked
+from ..addon.exit_codes import BakeFailed
 from ..addon import unrealized_instances as UI
 from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
                                   memory_problem)
@@ -299,6 +300,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         mesh = mesh_arrays_from_object(obj)
     except MeshDataError as err:
         raise CompareError(str(err)) from err
+    if inp.uv_map not in mesh.uv_maps:
+        raise CompareError(not_rendered_problem(obj.name, inp.uv_map, mesh.uv_maps))
     world = world_positions(mesh)
     problem = collapsed_problem(mesh, world, obj, inp.uv_map)
     if problem:
@@ -343,11 +346,13 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         baked_tiles, bake_seconds = B.bake_vector_tiles(obj, build, resolution, resolution,
                                                         tiles, uv_map=inp.uv_map, device=device)
     reference_seconds = 0.0
+    baked_any = False
     tile_reports, heats, tds = [], [], []
     for number in tiles:
         td, seconds = rasterized(number)
         reference_seconds += seconds
         pixels, covered = baked_tiles.pop(number)
+        baked_any = baked_any or bool(covered.any())
         if not td.covered.any() and not covered.any():
             continue            # the tile only touches a triangle's bounding box
         tds.append(td)
@@ -366,6 +371,13 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
                            f"{resolution}^2 (its islands are thinner than a texel or outside "
                            f"the UV square); raise --resolution or unwrap again")
     report = merge(tile_reports)
+    if not baked_any and report["excluded"]["outside"]:
+        # Not "raise --resolution": Cycles left the object out (a setting unknown to
+        # visible_for_bake and without_render_effects), a failed bake.
+        raise BakeFailed(f"Cycles baked no texel of {obj.name!r}, whose UVs cover "
+                         f"{sum(int(td.covered.sum()) for td in tds)} at {resolution}^2: it "
+                         f"left the object out of its render (a setting of the file that the "
+                         f"bake does not lift); nothing was compared")
     if report["texels_compared"] == 0:
         raise CompareError(f"no texel of {obj.name!r} could be compared at {resolution}^2 "
                            f"(excluded: {report['excluded']}); raise --resolution")

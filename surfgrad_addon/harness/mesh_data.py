@@ -9,6 +9,8 @@ computed on the triangles with those normals as Cycles does.
 
 import numpy as np
 
+from ..addon.bake_target import not_a_mesh
+from ..addon.bake_uvs import not_rendered_problem
 from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.blender_lines import octahedral_unit_vectors
@@ -106,8 +108,7 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
     if obj is None:
         raise MeshDataError("no object given")
     if obj.type != "MESH":
-        raise MeshDataError(f"object {obj.name!r} is a {obj.type.lower()}, not a mesh; pick a "
-                            f"mesh object (or convert it with Object > Convert > Mesh)")
+        raise MeshDataError(not_a_mesh(obj.name, obj.type))
     facts = facts or running_line()
     if depsgraph is None:
         from ..addon.render_mesh import read_in_render_mode
@@ -131,6 +132,8 @@ def _evaluated_arrays(obj, depsgraph, facts):
     try:
         if len(mesh.polygons) == 0:
             raise MeshDataError(f"object {obj.name!r} has no faces to bake; add geometry")
+        if len(mesh.uv_layers) == 0 and len(obj.data.uv_layers):
+            raise MeshDataError(not_rendered_problem(obj.name, obj.data.uv_layers[0].name, []))
         if len(mesh.uv_layers) == 0:
             raise MeshDataError(f"object {obj.name!r} has no UV map; add one (UV > Unwrap) "
                                 f"before baking")

@@ -70,10 +70,23 @@ def zero_area_mask(positions, triangles):
     tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(p) == 0 or len(tris) == 0:
         return np.ones(len(tris), bool)
-    c = p[tris]
-    edges = c[:, [1, 2, 0]] - c
+    return _collapsed(p[tris])
+
+
+def uv_zero_area_mask(uv_triangles):
+    """(T,) True where a UV triangle (T, 3, 2) has no area in UV space, by zero_area_mask's
+    rule."""
+    uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
+    return _collapsed(np.concatenate([uv, np.zeros(uv.shape[:2] + (1,))], axis=-1))
+
+
+def _collapsed(corners):
+    """(T,) True where triangles of corners (T, 3, 3) have no area against their longest
+    edge squared."""
+    edges = corners[:, [1, 2, 0]] - corners
     longest = np.max(np.einsum("tij,tij->ti", edges, edges), axis=1)
-    return triangle_areas(p, tris) <= RELATIVE_AREA_EPS * longest
+    area = 0.5 * np.linalg.norm(np.cross(edges[:, 0], -edges[:, 2]), axis=-1)
+    return area <= RELATIVE_AREA_EPS * longest
 
 
 def collapsed_mesh_problem(what, world_positions, triangles):
@@ -93,6 +106,21 @@ def collapsed_uv_problem(uv_map, obj_name, uv_triangles):
     return (f"UV map {uv_map!r} of object {obj_name!r} has no area (every face collapsed to a "
             f"point or a line in UV space), so the bake would cover no texel: unwrap it (UV > "
             f"Unwrap)")
+
+
+def collapsed_uv_faces_warning(uv_map, obj_name, uv_triangles, positions, triangles, faces):
+    """None unless some faces (`faces`: each triangle's face) have area on the mesh but none
+    in UV map `uv_map` (a face's UVs merged to a point or a line): the bake writes no texel
+    for them, a hole in the map; then the warning naming them."""
+    hole = uv_zero_area_mask(uv_triangles) & ~zero_area_mask(positions, triangles)
+    if not hole.any():
+        return None
+    named = np.unique(np.asarray(faces)[hole])
+    shown = ", ".join(str(int(f)) for f in named[:8])
+    more = f" and {len(named) - 8} more" if len(named) > 8 else ""
+    return (f"UV map {uv_map!r} of object {obj_name!r}: {len(named)} face(s) with area on the "
+            f"mesh have none in UV space (their UVs collapsed to a point or a line: faces "
+            f"{shown}{more}), so the bake writes no texel for them; unwrap them (UV > Unwrap)")
 
 
 def uv_triangle_areas(uv_triangles):

@@ -11,6 +11,7 @@ from pathlib import Path
 from ...reference import tiles as T
 from .. import bake_request as BR
 from .. import normal_bake as NB
+from ..bake_target import not_a_mesh
 
 SETTING_KEYS = ("uv_map", "space", "resolution", "samples", "margin", "depth", "allow_partial")
 DEFAULTS = {"uv_map": None, "space": "tangent", "resolution": NB.DEFAULT_RESOLUTION, "samples": 1,
@@ -296,7 +297,7 @@ def asset_problem(scan, s, blend_name=""):
     bake request's checks of its mesh and images, its UV map and layout."""
     name = scan["object"]
     if scan["type"] != "MESH":
-        return f"object {name!r} is a {scan['type'].lower()}, not a mesh: pick mesh objects"
+        return not_a_mesh(name, scan["type"], "pick mesh objects")
     if not scan["uv_maps"]:
         return f"object {name!r} has no UV map; unwrap it first"
     if s["uv_map"] and s["uv_map"] not in scan["uv_maps"]:
