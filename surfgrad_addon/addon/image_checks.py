@@ -11,7 +11,8 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
-from .image_channels import layered_file, running_facts, undefined_channel_problem
+from .image_channels import (layered_file, path_channel_problem, running_facts,
+                             undefined_channel_problem)
 from .image_headers import exr_layered
 
 
@@ -201,6 +202,11 @@ def one_image_problem(image):
     if not image.has_data and layered_file(image):
         # From the header, before a load: 4.2 never returns from one of such a file cut short.
         return multilayer_problem(f"{what} ({'packed' if packed else repr(image.filepath)})")
+    # From the headers, before a load: garbage in the pixels would make the NaN check's answer
+    # a matter of luck, and Blender does not open a subsampled luminance-chroma EXR at all.
+    problem = undefined_channel_problem(image, running_facts())
+    if problem:
+        return problem
     had_data = image.has_data
     try:
         w, h = image.size
@@ -219,10 +225,6 @@ def one_image_problem(image):
             return (f"{what} ({'packed' if packed else repr(image.filepath)}) could not be "
                     f"read (damaged, or a format Blender does not open): re-save it as PNG "
                     f"or EXR")
-        # Before the pixels: garbage in them would make the NaN check's answer a matter of luck.
-        problem = undefined_channel_problem(image, running_facts())
-        if problem:
-            return problem
         if image.is_float:                      # only float buffers can hold NaN / Inf
             px = np.empty(w * h * image.channels, dtype=np.float32)
             image.pixels.foreach_get(px)
@@ -260,6 +262,9 @@ def file_problem(what, path):
                 return multilayer_problem(f"{what} reads {str(path)!r}, which")
     except OSError:
         pass
+    problem = path_channel_problem(what, path, running_facts())     # (as one_image_problem)
+    if problem:
+        return problem
     try:
         probe = bpy.data.images.load(str(path), check_existing=False)
     except RuntimeError:

@@ -10,7 +10,9 @@ JPEG with one component, EXR `Y`, or an EXR with one of R, G and B) is spread ov
 an EXR with two of R, G and B loads them into R and G, and B is 0 on 4.2 but left
 uninitialised on 4.5 and later (LineFacts.exr_two_colours_fill_zero); so are R, G and B of an
 EXR with alpha and no channel Blender loads as colour (tests/test_faults_images33.py). X, Y
-and Z load into R, G and B; channel names match in either case (but a lone y: see below)."""
+and Z load into R, G and B; channel names match in either case (but a lone y: see below).
+A luminance-chroma EXR (Y with RY and / or BY, OpenEXR's YC files) is not loaded as its colours
+on any line (image_channels)."""
 
 import struct
 from typing import NamedTuple
@@ -35,6 +37,7 @@ class FileChannels(NamedTuple):
     kind: str           # what they are, in words
     format: str         # PNG, JPEG, EXR
     lacking: str        # "" (R, G and B there), "grey" (one grey channel), else e.g. "B"
+    luma_chroma: bool = False   # an EXR of luminance Y and chroma RY / BY, no R, G or B
 
     @property
     def two_colours(self):
@@ -133,11 +136,15 @@ def _exr_verdict(names):
                             "".join(c for c in COLOURS if c not in present))
     if {"X", "Y", "Z"} <= upper:    # loaded into R, G and B, in that order
         return FileChannels(len(names), kind, "EXR", "")
-    if "Y" in names and not {"RY", "BY"} & upper:
+    if "Y" in upper and {"RY", "BY"} & upper:     # luminance-chroma (OpenEXR's YC files)
+        rank = ("Y", "RY", "BY", "A")
+        return FileChannels(len(names), " and ".join(sorted(names, key=lambda n: (
+            rank.index(n.upper()) if n.upper() in rank else 9, n))), "EXR", "", True)
+    if "Y" in names:
         return FileChannels(len(names), kind, "EXR", "grey")
     if "A" in upper and "Y" not in upper:   # alpha, and nothing Blender loads as colour
         return FileChannels(len(names), kind, "EXR", "".join(COLOURS))
-    return None                     # luminance-chroma, or no colour channel we know
+    return None                     # no colour channel we know
 
 
 def _jpeg_channels(f):

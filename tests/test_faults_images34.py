@@ -1,0 +1,194 @@
+"""Red team 34: image files a bake meets, against what Blender loads from them.
+
+- A luminance-chroma OpenEXR (Y with RY and / or BY: OpenEXR's YC files): Blender does not
+  load luminance and chroma as RGB on any line (measured with 100 loads per line: full-size
+  RY, BY give values far from the file's colours, the same each time on 4.2, mostly differing
+  from load to load on 4.5 and later; Y with one of them loads 0 on 4.2; subsampled ones, as
+  OpenEXR writes them, do not load at all; `ry`, `by` and `Y` load Y as a grey). Before: exit
+  0 and a map of those values (or, by luck, a refusal for non-finite pixels); a subsampled one
+  was refused as "damaged".
+- An EXR with two of R, G and B, or with alpha and no colour: Cycles renders the file's
+  channels as they lie (a grey of the first colour, the alpha after two as B, an alpha alone
+  as a grey) on every line, not the R, G and B Blender shows (B 0 on 4.2, uninitialised on 4.5
+  and later). 4.2 baked one with exit 0 and a warning that B reads 0 (every normal into the
+  surface), untrue of the grey map Cycles baked; `compare --image` reported a correct group
+  57-122 deg off. Now refused on every line.
+- The frame file an Image Sequence reads: its header was never read, so an EXR with two of R,
+  G and B (B uninitialised on 4.5 and later) or a luminance-chroma one baked with exit 0."""
+
+import re
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import exit_codes  # noqa: E402
+from surfgrad_addon.addon.image_headers import file_channels  # noqa: E402
+from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
+from test_faults_images33 import _bake, _emitted, _pixels  # noqa: E402
+from test_faults_pipeline_leftovers import (_exr_of_channels, _normal_texels,  # noqa: E402
+                                            _scene)
+from test_faults_pipeline_more import _scene as _source_scene  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+LINE = facts_for(bpy.app.version)
+REC709 = (0.2126, 0.7152, 0.0722)       # OpenEXR's luminance weights without chromaticities
+
+
+def _yc_planes(names, subsampled=False):
+    """({name: plane}, RGB (H, W, 3)) of a luminance-chroma EXR of the test normal map:
+    Y = w . RGB, RY = (R - Y) / Y, BY = (B - Y) / Y (OpenEXR's ImfRgbaYca); `names` a
+    comma-separated subset, in any case; chroma at half size when `subsampled`."""
+    t = _normal_texels()
+    r, g, b = t[..., 0], t[..., 1], t[..., 2]
+    y = REC709[0] * r + REC709[1] * g + REC709[2] * b
+    src = {"Y": y, "RY": (r - y) / y, "BY": (b - y) / y}
+    planes = {n: src[n.upper()] for n in names.split(",")}
+    if subsampled:
+        planes = {n: p if n.upper() == "Y" else p[::2, ::2] for n, p in planes.items()}
+    return planes, t[..., :3]
+
+
+def _write_yc(path, names, subsampled=False):
+    planes, rgb = _yc_planes(names, subsampled)
+    _exr_of_channels(path, planes, {n: (2, 2) for n in planes if n.upper() != "Y"}
+                     if subsampled else None)
+    return rgb
+
+
+def test_blender_loads_no_luminance_chroma_exr_as_its_colours(tmp_path):
+    """The line fact behind the refusal, every line: 50 loads of a full-size Y, RY, BY file
+    (an RGB file of the same size loaded between them) are each far from the file's colours,
+    and so is what Cycles renders from it; a subsampled one does not load (0 x 0)."""
+    rgb = _write_yc(tmp_path / "yc.exr", "Y,RY,BY")
+    _exr_of_channels(tmp_path / "rgb.exr", {c: rgb[..., i] * 3 for i, c in enumerate("RGB")})
+    loads = []
+    for _ in range(50):
+        _pixels(tmp_path / "rgb.exr")
+        loads.append(_pixels(tmp_path / "yc.exr")[:, :3])
+    want = rgb.reshape(-1, 3)
+    errors = [float(np.nanmax(np.abs(px - want))) if np.isfinite(px).any() else np.inf
+              for px in loads]
+    assert min(errors) > 0.1, errors[:5]
+    if LINE.exr_two_colours_fill_zero:      # 4.2: the same wrong colours every time
+        assert all(np.array_equal(loads[0], px) for px in loads), errors[:5]
+    # (4.5 and later fill them partly from uninitialised memory: most runs differ from load to
+    # load, some give the same garbage 50 times, so sameness is not asserted there.)
+    rendered = _emitted(tmp_path / "yc.exr").reshape(-1, 4)[:, :3]     # what Cycles bakes
+    assert float(np.nanmax(np.abs(rendered - want))) > 0.1, rendered[:2]
+    _write_yc(tmp_path / "sub.exr", "Y,RY,BY", subsampled=True)
+    img = bpy.data.images.load(str(tmp_path / "sub.exr"))
+    assert tuple(img.size) == (0, 0)
+    bpy.data.images.remove(img)
+
+
+@pytest.mark.parametrize("names, subsampled, kind", [
+    ("Y,RY,BY", False, "Y and RY and BY"), ("Y,RY", False, "Y and RY"),
+    ("Y,RY,BY", True, "Y and RY and BY"), ("ry,by,Y", False, "Y and ry and by")])
+def test_a_bake_from_a_luminance_chroma_exr_is_refused(names, subsampled, kind, tmp_path,
+                                                      capsys):
+    """Before: exit 0 and a map far from the file's (full-size chroma; `ry,by,Y` a grey map
+    of Y, without a word), or "could not be read (damaged ...): re-save it as PNG or EXR"
+    (subsampled: it is an EXR, and not damaged). Now refused on every line, exit 2, no map,
+    naming the file, what it is and the fix."""
+    _write_yc(tmp_path / "n.exr", names, subsampled)
+    with open(tmp_path / "n.exr", "rb") as f:
+        assert file_channels(f).luma_chroma
+    rc, err = _bake(_scene(tmp_path / "e.blend", tmp_path / "n.exr"), tmp_path / "m.png",
+                    capsys)
+    assert rc == exit_codes.BAD_REQUEST and not (tmp_path / "m.png").exists(), err
+    assert (f"image 'n.exr' is a luminance-chroma OpenEXR (n.exr: {kind} EXR): Blender "
+            f"{LINE.line} does not load its luminance and chroma as RGB") in err, err
+    assert "save it as an RGB OpenEXR (R, G and B channels)" in err, err
+    assert "damaged" not in err and "non-finite" not in err, err
+
+
+@pytest.mark.parametrize("names", ["Y", "Y,A", "R,G,B,Y"])
+def test_luminance_without_chroma_is_no_luminance_chroma_file(names, tmp_path):
+    """Y and Y+A load as a defined grey (warned as such for a normal map); R, G, B and Y load
+    R, G and B: neither is refused as luminance-chroma."""
+    t = _normal_texels()
+    src = {"Y": t[..., 1], "A": t[..., 3] * 0.5, "R": t[..., 0], "G": t[..., 1], "B": t[..., 2]}
+    _exr_of_channels(tmp_path / "n.exr", {n: src[n] for n in names.split(",")})
+    with open(tmp_path / "n.exr", "rb") as f:
+        found = file_channels(f)
+    assert not found.luma_chroma
+    assert found.lacking == ("" if "R" in names else "grey")
+    loads = [_pixels(tmp_path / "n.exr") for _ in range(3)]
+    want = t[..., :3] if "R" in names else np.repeat(t[..., 1:2], 3, -1)
+    for px in loads:
+        assert np.allclose(px[:, :3], want.reshape(-1, 3), atol=2e-3)
+
+
+@pytest.mark.parametrize("names, rendered", [
+    ("R,G", "RRR"), ("G,B", "GGG"), ("r,g", "RRR"), ("R,G,A", "RGA"), ("G,B,A", "GBA"),
+    ("A", "AAA"), ("A,Z", "AAA")])
+def test_cycles_renders_an_exr_lacking_colours_as_its_channels_lie(names, rendered, tmp_path):
+    """The fact behind refusing such files on every line: what Cycles renders (an emission
+    bake of the image's colour, no surfgrad check in the way) is the file's channels as they
+    lie, the same on every line, and not the R, G and B Blender shows, which the checks and
+    compare's reference read (B 0 on 4.2, uninitialised later)."""
+    t = _normal_texels()
+    src = {"R": t[..., 0], "G": t[..., 1], "B": t[..., 2], "A": t[..., 3] * 0.5,
+           "Z": t[..., 2] * 0.25}
+    _exr_of_channels(tmp_path / "n.exr", {n: src[n.upper()] for n in names.split(",")})
+    emitted = _emitted(tmp_path / "n.exr").reshape(-1, 4)[:, :3]
+    want = np.stack([src[c].ravel() for c in rendered], -1)
+    assert np.allclose(emitted, want, atol=2e-3), (LINE.line, emitted[:2], want[:2])
+    shown = _pixels(tmp_path / "n.exr")[:, :3]
+    assert not np.allclose(shown, emitted, atol=2e-3)
+
+
+def _rg_planes():
+    t = _normal_texels()
+    return {"R": t[..., 0], "G": t[..., 1]}
+
+
+@pytest.mark.parametrize("frame", ["two_colours", "luminance_chroma"])
+def test_an_image_sequence_frame_is_judged_by_its_header(frame, tmp_path, capsys):
+    """An Image Sequence whose frame files are an R, G EXR or a luminance-chroma one. Before:
+    the header check read no sequence frame, so on 5.2 three bakes in a row gave a refusal
+    for non-finite pixels (by luck) and then exit 0 twice with a map of uninitialised B.
+    Now refused as the same file read as a plain image is, every run."""
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    for f in (1, 2, 3):
+        if frame == "two_colours":
+            _exr_of_channels(tex / f"seq.{f:04d}.exr", _rg_planes())
+        else:
+            _write_yc(tex / f"seq.{f:04d}.exr", "Y,RY,BY")
+    blend = _source_scene(tmp_path / "s.blend", tex / "seq.0001.exr", "SEQUENCE")
+    shown = "0" if LINE.exr_two_colours_fill_zero else "uninitialised"
+    for run in range(3):
+        out = tmp_path / f"m{run}.png"
+        rc, err = _bake(blend, out, capsys)
+        assert rc == exit_codes.BAD_REQUEST and not out.exists(), err
+        said = {"two_colours": f"holds two colour channels in its file (seq.0001.exr: R and G "
+                               f"EXR): Blender {LINE.line} shows them in R and G with B "
+                               f"{shown}, but Cycles renders a grey of the first of them",
+                "luminance_chroma": f"is a luminance-chroma OpenEXR (seq.0001.exr: Y and RY "
+                                    f"and BY EXR): Blender {LINE.line} does not load"}[frame]
+        assert f"image sequence 'seq.0001.exr' {said}" in err, err
+        assert "non-finite" not in err, err
+
+
+@pytest.mark.parametrize("names", ["R,G", "Y,RY,BY"])
+def test_compare_refuses_an_image_whose_loads_are_not_its_colours(names, tmp_path):
+    """`compare --image` reads the image's pixels for the reference from one load and Cycles
+    bakes from its own. Before, on 5.2, a correct SG Normal Map group was reported 57-66 deg
+    off at worst for an R, G EXR and 113-122 deg for a luminance-chroma one, a different figure
+    each run (an RGB EXR of the same map: 0.0012 deg); on 4.2, 71 deg for the R, G one, whose
+    twin with B = 0 in the file compares at 0.0015 deg (the reference read B as 0, Cycles
+    rendered a grey of R). Now refused as the bake refuses the file, on every line."""
+    from surfgrad_addon.harness import compare, scenes as test_scenes
+    path = tmp_path / "n.exr"
+    if names == "R,G":
+        _exr_of_channels(path, _rg_planes())
+    else:
+        _write_yc(path, names)
+    plane = test_scenes.new_scene(["Plane"])["Plane"]
+    said = {"R,G": "holds two colour channels in its file (n.exr: R and G EXR)",
+            "Y,RY,BY": "is a luminance-chroma OpenEXR (n.exr: Y and RY and BY EXR)"}[names]
+    with pytest.raises(compare.CompareError, match=re.escape(f"image {str(path)!r} {said}")):
+        compare.compare_object(plane, "normal-map", 16, image=str(path), log=lambda *a: None)
