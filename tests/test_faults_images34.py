@@ -23,7 +23,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.addon import exit_codes  # noqa: E402
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.image_headers import file_channels  # noqa: E402
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
 from test_faults_images33 import _bake, _emitted, _pixels  # noqa: E402
@@ -192,3 +192,51 @@ def test_compare_refuses_an_image_whose_loads_are_not_its_colours(names, tmp_pat
             "Y,RY,BY": "is a luminance-chroma OpenEXR (n.exr: Y and RY and BY EXR)"}[names]
     with pytest.raises(compare.CompareError, match=re.escape(f"image {str(path)!r} {said}")):
         compare.compare_object(plane, "normal-map", 16, image=str(path), log=lambda *a: None)
+
+
+def _space_bake(tmp_path, space, working=None, name="m"):
+    """(exit code, stderr, map bytes) of a bake of an RGB EXR normal map read in colour space
+    `space`, in a file whose working space is `working` (5.0 and later; None: the default)."""
+    import contextlib
+    import io
+    t = _normal_texels()
+    _exr_of_channels(tmp_path / "n.exr", {c: t[..., i] for i, c in enumerate("RGBA")})
+    blend = _scene(tmp_path / f"{name}.blend", tmp_path / "n.exr")
+    if working:
+        bpy.ops.wm.set_working_color_space(working_space=working, convert_colors=False)
+    bpy.data.images["n.exr"].colorspace_settings.name = space
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    out = tmp_path / f"{name}.png"
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                               "--output", str(out), "--resolution", "16"])
+    return rc, err.getvalue(), out.read_bytes()
+
+
+@pytest.mark.parametrize("space, converts", [("Linear Rec.709", False), ("sRGB", True),
+                                             ("Linear Rec.2020", True)])
+def test_only_a_colour_space_that_converts_is_warned_about(space, converts, tmp_path):
+    """Before: every colour space but Non-Color was warned as bending every normal, the
+    working space too (Linear Rec.709, what Blender gives an EXR it loads), whose map is
+    Non-Color's, byte for byte, on every line. Now warned only where the map differs."""
+    rc, err, data = _space_bake(tmp_path, space)
+    rc0, err0, plain = _space_bake(tmp_path, "Non-Color", name="plain")
+    assert rc == rc0 == exit_codes.OK and "surfgrad: warning" not in err0, (err, err0)
+    assert (data != plain) == converts
+    said = f"surfgrad: warning: image 'n.exr' is read in colour space {space!r}"
+    assert (said in err) == converts, err
+
+
+@pytest.mark.skipif(not hasattr(bpy.data, "colorspace"), reason="no working space setting "
+                    "before 5.0 (Linear Rec.709: the test above)")
+def test_the_working_space_is_the_files_own(tmp_path):
+    """5.0 and later: a file's working space is its own (File > Color Management). In one set
+    to Linear Rec.2020 an image read in Linear Rec.2020 bakes Non-Color's map and is not
+    warned; one read in Linear Rec.709 is converted, and warned."""
+    _, _, plain = _space_bake(tmp_path, "Non-Color", "Linear Rec.2020", name="plain")
+    rc, err, data = _space_bake(tmp_path, "Linear Rec.2020", "Linear Rec.2020")
+    assert rc == exit_codes.OK and data == plain and "surfgrad: warning" not in err, err
+    rc, err, data = _space_bake(tmp_path, "Linear Rec.709", "Linear Rec.2020", name="b")
+    assert rc == exit_codes.OK and data != plain, err
+    assert "read in colour space 'Linear Rec.709'" in err, err

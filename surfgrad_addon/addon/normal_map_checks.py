@@ -4,7 +4,8 @@ bends them, naming the image, the node and the fix.
 
 - An image read in a colour space that is not data (sRGB, the usual slip): the colour is
   converted before the node decodes it, which bends every normal; the fix is the image's
-  colour space.
+  colour space. The file's working space (Linear Rec.709 unless a 5.x file says otherwise,
+  the default for an EXR) converts nothing and is not warned about.
 
 - An image whose file holds one or two channels (a grey or grey+alpha PNG, a grey JPEG or
   EXR): Blender reports 4 channels once it is loaded, having spread the grey over R, G and
@@ -28,6 +29,9 @@ from .image_channels import cycles_view, layered_file, read_channels
 NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
 # ... with a per-UV-map suffix ("SG Normal Map [Detail]") or Blender's copy number (".001")
 _GROUP_NAME = re.compile(rf"({'|'.join(map(re.escape, NORMAL_MAP_GROUPS))})( \[.*\])?(\.\d+)?")
+# The working (scene linear) space before 5.0 made it a file setting (bpy.data.colorspace):
+# the scene_linear role of the colour configuration 4.2 and 4.5 ship.
+WORKING_SPACE_4X = "Linear Rec.709"
 NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filtering, has any
 
 
@@ -52,13 +56,22 @@ def _normal_map_kind(node):
     return match.group(1) if match else None
 
 
+def unconverted(settings):
+    """True where Cycles reads an image in colour space `settings` as it is: data (Non-Color),
+    or the file's own working space, into which every other is converted (measured: the same
+    map as Non-Color, tests/test_faults_images34.py)."""
+    import bpy
+    working = getattr(getattr(bpy.data, "colorspace", None), "working_space", None)
+    return settings.is_data or settings.name in (working or WORKING_SPACE_4X, "scene_linear")
+
+
 def colour_space_warnings(obj, only=None):
     """A warning per image read as colour into the Color of a Normal Map node, an SG Normal Map
     or an SG Tangent Normal (normal_map_images): sRGB (or any colour space that is not data)
     bends every texel's normal, and the bake, like Cycles' render, takes the bent one."""
     out = []
     for mat, node, image in normal_map_images(obj, only):
-        if image.colorspace_settings.is_data:
+        if unconverted(image.colorspace_settings):
             continue
         text = (f"image {image.name!r} is read in colour space "
                 f"{image.colorspace_settings.name!r} by {node} (material {mat.name!r}): a "
