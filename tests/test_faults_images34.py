@@ -28,7 +28,7 @@ from surfgrad_addon.addon.image_headers import file_channels  # noqa: E402
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
 from test_faults_images33 import _bake, _emitted, _pixels  # noqa: E402
 from test_faults_pipeline_leftovers import (_exr_of_channels, _normal_texels,  # noqa: E402
-                                            _scene)
+                                            _scene, _write_image)
 from test_faults_pipeline_more import _scene as _source_scene  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -240,3 +240,71 @@ def test_the_working_space_is_the_files_own(tmp_path):
     rc, err, data = _space_bake(tmp_path, "Linear Rec.709", "Linear Rec.2020", name="b")
     assert rc == exit_codes.OK and data != plain, err
     assert "read in colour space 'Linear Rec.709'" in err, err
+
+
+def _jpeg(path):
+    _write_image(path, _normal_texels(64), "JPEG", color_mode="RGB")
+    return path.read_bytes()
+
+
+def _loaded(path):
+    img = bpy.data.images.load(str(path), check_existing=False)
+    w, h = img.size
+    px = np.empty(w * h * 4, np.float32)
+    if w:
+        img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px.reshape(h, w, 4)
+
+
+def test_blender_loads_a_jpeg_cut_short_with_the_rest_grey(tmp_path):
+    """The fact, every line: a JPEG cut at 90% of its bytes loads at full size, its last rows
+    (the bottom of the picture: rows from v = 0) not the file's; what Cycles bakes from it."""
+    whole = _jpeg(tmp_path / "n.jpg")
+    (tmp_path / "cut.jpg").write_bytes(whole[:int(len(whole) * 0.9)])
+    ref, cut = _loaded(tmp_path / "n.jpg"), _loaded(tmp_path / "cut.jpg")
+    assert cut.shape == ref.shape == (64, 64, 4)
+    wrong = np.abs(cut - ref).max(-1) > 0.02
+    assert wrong[0].all() and not wrong[-1].any(), wrong.sum(1)
+    assert 0.1 < wrong.mean() < 0.5, wrong.mean()
+
+
+@pytest.mark.parametrize("tail", ["cut", "whole", "trailing"])
+def test_a_jpeg_cut_short_is_refused(tail, tmp_path, capsys):
+    """A JPEG normal map whose copy was cut short (90% of its bytes). Before: exit 0 and a map
+    whose bottom rows came from grey texels (1086 of 4096 texels of the texture off, on every
+    line). Now refused, naming the file and the fix. A whole JPEG, and one with bytes after its
+    end marker (appended metadata, as some cameras write), bake as before."""
+    whole = _jpeg(tmp_path / "w.jpg")
+    data = {"cut": whole[:int(len(whole) * 0.9)], "whole": whole,
+            "trailing": whole + b"\0appended metadata" * 8}[tail]
+    (tmp_path / "n.jpg").write_bytes(data)
+    rc, err = _bake(_scene(tmp_path / "e.blend", tmp_path / "n.jpg", space="Non-Color"),
+                    tmp_path / "m.png", capsys)
+    if tail != "cut":
+        assert rc == exit_codes.OK and "cut short" not in err, err
+        return
+    assert rc == exit_codes.BAD_REQUEST and not (tmp_path / "m.png").exists(), err
+    assert ("image 'n.jpg' reads 'n.jpg', a JPEG cut short (no end-of-image marker after its "
+            "image data: a copy or download interrupted): Blender loads the part missing as "
+            "grey, which Cycles would bake; copy or export the file again, whole") in err, err
+
+
+@pytest.mark.parametrize("source", ["TILED", "SEQUENCE"])
+def test_a_udim_tile_or_sequence_frame_jpeg_cut_short_is_refused(source, tmp_path, capsys):
+    """The same for a tile the image's own load does not read (tile 1002) and for the frame
+    file an Image Sequence reads."""
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    names = {"TILED": ("n.1001.jpg", "n.1002.jpg"), "SEQUENCE": ("seq.0002.jpg", "seq.0001.jpg")}
+    whole = _jpeg(tex / names[source][0])
+    (tex / names[source][1]).write_bytes(whole[:int(len(whole) * 0.9)])
+    first = tex / ("n.1001.jpg" if source == "TILED" else "seq.0001.jpg")
+    blend = _source_scene(tmp_path / "s.blend", first, source, second_tile=True)
+    (tmp_path / "out").mkdir()
+    rc, err = _bake(blend, tmp_path / "out" / "m.<UDIM>.png", capsys)
+    assert rc == exit_codes.BAD_REQUEST and list((tmp_path / "out").iterdir()) == [], err
+    said = {"TILED": "image 'n.1001.jpg' reads 'n.1002.jpg', a JPEG cut short",
+            "SEQUENCE": f"image sequence 'seq.0001.jpg' reads {str(first)!r}, a JPEG cut "
+                        f"short"}[source]
+    assert said in err, err

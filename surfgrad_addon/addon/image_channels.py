@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..reference import tiles as T
 from ..reference.blender_lines import facts_for
-from .image_headers import exr_layered, file_channels
+from .image_headers import exr_layered, file_channels, jpeg_cut_short
 
 
 def running_facts():
@@ -115,10 +115,27 @@ def cycles_view(found):
 def layered_file(image):
     """What names the first of the image's files that is a layered (multilayer) OpenEXR by its
     header, or None: such a file is refused before Blender loads it (image_checks)."""
+    return _first_file(image, exr_layered)
+
+
+def cut_short_file(image):
+    """What names the first of the image's files that is a JPEG cut short (no end-of-image
+    marker after its scan data), or None: Blender loads the missing part grey."""
+    return _first_file(image, jpeg_cut_short)
+
+
+def cut_short_problem(subject, what):
+    """Why `what` (a JPEG cut short, read by `subject`) cannot be baked from, and the fix."""
+    return (f"{subject} reads {what}, a JPEG cut short (no end-of-image marker after its "
+            f"image data: a copy or download interrupted): Blender loads the part missing as "
+            f"grey, which Cycles would bake; copy or export the file again, whole")
+
+
+def _first_file(image, test):
     for what, opened in file_openers(image):
         try:
             with opened() as f:
-                if exr_layered(f):
+                if test(f):
                     return what
         except OSError:
             continue

@@ -1,7 +1,7 @@
 """The images a bake reads, checked before it runs (bake_request.check): every image node the
 object's materials reach from the Material Output Cycles uses, through links and into node
-groups; each image set, present, loadable, with defined (image_channels.py) and finite pixels;
-the UV maps nodes name.
+groups; each image set, present, loadable, whole (a JPEG cut short loads, the rest grey), with
+defined (image_channels.py) and finite pixels; the UV maps nodes name.
 Cycles would bake its magenta 'missing' colour for an image it cannot read, silently."""
 
 from pathlib import Path
@@ -11,9 +11,9 @@ import numpy as np
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
-from .image_channels import (layered_file, path_channel_problem, running_facts,
-                             undefined_channel_problem)
-from .image_headers import exr_layered
+from .image_channels import (cut_short_file, cut_short_problem, layered_file,
+                             path_channel_problem, running_facts, undefined_channel_problem)
+from .image_headers import exr_layered, jpeg_cut_short
 
 
 def material_images(obj):
@@ -205,8 +205,9 @@ def one_image_problem(image):
     # From the headers, before a load: garbage in the pixels would make the NaN check's answer
     # a matter of luck, and Blender does not open a subsampled luminance-chroma EXR at all.
     problem = undefined_channel_problem(image, running_facts())
-    if problem:
-        return problem
+    cut = cut_short_file(image)
+    if problem or cut:
+        return problem or cut_short_problem(what, repr(cut))
     had_data = image.has_data
     try:
         w, h = image.size
@@ -260,6 +261,9 @@ def file_problem(what, path):
         with open(path, "rb") as f:
             if exr_layered(f):                  # before a load (see one_image_problem)
                 return multilayer_problem(f"{what} reads {str(path)!r}, which")
+            f.seek(0)
+            if jpeg_cut_short(f):
+                return cut_short_problem(what, repr(str(path)))
     except OSError:
         pass
     problem = path_channel_problem(what, path, running_facts())     # (as one_image_problem)

@@ -3,7 +3,8 @@
 header says it exactly and cheaply: PNG (the IHDR chunk's colour type, byte 25), baseline or
 progressive JPEG (the frame header's component count) and single-part scanline or tiled
 OpenEXR (the header's `channels` list, default layer only). Other formats, and multi-part,
-deep or multi-layer EXRs, give None (unknown), never a guess.
+deep or multi-layer EXRs, give None (unknown), never a guess. Whether a JPEG is whole (an
+end-of-image marker after its image data) is read from the file too.
 
 What Blender makes of too few (tests/test_exr_channels.py, every line): a grey file (PNG grey,
 JPEG with one component, EXR `Y`, or an EXR with one of R, G and B) is spread over R, G and B;
@@ -148,25 +149,57 @@ def _exr_verdict(names):
 
 
 def _jpeg_channels(f):
-    """Walk the JPEG's marker segments (lengths only) to its frame header."""
-    while f.tell() < JPEG_SCAN_LIMIT:
-        marker = f.read(2)
-        while len(marker) == 2 and marker[0] == 0xFF and marker[1] == 0xFF:   # fill bytes
-            marker = marker[1:] + f.read(1)
-        if len(marker) < 2 or marker[0] != 0xFF or marker[1] in (0xD9, 0xDA):
-            return None                 # end of image or start of scan: no frame header
-        if 0xD0 <= marker[1] <= 0xD7 or marker[1] == 0x01:
-            continue                    # markers without a segment
-        size = f.read(2)
-        if len(size) < 2:
-            return None
-        length = struct.unpack(">H", size)[0]
-        if marker[1] in JPEG_FRAMES:
+    """The frame header's component count (marker segments walked by length)."""
+    for marker, _ in _jpeg_segments(f):
+        if marker in JPEG_FRAMES:
             frame = f.read(6)           # precision, height, width, components
             if len(frame) < 6:
                 return None
             n = frame[5]
             return FileChannels(n, JPEG_COMPONENTS.get(n, f"{n} components"), "JPEG",
                                 "grey" if n == 1 else "")
-        f.seek(length - 2, 1)
     return None
+
+
+def jpeg_cut_short(f):
+    """True where the binary file object `f` is a JPEG whose scan data has no end-of-image
+    marker after it (a copy or download cut short): Blender loads such a file, the part
+    missing grey, and Cycles bakes that. Entropy-coded data never holds FF D9 (an FF there is
+    followed by 00 or a restart marker), so the first one after the first scan is the end."""
+    if f.read(2) != b"\xff\xd8":
+        return False
+    for marker, length in _jpeg_segments(f):
+        if marker == 0xDA:
+            f.seek(length - 2, 1)
+            last = b""
+            while True:
+                block = f.read(1 << 20)
+                if not block:
+                    return True
+                if b"\xff\xd9" in last + block:
+                    return False
+                last = block[-1:]
+    return False                        # no scan: the load itself fails
+
+
+def _jpeg_segments(f):
+    """(marker, length) of each marker segment from `f`'s position (after the SOI) up to the
+    first start of scan; after each, `f` is just past the length field (the next is found
+    from there by the length, whatever the caller read)."""
+    while f.tell() < JPEG_SCAN_LIMIT:
+        marker = f.read(2)
+        while len(marker) == 2 and marker[0] == 0xFF and marker[1] == 0xFF:   # fill bytes
+            marker = marker[1:] + f.read(1)
+        if len(marker) < 2 or marker[0] != 0xFF or marker[1] == 0xD9:
+            return                      # end of image, or not a marker
+        if 0xD0 <= marker[1] <= 0xD7 or marker[1] == 0x01:
+            continue                    # markers without a segment
+        size = f.read(2)
+        if len(size) < 2:
+            return
+        length = struct.unpack(">H", size)[0]
+        start = f.tell()
+        yield marker[1], length
+        if marker[1] == 0xDA:
+            return
+        f.seek(start + length - 2)
