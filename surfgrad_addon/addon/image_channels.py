@@ -12,7 +12,7 @@ from pathlib import Path
 
 from ..reference import tiles as T
 from ..reference.blender_lines import facts_for
-from .image_headers import exr_layered, file_channels, jpeg_cut_short
+from .image_headers import cut_short, exr_layered, file_channels
 
 
 def running_facts():
@@ -119,16 +119,26 @@ def layered_file(image):
 
 
 def cut_short_file(image):
-    """What names the first of the image's files that is a JPEG cut short (no end-of-image
-    marker after its scan data), or None: Blender loads the missing part grey."""
-    return _first_file(image, jpeg_cut_short)
+    """(what, format) of the first of the image's files that is cut short (its image data not
+    all within it: image_headers.cut_short), or None: Blender loads the part missing filled in."""
+    for what, opened in file_openers(image):
+        try:
+            with opened() as f:
+                found = cut_short(f)
+        except OSError:
+            continue
+        if found:
+            return what, found
+    return None
 
 
-def cut_short_problem(subject, what):
-    """Why `what` (a JPEG cut short, read by `subject`) cannot be baked from, and the fix."""
-    return (f"{subject} reads {what}, a JPEG cut short (no end-of-image marker after its "
-            f"image data: a copy or download interrupted): Blender loads the part missing as "
-            f"grey, which Cycles would bake; copy or export the file again, whole")
+def cut_short_problem(subject, what, found):
+    """Why `what` (a `found` file cut short, read by `subject`) cannot be baked from."""
+    lacks = {"JPEG": "no end-of-image marker after its image data",
+             "TIFF": "its image data runs past the end of the file"}[found]
+    return (f"{subject} reads {what}, a {found} cut short ({lacks}: a copy or download "
+            f"interrupted): Blender loads it at full size with the part missing filled in, "
+            f"which Cycles would bake; copy or export the file again, whole")
 
 
 def _first_file(image, test):

@@ -1,6 +1,6 @@
 """The images a bake reads, checked before it runs (bake_request.check): every image node the
 object's materials reach from the Material Output Cycles uses, through links and into node
-groups; each image set, present, loadable, whole (a JPEG cut short loads, the rest grey), with
+groups; each image set, present, loadable, whole (a JPEG or TIFF cut short loads, the rest filled in), with
 defined (image_channels.py) and finite pixels; the UV maps nodes name.
 Cycles would bake its magenta 'missing' colour for an image it cannot read, silently."""
 
@@ -13,7 +13,7 @@ from ..reference import tiles as T
 from . import material_inputs as MI
 from .image_channels import (cut_short_file, cut_short_problem, layered_file,
                              path_channel_problem, running_facts, undefined_channel_problem)
-from .image_headers import exr_layered, jpeg_cut_short
+from .image_headers import cut_short, exr_layered
 
 
 def material_images(obj):
@@ -207,7 +207,7 @@ def one_image_problem(image):
     problem = undefined_channel_problem(image, running_facts())
     cut = cut_short_file(image)
     if problem or cut:
-        return problem or cut_short_problem(what, repr(cut))
+        return problem or cut_short_problem(what, repr(cut[0]), cut[1])
     had_data = image.has_data
     try:
         w, h = image.size
@@ -262,8 +262,9 @@ def file_problem(what, path):
             if exr_layered(f):                  # before a load (see one_image_problem)
                 return multilayer_problem(f"{what} reads {str(path)!r}, which")
             f.seek(0)
-            if jpeg_cut_short(f):
-                return cut_short_problem(what, repr(str(path)))
+            cut = cut_short(f)
+            if cut:
+                return cut_short_problem(what, repr(str(path)), cut)
     except OSError:
         pass
     problem = path_channel_problem(what, path, running_facts())     # (as one_image_problem)

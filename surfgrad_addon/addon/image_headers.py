@@ -3,8 +3,8 @@
 header says it exactly and cheaply: PNG (the IHDR chunk's colour type, byte 25), baseline or
 progressive JPEG (the frame header's component count) and single-part scanline or tiled
 OpenEXR (the header's `channels` list, default layer only). Other formats, and multi-part,
-deep or multi-layer EXRs, give None (unknown), never a guess. Whether a JPEG is whole (an
-end-of-image marker after its image data) is read from the file too.
+deep or multi-layer EXRs, give None (unknown), never a guess. Whether a JPEG or TIFF is whole
+(an end-of-image marker after its image data; strips within the file) is read from it too.
 
 What Blender makes of too few (tests/test_exr_channels.py, every line): a grey file (PNG grey,
 JPEG with one component, EXR `Y`, or an EXR with one of R, G and B) is spread over R, G and B;
@@ -161,13 +161,23 @@ def _jpeg_channels(f):
     return None
 
 
-def jpeg_cut_short(f):
-    """True where the binary file object `f` is a JPEG whose scan data has no end-of-image
-    marker after it (a copy or download cut short): Blender loads such a file, the part
-    missing grey, and Cycles bakes that. Entropy-coded data never holds FF D9 (an FF there is
-    followed by 00 or a restart marker), so the first one after the first scan is the end."""
-    if f.read(2) != b"\xff\xd8":
-        return False
+def cut_short(f):
+    """The format ("JPEG", "TIFF") of the binary file object `f` where its image data does not
+    all lie within it (a copy or download cut short), else None: Blender loads such a file at
+    full size, the part missing filled in, and Cycles bakes that (measured on every line)."""
+    head = f.read(4)
+    f.seek(0)
+    if head[:2] == b"\xff\xd8":
+        return "JPEG" if _jpeg_cut_short(f) else None
+    if head in (b"II*\0", b"MM\0*"):
+        return "TIFF" if _tiff_cut_short(f) else None
+    return None
+
+
+def _jpeg_cut_short(f):
+    """No end-of-image marker after the first scan's data. Entropy-coded data never holds
+    FF D9 (an FF there is followed by 00 or a restart marker): the first one is the end."""
+    f.seek(2)
     for marker, length in _jpeg_segments(f):
         if marker == 0xDA:
             f.seek(length - 2, 1)
@@ -180,6 +190,46 @@ def jpeg_cut_short(f):
                     return False
                 last = block[-1:]
     return False                        # no scan: the load itself fails
+
+
+# TIFF tags (TIFF 6.0): where the first image's strips or tiles lie and how long they are.
+TIFF_DATA = {273: "offsets", 279: "counts", 324: "offsets", 325: "counts"}
+
+
+def _tiff_cut_short(f):
+    """A strip or tile of the first image (its IFD's offsets and byte counts) ending past
+    the end of the file."""
+    order = "<" if f.read(2) == b"II" else ">"
+    f.seek(4)
+    at = struct.unpack(order + "I", f.read(4))[0]
+    f.seek(0, 2)
+    size = f.tell()
+    f.seek(at)
+    count = f.read(2)
+    if len(count) < 2:
+        return False                    # no directory: the load itself fails
+    found = {}
+    for _ in range(struct.unpack(order + "H", count)[0]):
+        entry = f.read(12)
+        if len(entry) < 12:
+            return False
+        tag, kind, n = struct.unpack(order + "HHI", entry[:8])
+        if tag not in TIFF_DATA or kind not in (3, 4):
+            continue
+        width = 2 if kind == 3 else 4
+        data = entry[8:8 + n * width] if n * width <= 4 else _read_at(f, entry[8:], order,
+                                                                       n * width)
+        found[TIFF_DATA[tag]] = struct.unpack(f"{order}{n}{'H' if kind == 3 else 'I'}", data)
+    ends = [o + c for o, c in zip(found.get("offsets", ()), found.get("counts", ()))]
+    return bool(ends) and max(ends) > size
+
+
+def _read_at(f, offset, order, n):
+    back = f.tell()
+    f.seek(struct.unpack(order + "I", offset)[0])
+    data = f.read(n)
+    f.seek(back)
+    return data if len(data) == n else b"\0" * n
 
 
 def _jpeg_segments(f):
