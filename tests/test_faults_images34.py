@@ -321,3 +321,45 @@ def test_a_udim_tile_or_sequence_frame_jpeg_cut_short_is_refused(source, tmp_pat
             "SEQUENCE": f"image sequence 'seq.0001.jpg' reads {str(first)!r}, a JPEG cut "
                         f"short"}[source]
     assert said in err, err
+
+
+@pytest.mark.parametrize("texture", ["cut.jpg", "rg.exr", "missing.png"])
+def test_freeze_refuses_the_images_a_bake_refuses(texture, tmp_path):
+    """The Freeze operator's bake ran none of bake-normal-map's image checks: a stack reading a
+    missing texture froze Cycles' magenta into the map, a JPEG cut short its grey rows, an R, G
+    EXR a grey of R, each without a word. Now refused before anything changes, with the same
+    words (the material keeps its nodes and no image is added)."""
+    from support.materials import diffuse_material
+    from surfgrad_addon import api
+    from surfgrad_addon.addon import freeze
+    from surfgrad_addon.harness import scenes as test_scenes
+    whole = _picture(tmp_path / "w.jpg")
+    (tmp_path / "cut.jpg").write_bytes(whole[:int(len(whole) * CUT[".jpg"])])
+    _exr_of_channels(tmp_path / "rg.exr", _rg_planes())
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj = test_scenes.build(["Plane"])["Plane"]
+    bpy.context.view_layer.objects.active = obj
+    mat, tree, bsdf = diffuse_material("M")
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    if texture == "missing.png":
+        tex.image = bpy.data.images.new(texture, 4, 4)
+        tex.image.source, tex.image.filepath = "FILE", str(tmp_path / texture)
+    else:
+        tex.image = bpy.data.images.load(str(tmp_path / texture))
+    tex.image.colorspace_settings.name = "Non-Color"
+    sg, resolve = (tree.nodes.new("ShaderNodeGroup") for _ in range(2))
+    sg.node_tree, resolve.node_tree = api.node_group("SG Normal Map"), api.node_group("SG Resolve")
+    tree.links.new(tex.outputs["Color"], sg.inputs["Color"])
+    tree.links.new(sg.outputs["Surface Gradient"], resolve.inputs["Surface Gradient"])
+    tree.links.new(resolve.outputs["Normal"], bsdf.inputs["Normal"])
+    obj.data.materials.clear()
+    obj.data.materials.append(mat)
+    nodes, images = len(tree.nodes), len(bpy.data.images)
+    said = {"cut.jpg": "image 'cut.jpg' reads 'cut.jpg', a JPEG cut short",
+            "rg.exr": "image 'rg.exr' holds two colour channels in its file",
+            "missing.png": f"image 'missing.png' reads {str(tmp_path / texture)!r}, which does "
+                           f"not exist: Cycles would bake its magenta"}[texture]
+    with pytest.raises(freeze.FreezeError, match=re.escape(said)):
+        freeze.freeze(obj, resolution=16)
+    assert len(tree.nodes) == nodes and len(bpy.data.images) == images
+    assert freeze.frozen_record(mat) is None

@@ -16,15 +16,15 @@ from .image_channels import (cut_short_file, cut_short_problem, layered_file,
 from .image_headers import cut_short, exr_layered
 
 
-def material_images(obj):
+def material_images(obj, only=None):
     """[(material, node path, node, image or None)] for every image node the object's
-    materials read: reached from the Material Output Cycles uses (material_inputs.py) through
-    links, into node groups."""
+    materials (or material `only`) read: reached from the Material Output Cycles uses
+    (material_inputs.py) through links, into node groups."""
     found, memo = [], {}
     for slot in obj.material_slots:
         mat = slot.material
-        if mat is None or mat.node_tree is None:      # (a tree without use_nodes: checked too)
-            continue
+        if mat is None or mat.node_tree is None or only not in (None, mat):
+            continue                                # (a tree without use_nodes: checked too)
         for node, path in material_nodes(mat, memo):
             if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
                 found.append((mat, path, node, node.image))
@@ -62,20 +62,21 @@ def _reached(tree, starts, memo):
     return out
 
 
-def image_problems(obj, covered=()):
-    """Every image the object's materials read: set, present, loadable, finite pixels; the
-    frame file a sequence reads now, the tiles (`covered`, the UDIM tiles the bake writes) of a
-    tiled image; linked materials whose library is missing; UV map names nodes refer to."""
+def image_problems(obj, covered=(), only=None):
+    """Every image the object's materials (or material `only`) read: set, present, loadable,
+    finite pixels; the frame file a sequence reads now, the tiles (`covered`, the UDIM tiles
+    the bake writes) of a tiled image; linked materials whose library is missing; UV map names
+    nodes refer to."""
     import bpy
     out, checked = [], set()
     for slot in obj.material_slots:
-        if slot.material is not None:
+        if slot.material is not None and only in (None, slot.material):
             # (a missing library's placeholder has no tree either: its library is the fix)
             problem = MI.library_problem(slot.material) or MI.no_tree_problem(slot.material)
             if problem and problem not in out:
                 out.append(problem)
-    out += uv_reference_problems(obj)
-    for mat, path, node, image in material_images(obj):
+    out += uv_reference_problems(obj, only)
+    for mat, path, node, image in material_images(obj, only):
         if image is None:
             out.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
                        f"would bake its magenta 'missing' colour; pick an image or remove the "
@@ -135,8 +136,9 @@ def output_input_problems(obj, finals):
     return out
 
 
-def uv_reference_problems(obj):
-    """Nodes naming a UV map (or attribute) the evaluated mesh does not have."""
+def uv_reference_problems(obj, only=None):
+    """Nodes naming a UV map (or attribute) the evaluated mesh does not have (in the object's
+    materials, or material `only`)."""
     import bpy
     eval_obj = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
     mesh = eval_obj.to_mesh()
@@ -144,7 +146,7 @@ def uv_reference_problems(obj):
     try:
         for slot in obj.material_slots:
             mat = slot.material
-            if mat is None or mat.node_tree is None:
+            if mat is None or mat.node_tree is None or only not in (None, mat):
                 continue
             for node, path in material_nodes(mat, memo):
                 problem = MI.uv_name_problem(mat, path, node, mesh)
