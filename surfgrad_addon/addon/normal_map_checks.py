@@ -9,10 +9,9 @@ bends them, naming the image, the node and the fix.
 
 - An image whose file holds one or two channels (a grey or grey+alpha PNG, a grey JPEG or
   EXR): Blender reports 4 channels once it is loaded, having spread the grey over R, G and
-  B, so every normal leans along (1, 1) in the tangent plane. An EXR with two colour channels
-  (an R, G normal map) or alpha alone: Cycles renders a grey of the first (image_channels.py;
-  a bake refuses it, the Freeze operator warns). The file's header says it
-  (image_headers.py); formats it does not cover are not warned about.
+  B, so every normal leans along (1, 1) in the tangent plane. (An EXR with two colour
+  channels, an R, G normal map, or alpha alone is refused: image_channels.py.) The file's
+  header says it (image_headers.py); formats it does not cover are not warned about.
 - A float image whose normals are stored in -1..1, not 0..1 (more than NEGATIVE_SHARE of its
   texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
   tilt, so every normal is pulled toward (-1, -1).
@@ -23,7 +22,7 @@ import re
 import numpy as np
 
 from .image_checks import image_feeding, objects_nodes
-from .image_channels import cycles_view, layered_file, read_channels
+from .image_channels import layered_file, read_channels
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
 NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
@@ -103,18 +102,13 @@ def _channels_problem(image):
     """What is wrong with the channels of the image's file (the first of its UDIM tiles that
     has too few), or None: fine, or a format whose header is not read (image_headers)."""
     for what, found in read_channels(image):
-        if not found.lacking:
+        if found.lacking != "grey":     # (a file lacking colours is refused: image_channels)
             continue
         held = (f"holds {found.channels} channel{'s' * (found.channels > 1)} in its file "
                 f"({what}: {found.kind} {found.format})")
-        if found.lacking == "grey":
-            return (f"{held}: Blender spreads the grey over R, G and B, so every normal leans "
-                    f"along (1, 1) in the tangent plane (the bake takes them as Cycles renders "
-                    f"them); save the normal map as RGB (three channels)")
-        # (refused by the bake's checks on every line; the Freeze operator bakes it as it is)
-        return (f"{held}: {cycles_view(found)}, not a normal map's R, G and B (a bake refuses "
-                f"it); save the normal map with R, G and B"
-                + (" (rebuild B from R and G first)" if found.two_colours else ""))
+        return (f"{held}: Blender spreads the grey over R, G and B, so every normal leans "
+                f"along (1, 1) in the tangent plane (the bake takes them as Cycles renders "
+                f"them); save the normal map as RGB (three channels)")
     return None
 
 
