@@ -242,12 +242,14 @@ def test_the_working_space_is_the_files_own(tmp_path):
     assert "read in colour space 'Linear Rec.709'" in err, err
 
 
-CUT = {".jpg": 0.9, ".tif": 0.5}      # a cut each format still loads at full size from
+CUT = {".jpg": 0.9, ".tif": 0.5, ".rgb": 0.9}    # cuts that still load at full size (.rgb: 4.2)
 
 
 def _picture(path):
-    """A 64 x 64 normal map as a JPEG or TIFF (by `path`'s suffix), written by Blender."""
-    fmt = {".jpg": ("JPEG", "RGB"), ".tif": ("TIFF", "RGBA")}[path.suffix]
+    """A 64 x 64 normal map as a JPEG, TIFF or SGI image (by `path`'s suffix), written by
+    Blender."""
+    fmt = {".jpg": ("JPEG", "RGB"), ".tif": ("TIFF", "RGBA"), ".rgb": ("IRIS", "RGBA")}[
+        path.suffix]
     _write_image(path, _normal_texels(64), fmt[0], color_mode=fmt[1])
     return path.read_bytes()
 
@@ -279,11 +281,13 @@ def test_blender_loads_a_jpeg_cut_short_with_the_rest_grey(tmp_path):
 
 
 @pytest.mark.parametrize("suffix, tail", [(".jpg", "cut"), (".jpg", "whole"), (".jpg", "trailing"),
-                                          (".tif", "cut"), (".tif", "whole")])
+                                          (".tif", "cut"), (".tif", "whole"), (".rgb", "cut"),
+                                          (".rgb", "whole")])
 def test_a_picture_cut_short_is_refused(suffix, tail, tmp_path, capsys):
-    """A JPEG or TIFF normal map whose copy was cut short (CUT). Before: exit 0
-    and a map whose bottom rows came from texels the file does not hold (a JPEG: 1086 of 4096
-    off; on every line). Now refused, naming the file and the fix. A whole file, and a JPEG
+    """A JPEG, TIFF or SGI image normal map whose copy was cut short (CUT). Before: exit 0 and
+    a map whose bottom rows came from texels the file does not hold (a JPEG: 1086 of 4096 off,
+    on every line; an SGI image on 4.2, 512 of 4096; later lines do not open one, and said
+    "damaged"). Now refused, naming the file and the fix. A whole file, and a JPEG
     with bytes after its end marker (appended metadata, as some cameras write), bake as
     before."""
     whole = _picture(tmp_path / f"w{suffix}")
@@ -296,7 +300,8 @@ def test_a_picture_cut_short_is_refused(suffix, tail, tmp_path, capsys):
         assert rc == exit_codes.OK and "cut short" not in err, err
         return
     lacks = {".jpg": "JPEG cut short (no end-of-image marker after its image data",
-             ".tif": "TIFF cut short (its image data runs past the end of the file"}[suffix]
+             ".tif": "TIFF cut short (its image data runs past the end of the file",
+             ".rgb": "SGI image cut short (its image data runs past the end of the file"}[suffix]
     assert rc == exit_codes.BAD_REQUEST and not (tmp_path / "m.png").exists(), err
     assert (f"image 'n{suffix}' reads 'n{suffix}', a {lacks}: a copy or download interrupted): "
             f"Blender loads it at full size with the part missing filled in, which Cycles "

@@ -162,7 +162,7 @@ def _jpeg_channels(f):
 
 
 def cut_short(f):
-    """The format ("JPEG", "TIFF") of the binary file object `f` where its image data does not
+    """The format ("JPEG", "TIFF", "SGI image") of the binary file object `f` where its image data does not
     all lie within it (a copy or download cut short), else None: Blender loads such a file at
     full size, the part missing filled in, and Cycles bakes that (measured on every line)."""
     head = f.read(4)
@@ -171,6 +171,8 @@ def cut_short(f):
         return "JPEG" if _jpeg_cut_short(f) else None
     if head in (b"II*\0", b"MM\0*"):
         return "TIFF" if _tiff_cut_short(f) else None
+    if head[:2] == SGI_MAGIC:
+        return "SGI image" if _sgi_cut_short(f) else None
     return None
 
 
@@ -192,6 +194,8 @@ def _jpeg_cut_short(f):
     return False                        # no scan: the load itself fails
 
 
+SGI_MAGIC = b"\x01\xda"
+SGI_HEADER = 512
 # TIFF tags (TIFF 6.0): where the first image's strips or tiles lie and how long they are.
 TIFF_DATA = {273: "offsets", 279: "counts", 324: "offsets", 325: "counts"}
 
@@ -222,6 +226,28 @@ def _tiff_cut_short(f):
         found[TIFF_DATA[tag]] = struct.unpack(f"{order}{n}{'H' if kind == 3 else 'I'}", data)
     ends = [o + c for o, c in zip(found.get("offsets", ()), found.get("counts", ()))]
     return bool(ends) and max(ends) > size
+
+
+def _sgi_cut_short(f):
+    """Image data past the end of the file: verbatim, the channels' planes after the 512-byte
+    header; run-length encoded, the rows its offset and length tables name (SGI image file
+    format). (4.2 loads one cut short, the rest as memory held; later lines refuse it.)"""
+    head = f.read(12)
+    if len(head) < 12:
+        return False
+    rle, width, w, h, channels = struct.unpack(">xxBBxxHHH", head)
+    f.seek(0, 2)
+    size = f.tell()
+    if not rle:
+        return SGI_HEADER + w * h * channels * width > size
+    f.seek(SGI_HEADER)
+    rows = h * channels
+    tables = f.read(8 * rows)
+    if len(tables) < 8 * rows:
+        return True
+    starts, lengths = tables[:4 * rows], tables[4 * rows:]
+    return max((a + n for a, n in zip(struct.unpack(f">{rows}I", starts),
+                                      struct.unpack(f">{rows}I", lengths))), default=0) > size
 
 
 def _read_at(f, offset, order, n):
