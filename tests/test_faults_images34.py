@@ -368,3 +368,53 @@ def test_freeze_refuses_the_images_a_bake_refuses(texture, tmp_path):
         freeze.freeze(obj, resolution=16)
     assert len(tree.nodes) == nodes and len(bpy.data.images) == images
     assert freeze.frozen_record(mat) is None
+
+
+def _group_around(inner_tree, name):
+    """A shader group `name` holding a Normal Map node (or, if `inner_tree` is given, a group
+    node of it) between its Color input and Normal output."""
+    g = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    g.interface.new_socket("Color", in_out="INPUT", socket_type="NodeSocketColor")
+    g.interface.new_socket("Normal", in_out="OUTPUT", socket_type="NodeSocketVector")
+    gi, go = g.nodes.new("NodeGroupInput"), g.nodes.new("NodeGroupOutput")
+    if inner_tree is None:
+        mid = g.nodes.new("ShaderNodeNormalMap")
+    else:
+        mid = g.nodes.new("ShaderNodeGroup")
+        mid.node_tree = inner_tree
+    g.links.new(gi.outputs[0], mid.inputs[0] if inner_tree else mid.inputs["Color"])
+    g.links.new(mid.outputs[0] if inner_tree else mid.outputs["Normal"], go.inputs[0])
+    return g
+
+
+@pytest.mark.parametrize("depth, space", [(1, "sRGB"), (2, "sRGB"), (2, "Non-Color")])
+def test_a_normal_map_read_through_a_node_group_is_warned_about(depth, space, tmp_path,
+                                                                capsys):
+    """An Image Texture outside a group (the artist's own "My Normal" wrapper, one or two
+    levels deep) whose Normal Map node is inside. Before: an sRGB normal map baked bent with
+    exit 0 and no warning (the warnings followed reroutes only). Now the warning names the
+    node inside the group; a Non-Color one still says nothing."""
+    from support.materials import diffuse_material
+    _write_image(tmp_path / "n.png", _normal_texels())
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_plane_add(size=1.0)
+    mat, tree, bsdf = diffuse_material("Mat")
+    group = _group_around(None, "Inner")
+    if depth == 2:
+        group = _group_around(group, "Outer")
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.load(str(tmp_path / "n.png"))
+    tex.image.colorspace_settings.name = space
+    tree.links.new(tex.outputs["Color"], node.inputs[0])
+    tree.links.new(node.outputs[0], bsdf.inputs["Normal"])
+    bpy.context.object.data.materials.append(mat)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "g.blend"), compress=False)
+    rc, err = _bake(tmp_path / "g.blend", tmp_path / "m.png", capsys)
+    assert rc == exit_codes.OK, err
+    inside = {1: "Group > Normal Map", 2: "Group > Group > Normal Map"}[depth]
+    said = (f"surfgrad: warning: image 'n.png' is read in colour space 'sRGB' by Normal Map "
+            f"node {inside!r} (material 'Mat')")
+    assert (said in err) == (space == "sRGB"), err
+    assert ("surfgrad: warning" in err) == (space == "sRGB"), err

@@ -25,21 +25,23 @@ def material_images(obj, only=None):
         mat = slot.material
         if mat is None or mat.node_tree is None or only not in (None, mat):
             continue                                # (a tree without use_nodes: checked too)
-        for node, path in material_nodes(mat, memo):
+        for node, path, _ in material_nodes(mat, memo):
             if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
                 found.append((mat, path, node, node.image))
     return found
 
 
 def material_nodes(mat, memo):
-    """(node, path) of every node `mat` reads through the output Cycles renders."""
+    """(node, path, group nodes it lies in) of every node `mat` reads through the output
+    Cycles renders."""
     output = MI.cycles_output(mat.node_tree)
     return _reached(mat.node_tree, [output] if output else [], memo)
 
 
 def _reached(tree, starts, memo):
-    """(node, path of node names) of every node `starts` read in `tree` through links that
-    are not muted, and inside the node groups they use (each group walked once: memo)."""
+    """(node, path of node names, the group nodes it lies in from `tree` on) of every node
+    `starts` read in `tree` through links that are not muted, and inside the node groups they
+    use (each group walked once: memo)."""
     links_to = {}
     for link in tree.links:
         if link.is_valid and not getattr(link, "is_muted", False):
@@ -50,7 +52,7 @@ def _reached(tree, starts, memo):
         if node.name in seen:
             continue
         seen.add(node.name)
-        out.append((node, node.name))
+        out.append((node, node.name, ()))
         todo += links_to.get(node.name, [])
         group = getattr(node, "node_tree", None) if node.type == "GROUP" else None
         if group is not None:
@@ -58,7 +60,8 @@ def _reached(tree, starts, memo):
                 memo[group.name] = []           # a group that holds itself stops here
                 inner = [n for n in group.nodes if n.bl_idname == "NodeGroupOutput"]
                 memo[group.name] = _reached(group, inner, memo)
-            out += [(n, f"{node.name} > {p}") for n, p in memo[group.name]]
+            out += [(n, f"{node.name} > {p}", (node, *outer))
+                    for n, p, outer in memo[group.name]]
     return out
 
 
@@ -104,15 +107,15 @@ def image_problems(obj, covered=(), only=None):
 
 
 def objects_nodes(obj, only=None):
-    """(material, node, path) for every node the object's materials (or material `only`)
-    read through the output Cycles renders (material_nodes)."""
+    """(material, node, path, the group nodes it lies in) for every node the object's
+    materials (or material `only`) read through the output Cycles renders (material_nodes)."""
     memo = {}
     for slot in obj.material_slots:
         mat = slot.material
         if mat is None or mat.node_tree is None or only not in (None, mat):
             continue
-        for node, path in material_nodes(mat, memo):
-            yield mat, node, path
+        for node, path, outer in material_nodes(mat, memo):
+            yield mat, node, path, outer
 
 
 def output_input_problems(obj, finals):
@@ -148,7 +151,7 @@ def uv_reference_problems(obj, only=None):
             mat = slot.material
             if mat is None or mat.node_tree is None or only not in (None, mat):
                 continue
-            for node, path in material_nodes(mat, memo):
+            for node, path, _ in material_nodes(mat, memo):
                 problem = MI.uv_name_problem(mat, path, node, mesh)
                 if problem:
                     out.append(problem.replace(f"mesh {mesh.name!r}",
@@ -158,15 +161,23 @@ def uv_reference_problems(obj, only=None):
     return out
 
 
-def image_feeding(socket):
-    """The image of the Image Texture node whose output reaches `socket` (through reroutes),
-    or None."""
-    if socket is None or not socket.is_linked:
-        return None
-    source = socket.links[0].from_node
-    while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
-        source = source.inputs[0].links[0].from_node
-    return getattr(source, "image", None) if source.bl_idname == "ShaderNodeTexImage" else None
+def image_feeding(socket, outer=()):
+    """The image of the Image Texture node whose output reaches `socket` (through reroutes,
+    and out of the node groups `outer`, the group nodes `socket` lies in, outermost first,
+    through their inputs), or None."""
+    while socket is not None and socket.is_linked:
+        link = socket.links[0]
+        source = link.from_node
+        if source.bl_idname == "NodeReroute":
+            socket = source.inputs[0]
+        elif source.bl_idname == "NodeGroupInput" and outer:
+            socket = next((s for s in outer[-1].inputs
+                           if s.identifier == link.from_socket.identifier), None)
+            outer = outer[:-1]
+        else:
+            return getattr(source, "image", None) \
+                if source.bl_idname == "ShaderNodeTexImage" else None
+    return None
 
 
 def image_files(image):

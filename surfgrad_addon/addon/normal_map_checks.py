@@ -36,12 +36,13 @@ NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filter
 
 def normal_map_images(obj, only=None):
     """[(material, what the node is and its path, image)] for every image node whose Color
-    output is read (through reroutes) into the Color input of a Normal Map node, an SG Normal
-    Map or an SG Tangent Normal the object's materials (or material `only`) reach."""
+    output is read (through reroutes, and into node groups through their inputs) into the
+    Color input of a Normal Map node, an SG Normal Map or an SG Tangent Normal the object's
+    materials (or material `only`) reach."""
     out = []
-    for mat, node, path in objects_nodes(obj, only):
+    for mat, node, path, outer in objects_nodes(obj, only):
         kind = _normal_map_kind(node)
-        image = image_feeding(node.inputs.get("Color")) if kind else None
+        image = image_feeding(node.inputs.get("Color"), outer) if kind else None
         if image is not None:
             out.append((mat, f"{kind} node {path!r}", image))
     return out
