@@ -179,6 +179,9 @@ def cut_short(f):
 def _jpeg_cut_short(f):
     """No end-of-image marker after the first scan's data. Entropy-coded data never holds
     FF D9 (an FF there is followed by 00 or a restart marker): the first one is the end."""
+    f.seek(-2, 2)
+    if f.read(2) == b"\xff\xd9":     # the usual whole file: no need to read it all
+        return False
     f.seek(2)
     for marker, length in _jpeg_segments(f):
         if marker == 0xDA:
