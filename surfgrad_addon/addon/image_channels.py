@@ -3,8 +3,9 @@ whose pixels Blender does not load as they are meant, refused from the header be
 - an EXR with two of R, G and B: Blender shows them in R and G, and B as 0 on 4.2 but
   uninitialised on 4.5 and later (measured: between -6e37 and NaN, so the NaN check's answer
   was luck); Cycles renders neither, but a grey of the first (with alpha: the alpha as B), on
-  every line. The same for R, G and B of an EXR with alpha and no colour channel (`A` alone,
-  `Z` and `A`): shown as 0 or uninitialised, rendered as a grey of the alpha;
+  every line. The same for R, G and B of an EXR with no channel Blender loads as colour (`A`
+  alone, `Z` and `A`, `Z` or a lower case `y` alone): shown as 0 or uninitialised (5.2: as
+  rendered, but for `y` and `a`), rendered as a grey of one of them;
 - a luminance-chroma EXR (Y with RY and / or BY): no line loads it as RGB."""
 
 import io
@@ -94,19 +95,19 @@ def channel_problem(subject, what, found, facts):
                 f"so no check sees what the bake takes; save it with R, G and B (for a "
                 f"two-channel normal map, rebuild B = sqrt(1 - R^2 - G^2) first), or with one "
                 f"channel for a grey map")
-    return (f"{subject} holds no colour channel Blender reads in its file {held}: Blender "
-            f"{facts.line} shows its alpha only, R, G and B {shown}, but {cycles_view(found)}, "
-            f"so no check sees what the bake takes; save it with R, G and B, or with one "
-            f"channel (R or Y) for a grey map")
+    return (f"{subject} holds no colour channel Blender reads in its file {held}: "
+            f"{cycles_view(found)}, but what Blender shows the checks differs by line (0 on "
+            f"4.2, uninitialised memory on later lines), so no check sees what the bake takes; "
+            f"save it with R, G and B, or with one channel (R or Y) for a grey map")
 
 
 def cycles_view(found):
     """What Cycles renders from an EXR lacking colour channels (found.unfilled), the same on
     every line (tests/test_faults_images34.py): the file's channels as they lie, not spread
     as Blender shows them: two colour channels as a grey of the first, the alpha after two as
-    B, an alpha alone as a grey."""
+    B, an alpha alone or a channel of another name (Z, a lower case y) as a grey."""
     if not found.two_colours:
-        return "Cycles renders its alpha as a grey"
+        return "Cycles renders one of its channels as a grey"
     if found.channels == 2:
         return "Cycles renders a grey of the first of them"
     return "Cycles renders its alpha as B"

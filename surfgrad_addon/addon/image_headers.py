@@ -11,7 +11,8 @@ JPEG with one component, EXR `Y`, or an EXR with one of R, G and B) is spread ov
 an EXR with two of R, G and B loads them into R and G, and B is 0 on 4.2 but left
 uninitialised on 4.5 and later (LineFacts.exr_two_colours_fill_zero); so are R, G and B of an
 EXR with alpha and no channel Blender loads as colour (tests/test_faults_images33.py). X, Y
-and Z load into R, G and B; channel names match in either case (but a lone y: see below).
+and Z load into R, G and B; channel names match in either case (but a lone y: see below);
+an EXR of other channels (Z alone, a lower case y) is judged as one of alpha alone.
 A luminance-chroma EXR (Y with RY and / or BY, OpenEXR's YC files) is not loaded as its colours
 on any line (image_channels)."""
 
@@ -123,7 +124,8 @@ def _exr_verdict(names):
     if not names or any("." in n for n in names):      # a multi-layer file: not read
         return None
     # Blender matches R, G, B, A, X and Z in either case (measured on 4.2 and 5.2); a lower
-    # case y alone is grey on 5.2 but 0 on 4.2 and 4.5, so only an upper case Y is grey.
+    # case y alone is shown grey on 5.2 but 0 on 4.2 and 4.5, so only an upper case Y is grey
+    # (a y is a channel Blender does not read as colour: below).
     upper = {n.upper() for n in names}
     present = [c for c in COLOURS if c in upper]
     order = [*COLOURS, "Y", "A"]
@@ -143,9 +145,9 @@ def _exr_verdict(names):
             rank.index(n.upper()) if n.upper() in rank else 9, n))), "EXR", "", True)
     if "Y" in names:
         return FileChannels(len(names), kind, "EXR", "grey")
-    if "A" in upper and "Y" not in upper:   # alpha, and nothing Blender loads as colour
-        return FileChannels(len(names), kind, "EXR", "".join(COLOURS))
-    return None                     # no colour channel we know
+    # Nothing Blender loads as colour (alpha alone, Z, a lower case y, other names): Cycles
+    # renders one of the channels as a grey, what bpy shows differs by line (image_channels).
+    return FileChannels(len(names), kind, "EXR", "".join(COLOURS))
 
 
 def _jpeg_channels(f):
