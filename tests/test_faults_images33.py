@@ -2,7 +2,7 @@
 4.2, 4.5, 5.0 and 5.2 by loading hand-written files (tests/test_exr_channels.py's method):
 - alpha and no channel Blender loads as colour (`A` alone, `Z` and `A`): R, G and B are 0 on
   4.2 and left uninitialised on 4.5 and later, as B of a two-colour EXR is
-  (LineFacts.exr_two_colours_fill_zero). The check read the file as "no colour we know" and
+  (LineFacts.exr_two_colours_fill_zero; Cycles renders a grey of the alpha: red team 34). The check read the file as "no colour we know" and
   said nothing, so a bake of it differed from run to run (NaN, 3e34, the previous load's pixels);
 - lower case names (`r`, `g`): Blender matches R, G, B, A, X and Z in either case, so `r` and `g`
   are a two-colour EXR; the check, case-sensitive, let it bake (B uninitialised);
@@ -72,39 +72,31 @@ def test_colours_blender_does_not_fill_are_the_line_fact(names, unfilled, tmp_pa
 
 
 @pytest.mark.parametrize("names", ["A", "AZ"])
-def test_a_bake_from_an_exr_with_alpha_and_no_colour_is_refused_where_undefined(
+def test_a_bake_from_an_exr_with_alpha_and_no_colour_is_refused_on_every_line(
         names, tmp_path, capsys):
-    """Before: exit 0 and a map of whatever memory held (4.5 and later). Now refused there,
-    naming the file and the fix; on 4.2 baked (R, G and B are 0) with a warning."""
+    """Before: exit 0 and a map of whatever memory held (4.5 and later). Now refused, naming
+    the file and the fix, on every line: Cycles renders a grey of its alpha (4.2 baked it
+    with a warning that R, G and B read 0: red team 34, tests/test_faults_images34.py)."""
     _exr_of_channels(tmp_path / "n.exr", _planes(names))
     blend = _scene(tmp_path / "e.blend", tmp_path / "n.exr")
     rc, err = _bake(blend, tmp_path / "m.png", capsys)
     kind = {"A": "A", "AZ": "A and Z"}[names]
-    if LINE.exr_two_colours_fill_zero:
-        assert rc == exit_codes.OK, err
-        assert (f"holds {len(names)} channel{'s' * (len(names) > 1)} in its file (n.exr: "
-                f"{kind} EXR): Blender loads its alpha only and reads R, G and B as 0") in err
-        return
     assert rc == exit_codes.BAD_REQUEST and not (tmp_path / "m.png").exists(), err
     assert (f"image 'n.exr' holds no colour channel Blender reads in its file (n.exr: {kind} "
-            f"EXR): Blender {LINE.line} loads its alpha only and leaves R, G and B "
-            f"uninitialised") in err, err
+            f"EXR): Cycles renders one of its channels as a grey, but what Blender shows the "
+            f"checks differs by line") in err, err
 
 
 def test_a_lower_case_two_colour_exr_is_judged_as_its_upper_case_twin(tmp_path, capsys):
     """`r` and `g`: before, baked without a word (B uninitialised on 4.5 and later, 0 on 4.2).
-    Now what `R` and `G` get: refused, or on 4.2 the warning."""
+    Now what `R` and `G` get: refused."""
     _exr_of_channels(tmp_path / "n.exr", _planes("rg"))
     rc, err = _bake(_scene(tmp_path / "e.blend", tmp_path / "n.exr"), tmp_path / "m.png",
                     capsys)
-    if LINE.exr_two_colours_fill_zero:
-        assert rc == exit_codes.OK, err
-        assert ("(n.exr: r and g EXR): Blender loads its two colour channels into R and G and "
-                "reads B as 0") in err, err
-        return
     assert rc == exit_codes.BAD_REQUEST, err
     assert ("image 'n.exr' holds two colour channels in its file (n.exr: r and g EXR): "
-            f"Blender {LINE.line} loads them into R and G and leaves B uninitialised") in err
+            f"Blender {LINE.line} shows them in R and G with B "
+            f"{'0' if LINE.exr_two_colours_fill_zero else 'uninitialised'}") in err, err
 
 
 @pytest.mark.parametrize("names", ["XYZ", "xyz"])

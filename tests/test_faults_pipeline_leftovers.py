@@ -20,12 +20,10 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.batch import MANIFEST_NAME  # noqa: E402
-from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
 from support.child import ROOT  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
-LINE = facts_for(bpy.app.version)
 
 # A batch's pool in miniature: start one worker, wait until it is ready (idle, reading its
 # input), say where its folders are, and wait to be killed.
@@ -234,17 +232,18 @@ def test_a_grey_jpeg_is_warned_and_an_unread_format_is_not(tmp_path, capsys):
     assert "surfgrad: warning" not in err, err
 
 
-def _exr_of_channels(path, planes):
+def _exr_of_channels(path, planes, sampling=None):
     """An uncompressed single-part half EXR holding exactly `planes` ({name: (H, W) array},
     row 0 at v = 0), written by hand from the OpenEXR file layout: Blender's writer always
-    writes R, G and B."""
+    writes R, G and B. `sampling`: {name: (x, y) subsampling}, that plane (H / y, W / x)."""
     import struct
 
     def attr(name, kind, data):
         return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
     names = sorted(planes)
-    h, w = next(iter(planes.values())).shape
-    chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", 1, 0, 1, 1)
+    sampling = {n: (sampling or {}).get(n, (1, 1)) for n in names}
+    h, w = next(planes[n].shape for n in names if sampling[n] == (1, 1))
+    chlist = b"".join(n.encode() + b"\0" + struct.pack("<iB3xii", 1, 0, *sampling[n])
                       for n in names) + b"\0"
     box = struct.pack("<4i", 0, 0, w - 1, h - 1)
     header = (attr("channels", "chlist", chlist) + attr("compression", "compression", b"\0")
@@ -254,9 +253,12 @@ def _exr_of_channels(path, planes):
               + attr("screenWindowCenter", "v2f", struct.pack("<2f", 0, 0))
               + attr("screenWindowWidth", "float", struct.pack("<f", 1)) + b"\0")
     head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + header
-    rows = [struct.pack("<ii", y, 2 * w * len(names))
-            + b"".join(planes[n][h - 1 - y].astype("<f2").tobytes() for n in names)
-            for y in range(h)]                  # EXR's first line is the top: v = 1
+    rows = []                                   # EXR's first line is the top: v = 1
+    for y in range(h):
+        lines = [planes[n][len(planes[n]) - 1 - y // sampling[n][1]] for n in names
+                 if y % sampling[n][1] == 0]
+        data = b"".join(line.astype("<f2").tobytes() for line in lines)
+        rows.append(struct.pack("<ii", y, len(data)) + data)
     offsets, at = [], len(head) + 8 * h
     for row in rows:
         offsets.append(at)
@@ -264,27 +266,20 @@ def _exr_of_channels(path, planes):
     path.write_bytes(head + struct.pack(f"<{h}Q", *offsets) + b"".join(rows))
 
 
-@pytest.mark.parametrize("channels", ["Y", "YA", "RG"])
+@pytest.mark.parametrize("channels", ["Y", "YA"])
 def test_an_exr_without_r_g_and_b_is_baked_as_rendered_with_a_warning(channels, tmp_path,
                                                                       capsys):
-    """EXR normal maps with a grey channel (Y, Y+A), or without B (a two-channel R, G map whose
-    B a game engine rebuilds). Blender spreads Y over R, G and B; 4.2 reads the missing B as 0:
-    every normal into the surface. Before: not a word. Now the same map (for Y: that of an RGB
-    EXR holding the grey thrice) and a warning naming what the file holds. (4.5 and later
-    leave B undefined: refused, tests/test_exr_channels.py.)"""
-    if channels == "RG" and not LINE.exr_two_colours_fill_zero:
-        pytest.skip(f"{LINE.line} leaves B undefined: refused (tests/test_exr_channels.py)")
+    """EXR normal maps with a grey channel (Y, Y+A). Blender spreads Y over R, G and B.
+    Before: not a word. Now the same map (for Y: that of an RGB EXR holding the grey thrice)
+    and a warning naming what the file holds. (An R, G map, whose B a game engine rebuilds:
+    refused on every line, tests/test_exr_channels.py.)"""
     t = _normal_texels()
-    planes = {"Y": {"Y": t[..., 0]}, "YA": {"Y": t[..., 0], "A": t[..., 3]},
-              "RG": {"R": t[..., 0], "G": t[..., 1]}}[channels]
+    planes = {"Y": {"Y": t[..., 0]}, "YA": {"Y": t[..., 0], "A": t[..., 3]}}[channels]
     _exr_of_channels(tmp_path / "n.exr", planes)
     err = _bake(_scene(tmp_path / "e.blend", tmp_path / "n.exr"), tmp_path / "m.png", capsys)
     held = {"Y": "1 channel in its file (n.exr: Y (grey) EXR): Blender spreads the grey",
             "YA": "2 channels in its file (n.exr: Y (grey) and A EXR): Blender spreads the "
-                  "grey",
-            "RG": "2 channels in its file (n.exr: R and G EXR): Blender loads its two "
-                  "colour channels into R and G and reads B as 0, which a normal map reads "
-                  "as -1"}[channels]
+                  "grey"}[channels]
     assert f"surfgrad: warning: image 'n.exr', read by Normal Map node 'Normal Map' " \
            f"(material 'Mat'), holds {held}" in err, err
     assert err.count("surfgrad: warning") == 1, err

@@ -22,6 +22,7 @@ from pathlib import Path
 
 from . import normal_bake as NB
 from .bake_target import not_a_mesh
+from .image_checks import image_problems
 from .material_inputs import edits_lost, linked_text
 
 RECORD = "surfgrad_freeze"
@@ -194,6 +195,11 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
                     f"square; pick (or unwrap) a UV map inside it")
         raise FreezeError(text) from None
     path = _check_file(filepath, overwrite) if filepath else None
+    # The images the material reads, as bake-normal-map checks them: a missing one, or one
+    # Blender loads other than its file says, would be frozen into the map.
+    problems = image_problems(obj, only=mat)
+    if problems:
+        raise FreezeError("; ".join(problems))
     return mat, tree, end, fed, uv_map, path
 
 

@@ -1,7 +1,7 @@
 """The images a bake reads, checked before it runs (bake_request.check): every image node the
 object's materials reach from the Material Output Cycles uses, through links and into node
-groups; each image set, present, loadable, with defined (image_channels.py) and finite pixels;
-the UV maps nodes name.
+groups; each image set, present, loadable, whole (a JPEG or TIFF cut short loads, the rest filled in), with
+defined (image_channels.py) and finite pixels; the UV maps nodes name.
 Cycles would bake its magenta 'missing' colour for an image it cannot read, silently."""
 
 from pathlib import Path
@@ -12,34 +12,37 @@ from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
 from .float_pixels import PixelsTooLarge, pixel_facts
-from .image_channels import layered_file, running_facts, undefined_channel_problem
-from .image_headers import exr_layered
+from .image_channels import (cut_short_file, cut_short_problem, layered_file,
+                             path_channel_problem, running_facts, undefined_channel_problem)
+from .image_headers import cut_short, exr_layered
 
 
-def material_images(obj):
+def material_images(obj, only=None):
     """[(material, node path, node, image or None)] for every image node the object's
-    materials read: reached from the Material Output Cycles uses (material_inputs.py) through
-    links, into node groups."""
+    materials (or material `only`) read: reached from the Material Output Cycles uses
+    (material_inputs.py) through links, into node groups."""
     found, memo = [], {}
     for slot in obj.material_slots:
         mat = slot.material
-        if mat is None or mat.node_tree is None:      # (a tree without use_nodes: checked too)
-            continue
-        for node, path in material_nodes(mat, memo):
+        if mat is None or mat.node_tree is None or only not in (None, mat):
+            continue                                # (a tree without use_nodes: checked too)
+        for node, path, _ in material_nodes(mat, memo):
             if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
                 found.append((mat, path, node, node.image))
     return found
 
 
 def material_nodes(mat, memo):
-    """(node, path) of every node `mat` reads through the output Cycles renders."""
+    """(node, path, group nodes it lies in) of every node `mat` reads through the output
+    Cycles renders."""
     output = MI.cycles_output(mat.node_tree)
     return _reached(mat.node_tree, [output] if output else [], memo)
 
 
 def _reached(tree, starts, memo):
-    """(node, path of node names) of every node `starts` read in `tree` through links that
-    are not muted, and inside the node groups they use (each group walked once: memo)."""
+    """(node, path of node names, the group nodes it lies in from `tree` on) of every node
+    `starts` read in `tree` through links that are not muted, and inside the node groups they
+    use (each group walked once: memo)."""
     links_to = {}
     for link in tree.links:
         if link.is_valid and not getattr(link, "is_muted", False):
@@ -50,7 +53,7 @@ def _reached(tree, starts, memo):
         if node.name in seen:
             continue
         seen.add(node.name)
-        out.append((node, node.name))
+        out.append((node, node.name, ()))
         todo += links_to.get(node.name, [])
         group = getattr(node, "node_tree", None) if node.type == "GROUP" else None
         if group is not None:
@@ -58,24 +61,26 @@ def _reached(tree, starts, memo):
                 memo[group.name] = []           # a group that holds itself stops here
                 inner = [n for n in group.nodes if n.bl_idname == "NodeGroupOutput"]
                 memo[group.name] = _reached(group, inner, memo)
-            out += [(n, f"{node.name} > {p}") for n, p in memo[group.name]]
+            out += [(n, f"{node.name} > {p}", (node, *outer))
+                    for n, p, outer in memo[group.name]]
     return out
 
 
-def image_problems(obj, covered=()):
-    """Every image the object's materials read: set, present, loadable, finite pixels; the
-    frame file a sequence reads now, the tiles (`covered`, the UDIM tiles the bake writes) of a
-    tiled image; linked materials whose library is missing; UV map names nodes refer to."""
+def image_problems(obj, covered=(), only=None):
+    """Every image the object's materials (or material `only`) read: set, present, loadable,
+    finite pixels; the frame file a sequence reads now, the tiles (`covered`, the UDIM tiles
+    the bake writes) of a tiled image; linked materials whose library is missing; UV map names
+    nodes refer to."""
     import bpy
     out, checked = [], set()
     for slot in obj.material_slots:
-        if slot.material is not None:
+        if slot.material is not None and only in (None, slot.material):
             # (a missing library's placeholder has no tree either: its library is the fix)
             problem = MI.library_problem(slot.material) or MI.no_tree_problem(slot.material)
             if problem and problem not in out:
                 out.append(problem)
-    out += uv_reference_problems(obj)
-    for mat, path, node, image in material_images(obj):
+    out += uv_reference_problems(obj, only)
+    for mat, path, node, image in material_images(obj, only):
         if image is None:
             out.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
                        f"would bake its magenta 'missing' colour; pick an image or remove the "
@@ -103,15 +108,15 @@ def image_problems(obj, covered=()):
 
 
 def objects_nodes(obj, only=None):
-    """(material, node, path) for every node the object's materials (or material `only`)
-    read through the output Cycles renders (material_nodes)."""
+    """(material, node, path, the group nodes it lies in) for every node the object's
+    materials (or material `only`) read through the output Cycles renders (material_nodes)."""
     memo = {}
     for slot in obj.material_slots:
         mat = slot.material
         if mat is None or mat.node_tree is None or only not in (None, mat):
             continue
-        for node, path in material_nodes(mat, memo):
-            yield mat, node, path
+        for node, path, outer in material_nodes(mat, memo):
+            yield mat, node, path, outer
 
 
 def output_input_problems(obj, finals):
@@ -135,8 +140,9 @@ def output_input_problems(obj, finals):
     return out
 
 
-def uv_reference_problems(obj):
-    """Nodes naming a UV map (or attribute) the evaluated mesh does not have."""
+def uv_reference_problems(obj, only=None):
+    """Nodes naming a UV map (or attribute) the evaluated mesh does not have (in the object's
+    materials, or material `only`)."""
     import bpy
     eval_obj = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
     mesh = eval_obj.to_mesh()
@@ -144,9 +150,9 @@ def uv_reference_problems(obj):
     try:
         for slot in obj.material_slots:
             mat = slot.material
-            if mat is None or mat.node_tree is None:
+            if mat is None or mat.node_tree is None or only not in (None, mat):
                 continue
-            for node, path in material_nodes(mat, memo):
+            for node, path, _ in material_nodes(mat, memo):
                 problem = MI.uv_name_problem(mat, path, node, mesh)
                 if problem:
                     out.append(problem.replace(f"mesh {mesh.name!r}",
@@ -156,15 +162,23 @@ def uv_reference_problems(obj):
     return out
 
 
-def image_feeding(socket):
-    """The image of the Image Texture node whose output reaches `socket` (through reroutes),
-    or None."""
-    if socket is None or not socket.is_linked:
-        return None
-    source = socket.links[0].from_node
-    while source.bl_idname == "NodeReroute" and source.inputs[0].is_linked:
-        source = source.inputs[0].links[0].from_node
-    return getattr(source, "image", None) if source.bl_idname == "ShaderNodeTexImage" else None
+def image_feeding(socket, outer=()):
+    """The image of the Image Texture node whose output reaches `socket` (through reroutes,
+    and out of the node groups `outer`, the group nodes `socket` lies in, outermost first,
+    through their inputs), or None."""
+    while socket is not None and socket.is_linked:
+        link = socket.links[0]
+        source = link.from_node
+        if source.bl_idname == "NodeReroute":
+            socket = source.inputs[0]
+        elif source.bl_idname == "NodeGroupInput" and outer:
+            socket = next((s for s in outer[-1].inputs
+                           if s.identifier == link.from_socket.identifier), None)
+            outer = outer[:-1]
+        else:
+            return getattr(source, "image", None) \
+                if source.bl_idname == "ShaderNodeTexImage" else None
+    return None
 
 
 def image_files(image):
@@ -202,6 +216,12 @@ def one_image_problem(image):
     if not image.has_data and layered_file(image):
         # From the header, before a load: 4.2 never returns from one of such a file cut short.
         return multilayer_problem(f"{what} ({'packed' if packed else repr(image.filepath)})")
+    # From the headers, before a load: garbage in the pixels would make the NaN check's answer
+    # a matter of luck, and Blender does not open a subsampled luminance-chroma EXR at all.
+    problem = undefined_channel_problem(image, running_facts())
+    cut = cut_short_file(image)
+    if problem or cut:
+        return problem or cut_short_problem(what, repr(cut[0]), cut[1])
     had_data = image.has_data
     try:
         w, h = image.size
@@ -220,10 +240,6 @@ def one_image_problem(image):
             return (f"{what} ({'packed' if packed else repr(image.filepath)}) could not be "
                     f"read (damaged, or a format Blender does not open): re-save it as PNG "
                     f"or EXR")
-        # Before the pixels: garbage in them would make the NaN check's answer a matter of luck.
-        problem = undefined_channel_problem(image, running_facts())
-        if problem:
-            return problem
         try:
             facts = pixel_facts(image)          # only float buffers can hold NaN / Inf
         except PixelsTooLarge as err:
@@ -259,8 +275,15 @@ def file_problem(what, path):
         with open(path, "rb") as f:
             if exr_layered(f):                  # before a load (see one_image_problem)
                 return multilayer_problem(f"{what} reads {str(path)!r}, which")
+            f.seek(0)
+            cut = cut_short(f)
+            if cut:
+                return cut_short_problem(what, repr(str(path)), cut)
     except OSError:
         pass
+    problem = path_channel_problem(what, path, running_facts())     # (as one_image_problem)
+    if problem:
+        return problem
     try:
         probe = bpy.data.images.load(str(path), check_existing=False)
     except RuntimeError:

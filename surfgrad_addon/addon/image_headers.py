@@ -4,14 +4,18 @@ counts images before they are loaded), read from its header: Blender reports 4
 header says it exactly and cheaply: PNG (the IHDR chunk's colour type, byte 25), baseline or
 progressive JPEG (the frame header's component count) and single-part scanline or tiled
 OpenEXR (the header's `channels` list, default layer only). Other formats, and multi-part,
-deep or multi-layer EXRs, give None (unknown), never a guess.
+deep or multi-layer EXRs, give None (unknown), never a guess. Whether a JPEG or TIFF is whole
+(an end-of-image marker after its image data; strips within the file) is read from it too.
 
 What Blender makes of too few (tests/test_exr_channels.py, every line): a grey file (PNG grey,
 JPEG with one component, EXR `Y`, or an EXR with one of R, G and B) is spread over R, G and B;
 an EXR with two of R, G and B loads them into R and G, and B is 0 on 4.2 but left
 uninitialised on 4.5 and later (LineFacts.exr_two_colours_fill_zero); so are R, G and B of an
 EXR with alpha and no channel Blender loads as colour (tests/test_faults_images33.py). X, Y
-and Z load into R, G and B; channel names match in either case (but a lone y: see below)."""
+and Z load into R, G and B; channel names match in either case (but a lone y: see below);
+an EXR of other channels (Z alone, a lower case y) is judged as one of alpha alone.
+A luminance-chroma EXR (Y with RY and / or BY, OpenEXR's YC files) is not loaded as its colours
+on any line (image_channels)."""
 
 import struct
 from typing import NamedTuple
@@ -36,6 +40,7 @@ class FileChannels(NamedTuple):
     kind: str           # what they are, in words
     format: str         # PNG, JPEG, EXR
     lacking: str        # "" (R, G and B there), "grey" (one grey channel), else e.g. "B"
+    luma_chroma: bool = False   # an EXR of luminance Y and chroma RY / BY, no R, G or B
 
     @property
     def two_colours(self):
@@ -159,7 +164,8 @@ def _exr_verdict(names):
     if not names or any("." in n for n in names):      # a multi-layer file: not read
         return None
     # Blender matches R, G, B, A, X and Z in either case (measured on 4.2 and 5.2); a lower
-    # case y alone is grey on 5.2 but 0 on 4.2 and 4.5, so only an upper case Y is grey.
+    # case y alone is shown grey on 5.2 but 0 on 4.2 and 4.5, so only an upper case Y is grey
+    # (a y is a channel Blender does not read as colour: below).
     upper = {n.upper() for n in names}
     present = [c for c in COLOURS if c in upper]
     order = [*COLOURS, "Y", "A"]
@@ -173,11 +179,15 @@ def _exr_verdict(names):
                             "".join(c for c in COLOURS if c not in present))
     if {"X", "Y", "Z"} <= upper:    # loaded into R, G and B, in that order
         return FileChannels(len(names), kind, "EXR", "")
-    if "Y" in names and not {"RY", "BY"} & upper:
+    if "Y" in upper and {"RY", "BY"} & upper:     # luminance-chroma (OpenEXR's YC files)
+        rank = ("Y", "RY", "BY", "A")
+        return FileChannels(len(names), " and ".join(sorted(names, key=lambda n: (
+            rank.index(n.upper()) if n.upper() in rank else 9, n))), "EXR", "", True)
+    if "Y" in names:
         return FileChannels(len(names), kind, "EXR", "grey")
-    if "A" in upper and "Y" not in upper:   # alpha, and nothing Blender loads as colour
-        return FileChannels(len(names), kind, "EXR", "".join(COLOURS))
-    return None                     # luminance-chroma, or no colour channel we know
+    # Nothing Blender loads as colour (alpha alone, Z, a lower case y, other names): Cycles
+    # renders one of the channels as a grey, what bpy shows differs by line (image_channels).
+    return FileChannels(len(names), kind, "EXR", "".join(COLOURS))
 
 
 def _jpeg_channels(f):
@@ -192,21 +202,132 @@ def _jpeg_channels(f):
 
 def _jpeg_frame(f):
     """The first 6 bytes of the JPEG's frame header (precision, height, width, components),
-    walking its marker segments (lengths only), or None."""
+    or None."""
+    for marker, _ in _jpeg_segments(f):
+        if marker in JPEG_FRAMES:
+            frame = f.read(6)
+            return frame if len(frame) == 6 else None
+    return None
+
+
+def cut_short(f):
+    """The format ("JPEG", "TIFF", "SGI image") of the binary file object `f` where its image data does not
+    all lie within it (a copy or download cut short), else None: Blender loads such a file at
+    full size, the part missing filled in, and Cycles bakes that (measured on every line)."""
+    head = f.read(4)
+    f.seek(0)
+    if head[:2] == b"\xff\xd8":
+        return "JPEG" if _jpeg_cut_short(f) else None
+    if head in (b"II*\0", b"MM\0*"):
+        return "TIFF" if _tiff_cut_short(f) else None
+    if head[:2] == SGI_MAGIC:
+        return "SGI image" if _sgi_cut_short(f) else None
+    return None
+
+
+def _jpeg_cut_short(f):
+    """No end-of-image marker after the first scan's data. Entropy-coded data never holds
+    FF D9 (an FF there is followed by 00 or a restart marker): the first one is the end."""
+    f.seek(-2, 2)
+    if f.read(2) == b"\xff\xd9":     # the usual whole file: no need to read it all
+        return False
+    f.seek(2)
+    for marker, length in _jpeg_segments(f):
+        if marker == 0xDA:
+            f.seek(length - 2, 1)
+            last = b""
+            while True:
+                block = f.read(1 << 20)
+                if not block:
+                    return True
+                if b"\xff\xd9" in last + block:
+                    return False
+                last = block[-1:]
+    return False                        # no scan: the load itself fails
+
+
+SGI_MAGIC = b"\x01\xda"
+SGI_HEADER = 512
+# TIFF tags (TIFF 6.0): where the first image's strips or tiles lie and how long they are.
+TIFF_DATA = {273: "offsets", 279: "counts", 324: "offsets", 325: "counts"}
+
+
+def _tiff_cut_short(f):
+    """A strip or tile of the first image (its IFD's offsets and byte counts) ending past
+    the end of the file."""
+    order = "<" if f.read(2) == b"II" else ">"
+    f.seek(4)
+    at = struct.unpack(order + "I", f.read(4))[0]
+    f.seek(0, 2)
+    size = f.tell()
+    f.seek(at)
+    count = f.read(2)
+    if len(count) < 2:
+        return False                    # no directory: the load itself fails
+    found = {}
+    for _ in range(struct.unpack(order + "H", count)[0]):
+        entry = f.read(12)
+        if len(entry) < 12:
+            return False
+        tag, kind, n = struct.unpack(order + "HHI", entry[:8])
+        if tag not in TIFF_DATA or kind not in (3, 4):
+            continue
+        width = 2 if kind == 3 else 4
+        data = entry[8:8 + n * width] if n * width <= 4 else _read_at(f, entry[8:], order,
+                                                                       n * width)
+        found[TIFF_DATA[tag]] = struct.unpack(f"{order}{n}{'H' if kind == 3 else 'I'}", data)
+    ends = [o + c for o, c in zip(found.get("offsets", ()), found.get("counts", ()))]
+    return bool(ends) and max(ends) > size
+
+
+def _sgi_cut_short(f):
+    """Image data past the end of the file: verbatim, the channels' planes after the 512-byte
+    header; run-length encoded, the rows its offset and length tables name (SGI image file
+    format). (4.2 loads one cut short, the rest as memory held; later lines refuse it.)"""
+    head = f.read(12)
+    if len(head) < 12:
+        return False
+    rle, width, w, h, channels = struct.unpack(">xxBBxxHHH", head)
+    f.seek(0, 2)
+    size = f.tell()
+    if not rle:
+        return SGI_HEADER + w * h * channels * width > size
+    f.seek(SGI_HEADER)
+    rows = h * channels
+    tables = f.read(8 * rows)
+    if len(tables) < 8 * rows:
+        return True
+    starts, lengths = tables[:4 * rows], tables[4 * rows:]
+    return max((a + n for a, n in zip(struct.unpack(f">{rows}I", starts),
+                                      struct.unpack(f">{rows}I", lengths))), default=0) > size
+
+
+def _read_at(f, offset, order, n):
+    back = f.tell()
+    f.seek(struct.unpack(order + "I", offset)[0])
+    data = f.read(n)
+    f.seek(back)
+    return data if len(data) == n else b"\0" * n
+
+
+def _jpeg_segments(f):
+    """(marker, length) of each marker segment from `f`'s position (after the SOI) up to the
+    first start of scan; after each, `f` is just past the length field (the next is found
+    from there by the length, whatever the caller read)."""
     while f.tell() < JPEG_SCAN_LIMIT:
         marker = f.read(2)
         while len(marker) == 2 and marker[0] == 0xFF and marker[1] == 0xFF:   # fill bytes
             marker = marker[1:] + f.read(1)
-        if len(marker) < 2 or marker[0] != 0xFF or marker[1] in (0xD9, 0xDA):
-            return None                 # end of image or start of scan: no frame header
+        if len(marker) < 2 or marker[0] != 0xFF or marker[1] == 0xD9:
+            return                      # end of image, or not a marker
         if 0xD0 <= marker[1] <= 0xD7 or marker[1] == 0x01:
             continue                    # markers without a segment
         size = f.read(2)
         if len(size) < 2:
-            return None
+            return
         length = struct.unpack(">H", size)[0]
-        if marker[1] in JPEG_FRAMES:
-            frame = f.read(6)
-            return frame if len(frame) == 6 else None
-        f.seek(length - 2, 1)
-    return None
+        start = f.tell()
+        yield marker[1], length
+        if marker[1] == 0xDA:
+            return
+        f.seek(start + length - 2)

@@ -4,14 +4,14 @@ bends them, naming the image, the node and the fix.
 
 - An image read in a colour space that is not data (sRGB, the usual slip): the colour is
   converted before the node decodes it, which bends every normal; the fix is the image's
-  colour space.
+  colour space. The file's working space (Linear Rec.709 unless a 5.x file says otherwise,
+  the default for an EXR) converts nothing and is not warned about.
 
 - An image whose file holds one or two channels (a grey or grey+alpha PNG, a grey JPEG or
   EXR): Blender reports 4 channels once it is loaded, having spread the grey over R, G and
-  B, so every normal leans along (1, 1) in the tangent plane. An EXR with two colour channels
-  (an R, G normal map): 4.2 reads B as 0, and every normal points into the surface (4.5 and
-  later leave B undefined, which image_checks refuses: image_channels.py). The
-  file's header says it (image_headers.py); formats it does not cover are not warned about.
+  B, so every normal leans along (1, 1) in the tangent plane. (An EXR with two colour
+  channels, an R, G normal map, or alpha alone is refused: image_channels.py.) The file's
+  header says it (image_headers.py); formats it does not cover are not warned about.
 - A float image whose normals are stored in -1..1, not 0..1 (more than NEGATIVE_SHARE of its
   texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
   tilt, so every normal is pulled toward (-1, -1).
@@ -21,23 +21,27 @@ import re
 
 from .float_pixels import PixelsTooLarge, pixel_facts
 from .image_checks import image_feeding, objects_nodes
-from .image_channels import layered_file, read_channels, running_facts
+from .image_channels import layered_file, read_channels
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
 NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
 # ... with a per-UV-map suffix ("SG Normal Map [Detail]") or Blender's copy number (".001")
 _GROUP_NAME = re.compile(rf"({'|'.join(map(re.escape, NORMAL_MAP_GROUPS))})( \[.*\])?(\.\d+)?")
+# The working (scene linear) space before 5.0 made it a file setting (bpy.data.colorspace):
+# the scene_linear role of the colour configuration 4.2 and 4.5 ship.
+WORKING_SPACE_4X = "Linear Rec.709"
 NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filtering, has any
 
 
 def normal_map_images(obj, only=None):
     """[(material, what the node is and its path, image)] for every image node whose Color
-    output is read (through reroutes) into the Color input of a Normal Map node, an SG Normal
-    Map or an SG Tangent Normal the object's materials (or material `only`) reach."""
+    output is read (through reroutes, and into node groups through their inputs) into the
+    Color input of a Normal Map node, an SG Normal Map or an SG Tangent Normal the object's
+    materials (or material `only`) reach."""
     out = []
-    for mat, node, path in objects_nodes(obj, only):
+    for mat, node, path, outer in objects_nodes(obj, only):
         kind = _normal_map_kind(node)
-        image = image_feeding(node.inputs.get("Color")) if kind else None
+        image = image_feeding(node.inputs.get("Color"), outer) if kind else None
         if image is not None:
             out.append((mat, f"{kind} node {path!r}", image))
     return out
@@ -51,13 +55,22 @@ def _normal_map_kind(node):
     return match.group(1) if match else None
 
 
+def unconverted(settings):
+    """True where Cycles reads an image in colour space `settings` as it is: data (Non-Color),
+    or the file's own working space, into which every other is converted (measured: the same
+    map as Non-Color, tests/test_faults_images34.py)."""
+    import bpy
+    working = getattr(getattr(bpy.data, "colorspace", None), "working_space", None)
+    return settings.is_data or settings.name in (working or WORKING_SPACE_4X, "scene_linear")
+
+
 def colour_space_warnings(obj, only=None):
     """A warning per image read as colour into the Color of a Normal Map node, an SG Normal Map
     or an SG Tangent Normal (normal_map_images): sRGB (or any colour space that is not data)
     bends every texel's normal, and the bake, like Cycles' render, takes the bent one."""
     out = []
     for mat, node, image in normal_map_images(obj, only):
-        if image.colorspace_settings.is_data:
+        if unconverted(image.colorspace_settings):
             continue
         text = (f"image {image.name!r} is read in colour space "
                 f"{image.colorspace_settings.name!r} by {node} (material {mat.name!r}): a "
@@ -89,29 +102,13 @@ def _channels_problem(image):
     """What is wrong with the channels of the image's file (the first of its UDIM tiles that
     has too few), or None: fine, or a format whose header is not read (image_headers)."""
     for what, found in read_channels(image):
-        if not found.lacking:
+        if found.lacking != "grey":     # (a file lacking colours is refused: image_channels)
             continue
         held = (f"holds {found.channels} channel{'s' * (found.channels > 1)} in its file "
                 f"({what}: {found.kind} {found.format})")
-        if found.lacking == "grey":
-            return (f"{held}: Blender spreads the grey over R, G and B, so every normal leans "
-                    f"along (1, 1) in the tangent plane (the bake takes them as Cycles renders "
-                    f"them); save the normal map as RGB (three channels)")
-        if found.lacking == "RGB":
-            rgb = ("reads R, G and B as 0, which a normal map reads as (-1, -1, -1) (every "
-                   "normal points into the surface; the bake takes them as Cycles renders them)"
-                   if running_facts().exr_two_colours_fill_zero else
-                   "leaves R, G and B uninitialised (what Cycles renders from it changes from "
-                   "run to run; a bake refuses it)")
-            return (f"{held}: Blender loads its alpha only and {rgb}; save the normal map with "
-                    f"R, G and B")
-        b = ("reads B as 0, which a normal map reads as -1 (every normal points into the "
-             "surface; the bake takes them as Cycles renders them)"
-             if running_facts().exr_two_colours_fill_zero else
-             "leaves B uninitialised (what Cycles renders from it changes from run to run; "
-             "a bake refuses it)")
-        return (f"{held}: Blender loads its two colour channels into R and G and {b}; save "
-                f"the normal map with R, G and B (rebuild B from R and G first)")
+        return (f"{held}: Blender spreads the grey over R, G and B, so every normal leans "
+                f"along (1, 1) in the tangent plane (the bake takes them as Cycles renders "
+                f"them); save the normal map as RGB (three channels)")
     return None
 
 

@@ -32,6 +32,7 @@ from ..addon.bake_request import zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.bake_uvs import not_rendered_problem, read_as_baked
 from ..addon.exit_codes import BakeFailed
+from ..addon.image_channels import path_channel_problem, running_facts
 from ..addon import unrealized_instances as UI
 from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
                                   memory_problem)
@@ -110,6 +111,11 @@ def _load_image(path):
     if not path.is_file():
         raise CompareError(f"image {str(path)!r} does not exist; give an existing file to "
                            f"--image")
+    # Channels Blender loads undefined or not as the file's colours: the reference would read
+    # one load's pixels and Cycles another's (a correct group reported tens of degrees off).
+    problem = path_channel_problem(f"image {str(path)!r}", path, running_facts())
+    if problem:
+        raise CompareError(problem)
     try:
         img = bpy.data.images.load(str(path.resolve()), check_existing=False)
     except RuntimeError as err:
