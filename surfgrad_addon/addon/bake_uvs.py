@@ -9,7 +9,6 @@ with exit 0. An object without modifiers is read from the viewport's depsgraph
 (the same mesh, and no render-mode pass); one with modifiers through render_mesh.py.
 """
 
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,6 +16,7 @@ import numpy as np
 from ..reference import tiles as T
 from .bake_target import bake_target_problem
 from .mesh_triangles import triangle_uvs, triangles
+from .read_once import ReadOnce
 from .unrealized_instances import read_instances
 
 
@@ -80,31 +80,18 @@ class BakedMesh:
     triangle_faces: np.ndarray = None       # (T,) the face of each triangle
 
 
-_reads = {"cache": None}      # {object pointer: BakedMesh} inside one_read()
+_meshes = ReadOnce()           # {object pointer: BakedMesh} inside one_read()
 
 
-@contextmanager
 def one_read():
     """Within this block each object's rendered mesh is read once: a request's checks and
     its bake want it three times, and for an object with modifiers each read is a
     render-mode pass. Nothing may change the mesh within the block."""
-    if _reads["cache"] is not None:
-        yield
-        return
-    _reads["cache"] = {}
-    try:
-        yield
-    finally:
-        _reads["cache"] = None
+    return _meshes.scope()
 
 
 def baked_mesh(obj):
     """The BakedMesh of obj (read once per object inside one_read())."""
-    cache = _reads["cache"]
-    key = obj.as_pointer()
-    if cache is not None and key in cache:
-        return cache[key]
-
     def read(evaluated, depsgraph):
         instances = read_instances(evaluated, depsgraph)
         mesh = evaluated.to_mesh()
@@ -122,10 +109,7 @@ def baked_mesh(obj):
                              instances, faces)
         finally:
             evaluated.to_mesh_clear()
-    result = read_as_baked(obj, read)
-    if cache is not None:
-        cache[key] = result
-    return result
+    return _meshes.get(obj.as_pointer(), lambda: read_as_baked(obj, read))
 
 
 def baked_uv_tiles(obj):
