@@ -37,10 +37,10 @@ from . import unrealized_instances as UI
 from .bake_uvs import baked_mesh, one_read
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
+from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
 from .image_memory import images_memory
 from .memory_limit import bake_memory_problem
-from .foreign_nodes import foreign_node_problems
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)

@@ -41,8 +41,8 @@ def run(subcommands, args):
     """Run the parsed command: its exit code, errors reported as one line."""
     command = next(c for c in subcommands if c.name == args.command)
     prepare_streams()            # `blender -c surfgrad ... >&-`; non-UTF-8 paths
-    problems = [p for p in map(_name_problem, NAME_OPTIONS, (getattr(args, n, None)
-                                                             for n in NAME_OPTIONS)) if p]
+    problems = [p for p in (_name_problem(n, getattr(args, n, None)) for n in NAME_OPTIONS)
+                if p]
     if problems:
         print(f"surfgrad: error: {'; '.join(problems)}", file=sys.stderr)
         return BAD_REQUEST

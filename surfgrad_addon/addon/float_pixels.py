@@ -74,8 +74,8 @@ def _read(image):
 
 def summed(texels):
     """PixelFacts of (N, C) float texels, counted slice by slice. A slice whose float64 sum is
-    finite has no NaN or Inf (float32 values cannot overflow it): only others are counted value by value,
-    which is several times slower."""
+    finite has no NaN or Inf (float32 values cannot overflow it): only others are counted
+    value by value, which is several times slower."""
     nonfinite, below = 0, [0, 0]
     for i in range(0, len(texels), _SLICE_TEXELS):
         part = texels[i:i + _SLICE_TEXELS]

@@ -1,7 +1,7 @@
 """The images a bake reads, checked before it runs (bake_request.check): every image node the
 object's materials reach from the Material Output Cycles uses, through links and into node
-groups; each image set, present, loadable, whole (a JPEG or TIFF cut short loads, the rest filled in), with
-defined (image_channels.py) and finite pixels; the UV maps nodes name.
+groups; each image set, present, loadable, whole (a JPEG or TIFF cut short loads, the rest
+filled in), with defined (image_channels.py) and finite pixels; the UV maps nodes name.
 Cycles would bake its magenta 'missing' colour for an image it cannot read, silently."""
 
 from pathlib import Path

@@ -211,8 +211,8 @@ def _jpeg_frame(f):
 
 
 def cut_short(f):
-    """The format ("JPEG", "TIFF", "SGI image") of the binary file object `f` where its image data does not
-    all lie within it (a copy or download cut short), else None: Blender loads such a file at
+    """The format ("JPEG", "TIFF", "SGI image") of the binary file object `f` where its image
+    data does not all lie within it (a copy or download cut short), else None: Blender loads such a file at
     full size, the part missing filled in, and Cycles bakes that (measured on every line)."""
     head = f.read(4)
     f.seek(0)

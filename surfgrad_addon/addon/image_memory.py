@@ -51,7 +51,8 @@ def _files(image, covered):
     """The files of `image` the bake reads (image_files lists a tiled one's in tile order)."""
     files = image_files(image)
     if image.source == "TILED" and covered:
-        files = [f for f, t in zip(files, image.tiles) if t.number in set(covered)]
+        wanted = set(covered)
+        files = [f for f, t in zip(files, image.tiles) if t.number in wanted]
     return files
 
 

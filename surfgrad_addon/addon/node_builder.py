@@ -533,7 +533,8 @@ def take_notes():
     return notes
 
 
-# A driver's or keyframe's path names a node's input by its index: nodes["Decal"].inputs[4].default_value.
+# A driver's or keyframe's path names a node's input by its index:
+# nodes["Decal"].inputs[4].default_value.
 _INPUT_PATH = re.compile(r'nodes\["((?:[^"\\]|\\.)*)"\]\.inputs\[(\d+)\]')
 
 

@@ -13,7 +13,8 @@ is kept where it has one (hidden, excluded or in no collection, it still renders
 Nodes setup reading the Active Camera (camera culling, distance LODs) evaluates as in the bake
 (before, a stand-in camera at the origin bent such a mesh otherwise: a correct group compared
 44 deg wrong). Only a scene without a camera gets a temporary one (Blender refuses to render
-without), at the origin and scaled to nothing, as Object Info reads no camera. Render handlers of add-ons still run, as for any render.
+without), at the origin and scaled to nothing, as Object Info reads no camera. Render
+handlers of add-ons still run, as for any render.
 """
 
 from contextlib import ExitStack

@@ -488,7 +488,6 @@ def _write_report(json_out, report, heat_path, heat, overwrite):
     JSON, met its heat map, then removed both as its own ("the disk may be full"), and the
     first had exited 0 with nothing left."""
     from ..addon import interrupts
-    from ..addon.exit_codes import BakeFailed
     with interrupts.committing():
         made = [d for d in (json_out.parent, *json_out.parent.parents) if not d.exists()]
         for d in reversed(made):
