@@ -354,9 +354,31 @@ def _socket(sockets, identifier):
     return next(s for s in sockets if s.identifier == identifier)
 
 
+# What thaw reads of a record, and the type of each.
+_RECORD_FIELDS = {"image": str, "image_created": bool, "file": str, "links": list,
+                  "added": list, "moved": dict, "frame": str}
+
+
 def frozen_record(mat):
-    """The freeze record of `mat`, or None when it is not frozen."""
-    return json.loads(mat[RECORD]) if mat is not None and RECORD in mat else None
+    """The freeze record of `mat`, or None when it is not frozen. A property under the
+    record's name that is not one (edited by hand, or made by something else) is a
+    FreezeError naming the fix."""
+    if mat is None or RECORD not in mat:
+        return None
+    try:
+        record = json.loads(mat[RECORD])
+        readable = isinstance(record, dict) and all(
+            isinstance(record.get(key), kind) for key, kind in _RECORD_FIELDS.items()) and all(
+            isinstance(link, list) and len(link) == 4 and all(isinstance(s, str) for s in link)
+            for link in record["links"])
+    except (TypeError, ValueError):
+        readable = False
+    if not readable:
+        raise FreezeError(f"material {mat.name!r} has a custom property {RECORD!r} that is not "
+                          f"a freeze record surfgrad can read, so the live stack cannot be "
+                          f"relinked from it: remove the property (Material Properties > "
+                          f"Custom Properties) and relink the stack by hand")
+    return record
 
 
 def thaw(mat):

@@ -103,9 +103,11 @@ unlinked, in a frame (Thaw brings it back)"""
         except StopIteration:
             outcome = {'FINISHED'}
         except F.FreezeCancelled as err:
+            self._report_warnings()
             self.report({'WARNING'}, str(err))
             return {'CANCELLED'}
         except (ValueError, RuntimeError) as err:      # FreezeError, BakeFailed, a bad file
+            self._report_warnings()                 # to fix too; the refusal last, seen
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
         if outcome == {'FINISHED'}:
@@ -113,9 +115,14 @@ unlinked, in a frame (Thaw brings it back)"""
             where = record["file"] or "packed into the .blend"
             self.report({'INFO'}, f"Froze the stack into {record['image']!r} ({where}); "
                                   f"Thaw Surface Gradient Stack brings it back")
-            for warning in self._warnings:      # last: the status bar shows the warning
-                self.report({'WARNING'}, warning)
+            self._report_warnings()             # last: the status bar shows the warning
         return outcome
+
+    def _report_warnings(self):
+        """What bends the normal maps the stack reads, each said once."""
+        for warning in self._warnings:
+            self.report({'WARNING'}, warning)
+        self._warnings = []
 
 
 class SURFGRAD_OT_thaw_stack(bpy.types.Operator):

@@ -13,7 +13,7 @@ import bpy
 from . import groups as G
 from .group_names import LINE_KEY, VERSION_KEY
 from .all_or_nothing import all_or_nothing
-from .node_builder import running_line, take_notes
+from .node_builder import checked_first, running_line, take_notes
 
 _COPY = re.compile(r"\.\d+$")        # Blender's ".001" of an appended copy
 
@@ -62,14 +62,16 @@ def _per_image(build, **options):
     """A builder call for a per-image group: its image (one per plane for triplanar) and
     extension as its Image Texture nodes hold them."""
     def call(tree):
-        taps = _images(tree)
-        if not taps or any(t.image is None for t in taps):
+        # Read now: the call runs more than once (node_builder.checked_first), and the first
+        # run rebuilds the tree, which frees its nodes.
+        images = [t.image for t in _images(tree)]
+        if not images or any(image is None for image in images):
             return None
-        extension = {"extension": taps[0].extension}
+        extension = {"extension": _images(tree)[0].extension}
         if build is G.triplanar_height_group:
-            planes = [t.image for t in taps[::len(taps) // 3]] if len(taps) % 3 == 0 else []
+            planes = images[::len(images) // 3] if len(images) % 3 == 0 else []
             return (lambda: build(images=planes, **extension)) if len(planes) == 3 else None
-        return lambda: build(image=taps[0].image, **options, **extension)
+        return lambda: build(image=images[0], **options, **extension)
     return call
 
 
@@ -123,6 +125,18 @@ def _foreign_names():
                   if g.library is None and g.name in ours and VERSION_KEY not in g)
 
 
+def _remove_unused_added(before):
+    """Remove the groups the update added that nothing uses: rebuilding a stale copy ("SG
+    Decal.001") with no original beside it builds the original too."""
+    while True:
+        unused = [g for g in bpy.data.node_groups
+                  if g.name_full not in before and g.users == 0 and not g.use_fake_user]
+        if not unused:
+            return
+        for group in unused:
+            bpy.data.node_groups.remove(group)
+
+
 def update_stale_groups():
     """Rebuild every stale group in place. Returns (updated names, [(name, why)] of those
     left as they were). Raises ValueError, with nothing changed, when a group of the user's
@@ -142,8 +156,9 @@ def update_stale_groups():
                                               "(add it again from the menu)"))
         else:
             calls.append((tree.name, call))
-    for _, call in calls:
-        call()
+    added = {g.name_full for g in bpy.data.node_groups}
+    checked_first(*(call for _, call in calls))       # one refusal: no group changed
+    _remove_unused_added(added)
     still = {g.name for g in stale_groups()}
     skipped = {name for name, _ in left}
     left += [(name, "its rebuild did not reach it (add the group again from the menu)")

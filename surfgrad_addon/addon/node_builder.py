@@ -49,7 +49,87 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     """Return node group `name`, (re)building it with build(GroupBuilder) unless it already
     carries `version` (and `stale(tree)`, if given, is false: e.g. an image it references is
     gone). tree_type: "ShaderNodeTree" or "GeometryNodeTree". interface: the group's
-    GroupInterface (its sockets, and the description unless one is given)."""
+    GroupInterface (its sockets, and the description unless one is given). Checked whole first
+    (checked_first): a refusal anywhere in it, a helper's too, changes no existing group."""
+    args = (name, version, build, description, stale, tree_type, interface)
+    if _CHECK.scratch is None and not _CHECK.done:
+        return checked_first(lambda: _ensure(*args))[0]
+    return _ensure(*args)
+
+
+class _CheckPass:
+    """The state of checked_first: during its check pass `scratch` maps each group name to what
+    was built for it (its scratch group, the file lacked it, the _ensure arguments); `done`
+    during the real pass of a request already checked."""
+    scratch = None
+    done = False
+
+
+_CHECK = _CheckPass()
+
+
+class _Scratch(NamedTuple):
+    group: object
+    new: bool
+    args: tuple
+
+
+def checked_first(*builds):
+    """Call every group-building function in `builds` in two passes: a check pass, in which
+    every group that would be built or rebuilt (helpers too) is built on a scratch group
+    instead, then, if nothing was refused, the real pass. So a group of the user's under a
+    helper's name, a newer surfgrad's helper or a node this line lacks refuses the whole request
+    before any group of the file changes. Returns the builds' results."""
+    if _CHECK.scratch is not None or _CHECK.done:      # within a request checked already
+        return [build() for build in builds]
+    _CHECK.scratch = {}
+    try:
+        for build in builds:
+            build()
+    except BaseException:
+        for built in _CHECK.scratch.values():
+            bpy.data.node_groups.remove(built.group)
+        raise
+    finally:
+        scratch, _CHECK.scratch = _CHECK.scratch, None
+    _CHECK.done = True
+    try:
+        _build_checked(scratch)
+        return [build() for build in builds]          # each group current now: returned
+    finally:
+        _CHECK.done = False
+
+
+def _build_checked(scratch):
+    """The real pass: the scratch group of a group the file lacked becomes that group (built
+    once, not twice) where every group it uses is real or becomes so; every other group is
+    built or rebuilt in place, and its scratch removed."""
+    scratches = {built.group: name for name, built in scratch.items()}
+    kept = {}
+
+    def keeps(name):
+        if name not in kept:
+            built = scratch[name]
+            kept[name] = built.new and all(
+                keeps(scratches[n.node_tree]) for n in built.group.nodes
+                if getattr(n, "node_tree", None) in scratches)
+        return kept[name]
+
+    for name, built in scratch.items():
+        if keeps(name):
+            built.group.name = name
+            built.group[VERSION_KEY], built.group[LINE_KEY] = built.args[1], running_line().line
+    try:
+        for name, built in scratch.items():
+            if not kept[name]:
+                _ensure(*built.args)
+    finally:
+        for name, built in scratch.items():
+            if not kept[name]:
+                bpy.data.node_groups.remove(built.group)
+
+
+def _ensure(name, version, build, description, stale, tree_type, interface):
     if description is None:
         description = interface.describe()
     name = fitting_name(name)
@@ -72,8 +152,15 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
     copies = stale_copies(name, version, line, tree_type) if stale is None else []
     current = (tree is not None and tree.get(VERSION_KEY) == version
                and tree.get(LINE_KEY) == line and not (stale and stale(tree)))
-    if copies or (tree is not None and not current):
-        _check_build(name, tree_type, description, build, interface)
+    if _CHECK.scratch is not None and (copies or not current):
+        # The check pass: what the request would build is built on a scratch group, once.
+        if name not in _CHECK.scratch:
+            scratch = bpy.data.node_groups.new(f"{name} (build check)", tree_type)
+            _CHECK.scratch[name] = _Scratch(scratch, tree is None and not copies,
+                                            (name, version, build, description, stale,
+                                             tree_type, interface))
+            _rebuild(scratch, description, build, interface, 0, "")
+        return tree if current else _CHECK.scratch[name].group
     for copy in copies:
         _rebuild(copy, description, build, interface, version, line)
     if current:
@@ -82,17 +169,6 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
         tree = bpy.data.node_groups.new(name, tree_type)
     _rebuild(tree, description, build, interface, version, line)
     return tree
-
-
-def _check_build(name, tree_type, description, build, interface):
-    """Build once into a scratch group, then remove it: what the build refuses (a group of the
-    user's under a helper's name, a node this line lacks) is refused before an existing group
-    is cleared, so a refusal leaves the artist's group, and every look using it, as it was."""
-    scratch = bpy.data.node_groups.new(f"{name} (build check)", tree_type)
-    try:
-        _rebuild(scratch, description, build, interface, 0, "")
-    finally:
-        bpy.data.node_groups.remove(scratch)
 
 
 def _rebuild(tree, description, build, interface, version, line):

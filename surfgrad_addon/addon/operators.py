@@ -18,6 +18,7 @@ from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .group_updates import draw_stale_warning, report_notes, take_notes
 from .far_precision import needs_precise_far, set_precise_far_on_node
+from .node_builder import checked_first
 
 NORMAL_SOCKET = "Normal"
 
@@ -83,9 +84,10 @@ def shown_tree(context):
 
 
 def _prebuild(*builders):
-    """Check first: build (or reuse) every group an edit needs before any node is made; a
-    foreign group under one of our names raises ValueError here, with nothing added."""
-    return [build() for build in builders]
+    """Check first: build (or reuse) every group an edit needs before any node is made, all
+    checked before any is rebuilt; a foreign group under one of our names raises ValueError
+    here, with nothing added or changed."""
+    return checked_first(*builders)
 
 
 def _surface_shader(tree):
