@@ -15,6 +15,10 @@
 - An edit that failed after it had linked its nodes into an input (the layer stack into the
   BSDF's Normal) was taken away, but the link it had replaced (the user's Normal Map node into
   Normal) was lost with it, and the nodes' selection changed.
+- Convert (of the Normal Map node inside SG Normal Map) and Add Decal Projector (inside SG
+  Decal), with the editor showing the inside of one of our groups (Tab), raised a raw
+  KeyError: Blender keeps a group out of itself, so the new group node had no sockets. Now
+  refused, naming the group and the fix, nothing changed.
 - Undo headless: Update surfgrad Groups undoes and redoes in this process on every line, and a
   refused update adds no undo step.
 """
@@ -33,6 +37,7 @@ from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.addon.group_names import VERSION_KEY  # noqa: E402
 from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
+from test_extension import _shader_editor  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
 
@@ -192,3 +197,22 @@ def test_the_update_undoes_and_redoes_and_a_refusal_adds_no_step(fresh, register
     assert bpy.data.node_groups["SG Decal"][VERSION_KEY] == G.VERSION - 1
     bpy.ops.ed.redo()
     assert bpy.data.node_groups["SG Decal"][VERSION_KEY] == G.VERSION
+
+
+@pytest.mark.parametrize("group, op_id", [("SG Normal Map", "convert_node"),
+                                          ("SG Decal", "add_decal_projector")])
+def test_an_edit_inside_the_group_it_adds_is_refused(fresh, registered, group, op_id):
+    tree = G.normal_map_group("") if group == "SG Normal Map" else G.decal_group()
+    if op_id == "convert_node":
+        tree.nodes.active = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeNormalMap")
+    before = (_groups(), sorted(o.name for o in bpy.data.objects))
+    registered(*O.CLASSES)
+    override, _ = _shader_editor(bpy, tree)
+    with bpy.context.temp_override(**override):
+        with pytest.raises(RuntimeError) as said:
+            getattr(bpy.ops.surfgrad, op_id)()
+    assert str(said.value).startswith(f"Error: The editor shows the inside of node group "
+                                      f"{group!r}, and this edit adds {group!r} nodes"), \
+        str(said.value)
+    assert "leave the group (Tab)" in str(said.value)
+    assert (_groups(), sorted(o.name for o in bpy.data.objects)) == before

@@ -83,11 +83,32 @@ def shown_tree(context):
     return _active_tree(context)[1]
 
 
-def _prebuild(*builders):
-    """Check first: build (or reuse) every group an edit needs before any node is made, all
-    checked before any is rebuilt; a foreign group under one of our names raises ValueError
-    here, with nothing added or changed."""
-    return checked_first(*builders)
+def group_contains(group, tree, seen=None):
+    """True if node group `group` is `tree` or contains it at any depth (adding it to `tree`
+    would make a group contain itself)."""
+    if group == tree:
+        return True
+    seen = set() if seen is None else seen
+    if group.name_full in seen:
+        return False
+    seen.add(group.name_full)
+    return any(node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None
+               and group_contains(node.node_tree, tree, seen) for node in group.nodes)
+
+
+def _prebuild(tree, *builders):
+    """Check first: build (or reuse) every group an edit of `tree` needs before any node is
+    made, all checked before any is rebuilt; a foreign group under one of our names raises
+    ValueError here, with nothing added or changed, and so does `tree` being one of them (a
+    group entered in the editor: Blender keeps a group out of itself)."""
+    groups = checked_first(*builders)
+    inside = next((g for g in groups if group_contains(g, tree)), None)
+    if inside is not None:
+        uses = "" if inside == tree else f", which use {tree.name!r}"
+        raise SurfgradError(f"The editor shows the inside of node group {tree.name!r}, and this "
+                            f"edit adds {inside.name!r} nodes{uses}: a group cannot hold "
+                            f"itself; leave the group (Tab) and edit the material")
+    return groups
 
 
 def _surface_shader(tree):
@@ -128,7 +149,7 @@ def add_layer_stack(tree, uv_map=""):
     new nodes. An existing link into the shader's Normal is replaced (and reported)."""
     require_editable(tree)
     shader = _surface_shader(tree)
-    _prebuild(G.resolve_group, G.combine_group, lambda: G.normal_map_group(uv_map))
+    _prebuild(tree, G.resolve_group, G.combine_group, lambda: G.normal_map_group(uv_map))
     x, y = shader.location
     replaced = shader.inputs[NORMAL_SOCKET].is_linked
     resolve = _group_node(tree, G.resolve_group, (x - 260, y - 420))
@@ -164,12 +185,12 @@ def convert_node(tree, node):
         raise SurfgradError(f"{node.name!r} is an {node.space.lower()}-space Normal Map: "
                             f"use SG Object Normal for object or world space maps")
     if node.bl_idname == "ShaderNodeNormalMap":
-        _prebuild(G.resolve_group, lambda: G.normal_map_group(node.uv_map))
+        _prebuild(tree, G.resolve_group, lambda: G.normal_map_group(node.uv_map))
     else:
         fw = node.inputs["Filter Width"].default_value if "Filter Width" in node.inputs else None
         strength = node.inputs["Strength"]
         blends = strength.is_linked or strength.default_value != 1.0
-        _prebuild(G.resolve_group, lambda: G.height_map_forward_group(fw),
+        _prebuild(tree, G.resolve_group, lambda: G.height_map_forward_group(fw),
                   *([G.bump_strength_group] if blends else []))
     outgoing = [lk.to_socket for lk in node.outputs["Normal"].links]
     x, y = node.location
@@ -254,7 +275,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     if shape not in DECAL_SHAPES:
         raise SurfgradError(f"decal shape {shape!r}: use one of {', '.join(DECAL_SHAPES)}")
     require_editable(tree)
-    _prebuild(G.projector_coordinates_group, G.decal_coordinates_group, G.decal_group)
+    _prebuild(tree, G.projector_coordinates_group, G.decal_coordinates_group, G.decal_group)
     empty = bpy.data.objects.new(name, None)
     display, outlines = DECAL_DISPLAY[shape]
     empty.empty_display_type = display

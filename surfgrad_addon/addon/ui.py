@@ -43,19 +43,6 @@ def shader_tree_problem(context):
     return None
 
 
-def _uses_tree(group, tree, seen=None):
-    """True if node group `group` is `tree` or contains it at any depth (adding it would
-    make a group contain itself)."""
-    if group == tree:
-        return True
-    seen = set() if seen is None else seen
-    if group.name_full in seen:
-        return False
-    seen.add(group.name_full)
-    return any(node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None
-               and _uses_tree(node.node_tree, tree, seen) for node in group.nodes)
-
-
 def image_bound(name):
     """True for menu groups built per image (groups.GROUPS says which)."""
     return groups.BY_NAME[name].image_bound
@@ -113,7 +100,7 @@ def add_group_node(tree, name, location=(0.0, 0.0)):
         group = builder(image=active_image(tree))
     else:
         group = builder()             # idempotent: reuses a current group, updates an old one
-    if _uses_tree(group, tree):
+    if operators.group_contains(group, tree):
         raise ValueError(f"{name!r} cannot be added inside itself")
     return _place_group_node(tree, "ShaderNodeGroup", group, location)
 
