@@ -19,8 +19,9 @@
   Decal), with the editor showing the inside of one of our groups (Tab), raised a raw
   KeyError: Blender keeps a group out of itself, so the new group node had no sockets. Now
   refused, naming the group and the fix, nothing changed.
-- Undo headless: Update surfgrad Groups undoes and redoes in this process on every line, and a
-  refused update adds no undo step.
+- Undo headless: Update surfgrad Groups and Thaw (the operators the child sessions of
+  test_operators_ui, test_extension and test_freeze_operators leave out) undo and redo in this
+  process on every line, and a refused update adds no undo step.
 """
 
 import numpy as np
@@ -216,3 +217,29 @@ def test_an_edit_inside_the_group_it_adds_is_refused(fresh, registered, group, o
         str(said.value)
     assert "leave the group (Tab)" in str(said.value)
     assert (_groups(), sorted(o.name for o in bpy.data.objects)) == before
+
+
+@pytest.mark.tier("bake")
+def test_thaw_undoes_and_redoes(fresh, registered):
+    """Thaw's undo, headless in this process: the frozen chain and its record come back."""
+    bpy.ops.mesh.primitive_plane_add()
+    mat, tree, bsdf = diffuse_material("Rock")
+    bpy.context.object.data.materials.append(mat)
+    O.add_layer_stack(tree)
+    F.freeze(bpy.context.object, 16, log=lambda *_: None)
+
+    def state():
+        tree = bpy.data.materials["Rock"].node_tree        # fetched again: undo reloads IDs
+        normal = tree.nodes["Diffuse BSDF"].inputs["Normal"].links[0].from_node
+        return normal.bl_idname, F.RECORD in bpy.data.materials["Rock"], len(tree.nodes)
+    frozen = state()
+    assert frozen[:2] == ("ShaderNodeNormalMap", True)
+    registered(*FO.CLASSES)
+    bpy.ops.ed.undo_push(message="frozen")
+    assert bpy.ops.surfgrad.thaw_stack('EXEC_DEFAULT', True) == {'FINISHED'}
+    thawed = state()
+    assert thawed[:2] == ("ShaderNodeGroup", False) and thawed[2] == frozen[2] - 4
+    bpy.ops.ed.undo()
+    assert state() == frozen
+    bpy.ops.ed.redo()
+    assert state() == thawed
