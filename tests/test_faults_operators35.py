@@ -243,3 +243,16 @@ def test_thaw_undoes_and_redoes(fresh, registered):
     assert state() == frozen
     bpy.ops.ed.redo()
     assert state() == thawed
+
+
+def test_the_layer_stack_reaches_a_bsdf_behind_a_reroute(fresh):
+    """A reroute between the BSDF and the Material Output: before, refused ("'Reroute' has no
+    Normal input: link a BSDF")."""
+    mat, tree, bsdf = diffuse_material("Rock")
+    output = tree.nodes["Material Output"]
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(bsdf.outputs[0], reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], output.inputs["Surface"])
+    made = O.add_layer_stack(tree)
+    assert bsdf.inputs["Normal"].links[0].from_node == made["resolve"]
+    assert output.inputs["Surface"].links[0].from_node == reroute

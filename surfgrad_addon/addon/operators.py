@@ -112,13 +112,16 @@ def _prebuild(tree, *builders):
 
 
 def _surface_shader(tree):
-    """The node linked to the active Material Output's Surface, and its Normal input."""
+    """The node linked (through reroutes) to the active Material Output's Surface, with a
+    Normal input."""
     outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
     output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
     if output is None or not output.inputs["Surface"].is_linked:
         raise SurfgradError("The material has no shader linked to its Material Output's "
                             "Surface: link a BSDF first")
     shader = output.inputs["Surface"].links[0].from_node
+    while shader.bl_idname == "NodeReroute" and shader.inputs[0].is_linked:   # pass-through
+        shader = shader.inputs[0].links[0].from_node
     if NORMAL_SOCKET not in shader.inputs:
         raise SurfgradError(f"{shader.name!r} has no Normal input: link a BSDF (e.g. "
                             f"Principled BSDF) to the Material Output")
