@@ -28,8 +28,9 @@ def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False):
     q = (uv - np.asarray(uv_offset, dtype=np.float64)) * size - 0.5   # centre of texel i is i
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    lo = np.maximum(np.ceil(q.min(axis=1)), 0).astype(np.int64)
-    hi = np.minimum(np.floor(q.max(axis=1)), size - 1).astype(np.int64)
+    # Clipped before the cast: a UV of 1e30 from a file overflows an integer.
+    lo = np.clip(np.ceil(q.min(axis=1)), 0, size).astype(np.int64)
+    hi = np.clip(np.floor(q.max(axis=1)), -1, size - 1).astype(np.int64)
     span = np.maximum(hi - lo + 1, 0)
     count = span[:, 0] * span[:, 1]
     count[area == 0] = 0
