@@ -12,6 +12,9 @@
    request's overlap count cast 3e31 texels to an integer, and numpy's "invalid value
    encountered in cast" RuntimeWarning reached the user's terminal from compare and from
    bake-normal-map's checks. Now the bounds are clipped before the cast.
+3. A NaN or Inf UV: refused as before, but the tiles and overlap counts the request reads
+   before its finiteness check cast NaN to integers: four numpy RuntimeWarnings, with their
+   source lines, above the refusal on stderr. Now such a triangle covers no tile.
 """
 
 import warnings
@@ -59,3 +62,21 @@ def test_a_uv_corner_dragged_far_out_is_compared_within_the_bar(empty_file, u, c
     assert report["p99_deg"] <= P99 and report["max_deg"] <= MAX, report
     if corners == 1:     # the face's sliver in the 0..1 square, decided by float32 rounding
         assert report["excluded"]["edge"] > 20, report
+
+
+@pytest.mark.parametrize("u", [np.nan, np.inf])
+def test_a_uv_that_is_not_a_number_is_refused_in_one_line(empty_file, u):
+    """3. A NaN or Inf UV (a broken exporter): refused, as before, but without numpy's
+    "invalid value encountered in cast" from the tiles and overlap counts the request reads
+    first (before: four RuntimeWarning lines, with their source lines, above the refusal);
+    compare's refusal reads as the request's (before: "UV map 'UVMap' contain ...")."""
+    obj = _dragged(u)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        problems = bake_request.mesh_problems(obj, "UVMap", [], tiles=[1001], resolution=RES)
+        with pytest.raises(ValueError) as err:
+            compare.compare(obj, "normal-map", RES)
+    assert problems == ["the UVs of UV map 'UVMap' of object 'Dragged' contain non-finite "
+                        "values (NaN or Inf); unwrap it again (UV > Unwrap)"]
+    assert str(err.value) == ("Dragged: the UVs of UV map 'UVMap' contain non-finite values "
+                              "(NaN or Inf); fix the mesh data before baking")
