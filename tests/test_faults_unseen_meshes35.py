@@ -15,6 +15,14 @@
 3. A NaN or Inf UV: refused as before, but the tiles and overlap counts the request reads
    before its finiteness check cast NaN to integers: four numpy RuntimeWarnings, with their
    source lines, above the refusal on stderr. Now such a triangle covers no tile.
+4. Faces in an empty material slot (an importer's or an artist's leftover slot, a material
+   unlinked; a material index past the slots counts as the last): Blender's bake writes each
+   face into its material's image node, and such a face has none. Before, bake-normal-map
+   baked with exit 0 and left those faces out: half of a grid whose second slot was empty
+   had no texel at --margin 0 (98 of 196 at 16^2, 5.2 and 4.2), and the default margin
+   filled the hole from the neighbours, a plausible but wrong map; with every face there,
+   a blank map. Now the request refuses it, naming the faces and the slot
+   (addon/empty_slots.py). compare puts its material in every slot, so it was not affected.
 """
 
 import warnings
@@ -24,8 +32,10 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import bake_request  # noqa: E402
 from surfgrad_addon.harness import compare  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 from test_faults_unseen_meshes31 import P99, MAX, empty_file  # noqa: E402,F401
 from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
 
@@ -80,3 +90,68 @@ def test_a_uv_that_is_not_a_number_is_refused_in_one_line(empty_file, u):
                         "values (NaN or Inf); unwrap it again (UV > Unwrap)"]
     assert str(err.value) == ("Dragged: the UVs of UV map 'UVMap' contain non-finite values "
                               "(NaN or Inf); fix the mesh data before baking")
+
+
+def _slotted(indices, slots):
+    """The grid with material slots `slots` (None: an empty slot, else a Diffuse material)
+    and each face's material index from `indices` (a callable of the face count)."""
+    verts, faces, uvs = _grid()
+    obj = _object("Slotted", [(verts, faces, uvs)])
+    for name in slots:
+        obj.data.materials.append(None if name is None else diffuse_material(name)[0])
+    obj.data.polygons.foreach_set("material_index", np.asarray(indices(len(faces)), np.int32))
+    obj.data.update()
+    return obj
+
+
+def _covered(tmp_path, obj, name):
+    """How many texels a 32^2 object-space bake of obj with no margin writes."""
+    out = tmp_path / f"{name}.exr"
+    api.bake_normal_map(obj, str(out), resolution=32, space="object", depth="float", margin=0)
+    img = bpy.data.images.load(str(out))
+    px = np.empty(len(img.pixels), np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return int(np.count_nonzero(np.abs(px.reshape(-1, 4)[:, :3]).sum(1)))
+
+
+def _half(n):
+    return [0] * (n // 2) + [1] * (n - n // 2)
+
+
+def _past_the_slots(n):
+    return [0] * (n // 2) + [5] * (n - n // 2)
+
+
+@pytest.mark.parametrize("indices,slots,said", [
+    (_half, ["A", None], "32 face(s) of object 'Slotted' (faces 32, 33, 34, 35, 36, 37, 38, "
+     "39 and 24 more) use empty material slot 2, "),
+    (_half, [None, "A"], "32 face(s) of object 'Slotted' (faces 0, 1, 2, 3, 4, 5, 6, 7 and 24 "
+     "more) use empty material slot 1, "),
+    (_past_the_slots, ["A", None], "32 face(s) of object 'Slotted' (faces 32, 33, 34, 35, 36, "
+     "37, 38, 39 and 24 more) use empty material slot 2 (a material index past the last slot "
+     "counts as the last), ")], ids=["second_empty", "first_empty", "index_past_the_slots"])
+def test_faces_in_an_empty_material_slot_are_refused(empty_file, tmp_path, indices, slots,
+                                                     said):
+    """4. Faces whose slot is empty (an importer's leftover slot; a material index past the
+    slots, which counts as the last): refused, naming them (before: baked with exit 0 and a
+    hole where they lie)."""
+    obj = _slotted(indices, slots)
+    with pytest.raises(ValueError) as err:
+        api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=16)
+    assert said + ("so the bake writes nothing for them, a hole in the map: give the slot a "
+                   "material, or assign those faces to a slot that has one (Material "
+                   "Properties > Assign)") in str(err.value)
+    assert not (tmp_path / "n.png").exists()
+
+
+def test_what_the_bake_of_an_empty_slot_writes(empty_file, tmp_path, monkeypatch):
+    """4. The fact the refusal rests on, on this line: with the check taken away, the faces
+    of the empty slot (half the grid's) get no texel; an empty slot no face uses bakes as the
+    grid with one slot, and is not refused."""
+    from surfgrad_addon.addon import bake_request as request
+    whole = _covered(tmp_path, _slotted(lambda n: [0] * n, ["A", None]), "unused")
+    assert whole == _covered(tmp_path, _slotted(lambda n: [0] * n, ["A"]), "one_slot") > 300
+    monkeypatch.setattr(request, "empty_slot_problem", lambda *a: None)
+    half = _covered(tmp_path, _slotted(_half, ["A", None]), "half")
+    assert abs(half - whole / 2) <= 0.1 * whole, (half, whole)

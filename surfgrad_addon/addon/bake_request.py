@@ -35,6 +35,7 @@ from . import normal_bake as NB
 from . import input_stamps
 from . import unrealized_instances as UI
 from .bake_uvs import baked_mesh, one_read
+from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
@@ -237,6 +238,9 @@ def _check(request, obj, warn):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
+    else:
+        problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots)
+        problems += [problem] if problem else []
     problems += foreign_node_problems(obj)          # a newer line's nodes: baked as zero
     stamped = input_stamps.stamps(obj)              # before the checks read the files
     # Before the image checks load the images: one too large for the process crashed the load,

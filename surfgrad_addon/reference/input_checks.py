@@ -116,11 +116,17 @@ def collapsed_uv_faces_warning(uv_map, obj_name, uv_triangles, positions, triang
     if not hole.any():
         return None
     named = np.unique(np.asarray(faces)[hole])
-    shown = ", ".join(str(int(f)) for f in named[:8])
-    more = f" and {len(named) - 8} more" if len(named) > 8 else ""
     return (f"UV map {uv_map!r} of object {obj_name!r}: {len(named)} face(s) with area on the "
             f"mesh have none in UV space (their UVs collapsed to a point or a line: faces "
-            f"{shown}{more}), so the bake writes no texel for them; unwrap them (UV > Unwrap)")
+            f"{faces_text(named)}), so the bake writes no texel for them; unwrap them "
+            f"(UV > Unwrap)")
+
+
+def faces_text(faces, shown=8):
+    """Face indices as a message names them: "9, 10, 30", or the first `shown` and how many
+    more."""
+    more = f" and {len(faces) - shown} more" if len(faces) > shown else ""
+    return ", ".join(str(int(f)) for f in faces[:shown]) + more
 
 
 def uv_triangle_areas(uv_triangles):
