@@ -23,6 +23,11 @@
    filled the hole from the neighbours, a plausible but wrong map; with every face there,
    a blank map. Now the request refuses it, naming the faces and the slot
    (addon/empty_slots.py). compare puts its material in every slot, so it was not affected.
+5. A bent n-gon (an OBJ's or Alembic's, two quads of a bumped grid merged) whose long side
+   runs straight in UV through a middle corner: one of its triangles lies on a line in UV,
+   and the warning of red team 34 (faces whose UVs collapsed) named the face, "so the bake
+   writes no texel for them; unwrap them", though the face has UV area and is baked whole.
+   Now a face is named only when none of its triangles has UV area.
 """
 
 import warnings
@@ -155,3 +160,44 @@ def test_what_the_bake_of_an_empty_slot_writes(empty_file, tmp_path, monkeypatch
     monkeypatch.setattr(request, "empty_slot_problem", lambda *a: None)
     half = _covered(tmp_path, _slotted(_half, ["A", None]), "half")
     assert abs(half - whole / 2) <= 0.1 * whole, (half, whole)
+
+
+def _bent_hexagons():
+    """The bumped 8 x 8 grid with each pair of quads in even rows merged into a hexagon (an
+    OBJ's or Alembic's n-gons): the middle corners of its long sides lie on a straight line in
+    UV, not on the bent mesh."""
+    verts, quads, uvs = _grid()
+    faces = []
+    for j in range(8):
+        row = quads[8 * j:8 * j + 8]
+        if j % 2:
+            faces += row
+            continue
+        for a, b in zip(row[::2], row[1::2]):
+            faces.append([a[0], a[1], b[1], b[2], a[2], a[3]])
+    return _object("Hexagons", [(verts, faces, uvs)])
+
+
+def test_bent_ngons_on_a_straight_uv_border_are_not_called_collapsed(empty_file):
+    """5. Before: "UV map 'UVMap' of object 'Hexagons': 5 face(s) with area on the mesh have
+    none in UV space (their UVs collapsed to a point or a line: faces 1, 2, 10, 11, 18), so
+    the bake writes no texel for them", though every face has UV area (compare covers them
+    all); a triangle of each across its straight UV border was taken for the face."""
+    obj = _bent_hexagons()
+    mesh = obj.data
+    mesh.calc_loop_triangles()
+    uv = np.empty(len(mesh.loops) * 2)
+    mesh.uv_layers["UVMap"].uv.foreach_get("vector", uv)
+    uv = uv.reshape(-1, 2)
+    # Independently: every face's UV polygon has area (the shoelace formula) ...
+    for face in mesh.polygons:
+        u, v = uv[list(face.loop_indices)].T
+        assert abs(np.dot(u, np.roll(v, -1)) - np.dot(v, np.roll(u, -1))) > 1e-4
+    # ... while some of Blender's triangles of them lie on a line in UV: the case is there.
+    def uv_area2(t):
+        (du, dv), (eu, ev) = uv[list(t.loops[1:])] - uv[t.loops[0]]
+        return abs(du * ev - dv * eu)
+    flat = [t for t in mesh.loop_triangles if uv_area2(t) < 1e-12]
+    assert len(flat) >= 4 and all(t.area > 5e-4 for t in flat)      # (quads: 0.0625 m^2)
+    warnings = []
+    assert bake_request.mesh_problems(obj, "UVMap", warnings) == [] and warnings == []
