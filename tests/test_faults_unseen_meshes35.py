@@ -28,8 +28,15 @@
    and the warning of red team 34 (faces whose UVs collapsed) named the face, "so the bake
    writes no texel for them; unwrap them", though the face has UV area and is baked whole.
    Now a face is named only when none of its triangles has UV area.
+6. Free normals that are not numbers (NaN at a corner: a Set Mesh Normal node fed NaN, a
+   script, an importer writing free normals; 4.5 and later store them as given): compare
+   refused the mesh, bake-normal-map baked it with exit 0, Cycles shading a stand-in there
+   (3 texels of a 16^2 object-space map off by up to 0.2 in 0..1 on 5.2; on 4.5 and 5.0 the
+   map of the normals whole). Now the request refuses it on every line, as NaN positions and
+   UVs, naming the corners' count and the fix.
 """
 
+import dataclasses
 import warnings
 
 import numpy as np
@@ -42,7 +49,7 @@ from surfgrad_addon.addon import bake_request  # noqa: E402
 from surfgrad_addon.harness import compare  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 from test_faults_unseen_meshes31 import P99, MAX, empty_file  # noqa: E402,F401
-from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
+from test_faults_unseen_meshes32 import _grid, _object, _set_free_normals  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -109,15 +116,20 @@ def _slotted(indices, slots):
     return obj
 
 
-def _covered(tmp_path, obj, name):
-    """How many texels a 32^2 object-space bake of obj with no margin writes."""
+def _object_space_map(tmp_path, obj, name):
+    """A 32^2 object-space bake of obj with no margin: (texels, 3)."""
     out = tmp_path / f"{name}.exr"
     api.bake_normal_map(obj, str(out), resolution=32, space="object", depth="float", margin=0)
     img = bpy.data.images.load(str(out))
     px = np.empty(len(img.pixels), np.float32)
     img.pixels.foreach_get(px)
     bpy.data.images.remove(img)
-    return int(np.count_nonzero(np.abs(px.reshape(-1, 4)[:, :3]).sum(1)))
+    return px.reshape(-1, 4)[:, :3]
+
+
+def _covered(tmp_path, obj, name):
+    """How many texels _object_space_map writes."""
+    return int(np.count_nonzero(np.abs(_object_space_map(tmp_path, obj, name)).sum(1)))
 
 
 def _half(n):
@@ -201,3 +213,43 @@ def test_bent_ngons_on_a_straight_uv_border_are_not_called_collapsed(empty_file)
     assert len(flat) >= 4 and all(t.area > 5e-4 for t in flat)      # (quads: 0.0625 m^2)
     warnings = []
     assert bake_request.mesh_problems(obj, "UVMap", warnings) == [] and warnings == []
+
+
+def _free_normals_with_nan(obj):
+    """The mesh's corner normals stored as free normals, those of corner 5 NaN (4.5 and
+    later; skips 4.2, where a 'custom_normal' attribute is a plain one)."""
+    mesh = obj.data
+    normals = np.array([mesh.vertices[loop.vertex_index].normal for loop in mesh.loops])
+    normals[5] = np.nan
+    assert (~np.isfinite(_set_free_normals(mesh, normals, "CORNER")).any(1)).sum() > 0
+
+
+def test_normals_that_are_not_numbers_are_refused(empty_file, tmp_path, monkeypatch):
+    """6. Free normals with a NaN corner (a Set Mesh Normal node fed NaN, a script, an
+    importer writing free normals): compare refused the mesh ("corner_normals contain
+    non-finite values"), bake-normal-map baked it, exit 0, where Cycles shades with a
+    stand-in. With the check taken away: on 5.2 texels there differ from the same mesh's map
+    with its normals whole; on 4.5 and 5.0 this stand-in happens to give that map. Refused on
+    every line, as NaN positions and UVs are: the data holds no normal there to bake."""
+    from surfgrad_addon.addon import bake_request as request
+    verts, faces, uvs = _grid()
+    maps = {}
+    for nan in (False, True):
+        obj = _object(f"Normals {nan}", [(verts, faces, uvs)])
+        obj.data.materials.append(diffuse_material("Plain")[0])
+        if nan:
+            _free_normals_with_nan(obj)
+            with pytest.raises(ValueError) as err:
+                api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=16)
+            assert (f"the normals of mesh {obj.data.name!r} of object 'Normals True' are not "
+                    f"numbers (NaN or Inf) at 1 face corner(s), where Cycles shades with a "
+                    f"stand-in") in str(err.value)
+            read = request.baked_mesh
+            monkeypatch.setattr(request, "baked_mesh",
+                                lambda o: dataclasses.replace(read(o), nonfinite_normals=0))
+        maps[nan] = _object_space_map(tmp_path, obj, f"nan_{nan}")
+    differ = np.count_nonzero(np.abs(maps[True] - maps[False]).max(-1) > 1e-3)
+    if bpy.app.version >= (5, 2):       # its octahedral-packed normals: NaN packs to a stand-in
+        assert 0 < differ < 20
+    else:                               # 4.5, 5.0: here the map of the normals whole
+        assert differ == 0

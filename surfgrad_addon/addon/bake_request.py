@@ -325,6 +325,12 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
     problem = zero_scale_problem(obj, matrix)
     if problem:
         return [problem]
+    if baked.nonfinite_normals:           # free normals (4.5 and later) are stored as given
+        out.append(f"the normals of {what} are not numbers (NaN or Inf) at "
+                   f"{baked.nonfinite_normals} face corner(s), where Cycles shades with a "
+                   f"stand-in: fix what wrote them (a Set Mesh Normal node, a script, an "
+                   f"importer), or clear them (Object Data > Geometry Data > Clear Custom "
+                   f"Split Normals Data)")
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     problem = IC.collapsed_mesh_problem(what, world, tris)
     if problem:
