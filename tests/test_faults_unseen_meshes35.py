@@ -14,7 +14,9 @@
    bake-normal-map's checks. Now the bounds are clipped before the cast.
 3. A NaN or Inf UV: refused as before, but the tiles and overlap counts the request reads
    before its finiteness check cast NaN to integers: four numpy RuntimeWarnings, with their
-   source lines, above the refusal on stderr. Now such a triangle covers no tile.
+   source lines, above the refusal on stderr; and so did NaN in a 2D attribute on face
+   corners that the bake does not read (an importer's extra channel, which Blender lists as
+   a UV map: the request reads every UV map's tiles). Now such a triangle covers no tile.
 4. Faces in an empty material slot (an importer's or an artist's leftover slot, a material
    unlinked; a material index past the slots counts as the last): Blender's bake writes each
    face into its material's image node, and such a face has none. Before, bake-normal-map
@@ -253,3 +255,23 @@ def test_normals_that_are_not_numbers_are_refused(empty_file, tmp_path, monkeypa
         assert 0 < differ < 20
     else:                               # 4.5, 5.0: here the map of the normals whole
         assert differ == 0
+
+
+def test_a_2d_attribute_on_corners_that_is_no_uv_map_is_left_alone(empty_file):
+    """3. A 2D vector attribute on face corners (an importer's extra channel: glTF custom
+    attributes, USD primvars) is a UV map to Blender; the request reads every UV map's
+    tiles, so its NaN values (not read by the bake of 'UVMap') gave numpy's RuntimeWarnings
+    on stderr before. Now the bake of 'UVMap' sees no problem and says nothing."""
+    obj = _dragged(0.05)                          # the grid as it is
+    mesh = obj.data
+    extra = mesh.attributes.new("Velocity", "FLOAT2", "CORNER")
+    values = np.zeros(len(mesh.loops) * 2)
+    values[::7] = np.nan
+    extra.data.foreach_set("vector", values)
+    assert "Velocity" in mesh.uv_layers
+    warnings_said = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert bake_request.mesh_problems(obj, "UVMap", warnings_said, tiles=[1001],
+                                          resolution=RES) == []
+    assert warnings_said == []
