@@ -35,6 +35,7 @@ from . import normal_bake as NB
 from . import input_stamps
 from . import unrealized_instances as UI
 from .bake_uvs import baked_mesh, one_read
+from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
@@ -237,6 +238,9 @@ def _check(request, obj, warn):
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
+    else:
+        problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots)
+        problems += [problem] if problem else []
     problems += foreign_node_problems(obj)          # a newer line's nodes: baked as zero
     stamped = input_stamps.stamps(obj)              # before the checks read the files
     # Before the image checks load the images: one too large for the process crashed the load,
@@ -321,6 +325,12 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
     problem = zero_scale_problem(obj, matrix)
     if problem:
         return [problem]
+    if baked.nonfinite_normals:           # free normals (4.5 and later) are stored as given
+        out.append(f"the normals of {what} are not numbers (NaN or Inf) at "
+                   f"{baked.nonfinite_normals} face corner(s), where Cycles shades with a "
+                   f"stand-in: fix what wrote them (a Set Mesh Normal node, a script, an "
+                   f"importer), or clear them (Object Data > Geometry Data > Clear Custom "
+                   f"Split Normals Data)")
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     problem = IC.collapsed_mesh_problem(what, world, tris)
     if problem:

@@ -78,6 +78,9 @@ class BakedMesh:
     triangle_uvs: dict
     instances: tuple = ()
     triangle_faces: np.ndarray = None       # (T,) the face of each triangle
+    face_materials: np.ndarray = None       # (F,) each face's material index
+    filled_slots: tuple = ()                # per material slot of the rendered object: has one
+    nonfinite_normals: int = 0              # face corners whose normal is NaN or Inf
 
 
 _meshes = ReadOnce()           # {object pointer: BakedMesh} inside one_read()
@@ -104,9 +107,15 @@ def baked_mesh(obj):
             uvs = {uv.name: triangle_uvs(mesh, uv.name, loops) for uv in mesh.uv_layers}
             layout = {name: _tiles_of(uv, faces) if len(mesh.polygons) else ([], 0)
                       for name, uv in uvs.items()}
+            materials = np.zeros(len(mesh.polygons), np.int32)
+            mesh.polygons.foreach_get("material_index", materials)
+            normals = np.empty(len(mesh.loops) * 3, np.float32)
+            mesh.corner_normals.foreach_get("vector", normals)
             return BakedMesh(layout, positions.reshape(-1, 3), tris.reshape(-1, 3),
                              np.array(evaluated.matrix_world, dtype=np.float64), uvs,
-                             instances, faces)
+                             instances, faces, materials,
+                             tuple(s.material is not None for s in evaluated.material_slots),
+                             int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))))
         finally:
             evaluated.to_mesh_clear()
     return _meshes.get(obj.as_pointer(), lambda: read_as_baked(obj, read))

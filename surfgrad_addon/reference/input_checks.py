@@ -111,16 +111,31 @@ def collapsed_uv_problem(uv_map, obj_name, uv_triangles):
 def collapsed_uv_faces_warning(uv_map, obj_name, uv_triangles, positions, triangles, faces):
     """None unless some faces (`faces`: each triangle's face) have area on the mesh but none
     in UV map `uv_map` (a face's UVs merged to a point or a line): the bake writes no texel
-    for them, a hole in the map; then the warning naming them."""
-    hole = uv_zero_area_mask(uv_triangles) & ~zero_area_mask(positions, triangles)
+    for them, a hole in the map; then the warning naming them. A face with UV area in some
+    of its triangles is no hole: a bent n-gon's triangle across a straight UV border (three
+    corners on one line in UV, not on the mesh) covers no texel, its other triangles do."""
+    faces = np.asarray(faces, dtype=np.int64)
+    flat = uv_zero_area_mask(uv_triangles)
+    hole = flat & ~zero_area_mask(positions, triangles)
     if not hole.any():
         return None
-    named = np.unique(np.asarray(faces)[hole])
-    shown = ", ".join(str(int(f)) for f in named[:8])
-    more = f" and {len(named) - 8} more" if len(named) > 8 else ""
+    with_uv_area = np.zeros(int(faces.max()) + 1, dtype=bool)
+    with_uv_area[faces[~flat]] = True
+    hole &= ~with_uv_area[faces]
+    if not hole.any():
+        return None
+    named = np.unique(faces[hole])
     return (f"UV map {uv_map!r} of object {obj_name!r}: {len(named)} face(s) with area on the "
             f"mesh have none in UV space (their UVs collapsed to a point or a line: faces "
-            f"{shown}{more}), so the bake writes no texel for them; unwrap them (UV > Unwrap)")
+            f"{faces_text(named)}), so the bake writes no texel for them; unwrap them "
+            f"(UV > Unwrap)")
+
+
+def faces_text(faces, shown=8):
+    """Face indices as a message names them: "9, 10, 30", or the first `shown` and how many
+    more."""
+    more = f" and {len(faces) - shown} more" if len(faces) > shown else ""
+    return ", ".join(str(int(f)) for f in faces[:shown]) + more
 
 
 def uv_triangle_areas(uv_triangles):

@@ -57,7 +57,7 @@ class MeshArrays:
                 raise ValueError(f"{self.name}: UV map {name!r} must have shape {(len(t), 3, 2)}")
         for label, arr in (("positions", p), ("corner_normals", self.corner_normals),
                            ("matrix_world", self.matrix_world),
-                           *((f"UV map {k!r}", v) for k, v in self.uv_maps.items())):
+                           *((f"the UVs of UV map {k!r}", v) for k, v in self.uv_maps.items())):
             problem = finite_problem(label, arr)
             if problem:
                 raise ValueError(f"{self.name}: {problem}")

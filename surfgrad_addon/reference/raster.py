@@ -43,8 +43,13 @@ _BAND_TEXELS = 1 << 14
 # threads scan at once (a 4096^2 sphere: 0.63 s on one thread); BANDS_PER_THREAD bands each.
 PARALLEL_RASTER_TEXELS = 1 << 18
 BANDS_PER_THREAD = 4
-# Float32 rounding of Blender's scan conversion, in texels at 256^2 (scaled with the size).
+# Float32 rounding of Blender's scan conversion, in texels at 256^2 (scaled with the size),
+# for UVs on the UDIM grid (|u|, |v| up to _GRID_REACH); beyond it, scaled with a
+# triangle's farthest UV (float32 rounds a UV to its magnitude's step).
 _EDGE_TEXELS = 1e-4
+_GRID_REACH = 10.0
+# Texel bounds are cut to this before they become integers (a UV of 1e30 from a file).
+_BOUND_TEXELS = float(1 << 40)
 
 
 def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
@@ -64,8 +69,9 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
          - np.asarray(sample_offset))
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
     area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    lo = np.ceil(q.min(axis=1) - 1e-9).astype(np.int64)
-    hi = np.floor(q.max(axis=1) + 1e-9).astype(np.int64)
+    bounds = np.clip(q, -_BOUND_TEXELS, _BOUND_TEXELS)
+    lo = np.ceil(bounds.min(axis=1) - 1e-9).astype(np.int64)
+    hi = np.floor(bounds.max(axis=1) + 1e-9).astype(np.int64)
     lo = np.maximum(lo, 0)
     hi = np.minimum(hi, [width - 1, height - 1])
     span = np.maximum(hi - lo + 1, 0)
@@ -76,7 +82,10 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
     # of each triangle) a texel's side is not decided by exact arithmetic.
     edge_len = np.stack([np.hypot(*(b - c).T), np.hypot(*(c - a).T), np.hypot(*(a - b).T)], 1)
     altitude = np.abs(area) / np.maximum(edge_len.max(axis=1), 1e-300)
-    tol = _EDGE_TEXELS * max(width, height) / 256 / np.maximum(altitude, 1e-300)
+    # A triangle reaching u = 1e5 (a corner dragged off in a file) has its edges decided by
+    # Blender to a fifth of a texel at 32^2.
+    reach = np.clip(np.abs(uv).max(axis=(1, 2)) / _GRID_REACH, 1.0, 1e12)
+    tol = _EDGE_TEXELS * max(width, height) / 256 * reach / np.maximum(altitude, 1e-300)
     # Each triangle's texels, row by row: a row of a triangle is one span of x (the three
     # edge half-planes cut the row into an interval), widened by a texel each side so that
     # the per-texel test below, not the span's rounding, decides every texel. Spans are taken

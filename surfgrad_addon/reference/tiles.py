@@ -146,11 +146,15 @@ def triangle_tiles(uv_triangles):
     uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
     if len(uv) == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    lo = np.clip(np.floor(uv.min(1)), -1, _GRID).astype(np.int64)
-    hi = np.clip(np.ceil(uv.max(1)) - 1, -1, _GRID).astype(np.int64)
+    # A triangle with a NaN or Inf UV (refused by the checks, which read the tiles first)
+    # covers no tile; its bounds are taken at 0 so that no NaN is cast to an integer.
+    finite = np.isfinite(uv).all(axis=(1, 2))
+    bounds = np.where(finite[:, None, None], uv, 0.0)
+    lo = np.clip(np.floor(bounds.min(1)), -1, _GRID).astype(np.int64)
+    hi = np.clip(np.ceil(bounds.max(1)) - 1, -1, _GRID).astype(np.int64)
     lo, hi = np.maximum(lo, 0), np.minimum(hi, np.array(_GRID) - 1)
     n = np.maximum(hi - lo + 1, 0)
-    count = n[:, 0] * n[:, 1]
+    count = n[:, 0] * n[:, 1] * finite
     tri = np.repeat(np.arange(len(uv)), count)
     k = np.arange(len(tri)) - np.repeat(np.cumsum(count) - count, count)
     iu = lo[tri, 0] + k % np.maximum(n[tri, 0], 1)
@@ -173,8 +177,9 @@ def triangles_outside(uv_triangles, tiles=None):
     v 0..100) and every tile it covers is one of them (within BORDER_EPS). Zero-area
     triangles are never outside (they bake nothing anywhere)."""
     uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
-    area2 = np.abs((uv[:, 1, 0] - uv[:, 0, 0]) * (uv[:, 2, 1] - uv[:, 0, 1])
-                   - (uv[:, 2, 0] - uv[:, 0, 0]) * (uv[:, 1, 1] - uv[:, 0, 1]))
+    with np.errstate(invalid="ignore", over="ignore"):     # NaN / Inf UVs: no area here
+        area2 = np.abs((uv[:, 1, 0] - uv[:, 0, 0]) * (uv[:, 2, 1] - uv[:, 0, 1])
+                       - (uv[:, 2, 0] - uv[:, 0, 0]) * (uv[:, 1, 1] - uv[:, 0, 1]))
     e = BORDER_EPS
     in_grid = np.all((uv >= -e) & (uv <= np.array(_GRID, dtype=np.float64) + e), axis=(1, 2))
     outside = ~in_grid

@@ -27,12 +27,17 @@ def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False):
     uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
     q = (uv - np.asarray(uv_offset, dtype=np.float64)) * size - 0.5   # centre of texel i is i
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
-    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    lo = np.maximum(np.ceil(q.min(axis=1)), 0).astype(np.int64)
-    hi = np.minimum(np.floor(q.max(axis=1)), size - 1).astype(np.int64)
+    with np.errstate(invalid="ignore", over="ignore"):     # NaN / Inf: left out below
+        area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    # Bounds clipped before the cast (a UV of 1e30 from a file overflows an integer); a
+    # triangle with a NaN or Inf UV claims nothing.
+    finite = np.isfinite(q).all(axis=(1, 2))
+    bounds = np.where(finite[:, None, None], q, 0.0)
+    lo = np.clip(np.ceil(bounds.min(axis=1)), 0, size).astype(np.int64)
+    hi = np.clip(np.floor(bounds.max(axis=1)), -1, size - 1).astype(np.int64)
     span = np.maximum(hi - lo + 1, 0)
     count = span[:, 0] * span[:, 1]
-    count[area == 0] = 0
+    count[(area == 0) | ~finite] = 0
     keep = np.flatnonzero(count)
     claims = np.zeros(size * size, dtype=np.int32)
     if len(keep) == 0:
