@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from support.lines import main_line_only
+
 pytestmark = pytest.mark.tier("child")
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -92,6 +94,8 @@ def test_the_method_registry_and_the_main_jobs_reference_stage_need_no_bpy():
     assert "displace-bump" not in names and not [n for n in names if "sampler" in n]
 
 
+@main_line_only("which modules import bpy is this project's code, the same on every "
+                "line; each line runs the numpy tier itself")
 def test_the_numpy_tier_runs_where_bpy_cannot_be_imported():
     """`pytest -m numpy` (README: the tiers) in an interpreter that refuses bpy: every
     numpy-tier test passes there. In the whole suite a numpy-tier test can import a module

@@ -8,8 +8,14 @@ import sys
 import pytest
 
 from surfgrad_addon.harness.bench import shader_instructions as SI
+from support.lines import main_line_only
 
 pytestmark = pytest.mark.tier("child")
+
+# The bench's figures (docs/performance.md) are counted on the main line; a count under
+# valgrind takes minutes, and what these tests pin is the tool's own arithmetic and errors.
+ON_THE_MAIN_LINE = main_line_only("the instruction bench runs on the main line; its counts "
+                                  "take minutes under valgrind")
 
 CASES = [("none", "no perturbation", None, None),
          ("nm-builtin", "Normal Map node", None, None),
@@ -37,6 +43,7 @@ def test_summary_line_is_read_and_its_absence_named(tmp_path):
         SI.summary_of(out)
 
 
+@ON_THE_MAIN_LINE
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
 def test_counts_repeat_exactly_and_grow_with_the_material():
     """Two renders of the scene without perturbation count the same; a Normal Map node with its
@@ -66,6 +73,7 @@ def test_a_before_root_that_is_no_checkout_is_refused(capsys, tmp_path):
     assert not out.exists()
 
 
+@ON_THE_MAIN_LINE
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
 def test_a_failing_child_is_named_with_its_own_last_line(tmp_path):
     """A checkout whose bench cannot run: the error names the material and the child's own

@@ -35,8 +35,8 @@ RENDERED = "SG-INSTRUCTIONS-RENDERED"
 CHILD = f"""
 import sys
 sys.path.insert(0, sys.argv[1])
-import bpy
 from surfgrad_addon.harness.bench import render_cost as RC, render_materials as M
+import bpy  # after the checkout's modules: a checkout that cannot run fails before bpy loads
 key, size, samples = sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
 scene, obj, ctx = RC.build_scene(size, samples)
 scene.render.threads_mode = "FIXED"
