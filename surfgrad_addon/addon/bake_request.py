@@ -245,7 +245,7 @@ def _check(request, obj, warn):
     problems += [problem] if problem else image_problems(obj, tiles)   # (its tiles)
     warnings += colour_space_warnings(obj)
     if not problem:
-        warnings += normal_map_warnings(obj)        # grey files, -1..1 floats
+        warnings += normal_map_warnings(obj, covered=tiles)     # grey files, -1..1 floats
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)

@@ -68,12 +68,18 @@ def undefined_channel_problem(image, facts):
 def path_channel_problem(subject, path, facts):
     """channel_problem for the image file `path` (a UDIM tile's, a sequence frame's, a file
     given on the command line), from its header; None where it cannot be read."""
+    found = path_channels(path)
+    return found and channel_problem(subject, Path(path).name, found, facts)
+
+
+def path_channels(path):
+    """FileChannels of the image file `path` from its header, or None where it does not say
+    or cannot be read."""
     try:
         with open(path, "rb") as f:
-            found = file_channels(f)
+            return file_channels(f)
     except OSError:
         return None
-    return found and channel_problem(subject, Path(path).name, found, facts)
 
 
 def channel_problem(subject, what, found, facts):

@@ -6,12 +6,10 @@ Cycles would bake its magenta 'missing' colour for an image it cannot read, sile
 
 from pathlib import Path
 
-import numpy as np
-
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
-from .float_pixels import PixelsTooLarge, pixel_facts
+from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .image_channels import (cut_short_file, cut_short_problem, layered_file,
                              path_channel_problem, running_facts, undefined_channel_problem)
 from .image_headers import cut_short, exr_layered
@@ -94,8 +92,7 @@ def image_problems(obj, covered=(), only=None):
             # the frame the bake reads now, not the file the path names
             file = bpy.path.abspath(image.filepath, library=image.library)
             problem = MI.sequence_problem(image, node, file, bpy.context.scene) or \
-                file_problem(f"image sequence {image.name!r}", MI.sequence_frame_path(
-                    file, MI.sequence_frame(node.image_user, bpy.context.scene.frame_current)))
+                file_problem(f"image sequence {image.name!r}", sequence_file(image, node))
         else:
             problem = one_image_problem(image)
         if not problem and on_disk and image.source == "TILED" and covered:
@@ -162,10 +159,19 @@ def uv_reference_problems(obj, only=None):
     return out
 
 
-def image_feeding(socket, outer=()):
-    """The image of the Image Texture node whose output reaches `socket` (through reroutes,
-    and out of the node groups `outer`, the group nodes `socket` lies in, outermost first,
-    through their inputs), or None."""
+def sequence_file(image, node):
+    """The frame file the on-disk Image Sequence `image`, read by Image Texture `node`, reads
+    at the scene's current frame."""
+    import bpy
+    file = bpy.path.abspath(image.filepath, library=image.library)
+    return MI.sequence_frame_path(file, MI.sequence_frame(node.image_user,
+                                                          bpy.context.scene.frame_current))
+
+
+def texture_feeding(socket, outer=()):
+    """The Image Texture node whose output reaches `socket` (through reroutes, and out of the
+    node groups `outer`, the group nodes `socket` lies in, outermost first, through their
+    inputs), or None."""
     while socket is not None and socket.is_linked:
         link = socket.links[0]
         source = link.from_node
@@ -176,8 +182,7 @@ def image_feeding(socket, outer=()):
                            if s.identifier == link.from_socket.identifier), None)
             outer = outer[:-1]
         else:
-            return getattr(source, "image", None) \
-                if source.bl_idname == "ShaderNodeTexImage" else None
+            return source if source.bl_idname == "ShaderNodeTexImage" else None
     return None
 
 
@@ -295,12 +300,11 @@ def file_problem(what, path):
             return unreadable_problem(what, path) or (
                 f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
                 f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG or EXR")
-        if probe.is_float:
-            w, h = probe.size
-            px = np.empty(w * h * probe.channels, dtype=np.float32)
-            probe.pixels.foreach_get(px)
-            return IC.pixels_problem(f"{what} ({str(path)!r})", px)
-        return None
+        try:
+            facts = file_facts(path, probe)     # (read once with normal_map_checks' range)
+        except PixelsTooLarge as err:
+            return str(err)
+        return facts and IC.nonfinite_pixels_problem(f"{what} ({str(path)!r})", facts.nonfinite)
     finally:
         if probe is not None:
             bpy.data.images.remove(probe)

@@ -1,0 +1,110 @@
+"""Red team 35: bad pixels in the files a normal map's bake reads beyond the image's own load.
+
+- A float UDIM tile stored in -1..1 (tile 1002, tile 1001 a 0..1 map): the range warning read
+  the image's own pixels, its first tile only, so the bake exited 0 with no warning while
+  tile 1002's normals were pulled toward (-1, -1). Now every tile baked is judged, and the
+  warning names the tile.
+- An Image Sequence's frame file: no range or grey-channel warning was given at all (a single
+  image gets both). Now the frame file the bake reads is judged, and named."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import exit_codes  # noqa: E402
+from test_faults_images33 import _bake  # noqa: E402
+from test_faults_pipeline_leftovers import (_exr_of_channels, _normal_texels,  # noqa: E402
+                                            _write_image)
+from test_faults_pipeline_more import _scene as _source_scene  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+RANGE = "it looks stored in -1..1, but a normal map is read as 0..1"
+GREY = "Blender spreads the grey over R, G and B"
+
+
+def _exr(path, signed):
+    """A 16 x 16 RGB half EXR normal map, stored 0..1, or in -1..1 where `signed`."""
+    t = _normal_texels()[..., :3]
+    _exr_of_channels(path, {c: (t[..., i] * 2 - 1 if signed else t[..., i])
+                            for i, c in enumerate("RGB")})
+
+
+def _below_zero():
+    """(R, G) shares of a signed _exr's texels below 0 as stored (half floats), in whole
+    percent, as the warning words them."""
+    t = (_normal_texels()[..., :3] * 2 - 1).astype(np.float16)
+    return tuple(round(100 * float(np.mean(t[..., c] < 0))) for c in (0, 1))
+
+
+def _sequence_at(blend, frame):
+    """Open `blend`, make its Image Sequence read 3 frames, the scene at `frame`; save."""
+    bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+    node = next(n for n in bpy.data.materials["Mat"].node_tree.nodes
+                if n.bl_idname == "ShaderNodeTexImage")
+    node.image_user.frame_duration = 3
+    bpy.context.scene.frame_current = frame
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+
+
+def test_a_udim_tile_in_minus_one_to_one_is_warned_about_by_name(tmp_path, capsys):
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    _exr(tex / "n.1001.exr", signed=False)
+    _exr(tex / "n.1002.exr", signed=True)
+    blend = _source_scene(tmp_path / "s.blend", tex / "n.1001.exr", "TILED", second_tile=True)
+    (tmp_path / "out").mkdir()
+    rc, err = _bake(blend, tmp_path / "out" / "m.<UDIM>.png", capsys)
+    assert rc == exit_codes.OK, err
+    r, g = _below_zero()
+    assert err.count(RANGE) == 1, err
+    assert (f"image 'n.1001.exr', read by Normal Map node 'Normal Map' (material 'Mat'), has "
+            f"{r}% of its texels below 0 in R and {g}% in G (tile 1002: n.1002.exr): "
+            f"{RANGE}") in err, err
+
+
+def test_a_tile_the_bake_does_not_write_is_not_judged(tmp_path, capsys):
+    """Tile 1002 in -1..1 but no face in it: the bake reads only tile 1001, no warning."""
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    _exr(tex / "n.1001.exr", signed=False)
+    _exr(tex / "n.1002.exr", signed=True)
+    blend = _source_scene(tmp_path / "s.blend", tex / "n.1001.exr", "TILED")
+    (tmp_path / "out").mkdir()
+    rc, err = _bake(blend, tmp_path / "out" / "m.<UDIM>.png", capsys)
+    assert rc == exit_codes.OK and RANGE not in err, err
+
+
+def test_the_sequence_frame_read_now_is_judged_for_its_range(tmp_path, capsys):
+    """Frames 1 and 3 are 0..1, frame 2 -1..1: at scene frame 2 the bake reads frame 2 and is
+    warned of it; at frame 1 it reads a 0..1 map and is not."""
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    for f in (1, 2, 3):
+        _exr(tex / f"seq.{f:04d}.exr", signed=f == 2)
+    blend = _source_scene(tmp_path / "s.blend", tex / "seq.0001.exr", "SEQUENCE")
+    _sequence_at(blend, 2)
+    rc, err = _bake(blend, tmp_path / "m2.png", capsys)
+    r, g = _below_zero()
+    assert rc == exit_codes.OK, err
+    assert (f"image 'seq.0001.exr', read by Normal Map node 'Normal Map' (material 'Mat'), has "
+            f"{r}% of its texels below 0 in R and {g}% in G (frame file seq.0002.exr): "
+            f"{RANGE}") in err, err
+    _sequence_at(blend, 1)
+    rc, err = _bake(blend, tmp_path / "m1.png", capsys)
+    assert rc == exit_codes.OK and RANGE not in err, err
+
+
+def test_a_grey_sequence_frame_is_warned_about(tmp_path, capsys):
+    """Grey PNG frames (one channel): a single grey PNG is warned about, a sequence of them
+    was not."""
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    grey = np.full((16, 16, 4), 0.5, np.float32)
+    for f in (1, 2):
+        _write_image(tex / f"seq.{f:04d}.png", grey, color_mode="BW")
+    blend = _source_scene(tmp_path / "s.blend", tex / "seq.0001.png", "SEQUENCE")
+    rc, err = _bake(blend, tmp_path / "m.png", capsys)
+    assert rc == exit_codes.OK, err
+    assert ("image 'seq.0001.png', read by Normal Map node 'Normal Map' (material 'Mat'), "
+            f"holds 1 channel in its file (frame file seq.0001.png: grey PNG): {GREY}") in err, err
