@@ -108,3 +108,29 @@ def test_a_grey_sequence_frame_is_warned_about(tmp_path, capsys):
     assert rc == exit_codes.OK, err
     assert ("image 'seq.0001.png', read by Normal Map node 'Normal Map' (material 'Mat'), "
             f"holds 1 channel in its file (frame file seq.0001.png: grey PNG): {GREY}") in err, err
+
+
+@pytest.mark.parametrize("source", ["FILE", "TILED"])
+def test_a_bakes_checks_open_each_image_file_once(source, tmp_path, capsys, monkeypatch):
+    """The header checks (layers, channels, cut short, the memory check's size, the normal map
+    warnings) opened each file once each: five opens of one PNG, and for a packed image five
+    copies of its data (0.29 s each for a 50 MB PNG on 5.2.3). Now one a file."""
+    import builtins
+    tex = tmp_path / "tex"
+    tex.mkdir()
+    names = ["n.1001.exr", "n.1002.exr"] if source == "TILED" else ["n.exr"]
+    for name in names:
+        _exr(tex / name, signed=False)
+    blend = _source_scene(tmp_path / "s.blend", tex / names[0], source,
+                          second_tile=source == "TILED")
+    opened, real_open = [], builtins.open
+
+    def counting_open(file, *args, **kwargs):
+        if str(file).startswith(str(tex)):
+            opened.append(str(file))
+        return real_open(file, *args, **kwargs)
+    monkeypatch.setattr(builtins, "open", counting_open)
+    (tmp_path / "out").mkdir()
+    rc, err = _bake(blend, tmp_path / "out" / "m.<UDIM>.png", capsys)
+    assert rc == exit_codes.OK, err
+    assert sorted(opened) == [str(tex / n) for n in names], opened

@@ -10,9 +10,9 @@ from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
+from .header_reads import one_header_read, path_headers
 from .image_channels import (cut_short_file, cut_short_problem, layered_file,
                              path_channel_problem, running_facts, undefined_channel_problem)
-from .image_headers import cut_short, exr_layered
 
 
 def material_images(obj, only=None):
@@ -198,6 +198,11 @@ def image_files(image):
 def one_image_problem(image):
     """None when `image` can be read as Cycles will read it, else what is wrong and the fix.
     An image this check loads is freed again (it stays as unloaded as it was)."""
+    with one_header_read():                     # (each of its files' headers read once)
+        return _one_image_problem(image)
+
+
+def _one_image_problem(image):
     if image.source in ("GENERATED", "VIEWER"):
         return None
     packed = bool(getattr(image, "packed_files", None) and len(image.packed_files)) or \
@@ -276,16 +281,11 @@ def file_problem(what, path):
     pixels, else what is wrong and the fix. Loaded into a probe image of its own, removed
     again, so the file's own images stay as they were."""
     import bpy
-    try:
-        with open(path, "rb") as f:
-            if exr_layered(f):                  # before a load (see one_image_problem)
-                return multilayer_problem(f"{what} reads {str(path)!r}, which")
-            f.seek(0)
-            cut = cut_short(f)
-            if cut:
-                return cut_short_problem(what, repr(str(path)), cut)
-    except OSError:
-        pass
+    found = path_headers(path)
+    if found and found.layered:                 # before a load (see one_image_problem)
+        return multilayer_problem(f"{what} reads {str(path)!r}, which")
+    if found and found.cut:
+        return cut_short_problem(what, repr(str(path)), found.cut)
     problem = path_channel_problem(what, path, running_facts())     # (as one_image_problem)
     if problem:
         return problem

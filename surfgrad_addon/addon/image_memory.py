@@ -2,12 +2,11 @@
 loaded: an image too large for the process's address-space limit crashed Blender's load
 (exit 139, no line), so the request check counts them with the bake (memory_limit)."""
 
-import io
 from typing import NamedTuple
 
 from . import memory_limit as ML
-from .image_checks import image_files, material_images, sequence_file
-from .image_headers import pixel_size
+from .header_reads import image_headers, path_headers
+from .image_checks import material_images, sequence_file
 
 
 class ImagesMemory(NamedTuple):
@@ -27,8 +26,7 @@ def images_memory(obj, covered=()):
         if image is None or image.name in seen or image.has_data:
             continue
         seen.add(image.name)
-        for opened in _openers(image, node, covered):
-            size = _size(opened)
+        for size in _sizes(image, node, covered):
             if size is None:
                 continue
             counted.add(image.name)
@@ -48,28 +46,17 @@ def images_memory(obj, covered=()):
                         f"{size.height} {kind})")
 
 
-def _openers(image, node, covered):
-    """A function opening each file of `image` the bake reads (packed: a copy of its data)."""
-    packed = image.packed_file
-    if packed is not None:
-        return [lambda: io.BytesIO(packed.data)]
-    if not image.filepath:
-        return []
+def _sizes(image, node, covered):
+    """PixelSize (or None) of each file of `image` the bake reads (image_headers lists a tiled
+    one's in tile order)."""
     if image.source == "SEQUENCE":
-        files = [sequence_file(image, node)] if hasattr(node, "image_user") else []
-    elif image.source in ("FILE", "TILED"):
-        files = image_files(image)
-        if image.source == "TILED" and covered:
-            wanted = set(covered)
-            files = [f for f, t in zip(files, image.tiles) if t.number in wanted]
-    else:
-        return []
-    return [lambda p=p: open(p, "rb") for p in files]
-
-
-def _size(opened):
-    try:
-        with opened() as f:
-            return pixel_size(f)
-    except OSError:
-        return None
+        if not image.filepath or image.packed_file is not None or \
+                not hasattr(node, "image_user"):
+            return []
+        found = path_headers(sequence_file(image, node))
+        return [found and found.size]
+    files = image_headers(image)
+    if image.source == "TILED" and image.packed_file is None and covered:
+        wanted = set(covered)
+        files = [f for f, tile in zip(files, image.tiles) if tile.number in wanted]
+    return [found.size for _, found in files if found is not None]

@@ -23,8 +23,8 @@ import re
 
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .image_checks import image_files, objects_nodes, sequence_file, texture_feeding
+from .header_reads import path_headers
 from .image_channels import layered_file, path_channels, read_channels
-from .image_headers import exr_layered
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
 NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
@@ -142,7 +142,8 @@ def _range_problem(image, files):
     NEGATIVE_SHARE of its texels below 0 in R or G, or None."""
     if files:
         for what, path in files:
-            if _layered(path):
+            header = path_headers(path)
+            if header and header.layered:
                 continue            # (a multilayer EXR: refused unloaded, image_checks)
             problem = _range_text(lambda p=path: file_facts(p), f" ({what})")
             if problem:
@@ -151,14 +152,6 @@ def _range_problem(image, files):
     if image.source not in ("FILE", "TILED") or (not image.has_data and layered_file(image)):
         return None
     return _range_text(lambda: pixel_facts(image), "")
-
-
-def _layered(path):
-    try:
-        with open(path, "rb") as f:
-            return exr_layered(f)
-    except OSError:
-        return False
 
 
 def _range_text(read, where):
