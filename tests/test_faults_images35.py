@@ -12,7 +12,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.addon import exit_codes  # noqa: E402
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from test_faults_images33 import _bake  # noqa: E402
 from test_faults_pipeline_leftovers import (_exr_of_channels, _normal_texels,  # noqa: E402
                                             _write_image)
@@ -134,3 +134,38 @@ def test_a_bakes_checks_open_each_image_file_once(source, tmp_path, capsys, monk
     rc, err = _bake(blend, tmp_path / "out" / "m.<UDIM>.png", capsys)
     assert rc == exit_codes.OK, err
     assert sorted(opened) == [str(tex / n) for n in names], opened
+
+
+def _half_map(tmp_path, name, override=None):
+    """The pixels of a 16^2 --depth half map of the scene of _exr's 0..1 map, the scene's
+    output colour management overridden to linear space `override` where given."""
+    from test_faults_pipeline_leftovers import _scene
+    _exr(tmp_path / "n.exr", signed=False)
+    blend = _scene(tmp_path / f"{name}.blend", tmp_path / "n.exr")
+    settings = bpy.context.scene.render.image_settings
+    if override:
+        settings.color_management = "OVERRIDE"
+        settings.linear_colorspace_settings.name = override
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    out = tmp_path / f"{name}.exr"
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out), "--resolution", "16", "--depth", "half"])
+    assert rc == exit_codes.OK
+    img = bpy.data.images.load(str(out), check_existing=False)
+    px = np.empty(len(img.pixels), np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px.reshape(-1, 4)[:, :3]
+
+
+def test_a_half_map_ignores_the_scenes_output_colour_override(tmp_path):
+    """Output Properties > Color Management: Override, linear space Linear Rec.2020. The half
+    EXR is rewritten through the scene's output settings: on 4.2 its data were converted into
+    that space, exit 0 with a map up to 0.16 off (18 degrees); 4.5 and later did not.
+    Now the same map as with no override, on every line."""
+    plain = _half_map(tmp_path, "plain")
+    px = _half_map(tmp_path, "rec2020", "Linear Rec.2020")
+    n, m = (2 * a - 1 for a in (px, plain))
+    cos = np.sum(n * m, -1) / np.linalg.norm(n, axis=-1) / np.linalg.norm(m, axis=-1)
+    worst = np.degrees(np.arccos(np.clip(cos, -1, 1))).max()
+    assert np.array_equal(px, plain), (float(np.abs(px - plain).max()), worst)
