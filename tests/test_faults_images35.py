@@ -169,3 +169,22 @@ def test_a_half_map_ignores_the_scenes_output_colour_override(tmp_path):
     cos = np.sum(n * m, -1) / np.linalg.norm(n, axis=-1) / np.linalg.norm(m, axis=-1)
     worst = np.degrees(np.arccos(np.clip(cos, -1, 1))).max()
     assert np.array_equal(px, plain), (float(np.abs(px - plain).max()), worst)
+
+
+def test_a_packed_tiff_cut_short_names_its_packed_data_and_the_fix(tmp_path, capsys):
+    """A TIFF packed into the .blend from a copy cut short. Before: refused as "image 'n.tif'
+    reads 'packed', a TIFF cut short ...; copy or export the file again, whole", though no
+    file is read and a new copy leaves the packed one as it is. Now the words say it is
+    packed and how to replace it."""
+    from test_faults_images34 import CUT, _picture
+    from test_faults_pipeline_leftovers import _scene
+    whole = _picture(tmp_path / "w.tif")
+    (tmp_path / "n.tif").write_bytes(whole[:int(len(whole) * CUT[".tif"])])
+    blend = _scene(tmp_path / "s.blend", tmp_path / "n.tif", pack=True)
+    (tmp_path / "n.tif").unlink()
+    rc, err = _bake(blend, tmp_path / "m.png", capsys)
+    assert rc == exit_codes.BAD_REQUEST and not (tmp_path / "m.png").exists(), err
+    assert ("image 'n.tif' is packed from a TIFF cut short (its image data runs past the end "
+            "of the file: a copy or download interrupted): Blender loads it at full size with "
+            "the part missing filled in, which Cycles would bake; replace it with the whole "
+            "file (Image Editor: Image > Replace) and pack that") in err, err

@@ -102,10 +102,16 @@ def cut_short_file(image):
 
 
 def cut_short_problem(subject, what, found):
-    """Why `what` (a `found` file cut short, read by `subject`) cannot be baked from."""
+    """Why `what` (a `found` file cut short, read by `subject`; "packed": its packed data)
+    cannot be baked from."""
     lacks = {"JPEG": "no end-of-image marker after its image data",
              "TIFF": "its image data runs past the end of the file",
              "SGI image": "its image data runs past the end of the file"}[found]
+    if what == "packed":    # (packed from a file already cut short: no whole copy in the .blend)
+        return (f"{subject} is packed from a {found} cut short ({lacks}: a copy or download "
+                f"interrupted): Blender loads it at full size with the part missing filled "
+                f"in, which Cycles would bake; replace it with the whole file (Image Editor: "
+                f"Image > Replace) and pack that")
     return (f"{subject} reads {what}, a {found} cut short ({lacks}: a copy or download "
             f"interrupted): Blender loads it at full size with the part missing filled in, "
             f"which Cycles would bake; copy or export the file again, whole")
