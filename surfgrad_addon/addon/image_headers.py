@@ -261,8 +261,9 @@ def _jpeg_cut_short(f):
 
 
 SGI_MAGIC = b"\x01\xda"
-# TIFF tags (TIFF 6.0): the first image's size and what a sample is.
-TIFF_SIZE = {256: "width", 257: "height", 258: "bits", 339: "format"}
+# TIFF tags (TIFF 6.0): the first image's size and what a sample is (3: a float).
+TIFF_WIDTH, TIFF_HEIGHT, TIFF_BITS, TIFF_SAMPLE_FORMAT = 256, 257, 258, 339
+TIFF_SIZE = (TIFF_WIDTH, TIFF_HEIGHT, TIFF_BITS, TIFF_SAMPLE_FORMAT)
 # Radiance HDR: text lines, an empty one, then the resolution line ("-Y 512 +X 768").
 HDR_SIZE = re.compile(rb"\n\n([-+][XY]) (\d+) ([-+][XY]) (\d+)\n")
 HDR_HEADER_LIMIT = 1 << 16
@@ -274,29 +275,40 @@ TIFF_DATA = {273: "offsets", 279: "counts", 324: "offsets", 325: "counts"}
 def _tiff_cut_short(f):
     """A strip or tile of the first image (its IFD's offsets and byte counts) ending past
     the end of the file."""
-    order = "<" if f.read(2) == b"II" else ">"
-    f.seek(4)
-    at = struct.unpack(order + "I", f.read(4))[0]
     f.seek(0, 2)
     size = f.tell()
-    f.seek(at)
+    f.seek(0)
+    fields = _tiff_fields(f, TIFF_DATA)
+    if not fields:
+        return False                    # no directory: the load itself fails
+    found = {TIFF_DATA[tag]: values for tag, values in fields.items()}
+    ends = [o + c for o, c in zip(found.get("offsets", ()), found.get("counts", ()))]
+    return bool(ends) and max(ends) > size
+
+
+def _tiff_fields(f, tags):
+    """{tag: values} of the entries `tags` (SHORT or LONG values) in the first image
+    directory (IFD) of the TIFF `f` (at its start), or None where the directory is not all in
+    the file."""
+    order = "<" if f.read(2) == b"II" else ">"
+    f.seek(4)
+    f.seek(struct.unpack(order + "I", f.read(4))[0])
     count = f.read(2)
     if len(count) < 2:
-        return False                    # no directory: the load itself fails
+        return None
     found = {}
     for _ in range(struct.unpack(order + "H", count)[0]):
         entry = f.read(12)
         if len(entry) < 12:
-            return False
+            return None
         tag, kind, n = struct.unpack(order + "HHI", entry[:8])
-        if tag not in TIFF_DATA or kind not in (3, 4):
+        if tag not in tags or kind not in (3, 4):
             continue
         width = 2 if kind == 3 else 4
         data = entry[8:8 + n * width] if n * width <= 4 else _read_at(f, entry[8:], order,
                                                                        n * width)
-        found[TIFF_DATA[tag]] = struct.unpack(f"{order}{n}{'H' if kind == 3 else 'I'}", data)
-    ends = [o + c for o, c in zip(found.get("offsets", ()), found.get("counts", ()))]
-    return bool(ends) and max(ends) > size
+        found[tag] = struct.unpack(f"{order}{n}{'H' if kind == 3 else 'I'}", data)
+    return found
 
 
 def _sgi_cut_short(f):
@@ -324,32 +336,12 @@ def _sgi_cut_short(f):
 def _tiff_size(f):
     """PixelSize of a TIFF's first image (its IFD's width, height, bits per sample and sample
     format): Blender loads more than 8 bits a sample, or floats, into a float buffer."""
-    order = "<" if f.read(2) == b"II" else ">"
-    f.seek(4)
-    f.seek(struct.unpack(order + "I", f.read(4))[0])
-    count = f.read(2)
-    if len(count) < 2:
+    fields = _tiff_fields(f, TIFF_SIZE)
+    if not fields or TIFF_WIDTH not in fields or TIFF_HEIGHT not in fields:
         return None
-    found = {}
-    for _ in range(struct.unpack(order + "H", count)[0]):
-        entry = f.read(12)
-        if len(entry) < 12:
-            return None
-        tag, kind, n = struct.unpack(order + "HHI", entry[:8])
-        if tag in TIFF_SIZE and kind in (3, 4):     # (several samples: the first's, inline)
-            found[TIFF_SIZE[tag]] = struct.unpack(order + ("H" if kind == 3 else "I"),
-                                                  entry[8:10 if kind == 3 else 12])[0] \
-                if n * (2 if kind == 3 else 4) <= 4 else _first_at(f, entry[8:], order, kind)
-    if "width" not in found or "height" not in found:
-        return None
-    return PixelSize(found["width"], found["height"],
-                     found.get("bits", 1) > 8 or found.get("format", 1) == 3)
-
-
-def _first_at(f, offset, order, kind):
-    """The first SHORT (kind 3) or LONG of a TIFF value stored at `offset`."""
-    data = _read_at(f, offset, order, 2 if kind == 3 else 4)
-    return struct.unpack(order + ("H" if kind == 3 else "I"), data)[0]
+    first = {tag: values[0] for tag, values in fields.items() if values}
+    return PixelSize(first[TIFF_WIDTH], first[TIFF_HEIGHT],
+                     first.get(TIFF_BITS, 1) > 8 or first.get(TIFF_SAMPLE_FORMAT, 1) == 3)
 
 
 def _read_at(f, offset, order, n):
