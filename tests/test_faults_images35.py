@@ -171,20 +171,37 @@ def test_a_half_map_ignores_the_scenes_output_colour_override(tmp_path):
     assert np.array_equal(px, plain), (float(np.abs(px - plain).max()), worst)
 
 
-def test_a_packed_tiff_cut_short_names_its_packed_data_and_the_fix(tmp_path, capsys):
-    """A TIFF packed into the .blend from a copy cut short. Before: refused as "image 'n.tif'
-    reads 'packed', a TIFF cut short ...; copy or export the file again, whole", though no
-    file is read and a new copy leaves the packed one as it is. Now the words say it is
-    packed and how to replace it."""
+@pytest.mark.parametrize("source", ["FILE", "TILED"])
+def test_a_packed_tiff_cut_short_names_its_packed_data_and_the_fix(source, tmp_path, capsys):
+    """A TIFF packed into the .blend from a copy cut short (for a packed UDIM image, tile
+    1002's). Before: refused as "image 'n.tif' reads 'packed', a TIFF cut short ...; copy or
+    export the file again, whole", though no file is read and a new copy leaves the packed one
+    as it is (tile 1002 of a packed UDIM image was not read at all: exit 0 and a map of the
+    rows Blender fills in). Now the words say it is packed, and which tile, and how to
+    replace it."""
     from test_faults_images34 import CUT, _picture
     from test_faults_pipeline_leftovers import _scene
     whole = _picture(tmp_path / "w.tif")
-    (tmp_path / "n.tif").write_bytes(whole[:int(len(whole) * CUT[".tif"])])
-    blend = _scene(tmp_path / "s.blend", tmp_path / "n.tif", pack=True)
-    (tmp_path / "n.tif").unlink()
-    rc, err = _bake(blend, tmp_path / "m.png", capsys)
-    assert rc == exit_codes.BAD_REQUEST and not (tmp_path / "m.png").exists(), err
-    assert ("image 'n.tif' is packed from a TIFF cut short (its image data runs past the end "
+    cut = whole[:int(len(whole) * CUT[".tif"])]
+    if source == "FILE":
+        (tmp_path / "n.tif").write_bytes(cut)
+        blend = _scene(tmp_path / "s.blend", tmp_path / "n.tif", pack=True)
+        subject, files = "image 'n.tif'", ["n.tif"]
+    else:
+        (tmp_path / "n.1001.tif").write_bytes(whole)
+        (tmp_path / "n.1002.tif").write_bytes(cut)
+        blend = _source_scene(tmp_path / "s.blend", tmp_path / "n.1001.tif", "TILED",
+                              second_tile=True)
+        bpy.data.images["n.1001.tif"].pack()
+        bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+        subject, files = "image 'n.1001.tif' (tile 1002)", ["n.1001.tif", "n.1002.tif"]
+    for name in files:
+        (tmp_path / name).unlink()
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, err = _bake(blend, out / "m.<UDIM>.png", capsys)
+    assert rc == exit_codes.BAD_REQUEST and list(out.iterdir()) == [], err
+    assert (f"{subject} is packed from a TIFF cut short (its image data runs past the end "
             "of the file: a copy or download interrupted): Blender loads it at full size with "
             "the part missing filled in, which Cycles would bake; replace it with the whole "
             "file (Image Editor: Image > Replace) and pack that") in err, err

@@ -157,3 +157,31 @@ def test_packed_images_and_the_sequence_frame_read_now_count(source, tmp_path):
                                     + ML.CYCLES_BYTES_PER_TEXEL[True])
     assert found.checked == texels * (ML.IMAGE_BYTES_PER_TEXEL[True]
                                       + ML.CHECK_COPY_BYTES_PER_TEXEL)
+
+
+@pytest.mark.tier("blender")
+def test_each_tile_of_a_packed_udim_image_counts(tmp_path):
+    """A packed UDIM image of two 16-bit PNG tiles of different sizes: each tile baked counts,
+    from its own packed data. Before, only the first tile's (image.packed_file) was read."""
+    bpy = pytest.importorskip("bpy")
+    from surfgrad_addon.addon import memory_limit as ML
+    from surfgrad_addon.addon.image_memory import images_memory
+    from test_faults_pipeline_more import _scene as _source_scene
+    sizes = {1001: (48, 20), 1002: (30, 64)}
+    for tile, (w, h) in sizes.items():
+        write_png16(tmp_path / f"n.{tile}.png", w, h)
+    blend = _source_scene(tmp_path / "s.blend", tmp_path / "n.1001.png", "TILED",
+                          second_tile=True)
+    bpy.data.images["n.1001.png"].pack()
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    for tile in sizes:
+        (tmp_path / f"n.{tile}.png").unlink()
+    bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+    per_texel = ML.IMAGE_BYTES_PER_TEXEL[True] + ML.CYCLES_BYTES_PER_TEXEL[True]
+    obj = bpy.data.objects["Plane"]
+    for covered in ((1001, 1002), (1002,)):
+        found = images_memory(obj, covered)
+        assert found.baked == sum(w * h for t, (w, h) in sizes.items() if t in covered) \
+            * per_texel, covered
+    assert images_memory(obj, (1001, 1002)).what == \
+        "1 image(s) (the largest 'n.1001.png', 30x64 float)"

@@ -31,7 +31,8 @@ def one_header_read():
 
 def image_headers(image):
     """[(what, HeaderFacts or None where it cannot be opened)] for each file the image reads:
-    its packed data ("packed"), its file, or each UDIM tile's (named by file, in tile order);
+    its packed data ("packed"; "packed tile 1002" for each of a packed UDIM image's, in the
+    order of image.packed_files), its file, or each UDIM tile's (named by file, in tile order);
     nothing for sequences, movies and generated images (their frame file: path_headers)."""
     return _headers.get(("image", image.as_pointer()), lambda: _read_image(image))
 
@@ -44,6 +45,10 @@ def path_headers(path):
 
 def _read_image(image):
     import bpy
+    tiles = list(getattr(image, "packed_files", ()))
+    if image.source == "TILED" and len(tiles) > 1:        # a packed UDIM image: each tile
+        return [(f"packed tile {t.tile_number}",
+                 _read(lambda t=t: io.BytesIO(t.packed_file.data))) for t in tiles]
     packed = getattr(image, "packed_file", None)
     if packed is not None:
         return [("packed", _read(lambda: io.BytesIO(packed.data)))]

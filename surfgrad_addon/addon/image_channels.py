@@ -102,13 +102,14 @@ def cut_short_file(image):
 
 
 def cut_short_problem(subject, what, found):
-    """Why `what` (a `found` file cut short, read by `subject`; "packed": its packed data)
-    cannot be baked from."""
+    """Why `what` (a `found` file cut short, read by `subject`; "packed" or "packed tile 1002":
+    its packed data) cannot be baked from."""
     lacks = {"JPEG": "no end-of-image marker after its image data",
              "TIFF": "its image data runs past the end of the file",
              "SGI image": "its image data runs past the end of the file"}[found]
-    if what == "packed":    # (packed from a file already cut short: no whole copy in the .blend)
-        return (f"{subject} is packed from a {found} cut short ({lacks}: a copy or download "
+    if what.startswith("packed"):   # (packed from a file cut short: no whole copy in the .blend)
+        tile = f" ({what[len('packed '):]})" if what != "packed" else ""    # "(tile 1002)"
+        return (f"{subject}{tile} is packed from a {found} cut short ({lacks}: a copy or download "
                 f"interrupted): Blender loads it at full size with the part missing filled "
                 f"in, which Cycles would bake; replace it with the whole file (Image Editor: "
                 f"Image > Replace) and pack that")

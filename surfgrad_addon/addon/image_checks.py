@@ -231,7 +231,7 @@ def _one_image_problem(image):
     problem = undefined_channel_problem(image, running_facts())
     cut = cut_short_file(image)
     if problem or cut:
-        return problem or cut_short_problem(what, cut[0] if cut[0] == "packed" else
+        return problem or cut_short_problem(what, cut[0] if cut[0].startswith("packed") else
                                             repr(cut[0]), cut[1])
     had_data = image.has_data
     try:

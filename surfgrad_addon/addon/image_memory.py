@@ -56,7 +56,9 @@ def _sizes(image, node, covered):
         found = path_headers(sequence_file(image, node))
         return [found and found.size]
     files = image_headers(image)
-    if image.source == "TILED" and image.packed_file is None and covered:
+    if image.source == "TILED" and covered:
         wanted = set(covered)
-        files = [f for f, tile in zip(files, image.tiles) if tile.number in wanted]
+        numbers = [p.tile_number for p in image.packed_files] if len(image.packed_files) > 1 \
+            else [t.number for t in image.tiles]
+        files = [f for f, number in zip(files, numbers) if number in wanted]
     return [found.size for _, found in files if found is not None]
