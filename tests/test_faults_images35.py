@@ -5,7 +5,10 @@
   tile 1002's normals were pulled toward (-1, -1). Now every tile baked is judged, and the
   warning names the tile.
 - An Image Sequence's frame file: no range or grey-channel warning was given at all (a single
-  image gets both). Now the frame file the bake reads is judged, and named."""
+  image gets both). Now the frame file the bake reads is judged, and named.
+- Each file's header was opened once per check (six opens of one EXR a bake); a packed UDIM
+  image's tiles after the first were never read (a damaged or NaN tile 1002: exit 0); on
+  4.2, --depth half converted the map into the file's Output colour override (18 degrees)."""
 
 import numpy as np
 import pytest
@@ -205,3 +208,40 @@ def test_a_packed_tiff_cut_short_names_its_packed_data_and_the_fix(source, tmp_p
             "of the file: a copy or download interrupted): Blender loads it at full size with "
             "the part missing filled in, which Cycles would bake; replace it with the whole "
             "file (Image Editor: Image > Replace) and pack that") in err, err
+
+
+@pytest.mark.parametrize("damage", ["png_cut", "exr_nan"])
+def test_a_packed_udim_tile_is_loaded_and_checked(damage, tmp_path, capsys):
+    """A packed UDIM image whose tile 1002 is a PNG cut in half (Blender cannot load it) or an
+    EXR with one NaN. Before: exit 0 and both tiles' maps written (the image's own load reads
+    tile 1001 only; the tile files' check read files on disk only). Now refused, naming the
+    tile, as for a tile on disk."""
+    from test_faults_pipeline_more import _write_png
+    ext = "png" if damage == "png_cut" else "exr"
+    for tile in (1001, 1002):
+        if ext == "png":
+            _write_png(tmp_path / f"n.{tile}.png")
+        else:
+            t = _normal_texels()
+            if tile == 1002:
+                t[3, 4, 0] = np.nan
+            _exr_of_channels(tmp_path / f"n.{tile}.exr",
+                             {c: t[..., i] for i, c in enumerate("RGB")})
+    if ext == "png":
+        half = (tmp_path / "n.1002.png").read_bytes()
+        (tmp_path / "n.1002.png").write_bytes(half[:len(half) // 2])
+    blend = _source_scene(tmp_path / "s.blend", tmp_path / f"n.1001.{ext}", "TILED",
+                          second_tile=True)
+    bpy.data.images[f"n.1001.{ext}"].pack()
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    for tile in (1001, 1002):
+        (tmp_path / f"n.{tile}.{ext}").unlink()
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, err = _bake(blend, out / "m.<UDIM>.png", capsys)
+    assert rc == exit_codes.BAD_REQUEST and list(out.iterdir()) == [], err
+    said = {"png_cut": f"tiled image 'n.1001.png' (tile 1002) reads its packed data, which "
+                       f"could not be read (damaged, or a format Blender does not open)",
+            "exr_nan": "tiled image 'n.1001.exr' (tile 1002) (its packed data) has non-finite "
+                       "pixels (NaN or Inf, 1 value(s))"}[damage]
+    assert said in err, err

@@ -99,6 +99,8 @@ def image_problems(obj, covered=(), only=None):
             problem = MI.missing_tiles_problem(image, covered)
         if not problem and on_disk and image.source == "TILED":
             problem = _tile_files_problem(image, covered)
+        if not problem and image.source == "TILED" and len(image.packed_files) > 1:
+            problem = _packed_tiles_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
     return out
@@ -277,16 +279,37 @@ def _tile_files_problem(image, covered):
     return None
 
 
-def file_problem(what, path):
+def _packed_tiles_problem(image, covered):
+    """The first tile of a packed UDIM image's tiles the bake reads (`covered`, else all)
+    whose packed data does not load with finite pixels: as _tile_files_problem, each written
+    to a temporary file of its own to load it (bpy loads no packed tile alone)."""
+    import tempfile
+    with tempfile.TemporaryDirectory(prefix="surfgrad-tile-") as folder:
+        for tile in image.packed_files:
+            if covered and tile.tile_number not in covered:
+                continue
+            path = Path(folder) / f"tile{tile.tile_number}{Path(tile.filepath).suffix}"
+            path.write_bytes(tile.packed_file.data)
+            problem = file_problem(f"tiled image {image.name!r} (tile {tile.tile_number})",
+                                   path, shown="its packed data")
+            path.unlink()
+            if problem:
+                return problem
+    return None
+
+
+def file_problem(what, path, shown=None):
     """None when the image file `path` (a UDIM tile's, a sequence frame's) loads with finite
-    pixels, else what is wrong and the fix. Loaded into a probe image of its own, removed
-    again, so the file's own images stay as they were."""
+    pixels, else what is wrong and the fix, naming the file as `shown` (else its path).
+    Loaded into a probe image of its own, removed again, so the file's own images stay as
+    they were."""
     import bpy
+    shown = shown or repr(str(path))
     found = path_headers(path)
     if found and found.layered:                 # before a load (see one_image_problem)
-        return multilayer_problem(f"{what} reads {str(path)!r}, which")
+        return multilayer_problem(f"{what} reads {shown}, which")
     if found and found.cut:
-        return cut_short_problem(what, repr(str(path)), found.cut)
+        return cut_short_problem(what, shown, found.cut)
     problem = path_channel_problem(what, path, running_facts())     # (as one_image_problem)
     if problem:
         return problem
@@ -296,16 +319,16 @@ def file_problem(what, path):
         probe = None
     try:
         if probe is not None and 0 in probe.size[:] and probe.type == "MULTILAYER":
-            return multilayer_problem(f"{what} reads {str(path)!r}, which")
+            return multilayer_problem(f"{what} reads {shown}, which")
         if probe is None or 0 in probe.size[:]:
             return unreadable_problem(what, path) or (
-                f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
-                f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG or EXR")
+                f"{what} reads {shown}, which could not be read (damaged, or a format "
+                f"Blender does not open): {MI.MAGENTA} there; re-save it as PNG or EXR")
         try:
             facts = file_facts(path, probe)     # (read once with normal_map_checks' range)
         except PixelsTooLarge as err:
             return str(err)
-        return facts and IC.nonfinite_pixels_problem(f"{what} ({str(path)!r})", facts.nonfinite)
+        return facts and IC.nonfinite_pixels_problem(f"{what} ({shown})", facts.nonfinite)
     finally:
         if probe is not None:
             bpy.data.images.remove(probe)
