@@ -7,7 +7,8 @@
 - An Image Sequence's frame file: no range or grey-channel warning was given at all (a single
   image gets both). Now the frame file the bake reads is judged, and named.
 - Each file's header was opened once per check (six opens of one EXR a bake); a packed UDIM
-  image's tiles after the first were never read (a damaged or NaN tile 1002: exit 0); on
+  image's tiles after the first were never read (a damaged or NaN tile 1002: exit 0), nor
+  was one lacking a tile the UVs cover (magenta baked, exit 0); on
   4.2, --depth half converted the map into the file's Output colour override (18 degrees)."""
 
 import numpy as np
@@ -245,3 +246,24 @@ def test_a_packed_udim_tile_is_loaded_and_checked(damage, tmp_path, capsys):
             "exr_nan": "tiled image 'n.1001.exr' (tile 1002) (its packed data) has non-finite "
                        "pixels (NaN or Inf, 1 value(s))"}[damage]
     assert said in err, err
+
+
+def test_a_packed_udim_image_lacking_a_tile_the_uvs_cover_is_refused(tmp_path, capsys):
+    """A packed UDIM image with tile 1001 only, UVs in 1001 and 1002. Before: exit 0, tile
+    1002's map baked from Cycles' magenta (its mean (0.79, 0.21, 0.79), no normal map's); the
+    lacking tile was looked for in images on disk only. Now refused, as on disk."""
+    from test_faults_pipeline_more import _write_png
+    _write_png(tmp_path / "n.1001.png")
+    blend = _source_scene(tmp_path / "s.blend", tmp_path / "n.1001.png", "TILED",
+                          second_tile=True)
+    image = bpy.data.images["n.1001.png"]
+    image.tiles.remove(image.tiles[1])
+    image.pack()
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    (tmp_path / "n.1001.png").unlink()
+    out = tmp_path / "out"
+    out.mkdir()
+    rc, err = _bake(blend, out / "m.<UDIM>.png", capsys)
+    assert rc == exit_codes.BAD_REQUEST and list(out.iterdir()) == [], err
+    assert ("tiled image 'n.1001.png' has no tile 1002 (tiles: [1001]), but the UVs cover it"
+            in err), err

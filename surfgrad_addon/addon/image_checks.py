@@ -95,7 +95,7 @@ def image_problems(obj, covered=(), only=None):
                 file_problem(f"image sequence {image.name!r}", sequence_file(image, node))
         else:
             problem = one_image_problem(image)
-        if not problem and on_disk and image.source == "TILED" and covered:
+        if not problem and image.source == "TILED" and covered:      # (packed ones too)
             problem = MI.missing_tiles_problem(image, covered)
         if not problem and on_disk and image.source == "TILED":
             problem = _tile_files_problem(image, covered)
