@@ -29,10 +29,13 @@ def write_png16(path, width, height, rgb=(32768, 32768, 65535)):
 
 @pytest.mark.tier("blender")
 @pytest.mark.parametrize("kind", ["png8 RGB", "png8 RGBA", "png8 BW", "png16", "jpeg", "exr half",
-                                  "exr float", "tiff", "hand png16"])
+                                  "exr float", "tiff", "tiff16", "hdr", "bmp", "tga",
+                                  "hand png16"])
 def test_the_header_size_is_what_blender_loads(kind, tmp_path):
     """Width, height and float buffer from the header alone, against the image Blender loads
-    from the same file; formats the header walk does not read give None."""
+    from the same file; formats the header walk does not read (TGA) give None. Before, TIFF,
+    HDR and BMP gave None too: under `ulimit -v` an 8192^2 16-bit TIFF or HDR was loaded
+    and called damaged."""
     bpy = pytest.importorskip("bpy")
     import numpy as np
     from surfgrad_addon.addon.image_headers import pixel_size
@@ -46,10 +49,11 @@ def test_the_header_size_is_what_blender_loads(kind, tmp_path):
         s = bpy.context.scene.render.image_settings
         fmt, _, rest = kind.partition(" ")
         s.file_format = {"png8": "PNG", "png16": "PNG", "jpeg": "JPEG", "exr": "OPEN_EXR",
-                         "tiff": "TIFF"}[fmt]
+                         "tiff": "TIFF", "tiff16": "TIFF", "hdr": "HDR", "bmp": "BMP",
+                         "tga": "TARGA"}[fmt]
         s.color_mode = rest if fmt == "png8" else "RGB"
-        if fmt in ("png8", "png16"):
-            s.color_depth = "8" if fmt == "png8" else "16"
+        if fmt in ("png8", "png16", "tiff", "tiff16"):
+            s.color_depth = "8" if fmt in ("png8", "tiff") else "16"
         if fmt == "exr":
             s.color_depth = "16" if rest == "half" else "32"
         img.save_render(str(path), scene=bpy.context.scene)
@@ -58,7 +62,7 @@ def test_the_header_size_is_what_blender_loads(kind, tmp_path):
         size = pixel_size(f)
     loaded = bpy.data.images.load(str(path), check_existing=False)
     try:
-        if kind == "tiff":
+        if kind == "tga":
             assert size is None
         else:
             assert size is not None, kind
@@ -114,3 +118,70 @@ def test_a_large_image_under_an_address_space_limit_is_refused_before_it_is_load
                            "largest 'big.png', 8192x8192 float) needs at least 2.1 GB"), line
     assert "address-space limit of 2.4 GB" in line and "damaged" not in line, line
     assert list(out.iterdir()) == [] and list((tmp_path / "tmp").iterdir()) == []
+
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("source", ["packed", "sequence"])
+def test_packed_images_and_the_sequence_frame_read_now_count(source, tmp_path):
+    """A packed 16-bit PNG, and an Image Sequence at scene frame 2 whose frames differ in size:
+    counted from the packed data's header and from the frame file read now. Before neither
+    counted: under `ulimit -v` 2.5 GB an 8192^2 EXR frame crashed the check's load (exit
+    -11, no line), a packed 8192^2 16-bit PNG was called damaged."""
+    bpy = pytest.importorskip("bpy")
+    import numpy as np
+    from surfgrad_addon.addon import memory_limit as ML
+    from surfgrad_addon.addon.image_memory import images_memory
+    from test_faults_pipeline_leftovers import _exr_of_channels, _scene
+    from test_faults_pipeline_more import _scene as _source_scene
+    if source == "packed":
+        write_png16(tmp_path / "n.png", 48, 20)
+        blend = _scene(tmp_path / "s.blend", tmp_path / "n.png", pack=True)
+        (tmp_path / "n.png").unlink()           # its header is read from the packed data
+        name, (w, h) = "n.png", (48, 20)
+    else:
+        for f, (w, h) in ((1, (16, 16)), (2, (40, 8)), (3, (16, 16))):
+            plane = np.full((h, w), 0.5)
+            _exr_of_channels(tmp_path / f"seq.{f:04d}.exr", {c: plane for c in "RGB"})
+        blend = _source_scene(tmp_path / "s.blend", tmp_path / "seq.0001.exr", "SEQUENCE")
+        node = next(n for n in bpy.data.materials["Mat"].node_tree.nodes
+                    if n.bl_idname == "ShaderNodeTexImage")
+        node.image_user.frame_duration = 3
+        bpy.context.scene.frame_current = 2
+        bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+        name, (w, h) = "seq.0001.exr", (40, 8)
+    bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+    found = images_memory(bpy.data.objects["Plane"])
+    texels = w * h
+    assert found.count == 1 and found.what == f"1 image(s) (the largest {name!r}, {w}x{h} float)"
+    assert found.baked == texels * (ML.IMAGE_BYTES_PER_TEXEL[True]
+                                    + ML.CYCLES_BYTES_PER_TEXEL[True])
+    assert found.checked == texels * (ML.IMAGE_BYTES_PER_TEXEL[True]
+                                      + ML.CHECK_COPY_BYTES_PER_TEXEL)
+
+
+@pytest.mark.tier("blender")
+def test_each_tile_of_a_packed_udim_image_counts(tmp_path):
+    """A packed UDIM image of two 16-bit PNG tiles of different sizes: each tile baked counts,
+    from its own packed data. Before, only the first tile's (image.packed_file) was read."""
+    bpy = pytest.importorskip("bpy")
+    from surfgrad_addon.addon import memory_limit as ML
+    from surfgrad_addon.addon.image_memory import images_memory
+    from test_faults_pipeline_more import _scene as _source_scene
+    sizes = {1001: (48, 20), 1002: (30, 64)}
+    for tile, (w, h) in sizes.items():
+        write_png16(tmp_path / f"n.{tile}.png", w, h)
+    blend = _source_scene(tmp_path / "s.blend", tmp_path / "n.1001.png", "TILED",
+                          second_tile=True)
+    bpy.data.images["n.1001.png"].pack()
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    for tile in sizes:
+        (tmp_path / f"n.{tile}.png").unlink()
+    bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+    per_texel = ML.IMAGE_BYTES_PER_TEXEL[True] + ML.CYCLES_BYTES_PER_TEXEL[True]
+    obj = bpy.data.objects["Plane"]
+    for covered in ((1001, 1002), (1002,)):
+        found = images_memory(obj, covered)
+        assert found.baked == sum(w * h for t, (w, h) in sizes.items() if t in covered) \
+            * per_texel, covered
+    assert images_memory(obj, (1001, 1002)).what == \
+        "1 image(s) (the largest 'n.1001.png', 30x64 float)"

@@ -39,6 +39,7 @@ from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
+from .header_reads import one_header_read
 from .image_checks import image_problems, output_input_problems
 from .image_memory import images_memory
 from .memory_limit import bake_memory_problem
@@ -202,7 +203,8 @@ def warn_stderr(message):
 def check(request, obj=None, warn=warn_stderr):
     """Check everything about `request` before baking; returns a CheckedRequest (its warnings
     already passed to `warn`) or raises BakeRequestError naming every problem and its fix."""
-    with one_read(), one_pixel_read():     # one read of the mesh, and of each image's pixels
+    # one read of the mesh, of each image file's header, and of each image's pixels
+    with one_read(), one_header_read(), one_pixel_read():
         return _check(request, obj, warn)
 
 
@@ -249,7 +251,7 @@ def _check(request, obj, warn):
     problems += [problem] if problem else image_problems(obj, tiles)   # (its tiles)
     warnings += colour_space_warnings(obj)
     if not problem:
-        warnings += normal_map_warnings(obj)        # grey files, -1..1 floats
+        warnings += normal_map_warnings(obj, covered=tiles)     # grey files, -1..1 floats
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)

@@ -12,7 +12,7 @@ import numpy as np
 
 from .read_once import ReadOnce
 
-_pixels = ReadOnce()            # {image pointer: PixelFacts} inside one_pixel_read()
+_pixels = ReadOnce()            # {image pointer or file path: PixelFacts} in one_pixel_read()
 _SLICE_TEXELS = 1 << 22         # texels per slice of the counts (bounded temporaries)
 GB = 1024 ** 3
 
@@ -52,6 +52,28 @@ def pixel_facts(image):
     or empty). An image this loads is freed again (it stays as unloaded as it was). Raises
     PixelsTooLarge where their copy does not fit the process's memory."""
     return _pixels.get(image.as_pointer(), lambda: _read(image))
+
+
+def file_facts(path, probe=None):
+    """PixelFacts of the float pixels of the image file `path` (a UDIM tile's, a sequence
+    frame's: the image's own load reads neither), or None (not float, or not loadable). Read
+    from `probe` (that file, loaded) if given, else from a probe image of its own, removed
+    again, so the file's own images stay as they were. Raises PixelsTooLarge as pixel_facts."""
+    return _pixels.get(("file", str(path)), lambda: _probe_read(path, probe))
+
+
+def _probe_read(path, probe):
+    import bpy
+    if probe is not None:
+        return _read(probe)
+    try:
+        probe = bpy.data.images.load(str(path), check_existing=False)
+    except RuntimeError:
+        return None
+    try:
+        return _read(probe)
+    finally:
+        bpy.data.images.remove(probe)
 
 
 def _read(image):

@@ -8,12 +8,10 @@ whose pixels Blender does not load as they are meant, refused from the header be
   rendered, but for `y` and `a`), rendered as a grey of one of them;
 - a luminance-chroma EXR (Y with RY and / or BY): no line loads it as RGB."""
 
-import io
 from pathlib import Path
 
-from ..reference import tiles as T
 from ..reference.blender_lines import facts_for
-from .image_headers import cut_short, exr_layered, file_channels
+from .header_reads import image_headers, path_headers
 
 
 def running_facts():
@@ -23,36 +21,10 @@ def running_facts():
     return facts_for(bpy.app.version)
 
 
-def file_openers(image):
-    """(what, a function opening it) for the files an image reads: its packed data, its file,
-    or each UDIM tile's; nothing for sequences, movies and generated images."""
-    import bpy
-    packed = getattr(image, "packed_file", None)
-    if packed is not None:
-        data = packed.data
-        return [("packed", lambda: io.BytesIO(data))]
-    if image.source not in ("FILE", "TILED") or not image.filepath:
-        return []
-    path = bpy.path.abspath(image.filepath, library=image.library)
-    if image.source == "TILED":
-        paths = [T.tile_path(path, t.number) for t in image.tiles]
-    else:
-        paths = [Path(path)]
-    return [(Path(p).name, lambda p=p: open(p, "rb")) for p in paths]
-
-
 def read_channels(image):
     """[(what, FileChannels)] for each of the image's files whose header says its channels."""
-    out = []
-    for what, opened in file_openers(image):
-        try:
-            with opened() as f:
-                found = file_channels(f)
-        except OSError:
-            continue                    # unreadable: image_checks refuses what matters
-        if found is not None:
-            out.append((what, found))
-    return out
+    return [(what, found.channels) for what, found in image_headers(image)
+            if found is not None and found.channels is not None]
 
 
 def undefined_channel_problem(image, facts):
@@ -68,12 +40,15 @@ def undefined_channel_problem(image, facts):
 def path_channel_problem(subject, path, facts):
     """channel_problem for the image file `path` (a UDIM tile's, a sequence frame's, a file
     given on the command line), from its header; None where it cannot be read."""
-    try:
-        with open(path, "rb") as f:
-            found = file_channels(f)
-    except OSError:
-        return None
+    found = path_channels(path)
     return found and channel_problem(subject, Path(path).name, found, facts)
+
+
+def path_channels(path):
+    """FileChannels of the image file `path` from its header, or None where it does not say
+    or cannot be read."""
+    found = path_headers(path)
+    return found and found.channels
 
 
 def channel_problem(subject, what, found, facts):
@@ -116,39 +91,28 @@ def cycles_view(found):
 def layered_file(image):
     """What names the first of the image's files that is a layered (multilayer) OpenEXR by its
     header, or None: such a file is refused before Blender loads it (image_checks)."""
-    return _first_file(image, exr_layered)
+    return next((what for what, found in image_headers(image) if found and found.layered), None)
 
 
 def cut_short_file(image):
     """(what, format) of the first of the image's files that is cut short (its image data not
     all within it: image_headers.cut_short), or None: Blender loads the part missing filled in."""
-    for what, opened in file_openers(image):
-        try:
-            with opened() as f:
-                found = cut_short(f)
-        except OSError:
-            continue
-        if found:
-            return what, found
-    return None
+    return next(((what, found.cut) for what, found in image_headers(image)
+                 if found and found.cut), None)
 
 
 def cut_short_problem(subject, what, found):
-    """Why `what` (a `found` file cut short, read by `subject`) cannot be baked from."""
+    """Why `what` (a `found` file cut short, read by `subject`; "packed" or "packed tile 1002":
+    its packed data) cannot be baked from."""
     lacks = {"JPEG": "no end-of-image marker after its image data",
              "TIFF": "its image data runs past the end of the file",
              "SGI image": "its image data runs past the end of the file"}[found]
+    if what.startswith("packed"):   # (packed from a file cut short: no whole copy in the .blend)
+        tile = f" ({what[len('packed '):]})" if what != "packed" else ""    # "(tile 1002)"
+        return (f"{subject}{tile} is packed from a {found} cut short ({lacks}: a copy or download "
+                f"interrupted): Blender loads it at full size with the part missing filled "
+                f"in, which Cycles would bake; replace it with the whole file (Image Editor: "
+                f"Image > Replace) and pack that")
     return (f"{subject} reads {what}, a {found} cut short ({lacks}: a copy or download "
             f"interrupted): Blender loads it at full size with the part missing filled in, "
             f"which Cycles would bake; copy or export the file again, whole")
-
-
-def _first_file(image, test):
-    for what, opened in file_openers(image):
-        try:
-            with opened() as f:
-                if test(f):
-                    return what
-        except OSError:
-            continue
-    return None

@@ -6,15 +6,13 @@ Cycles would bake its magenta 'missing' colour for an image it cannot read, sile
 
 from pathlib import Path
 
-import numpy as np
-
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
-from .float_pixels import PixelsTooLarge, pixel_facts
+from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
+from .header_reads import one_header_read, path_headers
 from .image_channels import (cut_short_file, cut_short_problem, layered_file,
                              path_channel_problem, running_facts, undefined_channel_problem)
-from .image_headers import cut_short, exr_layered
 
 
 def material_images(obj, only=None):
@@ -94,14 +92,15 @@ def image_problems(obj, covered=(), only=None):
             # the frame the bake reads now, not the file the path names
             file = bpy.path.abspath(image.filepath, library=image.library)
             problem = MI.sequence_problem(image, node, file, bpy.context.scene) or \
-                file_problem(f"image sequence {image.name!r}", MI.sequence_frame_path(
-                    file, MI.sequence_frame(node.image_user, bpy.context.scene.frame_current)))
+                file_problem(f"image sequence {image.name!r}", sequence_file(image, node))
         else:
             problem = one_image_problem(image)
-        if not problem and on_disk and image.source == "TILED" and covered:
+        if not problem and image.source == "TILED" and covered:      # (packed ones too)
             problem = MI.missing_tiles_problem(image, covered)
         if not problem and on_disk and image.source == "TILED":
             problem = _tile_files_problem(image, covered)
+        if not problem and image.source == "TILED" and len(image.packed_files) > 1:
+            problem = _packed_tiles_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
     return out
@@ -162,10 +161,19 @@ def uv_reference_problems(obj, only=None):
     return out
 
 
-def image_feeding(socket, outer=()):
-    """The image of the Image Texture node whose output reaches `socket` (through reroutes,
-    and out of the node groups `outer`, the group nodes `socket` lies in, outermost first,
-    through their inputs), or None."""
+def sequence_file(image, node):
+    """The frame file the on-disk Image Sequence `image`, read by Image Texture `node`, reads
+    at the scene's current frame."""
+    import bpy
+    file = bpy.path.abspath(image.filepath, library=image.library)
+    return MI.sequence_frame_path(file, MI.sequence_frame(node.image_user,
+                                                          bpy.context.scene.frame_current))
+
+
+def texture_feeding(socket, outer=()):
+    """The Image Texture node whose output reaches `socket` (through reroutes, and out of the
+    node groups `outer`, the group nodes `socket` lies in, outermost first, through their
+    inputs), or None."""
     while socket is not None and socket.is_linked:
         link = socket.links[0]
         source = link.from_node
@@ -176,8 +184,7 @@ def image_feeding(socket, outer=()):
                            if s.identifier == link.from_socket.identifier), None)
             outer = outer[:-1]
         else:
-            return getattr(source, "image", None) \
-                if source.bl_idname == "ShaderNodeTexImage" else None
+            return source if source.bl_idname == "ShaderNodeTexImage" else None
     return None
 
 
@@ -193,6 +200,11 @@ def image_files(image):
 def one_image_problem(image):
     """None when `image` can be read as Cycles will read it, else what is wrong and the fix.
     An image this check loads is freed again (it stays as unloaded as it was)."""
+    with one_header_read():                     # (each of its files' headers read once)
+        return _one_image_problem(image)
+
+
+def _one_image_problem(image):
     if image.source in ("GENERATED", "VIEWER"):
         return None
     packed = bool(getattr(image, "packed_files", None) and len(image.packed_files)) or \
@@ -221,7 +233,8 @@ def one_image_problem(image):
     problem = undefined_channel_problem(image, running_facts())
     cut = cut_short_file(image)
     if problem or cut:
-        return problem or cut_short_problem(what, repr(cut[0]), cut[1])
+        return problem or cut_short_problem(what, cut[0] if cut[0].startswith("packed") else
+                                            repr(cut[0]), cut[1])
     had_data = image.has_data
     try:
         w, h = image.size
@@ -266,21 +279,37 @@ def _tile_files_problem(image, covered):
     return None
 
 
-def file_problem(what, path):
+def _packed_tiles_problem(image, covered):
+    """The first tile of a packed UDIM image's tiles the bake reads (`covered`, else all)
+    whose packed data does not load with finite pixels: as _tile_files_problem, each written
+    to a temporary file of its own to load it (bpy loads no packed tile alone)."""
+    import tempfile
+    with tempfile.TemporaryDirectory(prefix="surfgrad-tile-") as folder:
+        for tile in image.packed_files:
+            if covered and tile.tile_number not in covered:
+                continue
+            path = Path(folder) / f"tile{tile.tile_number}{Path(tile.filepath).suffix}"
+            path.write_bytes(tile.packed_file.data)
+            problem = file_problem(f"tiled image {image.name!r} (tile {tile.tile_number})",
+                                   path, shown="its packed data")
+            path.unlink()
+            if problem:
+                return problem
+    return None
+
+
+def file_problem(what, path, shown=None):
     """None when the image file `path` (a UDIM tile's, a sequence frame's) loads with finite
-    pixels, else what is wrong and the fix. Loaded into a probe image of its own, removed
-    again, so the file's own images stay as they were."""
+    pixels, else what is wrong and the fix, naming the file as `shown` (else its path).
+    Loaded into a probe image of its own, removed again, so the file's own images stay as
+    they were."""
     import bpy
-    try:
-        with open(path, "rb") as f:
-            if exr_layered(f):                  # before a load (see one_image_problem)
-                return multilayer_problem(f"{what} reads {str(path)!r}, which")
-            f.seek(0)
-            cut = cut_short(f)
-            if cut:
-                return cut_short_problem(what, repr(str(path)), cut)
-    except OSError:
-        pass
+    shown = shown or repr(str(path))
+    found = path_headers(path)
+    if found and found.layered:                 # before a load (see one_image_problem)
+        return multilayer_problem(f"{what} reads {shown}, which")
+    if found and found.cut:
+        return cut_short_problem(what, shown, found.cut)
     problem = path_channel_problem(what, path, running_facts())     # (as one_image_problem)
     if problem:
         return problem
@@ -290,17 +319,16 @@ def file_problem(what, path):
         probe = None
     try:
         if probe is not None and 0 in probe.size[:] and probe.type == "MULTILAYER":
-            return multilayer_problem(f"{what} reads {str(path)!r}, which")
+            return multilayer_problem(f"{what} reads {shown}, which")
         if probe is None or 0 in probe.size[:]:
             return unreadable_problem(what, path) or (
-                f"{what} reads {str(path)!r}, which could not be read (damaged, or a "
-                f"format Blender does not open): {MI.MAGENTA} there; re-save it as PNG or EXR")
-        if probe.is_float:
-            w, h = probe.size
-            px = np.empty(w * h * probe.channels, dtype=np.float32)
-            probe.pixels.foreach_get(px)
-            return IC.pixels_problem(f"{what} ({str(path)!r})", px)
-        return None
+                f"{what} reads {shown}, which could not be read (damaged, or a format "
+                f"Blender does not open): {MI.MAGENTA} there; re-save it as PNG or EXR")
+        try:
+            facts = file_facts(path, probe)     # (read once with normal_map_checks' range)
+        except PixelsTooLarge as err:
+            return str(err)
+        return facts and IC.nonfinite_pixels_problem(f"{what} ({shown})", facts.nonfinite)
     finally:
         if probe is not None:
             bpy.data.images.remove(probe)

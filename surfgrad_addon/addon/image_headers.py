@@ -17,6 +17,7 @@ an EXR of other channels (Z alone, a lower case y) is judged as one of alpha alo
 A luminance-chroma EXR (Y with RY and / or BY, OpenEXR's YC files) is not loaded as its colours
 on any line (image_channels)."""
 
+import re
 import struct
 from typing import NamedTuple
 
@@ -80,9 +81,22 @@ class PixelSize(NamedTuple):
 
 
 def pixel_size(f):
-    """PixelSize from the start of the binary file object `f` (PNG, JPEG, single-part EXR),
-    or None where the header does not say (another format, or a damaged header)."""
+    """PixelSize from the start of the binary file object `f` (PNG, JPEG, single-part EXR,
+    TIFF, Radiance HDR, BMP), or None where the header does not say (another format, or a
+    damaged header)."""
     head = f.read(33)
+    f.seek(0)
+    if head[:4] in (b"II*\0", b"MM\0*"):
+        return _tiff_size(f)
+    if head.startswith(b"#?"):
+        found = HDR_SIZE.search(f.read(HDR_HEADER_LIMIT))
+        if found is None:
+            return None
+        sizes = {found.group(1)[1:]: int(found.group(2)), found.group(3)[1:]: int(found.group(4))}
+        return PixelSize(sizes[b"X"], sizes[b"Y"], True) if len(sizes) == 2 else None
+    if head.startswith(b"BM") and len(head) >= 26:
+        w, h = struct.unpack("<ii", head[18:26])
+        return PixelSize(w, abs(h), False) if w > 0 and h != 0 else None
     if head.startswith(PNG_SIGNATURE):
         if len(head) < 33 or head[12:16] != b"IHDR":
             return None
@@ -247,6 +261,12 @@ def _jpeg_cut_short(f):
 
 
 SGI_MAGIC = b"\x01\xda"
+# TIFF tags (TIFF 6.0): the first image's size and what a sample is (3: a float).
+TIFF_WIDTH, TIFF_HEIGHT, TIFF_BITS, TIFF_SAMPLE_FORMAT = 256, 257, 258, 339
+TIFF_SIZE = (TIFF_WIDTH, TIFF_HEIGHT, TIFF_BITS, TIFF_SAMPLE_FORMAT)
+# Radiance HDR: text lines, an empty one, then the resolution line ("-Y 512 +X 768").
+HDR_SIZE = re.compile(rb"\n\n([-+][XY]) (\d+) ([-+][XY]) (\d+)\n")
+HDR_HEADER_LIMIT = 1 << 16
 SGI_HEADER = 512
 # TIFF tags (TIFF 6.0): where the first image's strips or tiles lie and how long they are.
 TIFF_DATA = {273: "offsets", 279: "counts", 324: "offsets", 325: "counts"}
@@ -255,29 +275,40 @@ TIFF_DATA = {273: "offsets", 279: "counts", 324: "offsets", 325: "counts"}
 def _tiff_cut_short(f):
     """A strip or tile of the first image (its IFD's offsets and byte counts) ending past
     the end of the file."""
-    order = "<" if f.read(2) == b"II" else ">"
-    f.seek(4)
-    at = struct.unpack(order + "I", f.read(4))[0]
     f.seek(0, 2)
     size = f.tell()
-    f.seek(at)
+    f.seek(0)
+    fields = _tiff_fields(f, TIFF_DATA)
+    if not fields:
+        return False                    # no directory: the load itself fails
+    found = {TIFF_DATA[tag]: values for tag, values in fields.items()}
+    ends = [o + c for o, c in zip(found.get("offsets", ()), found.get("counts", ()))]
+    return bool(ends) and max(ends) > size
+
+
+def _tiff_fields(f, tags):
+    """{tag: values} of the entries `tags` (SHORT or LONG values) in the first image
+    directory (IFD) of the TIFF `f` (at its start), or None where the directory is not all in
+    the file."""
+    order = "<" if f.read(2) == b"II" else ">"
+    f.seek(4)
+    f.seek(struct.unpack(order + "I", f.read(4))[0])
     count = f.read(2)
     if len(count) < 2:
-        return False                    # no directory: the load itself fails
+        return None
     found = {}
     for _ in range(struct.unpack(order + "H", count)[0]):
         entry = f.read(12)
         if len(entry) < 12:
-            return False
+            return None
         tag, kind, n = struct.unpack(order + "HHI", entry[:8])
-        if tag not in TIFF_DATA or kind not in (3, 4):
+        if tag not in tags or kind not in (3, 4):
             continue
         width = 2 if kind == 3 else 4
         data = entry[8:8 + n * width] if n * width <= 4 else _read_at(f, entry[8:], order,
                                                                        n * width)
-        found[TIFF_DATA[tag]] = struct.unpack(f"{order}{n}{'H' if kind == 3 else 'I'}", data)
-    ends = [o + c for o, c in zip(found.get("offsets", ()), found.get("counts", ()))]
-    return bool(ends) and max(ends) > size
+        found[tag] = struct.unpack(f"{order}{n}{'H' if kind == 3 else 'I'}", data)
+    return found
 
 
 def _sgi_cut_short(f):
@@ -300,6 +331,17 @@ def _sgi_cut_short(f):
     starts, lengths = tables[:4 * rows], tables[4 * rows:]
     return max((a + n for a, n in zip(struct.unpack(f">{rows}I", starts),
                                       struct.unpack(f">{rows}I", lengths))), default=0) > size
+
+
+def _tiff_size(f):
+    """PixelSize of a TIFF's first image (its IFD's width, height, bits per sample and sample
+    format): Blender loads more than 8 bits a sample, or floats, into a float buffer."""
+    fields = _tiff_fields(f, TIFF_SIZE)
+    if not fields or TIFF_WIDTH not in fields or TIFF_HEIGHT not in fields:
+        return None
+    first = {tag: values[0] for tag, values in fields.items() if values}
+    return PixelSize(first[TIFF_WIDTH], first[TIFF_HEIGHT],
+                     first.get(TIFF_BITS, 1) > 8 or first.get(TIFF_SAMPLE_FORMAT, 1) == 3)
 
 
 def _read_at(f, offset, order, n):

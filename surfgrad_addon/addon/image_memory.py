@@ -5,8 +5,8 @@ loaded: an image too large for the process's address-space limit crashed Blender
 from typing import NamedTuple
 
 from . import memory_limit as ML
-from .image_checks import image_files, material_images
-from .image_headers import pixel_size
+from .header_reads import image_headers, path_headers
+from .image_checks import material_images, sequence_file
 
 
 class ImagesMemory(NamedTuple):
@@ -17,20 +17,19 @@ class ImagesMemory(NamedTuple):
 
 
 def images_memory(obj, covered=()):
-    """ImagesMemory of the file images `obj`'s materials read that are not loaded yet (a
-    loaded one is in the process's size already): single files, and the UDIM tiles `covered`
-    (all where empty) of a tiled image. Packed images, sequences and formats whose header
-    pixel_size does not read are not counted (a lower bound)."""
-    baked, checked, largest, seen = 0, 0, None, set()
-    for _mat, _path, _node, image in material_images(obj):
-        if image is None or image.name in seen or image.has_data or image.packed_file is not None \
-                or image.source not in ("FILE", "TILED") or not image.filepath:
+    """ImagesMemory of the images `obj`'s materials read that are not loaded yet (a loaded one
+    is in the process's size already): single files, packed ones, the frame file an Image
+    Sequence reads now, and the UDIM tiles `covered` (all where empty) of a tiled image.
+    Formats whose header pixel_size does not read are not counted (a lower bound)."""
+    baked, checked, largest, seen, counted = 0, 0, None, set(), set()
+    for _mat, _path, node, image in material_images(obj):
+        if image is None or image.name in seen or image.has_data:
             continue
         seen.add(image.name)
-        for path in _files(image, covered):
-            size = _size(path)
+        for size in _sizes(image, node, covered):
             if size is None:
                 continue
+            counted.add(image.name)
             texels = size.width * size.height
             held = texels * ML.IMAGE_BYTES_PER_TEXEL[size.float_buffer]
             baked += held + texels * ML.CYCLES_BYTES_PER_TEXEL[size.float_buffer]
@@ -42,23 +41,24 @@ def images_memory(obj, covered=()):
         return ImagesMemory(0, 0, 0, "")
     _, name, size = largest
     kind = "float" if size.float_buffer else "8-bit"
-    return ImagesMemory(len(seen), baked, checked,
-                        f"{len(seen)} image(s) (the largest {name!r}, {size.width}x"
+    return ImagesMemory(len(counted), baked, checked,
+                        f"{len(counted)} image(s) (the largest {name!r}, {size.width}x"
                         f"{size.height} {kind})")
 
 
-def _files(image, covered):
-    """The files of `image` the bake reads (image_files lists a tiled one's in tile order)."""
-    files = image_files(image)
+def _sizes(image, node, covered):
+    """PixelSize (or None) of each file of `image` the bake reads (image_headers lists a tiled
+    one's in tile order)."""
+    if image.source == "SEQUENCE":
+        if not image.filepath or image.packed_file is not None or \
+                not hasattr(node, "image_user"):
+            return []
+        found = path_headers(sequence_file(image, node))
+        return [found and found.size]
+    files = image_headers(image)
     if image.source == "TILED" and covered:
         wanted = set(covered)
-        files = [f for f, t in zip(files, image.tiles) if t.number in wanted]
-    return files
-
-
-def _size(path):
-    try:
-        with open(path, "rb") as f:
-            return pixel_size(f)
-    except OSError:
-        return None
+        numbers = [p.tile_number for p in image.packed_files] if len(image.packed_files) > 1 \
+            else [t.number for t in image.tiles]
+        files = [f for f, number in zip(files, numbers) if number in wanted]
+    return [found.size for _, found in files if found is not None]

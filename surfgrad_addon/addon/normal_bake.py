@@ -377,11 +377,15 @@ def _make_tiles(bpy, image, tiles, resolution, is_float):
 
 def _to_half_exr(bpy, scene, paths):
     """Rewrite float EXR files as half EXR (Image.save keeps a float buffer at 32 bits; the
-    scene's output settings choose 16, and are put back)."""
+    scene's output settings choose 16, and are put back). The output's colour management
+    follows the scene: on 4.2 an Override to another linear space (Output Properties > Color
+    Management) converted the map's data into it, 18 degrees off (test_faults_images35)."""
     # Put back last to first: the format first, then the depth and mode it allows.
-    keep = ("render.image_settings.exr_codec", "render.image_settings.color_depth",
-            "render.image_settings.color_mode", "render.image_settings.file_format")
+    keep = ("render.image_settings.color_management", "render.image_settings.exr_codec",
+            "render.image_settings.color_depth", "render.image_settings.color_mode",
+            "render.image_settings.file_format")
     with restored(scene, keep):
+        scene.render.image_settings.color_management = "FOLLOW_SCENE"
         scene.render.image_settings.file_format = "OPEN_EXR"
         scene.render.image_settings.color_mode = "RGB"
         scene.render.image_settings.color_depth = "16"

@@ -15,13 +15,16 @@ bends them, naming the image, the node and the fix.
 - A float image whose normals are stored in -1..1, not 0..1 (more than NEGATIVE_SHARE of its
   texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
   tilt, so every normal is pulled toward (-1, -1).
+Channels and range are judged in every file the bake reads: each UDIM tile's (of the tiles
+baked), the frame file an Image Sequence reads now, and the warning names it.
 """
 
 import re
 
-from .float_pixels import PixelsTooLarge, pixel_facts
-from .image_checks import image_feeding, objects_nodes
-from .image_channels import layered_file, read_channels
+from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
+from .image_checks import image_files, objects_nodes, sequence_file, texture_feeding
+from .header_reads import path_headers
+from .image_channels import layered_file, path_channels, read_channels
 
 # The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
 NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
@@ -34,16 +37,16 @@ NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filter
 
 
 def normal_map_images(obj, only=None):
-    """[(material, what the node is and its path, image)] for every image node whose Color
-    output is read (through reroutes, and into node groups through their inputs) into the
-    Color input of a Normal Map node, an SG Normal Map or an SG Tangent Normal the object's
-    materials (or material `only`) reach."""
+    """[(material, what the node is and its path, image, its Image Texture node)] for every
+    image node whose Color output is read (through reroutes, and into node groups through
+    their inputs) into the Color input of a Normal Map node, an SG Normal Map or an SG Tangent
+    Normal the object's materials (or material `only`) reach."""
     out = []
     for mat, node, path, outer in objects_nodes(obj, only):
         kind = _normal_map_kind(node)
-        image = image_feeding(node.inputs.get("Color"), outer) if kind else None
-        if image is not None:
-            out.append((mat, f"{kind} node {path!r}", image))
+        tex = texture_feeding(node.inputs.get("Color"), outer) if kind else None
+        if tex is not None and tex.image is not None:
+            out.append((mat, f"{kind} node {path!r}", tex.image, tex))
     return out
 
 
@@ -69,7 +72,7 @@ def colour_space_warnings(obj, only=None):
     or an SG Tangent Normal (normal_map_images): sRGB (or any colour space that is not data)
     bends every texel's normal, and the bake, like Cycles' render, takes the bent one."""
     out = []
-    for mat, node, image in normal_map_images(obj, only):
+    for mat, node, image, _ in normal_map_images(obj, only):
         if unconverted(image.colorspace_settings):
             continue
         text = (f"image {image.name!r} is read in colour space "
@@ -82,14 +85,17 @@ def colour_space_warnings(obj, only=None):
     return out
 
 
-def normal_map_warnings(obj, only=None):
-    """The warnings for every image normal_map_images finds: too few channels in its file,
-    or a float image stored in -1..1. Each image is read once."""
+def normal_map_warnings(obj, only=None, covered=()):
+    """The warnings for every image normal_map_images finds: too few channels in a file it
+    reads, or float pixels stored in -1..1 (of a tiled image, the UDIM tiles `covered`, all
+    where empty). Each file is read once."""
     out, seen = [], {}
-    for mat, node, image in normal_map_images(obj, only):
-        if image.name not in seen:
-            seen[image.name] = (_channels_problem(image), _range_problem(image))
-        for problem in seen[image.name]:
+    for mat, node, image, tex in normal_map_images(obj, only):
+        files = _own_files(image, tex, covered)
+        key = (image.name, tuple(files))
+        if key not in seen:
+            seen[key] = (_channels_problem(image, files), _range_problem(image, files))
+        for problem in seen[key]:
             if problem:
                 text = (f"image {image.name!r}, read by {node} (material {mat.name!r}), "
                         f"{problem}")
@@ -98,11 +104,30 @@ def normal_map_warnings(obj, only=None):
     return out
 
 
-def _channels_problem(image):
-    """What is wrong with the channels of the image's file (the first of its UDIM tiles that
-    has too few), or None: fine, or a format whose header is not read (image_headers)."""
-    for what, found in read_channels(image):
-        if found.lacking != "grey":     # (a file lacking colours is refused: image_channels)
+def _own_files(image, tex, covered):
+    """(what, path) of each file the bake reads from `image` (read by Image Texture `tex`)
+    that the image's own load does not: each UDIM tile's (of `covered`, all where empty), the
+    frame file an Image Sequence reads now; [] for one file or packed data (the image's)."""
+    if image.packed_file is not None or len(getattr(image, "packed_files", ())) or \
+            not image.filepath:
+        return []
+    if image.source == "TILED":
+        return [(f"tile {t.number}: {p.name}", p) for t, p in zip(image.tiles, image_files(image))
+                if not covered or t.number in covered]
+    if image.source == "SEQUENCE":
+        path = sequence_file(image, tex)
+        return [(f"frame file {path.name}", path)]
+    return []
+
+
+def _channels_problem(image, files):
+    """What is wrong with the channels of the image's files (the first of its UDIM tiles, or
+    its sequence frame file, that has too few), or None: fine, or a format whose header is
+    not read (image_headers)."""
+    found_in = [(what, path_channels(p)) for what, p in files] if files else \
+        read_channels(image)
+    for what, found in found_in:
+        if found is None or found.lacking != "grey":     # (lacking colours: image_channels)
             continue
         held = (f"holds {found.channels} channel{'s' * (found.channels > 1)} in its file "
                 f"({what}: {found.kind} {found.format})")
@@ -112,25 +137,38 @@ def _channels_problem(image):
     return None
 
 
-def _range_problem(image):
-    """A float image with more than NEGATIVE_SHARE of its texels below 0 in R or G (its first
-    tile, for a tiled one), or None."""
+def _range_problem(image, files):
+    """A float file of the image (each of `files`, else the image's own pixels) with more than
+    NEGATIVE_SHARE of its texels below 0 in R or G, or None."""
+    if files:
+        for what, path in files:
+            header = path_headers(path)
+            if header and header.layered:
+                continue            # (a multilayer EXR: refused unloaded, image_checks)
+            problem = _range_text(lambda p=path: file_facts(p), f" ({what})")
+            if problem:
+                return problem
+        return None
     if image.source not in ("FILE", "TILED") or (not image.has_data and layered_file(image)):
-        return None                 # (a multilayer EXR: refused unloaded, image_checks)
+        return None
+    return _range_text(lambda: pixel_facts(image), "")
+
+
+def _range_text(read, where):
     try:
-        facts = pixel_facts(image)  # (read once with image_checks' finite test: float_pixels)
+        facts = read()      # (read once with image_checks' finite test: float_pixels)
     except PixelsTooLarge:
-        return None                 # (image_checks refuses the bake for it)
+        return None         # (image_checks refuses the bake for it)
     if facts is None:
         return None
     shares = facts.share_below_zero()     # (0, 0) with fewer than two channels
     if max(shares) <= NEGATIVE_SHARE:
         return None
     return (f"has {100 * shares[0]:.0f}% of its texels below 0 in R and "
-            f"{100 * shares[1]:.0f}% in G: it looks stored in -1..1, but a normal map is read "
-            f"as 0..1 (0.5 is no tilt), so every normal is pulled toward (-1, -1) (the bake "
-            f"takes them as Cycles renders them); store it as n * 0.5 + 0.5 (re-export it as "
-            f"a 0..1 tangent-space normal map)")
+            f"{100 * shares[1]:.0f}% in G{where}: it looks stored in -1..1, but a normal map "
+            f"is read as 0..1 (0.5 is no tilt), so every normal is pulled toward (-1, -1) (the "
+            f"bake takes them as Cycles renders them); store it as n * 0.5 + 0.5 (re-export "
+            f"it as a 0..1 tangent-space normal map)")
 
 
 def input_warnings(obj, only=None):
