@@ -246,3 +246,30 @@ def test_a_batch_stopped_while_it_reads_its_files_says_what_is_left(tmp_path):
     assert commands.execute(args[3:] + ["--workers", "0"]) == 0       # the rerun, here
     assert sorted(p.name for p in maps.iterdir()) == sorted([MANIFEST_NAME, "R0.png",
                                                              "R1.png"])
+
+
+@pytest.mark.tier("blender")
+def test_a_working_folder_removed_under_the_command_is_one_line(tmp_path, capsys):
+    """A shell (or a farm task) left in a folder removed since, and a relative path: before,
+    bake-normal-map ended in a raw FileNotFoundError from os.path.realpath and compare-all in
+    one from os.path.abspath, exit 1. Now both say so in one line, exit 2, and write nothing."""
+    from surfgrad_addon.harness.cli import main
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=16)
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    here = os.getcwd()
+    os.chdir(gone)
+    try:
+        gone.rmdir()
+        capsys.readouterr()
+        codes = [commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
+                                   "--output", "n.png", "--resolution", "16"]),
+                 main(["compare-all", "--out", "c", "--resolution", "8"])]
+    finally:
+        os.chdir(here)
+    err = capsys.readouterr().err
+    assert codes == [exit_codes.BAD_REQUEST] * 2, err
+    assert err.splitlines() == ["surfgrad: error: the current folder no longer exists (removed "
+                                "after this shell or task entered it): cd to a folder that "
+                                "exists and run the command again"] * 2, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend"]

@@ -396,9 +396,12 @@ def main(argv=None, in_blender=False):
     compare and bake-batch work on the open file when none is named."""
     args = CL.parser(SUBCOMMANDS, PROG, DESCRIPTION, raw_description=True).parse_args(argv)
     args.in_blender = in_blender
-    problem = _out_problem(args)
+    problem = CL.working_folder_problem()        # before --out is made absolute
+    if problem is None:
+        out = _out_problem(args)
+        problem = out and f"--out: {out}"
     if problem:
-        print(f"surfgrad: error: --out: {problem}", file=sys.stderr)
+        print(f"surfgrad: error: {problem}", file=sys.stderr)
         return CL.BAD_REQUEST
     return CL.run(SUBCOMMANDS, args)
 
