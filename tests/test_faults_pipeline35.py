@@ -273,3 +273,35 @@ def test_a_working_folder_removed_under_the_command_is_one_line(tmp_path, capsys
                                 "after this shell or task entered it): cd to a folder that "
                                 "exists and run the command again"] * 2, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend"]
+
+
+@pytest.mark.tier("blender")
+def test_a_dangling_manifest_link_and_a_loop_of_links_are_named(tmp_path, capsys):
+    """Before: `--manifest` a symbolic link to a share not mounted (a dangling link) was read
+    as no manifest and replaced by a new file, exit 0: the link to the share's manifest was
+    gone. An output folder that is a loop of links (a -> b -> a) was told to "give a shorter
+    folder path" (ELOOP taken as a name too long). Now both are refused, exit 2, with the fix,
+    and nothing is made."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=16)
+    share = tmp_path / "share" / "m.json"
+    (tmp_path / "m.json").symlink_to(share)
+    (tmp_path / "loop_a").symlink_to(tmp_path / "loop_b")
+    (tmp_path / "loop_b").symlink_to(tmp_path / "loop_a")
+
+    def batch(output, *more):
+        capsys.readouterr()
+        rc = commands.execute(["bake-batch", str(blend), "--output", str(output),
+                               "--resolution", "16", "--workers", "0", *more])
+        return rc, capsys.readouterr().err.strip().splitlines()[-1]
+    rc, line = batch(tmp_path / "maps" / "{object}.png", "--manifest", str(tmp_path / "m.json"))
+    assert rc == exit_codes.BAD_REQUEST and line == (
+        f"surfgrad: error: manifest {tmp_path / 'm.json'}: is a symbolic link to {str(share)!r}, "
+        f"which does not exist (an unmounted share or a moved file?): mount or restore it, or "
+        f"give another --manifest"), line
+    assert (tmp_path / "m.json").is_symlink()
+    rc, line = batch(tmp_path / "loop_a" / "{object}.png")
+    assert rc == exit_codes.BAD_REQUEST and \
+        f"output folder {str(tmp_path / 'loop_a')!r} cannot be used (a loop of symbolic " \
+        f"links: " in line and line.endswith("fix the links, or give another folder"), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend", "loop_a", "loop_b",
+                                                          "m.json"]

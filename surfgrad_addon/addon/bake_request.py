@@ -428,6 +428,9 @@ def folder_problem(folder):
         if any(len(os.fsencode(part)) > name_max for part in folder.parts):
             raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG))
     except OSError as err:     # a path or a folder name too long for the file system
+        if err.errno == errno.ELOOP:
+            return (f"output folder {str(folder)!r} cannot be used (a loop of symbolic links: "
+                    f"{err.strerror}): fix the links, or give another folder")
         shown = str(folder) if len(str(folder)) <= 120 else f"{str(folder)[:120]}..."
         return (f"output folder {shown!r} ({len(os.fsencode(folder))} bytes) cannot be used "
                 f"({err.strerror}): give a shorter folder path (most file systems take 255 "
