@@ -41,9 +41,10 @@ def _groups_of(obj):
 
 
 def _scenes(tmp_path):
-    """lib.blend (object Rock, material Rock_SG: SG groups and a packed image) and three shots
-    reading it: its groups in a local material, its image in a local material, and a material
-    of sub/mid.blend whose SG Resolve group mid.blend links from lib.blend (indirect)."""
+    """lib.blend (object Rock, material Rock_SG: SG groups and a packed image) and four shots
+    reading it: its groups in a local material, its image in a local material, a material of
+    sub/mid.blend whose SG Resolve group mid.blend links from lib.blend (indirect), and a
+    library override of Rock_SG (local data, its groups and image still the library's)."""
     lib = BA.write_asset(tmp_path / "lib.blend", ("Rock",), tiles=(1001,), image_size=16)
     bpy.ops.wm.open_mainfile(filepath=str(lib), use_scripts=False)
     groups = sorted({n.node_tree.name for n in _groups_of(bpy.data.objects["Rock"])})
@@ -62,6 +63,9 @@ def _scenes(tmp_path):
     def use_material(obj, linked):
         obj.data.materials[0] = next(iter(linked.values()))
 
+    def use_override(obj, linked):
+        obj.data.materials[0] = linked["Rock_SG"].override_create(remap_local_usages=True)
+
     def shot(name):
         return BA.write_asset(tmp_path / name, ("Rock",), tiles=(1001,), image_size=16)
     mid = BA.write_asset(tmp_path / "sub" / "mid.blend", ("Mid",), tiles=(1001,),
@@ -71,7 +75,9 @@ def _scenes(tmp_path):
         "groups": _link_into(shot("groups.blend"), lib, "node_groups", groups, use_groups),
         "image": _link_into(shot("image.blend"), lib, "images", ["Rock_src"], use_image),
         "indirect": _link_into(shot("indirect.blend"), mid, "materials", ["Mid_SG"],
-                               use_material)}
+                               use_material),
+        "override": _link_into(shot("override.blend"), lib, "materials", ["Rock_SG"],
+                               use_override)}
 
 
 def _bake(capsys, blend, output):
@@ -90,9 +96,10 @@ def _rgb(path):
 
 
 def test_data_linked_from_a_library_that_is_gone_is_refused_naming_it(tmp_path, capsys):
-    """Before, with lib.blend moved away: the groups and the indirect shot baked a flat map,
-    every texel (0.502, 0.502, 1.0), exit 0, in bake-normal-map and bake-batch alike; the image
-    shot a uniform (0.212, 0.212, 0.788), exit 0, under a warning about colour space ''.
+    """Before, with lib.blend moved away: the groups, the indirect and the override shot baked
+    a flat map, every texel (0.502, 0.502, 1.0), exit 0, in bake-normal-map and bake-batch
+    alike; the image shot a uniform (0.212, 0.212, 0.788), exit 0, under a warning about
+    colour space ''.
     With the library there they bake the library's own map."""
     lib, shots = _scenes(tmp_path)
     out = tmp_path / "out"
@@ -111,7 +118,8 @@ def test_data_linked_from_a_library_that_is_gone_is_refused_naming_it(tmp_path, 
             "image": f"image 'Rock_src' is {where}, which is missing, {FIX}",
             "indirect": f"node group 'SG Resolve' is linked from library '//lib.blend' ({lib}) "
                         f"(linked in through library '//sub/mid.blend'), which is missing, "
-                        f"{FIX}put the library file there or relink it"}
+                        f"{FIX}put the library file there or relink it",
+            "override": f"node group 'SG Resolve' is {where}, which is missing, {FIX}"}
     for name, blend in shots.items():
         rc, err = _bake(capsys, blend, out / f"gone_{name}.png")
         assert rc == exit_codes.BAD_REQUEST and said[name] in err, (name, err)
