@@ -313,3 +313,26 @@ def test_a_dangling_manifest_link_and_a_loop_of_links_are_named(tmp_path, capsys
         f"links: " in line and line.endswith("fix the links, or give another folder"), line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend", "loop_a", "loop_b",
                                                           "m.json"]
+
+
+@pytest.mark.tier("blender")
+def test_udim_twice_in_an_output_name_is_refused_before_baking(tmp_path, capsys):
+    """Before: `--output out/n_<UDIM>_<UDIM>.png` on a two-tile asset baked, Blender put the
+    tile number in the first token only (temporary files .n_1001_7.partPID.png and
+    .n_1002_510550075.partPID.png), the bake failed "Blender wrote no file", exit 1, and both
+    temporary files stayed in the folder; bake-batch failed the asset the same way. Now
+    refused before anything runs, exit 2, and the folder stays empty."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001, 1002), image_size=16)
+    out = tmp_path / "out"
+    out.mkdir()
+    said = "has <UDIM> 2 times: Blender puts the tile number in the first only; put <UDIM> " \
+           "in the file name once"
+    for args in (["bake-normal-map", "--blend", str(blend), "--object", "Rock", "--output",
+                  str(out / "n_<UDIM>_<UDIM>.png")],
+                 ["bake-batch", str(blend), "--output", str(out / "{object}_<UDIM>_<UDIM>.png"),
+                  "--workers", "0"]):
+        capsys.readouterr()
+        rc = commands.execute(args + ["--resolution", "16"])
+        err = capsys.readouterr().err
+        assert rc == exit_codes.BAD_REQUEST and said in err.strip().splitlines()[-1], err
+    assert list(out.iterdir()) == []
