@@ -336,3 +336,20 @@ def test_udim_twice_in_an_output_name_is_refused_before_baking(tmp_path, capsys)
         err = capsys.readouterr().err
         assert rc == exit_codes.BAD_REQUEST and said in err.strip().splitlines()[-1], err
     assert list(out.iterdir()) == []
+
+
+@pytest.mark.tier("blender")
+def test_an_output_ending_in_a_slash_is_a_folder_not_a_file(tmp_path, capsys):
+    """Before: `--output out/t.png/` (a folder meant, not there yet) baked into the file
+    out/t.png, exit 0: Path() drops the trailing '/', so the check for it never fired. Now
+    refused, exit 2, nothing written."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=16)
+    out = tmp_path / "out"
+    out.mkdir()
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
+                           "--output", f"{out}/t.png/", "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST and err.strip().splitlines()[-1] == \
+        f"surfgrad: error: output '{out}/t.png/' is a folder: give a file name in it", err
+    assert list(out.iterdir()) == []

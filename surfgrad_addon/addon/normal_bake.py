@@ -68,6 +68,8 @@ TEMP_NAME_EXTRA = 1 + len(".part") + 7
 
 def check_output(output, overwrite_check=True):
     """The output name's format and its folder: raises NormalBakeError naming the fix."""
+    if str(output).endswith(("/", os.sep)):     # Path() drops the slash: `n.png/` wrote n.png
+        raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     output = Path(output)
     try:
         return _check_output(output)
@@ -126,7 +128,7 @@ def _check_output(output):
                               f"{len(os.fsencode(output.name))} bytes: the folder's file system "
                               f"takes {longest} for it (the bake writes a temporary file with a "
                               f"longer name beside it first); give a shorter name")
-    if output.is_dir() or str(output).endswith(("/", os.sep)):
+    if output.is_dir():
         raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     if output.suffix.lower() not in FORMATS:
         raise NormalBakeError(f"output {str(output)!r}: use a .png or .exr file name")
