@@ -6,7 +6,11 @@ through another library: Blender leaves an empty placeholder, and the bake wrote
 (a group that outputs nothing) or a uniform one (an image without pixels), exit 0. Only a
 material linked from a missing library was refused. And the harness commands' outputs in a
 place no file can be made (a read-only or system folder, a dangling symbolic link) ended in a
-raw traceback, or in Python's bare "[Errno 17] File exists", or ran for minutes first."""
+raw traceback, or in Python's bare "[Errno 17] File exists", or ran for minutes first. Also: a
+working folder removed under the command (a traceback), a `--manifest` that is a dangling link
+(replaced by a file), a loop of links (told "give a shorter path"), <UDIM> twice in an output
+name (exit 1 and temporary files left), an output ending in '/' (baked into the file, exit 0),
+and a batch stopped while reading its files ("0 asset(s) not baked")."""
 
 import os
 from pathlib import Path
