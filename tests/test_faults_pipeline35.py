@@ -184,7 +184,9 @@ def test_harness_outputs_where_no_file_can_be_made_are_refused_before_any_work(t
                                                                               capsys):
     """Before: `demo --out /proc/x`, `demo-blend`, `batch-assets` into such a place and
     `compare --json` below it ended in a raw FileNotFoundError / PermissionError traceback
-    (exit 1; bench-reference and bench-compare still running after 120 s); `compare-all --out`
+    (exit 1; bench-reference and bench-compare still running after 120 s), and so did a
+    `compare --json` or `bench-reference --out` name too long (OSError, File name too long;
+    bench-reference after its work); `compare-all --out`
     a dangling symbolic link said "[Errno 17] File exists: 'dang'" (exit 2, no fix). Now each
     is refused at once, exit 2, naming the place and the fix, and nothing is made."""
     from surfgrad_addon.harness.cli import main
@@ -201,7 +203,10 @@ def test_harness_outputs_where_no_file_can_be_made_are_refused_before_any_work(t
         (["compare", "--object", "Sphere", "--method", "normal-map", "--resolution", "8",
           "--json", system / "r.json"], "'/proc' is not writable"),
         (["compare", "--object", "Sphere", "--method", "normal-map", "--resolution", "8",
-          "--json", tmp_path / "dang" / "r.json"], "is a symbolic link to")]
+          "--json", tmp_path / "dang" / "r.json"], "is a symbolic link to"),
+        (["compare", "--object", "Sphere", "--method", "normal-map", "--resolution", "8",
+          "--json", tmp_path / f"{'x' * 300}.json"], "(File name too long)"),
+        (["bench-reference", "--out", tmp_path / f"{'x' * 300}.json"], "(File name too long)")]
     for args, said in cases:
         capsys.readouterr()
         rc = main([str(a) for a in args])
@@ -209,7 +214,8 @@ def test_harness_outputs_where_no_file_can_be_made_are_refused_before_any_work(t
         assert rc == exit_codes.BAD_REQUEST, (args, err)
         assert err.startswith("surfgrad: error: ") and said in err, (args, err)
         assert ("pick a folder you can write to" in err) or \
-            ("mount or create it, or give another folder" in err), err
+            ("mount or create it, or give another folder" in err) or \
+            ("give a shorter name (most file systems take 255 bytes a name" in err), err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["dang"] and not gone.exists()
     assert not system.exists()
     # A folder output that exists and takes files is still taken (the check made nothing).

@@ -408,6 +408,19 @@ def _exists(path):
     return True
 
 
+def name_problem(path, what="output"):
+    """None, or why the file system will not take `path` as a name (too long): asked before a
+    command that writes it at the end has done its work."""
+    try:
+        _exists(path)
+    except OSError as err:
+        shown = str(path) if len(str(path)) <= 120 else f"{str(path)[:120]}..."
+        return (f"{what} {shown!r} ({len(os.fsencode(str(path)))} bytes) cannot be used "
+                f"({err.strerror}): give a shorter name (most file systems take 255 bytes a "
+                f"name, 4096 a path)")
+    return None
+
+
 def folder_problem(folder):
     """None when a file can be created in `folder` (tried: a probe file is made and removed),
     else what is wrong and the fix. A missing folder is checked at its nearest existing parent

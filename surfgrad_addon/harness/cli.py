@@ -66,13 +66,14 @@ def _out_problem(args):
     link, a name too long. Without this, a traceback once the command wrote (bench-reference
     and bench-compare after minutes of work). A folder output is written into its parent
     first too (staged_folder.py), so both are tried."""
-    from ..addon.bake_request import folder_problem
+    from ..addon.bake_request import folder_problem, name_problem
     out = getattr(args, "out", None)
     if out is None:
         return None
     out = Path(os.path.abspath(out))
     folders = [out.parent] if args.out_is_file else [out.parent, out]
-    return next((p for p in map(folder_problem, folders) if p), None)
+    return next((p for p in map(folder_problem, folders) if p), None) or \
+        name_problem(out, "output file")
 
 
 def _overwrite(p, what="replace existing outputs"):

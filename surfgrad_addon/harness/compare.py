@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference as R
-from ..addon.bake_request import folder_problem, zero_scale_problem
+from ..addon.bake_request import folder_problem, name_problem, zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.bake_uvs import not_rendered_problem, read_as_baked
 from ..addon.exit_codes import BakeFailed
@@ -449,8 +449,8 @@ def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
 def check_output_path(path, overwrite, what="output"):
     """Refuse, before anything is baked, an output path that cannot be written: a folder,
     an existing file without --overwrite, a parent that is a file or not writable."""
-    problem = blend_relative_problem(path, what)
-    if problem:
+    problem = blend_relative_problem(path, what) or name_problem(path, what)
+    if problem:                 # (a name too long: Path.is_dir raised a raw OSError)
         raise CompareError(problem)
     p = Path(path)
     if p.is_dir():
