@@ -34,10 +34,10 @@ def test_the_version_a_blend_was_saved_by_is_read_from_its_header(header, versio
 def test_only_a_newer_line_is_named(tmp_path):
     blend = tmp_path / "asset.blend"
     blend.write_bytes(b"BLENDER17-01v0502REND" + b"\0" * 64)
-    assert open_blend._newer_than_running(blend, (4, 2, 23)) == "5.2"
-    assert open_blend._newer_than_running(blend, (5, 2, 3)) is None
-    assert open_blend._newer_than_running(blend, (5, 3, 0)) is None
-    assert open_blend._newer_than_running(tmp_path / "missing.blend", (4, 2, 0)) is None
+    assert open_blend.newer_than_running(blend, (4, 2, 23)) == "5.2"
+    assert open_blend.newer_than_running(blend, (5, 2, 3)) is None
+    assert open_blend.newer_than_running(blend, (5, 3, 0)) is None
+    assert open_blend.newer_than_running(tmp_path / "missing.blend", (4, 2, 0)) is None
 
 
 def test_an_asset_list_with_a_byte_order_mark(tmp_path):

@@ -420,6 +420,19 @@ def _exists(path):
     return True
 
 
+def name_problem(path, what="output"):
+    """None, or why the file system will not take `path` as a name (too long): asked before a
+    command that writes it at the end has done its work."""
+    try:
+        _exists(path)
+    except OSError as err:
+        shown = str(path) if len(str(path)) <= 120 else f"{str(path)[:120]}..."
+        return (f"{what} {shown!r} ({len(os.fsencode(str(path)))} bytes) cannot be used "
+                f"({err.strerror}): give a shorter name (most file systems take 255 bytes a "
+                f"name, 4096 a path)")
+    return None
+
+
 def folder_problem(folder):
     """None when a file can be created in `folder` (tried: a probe file is made and removed),
     else what is wrong and the fix. A missing folder is checked at its nearest existing parent
@@ -440,6 +453,9 @@ def folder_problem(folder):
         if any(len(os.fsencode(part)) > name_max for part in folder.parts):
             raise OSError(errno.ENAMETOOLONG, os.strerror(errno.ENAMETOOLONG))
     except OSError as err:     # a path or a folder name too long for the file system
+        if err.errno == errno.ELOOP:
+            return (f"output folder {str(folder)!r} cannot be used (a loop of symbolic links: "
+                    f"{err.strerror}): fix the links, or give another folder")
         shown = str(folder) if len(str(folder)) <= 120 else f"{str(folder)[:120]}..."
         return (f"output folder {shown!r} ({len(os.fsencode(folder))} bytes) cannot be used "
                 f"({err.strerror}): give a shorter folder path (most file systems take 255 "

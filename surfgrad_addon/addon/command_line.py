@@ -6,6 +6,7 @@ Bad input prints one line, `surfgrad: error: ...`, naming the thing and the fix,
 exit code of exit_codes.py (2 refused before anything ran, 1 a bake failed); no traceback."""
 
 import argparse
+import os
 import sys
 from dataclasses import dataclass
 from typing import Callable
@@ -41,8 +42,9 @@ def run(subcommands, args):
     """Run the parsed command: its exit code, errors reported as one line."""
     command = next(c for c in subcommands if c.name == args.command)
     prepare_streams()            # `blender -c surfgrad ... >&-`; non-UTF-8 paths
-    problems = [p for p in (_name_problem(n, getattr(args, n, None)) for n in NAME_OPTIONS)
-                if p]
+    problems = [working_folder_problem()] + \
+        [_name_problem(n, getattr(args, n, None)) for n in NAME_OPTIONS]
+    problems = [p for p in problems if p]
     if problems:
         print(f"surfgrad: error: {'; '.join(problems)}", file=sys.stderr)
         return BAD_REQUEST
@@ -59,6 +61,18 @@ def run(subcommands, args):
     # Ctrl-C / SIGTERM stop the command at once, exit 130 / 143, nothing written.
     with interrupts.stoppable(command.name):
         return _run(command, args)
+
+
+def working_folder_problem():
+    """The folder the command was started in removed since (a farm's task folder cleaned up,
+    a shell left in a deleted folder): a relative path then names nothing, and resolving one
+    ended in a raw FileNotFoundError traceback."""
+    try:
+        os.getcwd()
+    except FileNotFoundError:
+        return ("the current folder no longer exists (removed after this shell or task "
+                "entered it): cd to a folder that exists and run the command again")
+    return None
 
 
 # Options that name things in the .blend (not paths, which may be any bytes).

@@ -74,10 +74,12 @@ def image_problems(obj, covered=(), only=None):
     for slot in obj.material_slots:
         if slot.material is not None and only in (None, slot.material):
             # (a missing library's placeholder has no tree either: its library is the fix)
-            problem = MI.library_problem(slot.material) or MI.no_tree_problem(slot.material)
+            problem = MI.missing_library_problem(slot.material, "material") or \
+                MI.no_tree_problem(slot.material)
             if problem and problem not in out:
                 out.append(problem)
     out += uv_reference_problems(obj, only)
+    out += linked_group_problems(obj, only)
     for mat, path, node, image in material_images(obj, only):
         if image is None:
             out.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
@@ -94,7 +96,7 @@ def image_problems(obj, covered=(), only=None):
             problem = MI.sequence_problem(image, node, file, bpy.context.scene) or \
                 file_problem(f"image sequence {image.name!r}", sequence_file(image, node))
         else:
-            problem = one_image_problem(image)
+            problem = MI.missing_library_problem(image, "image") or one_image_problem(image)
         if not problem and image.source == "TILED" and covered:      # (packed ones too)
             problem = MI.missing_tiles_problem(image, covered)
         if not problem and on_disk and image.source == "TILED":
@@ -102,6 +104,19 @@ def image_problems(obj, covered=(), only=None):
         if not problem and image.source == "TILED" and len(image.packed_files) > 1:
             problem = _packed_tiles_problem(image, covered)
         if problem:
+            out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
+    return out
+
+
+def linked_group_problems(obj, only=None):
+    """Node groups the materials read that are placeholders of linked data a library no
+    longer gives (missing, unreadable, renamed there; also a library linked in through
+    another): Cycles evaluates the empty group as nothing and bakes a flat map, exit 0."""
+    out = []
+    for mat, node, path, _ in objects_nodes(obj, only):
+        group = getattr(node, "node_tree", None) if node.type == "GROUP" else None
+        problem = group is not None and MI.missing_library_problem(group, "node group")
+        if problem and not any(problem in p for p in out):
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
     return out
 

@@ -9,7 +9,7 @@ material back and every copy is removed, whatever happens (an exception, a Keybo
 in a live session). A command stopped by a signal ends the process without saving anything,
 so the .blend on disk is never touched.
 
-A missing library is refused before (material_inputs.library_problem); a library override is
+A missing library is refused before (material_inputs.missing_library_problem); a library override is
 local data and bakes as it is. A slot of a linked object or mesh cannot be reassigned: the
 bake refuses those objects first (bake_target.bake_target_problem names the fix).
 """

@@ -6,6 +6,8 @@ sentence naming the thing and the fix (bake_request.py gathers them before anyth
 import re
 from pathlib import Path
 
+from .open_blend import newer_than_running
+
 MAGENTA = "Cycles would bake its magenta 'missing' colour"
 # Geometry attributes Cycles provides without a mesh layer of that name.
 BUILT_IN = {"position", "normal", "generated", "orco", "tangent", "uv"}
@@ -69,36 +71,33 @@ def missing_tiles_problem(image, covered):
             f"or move those UVs into tiles the image has")
 
 
-def library_problem(mat):
-    """A material linked from a library file that is missing: Blender keeps an empty
-    placeholder, which bakes a flat map. One whose library is present bakes through a
-    temporary local copy (linked_materials.py); a library override is local data and bakes."""
-    import bpy
-    lib = mat.library
-    if lib is None:
-        return None
-    path = bpy.path.abspath(lib.filepath)
-    if getattr(mat, "is_missing", False) or not Path(path).is_file():
-        return (f"material {mat.name!r} is linked from library {lib.filepath!r} ({path}), "
-                f"which is missing: the bake would use an empty placeholder; put the library "
-                f"file there or relink it (File > External Data > Find Missing Files)")
-    return None
-
-
 def missing_library_problem(block, what="object"):
-    """A block (an object) linked from a library that is missing, or that no longer holds it:
-    Blender keeps an empty placeholder under its name, which is no mesh to bake."""
+    """A block (an object, or a node group or image a material reads) linked from a library
+    that is missing, unreadable, or no longer holds it: Blender keeps an empty placeholder
+    under its name (no mesh to bake; a group that outputs nothing, an image of no pixels: a
+    flat or uniform map). A library linked in through another one is named with it."""
     import bpy
     lib = getattr(block, "library", None)
     if lib is None:
         return None
     path = bpy.path.abspath(lib.filepath)
+    via = f" (linked in through library {lib.parent.filepath!r})" \
+        if getattr(lib, "parent", None) is not None else ""
     if not Path(path).is_file():
-        return (f"{what} {block.name!r} is linked from library {lib.filepath!r} ({path}), "
+        return (f"{what} {block.name!r} is linked from library {lib.filepath!r} ({path}){via}, "
                 f"which is missing, so Blender left an empty placeholder: put the library "
                 f"file there or relink it (File > External Data > Find Missing Files)")
+    if getattr(lib, "is_missing", False):
+        newer = newer_than_running(path, bpy.app.version)
+        why, fix = (f"which was saved by Blender {newer}, newer than this Blender "
+                    f"({bpy.app.version[0]}.{bpy.app.version[1]}), and could not be read",
+                    f"bake with Blender {newer} or later") if newer else \
+            ("which this Blender could not read (damaged?)",
+             "put a readable copy of the library there, or relink it")
+        return (f"{what} {block.name!r} is linked from library {lib.filepath!r} ({path}){via}, "
+                f"{why}, so Blender left an empty placeholder: {fix}")
     if getattr(block, "is_missing", False):
-        return (f"{what} {block.name!r} is linked from library {lib.filepath!r}, which no "
+        return (f"{what} {block.name!r} is linked from library {lib.filepath!r}{via}, which no "
                 f"longer holds it (renamed or removed there), so Blender left an empty "
                 f"placeholder: restore it in the library, or relink it")
     return None

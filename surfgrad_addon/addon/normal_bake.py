@@ -68,6 +68,8 @@ TEMP_NAME_EXTRA = 1 + len(".part") + 7
 
 def check_output(output, overwrite_check=True):
     """The output name's format and its folder: raises NormalBakeError naming the fix."""
+    if str(output).endswith(("/", os.sep)):     # Path() drops the slash: `n.png/` wrote n.png
+        raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     output = Path(output)
     try:
         return _check_output(output)
@@ -102,6 +104,20 @@ def blend_relative_problem(output, what="output"):
             f"give the folder itself, absolute or relative to the current folder")
 
 
+def udim_token_problem(output, what="output"):
+    """<UDIM> in a folder (never filled in), or more than once in the file name: Blender fills
+    in the first only, the second became a stray number and the bake's temporary files were
+    left behind, exit 1."""
+    path = Path(str(output))
+    if UDIM_TOKEN in str(path.parent):
+        return f"{what} {str(output)!r}: put {UDIM_TOKEN} in the file name, not a folder"
+    count = path.name.count(UDIM_TOKEN)
+    if count > 1:
+        return (f"{what} {str(output)!r} has {UDIM_TOKEN} {count} times: Blender puts the tile "
+                f"number in the first only; put {UDIM_TOKEN} in the file name once")
+    return None
+
+
 def _check_output(output):
     problem = blend_relative_problem(output)
     if problem:
@@ -112,10 +128,13 @@ def _check_output(output):
                               f"{len(os.fsencode(output.name))} bytes: the folder's file system "
                               f"takes {longest} for it (the bake writes a temporary file with a "
                               f"longer name beside it first); give a shorter name")
-    if output.is_dir() or str(output).endswith(("/", os.sep)):
+    if output.is_dir():
         raise NormalBakeError(f"output {str(output)!r} is a folder: give a file name in it")
     if output.suffix.lower() not in FORMATS:
         raise NormalBakeError(f"output {str(output)!r}: use a .png or .exr file name")
+    problem = udim_token_problem(output)
+    if problem:
+        raise NormalBakeError(problem)
     if output.parent.exists() and not output.parent.is_dir():
         raise NormalBakeError(f"output folder {str(output.parent)!r} is a file, not a folder: "
                               f"give an output in a folder")

@@ -4,6 +4,7 @@ Blender's -c loads the user's Preferences; with "Auto Run Python Scripts" on, a 
 open_mainfile would run the file's registered text blocks and Python drivers. Every place
 that opens a user's file goes through here, with use_scripts=False."""
 
+import re
 import sys
 from pathlib import Path
 
@@ -31,17 +32,43 @@ def open_mainfile(path, load_ui=False):
                   f"newer than this Blender ({running[0]}.{running[1]}): "
                   f"what that line added to the file may be lost and the map may differ; "
                   f"bake with Blender {newer} or later", file=sys.stderr, flush=True)
+        for lib in bpy.data.libraries:          # linked data comes from these files too
+            newer = _newer_line(tuple(lib.version[:2]), running)
+            if newer:
+                print(f"surfgrad: warning: library {lib.filepath!r} of .blend file "
+                      f"{str(path)!r} was saved by Blender {newer}, newer than this Blender "
+                      f"({running[0]}.{running[1]}): what that line added to the linked data "
+                      f"may be lost and the map may differ; bake with Blender {newer} or "
+                      f"later", file=sys.stderr, flush=True)
     except RuntimeError as err:       # Blender's own text starts "Error: ": say it once
         reason = str(err).strip()
         reason = reason[len("Error:"):].strip() if reason.startswith("Error:") else reason
-        newer = _newer_than_running(path, bpy.app.version)
+        running = f"{bpy.app.version[0]}.{bpy.app.version[1]}"
+        newer = newer_than_running(path, bpy.app.version)
         if newer:              # e.g. 5.x's new file header, which 4.x calls "not a blend file"
             raise BlendOpenError(f".blend file {str(path)!r} could not be opened ({reason}); "
                                  f"it was saved by Blender {newer}, newer than this Blender "
-                                 f"({bpy.app.version[0]}.{bpy.app.version[1]}): open it with "
-                                 f"Blender {newer} or later") from None
+                                 f"({running}): open it with Blender {newer} or later") from None
+        library = _unreadable_library(reason, path)
+        if library:            # the file opened; a library it links did not (4.2: 5.x's header)
+            newer = newer_than_running(library, bpy.app.version)
+            fix = f"it was saved by Blender {newer}, newer than this Blender ({running}): " \
+                  f"bake with Blender {newer} or later" if newer else \
+                  "put a readable copy of the library there, or relink the data"
+            raise BlendOpenError(f"library {library!r}, which .blend file {str(path)!r} links "
+                                 f"data from, could not be read ({reason}); {fix}") from None
         raise BlendOpenError(f".blend file {str(path)!r} could not be opened ({reason}): "
                              f"give a .blend file Blender can open") from None
+
+
+def _unreadable_library(reason, path):
+    """The other .blend Blender's error names ("Failed to read blend file '...'"): a library
+    the file links, when it is not `path` itself; else None."""
+    match = re.search(r"blend file '(.+?)'", reason)
+    if match is None or Path(match.group(1)) == Path(path) or \
+            Path(match.group(1)).resolve() == Path(path).resolve():
+        return None
+    return match.group(1)
 
 
 def saved_by(header):
@@ -75,7 +102,7 @@ def _newer_line(version, running):
     return f"{version[0]}.{version[1]}"
 
 
-def _newer_than_running(path, running):
+def newer_than_running(path, running):
     """'X.Y' when `path` was saved by a newer Blender line than `running` (read from its
     header: for a file Blender could not open), else None."""
     try:

@@ -5,6 +5,7 @@ own rows (addon/commands.py SHIPPED, also `blender -c surfgrad`), and addon/comm
 builds both command lines from their tables.
 """
 
+import os
 import sys
 from pathlib import Path
 
@@ -54,8 +55,25 @@ def _sizes(given, default):
     return default if given is None else tuple(given)
 
 
-def _out(p, default, what="output folder"):
+def _out(p, default, what="output folder", is_file=False):
     p.add_argument("--out", default=default, help=what)
+    p.set_defaults(out_is_file=is_file)
+
+
+def _out_problem(args):
+    """Why --out cannot take this command's files (None when it can), before any work: a
+    place no file can be made in (read-only, another user's, /proc), a dangling symbolic
+    link, a name too long. Without this, a traceback once the command wrote (bench-reference
+    and bench-compare after minutes of work). A folder output is written into its parent
+    first too (staged_folder.py), so both are tried."""
+    from ..addon.bake_request import folder_problem, name_problem
+    out = getattr(args, "out", None)
+    if out is None:
+        return None
+    out = Path(os.path.abspath(out))
+    folders = [out.parent] if args.out_is_file else [out.parent, out]
+    return next((p for p in map(folder_problem, folders) if p), None) or \
+        name_problem(out, "output file")
 
 
 def _overwrite(p, what="replace existing outputs"):
@@ -131,7 +149,7 @@ def demo_run(args):
 # bench-reference ----------------------------------------------------------------------------
 
 def bench_reference_arguments(p):
-    _out(p, "out/bench_reference.json", "JSON output path")
+    _out(p, "out/bench_reference.json", "JSON output path", is_file=True)
     p.add_argument("--sizes", type=int, nargs="*", default=None,
                    help="sizes of the listing table (default 256 512 1024 2048; none: skip)")
     p.add_argument("--method-sizes", type=int, nargs="*", default=None,
@@ -161,7 +179,7 @@ def bench_reference_run(args):
 # bench-compare ------------------------------------------------------------------------------
 
 def bench_compare_arguments(p):
-    _out(p, "out/bench_compare.json", "JSON output path")
+    _out(p, "out/bench_compare.json", "JSON output path", is_file=True)
     p.add_argument("--sizes", type=int, nargs="+", default=None,
                    help="bake sizes (default 2048 4096)")
     p.add_argument("--method", default=None, help="method (default normal-map)")
@@ -329,7 +347,7 @@ def bench_batch_run(args):
 
 
 def demo_blend_arguments(p):
-    _out(p, "demo.blend", "the .blend to write")
+    _out(p, "demo.blend", "the .blend to write", is_file=True)
     p.add_argument("--pictures", default=None, help="folder for a Cycles render of each "
                                                     "exhibit")
     _overwrite(p, "replace an existing file")
@@ -379,6 +397,13 @@ def main(argv=None, in_blender=False):
     compare and bake-batch work on the open file when none is named."""
     args = CL.parser(SUBCOMMANDS, PROG, DESCRIPTION, raw_description=True).parse_args(argv)
     args.in_blender = in_blender
+    problem = CL.working_folder_problem()        # before --out is made absolute
+    if problem is None:
+        out = _out_problem(args)
+        problem = out and f"--out: {out}"
+    if problem:
+        print(f"surfgrad: error: {problem}", file=sys.stderr)
+        return CL.BAD_REQUEST
     return CL.run(SUBCOMMANDS, args)
 
 

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference as R
-from ..addon.bake_request import zero_scale_problem
+from ..addon.bake_request import folder_problem, name_problem, zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.bake_uvs import not_rendered_problem, read_as_baked
 from ..addon.exit_codes import BakeFailed
@@ -449,8 +449,8 @@ def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
 def check_output_path(path, overwrite, what="output"):
     """Refuse, before anything is baked, an output path that cannot be written: a folder,
     an existing file without --overwrite, a parent that is a file or not writable."""
-    problem = blend_relative_problem(path, what)
-    if problem:
+    problem = blend_relative_problem(path, what) or name_problem(path, what)
+    if problem:                 # (a name too long: Path.is_dir raised a raw OSError)
         raise CompareError(problem)
     p = Path(path)
     if p.is_dir():
@@ -466,9 +466,11 @@ def check_output_path(path, overwrite, what="output"):
     if not parent.is_dir():
         raise CompareError(f"cannot write {what} {str(p)!r}: {str(parent)!r} is a file, not a "
                            f"folder; give a path inside a folder")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise CompareError(f"cannot write {what} {str(p)!r}: folder {str(parent)!r} is not "
-                           f"writable; choose another folder")
+    # tried with a probe file: os.access says yes to root in /sys or /proc, and a dangling
+    # link on the way stopped the folder's mkdir with a bare "[Errno 17] File exists"
+    problem = folder_problem(p.parent)
+    if problem:
+        raise CompareError(f"cannot write {what} {str(p)!r}: {problem}")
 
 
 def _not_an_input(path, *inputs):

@@ -46,6 +46,10 @@ def _manifest_problem(path):
         return f"is a folder; give a file path (e.g. {path / MANIFEST_NAME})"
     if path.exists() and not path.is_file():
         return "is not a regular file; give a file path"
+    if path.is_symlink() and not path.exists():     # read as none, then replaced by a file
+        return (f"is a symbolic link to {os.readlink(path)!r}, which does not exist (an "
+                f"unmounted share or a moved file?): mount or restore it, or give another "
+                f"--manifest")
     return None
 
 

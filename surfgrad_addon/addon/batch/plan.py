@@ -147,9 +147,9 @@ def check_pattern(pattern):
     if left:
         raise BatchError(f"output pattern {pattern!r}: unknown token {left[0]}; the tokens are "
                          f"{', '.join(TOKENS)} and {NB.UDIM_TOKEN}")
-    if NB.UDIM_TOKEN in str(Path(pattern).parent):
-        raise BatchError(f"output pattern {pattern!r}: put {NB.UDIM_TOKEN} in the file name, "
-                         f"not a folder")
+    problem = NB.udim_token_problem(pattern, "output pattern")
+    if problem:
+        raise BatchError(problem)
     return pattern
 
 

@@ -106,12 +106,18 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             for e in left:
                 e.update(status="interrupted", error=f"stopped by {signal_name} before it "
                                                      f"was baked")
+            # files not read yet (a stop while scanning): their assets are not known, and
+            # "0 asset(s) not baked" told a farm log that nothing was left
+            planned = {e["file"] for e in report["assets"].values()}
+            unread = [b for b in files if b not in planned]
             report["interrupted"] = signal_name
             M.write_last(manifest_path, M.merged(previous, report, files))
             M.release(manifest_path)
             interrupts.say(f"[batch] {signal_name}: stopped {n} worker process(es); "
-                           f"{len(left)} asset(s) not baked, recorded as interrupted in "
-                           f"{manifest_path}")
+                           f"{len(left)} asset(s) not baked" +
+                           (f", {len(unread)} file(s) not read yet (a rerun reads and bakes "
+                            f"them)" if unread else "") +
+                           f", recorded as interrupted in {manifest_path}")
         finally:
             if held:
                 pool.lock.release()
