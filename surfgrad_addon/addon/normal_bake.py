@@ -44,6 +44,8 @@ UDIM_TOKEN = T.UDIM_TOKEN
 FORMATS = {".png": ("PNG", ("8", "16"), "8"), ".exr": ("OPEN_EXR", ("half", "float"), "float")}
 # UDIM numbering: tile 1001 + u + 10 v for u in 0..9 (Blender's tiled images).
 UDIM_FIRST, UDIM_COLUMNS, UDIM_LAST = T.UDIM_FIRST, T.UDIM_COLUMNS, T.UDIM_LAST
+# Blender's other tile token (u<column+1>_v<row+1>): not filled in here, so refused.
+UVTILE_TOKEN = "<UVTILE>"
 
 
 def resolution_problem(resolution, lo, hi):
@@ -107,8 +109,12 @@ def blend_relative_problem(output, what="output"):
 def udim_token_problem(output, what="output"):
     """<UDIM> in a folder (never filled in), or more than once in the file name: Blender fills
     in the first only, the second became a stray number and the bake's temporary files were
-    left behind, exit 1."""
+    left behind, exit 1. <UVTILE> anywhere: it was written as a file named with it."""
     path = Path(str(output))
+    if UVTILE_TOKEN in str(output):
+        return (f"{what} {str(output)!r} has {UVTILE_TOKEN}, which this bake does not fill in "
+                f"(it would be a file named with it): put {UDIM_TOKEN} in the file name "
+                f"instead (tile 1001 + u + 10 v)")
     if UDIM_TOKEN in str(path.parent):
         return f"{what} {str(output)!r}: put {UDIM_TOKEN} in the file name, not a folder"
     count = path.name.count(UDIM_TOKEN)
