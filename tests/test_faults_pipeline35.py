@@ -228,7 +228,8 @@ def test_a_batch_stopped_while_it_reads_its_files_says_what_is_left(tmp_path):
     """SIGTERM (a farm's cancel) while the workers still read the files: before, the last
     lines said "stopped 1 worker process(es); 0 asset(s) not baked", as if nothing were left.
     Now they count the files not read; no map, no lock, no worker is left, and a rerun bakes
-    every asset."""
+    every asset. Red team 36a: the stop also wrote a manifest with no assets into the folders
+    the run made (maps/set); with no file read it now writes none and removes them."""
     import signal
     import subprocess
     import sys
@@ -238,7 +239,7 @@ def test_a_batch_stopped_while_it_reads_its_files_says_what_is_left(tmp_path):
     from surfgrad_addon.addon.batch import MANIFEST_NAME
     blends = [str(BA.write_asset(tmp_path / "in" / f"a{i}.blend", (f"R{i}",), tiles=(1001,),
                                  image_size=16, seed=i)) for i in range(2)]
-    maps = tmp_path / "maps"
+    maps = tmp_path / "maps" / "set"
     args = [sys.executable, "-m", "surfgrad_addon", "bake-batch", *blends, "--output",
             str(maps / "{object}.png"), "--resolution", "16"]
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
@@ -256,10 +257,10 @@ def test_a_batch_stopped_while_it_reads_its_files_says_what_is_left(tmp_path):
     assert proc.returncode == 143, err
     assert err.strip().splitlines()[-2:] == [
         f"[batch] SIGTERM: stopped 1 worker process(es); 0 asset(s) not baked, 2 file(s) not "
-        f"read yet (a rerun reads and bakes them), recorded as interrupted in "
-        f"{maps / MANIFEST_NAME}",
+        f"read yet (a rerun reads and bakes them); nothing was recorded (no manifest "
+        f"written)",
         "surfgrad: interrupted by SIGTERM: stopped the batch; exit code 143"], err
-    assert sorted(p.name for p in maps.iterdir()) == [MANIFEST_NAME]
+    assert list(tmp_path.iterdir()) == [tmp_path / "in"]          # no maps/set, no manifest
     assert seen and alive(seen) == []
     assert commands.execute(args[3:] + ["--workers", "0"]) == 0       # the rerun, here
     assert sorted(p.name for p in maps.iterdir()) == sorted([MANIFEST_NAME, "R0.png",

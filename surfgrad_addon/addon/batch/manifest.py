@@ -163,7 +163,7 @@ def _write_json(path, data):
             temp.unlink()
 
 
-# Manifests this process holds: path -> (lock file descriptor, lock path, folder it made).
+# Manifests this process holds: path -> (lock file descriptor, lock path, folders it made).
 _HELD = {}
 
 
@@ -181,7 +181,7 @@ def hold(path):
     path = Path(path)
     if path in _HELD:
         return
-    made = None if path.parent.exists() else path.parent
+    made = [f for f in (path.parent, *path.parent.parents) if not f.exists()]   # leaf first
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = path.with_name(f".{path.name}.lock")
     while True:
@@ -205,11 +205,12 @@ def hold(path):
 
 
 def release(path):
-    """Give the manifest back (hold), removing the lock file and a folder hold made empty."""
+    """Give the manifest back (hold), removing the lock file and the folders hold made that
+    are left empty."""
     fd, lock, made = _HELD.pop(Path(path), (None, None, None))
     if fd is None:
         return
-    for remove in (lock.unlink, *((made.rmdir,) if made else ())):
+    for remove in (lock.unlink, *(f.rmdir for f in made)):
         try:
             remove()
         except OSError:                           # (a folder with the maps in it stays)

@@ -111,13 +111,21 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             planned = {e["file"] for e in report["assets"].values()}
             unread = [b for b in files if b not in planned]
             report["interrupted"] = signal_name
-            M.write_last(manifest_path, M.merged(previous, report, files))
+            # No manifest yet (a stop while scanning) and no file read: a manifest would be a
+            # new file with nothing a rerun uses, so none is written (and release removes the
+            # folders the run made).
+            recorded = manifest_path.exists() or any(
+                ("scan" in f and not f.get("scan_reused")) or "scan_error" in f
+                for f in files.values())
+            if recorded:
+                M.write_last(manifest_path, M.merged(previous, report, files))
             M.release(manifest_path)
             interrupts.say(f"[batch] {signal_name}: stopped {n} worker process(es); "
                            f"{len(left)} asset(s) not baked" +
                            (f", {len(unread)} file(s) not read yet (a rerun reads and bakes "
                             f"them)" if unread else "") +
-                           f", recorded as interrupted in {manifest_path}")
+                           (f", recorded as interrupted in {manifest_path}" if recorded else
+                            "; nothing was recorded (no manifest written)"))
         finally:
             if held:
                 pool.lock.release()
