@@ -1,8 +1,11 @@
 """Fault injection, red team 36a: Blender's other tile token, and checks that read one part of
 what the bake reads.
 
-`--output m.<UVTILE>.png` (Blender's u<U>_v<V> tile token) wrote a file named with the token,
-exit 0; <UVTILE> is now refused before baking."""
+- `--output m.<UVTILE>.png` (Blender's u<U>_v<V> tile token) wrote a file named with the
+  token, exit 0; <UVTILE> is now refused before baking.
+- A local node group and a library's of the same name (each reading its own image "Tex"): the
+  image checks kept groups and images by name, so the second one met was never checked (a
+  missing image baked as magenta, exit 0)."""
 
 import pytest
 
@@ -30,3 +33,61 @@ def test_the_uvtile_token_is_refused_before_baking(tmp_path, capsys):
         err = capsys.readouterr().err
         assert rc == exit_codes.BAD_REQUEST and said in err.strip().splitlines()[-1], err
     assert list(out.iterdir()) == []
+
+
+def _group_reading(name, image):
+    """Node group `name` whose output is Image Texture `image`'s colour."""
+    group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    group.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    tex = group.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    out = group.nodes.new("NodeGroupOutput")
+    group.links.new(tex.outputs["Color"], out.inputs["Color"])
+    return group
+
+
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("local_first", [True, False])
+def test_a_library_group_named_as_a_local_one_has_its_images_checked(local_first, tmp_path,
+                                                                     capsys):
+    """A material reads a local node group "G" (a good image "Tex") and a library's "G" (its
+    own "Tex", a file that is missing). Before: the image walk kept groups (and images) by
+    name alone, so whichever "G" it met second was taken as walked and its "Tex" as checked:
+    with the local one met first the bake ran, exit 0, the library's missing image baked as
+    magenta. Now refused, naming the file, in either order."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    missing = bpy.data.images.new("Tex", 4, 4)
+    missing.source, missing.filepath = "FILE", str(tmp_path / "gone.png")
+    lib = tmp_path / "lib.blend"
+    bpy.data.libraries.write(str(lib), {_group_reading("G", missing)})
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    local = _group_reading("G", bpy.data.images.new("Tex", 4, 4))
+    with bpy.data.libraries.load(str(lib), link=True) as (_src, dst):
+        dst.node_groups = ["G"]
+    linked = dst.node_groups[0]
+    assert linked.library is not None and linked.name == local.name == "G"
+    bpy.ops.mesh.primitive_plane_add()
+    obj = bpy.context.object
+    mat = bpy.data.materials.new("Mat")
+    if mat.node_tree is None:                 # before 5.0 a new material needs use_nodes
+        mat.use_nodes = True
+    obj.data.materials.append(mat)
+    nodes = mat.node_tree.nodes
+    bsdf = nodes["Principled BSDF"]
+    # which "G" the walk meets first follows the links' order: both orders
+    groups = (linked, local) if local_first else (local, linked)
+    for group, socket in zip(groups, ("Base Color", "Emission Color")):
+        node = nodes.new("ShaderNodeGroup")
+        node.node_tree = group
+        mat.node_tree.links.new(node.outputs["Color"], bsdf.inputs[socket])
+    blend = tmp_path / "s.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    out = tmp_path / "out"
+    out.mkdir()
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out / "m.png"), "--resolution", "16",
+                           "--samples", "1"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST and list(out.iterdir()) == [], err
+    assert "gone.png', which does not exist" in err, err

@@ -37,6 +37,11 @@ def material_nodes(mat, memo):
     return _reached(mat.node_tree, [output] if output else [], memo)
 
 
+def data_key(block):
+    """A data-block's identity: a local one and a library's may share a name."""
+    return block.name, block.library.filepath if block.library else None
+
+
 def _reached(tree, starts, memo):
     """(node, path of node names, the group nodes it lies in from `tree` on) of every node
     `starts` read in `tree` through links that are not muted, and inside the node groups they
@@ -55,12 +60,13 @@ def _reached(tree, starts, memo):
         todo += links_to.get(node.name, [])
         group = getattr(node, "node_tree", None) if node.type == "GROUP" else None
         if group is not None:
-            if group.name not in memo:
-                memo[group.name] = []           # a group that holds itself stops here
+            key = data_key(group)
+            if key not in memo:
+                memo[key] = []                  # a group that holds itself stops here
                 inner = [n for n in group.nodes if n.bl_idname == "NodeGroupOutput"]
-                memo[group.name] = _reached(group, inner, memo)
+                memo[key] = _reached(group, inner, memo)
             out += [(n, f"{node.name} > {p}", (node, *outer))
-                    for n, p, outer in memo[group.name]]
+                    for n, p, outer in memo[key]]
     return out
 
 
@@ -86,9 +92,9 @@ def image_problems(obj, covered=(), only=None):
                        f"would bake its magenta 'missing' colour; pick an image or remove the "
                        f"node")
             continue
-        if image.name in checked:
+        if data_key(image) in checked:
             continue
-        checked.add(image.name)
+        checked.add(data_key(image))
         on_disk = image.packed_file is None and image.filepath
         if on_disk and image.source == "SEQUENCE" and hasattr(node, "image_user"):
             # the frame the bake reads now, not the file the path names
