@@ -91,3 +91,33 @@ def test_a_library_group_named_as_a_local_one_has_its_images_checked(local_first
     err = capsys.readouterr().err
     assert rc == exit_codes.BAD_REQUEST and list(out.iterdir()) == [], err
     assert "gone.png', which does not exist" in err, err
+
+
+@pytest.mark.tier("bake")
+def test_a_packed_udim_tile_in_minus_one_to_one_is_warned_about_by_name(tmp_path, capsys):
+    """A packed UDIM normal map: tile 1001 stored 0..1, tile 1002 in -1..1. Before: the range
+    warning read the image's own pixels, its first tile only: exit 0, no warning, tile 1002's
+    normals pulled toward (-1, -1). Now each packed tile the bake writes is judged, named."""
+    from test_faults_images35 import RANGE, _below_zero, _exr
+    from test_faults_pipeline_more import _scene as _source_scene
+    for tile in (1001, 1002):
+        _exr(tmp_path / f"n.{tile}.exr", signed=tile == 1002)
+    blend = _source_scene(tmp_path / "s.blend", tmp_path / "n.1001.exr", "TILED",
+                          second_tile=True)
+    bpy.data.images["n.1001.exr"].pack()
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    for tile in (1001, 1002):
+        (tmp_path / f"n.{tile}.exr").unlink()
+    out = tmp_path / "out"
+    out.mkdir()
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out / "m.<UDIM>.png"), "--resolution", "16",
+                           "--samples", "1"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.OK, err
+    r, g = _below_zero()
+    assert err.count(RANGE) == 1, err
+    assert (f"image 'n.1001.exr', read by Normal Map node 'Normal Map' (material 'Mat'), has "
+            f"{r}% of its texels below 0 in R and {g}% in G (tile 1002: its packed data): "
+            f"{RANGE}") in err, err

@@ -4,6 +4,8 @@ groups; each image set, present, loadable, whole (a JPEG or TIFF cut short loads
 filled in), with defined (image_channels.py) and finite pixels; the UV maps nodes name.
 Cycles would bake its magenta 'missing' colour for an image it cannot read, silently."""
 
+import contextlib
+import tempfile
 from pathlib import Path
 
 from ..reference import input_checks as IC
@@ -107,7 +109,7 @@ def image_problems(obj, covered=(), only=None):
             problem = MI.missing_tiles_problem(image, covered)
         if not problem and on_disk and image.source == "TILED":
             problem = _tile_files_problem(image, covered)
-        if not problem and image.source == "TILED" and len(image.packed_files) > 1:
+        if not problem and packed_tiled(image):
             problem = _packed_tiles_problem(image, covered)
         if problem:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
@@ -300,20 +302,35 @@ def _tile_files_problem(image, covered):
     return None
 
 
-def _packed_tiles_problem(image, covered):
-    """The first tile of a packed UDIM image's tiles the bake reads (`covered`, else all)
-    whose packed data does not load with finite pixels: as _tile_files_problem, each written
-    to a temporary file of its own to load it (bpy loads no packed tile alone)."""
-    import tempfile
+def packed_tiled(image):
+    """A UDIM image with more than one tile packed: its own load reads the first only."""
+    return image.source == "TILED" and len(getattr(image, "packed_files", ())) > 1
+
+
+@contextlib.contextmanager
+def packed_tile_files(image, covered):
+    """[(tile number, temporary file of its packed data)] of each of a packed UDIM image's
+    tiles the bake reads (`covered`, else all), for as long as the `with` lasts: bpy loads no
+    packed tile alone."""
     with tempfile.TemporaryDirectory(prefix="surfgrad-tile-") as folder:
+        files = []
         for tile in image.packed_files:
             if covered and tile.tile_number not in covered:
                 continue
             path = Path(folder) / f"tile{tile.tile_number}{Path(tile.filepath).suffix}"
             path.write_bytes(tile.packed_file.data)
-            problem = file_problem(f"tiled image {image.name!r} (tile {tile.tile_number})",
-                                   path, shown="its packed data")
-            path.unlink()
+            files.append((tile.tile_number, path))
+        yield files
+
+
+def _packed_tiles_problem(image, covered):
+    """The first tile of a packed UDIM image's tiles the bake reads (`covered`, else all)
+    whose packed data does not load with finite pixels: as _tile_files_problem, each from a
+    temporary file of its own (packed_tile_files)."""
+    with packed_tile_files(image, covered) as files:
+        for number, path in files:
+            problem = file_problem(f"tiled image {image.name!r} (tile {number})", path,
+                                   shown="its packed data")
             if problem:
                 return problem
     return None

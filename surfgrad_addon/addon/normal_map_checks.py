@@ -16,13 +16,15 @@ bends them, naming the image, the node and the fix.
   texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
   tilt, so every normal is pulled toward (-1, -1).
 Channels and range are judged in every file the bake reads: each UDIM tile's (of the tiles
-baked), the frame file an Image Sequence reads now, and the warning names it.
+baked; of a packed UDIM image, each tile's packed data), the frame file an Image Sequence reads
+now, and the warning names it.
 """
 
 import re
 
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
-from .image_checks import image_files, objects_nodes, sequence_file, texture_feeding
+from .image_checks import (image_files, objects_nodes, packed_tile_files,
+                           packed_tiled, sequence_file, texture_feeding)
 from .header_reads import path_headers
 from .image_channels import layered_file, path_channels, read_channels
 
@@ -94,7 +96,7 @@ def normal_map_warnings(obj, only=None, covered=()):
         files = _own_files(image, tex, covered)
         key = (image.name, tuple(files))
         if key not in seen:
-            seen[key] = (_channels_problem(image, files), _range_problem(image, files))
+            seen[key] = _file_problems(image, files, covered)
         for problem in seen[key]:
             if problem:
                 text = (f"image {image.name!r}, read by {node} (material {mat.name!r}), "
@@ -102,6 +104,16 @@ def normal_map_warnings(obj, only=None, covered=()):
                 if text not in out:
                     out.append(text)
     return out
+
+
+def _file_problems(image, files, covered):
+    """(channels problem, range problem) of the image's `files`; of a packed UDIM image, of
+    each packed tile the bake reads (its own pixels are its first tile's)."""
+    if packed_tiled(image):
+        with packed_tile_files(image, covered) as tiles:
+            files = [(f"tile {number}: its packed data", path) for number, path in tiles]
+            return _channels_problem(image, files), _range_problem(image, files)
+    return _channels_problem(image, files), _range_problem(image, files)
 
 
 def _own_files(image, tex, covered):
