@@ -14,6 +14,8 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 
+pytestmark = pytest.mark.tier("bake")
+
 
 @pytest.mark.tier("blender")
 def test_the_uvtile_token_is_refused_before_baking(tmp_path, capsys):
