@@ -5,7 +5,9 @@ what the bake reads.
   token, exit 0; <UVTILE> is now refused before baking.
 - A local node group and a library's of the same name (each reading its own image "Tex"): the
   image checks kept groups and images by name, so the second one met was never checked (a
-  missing image baked as magenta, exit 0)."""
+  missing image baked as magenta, exit 0); the normal map warnings kept images by name too (a
+  library's map in -1..1 named as a local one: no warning).
+- A packed UDIM normal map's -1..1 warning read its first tile only."""
 
 import pytest
 
@@ -123,3 +125,51 @@ def test_a_packed_udim_tile_in_minus_one_to_one_is_warned_about_by_name(tmp_path
     assert (f"image 'n.1001.exr', read by Normal Map node 'Normal Map' (material 'Mat'), has "
             f"{r}% of its texels below 0 in R and {g}% in G (tile 1002: its packed data): "
             f"{RANGE}") in err, err
+
+
+@pytest.mark.tier("bake")
+def test_a_library_normal_map_named_as_a_local_one_is_judged(tmp_path, capsys):
+    """Two Normal Map nodes read image "n.exr": a local one stored 0..1 and a library's stored
+    in -1..1. Before: the normal map warnings kept each image by name, so with the local one
+    met first the library's was never judged: exit 0, no warning. Now the library's is
+    warned about (the walk meets them in the links' order: both orders)."""
+    from test_faults_images35 import RANGE, _below_zero, _exr
+    from test_faults_pipeline_more import _scene as _source_scene
+    r, g = _below_zero()
+    for folder, signed in (("good", False), ("bad", True)):
+        (tmp_path / folder).mkdir()
+        _exr(tmp_path / folder / "n.exr", signed=signed)
+    lib = tmp_path / "lib.blend"
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    image = bpy.data.images.load(str(tmp_path / "bad" / "n.exr"))
+    image.colorspace_settings.name = "Non-Color"
+    bpy.data.libraries.write(str(lib), {image})
+    for local_first in (True, False):
+        blend = _source_scene(tmp_path / "s.blend", tmp_path / "good" / "n.exr")
+        with bpy.data.libraries.load(str(lib), link=True) as (_src, dst):
+            dst.images = ["n.exr"]
+        tree = bpy.data.materials["Mat"].node_tree
+        tex = tree.nodes.new("ShaderNodeTexImage")
+        tex.image = dst.images[0]
+        assert tex.image.library is not None and tex.image.name == "n.exr"
+        nm = tree.nodes.new("ShaderNodeNormalMap")
+        name = nm.name
+        tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
+        local_nm = tree.nodes["Normal Map"]
+        bsdf = local_nm.outputs["Normal"].links[0].to_node
+        add = tree.nodes.new("ShaderNodeVectorMath")
+        for socket, normal in enumerate((nm, local_nm) if local_first else (local_nm, nm)):
+            tree.links.new(normal.outputs["Normal"], add.inputs[socket])
+        tree.links.new(add.outputs["Vector"], bsdf.inputs["Normal"])
+        bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+        out = tmp_path / f"out{local_first}"
+        out.mkdir()
+        capsys.readouterr()
+        rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                               "--output", str(out / "m.png"), "--resolution", "16",
+                               "--samples", "1"])
+        err = capsys.readouterr().err
+        assert rc == exit_codes.OK, err
+        assert err.count(RANGE) == 1, err
+        assert (f"image 'n.exr', read by Normal Map node '{name}' (material 'Mat'), has {r}% "
+                f"of its texels below 0 in R and {g}% in G: {RANGE}") in err, err

@@ -23,7 +23,7 @@ now, and the warning names it.
 import re
 
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
-from .image_checks import (image_files, objects_nodes, packed_tile_files,
+from .image_checks import (data_key, image_files, objects_nodes, packed_tile_files,
                            packed_tiled, sequence_file, texture_feeding)
 from .header_reads import path_headers
 from .image_channels import layered_file, path_channels, read_channels
@@ -94,7 +94,7 @@ def normal_map_warnings(obj, only=None, covered=()):
     out, seen = [], {}
     for mat, node, image, tex in normal_map_images(obj, only):
         files = _own_files(image, tex, covered)
-        key = (image.name, tuple(files))
+        key = (data_key(image), tuple(files))   # a library's image may share a name
         if key not in seen:
             seen[key] = _file_problems(image, files, covered)
         for problem in seen[key]:
