@@ -39,6 +39,15 @@ def test_the_uvtile_token_is_refused_before_baking(tmp_path, capsys):
     assert list(out.iterdir()) == []
 
 
+def _bake_plane(capsys, blend, output):
+    """bake-normal-map of object Plane in `blend` to `output`, 16 x 16, 1 sample: (exit
+    code, stderr)."""
+    capsys.readouterr()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(output), "--resolution", "16", "--samples", "1"])
+    return rc, capsys.readouterr().err
+
+
 def _group_reading(name, image):
     """Node group `name` whose output is Image Texture `image`'s colour."""
     group = bpy.data.node_groups.new(name, "ShaderNodeTree")
@@ -88,11 +97,7 @@ def test_a_library_group_named_as_a_local_one_has_its_images_checked(local_first
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
     out = tmp_path / "out"
     out.mkdir()
-    capsys.readouterr()
-    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
-                           "--output", str(out / "m.png"), "--resolution", "16",
-                           "--samples", "1"])
-    err = capsys.readouterr().err
+    rc, err = _bake_plane(capsys, blend, out / "m.png")
     assert rc == exit_codes.BAD_REQUEST and list(out.iterdir()) == [], err
     assert "gone.png', which does not exist" in err, err
 
@@ -114,11 +119,7 @@ def test_a_packed_udim_tile_in_minus_one_to_one_is_warned_about_by_name(tmp_path
         (tmp_path / f"n.{tile}.exr").unlink()
     out = tmp_path / "out"
     out.mkdir()
-    capsys.readouterr()
-    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
-                           "--output", str(out / "m.<UDIM>.png"), "--resolution", "16",
-                           "--samples", "1"])
-    err = capsys.readouterr().err
+    rc, err = _bake_plane(capsys, blend, out / "m.<UDIM>.png")
     assert rc == exit_codes.OK, err
     r, g = _below_zero()
     assert err.count(RANGE) == 1, err
@@ -164,11 +165,7 @@ def test_a_library_normal_map_named_as_a_local_one_is_judged(tmp_path, capsys):
         bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
         out = tmp_path / f"out{local_first}"
         out.mkdir()
-        capsys.readouterr()
-        rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
-                               "--output", str(out / "m.png"), "--resolution", "16",
-                               "--samples", "1"])
-        err = capsys.readouterr().err
+        rc, err = _bake_plane(capsys, blend, out / "m.png")
         assert rc == exit_codes.OK, err
         assert err.count(RANGE) == 1, err
         assert (f"image 'n.exr', read by Normal Map node '{name}' (material 'Mat'), has {r}% "
