@@ -6,7 +6,8 @@ what the bake reads.
 - A local node group and a library's of the same name (each reading its own image "Tex"): the
   image checks kept groups and images by name, so the second one met was never checked (a
   missing image baked as magenta, exit 0); the normal map warnings kept images by name too (a
-  library's map in -1..1 named as a local one: no warning).
+  library's map in -1..1 named as a local one: no warning), and so did the memory count before
+  a bake (one image of the two counted).
 - A packed UDIM normal map's -1..1 warning read its first tile only."""
 
 import pytest
@@ -128,41 +129,52 @@ def test_a_packed_udim_tile_in_minus_one_to_one_is_warned_about_by_name(tmp_path
             f"{RANGE}") in err, err
 
 
+def _local_and_library_maps(tmp_path, local_first):
+    """Object Plane in s.blend whose material adds two Normal Map nodes' normals, each reading
+    an image named "n.exr" (16 x 16 half EXR): a local one stored 0..1 (good/) and one linked
+    from lib.blend stored in -1..1 (bad/), linked first or second. (blend, the library's
+    Normal Map node's name)."""
+    from test_faults_images35 import _exr
+    from test_faults_pipeline_more import _scene as _source_scene
+    lib = tmp_path / "lib.blend"
+    if not lib.exists():
+        for folder, signed in (("good", False), ("bad", True)):
+            (tmp_path / folder).mkdir()
+            _exr(tmp_path / folder / "n.exr", signed=signed)
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        image = bpy.data.images.load(str(tmp_path / "bad" / "n.exr"))
+        image.colorspace_settings.name = "Non-Color"
+        bpy.data.libraries.write(str(lib), {image})
+    blend = _source_scene(tmp_path / "s.blend", tmp_path / "good" / "n.exr")
+    with bpy.data.libraries.load(str(lib), link=True) as (_src, dst):
+        dst.images = ["n.exr"]
+    tree = bpy.data.materials["Mat"].node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = dst.images[0]
+    assert tex.image.library is not None and tex.image.name == "n.exr"
+    nm = tree.nodes.new("ShaderNodeNormalMap")
+    name = nm.name
+    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
+    local_nm = tree.nodes["Normal Map"]
+    bsdf = local_nm.outputs["Normal"].links[0].to_node
+    add = tree.nodes.new("ShaderNodeVectorMath")
+    for socket, normal in enumerate((nm, local_nm) if local_first else (local_nm, nm)):
+        tree.links.new(normal.outputs["Normal"], add.inputs[socket])
+    tree.links.new(add.outputs["Vector"], bsdf.inputs["Normal"])
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    return blend, name
+
+
 @pytest.mark.tier("bake")
 def test_a_library_normal_map_named_as_a_local_one_is_judged(tmp_path, capsys):
     """Two Normal Map nodes read image "n.exr": a local one stored 0..1 and a library's stored
     in -1..1. Before: the normal map warnings kept each image by name, so with the local one
     met first the library's was never judged: exit 0, no warning. Now the library's is
     warned about (the walk meets them in the links' order: both orders)."""
-    from test_faults_images35 import RANGE, _below_zero, _exr
-    from test_faults_pipeline_more import _scene as _source_scene
+    from test_faults_images35 import RANGE, _below_zero
     r, g = _below_zero()
-    for folder, signed in (("good", False), ("bad", True)):
-        (tmp_path / folder).mkdir()
-        _exr(tmp_path / folder / "n.exr", signed=signed)
-    lib = tmp_path / "lib.blend"
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    image = bpy.data.images.load(str(tmp_path / "bad" / "n.exr"))
-    image.colorspace_settings.name = "Non-Color"
-    bpy.data.libraries.write(str(lib), {image})
     for local_first in (True, False):
-        blend = _source_scene(tmp_path / "s.blend", tmp_path / "good" / "n.exr")
-        with bpy.data.libraries.load(str(lib), link=True) as (_src, dst):
-            dst.images = ["n.exr"]
-        tree = bpy.data.materials["Mat"].node_tree
-        tex = tree.nodes.new("ShaderNodeTexImage")
-        tex.image = dst.images[0]
-        assert tex.image.library is not None and tex.image.name == "n.exr"
-        nm = tree.nodes.new("ShaderNodeNormalMap")
-        name = nm.name
-        tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
-        local_nm = tree.nodes["Normal Map"]
-        bsdf = local_nm.outputs["Normal"].links[0].to_node
-        add = tree.nodes.new("ShaderNodeVectorMath")
-        for socket, normal in enumerate((nm, local_nm) if local_first else (local_nm, nm)):
-            tree.links.new(normal.outputs["Normal"], add.inputs[socket])
-        tree.links.new(add.outputs["Vector"], bsdf.inputs["Normal"])
-        bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+        blend, name = _local_and_library_maps(tmp_path, local_first)
         out = tmp_path / f"out{local_first}"
         out.mkdir()
         rc, err = _bake_plane(capsys, blend, out / "m.png")
@@ -170,3 +182,18 @@ def test_a_library_normal_map_named_as_a_local_one_is_judged(tmp_path, capsys):
         assert err.count(RANGE) == 1, err
         assert (f"image 'n.exr', read by Normal Map node '{name}' (material 'Mat'), has {r}% "
                 f"of its texels below 0 in R and {g}% in G: {RANGE}") in err, err
+
+
+@pytest.mark.tier("blender")
+def test_a_library_image_named_as_a_local_one_is_counted_in_memory(tmp_path):
+    """The same two images "n.exr", neither loaded: the memory check before a bake counted
+    images by name, so it counted one (half the bytes). Now both, in either order."""
+    from surfgrad_addon.addon import memory_limit as ML
+    from surfgrad_addon.addon.image_memory import images_memory
+    for local_first in (True, False):
+        blend, _ = _local_and_library_maps(tmp_path, local_first)
+        bpy.ops.wm.open_mainfile(filepath=str(blend), load_ui=False)
+        assert [i.has_data for i in bpy.data.images] == [False, False]
+        got = images_memory(bpy.data.objects["Plane"])
+        per_image = 16 * 16 * (ML.IMAGE_BYTES_PER_TEXEL[True] + ML.CYCLES_BYTES_PER_TEXEL[True])
+        assert (got.count, got.baked) == (2, 2 * per_image), got

@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 from . import memory_limit as ML
 from .header_reads import image_headers, path_headers
-from .image_checks import material_images, sequence_file
+from .image_checks import data_key, material_images, sequence_file
 
 
 class ImagesMemory(NamedTuple):
@@ -23,13 +23,13 @@ def images_memory(obj, covered=()):
     Formats whose header pixel_size does not read are not counted (a lower bound)."""
     baked, checked, largest, seen, counted = 0, 0, None, set(), set()
     for _mat, _path, node, image in material_images(obj):
-        if image is None or image.name in seen or image.has_data:
+        if image is None or data_key(image) in seen or image.has_data:
             continue
-        seen.add(image.name)
+        seen.add(data_key(image))              # (a library's image may share a name)
         for size in _sizes(image, node, covered):
             if size is None:
                 continue
-            counted.add(image.name)
+            counted.add(data_key(image))
             texels = size.width * size.height
             held = texels * ML.IMAGE_BYTES_PER_TEXEL[size.float_buffer]
             baked += held + texels * ML.CYCLES_BYTES_PER_TEXEL[size.float_buffer]
