@@ -483,8 +483,10 @@ def test_a_bake_that_cannot_fit_the_address_space_limit_is_refused_before_it_sta
                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     assert done.returncode == 2, done.stderr[-2000:]
     (line,) = done.stderr.strip().splitlines()
-    assert line.startswith("surfgrad: error: a 4096x4096 bake of 1 tile(s) needs at least "
-                           "2.9 GB of memory beyond the ")
+    # The asset's own 16^2 float texture counts too (its packed data, read from the header).
+    assert line.startswith("surfgrad: error: a 4096x4096 bake of 1 tile(s) reading 1 image(s) "
+                           "(the largest 'Rock_src', 16x16 float) needs at least 2.9 GB of "
+                           "memory beyond the ")
     assert line.endswith("more than its address-space limit of 3.7 GB (`ulimit -v`, or the "
                          "job's memory limit such as SGE's h_vmem), where Blender's bake "
                          "would crash: raise the limit or bake at a lower --resolution")

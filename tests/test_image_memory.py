@@ -92,6 +92,9 @@ def test_images_count_in_the_memory_check(monkeypatch):
     assert problem.startswith("a 4096x4096 bake of 1 tile(s) reading 1 image(s) (the largest "
                               "'n.exr', 8192x8192 float) needs at least 4.4 GB of memory "), problem
     assert problem.endswith("bake at a lower --resolution or from smaller images")
+    # a 16^2 float texture is no part of a 4096^2 bake's need: only the resolution is the fix
+    tiny = ImagesMemory(1, 24 * 256, 32 * 256, "1 image(s) (the largest 't', 16x16 float)")
+    assert ML.bake_memory_problem(4096, 1, tiny).endswith("bake at a lower --resolution")
     checked = ImagesMemory(1, 0, int(2.5 * gb), "x")                    # the check's copy
     assert "needs at least 2.6 GB" in ML.bake_memory_problem(16, 1, checked)   # + 128 MB
     assert ML.bake_memory_problem(2048, 1, ImagesMemory(0, 0, 0, "")) is None

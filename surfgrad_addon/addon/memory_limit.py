@@ -98,14 +98,16 @@ def bake_memory_problem(resolution, tiles, images=None):
     """None, or the problem when `tiles` maps of resolution^2, and the images it reads
     (`images`: an ImagesMemory, or None), cannot fit the soft address-space limit (RLIMIT_AS)
     beside what this process already uses, or the machine's memory."""
-    need = int(resolution) ** 2 * (BYTES_PER_TEXEL
+    maps = int(resolution) ** 2 * (BYTES_PER_TEXEL
                                    + BYTES_PER_FURTHER_TILE_TEXEL * (max(1, int(tiles)) - 1))
-    reading = ""
+    need, reading, fix = maps, "", ""
     if images is not None and images.count:
-        need = max(need + images.baked, images.checked)
+        need = max(maps + images.baked, images.checked)
         reading = f" reading {images.what}"
+        # Smaller images are a fix only where the images take a real part of the need.
+        fix = " or from smaller images" if need - maps >= need / 10 else ""
     return memory_problem(need, f"a {resolution}x{resolution} bake of {tiles} tile(s){reading}",
-                          "bake", " or from smaller images" if reading else "")
+                          "bake", fix)
 
 
 def memory_problem(need, what, verb, also=""):
