@@ -64,10 +64,11 @@ def _per_image(build, **options):
     def call(tree):
         # Read now: the call runs more than once (node_builder.checked_first), and the first
         # run rebuilds the tree, which frees its nodes.
-        images = [t.image for t in _images(tree)]
+        taps = _images(tree)
+        images = [t.image for t in taps]
         if not images or any(image is None for image in images):
             return None
-        extension = {"extension": _images(tree)[0].extension}
+        extension = {"extension": taps[0].extension}
         if build is G.triplanar_height_group:
             planes = images[::len(images) // 3] if len(images) % 3 == 0 else []
             return (lambda: build(images=planes, **extension)) if len(planes) == 3 else None
