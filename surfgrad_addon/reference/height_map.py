@@ -8,7 +8,7 @@ and the HQ fade of Listing 16, as CalculateLevelOfDetail() would.
 import numpy as np
 
 from . import compiled, height_map_kernels
-from .image_sampling import sample_image, wrap_texel_index
+from .image_sampling import image_values, sample_image, wrap_texel_index
 from .vecmath import as_float, saturate, stack_last
 
 
@@ -79,7 +79,7 @@ def deriv_from_height_map(height, st, hq=False, lod=0.0, interpolation="Linear",
     level 0). With hq, under magnification (lod below 0.5, fully from 0.05 down) the result
     fades to the bilinearly interpolated 4x4 Sobel derivative of Eq. 20/21.
     """
-    height = np.asarray(height)
+    height = image_values(height)
     if height.ndim != 2:
         raise ValueError(f"height must be a one-channel image of shape (height, width), "
                          f"got {height.shape}")

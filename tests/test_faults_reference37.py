@@ -1,0 +1,46 @@
+"""Red team 37a: the reference evaluator as a library takes the arrays a caller has.
+
+- uint8 / uint16 images (a PNG or TIFF as imageio or PIL load it): sample_image and
+  deriv_from_height_map read them as values 0..255 / 0..65535, where Blender's Image Texture
+  reads value / 255 and value / 65535. A normal map decoded as 2 * 255 - 1 lay far off the unit
+  sphere: its normals were 35 degrees off (median) on a hemisphere tile, 91 at most; a height
+  map's slopes were 255 (65535) times too steep. No error, no warning.
+"""
+
+import numpy as np
+import pytest
+
+from surfgrad_addon.reference import height_map as HM
+from surfgrad_addon.reference import image_sampling as IS
+from surfgrad_addon.reference import methods as M
+
+pytestmark = pytest.mark.tier("numpy")
+
+
+@pytest.fixture(params=["0", "1"], ids=["numpy", "compiled"])
+def route(request, monkeypatch):
+    monkeypatch.setenv("SURFGRAD_REFERENCE_COMPILED", request.param)
+
+
+@pytest.mark.parametrize("dtype, top", [(np.uint8, 255), (np.uint16, 65535)])
+def test_file_pixels_read_as_blender_reads_them(route, dtype, top):
+    # A normal map tilted 30 degrees about v, as an 8- or 16-bit file stores it.
+    tilt = np.radians(30.0)
+    normal = np.array([np.sin(tilt), 0.0, np.cos(tilt)])
+    colour = np.round((normal + 1) / 2 * top).astype(dtype)
+    image = np.broadcast_to(colour, (8, 8, 3)).copy()
+    st = IS.texel_centres(8, 8).reshape(-1, 2)
+    for interpolation in IS.INTERPOLATIONS:
+        sampled = IS.sample_image(image, st, interpolation)
+        np.testing.assert_allclose(sampled, np.broadcast_to(colour / top, sampled.shape),
+                                   rtol=0, atol=1e-15)
+    deriv = M.normal_map_node_derivative(IS.sample_image(image, st))
+    # Eq. 15: (-x / z, -y / z) of the stored normal, within the file's rounding.
+    np.testing.assert_allclose(deriv, np.broadcast_to([-np.tan(tilt), 0.0], deriv.shape),
+                               atol=0.01)
+    # A height ramp one step per texel along u: dH/du is one step in pixel units (1 / top).
+    ramp = np.broadcast_to(np.arange(16, dtype=dtype) * 3, (16, 16)).copy()
+    inner = np.stack(np.meshgrid(np.arange(2, 13) + 0.5, np.arange(16) + 0.5), -1) / 16
+    for hq in (False, True):
+        d = HM.deriv_from_height_map(ramp, inner.reshape(-1, 2), hq=hq, extension="EXTEND")
+        np.testing.assert_allclose(d, np.broadcast_to([3 / top, 0.0], d.shape), atol=1e-12)
