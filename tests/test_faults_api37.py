@@ -1,0 +1,70 @@
+"""Red team 37a: the Python API as a pipeline TD scripts it in a running Blender.
+
+- A group built for an image was named by the image's name alone and, per image, knew no
+  extension: `api.node_group("SG Height Map HQ", image=...)` for a library's image "A" after a
+  local image "A", or with extension EXTEND after REPEAT, took the first call's group. SG
+  Height Map HQ rebuilt it in place (every material using it then sampled the library's image,
+  or the other extension), SG Parallax and SG Triplanar Height returned it unchanged (the
+  caller's image or extension silently not used). SG Triplanar Height with images=[A, None,
+  None] or [None, A, None] was named as image=A ("SG Triplanar Height [A]"), each rebuilding
+  the others. And SG Height Map HQ was rebuilt at every use (its size stamp, an
+  IDPropertyArray, never equalled the list it was compared with).
+"""
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
+
+pytestmark = pytest.mark.tier("blender")
+
+IMAGE_GROUPS = ("SG Height Map HQ", "SG Parallax", "SG Triplanar Height")
+
+
+def _taps(tree):
+    """(image name, linked?, extension) of each Image Texture node of a group."""
+    return {(n.image.name, n.image.library is not None, n.extension)
+            for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"}
+
+
+def _used_by_a_material(tree):
+    mat = new_material("Uses " + tree.name)
+    node = mat.node_tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = tree
+    return node
+
+
+def test_each_image_and_extension_gets_its_own_group(fresh, tmp_path):
+    library = tmp_path / "lib.blend"
+    bpy.data.libraries.write(str(library), {bpy.data.images.new("A", 4, 4)})
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    local = bpy.data.images.new("A", 8, 8)
+    with bpy.data.libraries.load(str(library), link=True) as (_, into):
+        into.images = ["A"]
+    linked = into.images[0]
+    for name in IMAGE_GROUPS:
+        first = _used_by_a_material(api.node_group(name, image=local))
+        pointers = [n.as_pointer() for n in first.node_tree.nodes]
+        other = api.node_group(name, image=linked)
+        extend = api.node_group(name, image=local, extension="EXTEND")
+        assert _taps(first.node_tree) == {("A", False, "REPEAT")}, name
+        assert _taps(other) == {("A", True, "REPEAT")}, name
+        assert _taps(extend) == {("A", False, "EXTEND")}, name
+        again = api.node_group(name, image=local)
+        assert again == first.node_tree, name
+        # The same request again takes the group as it is (no rebuild of its nodes).
+        assert [n.as_pointer() for n in again.nodes] == pointers, name
+
+
+def test_triplanar_height_refuses_a_plane_without_an_image(fresh):
+    a = bpy.data.images.new("A", 8, 8)
+    tree = api.node_group("SG Triplanar Height", image=a)
+    before = {g.name for g in bpy.data.node_groups}
+    for planes in ([a, None, None], [None, a, None]):
+        with pytest.raises(ValueError, match="three `images`"):
+            api.node_group("SG Triplanar Height", images=planes)
+    assert {g.name for g in bpy.data.node_groups} == before
+    assert _taps(tree) == {("A", False, "REPEAT")}
+    assert len([n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"]) == 9
