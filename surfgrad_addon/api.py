@@ -15,6 +15,8 @@ harness's: `surfgrad_addon.harness.api.compare`, in a checkout. Every function r
 ValueError (or a subclass) with a message that names the problem and the fix.
 """
 
+import numbers as _numbers
+
 from .addon import groups as _groups
 from .addon.bake_request import BakeRequest as _Request
 
@@ -135,6 +137,18 @@ def update_precise_far(obj):
     return sum(set_precise_far(m.node_tree, on) for m in materials)
 
 
+def _plain(value):
+    """A numpy integer (a script's array arithmetic: np.int64(2048)) as the int it is, which
+    the request's checks (and JSON) take; any other value as given, for the checks to judge."""
+    if isinstance(value, _numbers.Integral) and not isinstance(value, bool):
+        return int(value)
+    return value
+
+
+def _quiet(*_args, **_kwargs):
+    """log=None: say nothing."""
+
+
 # The defaults are the bake request's (addon/bake_request.py), written once there.
 def bake_normal_map(obj, output, space=_Request.space, resolution=_Request.resolution,
                     uv_map=_Request.uv_map, margin=_Request.margin,
@@ -147,14 +161,16 @@ def bake_normal_map(obj, output, space=_Request.space, resolution=_Request.resol
     (PNG), 'half'/'float' (EXR); allow_partial: bake a layout with faces outside the UDIM
     range (warned on stderr) instead of refusing it. The request is checked first
     (addon/bake_request.py): a BakeRequestError (a ValueError) names every problem, and
-    nothing is written. Returns the written path (the name with <UDIM> for tiles)."""
+    nothing is written. Returns the written path (the name with <UDIM> for tiles). log: called
+    with each progress line (None: quiet). Numbers may be numpy integers."""
     from pathlib import Path
     from .addon.bake_request import bake
     if obj is None or not hasattr(obj, "name"):
         raise ValueError("give a mesh object to bake")
-    request = _Request(obj.name, str(output), space, resolution, uv_map, margin, samples,
-                          depth, tiles, overwrite=overwrite, allow_partial=allow_partial)
-    bake(request, obj=obj, log=log)
+    request = _Request(obj.name, str(output), space, _plain(resolution), uv_map, _plain(margin),
+                       _plain(samples), depth, tiles, overwrite=overwrite,
+                       allow_partial=allow_partial)
+    bake(request, obj=obj, log=log or _quiet)
     return Path(output)
 
 
@@ -177,9 +193,10 @@ def bake_batch(blends=None, output="{file}_{object}.<UDIM>.png", objects=None,
                          f"{', '.join(batch.SETTING_KEYS)}")
     names = [o if isinstance(o, str) else o.name for o in objects or ()] or None
     colls = [c if isinstance(c, str) else c.name for c in collections or ()] or None
+    settings = {key: _plain(value) for key, value in settings.items()}
     return batch.bake_batch(blends or (), output, names, colls, settings, settings_file,
-                            workers, force, overwrite, manifest, tiles,
-                            open_file=blends is None, log=log)
+                            _plain(workers), force, overwrite, manifest, tiles,
+                            open_file=blends is None, log=log or _quiet)
 
 
 def __getattr__(name):

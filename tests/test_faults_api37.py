@@ -9,14 +9,20 @@
   None] or [None, A, None] was named as image=A ("SG Triplanar Height [A]"), each rebuilding
   the others. And SG Height Map HQ was rebuilt at every use (its size stamp, an
   IDPropertyArray, never equalled the list it was compared with).
+- Numbers a script computes with numpy (np.int64 resolution, samples, margin; bake_batch's
+  settings and workers) were refused by bake_normal_map and bake_batch as "resolution
+  np.int64(16): use a whole number of texels" (it is one); log=None (quiet) raised a raw
+  TypeError ('NoneType' object is not callable).
 """
 
+import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.harness import scenes  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
 
@@ -68,3 +74,24 @@ def test_triplanar_height_refuses_a_plane_without_an_image(fresh):
     assert {g.name for g in bpy.data.node_groups} == before
     assert _taps(tree) == {("A", False, "REPEAT")}
     assert len([n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"]) == 9
+
+
+@pytest.mark.tier("bake")
+def test_numpy_numbers_and_a_quiet_log(fresh, tmp_path, capsys):
+    obj = scenes.new_scene(["Plane"])["Plane"]
+    mat = new_material("API")
+    obj.data.materials.append(mat)
+    api.add_layer_stack(mat)
+    size = np.int64(16)
+    out = api.bake_normal_map(obj, tmp_path / "n.png", resolution=size, samples=np.int64(1),
+                              margin=np.int64(2), tiles=np.array([1001]), log=None)
+    image = bpy.data.images.load(str(out))
+    assert tuple(image.size) == (16, 16)
+    bpy.data.images.remove(image)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "a.blend"))
+    report = api.bake_batch(None, str(tmp_path / "{object}.png"), resolution=size,
+                            samples=np.int64(1), workers=np.int64(0), log=None)
+    assert [a["status"] for a in report["assets"].values()] == ["baked"]
+    assert (tmp_path / "Plane.png").is_file()
+    # Only Blender's own "Info:" lines: surfgrad's progress went nowhere.
+    assert all(line.startswith("Info:") for line in capsys.readouterr().out.splitlines())

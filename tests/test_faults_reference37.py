@@ -5,6 +5,10 @@
   reads value / 255 and value / 65535. A normal map decoded as 2 * 255 - 1 lay far off the unit
   sphere: its normals were 35 degrees off (median) on a hemisphere tile, 91 at most; a height
   map's slopes were 255 (65535) times too steep. No error, no warning.
+- UDIM tiles as a script has them (reference/tiles.parse_tiles, which the bake request and
+  bake-batch read): a numpy array (np.unique of a layout's tiles) raised numpy's "truth value
+  of an array is ambiguous" out of api.bake_normal_map, a numpy integer was refused, and
+  1001.5 was cut to tile 1001 (True to tile 1).
 """
 
 import numpy as np
@@ -44,3 +48,16 @@ def test_file_pixels_read_as_blender_reads_them(route, dtype, top):
     for hq in (False, True):
         d = HM.deriv_from_height_map(ramp, inner.reshape(-1, 2), hq=hq, extension="EXTEND")
         np.testing.assert_allclose(d, np.broadcast_to([3 / top, 0.0], d.shape), atol=1e-12)
+
+
+def test_tiles_as_a_script_gives_them():
+    from surfgrad_addon.reference.tiles import parse_tiles
+    # np.unique of a layout's tile numbers: numpy's "truth value of an array is ambiguous".
+    assert parse_tiles(np.array([1002, 1001, 1002])) == [1001, 1002]
+    assert parse_tiles(np.array([], dtype=np.int64)) is None
+    assert parse_tiles(np.int64(1003)) == [1003]
+    assert parse_tiles([1001.0, "1002"]) == [1001, 1002]
+    # 1001.5 was cut to tile 1001, True taken as tile 1.
+    for bad in ([1001.5], np.array([1001.5]), [True], [None]):
+        with pytest.raises(ValueError, match="give UDIM numbers like 1001,1002"):
+            parse_tiles(bad)
