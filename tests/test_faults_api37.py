@@ -13,6 +13,10 @@
   settings and workers) were refused by bake_normal_map and bake_batch as "resolution
   np.int64(16): use a whole number of texels" (it is one); log=None (quiet) raised a raw
   TypeError ('NoneType' object is not callable).
+- The Cycles add-on disabled (Preferences > Add-ons; a studio's EEVEE-only startup): the bake
+  request's checks passed and the bake raised a raw AttributeError ('Scene' object has no
+  attribute 'cycles'), from bake_normal_map, harness compare and Freeze alike. Now each refuses
+  up front, naming the add-on and how to enable it.
 """
 
 import numpy as np
@@ -95,3 +99,28 @@ def test_numpy_numbers_and_a_quiet_log(fresh, tmp_path, capsys):
     assert (tmp_path / "Plane.png").is_file()
     # Only Blender's own "Info:" lines: surfgrad's progress went nowhere.
     assert all(line.startswith("Info:") for line in capsys.readouterr().out.splitlines())
+
+
+def test_a_bake_without_the_cycles_add_on_is_refused(fresh, tmp_path):
+    import addon_utils
+    from surfgrad_addon.addon import freeze
+    from surfgrad_addon.harness import api as harness_api
+    obj = scenes.new_scene(["Plane"])["Plane"]
+    mat = new_material("API")
+    obj.data.materials.append(mat)
+    api.add_layer_stack(mat)
+    before = ({g.name for g in bpy.data.node_groups}, {i.name for i in bpy.data.images},
+              len(mat.node_tree.nodes), bpy.context.scene.render.engine)
+    bpy.ops.preferences.addon_disable(module="cycles")
+    try:
+        for call in (lambda: api.bake_normal_map(obj, tmp_path / "n.png", resolution=16),
+                     lambda: harness_api.compare(obj, "normal-map", resolution=16),
+                     lambda: freeze.check(obj, 16)):
+            with pytest.raises(ValueError, match=r"Cycles add-on is disabled.*enable it"):
+                call()
+    finally:
+        bpy.ops.preferences.addon_enable(module="cycles")
+    assert addon_utils.check("cycles")[1] and hasattr(bpy.context.scene, "cycles")
+    assert not list(tmp_path.iterdir())
+    assert before == ({g.name for g in bpy.data.node_groups}, {i.name for i in bpy.data.images},
+                      len(mat.node_tree.nodes), bpy.context.scene.render.engine)
