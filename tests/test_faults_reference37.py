@@ -9,6 +9,14 @@
   bake-batch read): a numpy array (np.unique of a layout's tiles) raised numpy's "truth value
   of an array is ambiguous" out of api.bake_normal_map, a numpy integer was refused, and
   1001.5 was cut to tile 1001 (True to tile 1).
+- A grey normal map (H, W), as a library user loads one: its samples (N,) were read as one
+  colour of the first three texels, so every texel got the same normal (no error); (H, W, 1)
+  and grey and alpha (H, W, 2) raised an IndexError. Blender loads a grey file as (g, g, g),
+  and so does the reference now (image_sampling.sample_colour). A height image (H, W, 1) in
+  the forward variant broadcast its derivatives to an (N, N, 3) array (N texels: 224 of them
+  gave 224 x 224 x 3; a 1024^2 bake would ask for terabytes), and a colour height image
+  raised numpy's broadcast error; now (H, W, 1) is read as (H, W) and colour is refused
+  naming the fix, by every height method.
 """
 
 import numpy as np
@@ -61,3 +69,24 @@ def test_tiles_as_a_script_gives_them():
     for bad in ([1001.5], np.array([1001.5]), [True], [None]):
         with pytest.raises(ValueError, match="give UDIM numbers like 1001,1002"):
             parse_tiles(bad)
+
+
+def test_grey_normal_maps_and_one_channel_heights(route):
+    from surfgrad_addon.reference import images, meshes, raster
+    td = raster.rasterize(meshes.uv_sphere(16, 8), "UVMap", 16, 16)
+    grey = 0.2 + 0.25 * images.wave_height_image(32)        # (off 0.5: m = 0 is another case)
+    # Blender loads a grey file as (g, g, g): each method reads the grey image as that RGB.
+    rgb = np.stack([grey, grey, grey], -1)
+    for as_given in (grey, grey[..., None], np.stack([grey, np.ones_like(grey)], -1)):
+        for method in (lambda im: M.normal_map_surfgrad(td, im),
+                       lambda im: M.procedural_basis_surfgrad(td, im, "Detail"),
+                       lambda im: M.triplanar_surfgrad(td, im)):
+            np.testing.assert_array_equal(method(as_given)[1], method(rgb)[1])
+    height = images.wave_height_image(32)
+    for variant in M.HEIGHT_VARIANTS:
+        want = M.height_map_surfgrad(td, height, variant)[1]
+        got = M.height_map_surfgrad(td, height[..., None], variant)[1]
+        assert got.shape == (td.texel_count, 3)
+        np.testing.assert_array_equal(got, want)
+        with pytest.raises(ValueError, match=r"one-channel image .*\(32, 32, 3\): give one"):
+            M.height_map_surfgrad(td, np.stack([height] * 3, -1), variant)

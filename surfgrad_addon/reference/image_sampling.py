@@ -121,6 +121,33 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     return _last_axis(row0, image)
 
 
+def sample_colour(image, st, interpolation="Linear", extension="REPEAT"):
+    """The Image Texture's Color output at st: (..., C) for an RGB(A) image, and (g, g, g)
+    for a grey one, (H, W), (H, W, 1) or grey and alpha (H, W, 2), as Blender loads a grey
+    file. (A grey image's (N,) samples read as one colour of their first three texels gave
+    every texel one normal; a grey and alpha one raised an IndexError.)"""
+    image = np.asarray(image)
+    values = sample_image(image, st, interpolation, extension)
+    if image.ndim == 3 and image.shape[2] >= 3:
+        return values
+    grey = values if image.ndim == 2 else values[..., 0]
+    return np.stack([grey, grey, grey], axis=-1)
+
+
+def height_image(image):
+    """A height image as (H, W), from (H, W) or (H, W, 1) (a value per texel, which Listings 7
+    and 16 difference); ValueError for colour images, naming the fix. (Sampled as (N, 1), an
+    (H, W, 1) one broadcast the forward variant's (N, 2) derivatives to (N, N, 3).)"""
+    image = np.asarray(image)
+    if image.ndim == 3 and image.shape[2] == 1:
+        image = image[..., 0]
+    if image.ndim != 2:
+        raise ValueError(f"height must be a one-channel image of shape (height, width), got "
+                         f"{image.shape}: give one channel (e.g. pixels[..., 0] of an RGBA "
+                         f"Image.pixels)")
+    return image
+
+
 _ROWS = {}      # id(image) -> (image, its channel rows), while images_unchanged() is active
 _ROWS_ACTIVE = [0]
 _VALUES = {}    # id(image) -> (image, image_values(image)), likewise
