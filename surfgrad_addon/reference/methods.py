@@ -232,7 +232,10 @@ def normal_map_strength(m, strength):
     k = np.clip(strength, 0.0, 1.0)
     m[..., 0] *= strength
     m[..., 1] *= strength
-    m[..., 2] = 1.0 + k * (z - 1.0)
+    # (1 - k) + k z >= k z: the floor only undoes rounding, where k = 1 took 1 + (z - 1) to 0
+    # for m = 0 (a (0.5, 0.5, 0.5) texel): a NaN derivative, which dropped every other layer
+    # added to this one in the resolve.
+    m[..., 2] = np.maximum(1.0 + k * (z - 1.0), k * z)
     return m
 
 
