@@ -8,7 +8,9 @@
   caller's image or extension silently not used). SG Triplanar Height with images=[A, None,
   None] or [None, A, None] was named as image=A ("SG Triplanar Height [A]"), each rebuilding
   the others. And SG Height Map HQ was rebuilt at every use (its size stamp, an
-  IDPropertyArray, never equalled the list it was compared with).
+  IDPropertyArray, never equalled the list it was compared with), while SG Triplanar Height,
+  whose texel step is built in as HQ's is, was never rebuilt for an image that changed size
+  (a texture replaced by a larger file): its derivatives stayed scaled for the old size.
 - Numbers a script computes with numpy (np.int64 resolution, samples, margin; bake_batch's
   settings and workers) were refused by bake_normal_map and bake_batch as "resolution
   np.int64(16): use a whole number of texels" (it is one); log=None (quiet) raised a raw
@@ -66,6 +68,21 @@ def test_each_image_and_extension_gets_its_own_group(fresh, tmp_path):
         assert again == first.node_tree, name
         # The same request again takes the group as it is (no rebuild of its nodes).
         assert [n.as_pointer() for n in again.nodes] == pointers, name
+
+
+def _float_constants(tree):
+    return {i.default_value for n in tree.nodes for i in n.inputs
+            if not i.is_linked and isinstance(getattr(i, "default_value", None), float)}
+
+
+def test_an_image_of_another_size_rebuilds_the_groups_that_build_it_in(fresh):
+    image = bpy.data.images.new("A", 8, 8)
+    for name in ("SG Height Map HQ", "SG Triplanar Height"):
+        image.scale(8, 8)
+        assert 8.0 in _float_constants(api.node_group(name, image=image)), name
+        image.scale(13, 13)
+        now = _float_constants(api.node_group(name, image=image))
+        assert 13.0 in now and 8.0 not in now, name
 
 
 def test_triplanar_height_refuses_a_plane_without_an_image(fresh):

@@ -200,10 +200,17 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
             b, lambda b: [ImageTaps(b, im, extension) for im in plane_images],
             lambda b: sizes)
 
-    stale = images_stale(lambda count: [im for im in plane_images for _ in range(3)])
+    same_images = images_stale(lambda count: [im for im in plane_images for _ in range(3)])
+    stamp = [v for size in sizes for v in size]
+
+    def stale(tree):
+        # Rebuild when an image changed size too (its texel step is built in), as HQ does.
+        return same_images(tree) or list(tree.get("surfgrad_size", ())) != stamp
 
     key = "SG Triplanar Height"
-    return ensure(key, build, image_group_name(key, plane_images, extension), stale=stale)
+    tree = ensure(key, build, image_group_name(key, plane_images, extension), stale=stale)
+    tree["surfgrad_size"] = stamp
+    return tree
 
 
 def triplanar_height_sampler_group():
