@@ -24,6 +24,9 @@
   hemisphere map's flat part mid-grey); now p99 0.0011 / max 0.006. On 4.2 and 4.5 the group
   itself drops those layers (the Normal Map node passes its NaN: LineFacts.
   normal_map_replaces_non_finite), which the old reference matched: pinned, a known limit.
+- rasterize with a float size (16.0, as a script's arithmetic gives it): numpy's "Cannot cast
+  array data from dtype('float64') to dtype('int64')" (or numba's "expected a sequence of
+  integers") from deep inside; now a ValueError naming the size.
 """
 
 import numpy as np
@@ -139,3 +142,14 @@ def test_compare_of_a_stack_on_a_mid_grey_normal_map(fresh):
         assert report["p99_deg"] < 0.1, report
     else:       # the reference keeps them (Listing 2: m = 0 adds nothing)
         assert report["p99_deg"] > 10, report
+
+
+def test_rasterize_takes_whole_numbers_of_texels(route):
+    from surfgrad_addon.reference import meshes, raster
+    mesh = meshes.plane(subdivisions=2)
+    want = raster.rasterize(mesh, "UVMap", 16, 8)
+    got = raster.rasterize(mesh, "UVMap", np.int64(16), np.int32(8))
+    np.testing.assert_array_equal(got.pixel, want.pixel)
+    for bad in (16.0, 16.5, True):
+        with pytest.raises(ValueError, match=r"whole numbers of texels, got .* x 8"):
+            raster.rasterize(mesh, "UVMap", bad, 8)
