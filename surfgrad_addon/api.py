@@ -178,19 +178,33 @@ def bake_batch(blends=None, output="{file}_{object}.<UDIM>.png", objects=None,
                collections=None, settings_file=None, workers=1, force=False, overwrite=False,
                manifest=None, tiles=None, log=print, **settings):
     """Bake many assets into normal maps named by the `output` pattern ({file}, {object},
-    {uv}, <UDIM>). blends: .blend paths (each may end in ':Object'), baked in `workers`
-    separate Blender processes (the open file is not touched); None bakes the open, saved
-    file in this session. objects / collections: names (or the objects / collections
+    {uv}, <UDIM>). blends: .blend paths (each may end in ':Object'; one path alone too), baked
+    in `workers` separate Blender processes (the open file is not touched; workers=0 opens
+    them in this session: refused with the interface or a file open); None bakes the open,
+    saved file in this session. objects / collections: names (or the objects / collections
     themselves) to pick in every file (default: every mesh object with a material).
     settings: uv_map, space, resolution, samples, margin, depth (defaults for every asset;
     settings_file adds per-asset ones). Unchanged assets are skipped unless force. Returns
     the report (also written to the manifest): per asset status baked / skipped / failed,
     settings, timings, warnings, files. Raises ValueError for bad input of the whole call."""
+    import os
+    import bpy
     from .addon import batch
     unknown = sorted(set(settings) - set(batch.SETTING_KEYS))
     if unknown:
         raise ValueError(f"bake_batch takes no setting {', '.join(unknown)}; the settings are "
                          f"{', '.join(batch.SETTING_KEYS)}")
+    # One file, object or collection given alone (a string was taken letter by letter).
+    blends = [blends] if isinstance(blends, (str, os.PathLike)) else blends
+    objects, collections = ([v] if isinstance(v, str) or hasattr(v, "name") else v
+                            for v in (objects, collections))
+    # (is_dirty cannot tell: a fresh file is dirty up to 5.0)
+    if blends is not None and _plain(workers) == 0 and (bpy.data.filepath or
+                                                        not bpy.app.background):
+        raise ValueError(f"workers=0 bakes in this session, opening each .blend in place of "
+                         f"the open file {bpy.data.filepath or '(unsaved)'!r} (its unsaved "
+                         f"changes lost, your objects gone): give workers=1 or more (separate "
+                         f"Blender processes), or blends=None to bake the open file")
     names = [o if isinstance(o, str) else o.name for o in objects or ()] or None
     colls = [c if isinstance(c, str) else c.name for c in collections or ()] or None
     settings = {key: _plain(value) for key, value in settings.items()}

@@ -15,6 +15,13 @@
   settings and workers) were refused by bake_normal_map and bake_batch as "resolution
   np.int64(16): use a whole number of texels" (it is one); log=None (quiet) raised a raw
   TypeError ('NoneType' object is not callable).
+- bake_batch from a session holding a file, with workers=0 (which the CLI and farm tasks use
+  in a fresh Blender): each .blend was opened in this session in place of the user's file,
+  its unsaved changes lost and the script's objects gone (ReferenceError on the next use),
+  without a word. Now refused naming the fix (workers >= 1, or blends=None). And one path
+  (or object or collection name) given alone was taken letter by letter: "/tmp/a.blend" gave
+  17 failed assets ('/:*', 't:*', ...), objects="Plane" five ('P', 'l', ...), a Path raised a
+  raw TypeError. Now one path, name or object alone is that one.
 - The Cycles add-on disabled (Preferences > Add-ons; a studio's EEVEE-only startup): the bake
   request's checks passed and the bake raised a raw AttributeError ('Scene' object has no
   attribute 'cycles'), from bake_normal_map, harness compare and Freeze alike. Now each refuses
@@ -141,3 +148,27 @@ def test_a_bake_without_the_cycles_add_on_is_refused(fresh, tmp_path):
     assert not list(tmp_path.iterdir())
     assert before == ({g.name for g in bpy.data.node_groups}, {i.name for i in bpy.data.images},
                       len(mat.node_tree.nodes), bpy.context.scene.render.engine)
+
+
+@pytest.mark.tier("bake")
+def test_bake_batch_keeps_the_open_file_and_takes_one_path(fresh, tmp_path):
+    obj = scenes.new_scene(["Plane"])["Plane"]
+    mat = new_material("API")
+    obj.data.materials.append(mat)
+    api.add_layer_stack(mat)
+    asset = tmp_path / "asset.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(asset), copy=True)
+    bpy.ops.mesh.primitive_cube_add()
+    mine = tmp_path / "mine.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(mine))
+    with pytest.raises(ValueError, match=r"workers=0 bakes in this session.*mine\.blend.*"
+                                         r"workers=1 or more"):
+        api.bake_batch([str(asset)], str(tmp_path / "{object}.png"), workers=0, log=None)
+    assert bpy.data.filepath == str(mine) and "Cube" in bpy.data.objects
+    assert not list(tmp_path.glob("*.png"))
+    # A fresh session (nothing open: what a `blender -b -P script` starts with) may.
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    report = api.bake_batch(str(asset), str(tmp_path / "{object}.png"), objects="Plane",
+                            workers=0, resolution=16, log=None)
+    assert {k: v["status"] for k, v in report["assets"].items()} == {f"{asset}:Plane": "baked"}
+    assert (tmp_path / "Plane.png").is_file()
