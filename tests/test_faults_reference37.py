@@ -26,7 +26,8 @@
   normal_map_replaces_non_finite), which the old reference matched: pinned, a known limit.
 - rasterize with a float size (16.0, as a script's arithmetic gives it): numpy's "Cannot cast
   array data from dtype('float64') to dtype('int64')" (or numba's "expected a sequence of
-  integers") from deep inside; now a ValueError naming the size.
+  integers") from deep inside; now a ValueError naming the size. A MeshArrays whose
+  matrix_world scales an axis to zero raised numpy's bare "Singular matrix"; now named.
 """
 
 import numpy as np
@@ -153,3 +154,11 @@ def test_rasterize_takes_whole_numbers_of_texels(route):
     for bad in (16.0, 16.5, True):
         with pytest.raises(ValueError, match=r"whole numbers of texels, got .* x 8"):
             raster.rasterize(mesh, "UVMap", bad, 8)
+
+
+def test_a_mesh_scaled_to_zero_on_an_axis_is_named():
+    import dataclasses
+    from surfgrad_addon.reference import meshes, raster
+    mesh = dataclasses.replace(meshes.plane(), matrix_world=np.diag([1.0, 0.0, 1.0, 1.0]))
+    with pytest.raises(ValueError, match="matrix_world scales an axis to zero.*fix the object"):
+        raster.rasterize(mesh, "UVMap", 8, 8)
