@@ -15,10 +15,9 @@ harness's: `surfgrad_addon.harness.api.compare`, in a checkout. Every function r
 ValueError (or a subclass) with a message that names the problem and the fix.
 """
 
-import numbers as _numbers
-
 from .addon import groups as _groups
 from .addon.bake_request import BakeRequest as _Request
+from .reference.input_checks import plain_number as _plain
 
 # Options of the groups that take them: name -> the builder's keyword arguments.
 _OPTIONS = {
@@ -135,14 +134,6 @@ def update_precise_far(obj):
         raise ValueError(linked_text(f"material {linked[0]!r}"))
     on = needs_precise_far(obj)
     return sum(set_precise_far(m.node_tree, on) for m in materials)
-
-
-def _plain(value):
-    """A numpy integer (a script's array arithmetic: np.int64(2048)) as the int it is, which
-    the request's checks (and JSON) take; any other value as given, for the checks to judge."""
-    if isinstance(value, _numbers.Integral) and not isinstance(value, bool):
-        return int(value)
-    return value
 
 
 def _quiet(*_args, **_kwargs):

@@ -12,7 +12,8 @@
   whose texel step is built in as HQ's is, was never rebuilt for an image that changed size
   (a texture replaced by a larger file): its derivatives stayed scaled for the old size.
 - Numbers a script computes with numpy (np.int64 resolution, samples, margin; bake_batch's
-  settings and workers) were refused by bake_normal_map and bake_batch as "resolution
+  settings and workers) were refused by bake_normal_map, bake_batch and the harness's compare
+  as "resolution
   np.int64(16): use a whole number of texels" (it is one); log=None (quiet) raised a raw
   TypeError ('NoneType' object is not callable).
 - bake_batch from a session holding a file, with workers=0 (which the CLI and farm tasks use
@@ -123,6 +124,9 @@ def test_numpy_numbers_and_a_quiet_log(fresh, tmp_path, capsys):
     assert (tmp_path / "Plane.png").is_file()
     # Only Blender's own "Info:" lines: surfgrad's progress went nowhere.
     assert all(line.startswith("Info:") for line in capsys.readouterr().out.splitlines())
+    from surfgrad_addon.harness import api as harness_api
+    report = harness_api.compare(obj, "normal-map", resolution=size)
+    assert report["texels_compared"] > 100 and report["max_deg"] < 0.5
 
 
 def test_a_bake_without_the_cycles_add_on_is_refused(fresh, tmp_path):

@@ -436,7 +436,8 @@ def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
     import bpy
     before = set(bpy.data.node_groups)
     try:
-        report, heat = compare_object(obj, method, resolution, uv_map=uv_map, image=image,
+        report, heat = compare_object(obj, method, R.input_checks.plain_number(resolution),
+                                      uv_map=uv_map, image=image,
                                       variant=variant, log=lambda *_: None, tiles=tiles,
                                       device=device)
     finally:
