@@ -17,6 +17,7 @@ ValueError (or a subclass) with a message that names the problem and the fix.
 
 from .addon import groups as _groups
 from .addon.bake_request import BakeRequest as _Request
+from .reference.input_checks import plain_number as _plain
 
 # Options of the groups that take them: name -> the builder's keyword arguments.
 _OPTIONS = {
@@ -135,6 +136,10 @@ def update_precise_far(obj):
     return sum(set_precise_far(m.node_tree, on) for m in materials)
 
 
+def _quiet(*_args, **_kwargs):
+    """log=None: say nothing."""
+
+
 # The defaults are the bake request's (addon/bake_request.py), written once there.
 def bake_normal_map(obj, output, space=_Request.space, resolution=_Request.resolution,
                     uv_map=_Request.uv_map, margin=_Request.margin,
@@ -147,14 +152,16 @@ def bake_normal_map(obj, output, space=_Request.space, resolution=_Request.resol
     (PNG), 'half'/'float' (EXR); allow_partial: bake a layout with faces outside the UDIM
     range (warned on stderr) instead of refusing it. The request is checked first
     (addon/bake_request.py): a BakeRequestError (a ValueError) names every problem, and
-    nothing is written. Returns the written path (the name with <UDIM> for tiles)."""
+    nothing is written. Returns the written path (the name with <UDIM> for tiles). log: called
+    with each progress line (None: quiet). Numbers may be numpy integers."""
     from pathlib import Path
     from .addon.bake_request import bake
     if obj is None or not hasattr(obj, "name"):
         raise ValueError("give a mesh object to bake")
-    request = _Request(obj.name, str(output), space, resolution, uv_map, margin, samples,
-                          depth, tiles, overwrite=overwrite, allow_partial=allow_partial)
-    bake(request, obj=obj, log=log)
+    request = _Request(obj.name, str(output), space, _plain(resolution), uv_map, _plain(margin),
+                       _plain(samples), depth, tiles, overwrite=overwrite,
+                       allow_partial=allow_partial)
+    bake(request, obj=obj, log=log or _quiet)
     return Path(output)
 
 
@@ -162,24 +169,39 @@ def bake_batch(blends=None, output="{file}_{object}.<UDIM>.png", objects=None,
                collections=None, settings_file=None, workers=1, force=False, overwrite=False,
                manifest=None, tiles=None, log=print, **settings):
     """Bake many assets into normal maps named by the `output` pattern ({file}, {object},
-    {uv}, <UDIM>). blends: .blend paths (each may end in ':Object'), baked in `workers`
-    separate Blender processes (the open file is not touched); None bakes the open, saved
-    file in this session. objects / collections: names (or the objects / collections
+    {uv}, <UDIM>). blends: .blend paths (each may end in ':Object'; one path alone too), baked
+    in `workers` separate Blender processes (the open file is not touched; workers=0 opens
+    them in this session: refused with the interface or a file open); None bakes the open,
+    saved file in this session. objects / collections: names (or the objects / collections
     themselves) to pick in every file (default: every mesh object with a material).
     settings: uv_map, space, resolution, samples, margin, depth (defaults for every asset;
     settings_file adds per-asset ones). Unchanged assets are skipped unless force. Returns
     the report (also written to the manifest): per asset status baked / skipped / failed,
     settings, timings, warnings, files. Raises ValueError for bad input of the whole call."""
+    import os
+    import bpy
     from .addon import batch
     unknown = sorted(set(settings) - set(batch.SETTING_KEYS))
     if unknown:
         raise ValueError(f"bake_batch takes no setting {', '.join(unknown)}; the settings are "
                          f"{', '.join(batch.SETTING_KEYS)}")
+    # One file, object or collection given alone (a string was taken letter by letter).
+    blends = [blends] if isinstance(blends, (str, os.PathLike)) else blends
+    objects, collections = ([v] if isinstance(v, str) or hasattr(v, "name") else v
+                            for v in (objects, collections))
+    # (is_dirty cannot tell: a fresh file is dirty up to 5.0)
+    if blends is not None and _plain(workers) == 0 and (bpy.data.filepath or
+                                                        not bpy.app.background):
+        raise ValueError(f"workers=0 bakes in this session, opening each .blend in place of "
+                         f"the open file {bpy.data.filepath or '(unsaved)'!r} (its unsaved "
+                         f"changes lost, your objects gone): give workers=1 or more (separate "
+                         f"Blender processes), or blends=None to bake the open file")
     names = [o if isinstance(o, str) else o.name for o in objects or ()] or None
     colls = [c if isinstance(c, str) else c.name for c in collections or ()] or None
+    settings = {key: _plain(value) for key, value in settings.items()}
     return batch.bake_batch(blends or (), output, names, colls, settings, settings_file,
-                            workers, force, overwrite, manifest, tiles,
-                            open_file=blends is None, log=log)
+                            _plain(workers), force, overwrite, manifest, tiles,
+                            open_file=blends is None, log=log or _quiet)
 
 
 def __getattr__(name):

@@ -212,6 +212,9 @@ def _check(request, obj, warn):
     problems = request.own_problems()
     if problems:                  # a bad option: name it before looking at the scene
         raise BakeRequestError(problems)
+    problem = NB.cycles_problem()
+    if problem:                   # (each check below may read the scene's Cycles settings)
+        raise BakeRequestError([problem])
     import bpy
     if obj is None:
         obj = bpy.data.objects.get(request.object)

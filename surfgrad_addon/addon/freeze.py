@@ -163,6 +163,8 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
     fed Normal inputs, uv_map, output Path or None for pack)."""
     if obj is None:
         raise FreezeError("no active object: select the mesh whose material to freeze")
+    if NB.cycles_problem():
+        raise FreezeError(NB.cycles_problem())
     if obj.type != "MESH":
         raise FreezeError(not_a_mesh(obj.name, obj.type, "select a mesh object"))
     mat = obj.active_material

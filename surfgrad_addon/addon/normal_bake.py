@@ -56,6 +56,18 @@ def resolution_problem(resolution, lo, hi):
     return None
 
 
+def cycles_problem():
+    """None where the Cycles add-on is enabled, else the refusal: every bake renders with
+    Cycles, and without the add-on the scene has no Cycles settings (a raw AttributeError,
+    'Scene' object has no attribute 'cycles', from inside the bake)."""
+    import bpy
+    if bpy.context.preferences.addons.get("cycles") is not None:
+        return None
+    return ("the Cycles add-on is disabled in this Blender, and the bake renders with Cycles: "
+            "enable it (Edit > Preferences > Add-ons > Cycles Render Engine, or in a script "
+            "addon_utils.enable('cycles', default_set=True))")
+
+
 class NormalBakeError(ValueError):
     """Bad input: the message names the thing and the fix."""
 

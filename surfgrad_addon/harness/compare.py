@@ -36,7 +36,7 @@ from ..addon.image_channels import path_channel_problem, running_facts
 from ..addon import unrealized_instances as UI
 from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
                                   memory_problem)
-from ..addon.normal_bake import blend_relative_problem, resolution_problem
+from ..addon.normal_bake import blend_relative_problem, cycles_problem, resolution_problem
 from ..addon.precise_bake import precise_far
 from ..reference import methods as M
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
@@ -184,7 +184,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
                            f"{sorted(METHODS)}")
-    problem = resolution_problem(resolution, *RESOLUTION_RANGE)
+    problem = resolution_problem(resolution, *RESOLUTION_RANGE) or cycles_problem()
     if problem:
         raise CompareError(problem)
     reason = unavailable_reason(method)
@@ -436,7 +436,8 @@ def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
     import bpy
     before = set(bpy.data.node_groups)
     try:
-        report, heat = compare_object(obj, method, resolution, uv_map=uv_map, image=image,
+        report, heat = compare_object(obj, method, R.input_checks.plain_number(resolution),
+                                      uv_map=uv_map, image=image,
                                       variant=variant, log=lambda *_: None, tiles=tiles,
                                       device=device)
     finally:

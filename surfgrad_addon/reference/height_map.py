@@ -8,7 +8,7 @@ and the HQ fade of Listing 16, as CalculateLevelOfDetail() would.
 import numpy as np
 
 from . import compiled, height_map_kernels
-from .image_sampling import sample_image, wrap_texel_index
+from .image_sampling import height_image, image_values, sample_image, wrap_texel_index
 from .vecmath import as_float, saturate, stack_last
 
 
@@ -18,6 +18,7 @@ def deriv_three_tap(height, st, dst_dx, dst_dy, interpolation="Linear", extensio
     Feed the result to surfgrad_scale_dependent(..., is_deriv_screen_space=True).
     """
     st, dst_dx, dst_dy = as_float(st, dst_dx, dst_dy)
+    height = height_image(height)
     h_ll = sample_image(height, st, interpolation, extension)
     h_lr = sample_image(height, st + dst_dx, interpolation, extension)
     h_ul = sample_image(height, st + dst_dy, interpolation, extension)
@@ -79,10 +80,7 @@ def deriv_from_height_map(height, st, hq=False, lod=0.0, interpolation="Linear",
     level 0). With hq, under magnification (lod below 0.5, fully from 0.05 down) the result
     fades to the bilinearly interpolated 4x4 Sobel derivative of Eq. 20/21.
     """
-    height = np.asarray(height)
-    if height.ndim != 2:
-        raise ValueError(f"height must be a one-channel image of shape (height, width), "
-                         f"got {height.shape}")
+    height = image_values(height_image(height))
     (st,) = as_float(st)
     if height.dtype != st.dtype:
         height = _converted(height, st.dtype)

@@ -10,6 +10,8 @@ i(x) = (int)x - (x < 0), which is floor(x) except at negative integers, where it
 - 'Linear':  bilinear between i(u * width - 0.5) and the next texel, weights
   x - i(x) (so a texel centre returns that texel exactly).
 Both rules are pinned against Cycles bakes in tests/test_blender_pins.py.
+Pixels are floats as Blender holds them; uint8 / uint16 arrays (a PNG as imageio or PIL load it)
+are read as Blender reads the file, value / 255 and value / 65535.
 Extension: 'REPEAT' wraps periodically; 'EXTEND' clamps to the edge texel.
 """
 
@@ -40,12 +42,35 @@ def wrap_texel_index(i, size, extension):
     raise ValueError(f"unsupported extension {extension!r}; use one of {EXTENSIONS}")
 
 
+# An image file's 8- and 16-bit channels (PNG, TIFF: uint8 / uint16 as imageio or PIL load
+# them), which Blender reads as value / 255 and value / 65535.
+FILE_CHANNEL_MAX = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}
+
+
+def image_values(image):
+    """The values Blender's Image Texture reads from an image array: float32 kept, uint8 and
+    uint16 (a file's 8- and 16-bit channels) scaled to 0..1, anything else as float64."""
+    image = np.asarray(image)
+    if image.dtype in (np.float32, np.float64):
+        return image
+    held = _VALUES.get(id(image))
+    if held is not None and held[0] is image:
+        return held[1]
+    scale = FILE_CHANNEL_MAX.get(image.dtype)
+    # (as values 0..255 a normal map decoded far off the unit sphere: 35 degrees typical)
+    values = image / scale if scale is not None else image.astype(np.float64)
+    if _ROWS_ACTIVE[0]:                     # blocks of one evaluation convert it once
+        if len(_VALUES) >= 8:
+            _VALUES.pop(next(iter(_VALUES)))
+        _VALUES[id(image)] = (image, values)
+    return values
+
+
 def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     """Sample `image` at texture coordinates st (..., 2). Returns (...,) for a one-channel
-    image, (..., C) otherwise, in the image's float type (float64 for integer images)."""
-    image = np.asarray(image)
-    if image.dtype != np.float32:
-        image = image.astype(np.float64, copy=False)
+    image, (..., C) otherwise, in the image's float type (float64 for other types; uint8 and
+    uint16 pixels read as Blender reads them, image_values)."""
+    image = image_values(image)
     if image.ndim not in (2, 3):
         raise ValueError(f"image must have shape (height, width) or (height, width, C), "
                          f"got {image.shape}")
@@ -96,8 +121,36 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     return _last_axis(row0, image)
 
 
+def sample_colour(image, st, interpolation="Linear", extension="REPEAT"):
+    """The Image Texture's Color output at st: (..., C) for an RGB(A) image, and (g, g, g)
+    for a grey one, (H, W), (H, W, 1) or grey and alpha (H, W, 2), as Blender loads a grey
+    file. (A grey image's (N,) samples read as one colour of their first three texels gave
+    every texel one normal; a grey and alpha one raised an IndexError.)"""
+    image = np.asarray(image)
+    values = sample_image(image, st, interpolation, extension)
+    if image.ndim == 3 and image.shape[2] >= 3:
+        return values
+    grey = values if image.ndim == 2 else values[..., 0]
+    return np.stack([grey, grey, grey], axis=-1)
+
+
+def height_image(image):
+    """A height image as (H, W), from (H, W) or (H, W, 1) (a value per texel, which Listings 7
+    and 16 difference); ValueError for colour images, naming the fix. (Sampled as (N, 1), an
+    (H, W, 1) one broadcast the forward variant's (N, 2) derivatives to (N, N, 3).)"""
+    image = np.asarray(image)
+    if image.ndim == 3 and image.shape[2] == 1:
+        image = image[..., 0]
+    if image.ndim != 2:
+        raise ValueError(f"height must be a one-channel image of shape (height, width), got "
+                         f"{image.shape}: give one channel (e.g. pixels[..., 0] of an RGBA "
+                         f"Image.pixels)")
+    return image
+
+
 _ROWS = {}      # id(image) -> (image, its channel rows), while images_unchanged() is active
 _ROWS_ACTIVE = [0]
+_VALUES = {}    # id(image) -> (image, image_values(image)), likewise
 
 
 @contextmanager
@@ -111,6 +164,7 @@ def images_unchanged():
         _ROWS_ACTIVE[0] -= 1
         if not _ROWS_ACTIVE[0]:
             _ROWS.clear()
+            _VALUES.clear()
 
 
 def _channel_rows(image):

@@ -4,6 +4,8 @@ One place for the checks `compare` and the bake request both make, so a NaN pixe
 collapsed mesh is refused with the same words on either path.
 """
 
+import numbers
+
 import numpy as np
 
 # A triangle whose area is below this share of its own longest edge squared is taken as zero
@@ -11,6 +13,14 @@ import numpy as np
 # small parts do not change it).
 RELATIVE_AREA_EPS = 1e-12
 _CHUNK = 1 << 24            # values per slice when counting non-finite ones (bounded memory)
+
+
+def plain_number(value):
+    """A numpy integer (a script's array arithmetic: np.int64(2048)) as the int it is, which
+    the requests' checks (and JSON) take; any other value as given, for the checks to judge."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return int(value)
+    return value
 
 
 def all_finite(values):

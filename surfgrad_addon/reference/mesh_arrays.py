@@ -61,6 +61,10 @@ class MeshArrays:
             problem = finite_problem(label, arr)
             if problem:
                 raise ValueError(f"{self.name}: {problem}")
+        if np.linalg.det(np.asarray(self.matrix_world, dtype=np.float64)[:3, :3]) == 0:
+            # (the normal matrix's inverse raised numpy's bare "Singular matrix")
+            raise ValueError(f"{self.name}: matrix_world scales an axis to zero, so its normals "
+                             f"have no direction: fix the object's scale")
         return self
 
     def uv(self, name):

@@ -18,7 +18,7 @@ from . import decals as D
 from .cycles_bake import bump_differentials, uv_step
 from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin1985, triplanar_geiss
 from .height_map import deriv_from_height_map, deriv_three_tap
-from .image_sampling import images_unchanged, sample_image
+from .image_sampling import height_image, images_unchanged, sample_colour, sample_image
 from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .threads import reference_threads  # noqa: F401 (methods.reference_threads for callers)
 from .noise import fractal_sum
@@ -213,7 +213,7 @@ def parallax_offset(td, height, view, bump_scale, steps=8, uv_map=None):
     dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
     v = project_vec_to_texture_space(n, dpdx, dpdy, dst_dx, dst_dy, view, bump_scale)
     st = td.uv(uv_map)
-    height = np.asarray(height)
+    height = height_image(height)
     if compiled.enabled() and height.dtype == np.float64 and height.ndim == 2 and \
             st.dtype == v.dtype == np.float64:
         return parallax_kernels.march(height, st, v, steps)
@@ -232,7 +232,10 @@ def normal_map_strength(m, strength):
     k = np.clip(strength, 0.0, 1.0)
     m[..., 0] *= strength
     m[..., 1] *= strength
-    m[..., 2] = 1.0 + k * (z - 1.0)
+    # (1 - k) + k z >= k z: the floor only undoes rounding, where k = 1 took 1 + (z - 1) to 0
+    # for m = 0 (a (0.5, 0.5, 0.5) texel): a NaN derivative, which dropped every other layer
+    # added to this one in the resolve.
+    m[..., 2] = np.maximum(1.0 + k * (z - 1.0), k * z)
     return m
 
 
@@ -248,7 +251,7 @@ def normal_map_surfgrad(td, image, uv_map=None, strength=1.0, interpolation="Lin
     n_f, t, b = mikktspace_frame(td, uv_map)
     n = unit_base_normal(td)
     deriv = normal_map_node_derivative(
-        sample_image(image, td.uv(uv_map) if st is None else st, interpolation), strength,
+        sample_colour(image, td.uv(uv_map) if st is None else st, interpolation), strength,
         directx)
     if compiled.enabled() and all(a.dtype == np.float64 and a.ndim == 2
                                   for a in (n_f, t, b, deriv, n)):
@@ -268,7 +271,7 @@ def procedural_basis_surfgrad(td, image, uv_map, strength=1.0, interpolation="Li
     n = unit_base_normal(td)
     dpdx, dpdy, dst_dx, dst_dy = td.texel_steps(uv_map)
     t, b = L.gen_basis_tb(n, dpdx, dpdy, dst_dx, dst_dy)
-    deriv = colour_to_derivative(sample_image(image, td.uv(uv_map), interpolation))
+    deriv = colour_to_derivative(sample_colour(image, td.uv(uv_map), interpolation))
     return n, strength * L.surfgrad_from_tbn(deriv, t, b)
 
 
@@ -281,6 +284,7 @@ def height_map_surfgrad(td, height, variant="hq", bump_scale=1.0, uv_map=None,
         raise ValueError(f"unknown height-map variant {variant!r}; use one of {HEIGHT_VARIANTS}")
     n = unit_base_normal(td)
     st = td.uv(uv_map)
+    height = height_image(height)
     if variant == "forward":
         # Listing 7's screen-space taps, with the differentials a Cycles bake gives its
         # Bump node (the Forward variant is that node), FORWARD_FILTER_WIDTH steps long
@@ -338,8 +342,8 @@ def triplanar_samples(td, image, scale=1.0, interpolation="Linear"):
     """Derivatives of the three planar projections of a normal map, sampled at world (z, y),
     (x, z) and (x, y) times `scale` (Eq. 19's planes)."""
     p = td.position * scale
-    return [colour_to_derivative(sample_image(image, stack_last([p[:, ax[0]], p[:, ax[1]]]),
-                                              interpolation))
+    return [colour_to_derivative(sample_colour(image, stack_last([p[:, ax[0]], p[:, ax[1]]]),
+                                               interpolation))
             for ax in ((2, 1), (0, 2), (0, 1))]
 
 
@@ -386,7 +390,7 @@ def decal_surfgrad(td, image, projector, strength=1.0, falloff=0.2, shape="box",
     st = local[:, :2] * 0.5 + 0.5
     # A tangent-space normal map is TBN-style (slopes in its own unit frame), so its
     # derivative goes straight onto the unit projector axes, independent of the box size.
-    deriv = colour_to_derivative(sample_image(image, st))
+    deriv = colour_to_derivative(sample_colour(image, st))
     weight = opacity * D.WEIGHTS[shape](local, falloff)
     sg = strength * opacity * D.SURFGRAD_FROM_DECAL[shape](n, deriv, ax, ay, local, falloff)
     base = np.zeros_like(sg) if base_sg is None else base_sg
@@ -421,7 +425,8 @@ def volume_noise_perlin1985(td, scale=4.0, amount=0.05, octaves=4):
 def triplanar_geiss_normal(td, image, scale=1.0, k=3.0):
     n = unit_base_normal(td)
     p = td.position * scale
-    ms = [decode_normal_map(sample_image(image, stack_last([p[:, ax[0]], p[:, ax[1]]]))) for ax in ((2, 1), (0, 2), (0, 1))]
+    ms = [decode_normal_map(sample_colour(image, stack_last([p[:, ax[0]], p[:, ax[1]]])))
+          for ax in ((2, 1), (0, 2), (0, 1))]
     return triplanar_geiss(n, L.determine_triplanar_weights(n, k), *ms)
 
 

@@ -64,8 +64,8 @@ def mikktspace_frame(tangents, signs, normals, unit_normal, tri, bary, nm, ident
 @kernel()
 def normal_map_node_derivative(rgb, strength, k, flip, out):
     """Eq. 15 on the Normal Map node's colour (methods.normal_map_surfgrad): m = 2 rgb - 1,
-    x and y times strength, z = 1 + k (z' - 1) with z' Listing 2's clamp and k the saturated
-    strength; out = -(x, y) / z, y negated for a DirectX map (flip)."""
+    x and y times strength, z = max(1 + k (z' - 1), k z') with z' Listing 2's clamp and k the
+    saturated strength; out = -(x, y) / z, y negated for a DirectX map (flip)."""
     for i in range(rgb.shape[1]):
         mx = 2.0 * np.float64(rgb[0, i]) - 1.0
         my = 2.0 * np.float64(rgb[1, i]) - 1.0
@@ -73,7 +73,7 @@ def normal_map_node_derivative(rgb, strength, k, flip, out):
         z = _maximum(_maximum(abs(mz), _maximum(abs(mx), abs(my)) * TSPACE_Z_CLAMP), TINY)
         mx *= strength
         my *= strength
-        mz = 1.0 + k * (z - 1.0)
+        mz = _maximum(1.0 + k * (z - 1.0), k * z)
         out[0, i] = -mx / mz
         dy = -my / mz
         out[1, i] = dy * -1.0 if flip else dy

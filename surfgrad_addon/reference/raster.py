@@ -22,6 +22,7 @@ per row, and spans are expanded band by band of rows; only a loop over bands rem
 The mesh comes in as MeshArrays (mesh_arrays.py); the texels go out as TexelData (texels.py).
 """
 
+import numbers
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -61,6 +62,11 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
     if sample_offset is None:
         sample_offset = facts.bake_texel_offset
     mesh.validate()
+    if any(isinstance(n, bool) or not isinstance(n, numbers.Integral) for n in (width, height)):
+        # (a float size failed deep in numpy: "Cannot cast array data from dtype('float64')")
+        raise ValueError(f"bake resolution must be whole numbers of texels, got {width!r} x "
+                         f"{height!r}")
+    width, height = int(width), int(height)
     if width < 1 or height < 1:
         raise ValueError(f"bake resolution must be positive, got {width} x {height}")
     uv = mesh.uv(uv_map)

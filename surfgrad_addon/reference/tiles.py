@@ -8,6 +8,7 @@ reference (rasterize(uv_offset=...)) and the bake side: the one module for tile 
 (numbers, offsets, which tiles a layout touches, tile lists as typed, file names per tile).
 """
 
+import numbers
 from pathlib import Path
 
 import numpy as np
@@ -71,14 +72,16 @@ def fraction_inside_unit_square(uv_triangles):
 def parse_tiles(value):
     """'1001-1003,1005' / [1001, 1002] / None -> sorted tile numbers (None stays None).
     Raises ValueError naming the form to use."""
-    if value in (None, "", []):
+    if value is None or isinstance(value, str) and not value:
         return None
-    if isinstance(value, (list, tuple)):
+    if not isinstance(value, (str, numbers.Integral)):
+        # A list, a tuple, a numpy array (which `in (None, [])` could not even compare).
         try:
-            return sorted({int(v) for v in value})
+            given = [_whole(v) for v in value]
         except (TypeError, ValueError):
             raise ValueError(f"tiles {value!r}: give UDIM numbers like 1001,1002 or "
                              f"1001-1010") from None
+        return sorted(set(given)) or None
     tiles = set()
     for part in str(value).replace(" ", "").split(","):
         if not part:
@@ -99,6 +102,15 @@ def parse_tiles(value):
         raise ValueError(f"tiles {value!r}: no tile given; give UDIM numbers like 1001,1002 "
                          f"or 1001-1010")
     return sorted(tiles)
+
+
+def _whole(v):
+    """A tile number given as a number or its text; ValueError for any other (1001.5 was cut to
+    1001, True taken as tile 1)."""
+    if isinstance(v, bool) or not isinstance(v, (str, numbers.Integral)) and \
+            not (isinstance(v, numbers.Real) and float(v).is_integer()):
+        raise ValueError(v)
+    return int(v)
 
 
 def tiles_text(tiles):

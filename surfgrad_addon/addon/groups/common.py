@@ -387,6 +387,18 @@ def uv_input(b, uv_map=""):
         return where_zero(b, raw, b.node("ShaderNodeUVMap", uv_map=uv_map).outputs["UV"])
 
 
+def image_group_name(key, images, extension):
+    """The name of group `key` built for `images` (one per Image Texture role, None for none)
+    and `extension`: what makes two such groups differ is in it, so that a second use never
+    rebuilds over the first one's group (which other materials use): a linked image by its
+    library too (Blender's name_full, "A [lib.blend]"), three different planes each, and an
+    extension other than REPEAT."""
+    named = [im.name_full for im in images if im is not None]
+    label = named[0] if len(set(named)) == 1 and len(named) == len(images) else " | ".join(named)
+    return key + (f" [{label}]" if label else "") + \
+        ("" if extension == "REPEAT" else f" ({extension})")
+
+
 def images_stale(expected):
     """A `stale` test for image-bound groups: rebuild when their Image Texture nodes no longer
     hold `expected` (in node order), e.g. an image was replaced or removed."""

@@ -6,8 +6,8 @@ from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from . import common
 from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, bump_surface_gradient, ensure,
-                     images_stale, normal_input, scaled_position_inputs, sub_group,
-                     surfgrad_reaching, texel_count_inputs, uv_gradients_group, uv_input)
+                     image_group_name, images_stale, normal_input, scaled_position_inputs,
+                     sub_group, surfgrad_reaching, texel_count_inputs, uv_gradients_group, uv_input)
 from .projection import triplanar_surface_gradient, triplanar_weights, weighted_derivatives
 
 
@@ -110,12 +110,12 @@ def height_map_group(image=None, variant="hq", extension="REPEAT"):
 
     def stale(tree):
         # Rebuild when the image it samples was replaced or removed, or changed size.
-        return same_image(tree) or tree.get("surfgrad_size") != [w, h]
+        # (an IDPropertyArray never equals a list: rebuilt at every use)
+        return same_image(tree) or list(tree.get("surfgrad_size", ())) != [w, h]
 
     key = f"SG Height Map {HEIGHT_LABELS[variant]}"
-    name = key + (f" [{image.name}]" if image is not None else "")
-    fields = {"image": image.name} if image is not None else {}
-    tree = ensure(key, build, name, stale=stale, **fields)
+    fields = {"image": image.name_full} if image is not None else {}
+    tree = ensure(key, build, image_group_name(key, [image], extension), stale=stale, **fields)
     tree["surfgrad_size"] = [w, h]
     return tree
 
@@ -189,8 +189,9 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
     in world units, into Listing 13's volume gradient with Listing 14's weights; Listing 8
     projects it."""
     plane_images = list(images) if images is not None else [image] * 3
-    if len(plane_images) != 3:
-        raise ValueError("triplanar height needs one image or three (for X, Y and Z)")
+    if len(plane_images) != 3 or images is not None and None in plane_images:
+        raise ValueError("triplanar height needs one image or three (for X, Y and Z), "
+                         "each an image: give `image` for every plane, or three `images`")
     sizes = [(float(im.size[0]), float(im.size[1])) if im is not None else (1024.0, 1024.0)
              for im in plane_images]
 
@@ -199,12 +200,17 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
             b, lambda b: [ImageTaps(b, im, extension) for im in plane_images],
             lambda b: sizes)
 
-    stale = images_stale(lambda count: [im for im in plane_images for _ in range(3)])
+    same_images = images_stale(lambda count: [im for im in plane_images for _ in range(3)])
+    stamp = [v for size in sizes for v in size]
 
-    named = [im.name for im in plane_images if im is not None]
-    label = named[0] if len(set(named)) == 1 and len(named) == 3 else " | ".join(named)
+    def stale(tree):
+        # Rebuild when an image changed size too (its texel step is built in), as HQ does.
+        return same_images(tree) or list(tree.get("surfgrad_size", ())) != stamp
+
     key = "SG Triplanar Height"
-    return ensure(key, build, key + (f" [{label}]" if label else ""), stale=stale)
+    tree = ensure(key, build, image_group_name(key, plane_images, extension), stale=stale)
+    tree["surfgrad_size"] = stamp
+    return tree
 
 
 def triplanar_height_sampler_group():
