@@ -153,11 +153,15 @@ def check_pattern(pattern):
     return pattern
 
 
+_TOKEN = re.compile("|".join(map(re.escape, TOKENS)))
+
+
 def expand(pattern, blend_name, object_name, uv_map):
-    """The output name of one asset (keeps <UDIM>)."""
+    """The output name of one asset (keeps <UDIM>). The tokens are filled in one pass: a name
+    holding a token's text (an object named '{uv}') is not filled in again."""
     stem = Path(blend_name).stem if blend_name else "untitled"
-    return (str(pattern).replace("{file}", _safe(stem)).replace("{object}", _safe(object_name))
-            .replace("{uv}", _safe(uv_map)))
+    values = {"{file}": _safe(stem), "{object}": _safe(object_name), "{uv}": _safe(uv_map)}
+    return _TOKEN.sub(lambda m: values[m.group()], str(pattern))
 
 
 def settings_hash(settings, output, blender_version, version):

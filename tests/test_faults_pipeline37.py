@@ -1,0 +1,138 @@
+"""Fault injection, red team 37b: names a studio file server meets, on a render farm's batch.
+
+- Blender fills in a tiled image's <UDIM> by printf formatting (the token becomes %d), so a '%'
+  elsewhere in an output path (a folder '100%', an object 'Rock%d' in {object}) was read as a
+  format: the tiles were written into folders named by the tile number and stray numbers,
+  exit 1 with the temporary files left there ('%s' crashed the whole batch: exit 139). Now
+  the path Blender saves is escaped, and the maps land where they were asked.
+- The same formatting reads a UDIM texture's tiles: one in a folder with '%' was refused as
+  "damaged" ('%d'), or crashed the check (exit 139, '%s'). Now refused naming the '%'.
+- bake-batch filled in the output pattern's tokens one after another, so an object named
+  '{uv}' was baked into 'UVMap.png' (a file named after another token's value), exit 0."""
+
+import json
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon.batch import MANIFEST_NAME  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+SMALL = ["--resolution", "16", "--samples", "1", "--margin", "0"]
+
+
+def _pixels(path):
+    img = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        return np.array(img.pixels[:]).reshape(16, 16, 4)
+    finally:
+        bpy.data.images.remove(img)
+
+
+def _files(folder):
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file())
+
+
+def test_udim_outputs_with_percent_and_token_text_in_their_names_land_as_asked(tmp_path,
+                                                                                capsys):
+    """A two-tile asset with objects 'Rock%d' and '{uv}', baked by bake-batch into
+    '100%d/{object}.<UDIM>.png'. Before: Rock%d's tiles went to 'out/1001001/.m.7.partPID.png'
+    style names (Blender's format ate the '%d's), the bake failed 'Blender wrote no file',
+    exit 1, temporary files left; '{uv}' was written as 'UVMap.1001.png'. Now every tile is
+    at its name, the same texels as a bake of Rock%d into a plain name."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock%d", "{uv}"), tiles=(1001, 1002),
+                           image_size=16)
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock%d",
+                           "--output", str(plain / "m.<UDIM>.png")] + SMALL)
+    assert rc == 0, capsys.readouterr().err
+    out = tmp_path / "out"
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(blend), "--output",
+                           str(out / "100%d" / "{object}.<UDIM>.png"), "--workers", "0"]
+                          + SMALL)
+    assert rc == 0, capsys.readouterr().err
+    maps = [f"100%d/{o}.{t}.png" for o in ("Rock%d", "{uv}") for t in (1001, 1002)]
+    assert _files(out) == sorted(maps + ["100%d/surfgrad-bake-manifest.json"])
+    for t in (1001, 1002):
+        baked = _pixels(out / "100%d" / f"Rock%d.{t}.png")
+        assert np.array_equal(baked, _pixels(plain / f"m.{t}.png"))
+        assert np.ptp(baked[..., :3]) > 0.1             # a map with detail, not a flat one
+    # bake-normal-map alike: a folder with '%' in it
+    pct = tmp_path / "50% done"
+    pct.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock%d",
+                           "--output", str(pct / "m%x.<UDIM>.png")] + SMALL)
+    assert rc == 0, capsys.readouterr().err
+    assert _files(pct) == ["m%x.1001.png", "m%x.1002.png"]
+    assert _files(tmp_path).count("a.blend") == 1        # nothing went beside them
+    assert not [f for f in _files(tmp_path) if ".part" in f]
+
+
+def _udim_texture_scene(folder, blend):
+    """A plane over tiles 1001-1002 whose Normal Map reads a UDIM PNG in `folder`."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    folder.mkdir()
+    for t, colour in ((1001, (0.8, 0.4, 0.9)), (1002, (0.25, 0.6, 0.85))):
+        img = bpy.data.images.new("t", 8, 8)
+        img.pixels.foreach_set(np.tile([*colour, 1.0], 64).astype(np.float32))
+        img.filepath_raw, img.file_format = str(folder / f"n.{t}.png"), "PNG"
+        img.save()
+        bpy.data.images.remove(img)
+    obj = BA.tiled_plane(bpy, "Plane", (1001, 1002))
+    img = bpy.data.images.load(str(folder / "n.1001.png"))
+    img.source = "TILED"
+    img.filepath = str(folder / "n.<UDIM>.png")
+    img.colorspace_settings.name = "Non-Color"
+    mat = new_material("M")
+    tree = mat.node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    normal_map = tree.nodes.new("ShaderNodeNormalMap")
+    tree.links.new(tex.outputs["Color"], normal_map.inputs["Color"])
+    tree.links.new(normal_map.outputs["Normal"],
+                   tree.nodes["Principled BSDF"].inputs["Normal"])
+    obj.data.materials.append(mat)
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return blend
+
+
+def test_a_udim_texture_in_a_folder_with_percent_is_refused_naming_it(tmp_path, capsys):
+    """Before: 'image ... could not be read (damaged, or a format Blender does not open):
+    re-save it as PNG or EXR', the wrong fix (with '%s' in the folder: a segmentation fault,
+    exit 139, not run here). Now exit 2 naming the '%' and the fix; in bake-batch the asset
+    fails with the same line. The same scene in a plain folder bakes."""
+    said = "whose '%' Blender takes as part of a format"
+    blend = _udim_texture_scene(tmp_path / "tex%d", tmp_path / "s.blend")
+    capsys.readouterr()
+    out = tmp_path / "out"
+    out.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out / "m.<UDIM>.png")] + SMALL)
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST and said in err and "tex%d" in err, err
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(out / "b.<UDIM>.png"),
+                           "--workers", "0"] + SMALL)
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAKE_FAILED and said in err, err
+    manifest = json.loads((out / MANIFEST_NAME).read_text())
+    assert said in manifest["assets"][f"{blend}:Plane"]["error"]
+    assert [f for f in _files(out) if f.endswith(".png")] == []
+    good = _udim_texture_scene(tmp_path / "tex", tmp_path / "good.blend")
+    rc = commands.execute(["bake-normal-map", "--blend", str(good), "--object", "Plane",
+                           "--output", str(out / "g.<UDIM>.png")] + SMALL)
+    assert rc == 0, capsys.readouterr().err
+    # each tile holds its own file's normal (a flat plane: tangent space is the UV frame)
+    for t, colour in ((1001, (0.8, 0.4, 0.9)), (1002, (0.25, 0.6, 0.85))):
+        n = 2 * np.array(colour) - 1
+        expected = 0.5 * n / np.linalg.norm(n) + 0.5
+        texels = _pixels(out / f"g.{t}.png")[..., :3].reshape(-1, 3)
+        assert np.abs(texels - expected).max() < 0.01, (t, texels.mean(0), expected)
