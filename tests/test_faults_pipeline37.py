@@ -8,7 +8,10 @@
 - The same formatting reads a UDIM texture's tiles: one in a folder with '%' was refused as
   "damaged" ('%d'), or crashed the check (exit 139, '%s'). Now refused naming the '%'.
 - bake-batch filled in the output pattern's tokens one after another, so an object named
-  '{uv}' was baked into 'UVMap.png' (a file named after another token's value), exit 0."""
+  '{uv}' was baked into 'UVMap.png' (a file named after another token's value), exit 0.
+- A manifest's reruns: a run of every tile after one of `--tiles 1001` skipped the asset (tile
+  1002 never baked, exit 0), and a run whose output pattern had changed replaced a file at the
+  new name that no run had written (an artist's), without --overwrite, exit 0."""
 
 import json
 
@@ -136,3 +139,49 @@ def test_a_udim_texture_in_a_folder_with_percent_is_refused_naming_it(tmp_path, 
         expected = 0.5 * n / np.linalg.norm(n) + 0.5
         texels = _pixels(out / f"g.{t}.png")[..., :3].reshape(-1, 3)
         assert np.abs(texels - expected).max() < 0.01, (t, texels.mean(0), expected)
+
+
+def test_a_rerun_bakes_tiles_it_has_not_and_leaves_files_it_did_not_record(tmp_path, capsys):
+    """One manifest (the output folder's), a two-tile asset. Before: a run of `--tiles 1001`
+    and then one of every tile skipped the asset as unchanged, exit 0, tile 1002 never baked;
+    and a run whose pattern had changed since (`{object}_n` for `{object}`) replaced an
+    artist's own file at the new name without --overwrite, exit 0 (the earlier record's files
+    being unchanged let it replace whatever was there). Now the second run bakes tile 1002
+    (and 1001 again: the same texels as a bake of 1002 alone), and the third fails that asset naming the
+    file, which stays as it was. Tile by tile and then all skips the last run."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001, 1002), image_size=16,
+                           kind="noise")
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
+                           "--output", str(alone / "m.<UDIM>.png"), "--tiles", "1002"] + SMALL)
+    assert rc == 0, capsys.readouterr().err
+    maps = tmp_path / "maps"
+    batch = ["bake-batch", str(blend), "--workers", "0"] + SMALL
+    rc = commands.execute(batch + ["--output", str(maps / "{object}.<UDIM>.png"),
+                                   "--tiles", "1001"])
+    assert rc == 0, capsys.readouterr().err
+    capsys.readouterr()
+    rc = commands.execute(batch + ["--output", str(maps / "{object}.<UDIM>.png")])
+    out = capsys.readouterr().out
+    assert rc == 0 and "[1/1] baked a.blend:Rock: tile(s) 1001, 1002 " in out, out
+    assert np.array_equal(_pixels(maps / "Rock.1002.png"), _pixels(alone / "m.1002.png"))
+    manifest = json.loads((maps / MANIFEST_NAME).read_text())
+    assert sorted(manifest["assets"][f"{blend}:Rock"]["files"]) == ["1001", "1002"]
+    rc = commands.execute(batch + ["--output", str(maps / "{object}.<UDIM>.png")])
+    assert rc == 0 and "[1/1] skipped a.blend:Rock" in capsys.readouterr().out
+    # tile by tile, then all: each run keeps the record of the other's tile, so none is lost
+    # (then taken for someone else's file) and the last run has nothing to do
+    by_tile = batch + ["--output", str(tmp_path / "by_tile" / "{object}.<UDIM>.png")]
+    for tile in ("1001", "1002"):
+        assert commands.execute(by_tile + ["--tiles", tile]) == 0
+    capsys.readouterr()
+    rc = commands.execute(by_tile)
+    assert rc == 0 and "[1/1] skipped a.blend:Rock" in capsys.readouterr().out
+    artists = maps / "Rock_n.1001.png"
+    artists.write_bytes(b"an artist's own map")
+    rc = commands.execute(batch + ["--output", str(maps / "{object}_n.<UDIM>.png")])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAKE_FAILED and f"{artists} exists; pass --overwrite" in err, err
+    assert artists.read_bytes() == b"an artist's own map"
+    assert not (maps / "Rock_n.1002.png").exists()

@@ -321,6 +321,28 @@ def asset_problem(scan, s, blend_name=""):
     return None
 
 
+def replaceable(prev, output, tiles):
+    """Whether a bake of `output` (UDIM `tiles`) may replace the files at its names without
+    --overwrite: the earlier run's files are unchanged, and every file there now is one of
+    them. One it does not record (the pattern, or the UV tiles, changed since) is someone
+    else's: it was replaced, exit 0."""
+    if not unchanged_outputs(prev):
+        return False
+    ours = {str(Path(r["path"]).resolve()) for r in prev["files"].values()}
+    finals = {T.tile_path(Path(output).resolve(), t) for t in tiles}
+    return all(str(f) in ours or not f.exists() for f in finals)
+
+
+def same_bake_files(prev, entry):
+    """The files an earlier run recorded for this asset that this bake keeps: those of the
+    same inputs and settings (other tiles: --tiles), still holding what was written."""
+    if prev.get("input_hash") != entry["input_hash"] or \
+            prev.get("settings_hash") != entry["settings_hash"]:
+        return {}
+    return {t: r for t, r in (prev.get("files") or {}).items()
+            if _file_hash(Path(r["path"])) == r["sha256"]}
+
+
 def unchanged_outputs(prev):
     """True if every file an earlier run recorded still holds what it wrote."""
     files = prev.get("files") or {}
