@@ -11,7 +11,10 @@
   '{uv}' was baked into 'UVMap.png' (a file named after another token's value), exit 0.
 - A manifest's reruns: a run of every tile after one of `--tiles 1001` skipped the asset (tile
   1002 never baked, exit 0), and a run whose output pattern had changed replaced a file at the
-  new name that no run had written (an artist's), without --overwrite, exit 0."""
+  new name that no run had written (an artist's), without --overwrite, exit 0.
+- Two object names one only in Unicode normal form (é as one character, or e and an accent
+  as macOS writes it) land on one file where the file system ignores forms (APFS, HFS+):
+  the second map replaced the first with exit 0; the probe asked about case only."""
 
 import json
 
@@ -185,3 +188,39 @@ def test_a_rerun_bakes_tiles_it_has_not_and_leaves_files_it_did_not_record(tmp_p
     assert rc == exit_codes.BAKE_FAILED and f"{artists} exists; pass --overwrite" in err, err
     assert artists.read_bytes() == b"an artist's own map"
     assert not (maps / "Rock_n.1002.png").exists()
+
+
+def test_names_one_only_in_unicode_form_are_refused_where_the_file_system_ignores_forms(
+        tmp_path, capsys, monkeypatch):
+    """Objects 'Café' typed on Linux (é one character, NFC) and 'Café' from a Mac (e and a
+    combining accent, NFD) into maps/{object}.png: two names, but one file on a file system
+    that does not tell the forms apart (APFS, HFS+, an SMB share of them), where the second
+    map replaced the first with exit 0 (the probe asked about case only). Such a file system
+    is faked: refused naming both and why, nothing baked. This one keeps them apart (the probe
+    says so and leaves nothing): both are baked."""
+    from surfgrad_addon.addon.batch import output_names
+    nfc, nfd = "Caf\u00e9", "Cafe\u0301"
+    blend = BA.write_asset(tmp_path / "x.blend", (nfc, nfd), tiles=(1001,), image_size=16)
+    out = tmp_path / "maps"
+    batch = ["bake-batch", str(blend), "--output", str(out / "{object}.png"), "--workers",
+             "0"] + SMALL
+    monkeypatch.setattr(output_names, "ignores_forms", lambda folder: True, raising=False)
+    capsys.readouterr()
+    rc = commands.execute(batch)
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert err.strip().splitlines()[-2:] == [
+        f"surfgrad: error: x.blend:{nfc} and x.blend:{nfd} would write {out / nfc}.png and "
+        f"{out / nfd}.png, one file on this file system (it does not tell Unicode's normal "
+        f"forms apart: an accent as part of a letter or as a character of its own, as macOS "
+        f"writes names): the second map would replace the first; rename one, or make the "
+        f"output pattern tell them apart", "(nothing was baked)"]
+    assert not out.exists()
+    monkeypatch.undo()
+    probe_in = tmp_path / "probe"
+    probe_in.mkdir()
+    assert output_names.ignores_forms(str(probe_in / "not" / "yet")) is False
+    assert list(probe_in.iterdir()) == []
+    rc = commands.execute(batch)
+    assert rc == 0, capsys.readouterr().err
+    assert {f"{nfc}.png", f"{nfd}.png"} <= set(_files(out))

@@ -10,7 +10,7 @@ from .. import interrupts
 from .. import normal_bake as NB
 from . import manifest as M
 from . import plan as P
-from .output_names import output_key
+from .output_names import one_file_because, output_key
 from .progress import Progress
 from .workers import InProcess, Pool
 
@@ -168,12 +168,12 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             seen_as = output_key(out)
             if seen_as in outputs_seen:
                 other, other_blend, other_out = outputs_seen[seen_as]
-                if other_out != out:                     # one file where case is ignored
+                if other_out != out:           # one file where case (or form) is ignored
                     collisions.append(
                         f"{name}:{a['object']} and {other} would write {out} and "
-                        f"{other_out}, one file on this file system (it ignores case): the "
-                        f"second map would replace the first; rename one, or make the output "
-                        f"pattern tell them apart")
+                        f"{other_out}, one file on this file system "
+                        f"({one_file_because(out, other_out)}): the second map would replace "
+                        f"the first; rename one, or make the output pattern tell them apart")
                 elif other == f"{name}:{a['object']}":     # same names, files in two folders
                     collisions.append(
                         f"{blend}:{a['object']} and {other_blend}:{a['object']} would both "
