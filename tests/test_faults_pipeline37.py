@@ -14,7 +14,9 @@
   new name that no run had written (an artist's), without --overwrite, exit 0.
 - Two object names one only in Unicode normal form (é as one character, or e and an accent
   as macOS writes it) land on one file where the file system ignores forms (APFS, HFS+):
-  the second map replaced the first with exit 0; the probe asked about case only."""
+  the second map replaced the first with exit 0; the probe asked about case only.
+- A UDIM texture's tiles were not among the files the manifest hashes (Blender lists the path
+  with <UDIM>): a repainted tile, and the rerun skipped the asset with the old map, exit 0."""
 
 import json
 
@@ -224,3 +226,28 @@ def test_names_one_only_in_unicode_form_are_refused_where_the_file_system_ignore
     rc = commands.execute(batch)
     assert rc == 0, capsys.readouterr().err
     assert {f"{nfc}.png", f"{nfd}.png"} <= set(_files(out))
+
+
+def test_a_rerun_bakes_again_when_a_udim_texture_tile_changed(tmp_path, capsys):
+    """The manifest hashes the files a .blend uses, but Blender lists a UDIM texture by its
+    path with <UDIM> (no file), which was left out. Before: a tile file repainted (an artist
+    saving tile 1002 on the share), the rerun skipped the asset as unchanged, exit 0, and the
+    map kept the old tile. Now the tiles are hashed: the rerun bakes, and tile 1002's map
+    holds the new normal."""
+    blend = _udim_texture_scene(tmp_path / "tex", tmp_path / "s.blend")
+    out = tmp_path / "out"
+    batch = ["bake-batch", str(blend), "--output", str(out / "m.<UDIM>.png"), "--workers",
+             "0"] + SMALL
+    assert commands.execute(batch) == 0, capsys.readouterr().err
+    capsys.readouterr()
+    assert commands.execute(batch) == 0
+    assert "[1/1] skipped s.blend:Plane" in capsys.readouterr().out
+    flat = bpy.data.images.new("t", 8, 8)           # tile 1002 repainted flat: (0, 0, 1)
+    flat.pixels.foreach_set(np.tile([0.5, 0.5, 1.0, 1.0], 64).astype(np.float32))
+    flat.filepath_raw, flat.file_format = str(tmp_path / "tex" / "n.1002.png"), "PNG"
+    flat.save()
+    bpy.data.images.remove(flat)
+    assert commands.execute(batch) == 0
+    assert "[1/1] baked s.blend:Plane: tile(s) 1001, 1002 " in capsys.readouterr().out
+    texels = _pixels(out / "m.1002.png")[..., :3].reshape(-1, 3)
+    assert np.abs(texels - (0.5, 0.5, 1.0)).max() < 0.01, texels.mean(0)
