@@ -16,7 +16,8 @@
   as macOS writes it) land on one file where the file system ignores forms (APFS, HFS+):
   the second map replaced the first with exit 0; the probe asked about case only.
 - A UDIM texture's tiles were not among the files the manifest hashes (Blender lists the path
-  with <UDIM>): a repainted tile, and the rerun skipped the asset with the old map, exit 0."""
+  with <UDIM>), nor the frame file an image sequence reads (only the file named in its path):
+  a repainted tile or frame, and the rerun skipped the asset with the old map, exit 0."""
 
 import json
 
@@ -84,33 +85,49 @@ def test_udim_outputs_with_percent_and_token_text_in_their_names_land_as_asked(t
     assert not [f for f in _files(tmp_path) if ".part" in f]
 
 
-def _udim_texture_scene(folder, blend):
-    """A plane over tiles 1001-1002 whose Normal Map reads a UDIM PNG in `folder`."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    folder.mkdir()
-    for t, colour in ((1001, (0.8, 0.4, 0.9)), (1002, (0.25, 0.6, 0.85))):
-        img = bpy.data.images.new("t", 8, 8)
-        img.pixels.foreach_set(np.tile([*colour, 1.0], 64).astype(np.float32))
-        img.filepath_raw, img.file_format = str(folder / f"n.{t}.png"), "PNG"
-        img.save()
-        bpy.data.images.remove(img)
-    obj = BA.tiled_plane(bpy, "Plane", (1001, 1002))
-    img = bpy.data.images.load(str(folder / "n.1001.png"))
-    img.source = "TILED"
-    img.filepath = str(folder / "n.<UDIM>.png")
-    img.colorspace_settings.name = "Non-Color"
+def _png(path, colour):
+    """An 8 x 8 PNG of one colour."""
+    img = bpy.data.images.new("t", 8, 8)
+    img.pixels.foreach_set(np.tile([*colour, 1.0], 64).astype(np.float32))
+    img.filepath_raw, img.file_format = str(path), "PNG"
+    img.save()
+    bpy.data.images.remove(img)
+
+
+def _normal_map_scene(tiles, image):
+    """A plane over `tiles` whose Normal Map reads `image` (Non-Color); returns the Image
+    Texture node."""
+    obj = BA.tiled_plane(bpy, "Plane", tiles)
+    image.colorspace_settings.name = "Non-Color"
     mat = new_material("M")
     tree = mat.node_tree
     tex = tree.nodes.new("ShaderNodeTexImage")
-    tex.image = img
+    tex.image = image
     normal_map = tree.nodes.new("ShaderNodeNormalMap")
     tree.links.new(tex.outputs["Color"], normal_map.inputs["Color"])
     tree.links.new(normal_map.outputs["Normal"],
                    tree.nodes["Principled BSDF"].inputs["Normal"])
     obj.data.materials.append(mat)
+    return tex
+
+
+def _save(blend):
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
     bpy.ops.wm.read_factory_settings(use_empty=True)
     return blend
+
+
+def _udim_texture_scene(folder, blend):
+    """A plane over tiles 1001-1002 whose Normal Map reads a UDIM PNG in `folder`."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    folder.mkdir()
+    for t, colour in ((1001, (0.8, 0.4, 0.9)), (1002, (0.25, 0.6, 0.85))):
+        _png(folder / f"n.{t}.png", colour)
+    img = bpy.data.images.load(str(folder / "n.1001.png"))
+    img.source = "TILED"
+    img.filepath = str(folder / "n.<UDIM>.png")
+    _normal_map_scene((1001, 1002), img)
+    return _save(blend)
 
 
 def test_a_udim_texture_in_a_folder_with_percent_is_refused_naming_it(tmp_path, capsys):
@@ -242,12 +259,32 @@ def test_a_rerun_bakes_again_when_a_udim_texture_tile_changed(tmp_path, capsys):
     capsys.readouterr()
     assert commands.execute(batch) == 0
     assert "[1/1] skipped s.blend:Plane" in capsys.readouterr().out
-    flat = bpy.data.images.new("t", 8, 8)           # tile 1002 repainted flat: (0, 0, 1)
-    flat.pixels.foreach_set(np.tile([0.5, 0.5, 1.0, 1.0], 64).astype(np.float32))
-    flat.filepath_raw, flat.file_format = str(tmp_path / "tex" / "n.1002.png"), "PNG"
-    flat.save()
-    bpy.data.images.remove(flat)
+    _png(tmp_path / "tex" / "n.1002.png", (0.5, 0.5, 1.0))     # repainted flat: (0, 0, 1)
     assert commands.execute(batch) == 0
     assert "[1/1] baked s.blend:Plane: tile(s) 1001, 1002 " in capsys.readouterr().out
     texels = _pixels(out / "m.1002.png")[..., :3].reshape(-1, 3)
+    assert np.abs(texels - (0.5, 0.5, 1.0)).max() < 0.01, texels.mean(0)
+
+
+def test_a_rerun_bakes_again_when_the_sequence_frame_it_reads_changed(tmp_path, capsys):
+    """An image sequence read at frame 2 (the file's current frame): Blender lists its path
+    as the first frame's file, which alone was hashed. Before: frame 2's file repainted, the
+    rerun skipped the asset, exit 0, the map of the old frame kept. Now it bakes again."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    _png(tmp_path / "f_0001.png", (0.8, 0.4, 0.9))
+    _png(tmp_path / "f_0002.png", (0.25, 0.6, 0.85))
+    img = bpy.data.images.load(str(tmp_path / "f_0001.png"))
+    img.source = "SEQUENCE"
+    tex = _normal_map_scene((1001,), img)
+    tex.image_user.frame_start, tex.image_user.frame_duration = 1, 2
+    bpy.context.scene.frame_current = 2
+    blend = _save(tmp_path / "s.blend")
+    batch = ["bake-batch", str(blend), "--output", str(tmp_path / "out" / "m.png"),
+             "--workers", "0"] + SMALL
+    assert commands.execute(batch) == 0, capsys.readouterr().err
+    _png(tmp_path / "f_0002.png", (0.5, 0.5, 1.0))
+    capsys.readouterr()
+    assert commands.execute(batch) == 0
+    assert "[1/1] baked s.blend:Plane: tile(s) 1001 " in capsys.readouterr().out
+    texels = _pixels(tmp_path / "out" / "m.png")[..., :3].reshape(-1, 3)
     assert np.abs(texels - (0.5, 0.5, 1.0)).max() < 0.01, texels.mean(0)
