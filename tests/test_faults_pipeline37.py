@@ -17,7 +17,9 @@
   the second map replaced the first with exit 0; the probe asked about case only.
 - A UDIM texture's tiles were not among the files the manifest hashes (Blender lists the path
   with <UDIM>), nor the frame file an image sequence reads (only the file named in its path):
-  a repainted tile or frame, and the rerun skipped the asset with the old map, exit 0."""
+  a repainted tile or frame, and the rerun skipped the asset with the old map, exit 0.
+- A `--manifest` named as one of the maps: with --overwrite the map became the manifest's
+  JSON, exit 0."""
 
 import json
 
@@ -288,3 +290,24 @@ def test_a_rerun_bakes_again_when_the_sequence_frame_it_reads_changed(tmp_path, 
     assert "[1/1] baked s.blend:Plane: tile(s) 1001 " in capsys.readouterr().out
     texels = _pixels(tmp_path / "out" / "m.png")[..., :3].reshape(-1, 3)
     assert np.abs(texels - (0.5, 0.5, 1.0)).max() < 0.01, texels.mean(0)
+
+
+@pytest.mark.tier("blender")
+def test_a_manifest_named_as_a_map_is_refused_before_anything_runs(tmp_path, capsys):
+    """`--manifest out/Rock.1002.png` (a slip: one of the maps' names). Before: the run wrote
+    its manifest there, then failed the asset as 'Rock.1002.png exists; pass --overwrite';
+    with --overwrite it baked, and its manifest write replaced the map: exit 0, tile 1002's
+    'map' the manifest's JSON. Now exit 2 naming the fix, nothing made."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001, 1002), image_size=16)
+    out = tmp_path / "out"
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(out / "{object}.<UDIM>.png"),
+                           "--manifest", str(out / "Rock.1002.png"), "--overwrite",
+                           "--workers", "0"] + SMALL)
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert err.strip().splitlines()[-1].endswith("a map's name: a map the batch writes there "
+                                                 "would replace it, and it the map (with "
+                                                 "--overwrite, the map was the manifest's "
+                                                 "JSON, exit 0); name it .json"), err
+    assert not out.exists()

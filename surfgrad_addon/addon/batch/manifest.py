@@ -42,6 +42,10 @@ def checked_path(manifest, pattern):
 
 def _manifest_problem(path):
     """None if the manifest path can be read and replaced, else what is wrong with it."""
+    if path.suffix.lower() in NB.FORMATS:       # (a map's name: --manifest maps/Rock.1001.png)
+        return (f"ends in {path.suffix}, a map's name: a map the batch writes there would "
+                f"replace it, and it the map (with --overwrite, the map was the manifest's "
+                f"JSON, exit 0); name it .json")
     if path.is_dir():
         return f"is a folder; give a file path (e.g. {path / MANIFEST_NAME})"
     if path.exists() and not path.is_file():
