@@ -19,7 +19,7 @@
   with <UDIM>), nor the frame file an image sequence reads (only the file named in its path):
   a repainted tile or frame, and the rerun skipped the asset with the old map, exit 0.
 - A `--manifest` named as one of the maps: with --overwrite the map became the manifest's
-  JSON, exit 0."""
+  JSON, exit 0; the settings file given as the manifest was taken for one and replaced."""
 
 import json
 
@@ -311,3 +311,26 @@ def test_a_manifest_named_as_a_map_is_refused_before_anything_runs(tmp_path, cap
                                                  "--overwrite, the map was the manifest's "
                                                  "JSON, exit 0); name it .json"), err
     assert not out.exists()
+
+
+@pytest.mark.tier("blender")
+def test_a_settings_file_given_as_the_manifest_is_refused_and_kept(tmp_path, capsys):
+    """`--settings per_asset.json --manifest per_asset.json` (a slip). A settings file's
+    "assets" table (patterns to settings) passed for a manifest's. Before: exit 0, and the run
+    replaced the settings file with its manifest (its "defaults" gone). Now exit 2 naming the
+    file, which stays as it was."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=16)
+    settings = tmp_path / "per_asset.json"
+    text = json.dumps({"defaults": {"resolution": 16}, "assets": {"Rock*": {"samples": 2}}})
+    settings.write_text(text)
+    capsys.readouterr()
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(tmp_path / "out" /
+                                                                     "{object}.png"),
+                           "--settings", str(settings), "--manifest", str(settings),
+                           "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert err.strip().splitlines()[-1].startswith(
+        f"surfgrad: error: manifest {settings} is not a surfgrad manifest"), err
+    assert settings.read_text() == text
+    assert not (tmp_path / "out").exists()

@@ -73,9 +73,13 @@ def read(path):
     except UnicodeDecodeError:
         raise BatchError(f"manifest {path} is not UTF-8 text (not a surfgrad manifest); give "
                          f"another --manifest path or remove that file") from None
-    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
-        raise BatchError(f"manifest {path} is not a surfgrad manifest (no \"assets\" table); "
-                         f"give another --manifest path or move that file away")
+    # (every manifest has the surfgrad version: a settings file, whose "assets" table of
+    # patterns passed, was taken for one and replaced, exit 0)
+    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict) or \
+            "surfgrad" not in data:
+        raise BatchError(f"manifest {path} is not a surfgrad manifest (no \"assets\" table "
+                         f"and \"surfgrad\" version); give another --manifest path or move "
+                         f"that file away")
     problem = _shape_problem(data)
     if problem:
         raise BatchError(f"manifest {path} was edited or damaged: {problem}; {fix}")
