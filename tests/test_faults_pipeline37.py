@@ -19,9 +19,11 @@
   with <UDIM>), nor the frame file an image sequence reads (only the file named in its path):
   a repainted tile or frame, and the rerun skipped the asset with the old map, exit 0.
 - A `--manifest` named as one of the maps: with --overwrite the map became the manifest's
-  JSON, exit 0; the settings file given as the manifest was taken for one and replaced."""
+  JSON, exit 0; the settings file given as the manifest was taken for one and replaced.
+- A share that does not lock files (ENOLCK) was called 'in use by another bake-batch run'."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -334,3 +336,36 @@ def test_a_settings_file_given_as_the_manifest_is_refused_and_kept(tmp_path, cap
         f"surfgrad: error: manifest {settings} is not a surfgrad manifest"), err
     assert settings.read_text() == text
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.tier("blender")
+def test_a_share_that_does_not_lock_is_not_called_another_run(tmp_path, capsys, monkeypatch):
+    """flock on a share whose lock service does not answer (NFS without lockd: ENOLCK).
+    Before: 'manifest ... is in use by another bake-batch run ...: wait for that run to end',
+    a run that does not exist, on every try. Now exit 2 naming the file system and the fix;
+    the lock file and the folder it made are gone. A manifest another run holds is still
+    named as such."""
+    import errno
+    import fcntl
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=16)
+    out = tmp_path / "out"
+    args = ["bake-batch", str(blend), "--output", str(out / "{object}.png"), "--workers", "0"]
+
+    def no_lock_service(fd, op):
+        raise OSError(errno.ENOLCK, os.strerror(errno.ENOLCK))
+    with monkeypatch.context() as m:
+        m.setattr(fcntl, "flock", no_lock_service)
+        capsys.readouterr()
+        rc = commands.execute(args)
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert "its folder's file system does not lock files (No locks available)" in err, err
+    assert "in use by another" not in err
+    assert not out.exists()
+    out.mkdir()
+    lock = out / f".{MANIFEST_NAME}.lock"
+    with open(lock, "w") as held:                   # another run holds it
+        fcntl.flock(held, fcntl.LOCK_EX)
+        rc = commands.execute(args)
+    assert rc == exit_codes.BAD_REQUEST and "is in use by another bake-batch run" in \
+        capsys.readouterr().err

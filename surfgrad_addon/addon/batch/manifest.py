@@ -193,11 +193,19 @@ def hold(path):
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = path.with_name(f".{path.name}.lock")
     while True:
+        created = not lock.exists()
         fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        except OSError as err:
             os.close(fd)
+            if err.errno not in (errno.EWOULDBLOCK, errno.EAGAIN):
+                # (an NFS share whose lock service does not answer: ENOLCK) not another run
+                _remove(([lock.unlink] if created else []) + [f.rmdir for f in made])
+                raise BatchError(f"manifest {path}: its folder's file system does not lock "
+                                 f"files ({err.strerror}), so a second run on it could not "
+                                 f"be stopped: check the share's lock service (NFS: lockd), "
+                                 f"or give a --manifest on a disk that does") from None
             raise BatchError(f"manifest {path} is in use by another bake-batch run (it holds "
                              f"{lock}): wait for that run to end, or give this one another "
                              f"--manifest and output folder") from None
@@ -218,12 +226,16 @@ def release(path):
     fd, lock, made = _HELD.pop(Path(path), (None, None, None))
     if fd is None:
         return
-    for remove in (lock.unlink, *(f.rmdir for f in made)):
+    _remove([lock.unlink, *(f.rmdir for f in made)])
+    os.close(fd)
+
+
+def _remove(removals):
+    for remove in removals:
         try:
             remove()
         except OSError:                           # (a folder with the maps in it stays)
             pass
-    os.close(fd)
 
 
 def asset_key(blend, obj):
