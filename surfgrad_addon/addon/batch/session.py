@@ -9,7 +9,7 @@ from pathlib import Path
 from .. import bake_request as BR
 from .. import interrupts
 from ..exit_codes import MapNotWritten
-from ..image_checks import image_problems
+from ..image_checks import data_key, image_problems
 from ..input_stamps import read_files
 from ..material_inputs import missing_library_problem
 from .. import normal_bake as NB
@@ -96,8 +96,11 @@ def dependencies_of_open_file():
     except TypeError:
         paths = bpy.utils.blend_paths(absolute=True)
     paths = [p for p in paths if p and "<UDIM>" not in p]
+    walked = set()                  # (a kit of many objects shares a few sets of materials)
     for obj in bpy.data.objects:
-        if obj.type == "MESH":
+        materials = tuple(s.material and data_key(s.material) for s in obj.material_slots)
+        if obj.type == "MESH" and materials not in walked:
+            walked.add(materials)
             paths += read_files(obj)
     return sorted({str(Path(p).resolve()) for p in paths})
 
