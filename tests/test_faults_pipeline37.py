@@ -20,10 +20,13 @@
   a repainted tile or frame, and the rerun skipped the asset with the old map, exit 0.
 - A `--manifest` named as one of the maps: with --overwrite the map became the manifest's
   JSON, exit 0; the settings file given as the manifest was taken for one and replaced.
-- A share that does not lock files (ENOLCK) was called 'in use by another bake-batch run'."""
+- A share that does not lock files (ENOLCK) was called 'in use by another bake-batch run'.
+- compare of a multi-tile object with '%' in $TMPDIR: its tiles read back through Blender's
+  tile format went to other folders, and a raw RuntimeError ended it."""
 
 import json
 import os
+import tempfile
 
 import numpy as np
 import pytest
@@ -173,8 +176,9 @@ def test_a_rerun_bakes_tiles_it_has_not_and_leaves_files_it_did_not_record(tmp_p
     and a run whose pattern had changed since (`{object}_n` for `{object}`) replaced an
     artist's own file at the new name without --overwrite, exit 0 (the earlier record's files
     being unchanged let it replace whatever was there). Now the second run bakes tile 1002
-    (and 1001 again: the same texels as a bake of 1002 alone), and the third fails that asset naming the
-    file, which stays as it was. Tile by tile and then all skips the last run."""
+    (and 1001 again; 1002 the same texels as a bake of it alone), and the third fails that
+    asset naming the file, which stays as it was. Tile by tile and then all skips the last
+    run."""
     blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001, 1002), image_size=16,
                            kind="noise")
     alone = tmp_path / "alone"
@@ -369,3 +373,22 @@ def test_a_share_that_does_not_lock_is_not_called_another_run(tmp_path, capsys, 
         rc = commands.execute(args)
     assert rc == exit_codes.BAD_REQUEST and "is in use by another bake-batch run" in \
         capsys.readouterr().err
+
+
+def test_compare_of_a_udim_object_with_percent_in_the_temporary_folder(tmp_path,
+                                                                      monkeypatch):
+    """compare reads a multi-tile bake back through 32-bit EXR tiles in a temporary folder,
+    saved through Blender's tile format. With '%d' in $TMPDIR (a farm's per-task folder):
+    before, the tiles went to folders named by the tile numbers beside it, and a raw
+    RuntimeError ('Cannot read .../bake.1001.exr') ended the compare. Now the same agreement
+    as in a plain folder, and nothing beside it."""
+    from surfgrad_addon.harness import api as harness_api
+    pct = tmp_path / "t%d"
+    pct.mkdir()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj = BA.tiled_plane(bpy, "P", (1001, 1002))
+    monkeypatch.setattr(tempfile, "tempdir", str(pct))
+    report = harness_api.compare(obj, "triplanar", resolution=16)
+    assert report["texels_compared"] == 2 * 16 * 16 and report["max_deg"] < 0.01, report
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t%d"]
+    assert list(pct.iterdir()) == []
