@@ -22,11 +22,14 @@
   JSON, exit 0; the settings file given as the manifest was taken for one and replaced.
 - A share that does not lock files (ENOLCK) was called 'in use by another bake-batch run'.
 - compare of a multi-tile object with '%' in $TMPDIR: its tiles read back through Blender's
-  tile format went to other folders, and a raw RuntimeError ended it."""
+  tile format went to other folders, and a raw RuntimeError ended it.
+- A texture named with Blender's <UVTILE> (n.u1_v1.png), which Cycles reads, was refused as
+  missing: the checks filled in <UDIM> only."""
 
 import json
 import os
 import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -124,17 +127,34 @@ def _save(blend):
     return blend
 
 
-def _udim_texture_scene(folder, blend):
-    """A plane over tiles 1001-1002 whose Normal Map reads a UDIM PNG in `folder`."""
+TILE_COLOURS = {1001: (0.8, 0.4, 0.9), 1002: (0.25, 0.6, 0.85)}
+TILE_NAMES = {"<UDIM>": {1001: "1001", 1002: "1002"},
+              "<UVTILE>": {1001: "u1_v1", 1002: "u2_v1"}}      # Blender's u<column>_v<row>
+
+
+def _udim_texture_scene(folder, blend, token="<UDIM>"):
+    """A plane over tiles 1001-1002 whose Normal Map reads a UDIM PNG in `folder` (named with
+    <UDIM>, or with <UVTILE>: u1_v1, u2_v1)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     folder.mkdir()
-    for t, colour in ((1001, (0.8, 0.4, 0.9)), (1002, (0.25, 0.6, 0.85))):
-        _png(folder / f"n.{t}.png", colour)
-    img = bpy.data.images.load(str(folder / "n.1001.png"))
+    name = f"n.{token}.png"
+    for t, colour in TILE_COLOURS.items():
+        _png(folder / name.replace(token, TILE_NAMES[token][t]), colour)
+    img = bpy.data.images.load(str(folder / name.replace(token, TILE_NAMES[token][1001])))
     img.source = "TILED"
-    img.filepath = str(folder / "n.<UDIM>.png")
+    img.filepath = str(folder / name)
     _normal_map_scene((1001, 1002), img)
     return _save(blend)
+
+
+def _assert_tiles_read_their_files(maps):
+    """Each tile of the baked map holds its own file's normal (a flat plane: tangent space is
+    the UV frame)."""
+    for t, colour in TILE_COLOURS.items():
+        n = 2 * np.array(colour) - 1
+        expected = 0.5 * n / np.linalg.norm(n) + 0.5
+        texels = _pixels(Path(str(maps).replace("<UDIM>", str(t))))[..., :3].reshape(-1, 3)
+        assert np.abs(texels - expected).max() < 0.01, (t, texels.mean(0), expected)
 
 
 def test_a_udim_texture_in_a_folder_with_percent_is_refused_naming_it(tmp_path, capsys):
@@ -162,12 +182,7 @@ def test_a_udim_texture_in_a_folder_with_percent_is_refused_naming_it(tmp_path, 
     rc = commands.execute(["bake-normal-map", "--blend", str(good), "--object", "Plane",
                            "--output", str(out / "g.<UDIM>.png")] + SMALL)
     assert rc == 0, capsys.readouterr().err
-    # each tile holds its own file's normal (a flat plane: tangent space is the UV frame)
-    for t, colour in ((1001, (0.8, 0.4, 0.9)), (1002, (0.25, 0.6, 0.85))):
-        n = 2 * np.array(colour) - 1
-        expected = 0.5 * n / np.linalg.norm(n) + 0.5
-        texels = _pixels(out / f"g.{t}.png")[..., :3].reshape(-1, 3)
-        assert np.abs(texels - expected).max() < 0.01, (t, texels.mean(0), expected)
+    _assert_tiles_read_their_files(out / "g.<UDIM>.png")
 
 
 def test_a_rerun_bakes_tiles_it_has_not_and_leaves_files_it_did_not_record(tmp_path, capsys):
@@ -392,3 +407,23 @@ def test_compare_of_a_udim_object_with_percent_in_the_temporary_folder(tmp_path,
     assert report["texels_compared"] == 2 * 16 * 16 and report["max_deg"] < 0.01, report
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t%d"]
     assert list(pct.iterdir()) == []
+
+
+def test_a_texture_named_with_uvtile_is_read_tile_by_tile(tmp_path, capsys):
+    """A UDIM texture named Blender's other way, n.<UVTILE>.png (n.u1_v1.png, n.u2_v1.png:
+    Mari's and Mudbox's names), which Blender and Cycles read. Before: refused, exit 2, 'reads
+    .../n.<UVTILE>.png, which does not exist' (the checks filled in <UDIM> only). Now each
+    tile of the map holds its own file's normal, and a batch hashes both files."""
+    blend = _udim_texture_scene(tmp_path / "tex", tmp_path / "s.blend", "<UVTILE>")
+    out = tmp_path / "out"
+    out.mkdir()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out / "m.<UDIM>.png")] + SMALL)
+    assert rc == 0, capsys.readouterr().err
+    _assert_tiles_read_their_files(out / "m.<UDIM>.png")
+    rc = commands.execute(["bake-batch", str(blend), "--output", str(out / "b.<UDIM>.png"),
+                           "--workers", "0"] + SMALL)
+    assert rc == 0, capsys.readouterr().err
+    manifest = json.loads((out / MANIFEST_NAME).read_text())
+    assert manifest["files"][str(blend)]["dependencies"] == [
+        str(tmp_path / "tex" / "n.u1_v1.png"), str(tmp_path / "tex" / "n.u2_v1.png")]

@@ -45,7 +45,7 @@ FORMATS = {".png": ("PNG", ("8", "16"), "8"), ".exr": ("OPEN_EXR", ("half", "flo
 # UDIM numbering: tile 1001 + u + 10 v for u in 0..9 (Blender's tiled images).
 UDIM_FIRST, UDIM_COLUMNS, UDIM_LAST = T.UDIM_FIRST, T.UDIM_COLUMNS, T.UDIM_LAST
 # Blender's other tile token (u<column+1>_v<row+1>): not filled in here, so refused.
-UVTILE_TOKEN = "<UVTILE>"
+UVTILE_TOKEN = T.UVTILE_TOKEN
 
 
 def resolution_problem(resolution, lo, hi):

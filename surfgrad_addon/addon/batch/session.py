@@ -95,7 +95,7 @@ def dependencies_of_open_file():
         paths = bpy.utils.blend_paths(absolute=True, packed=False, local=False)
     except TypeError:
         paths = bpy.utils.blend_paths(absolute=True)
-    paths = [p for p in paths if p and "<UDIM>" not in p]
+    paths = [p for p in paths if p and NB.UDIM_TOKEN not in p and NB.UVTILE_TOKEN not in p]
     walked = set()                  # (a kit of many objects shares a few sets of materials)
     for obj in bpy.data.objects:
         materials = tuple(s.material and data_key(s.material) for s in obj.material_slots)
