@@ -236,6 +236,9 @@ def _one_image_problem(image):
     if not packed:
         if not image.filepath:
             return f"{what} has no file path and is not packed: pick its file, or pack it"
+        problem = tile_format_problem(image)
+        if problem:
+            return problem
         folders = [str(p) for p in image_files(image) if p.is_dir()]
         if folders:
             return (f"{what} reads {folders[0]!r}, which is a folder, not an image file: "
@@ -284,6 +287,20 @@ def _one_image_problem(image):
     finally:
         if not had_data and image.has_data:
             image.buffers_free()
+
+
+def tile_format_problem(image):
+    """A UDIM image on disk whose path holds '%': Blender reads a tiled image's tiles from its
+    path as a printf format (<UDIM> becomes %d), so the load read other files (refused as
+    damaged) or crashed ('%s'). Checked before any load."""
+    import bpy
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    if image.source != "TILED" or "%" not in path:
+        return None
+    return (f"UDIM image {image.name!r} reads {path!r}, whose '%' Blender takes as part of a "
+            f"format when it loads the tiles (it reads other files, or crashes): rename the "
+            f"folder or file without '%' and point the image at it (File > External Data > "
+            f"Find Missing Files)")
 
 
 def _tile_files_problem(image, covered):

@@ -26,6 +26,12 @@ def _stat(path):
 def stamps(obj):
     """{path: (size, mtime_ns, inode) or None} of every image file on disk obj's materials
     read (each UDIM tile; a sequence's file for the current frame)."""
+    return {p: _stat(p) for p in read_files(obj)}
+
+
+def read_files(obj):
+    """The image files on disk obj's materials read, sorted (each UDIM tile; a sequence's file
+    for the current frame)."""
     import bpy
     paths = set()
     for _mat, _path, node, image in material_images(obj):
@@ -38,7 +44,7 @@ def stamps(obj):
                 node.image_user, bpy.context.scene.frame_current))))
         else:
             paths.update(str(p) for p in image_files(image))
-    return {p: _stat(p) for p in sorted(paths)}
+    return sorted(paths)
 
 
 def changed_problem(before):

@@ -45,7 +45,7 @@ FORMATS = {".png": ("PNG", ("8", "16"), "8"), ".exr": ("OPEN_EXR", ("half", "flo
 # UDIM numbering: tile 1001 + u + 10 v for u in 0..9 (Blender's tiled images).
 UDIM_FIRST, UDIM_COLUMNS, UDIM_LAST = T.UDIM_FIRST, T.UDIM_COLUMNS, T.UDIM_LAST
 # Blender's other tile token (u<column+1>_v<row+1>): not filled in here, so refused.
-UVTILE_TOKEN = "<UVTILE>"
+UVTILE_TOKEN = T.UVTILE_TOKEN
 
 
 def resolution_problem(resolution, lo, hi):
@@ -365,7 +365,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         t0 = time.perf_counter()
         temp = output.parent / f".{output.stem}.part{os.getpid()}{output.suffix}"
         temps = {t: tile_path(temp, t) for t in tiles}
-        image.filepath_raw = str(temp.resolve())
+        image.filepath_raw = blender_tile_path(temp.resolve()) if udim else str(temp.resolve())
         image.file_format = fmt
         try:
             image.save()
@@ -397,6 +397,14 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         for p in temps.values():              # a failed save leaves nothing half-written
             if p.exists():
                 p.unlink()
+
+
+def blender_tile_path(path):
+    """`path` (with <UDIM>) as a tiled image's file path for Blender to save: Blender fills in
+    the token by printf formatting (it becomes %d), so a '%' elsewhere in the path (a folder
+    '100%', an object 'Rock%s') was read as a format: tiles written into other folders, or a
+    crash. Doubled, it stays one '%' (tests/test_faults_pipeline37.py, every line)."""
+    return str(path).replace("%", "%%")
 
 
 def _make_tiles(bpy, image, tiles, resolution, is_float):

@@ -19,6 +19,7 @@ from ..addon.scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, with
 from ..addon.bake_target import bake_target_problem, own_materials, visible_for_bake
 from ..addon.exit_codes import BakeFailed
 from ..addon.interrupts import native_call
+from ..addon.normal_bake import blender_tile_path
 from ..addon.far_precision import needs_precise_far, set_precise_far
 from .graph import Graph
 
@@ -121,7 +122,7 @@ def _tile_pixels(image, tiles, width, height):
     import bpy
     out = {}
     with tempfile.TemporaryDirectory(prefix="surfgrad_tiles_") as folder:
-        image.filepath_raw = str(Path(folder) / "bake.<UDIM>.exr")
+        image.filepath_raw = blender_tile_path(Path(folder) / "bake.<UDIM>.exr")   # ($TMPDIR: %)
         image.file_format = "OPEN_EXR"
         if hasattr(image, "use_half_precision"):
             image.use_half_precision = False

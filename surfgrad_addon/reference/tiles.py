@@ -17,6 +17,7 @@ UDIM_FIRST = 1001
 UDIM_COLUMNS = 10
 UDIM_LAST = 2000          # Blender's highest tile number
 UDIM_TOKEN = "<UDIM>"     # in an output name: one file per tile, the number in its place
+UVTILE_TOKEN = "<UVTILE>"    # Blender's other tile token (read in textures, not written)
 
 
 def tile_uv_offset(number):
@@ -119,8 +120,11 @@ def tiles_text(tiles):
 
 
 def tile_path(output, tile):
-    """The file of UDIM tile `tile` for an output name with <UDIM> (or the name itself)."""
-    return Path(str(output).replace(UDIM_TOKEN, str(tile)))
+    """The file of UDIM tile `tile` for a name with <UDIM>, or with Blender's other tile token
+    <UVTILE> (u<column>_v<row>, from 1: Mari's and Mudbox's texture names), or the name
+    itself."""
+    u, v = (tile - UDIM_FIRST) % UDIM_COLUMNS + 1, (tile - UDIM_FIRST) // UDIM_COLUMNS + 1
+    return Path(str(output).replace(UDIM_TOKEN, str(tile)).replace(UVTILE_TOKEN, f"u{u}_v{v}"))
 
 
 # Exact tile maths: which tiles a triangle really covers (area, not its bounding box) -------------

@@ -42,6 +42,10 @@ def checked_path(manifest, pattern):
 
 def _manifest_problem(path):
     """None if the manifest path can be read and replaced, else what is wrong with it."""
+    if path.suffix.lower() in NB.FORMATS:       # (a map's name: --manifest maps/Rock.1001.png)
+        return (f"ends in {path.suffix}, a map's name: a map the batch writes there would "
+                f"replace it, and it the map (with --overwrite, the map was the manifest's "
+                f"JSON, exit 0); name it .json")
     if path.is_dir():
         return f"is a folder; give a file path (e.g. {path / MANIFEST_NAME})"
     if path.exists() and not path.is_file():
@@ -69,9 +73,13 @@ def read(path):
     except UnicodeDecodeError:
         raise BatchError(f"manifest {path} is not UTF-8 text (not a surfgrad manifest); give "
                          f"another --manifest path or remove that file") from None
-    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict):
-        raise BatchError(f"manifest {path} is not a surfgrad manifest (no \"assets\" table); "
-                         f"give another --manifest path or move that file away")
+    # (every manifest has the surfgrad version: a settings file, whose "assets" table of
+    # patterns passed, was taken for one and replaced, exit 0)
+    if not isinstance(data, dict) or not isinstance(data.get("assets"), dict) or \
+            "surfgrad" not in data:
+        raise BatchError(f"manifest {path} is not a surfgrad manifest (no \"assets\" table "
+                         f"and \"surfgrad\" version); give another --manifest path or move "
+                         f"that file away")
     problem = _shape_problem(data)
     if problem:
         raise BatchError(f"manifest {path} was edited or damaged: {problem}; {fix}")
@@ -185,11 +193,19 @@ def hold(path):
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = path.with_name(f".{path.name}.lock")
     while True:
+        created = not lock.exists()
         fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        except OSError as err:
             os.close(fd)
+            if err.errno not in (errno.EWOULDBLOCK, errno.EAGAIN):
+                # (an NFS share whose lock service does not answer: ENOLCK) not another run
+                _remove(([lock.unlink] if created else []) + [f.rmdir for f in made])
+                raise BatchError(f"manifest {path}: its folder's file system does not lock "
+                                 f"files ({err.strerror}), so a second run on it could not "
+                                 f"be stopped: check the share's lock service (NFS: lockd), "
+                                 f"or give a --manifest on a disk that does") from None
             raise BatchError(f"manifest {path} is in use by another bake-batch run (it holds "
                              f"{lock}): wait for that run to end, or give this one another "
                              f"--manifest and output folder") from None
@@ -210,12 +226,16 @@ def release(path):
     fd, lock, made = _HELD.pop(Path(path), (None, None, None))
     if fd is None:
         return
-    for remove in (lock.unlink, *(f.rmdir for f in made)):
+    _remove([lock.unlink, *(f.rmdir for f in made)])
+    os.close(fd)
+
+
+def _remove(removals):
+    for remove in removals:
         try:
             remove()
         except OSError:                           # (a folder with the maps in it stays)
             pass
-    os.close(fd)
 
 
 def asset_key(blend, obj):

@@ -153,11 +153,15 @@ def check_pattern(pattern):
     return pattern
 
 
+_TOKEN = re.compile("|".join(map(re.escape, TOKENS)))
+
+
 def expand(pattern, blend_name, object_name, uv_map):
-    """The output name of one asset (keeps <UDIM>)."""
+    """The output name of one asset (keeps <UDIM>). The tokens are filled in one pass: a name
+    holding a token's text (an object named '{uv}') is not filled in again."""
     stem = Path(blend_name).stem if blend_name else "untitled"
-    return (str(pattern).replace("{file}", _safe(stem)).replace("{object}", _safe(object_name))
-            .replace("{uv}", _safe(uv_map)))
+    values = {"{file}": _safe(stem), "{object}": _safe(object_name), "{uv}": _safe(uv_map)}
+    return _TOKEN.sub(lambda m: values[m.group()], str(pattern))
 
 
 def settings_hash(settings, output, blender_version, version):
@@ -315,6 +319,28 @@ def asset_problem(scan, s, blend_name=""):
                 f"bake the rest on purpose with --allow-partial (settings file: "
                 f"\"allow_partial\": true for {blend_name}:{name})")
     return None
+
+
+def replaceable(prev, output, tiles):
+    """Whether a bake of `output` (UDIM `tiles`) may replace the files at its names without
+    --overwrite: the earlier run's files are unchanged, and every file there now is one of
+    them. One it does not record (the pattern, or the UV tiles, changed since) is someone
+    else's: it was replaced, exit 0."""
+    if not unchanged_outputs(prev):
+        return False
+    ours = {str(Path(r["path"]).resolve()) for r in prev["files"].values()}
+    finals = {T.tile_path(Path(output).resolve(), t) for t in tiles}
+    return all(str(f) in ours or not f.exists() for f in finals)
+
+
+def same_bake_files(prev, entry):
+    """The files an earlier run recorded for this asset that this bake keeps: those of the
+    same inputs and settings (other tiles: --tiles), still holding what was written."""
+    if prev.get("input_hash") != entry["input_hash"] or \
+            prev.get("settings_hash") != entry["settings_hash"]:
+        return {}
+    return {t: r for t, r in (prev.get("files") or {}).items()
+            if _file_hash(Path(r["path"])) == r["sha256"]}
 
 
 def unchanged_outputs(prev):

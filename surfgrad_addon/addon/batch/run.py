@@ -10,7 +10,7 @@ from .. import interrupts
 from .. import normal_bake as NB
 from . import manifest as M
 from . import plan as P
-from .output_names import output_key
+from .output_names import one_file_because, output_key
 from .progress import Progress
 from .workers import InProcess, Pool
 
@@ -168,12 +168,12 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             seen_as = output_key(out)
             if seen_as in outputs_seen:
                 other, other_blend, other_out = outputs_seen[seen_as]
-                if other_out != out:                     # one file where case is ignored
+                if other_out != out:           # one file where case (or form) is ignored
                     collisions.append(
                         f"{name}:{a['object']} and {other} would write {out} and "
-                        f"{other_out}, one file on this file system (it ignores case): the "
-                        f"second map would replace the first; rename one, or make the output "
-                        f"pattern tell them apart")
+                        f"{other_out}, one file on this file system "
+                        f"({one_file_because(out, other_out)}): the second map would replace "
+                        f"the first; rename one, or make the output pattern tell them apart")
                 elif other == f"{name}:{a['object']}":     # same names, files in two folders
                     collisions.append(
                         f"{blend}:{a['object']} and {other_blend}:{a['object']} would both "
@@ -190,10 +190,12 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry["settings_hash"] = P.settings_hash(s, out, blender_version, VERSION)
             prev = previous["assets"].get(key, {})
             ours = P.unchanged_outputs(prev)
+            # the tiles this bake writes: an earlier run of some (--tiles) skips none of the rest
+            written = [t for t in a["uv_maps"].get(uv) or [] if tiles is None or t in tiles]
             if not force and prev.get("status") in ("baked", "skipped") and ours and \
                     prev.get("input_hash") == entry["input_hash"] and \
                     prev.get("settings_hash") == entry["settings_hash"] and \
-                    (tiles is None or set(map(str, tiles)) <= set(prev["files"])):
+                    set(map(str, written)) <= set(prev["files"]):
                 entry.update(status="skipped", files=prev["files"], tiles=prev.get("tiles"),
                              warnings=prev.get("warnings", []),
                              note="inputs, settings and outputs unchanged (--force bakes "
@@ -207,7 +209,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                          "output": str(Path(out).resolve()), "settings": s, "tiles": tiles,
                          "empty_tiles": empty_tiles, "threads": threads,
                          # our own earlier, unmodified outputs may be replaced
-                         "overwrite": overwrite or bool(ours)})
+                         "overwrite": overwrite or P.replaceable(prev, out, written)})
         for entry in entries:
             report["assets"][M.asset_key(blend, entry.get("object") or "*")] = entry
         progress.known += len(entries)
@@ -243,8 +245,10 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                          depth=reply["depth"], warnings=reply["warnings"],
                          timings={k: reply.get(k) for k in ("load_s", "bake_s", "save_s",
                                                             "total_s", "cpu_s")},
-                         files={t: {"path": p, "sha256": P.sha256_file(p)}
-                                for t, p in reply["paths"].items()})
+                         files={**P.same_bake_files(previous["assets"].get(req["id"], {}),
+                                                    entry),
+                                **{t: {"path": p, "sha256": P.sha256_file(p)}
+                                   for t, p in reply["paths"].items()}})
             f = files[req["file"]]
             if reply["dependencies"] != f["dependencies"]:
                 f["dependencies"] = reply["dependencies"]

@@ -9,7 +9,8 @@ from pathlib import Path
 from .. import bake_request as BR
 from .. import interrupts
 from ..exit_codes import MapNotWritten
-from ..image_checks import image_problems
+from ..image_checks import data_key, image_problems
+from ..input_stamps import read_files
 from ..material_inputs import missing_library_problem
 from .. import normal_bake as NB
 from .. import utf8_names
@@ -85,13 +86,23 @@ def _input_problems(obj):
 
 
 def dependencies_of_open_file():
-    """Absolute paths of the external files the open file uses (not packed)."""
+    """Absolute paths of the external files the open file uses (not packed), with the files
+    its meshes' materials read: each tile of a UDIM image (Blender lists its path with
+    <UDIM>, no file: a tile changed, the rerun skipped the map with exit 0), a sequence's
+    frame file."""
     import bpy
     try:
         paths = bpy.utils.blend_paths(absolute=True, packed=False, local=False)
     except TypeError:
         paths = bpy.utils.blend_paths(absolute=True)
-    return sorted({str(Path(p).resolve()) for p in paths if p and "<UDIM>" not in p})
+    paths = [p for p in paths if p and NB.UDIM_TOKEN not in p and NB.UVTILE_TOKEN not in p]
+    walked = set()                  # (a kit of many objects shares a few sets of materials)
+    for obj in bpy.data.objects:
+        materials = tuple(s.material and data_key(s.material) for s in obj.material_slots)
+        if obj.type == "MESH" and materials not in walked:
+            walked.add(materials)
+            paths += read_files(obj)
+    return sorted({str(Path(p).resolve()) for p in paths})
 
 
 _OPENED = [None]        # the file this session opened last (a bake leaves it as it was)
