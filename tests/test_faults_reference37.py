@@ -22,8 +22,10 @@
   NaN surface gradient, and the resolve dropped every layer added to it. compare called a
   correct `layered` stack wrong, p99 36.1 / max 55.0 deg at 32^2 on 5.2 and 5.0 (a sphere, the
   hemisphere map's flat part mid-grey); now p99 0.0011 / max 0.006. On 4.2 and 4.5 the group
-  itself drops those layers (the Normal Map node passes its NaN: LineFacts.
-  normal_map_replaces_non_finite), which the old reference matched: pinned, a known limit.
+  itself dropped those layers (p99 45 deg at 24^2, which the old reference matched): its
+  Listing 2 colour handed the Normal Map node (0.5, 0.5, 0.5), whose zero vector those lines
+  do not turn into the shading normal, and Listing 5 of that is the base normal, not zero.
+  The colour's blue now stays above 0.5 (NODE_Z_FLOOR): every line keeps the layers.
 - rasterize with a float size (16.0, as a script's arithmetic gives it): numpy's "Cannot cast
   array data from dtype('float64') to dtype('int64')" (or numba's "expected a sequence of
   integers") from deep inside; now a ValueError naming the size. A MeshArrays whose
@@ -120,29 +122,18 @@ def test_a_mid_grey_normal_map_texel_adds_nothing(route):
     assert np.degrees(np.arccos(np.clip(np.sum(mid * M.unit_base_normal(td), -1), -1, 1))).max() > 5
 
 
-# Measured: whether Cycles keeps the layers added to SG Normal Map where its map is mid-grey.
-# On 4.2 and 4.5 the group's surface gradient there is not finite, and SG Resolve's guard shows
-# the base normal, dropping the other layers (a known limit, docs/artists.md); 5.0 and 5.2
-# keep them.
-MID_GREY_KEEPS_LAYERS = {"4.2": False, "4.5": False, "5.0": True, "5.2": True}
-
-
 @pytest.mark.tier("bake")
 def test_compare_of_a_stack_on_a_mid_grey_normal_map(fresh):
     from surfgrad_addon.harness import compare, scenes
     from surfgrad_addon.reference import images
-    from surfgrad_addon.reference.blender_lines import facts_for
     obj = scenes.new_scene(["Sphere"])["Sphere"]
     pixels = images.hemisphere_tile_image(64)
     pixels[np.all(pixels == [0.5, 0.5, 1.0], axis=-1)] = 0.5     # the flat part mid-grey
     report, _ = compare.compare_object(obj, "layered", 24, image=pixels, log=lambda *_: None)
     # p99 only: a texel or two where the rim's colour blends into mid-grey (m near 0, the
     # derivative at Listing 2's 128) face away from the surface or not by float32 rounding
-    # (5.0: one texel, 92 deg); the layers dropped are a third of the texels (p99 36 deg).
-    if MID_GREY_KEEPS_LAYERS[facts_for(fresh.app.version).line]:
-        assert report["p99_deg"] < 0.1, report
-    else:       # the reference keeps them (Listing 2: m = 0 adds nothing)
-        assert report["p99_deg"] > 10, report
+    # (5.0: one texel, 92 deg); layers dropped were a third of the texels (p99 36-45 deg).
+    assert report["p99_deg"] < 0.1, report
 
 
 def test_rasterize_takes_whole_numbers_of_texels(route):

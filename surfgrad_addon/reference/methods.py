@@ -23,7 +23,8 @@ from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .threads import reference_threads  # noqa: F401 (methods.reference_threads for callers)
 from .noise import fractal_sum
 from .noise_footprint import footprint_from_differentials
-from .vecmath import FLT_EPSILON, TSPACE_Z_CLAMP, cross, dot, length, normalize, stack_last, transform
+from .vecmath import (FLT_EPSILON, NODE_Z_FLOOR, TSPACE_Z_CLAMP, cross, dot, length, normalize,
+                      stack_last, transform)
 
 HEIGHT_VARIANTS = ("forward", "one-texel", "hq")
 # Filter Width of the Forward variant's Bump node. Camera differentials in a render and a
@@ -227,8 +228,8 @@ def normal_map_strength(m, strength):
     derivative of Eq. 15 linearly."""
     m = np.array(m, dtype=np.float64 if np.asarray(m).dtype != np.float32 else np.float32)
     ma = np.abs(m)
-    z = np.maximum(np.maximum(ma[..., 2], np.maximum(ma[..., 0], ma[..., 1]) * TSPACE_Z_CLAMP),
-                   np.finfo(m.dtype).tiny)
+    # Listing 2's clamp as SG Normal Map's colour makes it, over NODE_Z_FLOOR (vecmath).
+    z = np.maximum(ma[..., 2], np.maximum(ma[..., 0], ma[..., 1]) * TSPACE_Z_CLAMP + NODE_Z_FLOOR)
     k = np.clip(strength, 0.0, 1.0)
     m[..., 0] *= strength
     m[..., 1] *= strength

@@ -11,7 +11,7 @@ import numpy as np
 from . import compiled
 from .compiled import kernel
 from .compiled import nan_maximum as _maximum
-from .vecmath import TSPACE_Z_CLAMP
+from .vecmath import NODE_Z_FLOOR, TSPACE_Z_CLAMP
 
 TINY = np.finfo(np.float64).tiny
 FLT_EPSILON = 1.192092896e-07          # vecmath.FLT_EPSILON (Listings 5 and 10)
@@ -64,13 +64,14 @@ def mikktspace_frame(tangents, signs, normals, unit_normal, tri, bary, nm, ident
 @kernel()
 def normal_map_node_derivative(rgb, strength, k, flip, out):
     """Eq. 15 on the Normal Map node's colour (methods.normal_map_surfgrad): m = 2 rgb - 1,
-    x and y times strength, z = max(1 + k (z' - 1), k z') with z' Listing 2's clamp and k the
-    saturated strength; out = -(x, y) / z, y negated for a DirectX map (flip)."""
+    x and y times strength, z = max(1 + k (z' - 1), k z') with z' Listing 2's clamp (floored as
+    in SG Normal Map's colour: NODE_Z_FLOOR) and k the saturated strength; out = -(x, y) / z,
+    y negated for a DirectX map (flip)."""
     for i in range(rgb.shape[1]):
         mx = 2.0 * np.float64(rgb[0, i]) - 1.0
         my = 2.0 * np.float64(rgb[1, i]) - 1.0
         mz = 2.0 * np.float64(rgb[2, i]) - 1.0
-        z = _maximum(_maximum(abs(mz), _maximum(abs(mx), abs(my)) * TSPACE_Z_CLAMP), TINY)
+        z = _maximum(abs(mz), _maximum(abs(mx), abs(my)) * TSPACE_Z_CLAMP + NODE_Z_FLOOR)
         mx *= strength
         my *= strength
         mz = _maximum(1.0 + k * (z - 1.0), k * z)

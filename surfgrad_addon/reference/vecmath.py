@@ -22,6 +22,11 @@ DIVIDE_FLOOR = 1e-30
 # Listing 2's clamp: z = max(|z|, max(|x|, |y|) / 128) bounds a tangent-space normal's
 # derivative to [-128, 128] (89.55 degrees).
 TSPACE_Z_CLAMP = 1.0 / 128.0
+# SG Normal Map's floor under Listing 2's clamp, z >= max(|x|, |y|) / 128 + 2^-22: its colour's
+# blue stays above 0.5 (0.5 + 2^-23 in float32), so the Normal Map node never decodes a zero
+# vector, which 4.2 and 4.5 turn into no normal at all (a mid-grey texel then dropped every
+# layer added to it). 2^-22 moves only texels the clamp decides, by under 0.004 degrees.
+NODE_Z_FLOOR = 2.0 ** -22
 
 
 def float_type(*arrays):

@@ -9,10 +9,10 @@ from ..node_builder import ensure_group
 from ..far_limits import FAR_METRES, FAR_REPEATS  # noqa: F401 (projection.py reads FAR_METRES here)
 from ...reference import socket_specs as S
 from ...reference.group_interfaces import INTERFACES
-from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, TSPACE_Z_CLAMP
+from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, NODE_Z_FLOOR, TSPACE_Z_CLAMP
 
 
-VERSION = 22
+VERSION = 23
 
 
 class FeatureUnavailable(ValueError):
@@ -191,7 +191,8 @@ def listing2_z(b, mx, my, mz):
 
 def listing2_colour(b, color, directx):
     """Listing 2 as a colour for a Normal Map node: the colour c with its green flipped where
-    DirectX is on and its blue b = 0.5 + max(|c.z - 0.5|, max(|c.x - 0.5|, |c.y - 0.5|) / 128).
+    DirectX is on and its blue b = 0.5 + max(|c.z - 0.5|, max(|c.x - 0.5|, |c.y - 0.5|) / 128
+    + NODE_Z_FLOOR / 2).
     The node's decode 2 (c - 0.5) then gives Listing 2's m with z clamped, bit for bit as from
     the centred m (c - 0.5 is exact there); x and y pass as they are (a per-axis Mix)."""
     ax, ay, az = b.separate(b.vmath(VMath.ABSOLUTE, b.vmath(VMath.SUBTRACT, color,
@@ -200,7 +201,7 @@ def listing2_colour(b, color, directx):
     # nodes here: a sample runs a Vector Math node at several times a Math node's instructions
     # (docs/performance.md, "Instructions per frame").
     blue = b.math(Math.MAXIMUM, b.math(Math.ADD, az, 0.5), b.math(
-        Math.MULTIPLY_ADD, b.math(Math.MAXIMUM, ax, ay), TSPACE_Z_CLAMP, 0.5))
+        Math.MULTIPLY_ADD, b.math(Math.MAXIMUM, ax, ay), TSPACE_Z_CLAMP, 0.5 + NODE_Z_FLOOR / 2))
     return b.mix_vector((0.0, 0.0, 1.0), flip_green_colour(b, color, directx), blue,
                         per_axis=True)
 
