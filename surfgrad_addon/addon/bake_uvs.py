@@ -81,6 +81,7 @@ class BakedMesh:
     face_materials: np.ndarray = None       # (F,) each face's material index
     filled_slots: tuple = ()                # per material slot of the rendered object: has one
     nonfinite_normals: int = 0              # face corners whose normal is NaN or Inf
+    attribute_names: frozenset = frozenset()    # of the rendered mesh (UV maps among them)
 
 
 _meshes = ReadOnce()           # {object pointer: BakedMesh} inside one_read()
@@ -115,7 +116,8 @@ def baked_mesh(obj):
                              np.array(evaluated.matrix_world, dtype=np.float64), uvs,
                              instances, faces, materials,
                              tuple(s.material is not None for s in evaluated.material_slots),
-                             int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))))
+                             int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))),
+                             frozenset(a.name for a in mesh.attributes))
         finally:
             evaluated.to_mesh_clear()
     return _meshes.get(obj.as_pointer(), lambda: read_as_baked(obj, read))
