@@ -8,6 +8,11 @@
    'Plane' does not have"), though Cycles bakes it; the viewport-only one passed and baked a
    flat map (every texel (0.502, 0.502, 1.0) in object space), exit 0. Now the check reads
    the mesh the bake renders (addon/image_checks.uv_reference_problems on bake_uvs.baked_mesh).
+2. compare of a method with a detail layer (procedural-basis, the layered stacks) on a mesh
+   whose "Detail" UV map a modifier removes (a Remove Named Attribute): the detail layer was
+   given "Detail" from the mesh data, and the reference, reading the rendered mesh, failed.
+   Before: exit 2 with a KeyError's text, "\"G: no UV map named 'Detail'; available:
+   ['UVMap']\"". Now the layer reads the UV map, as on a mesh without "Detail", within the bar.
 """
 
 import hashlib
@@ -19,7 +24,10 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import exit_codes  # noqa: E402
+from surfgrad_addon.harness import compare  # noqa: E402
 from test_faults_scene_settings import _bake, _pixels, _scene, plain  # noqa: E402,F401
+from test_faults_unseen_meshes31 import _within_bar, empty_file  # noqa: E402,F401
+from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -28,22 +36,29 @@ def _sha(path):
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def _stored_uv_map(obj, name, render, viewport):
-    """A Geometry Nodes modifier storing the vertices' x, y as UV map `name` (the plane lies
-    on its UVs: the same UVs as 'UVMap'), on in renders and / or the viewport."""
-    tree = bpy.data.node_groups.new("Store UV", "GeometryNodeTree")
+def _nodes_modifier(obj, name, node_type):
+    """A Geometry Nodes modifier whose group runs the geometry through one node (returned
+    with the group's tree, the input and output nodes)."""
+    tree = bpy.data.node_groups.new(name, "GeometryNodeTree")
     for side in ("INPUT", "OUTPUT"):
         tree.interface.new_socket("Geometry", in_out=side, socket_type="NodeSocketGeometry")
     inp, out = tree.nodes.new("NodeGroupInput"), tree.nodes.new("NodeGroupOutput")
-    store = tree.nodes.new("GeometryNodeStoreNamedAttribute")
+    node = tree.nodes.new(node_type)
+    tree.links.new(inp.outputs[0], node.inputs[0])
+    tree.links.new(node.outputs[0], out.inputs[0])
+    modifier = obj.modifiers.new(name, "NODES")
+    modifier.node_group = tree
+    return modifier, tree, node
+
+
+def _stored_uv_map(obj, name, render, viewport):
+    """A Geometry Nodes modifier storing the vertices' x, y as UV map `name` (the plane lies
+    on its UVs: the same UVs as 'UVMap'), on in renders and / or the viewport."""
+    modifier, tree, store = _nodes_modifier(obj, "Store UV", "GeometryNodeStoreNamedAttribute")
     store.data_type, store.domain = "FLOAT2", "CORNER"
     store.inputs["Name"].default_value = name
     value = next(s for s in store.inputs if s.name == "Value" and s.enabled)
     tree.links.new(tree.nodes.new("GeometryNodeInputPosition").outputs[0], value)
-    tree.links.new(inp.outputs[0], store.inputs[0])
-    tree.links.new(store.outputs[0], out.inputs[0])
-    modifier = obj.modifiers.new("Store UV", "NODES")
-    modifier.node_group = tree
     modifier.show_render, modifier.show_viewport = render, viewport
 
 
@@ -83,3 +98,15 @@ def test_a_uv_map_written_in_the_viewport_only_is_refused(tmp_path, capsys):
             "node, or rename the UV map") in err
     assert "Traceback" not in err
     assert not (tmp_path / "n.png").exists() and _sha(blend) == before
+
+
+def test_compare_reads_the_detail_layer_through_a_uv_map_the_render_has(empty_file):
+    """2. Before: KeyError "G: no UV map named 'Detail'" (exit 2 from the command line)."""
+    obj = _object("G", [_grid()])
+    detail = obj.data.uv_layers.new(name="Detail")
+    uv = np.empty(len(obj.data.loops) * 2)
+    obj.data.uv_layers["UVMap"].data.foreach_get("uv", uv)
+    detail.data.foreach_set("uv", 2.0 * uv)
+    _, _, remove = _nodes_modifier(obj, "Remove Detail", "GeometryNodeRemoveAttribute")
+    remove.inputs["Name"].default_value = "Detail"
+    _within_bar(compare.compare(obj, "procedural-basis", 32), 300)

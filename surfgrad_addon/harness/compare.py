@@ -308,6 +308,10 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         raise CompareError(str(err)) from err
     if inp.uv_map not in mesh.uv_maps:
         raise CompareError(not_rendered_problem(obj.name, inp.uv_map, mesh.uv_maps))
+    if inp.detail_uv not in mesh.uv_maps:
+        # A modifier removes it in renders: the detail layer reads the UV map, as on a mesh
+        # without one (before: a KeyError's text, exit 2).
+        inp.detail_uv = inp.uv_map
     world = world_positions(mesh)
     problem = collapsed_problem(mesh, world, obj, inp.uv_map)
     if problem:
