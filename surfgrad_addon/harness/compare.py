@@ -21,6 +21,7 @@ faces outside counted.
 import errno
 import json
 import os
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference as R
+from ..addon.bake_console import heartbeat
 from ..addon.bake_request import folder_problem, name_problem, zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.bake_uvs import not_rendered_problem, read_as_baked
@@ -550,7 +552,10 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     if obj is None:
         raise CompareError(f"no object named {object_name!r}; objects: "
                            f"{sorted(o.name for o in bpy.data.objects)}")
-    with D.selected(bpy.context.scene, cycles_device) as chosen:
+    # A large mesh takes a minute and more (1M faces at 32^2: 69 s) that said nothing. On
+    # stderr: the bake holds stdout while it runs (bake_console.quiet_bake).
+    with D.selected(bpy.context.scene, cycles_device) as chosen, \
+            heartbeat(_to_stderr, f"surfgrad: still comparing {method} on {obj.name}"):
         report, heat = compare(obj, method, resolution, variant, uv_map, image,  # the public one
                                with_heat_map=True, tiles=tiles, device=chosen.scene_device)
     report["cycles_device"] = chosen.description
@@ -568,6 +573,10 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     for note in report.get("notes", []):
         log(f"note: {note}")
     return report
+
+
+def _to_stderr(text):
+    print(text, file=sys.stderr, flush=True)
 
 
 def _excluded_text(report):
