@@ -19,6 +19,12 @@
    reference 8.2 s, 3.0 GB). Both finished right. Now each says it is still at work, as the
    bake itself did ("still checking Big: 15 s so far"; compare on stderr, as its bake holds
    stdout). Measured once on this 2-core machine; the test speeds the heartbeat up.
+4. A UV map whose name is longer than 63 bytes (an importer's long name: every line names a UV
+   map up to 67 bytes, 5.2 of any length), which Blender's bake operator and its UV Map and Normal
+   Map nodes cut at 63. Before: bake-normal-map passed its checks and the bake failed, exit 1
+   ("No UV layer named ... found in the object"), and compare stopped in its node builder
+   ("ShaderNodeUVMap.uv_map reads back ..."). Now both refuse it first, naming the length and
+   the fix (addon/bake_uvs.long_name_problem), exit 2.
 """
 
 import hashlib
@@ -144,3 +150,30 @@ def test_long_checks_and_compares_say_they_are_at_work(tmp_path, capsys, monkeyp
                 log=lambda *_: None)
     assert "surfgrad: still comparing normal-map on Plane: 0 s so far" in \
         capsys.readouterr().err.splitlines()
+
+
+def test_a_uv_map_name_longer_than_the_bake_takes_is_refused_first(tmp_path, capsys):
+    """4. Before: exit 1 after the checks; compare's BuildError."""
+    import _bpy
+    for rna, name in ((_bpy.ops.get_rna_type("OBJECT_OT_bake"), "uv_layer"),
+                      (bpy.types.ShaderNodeNormalMap.bl_rna, "uv_map")):
+        assert rna.properties[name].length_max == 64       # 63 bytes and the closing zero
+    blend = _scene(tmp_path)
+    obj = bpy.data.objects["Plane"]
+    layer = obj.data.uv_layers["UVMap"]
+    layer.name = "U" * 1000                  # the line's limit: 67 bytes up to 5.0, none on 5.2
+    assert len(layer.name) == (1000 if bpy.app.version >= (5, 2, 0) else 67)
+    layer.name = "U" * 66
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    said = (f"UV map {'U' * 66!r} of object 'Plane' has a name of 66 bytes, longer than "
+            f"Blender's bake and its UV Map and Normal Map nodes take (63 bytes): they cut it "
+            f"short and find no such UV map; rename it (Object Data > UV Maps) to 63 bytes or "
+            f"fewer")
+    before = _sha(blend)
+    rc, err = _bake(capsys, blend, tmp_path / "n.png")
+    assert rc == exit_codes.BAD_REQUEST, err[-2000:]
+    assert said in err and "Traceback" not in err
+    assert not (tmp_path / "n.png").exists() and _sha(blend) == before
+    with pytest.raises(compare.CompareError) as error:
+        compare.compare(bpy.data.objects["Plane"], "normal-map", 16)
+    assert str(error.value) == said

@@ -29,6 +29,23 @@ def not_rendered_problem(obj_name, uv_map, rendered):
             f"mesh has {sorted(rendered)}): pick one of those, or fix the modifiers")
 
 
+def long_name_problem(obj_name, uv_map):
+    """None, or the refusal of UV map `uv_map`, whose name is longer than Blender's bake
+    operator and its UV Map and Normal Map nodes take (63 bytes on every line, where a UV map
+    takes 67 up to 5.0 and any length on 5.2): they cut it short and find no such UV map
+    (the bake failed after the checks, exit 1; compare's node graph could not be built)."""
+    import bpy
+    # The nodes' limit; the bake operator's uv_layer is as long (tests pin it).
+    longest = bpy.types.ShaderNodeUVMap.bl_rna.properties["uv_map"].length_max - 1
+    size = len(uv_map.encode())
+    if size <= longest:
+        return None
+    return (f"UV map {uv_map!r} of object {obj_name!r} has a name of {size} bytes, longer than "
+            f"Blender's bake and its UV Map and Normal Map nodes take ({longest} bytes): they "
+            f"cut it short and find no such UV map; rename it (Object Data > UV Maps) to "
+            f"{longest} bytes or fewer")
+
+
 def modified(obj):
     """obj has modifiers: its rendered mesh may differ from the mesh data and, through their
     render and viewport switches and settings, from the viewport's."""

@@ -29,7 +29,8 @@ from ..reference import tiles as T
 from . import interrupts
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, not_a_mesh, own_materials, visible_for_bake
-from .bake_uvs import baked_uv_tiles, not_rendered_problem, uv_tiles  # noqa: F401  (uv_tiles)
+from .bake_uvs import (baked_uv_tiles, long_name_problem, not_rendered_problem,  # noqa: F401
+                       uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
@@ -193,6 +194,9 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     uv_map = uv_map or next((uv.name for uv in mesh.uv_layers if uv.active_render), names[0])
     if uv_map not in names:
         raise NormalBakeError(f"object {obj.name!r} has no UV map {uv_map!r}; it has {names}")
+    problem = long_name_problem(obj.name, uv_map)
+    if problem:
+        raise NormalBakeError(problem)
     layout = baked_uv_tiles(obj)
     if uv_map not in layout:
         raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout))

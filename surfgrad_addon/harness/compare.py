@@ -32,7 +32,7 @@ from .. import reference as R
 from ..addon.bake_console import heartbeat
 from ..addon.bake_request import folder_problem, name_problem, zero_scale_problem
 from ..addon.bake_target import bake_target_problem
-from ..addon.bake_uvs import not_rendered_problem, read_as_baked
+from ..addon.bake_uvs import long_name_problem, not_rendered_problem, read_as_baked
 from ..addon.exit_codes import BakeFailed
 from ..addon.image_channels import path_channel_problem, running_facts
 from ..addon import unrealized_instances as UI
@@ -153,6 +153,9 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
     elif uv_map not in names:
         raise CompareError(f"object {obj.name!r} has no UV map named {uv_map!r}; it has "
                            f"{names}")
+    problem = long_name_problem(obj.name, uv_map)
+    if problem:
+        raise CompareError(problem)
     detail = DETAIL_UV if DETAIL_UV in names else uv_map
     inp = Inputs(obj=obj, uv_map=uv_map, detail_uv=detail, variant=variant)
     if isinstance(image, np.ndarray):       # pixels given directly (the stability suite)
