@@ -25,6 +25,15 @@
    ("No UV layer named ... found in the object"), and compare stopped in its node builder
    ("ShaderNodeUVMap.uv_map reads back ..."). Now both refuse it first, naming the length and
    the fix (addon/bake_uvs.long_name_problem), exit 2.
+5. A Geometry Nodes modifier that writes the bake's UV map anew (a Remove and a Store Named
+   Attribute of 'UVMap', a second UV map beside it): up to 5.0 the rendered mesh's active UV
+   map is then the other one, and Blender's bake takes its tangent frame from the active UV
+   map, whatever UV map it is given. Before, on 4.2, 4.5 and 5.0: the tangent-space map was in
+   the other map's frame (a quarter turn here: up to 0.49 off in the PNG's 0..1 against the
+   same file without the modifier), exit 0; the object-space map was right. Now the bake goes
+   through a copy of the render mesh with 'UVMap' active (addon/tangent_uv.py). Also: the
+   render-mode pass left the view layer listing its stand-in camera as None (a raw
+   AttributeError where the bake's next step read the selection).
 """
 
 import hashlib
@@ -37,6 +46,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import bake_console, bake_request, commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon.bake_uvs import baked_mesh, uv_active  # noqa: E402
+from surfgrad_addon.addon.render_mesh import read_in_render_mode  # noqa: E402
 from surfgrad_addon.harness import compare  # noqa: E402
 from test_faults_scene_settings import _bake, _pixels, _scene, plain  # noqa: E402,F401
 from test_faults_unseen_meshes31 import _within_bar, empty_file  # noqa: E402,F401
@@ -177,3 +188,62 @@ def test_a_uv_map_name_longer_than_the_bake_takes_is_refused_first(tmp_path, cap
     with pytest.raises(compare.CompareError) as error:
         compare.compare(bpy.data.objects["Plane"], "normal-map", 16)
     assert str(error.value) == said
+
+
+def _explicit_uvs(tmp_path, name, rewrite):
+    """The plain file with a second UV map (the first turned a quarter), the material reading
+    'UVMap' by name in both nodes; `rewrite`: a modifier writes 'UVMap' anew (its same UVs)."""
+    _scene(tmp_path)
+    obj = bpy.data.objects["Plane"]
+    mesh = obj.data
+    uv = np.empty(len(mesh.loops) * 2)
+    mesh.uv_layers["UVMap"].data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    mesh.uv_layers.new(name="Second").data.foreach_set(
+        "uv", np.stack([uv[:, 1], 1.0 - uv[:, 0]], -1).ravel())
+    mesh.uv_layers.active = mesh.uv_layers["UVMap"]
+    tree = obj.active_material.node_tree
+    tree.nodes["Normal Map"].uv_map = "UVMap"
+    node = tree.nodes.new("ShaderNodeUVMap")
+    node.uv_map = "UVMap"
+    tree.links.new(node.outputs[0], tree.nodes["Image Texture"].inputs["Vector"])
+    if rewrite:
+        _, tree, remove = _nodes_modifier(obj, "Rewrite UV", "GeometryNodeRemoveAttribute")
+        remove.inputs["Name"].default_value = "UVMap"
+        store = tree.nodes.new("GeometryNodeStoreNamedAttribute")
+        store.data_type, store.domain = "FLOAT2", "CORNER"
+        store.inputs["Name"].default_value = "UVMap"
+        value = next(s for s in store.inputs if s.name == "Value" and s.enabled)
+        tree.links.new(tree.nodes.new("GeometryNodeInputPosition").outputs[0], value)
+        tree.links.new(remove.outputs[0], store.inputs[0])
+        tree.links.new(store.outputs[0], tree.nodes["Group Output"].inputs[0])
+    blend = tmp_path / f"{name}.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    return blend
+
+
+def test_a_uv_map_a_modifier_writes_anew_keeps_its_tangent_frame(tmp_path, capsys):
+    """5. The map of the file with the modifier is the one without, texel for texel (before:
+    0.49 off on 4.2 to 5.0); the object and the file are as they were."""
+    rc, err = _bake(capsys, _explicit_uvs(tmp_path, "plain", False), tmp_path / "plain.png")
+    assert rc == exit_codes.OK, err[-2000:]
+    blend = _explicit_uvs(tmp_path, "rewritten", True)
+    obj = bpy.data.objects["Plane"]
+    with uv_active(obj.data, "UVMap"):          # why: the line's rendered active UV map
+        assert baked_mesh(obj).active_uv == ("UVMap" if bpy.app.version >= (5, 2, 0)
+                                             else "Second")
+    before = _sha(blend)
+    rc, err = _bake(capsys, blend, tmp_path / "n.png")
+    assert rc == exit_codes.OK, err[-2000:]
+    assert np.abs(_pixels(tmp_path / "n.png") - _pixels(tmp_path / "plain.png")).max() <= \
+        1.5 / 255
+    obj = bpy.data.objects["Plane"]
+    assert obj.data.name == "Plane" and obj.modifiers[0].show_render
+    assert obj.data.uv_layers.active.name == "UVMap" and _sha(blend) == before
+
+
+def test_the_render_mode_pass_leaves_no_stale_camera_in_the_view_layer(empty_file):
+    """5. Before: [<the object>, None]."""
+    obj = _object("G", [_grid()])
+    read_in_render_mode(obj, lambda depsgraph: None)
+    assert list(bpy.context.view_layer.objects) == [obj]

@@ -9,6 +9,7 @@ with exit 0. An object without modifiers is read from the viewport's depsgraph
 (the same mesh, and no render-mode pass); one with modifiers through render_mesh.py.
 """
 
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -99,6 +100,7 @@ class BakedMesh:
     filled_slots: tuple = ()                # per material slot of the rendered object: has one
     nonfinite_normals: int = 0              # face corners whose normal is NaN or Inf
     attribute_names: frozenset = frozenset()    # of the rendered mesh (UV maps among them)
+    active_uv: str = None                   # its active UV map (tangent_uv.py)
 
 
 _meshes = ReadOnce()           # {object pointer: BakedMesh} inside one_read()
@@ -134,10 +136,26 @@ def baked_mesh(obj):
                              instances, faces, materials,
                              tuple(s.material is not None for s in evaluated.material_slots),
                              int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))),
-                             frozenset(a.name for a in mesh.attributes))
+                             frozenset(a.name for a in mesh.attributes),
+                             mesh.uv_layers.active.name if mesh.uv_layers.active else None)
         finally:
             evaluated.to_mesh_clear()
     return _meshes.get(obj.as_pointer(), lambda: read_as_baked(obj, read))
+
+
+@contextmanager
+def uv_active(mesh, uv_map):
+    """For the block, UV map `uv_map` of mesh (the data, not the rendered mesh) is its active
+    one, as for the bake; the active one before is put back."""
+    before = mesh.uv_layers.active.name if mesh.uv_layers.active else None
+    if uv_map is None or before in (None, uv_map) or uv_map not in mesh.uv_layers:
+        yield
+        return
+    mesh.uv_layers.active = mesh.uv_layers[uv_map]
+    try:
+        yield
+    finally:
+        mesh.uv_layers.active = mesh.uv_layers[before]
 
 
 def baked_uv_tiles(obj):

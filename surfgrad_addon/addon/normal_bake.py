@@ -15,7 +15,8 @@ asked for); without it the 0-1 UV square (tile 1001) is baked into one image, an
 with nothing there, or faces in other tiles too, is refused with the fix. More than one sample
 per texel anti-aliases detail finer than a texel (Cycles jitters the sample in the texel).
 Tangent space uses the chosen UV map's MikkTSpace tangents (it is made the active UV map for
-the bake, then restored). Everything the bake touches (render and image-output settings, active
+the bake, then restored; where modifiers make another one active, through a copy of the render
+mesh: tangent_uv.py). Everything the bake touches (render and image-output settings, active
 UV map, active nodes) is put back; the temporary image and nodes are removed; files are written
 under a temporary name and renamed when complete; an existing file is only replaced with
 overwrite.
@@ -30,11 +31,12 @@ from . import interrupts
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, not_a_mesh, own_materials, visible_for_bake
 from .bake_uvs import (baked_uv_tiles, long_name_problem, not_rendered_problem,  # noqa: F401
-                       uv_tiles)  # (uv_tiles)
+                       uv_active, uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
+from .tangent_uv import tangents_of
 from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_render_effects
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
@@ -197,7 +199,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     problem = long_name_problem(obj.name, uv_map)
     if problem:
         raise NormalBakeError(problem)
-    layout = baked_uv_tiles(obj)
+    with uv_active(mesh, uv_map):       # read as the bake renders it (tangent_uv.py)
+        layout = baked_uv_tiles(obj)
     if uv_map not in layout:
         raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout))
     with_uvs, outside = layout[uv_map]
@@ -314,8 +317,9 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 own_materials(bpy.context.view_layer), \
+                tangents_of(obj, uv_map, space), \
                 precise_far(obj, log):           # far out: as precise as at the origin
-            mesh = obj.data         # the route may stand a copy of the render mesh in for it
+            mesh = obj.data         # either may stand a copy of the render mesh in for it
             scene.render.engine = "CYCLES"
             scene.cycles.device = "CPU"
             scene.cycles.samples = samples
