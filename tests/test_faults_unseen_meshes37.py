@@ -33,7 +33,9 @@
    same file without the modifier), exit 0; the object-space map was right. Now the bake goes
    through a copy of the render mesh with 'UVMap' active (addon/tangent_uv.py). Also: the
    render-mode pass left the view layer listing its stand-in camera as None (a raw
-   AttributeError where the bake's next step read the selection).
+   AttributeError where the bake's next step read the selection). The checks read the
+   rendered mesh once for the tangents and the node names alike: freezing a modified object
+   takes two render-mode passes (its check, its bake), as before.
 """
 
 import hashlib
@@ -247,3 +249,22 @@ def test_the_render_mode_pass_leaves_no_stale_camera_in_the_view_layer(empty_fil
     obj = _object("G", [_grid()])
     read_in_render_mode(obj, lambda depsgraph: None)
     assert list(bpy.context.view_layer.objects) == [obj]
+
+
+def test_freezing_a_modified_object_reads_its_rendered_mesh_once_per_step(empty_file,
+                                                                         monkeypatch):
+    """5. The check (its tiles, the node names) and the bake (its plan, the tangents' UV
+    map) each read it once; read apart, four render-mode passes."""
+    from surfgrad_addon import api
+    from surfgrad_addon.addon import freeze, render_mesh
+    from support.materials import diffuse_material
+    passes, real = [], render_mesh.read_in_render_mode
+    monkeypatch.setattr(render_mesh, "read_in_render_mode",
+                        lambda *a, **k: passes.append(1) or real(*a, **k))
+    obj = _object("G", [_grid()])
+    obj.modifiers.new("Subdivision", "SUBSURF")
+    mat, _, _ = diffuse_material("M")
+    obj.data.materials.append(mat)
+    api.add_layer_stack(mat)
+    freeze.freeze(obj, resolution=16)
+    assert len(passes) == 2

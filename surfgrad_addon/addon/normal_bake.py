@@ -31,7 +31,7 @@ from . import interrupts
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import bake_target_problem, not_a_mesh, own_materials, visible_for_bake
 from .bake_uvs import (baked_uv_tiles, long_name_problem, not_rendered_problem,  # noqa: F401
-                       uv_active, uv_tiles)  # (uv_tiles)
+                       one_read, uv_active, uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
@@ -255,7 +255,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
     temporary local copies (linked_materials.py). verify(): called once the files are written
     and checked, before they are put in place (it raises to publish nothing). Returns a dict:
     paths {tile: Path}, tiles, uv_map, depth, warnings, bake_s, save_s."""
-    with local_copies(obj):
+    with one_read(), local_copies(obj):    # one render-mode pass: the plan, the tangents
         return _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth,
                            tiles, empty_tiles, overwrite, log, threads, verify)
 
