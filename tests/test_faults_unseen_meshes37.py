@@ -35,7 +35,8 @@
    render-mode pass left the view layer listing its stand-in camera as None (a raw
    AttributeError where the bake's next step read the selection). The checks read the
    rendered mesh once for the tangents and the node names alike: freezing a modified object
-   takes two render-mode passes (its check, its bake), as before.
+   takes two render-mode passes (its check, its bake), as before, and a batch's scan of a file
+   one per object (two before this round).
 """
 
 import hashlib
@@ -251,12 +252,14 @@ def test_the_render_mode_pass_leaves_no_stale_camera_in_the_view_layer(empty_fil
     assert list(bpy.context.view_layer.objects) == [obj]
 
 
-def test_freezing_a_modified_object_reads_its_rendered_mesh_once_per_step(empty_file,
-                                                                         monkeypatch):
-    """5. The check (its tiles, the node names) and the bake (its plan, the tangents' UV
-    map) each read it once; read apart, four render-mode passes."""
+def test_freezing_or_scanning_a_modified_object_reads_its_rendered_mesh_once_per_step(
+        empty_file, monkeypatch):
+    """5. Freeze's check (its tiles, the node names) and its bake (its plan, the tangents' UV
+    map) each read it once (read apart: four render-mode passes); a batch's scan once (its
+    tiles, mesh and node names: three read apart)."""
     from surfgrad_addon import api
     from surfgrad_addon.addon import freeze, render_mesh
+    from surfgrad_addon.addon.batch import session
     from support.materials import diffuse_material
     passes, real = [], render_mesh.read_in_render_mode
     monkeypatch.setattr(render_mesh, "read_in_render_mode",
@@ -268,3 +271,6 @@ def test_freezing_a_modified_object_reads_its_rendered_mesh_once_per_step(empty_
     api.add_layer_stack(mat)
     freeze.freeze(obj, resolution=16)
     assert len(passes) == 2
+    passes.clear()
+    assert session.scan_open_file(objects=["G"])["assets"][0]["problems"] == []
+    assert len(passes) == 1
