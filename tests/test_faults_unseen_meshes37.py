@@ -37,6 +37,10 @@
    rendered mesh once for the tangents and the node names alike: freezing a modified object
    takes two render-mode passes (its check, its bake), as before, and a batch's scan of a file
    one per object (two before this round).
+6. An Empty that instances a collection (an asset placed as a collection instance) given as
+   the object: refused as before, "object 'Shelf instance' is an empty, not a mesh: pick a
+   mesh object", which did not say which objects to bake. Now the refusal names the
+   collection it shows and that collection's mesh objects.
 """
 
 import hashlib
@@ -48,6 +52,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import bake_console, bake_request, commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.bake_uvs import baked_mesh, uv_active  # noqa: E402
 from surfgrad_addon.addon.render_mesh import read_in_render_mode  # noqa: E402
@@ -257,7 +262,6 @@ def test_freezing_or_scanning_a_modified_object_reads_its_rendered_mesh_once_per
     """5. Freeze's check (its tiles, the node names) and its bake (its plan, the tangents' UV
     map) each read it once (read apart: four render-mode passes); a batch's scan once (its
     tiles, mesh and node names: three read apart)."""
-    from surfgrad_addon import api
     from surfgrad_addon.addon import freeze, render_mesh
     from surfgrad_addon.addon.batch import session
     from support.materials import diffuse_material
@@ -274,3 +278,22 @@ def test_freezing_or_scanning_a_modified_object_reads_its_rendered_mesh_once_per
     passes.clear()
     assert session.scan_open_file(objects=["G"])["assets"][0]["problems"] == []
     assert len(passes) == 1
+
+
+def test_an_empty_showing_a_collection_names_the_meshes_to_bake(empty_file, tmp_path):
+    """6. compare and the bake alike (bake_target.object_not_a_mesh)."""
+    shelf = bpy.data.collections.new("Shelf")
+    shelf.objects.link(_object("Rock", [_grid()]))
+    bpy.context.scene.collection.objects.unlink(bpy.data.objects["Rock"])
+    empty = bpy.data.objects.new("Shelf instance", None)
+    empty.instance_type, empty.instance_collection = "COLLECTION", shelf
+    bpy.context.scene.collection.objects.link(empty)
+    shows = "; it shows collection 'Shelf', whose mesh object(s) ['Rock'] are what to bake"
+    with pytest.raises(compare.CompareError) as error:
+        compare.compare(empty, "normal-map", 16)
+    assert str(error.value) == f"object 'Shelf instance' is an empty, not a mesh: pick a mesh " \
+        f"object{shows}"
+    with pytest.raises(ValueError) as error:
+        api.bake_normal_map(empty, str(tmp_path / "n.png"), resolution=16)
+    assert "object 'Shelf instance' is an empty, not a mesh: pick a mesh object to bake " \
+        f"(--object NAME){shows}" in str(error.value)

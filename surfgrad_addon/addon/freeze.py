@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import normal_bake as NB
-from .bake_target import not_a_mesh
+from .bake_target import object_not_a_mesh
 from .bake_uvs import one_read
 from .image_checks import image_problems
 from .material_inputs import edits_lost, linked_text
@@ -165,7 +165,7 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
     if obj is None:
         raise FreezeError("no active object: select the mesh whose material to freeze")
     if obj.type != "MESH":
-        raise FreezeError(not_a_mesh(obj.name, obj.type, "select a mesh object"))
+        raise FreezeError(object_not_a_mesh(obj, "select a mesh object"))
     mat = obj.active_material
     if mat is None or mat.node_tree is None:
         raise FreezeError(f"{obj.name!r} has no active material with nodes: add a material "

@@ -29,7 +29,8 @@ from pathlib import Path
 from ..reference import tiles as T
 from . import interrupts
 from .bake_console import heartbeat, quiet_bake
-from .bake_target import bake_target_problem, not_a_mesh, own_materials, visible_for_bake
+from .bake_target import (bake_target_problem, object_not_a_mesh, own_materials,
+                          visible_for_bake)
 from .bake_uvs import (baked_uv_tiles, long_name_problem, not_rendered_problem,  # noqa: F401
                        one_read, uv_active, uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
@@ -184,8 +185,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     if missing:
         raise NormalBakeError(missing)
     if obj.type != "MESH":
-        raise NormalBakeError(not_a_mesh(obj.name, obj.type,
-                                         "pick a mesh object to bake (--object NAME)"))
+        raise NormalBakeError(object_not_a_mesh(obj, "pick a mesh object to bake (--object "
+                                                     "NAME)"))
     problem = bake_target_problem(obj, bpy.context.view_layer)
     if problem:
         raise NormalBakeError(problem)
