@@ -55,10 +55,15 @@ def quiet_bake():
                 os.write(fd, "".join(kept).encode("utf-8"))
 
 
+# Seconds between heartbeat lines where a caller gives none.
+HEARTBEAT_S = 15.0
+
+
 @contextmanager
-def heartbeat(say, what, every=15.0):
-    """While the block runs, say(f"{what}: N s so far") every `every` seconds (the first after
-    `every`, so a short bake says nothing)."""
+def heartbeat(say, what, every=None):
+    """While the block runs, say(f"{what}: N s so far") every `every` seconds (HEARTBEAT_S
+    when None; the first after `every`, so a short bake says nothing)."""
+    every = HEARTBEAT_S if every is None else every
     stop = threading.Event()
     start = time.perf_counter()
 

@@ -34,6 +34,7 @@ from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from . import input_stamps
 from . import unrealized_instances as UI
+from .bake_console import heartbeat
 from .bake_uvs import baked_mesh, one_read
 from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
@@ -273,7 +274,9 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
     import bpy
     r = request
     with one_read():                      # the bake plans its tiles from the checked read
-        checked = check(request, obj, warn)
+        # Silent for seconds per million faces (the mesh as it renders, its UV tiles).
+        with heartbeat(log, f"      still checking {obj.name if obj else r.object}"):
+            checked = check(request, obj, warn)
         obj = obj or bpy.data.objects[request.object]
         try:
             result = NB.bake_normal_tiles(obj, r.output, r.space, r.resolution,

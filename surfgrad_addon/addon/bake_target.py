@@ -35,6 +35,18 @@ def not_a_mesh(name, kind, pick="pick a mesh object"):
     return f"object {name!r} is {what}, not a mesh: {fix}"
 
 
+def object_not_a_mesh(obj, pick="pick a mesh object"):
+    """not_a_mesh for obj; an Empty that instances a collection (an asset placed as a
+    collection instance) also names the mesh objects it shows, the ones to bake."""
+    text = not_a_mesh(obj.name, obj.type, pick)
+    shown = obj.instance_collection if obj.instance_type == "COLLECTION" else None
+    meshes = sorted(o.name for o in shown.all_objects if o.type == "MESH") if shown else []
+    if not meshes:
+        return text
+    return (f"{text}; it shows collection {shown.name!r}, whose mesh object(s) {meshes} are "
+            f"what to bake")
+
+
 def bake_target_problem(obj, view_layer):
     """None when obj can be baked, else a message naming the problem and the fix."""
     if obj is None:
@@ -43,7 +55,7 @@ def bake_target_problem(obj, view_layer):
     if missing:
         return missing
     if obj.type != "MESH":
-        return not_a_mesh(obj.name, obj.type)
+        return object_not_a_mesh(obj)
     for what, block in (("object", obj), ("mesh", obj.data)):
         if getattr(block, "library", None) is not None:
             return (f"{what} {block.name!r} of {obj.name!r} is linked from library "

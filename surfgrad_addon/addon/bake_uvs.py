@@ -9,6 +9,7 @@ with exit 0. An object without modifiers is read from the viewport's depsgraph
 (the same mesh, and no render-mode pass); one with modifiers through render_mesh.py.
 """
 
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +28,23 @@ def not_rendered_problem(obj_name, uv_map, rendered):
             f"modifier removes it, or a Geometry Nodes Store Named Attribute writes its name on "
             f"another domain than Face Corner or as another type than 2D Vector; the rendered "
             f"mesh has {sorted(rendered)}): pick one of those, or fix the modifiers")
+
+
+def long_name_problem(obj_name, uv_map):
+    """None, or the refusal of UV map `uv_map`, whose name is longer than Blender's bake
+    operator and its UV Map and Normal Map nodes take (63 bytes on every line, where a UV map
+    takes 67 up to 5.0 and any length on 5.2): they cut it short and find no such UV map
+    (the bake failed after the checks, exit 1; compare's node graph could not be built)."""
+    import bpy
+    # The nodes' limit; the bake operator's uv_layer is as long (tests pin it).
+    longest = bpy.types.ShaderNodeUVMap.bl_rna.properties["uv_map"].length_max - 1
+    size = len(uv_map.encode())
+    if size <= longest:
+        return None
+    return (f"UV map {uv_map!r} of object {obj_name!r} has a name of {size} bytes, longer than "
+            f"Blender's bake and its UV Map and Normal Map nodes take ({longest} bytes): they "
+            f"cut it short and find no such UV map; rename it (Object Data > UV Maps) to "
+            f"{longest} bytes or fewer")
 
 
 def modified(obj):
@@ -81,6 +99,8 @@ class BakedMesh:
     face_materials: np.ndarray = None       # (F,) each face's material index
     filled_slots: tuple = ()                # per material slot of the rendered object: has one
     nonfinite_normals: int = 0              # face corners whose normal is NaN or Inf
+    attribute_names: frozenset = frozenset()    # of the rendered mesh (UV maps among them)
+    active_uv: str = None                   # its active UV map (tangent_uv.py)
 
 
 _meshes = ReadOnce()           # {object pointer: BakedMesh} inside one_read()
@@ -115,10 +135,27 @@ def baked_mesh(obj):
                              np.array(evaluated.matrix_world, dtype=np.float64), uvs,
                              instances, faces, materials,
                              tuple(s.material is not None for s in evaluated.material_slots),
-                             int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))))
+                             int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))),
+                             frozenset(a.name for a in mesh.attributes),
+                             mesh.uv_layers.active.name if mesh.uv_layers.active else None)
         finally:
             evaluated.to_mesh_clear()
     return _meshes.get(obj.as_pointer(), lambda: read_as_baked(obj, read))
+
+
+@contextmanager
+def uv_active(mesh, uv_map):
+    """For the block, UV map `uv_map` of mesh (the data, not the rendered mesh) is its active
+    one, as for the bake; the active one before is put back."""
+    before = mesh.uv_layers.active.name if mesh.uv_layers.active else None
+    if uv_map is None or before in (None, uv_map) or uv_map not in mesh.uv_layers:
+        yield
+        return
+    mesh.uv_layers.active = mesh.uv_layers[uv_map]
+    try:
+        yield
+    finally:
+        mesh.uv_layers.active = mesh.uv_layers[before]
 
 
 def baked_uv_tiles(obj):

@@ -21,7 +21,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import normal_bake as NB
-from .bake_target import not_a_mesh
+from .bake_target import object_not_a_mesh
+from .bake_uvs import one_read
 from .image_checks import image_problems
 from .material_inputs import edits_lost, linked_text
 
@@ -166,7 +167,7 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
     if NB.cycles_problem():
         raise FreezeError(NB.cycles_problem())
     if obj.type != "MESH":
-        raise FreezeError(not_a_mesh(obj.name, obj.type, "select a mesh object"))
+        raise FreezeError(object_not_a_mesh(obj, "select a mesh object"))
     mat = obj.active_material
     if mat is None or mat.node_tree is None:
         raise FreezeError(f"{obj.name!r} has no active material with nodes: add a material "
@@ -187,21 +188,22 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
     problem = NB.resolution_problem(resolution, *NB.RESOLUTION_RANGE)
     if problem:
         raise FreezeError(problem)
-    try:
-        uv_map, _, _, _ = NB.plan_tiles(obj, "freeze.png", uv_map or None)
-    except NB.NormalBakeError as err:
-        text = str(err).replace(" (--object NAME)", "")
-        if NB.UDIM_TOKEN in text:                 # one image: the 0-1 square alone
-            text = (f"UV map {uv_map or 'the active render UV map'!r} of {obj.name!r} has "
-                    f"faces outside the 0-1 UV square: a frozen stack is one image of that "
-                    f"square; pick (or unwrap) a UV map inside it")
-        raise FreezeError(text) from None
-    path = _check_file(filepath, overwrite) if filepath else None
-    # The images the material reads, as bake-normal-map checks them: a missing one, or one
-    # Blender loads other than its file says, would be frozen into the map.
-    problems = image_problems(obj, only=mat)
-    if problems:
-        raise FreezeError("; ".join(problems))
+    with one_read():          # the mesh as it renders: one render-mode pass for both checks
+        try:
+            uv_map, _, _, _ = NB.plan_tiles(obj, "freeze.png", uv_map or None)
+        except NB.NormalBakeError as err:
+            text = str(err).replace(" (--object NAME)", "")
+            if NB.UDIM_TOKEN in text:                 # one image: the 0-1 square alone
+                text = (f"UV map {uv_map or 'the active render UV map'!r} of {obj.name!r} has "
+                        f"faces outside the 0-1 UV square: a frozen stack is one image of that "
+                        f"square; pick (or unwrap) a UV map inside it")
+            raise FreezeError(text) from None
+        path = _check_file(filepath, overwrite) if filepath else None
+        # The images the material reads, as bake-normal-map checks them: a missing one, or one
+        # Blender loads other than its file says, would be frozen into the map.
+        problems = image_problems(obj, only=mat)
+        if problems:
+            raise FreezeError("; ".join(problems))
     return mat, tree, end, fed, uv_map, path
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
+from .bake_uvs import baked_mesh, modified
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .header_reads import one_header_read, path_headers
 from .image_channels import (cut_short_file, cut_short_problem, layered_file,
@@ -163,24 +164,23 @@ def output_input_problems(obj, finals):
 
 
 def uv_reference_problems(obj, only=None):
-    """Nodes naming a UV map (or attribute) the evaluated mesh does not have (in the object's
-    materials, or material `only`)."""
-    import bpy
-    eval_obj = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = eval_obj.to_mesh()
+    """Nodes naming a UV map (or attribute) the mesh the bake renders does not have (in the
+    object's materials, or material `only`). That mesh, not the viewport's: a modifier on in
+    renders only that writes the UV map was refused, one on in the viewport only baked a flat
+    map with exit 0."""
+    baked = baked_mesh(obj)
+    as_rendered = " as it renders (its modifiers at their render settings)" \
+        if modified(obj) else ""
     out, memo = [], {}
-    try:
-        for slot in obj.material_slots:
-            mat = slot.material
-            if mat is None or mat.node_tree is None or only not in (None, mat):
-                continue
-            for node, path, _ in material_nodes(mat, memo):
-                problem = MI.uv_name_problem(mat, path, node, mesh)
-                if problem:
-                    out.append(problem.replace(f"mesh {mesh.name!r}",
-                                               f"mesh {obj.data.name!r}"))
-    finally:
-        eval_obj.to_mesh_clear()
+    for slot in obj.material_slots:
+        mat = slot.material
+        if mat is None or mat.node_tree is None or only not in (None, mat):
+            continue
+        for node, path, _ in material_nodes(mat, memo):
+            problem = MI.uv_name_problem(mat, path, node, obj.data.name, baked.layout,
+                                         baked.attribute_names, as_rendered)
+            if problem:
+                out.append(problem)
     return out
 
 

@@ -129,10 +129,12 @@ def no_tree_problem(mat):
             f"Surface), or give its faces another material")
 
 
-def uv_name_problem(mat, path, node, mesh):
+def uv_name_problem(mat, path, node, mesh_name, uv_maps, attributes, as_rendered=""):
     """A Normal Map (tangent space), UV Map or Attribute (Geometry) node naming a UV map or
-    attribute the (evaluated) mesh does not have."""
-    maps = [uv.name for uv in mesh.uv_layers]
+    attribute that mesh `mesh_name` lacks: `uv_maps` (in order) and `attributes` are the names
+    the mesh the bake renders has; as_rendered says so in the message where its modifiers
+    may have made them."""
+    maps = list(uv_maps)
     kind = node.bl_idname
     if kind == "ShaderNodeNormalMap" and node.space == "TANGENT":
         name, what = node.uv_map, "UV map"
@@ -140,13 +142,12 @@ def uv_name_problem(mat, path, node, mesh):
         name, what = node.uv_map, "UV map"
     elif kind == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
         name, what = node.attribute_name, "attribute"
-        if not name or name in maps or name in mesh.attributes or name in BUILT_IN or \
-                name in {a.name for a in getattr(mesh, "color_attributes", ())}:
+        if not name or name in maps or name in attributes or name in BUILT_IN:
             return None
     else:
         return None
     if not name or name in maps:
         return None
     return (f"node {path!r} (material {mat.name!r}) reads {what} {name!r}, which mesh "
-            f"{mesh.name!r} does not have (UV maps: {maps}): the bake would read nothing "
-            f"there; pick one of its UV maps in the node, or rename the UV map")
+            f"{mesh_name!r}{as_rendered} does not have (UV maps: {maps}): the bake would read "
+            f"nothing there; pick one of its UV maps in the node, or rename the UV map")

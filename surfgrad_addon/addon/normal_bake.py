@@ -15,7 +15,8 @@ asked for); without it the 0-1 UV square (tile 1001) is baked into one image, an
 with nothing there, or faces in other tiles too, is refused with the fix. More than one sample
 per texel anti-aliases detail finer than a texel (Cycles jitters the sample in the texel).
 Tangent space uses the chosen UV map's MikkTSpace tangents (it is made the active UV map for
-the bake, then restored). Everything the bake touches (render and image-output settings, active
+the bake, then restored; where modifiers make another one active, through a copy of the render
+mesh: tangent_uv.py). Everything the bake touches (render and image-output settings, active
 UV map, active nodes) is put back; the temporary image and nodes are removed; files are written
 under a temporary name and renamed when complete; an existing file is only replaced with
 overwrite.
@@ -28,12 +29,15 @@ from pathlib import Path
 from ..reference import tiles as T
 from . import interrupts
 from .bake_console import heartbeat, quiet_bake
-from .bake_target import bake_target_problem, not_a_mesh, own_materials, visible_for_bake
-from .bake_uvs import baked_uv_tiles, not_rendered_problem, uv_tiles  # noqa: F401  (uv_tiles)
+from .bake_target import (bake_target_problem, object_not_a_mesh, own_materials,
+                          visible_for_bake)
+from .bake_uvs import (baked_uv_tiles, long_name_problem, not_rendered_problem,  # noqa: F401
+                       one_read, uv_active, uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
+from .tangent_uv import tangents_of
 from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_render_effects
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
@@ -193,8 +197,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     if missing:
         raise NormalBakeError(missing)
     if obj.type != "MESH":
-        raise NormalBakeError(not_a_mesh(obj.name, obj.type,
-                                         "pick a mesh object to bake (--object NAME)"))
+        raise NormalBakeError(object_not_a_mesh(obj, "pick a mesh object to bake (--object "
+                                                     "NAME)"))
     problem = bake_target_problem(obj, bpy.context.view_layer)
     if problem:
         raise NormalBakeError(problem)
@@ -205,7 +209,11 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     uv_map = uv_map or next((uv.name for uv in mesh.uv_layers if uv.active_render), names[0])
     if uv_map not in names:
         raise NormalBakeError(f"object {obj.name!r} has no UV map {uv_map!r}; it has {names}")
-    layout = baked_uv_tiles(obj)
+    problem = long_name_problem(obj.name, uv_map)
+    if problem:
+        raise NormalBakeError(problem)
+    with uv_active(mesh, uv_map):       # read as the bake renders it (tangent_uv.py)
+        layout = baked_uv_tiles(obj)
     if uv_map not in layout:
         raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout))
     with_uvs, outside = layout[uv_map]
@@ -260,7 +268,7 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
     temporary local copies (linked_materials.py). verify(): called once the files are written
     and checked, before they are put in place (it raises to publish nothing). Returns a dict:
     paths {tile: Path}, tiles, uv_map, depth, warnings, bake_s, save_s."""
-    with local_copies(obj):
+    with one_read(), local_copies(obj):    # one render-mode pass: the plan, the tangents
         return _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth,
                            tiles, empty_tiles, overwrite, log, threads, verify)
 
@@ -322,8 +330,9 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 own_materials(bpy.context.view_layer), \
+                tangents_of(obj, uv_map, space), \
                 precise_far(obj, log):           # far out: as precise as at the origin
-            mesh = obj.data         # the route may stand a copy of the render mesh in for it
+            mesh = obj.data         # either may stand a copy of the render mesh in for it
             scene.render.engine = "CYCLES"
             scene.cycles.device = "CPU"
             scene.cycles.samples = samples

@@ -90,7 +90,7 @@ def read_in_render_mode(obj, read, context=None):
             # the camera's scale compared 4.6 deg wrong).
             camera.scale = (0.0, 0.0, 0.0)
             scene.collection.objects.link(camera)
-            stack.callback(_remove_camera, camera, data)
+            stack.callback(_remove_camera, camera, data, view_layer)
             stack.enter_context(restored(scene, ("camera",)))
             scene.camera = camera
         r = scene.render
@@ -127,10 +127,11 @@ def _has(root, path):
     return True
 
 
-def _remove_camera(camera, data):
+def _remove_camera(camera, data, view_layer):
     import bpy
     bpy.data.objects.remove(camera)
     bpy.data.cameras.remove(data)
+    view_layer.update()     # else its objects list the camera's stale base as None
 
 
 def _remove_new_render_result(images_before):

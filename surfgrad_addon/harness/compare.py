@@ -21,6 +21,7 @@ faces outside counted.
 import errno
 import json
 import os
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,9 +29,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference as R
+from ..addon.bake_console import heartbeat
 from ..addon.bake_request import folder_problem, name_problem, zero_scale_problem
 from ..addon.bake_target import bake_target_problem
-from ..addon.bake_uvs import not_rendered_problem, read_as_baked
+from ..addon.bake_uvs import long_name_problem, not_rendered_problem, read_as_baked
 from ..addon.exit_codes import BakeFailed
 from ..addon.image_channels import path_channel_problem, running_facts
 from ..addon import unrealized_instances as UI
@@ -151,6 +153,9 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
     elif uv_map not in names:
         raise CompareError(f"object {obj.name!r} has no UV map named {uv_map!r}; it has "
                            f"{names}")
+    problem = long_name_problem(obj.name, uv_map)
+    if problem:
+        raise CompareError(problem)
     detail = DETAIL_UV if DETAIL_UV in names else uv_map
     inp = Inputs(obj=obj, uv_map=uv_map, detail_uv=detail, variant=variant)
     if isinstance(image, np.ndarray):       # pixels given directly (the stability suite)
@@ -308,6 +313,10 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         raise CompareError(str(err)) from err
     if inp.uv_map not in mesh.uv_maps:
         raise CompareError(not_rendered_problem(obj.name, inp.uv_map, mesh.uv_maps))
+    if inp.detail_uv not in mesh.uv_maps:
+        # A modifier removes it in renders: the detail layer reads the UV map, as on a mesh
+        # without one (before: a KeyError's text, exit 2).
+        inp.detail_uv = inp.uv_map
     world = world_positions(mesh)
     problem = collapsed_problem(mesh, world, obj, inp.uv_map)
     if problem:
@@ -547,7 +556,10 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     if obj is None:
         raise CompareError(f"no object named {object_name!r}; objects: "
                            f"{sorted(o.name for o in bpy.data.objects)}")
-    with D.selected(bpy.context.scene, cycles_device) as chosen:
+    # A large mesh takes a minute and more (1M faces at 32^2: 69 s) that said nothing. On
+    # stderr: the bake holds stdout while it runs (bake_console.quiet_bake).
+    with D.selected(bpy.context.scene, cycles_device) as chosen, \
+            heartbeat(_to_stderr, f"surfgrad: still comparing {method} on {obj.name}"):
         report, heat = compare(obj, method, resolution, variant, uv_map, image,  # the public one
                                with_heat_map=True, tiles=tiles, device=chosen.scene_device)
     report["cycles_device"] = chosen.description
@@ -565,6 +577,10 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     for note in report.get("notes", []):
         log(f"note: {note}")
     return report
+
+
+def _to_stderr(text):
+    print(text, file=sys.stderr, flush=True)
 
 
 def _excluded_text(report):

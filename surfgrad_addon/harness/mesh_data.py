@@ -9,7 +9,7 @@ computed on the triangles with those normals as Cycles does.
 
 import numpy as np
 
-from ..addon.bake_target import not_a_mesh
+from ..addon.bake_target import object_not_a_mesh
 from ..addon.bake_uvs import not_rendered_problem
 from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
@@ -108,7 +108,7 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
     if obj is None:
         raise MeshDataError("no object given")
     if obj.type != "MESH":
-        raise MeshDataError(not_a_mesh(obj.name, obj.type))
+        raise MeshDataError(object_not_a_mesh(obj))
     facts = facts or running_line()
     if depsgraph is None:
         from ..addon.render_mesh import read_in_render_mode

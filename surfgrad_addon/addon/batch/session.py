@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from .. import bake_request as BR
+from ..bake_uvs import one_read
 from .. import interrupts
 from ..exit_codes import MapNotWritten
 from ..image_checks import data_key, image_problems
@@ -52,28 +53,29 @@ def scan_open_file(objects=None, collections=None, everything=False):
         chosen += [o for o in mesh_objects if any(s.material for s in o.material_slots)]
         # placeholders of objects whose library is missing: named, not silently left out
         chosen += [o for o in bpy.data.objects if o.library and missing_library_problem(o)]
-    seen, assets = set(), []
-    for obj in chosen:
-        if obj.name in seen:
-            continue
-        seen.add(obj.name)
-        missing = missing_library_problem(obj)
-        if missing:
-            errors.append({"object": obj.name, "error": missing})
-            continue
-        entry = {"object": obj.name, "type": obj.type, "uv_maps": {}, "active_uv": None,
-                 "materials": 0}
-        if obj.type == "MESH":
-            entry["materials"] = sum(1 for s in obj.material_slots if s.material)
-            entry["outside"] = {}
-            layout = NB.baked_uv_tiles(obj) if len(obj.data.polygons) else {}
-            for uv in obj.data.uv_layers:          # the tiles of the mesh the bake renders
-                entry["uv_maps"][uv.name], entry["outside"][uv.name] = \
-                    layout.get(uv.name, ([], 0))
-                if uv.active_render:
-                    entry["active_uv"] = uv.name
-            entry["problems"] = _input_problems(obj)
-        assets.append(entry)
+    with one_read():        # each object's rendered mesh read once for all its checks
+        seen, assets = set(), []
+        for obj in chosen:
+            if obj.name in seen:
+                continue
+            seen.add(obj.name)
+            missing = missing_library_problem(obj)
+            if missing:
+                errors.append({"object": obj.name, "error": missing})
+                continue
+            entry = {"object": obj.name, "type": obj.type, "uv_maps": {}, "active_uv": None,
+                     "materials": 0}
+            if obj.type == "MESH":
+                entry["materials"] = sum(1 for s in obj.material_slots if s.material)
+                entry["outside"] = {}
+                layout = NB.baked_uv_tiles(obj) if len(obj.data.polygons) else {}
+                for uv in obj.data.uv_layers:          # the tiles of the mesh the bake renders
+                    entry["uv_maps"][uv.name], entry["outside"][uv.name] = \
+                        layout.get(uv.name, ([], 0))
+                    if uv.active_render:
+                        entry["active_uv"] = uv.name
+                entry["problems"] = _input_problems(obj)
+            assets.append(entry)
     return {"assets": assets, "errors": errors}
 
 
