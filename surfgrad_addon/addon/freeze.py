@@ -381,6 +381,22 @@ def frozen_record(mat):
     return record
 
 
+def _made_image(tree, record):
+    """The image the freeze made: the one its Image Texture node holds, under the record's name
+    or, renamed by the artist, still at the file or pack path the freeze gave it; else the
+    image under the record's name."""
+    import bpy
+    where = bpy.path.abspath(record["file"] or f"//{record['image']}")
+    for name in record["added"]:
+        node = tree.nodes.get(name)
+        image = getattr(node, "image", None) if node is not None and \
+            node.label.startswith(ADDED_LABEL) else None
+        if image is not None and (image.name == record["image"] or
+                                  bpy.path.abspath(image.filepath_raw) == where):
+            return image
+    return bpy.data.images.get(record["image"])
+
+
 def thaw(mat):
     """Relink the live stack of a frozen material exactly as it was and remove what the
     freeze added (the image only if the freeze made it and nothing else uses it; never a
@@ -402,7 +418,7 @@ def thaw(mat):
                 raise FreezeError(f"node {name!r} of the live stack is gone or changed, so "
                                   f"the stack cannot be relinked: undo to before its removal, "
                                   f"or remove the property {RECORD!r} and relink by hand")
-    image = bpy.data.images.get(record["image"])
+    image = _made_image(tree, record)
     _undo(mat, tree, record)
     if image is not None and record["image_created"] and image.users == 0:
         bpy.data.images.remove(image)

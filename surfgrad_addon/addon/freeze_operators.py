@@ -59,8 +59,17 @@ unlinked, in a frame (Thaw brings it back)"""
         self.interactive = False
         return self._finish(self._start_modal, context)
 
+    def _advance(self):
+        """The freeze's next stage, or None once it is done (its record kept: the active
+        object may be another by then, in a modal run)."""
+        try:
+            return next(self._steps)
+        except StopIteration as done:
+            self._record = done.value
+            return None
+
     def _run_all(self):
-        for _ in self._steps:
+        while self._advance() is not None:
             pass
         return {'FINISHED'}
 
@@ -90,9 +99,8 @@ unlinked, in a frame (Thaw brings it back)"""
         return outcome
 
     def _step(self, wm):
-        try:
-            stage = next(self._steps)
-        except StopIteration:
+        stage = self._advance()
+        if stage is None:
             return {'FINISHED'}
         wm.progress_update(STAGES.index(stage) + 1)
         return {'RUNNING_MODAL'}
@@ -100,8 +108,6 @@ unlinked, in a frame (Thaw brings it back)"""
     def _finish(self, step, *args):
         try:
             outcome = step(*args)
-        except StopIteration:
-            outcome = {'FINISHED'}
         except F.FreezeCancelled as err:
             self._report_warnings()
             self.report({'WARNING'}, str(err))
@@ -111,7 +117,7 @@ unlinked, in a frame (Thaw brings it back)"""
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
         if outcome == {'FINISHED'}:
-            record = F.frozen_record(bpy.context.object.active_material)
+            record = self._record
             where = record["file"] or "packed into the .blend"
             self.report({'INFO'}, f"Froze the stack into {record['image']!r} ({where}); "
                                   f"Thaw Surface Gradient Stack brings it back")
