@@ -11,6 +11,10 @@
   (packed: its pixels saved in the file to no use). Now Thaw takes the image from the freeze's
   Image Texture node, when it is still the one the freeze made (its name, or its file or pack
   path); a map of the artist's own put in that node is kept.
+- Freeze and Thaw took the active object's active material whatever the Shader Editor showed:
+  with the editor pinned to the object's second material, Freeze froze the first, which the
+  artist was not looking at (the other operators act on the shown tree). Now both act on the
+  material the editor shows, and one the active object does not use is refused with the fix.
 """
 
 import types
@@ -25,6 +29,8 @@ from surfgrad_addon.addon import freeze_operators as FO  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
+from test_extension import _shader_editor  # noqa: E402
+from test_faults_operators35 import registered  # noqa: E402,F401 (a fixture)
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -116,3 +122,31 @@ def test_thaw_keeps_a_map_of_the_artists_own_put_in_the_frozen_node():
     tex.image = own
     F.thaw(mat)
     assert [i.name for i in bpy.data.images] == ["hand painted"]
+
+
+def test_freeze_and_thaw_act_on_the_material_the_editor_shows(registered):
+    objs, first = _stacked_plane("First")
+    second, tree, _ = diffuse_material("Second")
+    O.add_layer_stack(tree)
+    objs["Plane"].data.materials.append(second)          # slot 2; slot 1 stays active
+    registered(*FO.CLASSES)
+    override, _ = _shader_editor(bpy, tree)              # pinned to the second material
+    with bpy.context.temp_override(**override):
+        assert bpy.ops.surfgrad.freeze_stack(resolution=SIZE) == {'FINISHED'}
+        assert F.RECORD in second and F.RECORD not in first
+        assert bpy.ops.surfgrad.thaw_stack() == {'FINISHED'}
+    assert F.RECORD not in second and bpy.data.images.get("Second_frozen_normal.png") is None
+
+
+def test_freeze_refuses_a_shown_material_the_active_object_does_not_use(registered):
+    objs, first = _stacked_plane("First")
+    other, tree, _ = diffuse_material("Elsewhere")
+    O.add_layer_stack(tree)
+    objs["Sphere"].data.materials.clear()
+    objs["Sphere"].data.materials.append(other)
+    registered(*FO.CLASSES)
+    override, _ = _shader_editor(bpy, tree)
+    with bpy.context.temp_override(**override), pytest.raises(
+            RuntimeError, match="shows material 'Elsewhere', which 'Plane' does not use"):
+        bpy.ops.surfgrad.freeze_stack(resolution=SIZE)
+    assert F.RECORD not in first and F.RECORD not in other and not bpy.data.images

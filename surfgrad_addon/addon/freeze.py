@@ -158,14 +158,21 @@ def _other_meshes_using(obj, mat):
                   any(slot.material == mat for slot in getattr(o, "material_slots", ())))
 
 
-def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False):
+def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
+          mat=None):
     """Everything freeze needs, checked before anything changes: (material, tree, stack end,
-    fed Normal inputs, uv_map, output Path or None for pack)."""
+    fed Normal inputs, uv_map, output Path or None for pack). `mat`: one of obj's materials
+    (the one a Shader Editor shows); None: obj's active material."""
     if obj is None:
         raise FreezeError("no active object: select the mesh whose material to freeze")
     if obj.type != "MESH":
         raise FreezeError(not_a_mesh(obj.name, obj.type, "select a mesh object"))
-    mat = obj.active_material
+    if mat is not None and all(slot.material != mat for slot in obj.material_slots):
+        raise FreezeError(f"the Shader Editor shows material {mat.name!r}, which {obj.name!r} "
+                          f"does not use: the map is baked on the active object's surface; "
+                          f"make an object using {mat.name!r} active, or show one of "
+                          f"{obj.name!r}'s materials")
+    mat = obj.active_material if mat is None else mat
     if mat is None or mat.node_tree is None:
         raise FreezeError(f"{obj.name!r} has no active material with nodes: add a material "
                           f"with a surface-gradient stack first")
@@ -204,12 +211,12 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
 
 
 def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
-                 samples=1, log=lambda *_: None):
+                 samples=1, log=lambda *_: None, mat=None):
     """Freeze obj's active material (see the module doc), yielding "checked", "baked" and
     "wired" (the file is written after it); the generator's return value is the record.
     Throw FreezeCancelled in at a stage to cancel."""
     import bpy
-    mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite)
+    mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite, mat)
     yield "checked"
     suffix = path.suffix.lower() if path else ".png"
     depth = "16" if suffix == ".png" else "float"         # 8 bits would cost ~0.3 degrees

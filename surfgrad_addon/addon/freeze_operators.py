@@ -12,9 +12,20 @@ import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from . import freeze as F
+from .operators import tree_owner
 from .normal_map_checks import input_warnings
 
 STAGES = ("checked", "baked", "wired")
+
+
+def shown_material(context):
+    """The material the Shader Editor shows (pinned, or another slot's; also with a group of
+    it entered), else None: Freeze and Thaw then take the active object's active material."""
+    space = getattr(context, "space_data", None)
+    if getattr(space, "type", None) != 'NODE_EDITOR' or \
+            getattr(space, "tree_type", None) != "ShaderNodeTree" or space.node_tree is None:
+        return None
+    return tree_owner(space.node_tree)
 
 
 class SURFGRAD_OT_freeze_stack(bpy.types.Operator):
@@ -49,10 +60,10 @@ unlinked, in a frame (Thaw brings it back)"""
     def execute(self, context):
         # What bends the normal maps the stack reads: reported once the freeze is done.
         obj = context.object
-        mat = getattr(obj, "active_material", None)
-        self._warnings = input_warnings(obj, mat) if mat is not None else []
-        self._steps = F.freeze_steps(context.object, self.resolution, self.uv_map,
-                                     self.filepath, self.overwrite, self.samples)
+        mat = shown_material(context) or getattr(obj, "active_material", None)
+        self._warnings = input_warnings(obj, mat) if mat is not None and obj is not None else []
+        self._steps = F.freeze_steps(obj, self.resolution, self.uv_map, self.filepath,
+                                     self.overwrite, self.samples, mat=shown_material(context))
         if not self.interactive or context.window is None or bpy.app.background:
             self.interactive = False
             return self._finish(self._run_all)
@@ -141,7 +152,8 @@ remove the normal map nodes (and image, if the freeze made it and nothing else u
     def execute(self, context):
         obj = context.object
         try:
-            record = F.thaw(obj.active_material if obj is not None else None)
+            record = F.thaw(shown_material(context) or
+                            (obj.active_material if obj is not None else None))
         except F.FreezeError as err:
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
