@@ -159,16 +159,23 @@ def _other_meshes_using(obj, mat):
                   any(slot.material == mat for slot in getattr(o, "material_slots", ())))
 
 
-def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False):
+def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
+          mat=None):
     """Everything freeze needs, checked before anything changes: (material, tree, stack end,
-    fed Normal inputs, uv_map, output Path or None for pack)."""
+    fed Normal inputs, uv_map, output Path or None for pack). `mat`: one of obj's materials
+    (the one a Shader Editor shows); None: obj's active material."""
     if obj is None:
         raise FreezeError("no active object: select the mesh whose material to freeze")
     if NB.cycles_problem():
         raise FreezeError(NB.cycles_problem())
     if obj.type != "MESH":
         raise FreezeError(object_not_a_mesh(obj, "select a mesh object"))
-    mat = obj.active_material
+    if mat is not None and all(slot.material != mat for slot in obj.material_slots):
+        raise FreezeError(f"the Shader Editor shows material {mat.name!r}, which {obj.name!r} "
+                          f"does not use: the map is baked on the active object's surface; "
+                          f"make an object using {mat.name!r} active, or show one of "
+                          f"{obj.name!r}'s materials")
+    mat = obj.active_material if mat is None else mat
     if mat is None or mat.node_tree is None:
         raise FreezeError(f"{obj.name!r} has no active material with nodes: add a material "
                           f"with a surface-gradient stack first")
@@ -208,12 +215,12 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
 
 
 def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
-                 samples=1, log=lambda *_: None):
+                 samples=1, log=lambda *_: None, mat=None):
     """Freeze obj's active material (see the module doc), yielding "checked", "baked" and
     "wired" (the file is written after it); the generator's return value is the record.
     Throw FreezeCancelled in at a stage to cancel."""
     import bpy
-    mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite)
+    mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite, mat)
     yield "checked"
     suffix = path.suffix.lower() if path else ".png"
     depth = "16" if suffix == ".png" else "float"         # 8 bits would cost ~0.3 degrees
@@ -385,6 +392,22 @@ def frozen_record(mat):
     return record
 
 
+def _made_image(tree, record):
+    """The image the freeze made: the one its Image Texture node holds, under the record's name
+    or, renamed by the artist, still at the file or pack path the freeze gave it; else the
+    image under the record's name."""
+    import bpy
+    where = bpy.path.abspath(record["file"] or f"//{record['image']}")
+    for name in record["added"]:
+        node = tree.nodes.get(name)
+        image = getattr(node, "image", None) if node is not None and \
+            node.label.startswith(ADDED_LABEL) else None
+        if image is not None and (image.name == record["image"] or
+                                  bpy.path.abspath(image.filepath_raw) == where):
+            return image
+    return bpy.data.images.get(record["image"])
+
+
 def thaw(mat):
     """Relink the live stack of a frozen material exactly as it was and remove what the
     freeze added (the image only if the freeze made it and nothing else uses it; never a
@@ -406,7 +429,7 @@ def thaw(mat):
                 raise FreezeError(f"node {name!r} of the live stack is gone or changed, so "
                                   f"the stack cannot be relinked: undo to before its removal, "
                                   f"or remove the property {RECORD!r} and relink by hand")
-    image = bpy.data.images.get(record["image"])
+    image = _made_image(tree, record)
     _undo(mat, tree, record)
     if image is not None and record["image_created"] and image.users == 0:
         bpy.data.images.remove(image)

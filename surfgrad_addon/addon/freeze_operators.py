@@ -12,9 +12,20 @@ import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from . import freeze as F
+from .operators import tree_owner
 from .normal_map_checks import input_warnings
 
 STAGES = ("checked", "baked", "wired")
+
+
+def shown_material(context):
+    """The material the Shader Editor shows (pinned, or another slot's; also with a group of
+    it entered), else None: Freeze and Thaw then take the active object's active material."""
+    space = getattr(context, "space_data", None)
+    if getattr(space, "type", None) != 'NODE_EDITOR' or \
+            getattr(space, "tree_type", None) != "ShaderNodeTree" or space.node_tree is None:
+        return None
+    return tree_owner(space.node_tree)
 
 
 class SURFGRAD_OT_freeze_stack(bpy.types.Operator):
@@ -49,18 +60,27 @@ unlinked, in a frame (Thaw brings it back)"""
     def execute(self, context):
         # What bends the normal maps the stack reads: reported once the freeze is done.
         obj = context.object
-        mat = getattr(obj, "active_material", None)
-        self._warnings = input_warnings(obj, mat) if mat is not None else []
-        self._steps = F.freeze_steps(context.object, self.resolution, self.uv_map,
-                                     self.filepath, self.overwrite, self.samples)
+        mat = shown_material(context) or getattr(obj, "active_material", None)
+        self._warnings = input_warnings(obj, mat) if mat is not None and obj is not None else []
+        self._steps = F.freeze_steps(obj, self.resolution, self.uv_map, self.filepath,
+                                     self.overwrite, self.samples, mat=shown_material(context))
         if not self.interactive or context.window is None or bpy.app.background:
             self.interactive = False
             return self._finish(self._run_all)
         self.interactive = False
         return self._finish(self._start_modal, context)
 
+    def _advance(self):
+        """The freeze's next stage, or None once it is done (its record kept: the active
+        object may be another by then, in a modal run)."""
+        try:
+            return next(self._steps)
+        except StopIteration as done:
+            self._record = done.value
+            return None
+
     def _run_all(self):
-        for _ in self._steps:
+        while self._advance() is not None:
             pass
         return {'FINISHED'}
 
@@ -90,9 +110,8 @@ unlinked, in a frame (Thaw brings it back)"""
         return outcome
 
     def _step(self, wm):
-        try:
-            stage = next(self._steps)
-        except StopIteration:
+        stage = self._advance()
+        if stage is None:
             return {'FINISHED'}
         wm.progress_update(STAGES.index(stage) + 1)
         return {'RUNNING_MODAL'}
@@ -100,8 +119,6 @@ unlinked, in a frame (Thaw brings it back)"""
     def _finish(self, step, *args):
         try:
             outcome = step(*args)
-        except StopIteration:
-            outcome = {'FINISHED'}
         except F.FreezeCancelled as err:
             self._report_warnings()
             self.report({'WARNING'}, str(err))
@@ -111,7 +128,7 @@ unlinked, in a frame (Thaw brings it back)"""
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
         if outcome == {'FINISHED'}:
-            record = F.frozen_record(bpy.context.object.active_material)
+            record = self._record
             where = record["file"] or "packed into the .blend"
             self.report({'INFO'}, f"Froze the stack into {record['image']!r} ({where}); "
                                   f"Thaw Surface Gradient Stack brings it back")
@@ -135,7 +152,8 @@ remove the normal map nodes (and image, if the freeze made it and nothing else u
     def execute(self, context):
         obj = context.object
         try:
-            record = F.thaw(obj.active_material if obj is not None else None)
+            record = F.thaw(shown_material(context) or
+                            (obj.active_material if obj is not None else None))
         except F.FreezeError as err:
             self.report({'ERROR'}, str(err))
             return {'CANCELLED'}
