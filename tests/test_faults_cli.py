@@ -9,6 +9,7 @@ import hashlib
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
@@ -162,6 +163,16 @@ def test_a_bake_blender_cancels_names_the_empty_slot_and_exits_1(tmp_path, capsy
         code = main(["bake-normal-map", "--blend", str(blend), "--object", "Obj", "--output",
                      str(out / "n.png"), "--resolution", "32"])
     err = capsys.readouterr().err
+    if command == "bake-normal-map" and bpy.app.version >= (5, 2, 0):
+        # 5.2: the stored 'UVMap' is not the rendered mesh's active UV map, so the bake goes
+        # through a copy of the render mesh (addon/tangent_uv.py), whose empty slot (no face
+        # in it) Blender's bake only notes: every face is Mat's, which perturbs nothing.
+        assert code == 0, err
+        img = bpy.data.images.load(str(out / "n.png"))
+        px = np.array(img.pixels[:]).reshape(-1, 4)[:, :3]
+        assert np.abs(px - [128 / 255, 128 / 255, 1.0]).max() < 1e-6, np.unique(px, axis=0)[:4]
+        assert _sha(blend) == before
+        return
     assert code == 1, err                       # a bake failure, as bake-normal-map says
     assert "did not finish ({'CANCELLED'})" in err
     assert ("material slot 1 of the evaluated 'Obj' is empty (after its modifiers / Geometry "
