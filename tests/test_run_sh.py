@@ -1,0 +1,177 @@
+"""run.sh, the README's two commands, on a machine that is not ours: venvs half made, pip
+failing, LINES picked badly, Ctrl-C in the middle. run.sh runs in a sandbox (a copy of it, the
+real tools/lines_summary.py) with stub interpreters in place of Python and the venvs, so nothing
+is installed and each run takes a fraction of a second. Red team 38a."""
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.tier("child")
+
+ROOT = Path(__file__).resolve().parents[1]
+VENVS = {"5.2": ".venv", "5.0": ".venv-bpy50"}
+
+# A venv's python: logs its arguments; pip's exit status comes from pip-rc, `import pip` works
+# only where pip-ok exists, pytest runs pytest.py where there is one; anything else (the
+# lines' summary) goes to the real interpreter.
+_VENV_PYTHON = """#!/bin/bash
+here=$(cd "$(dirname "$0")/.." && pwd)
+echo "$*" >> "$here/calls.log"
+case "$1 $2" in
+  "-c import pip") [ -e "$here/pip-ok" ]; exit ;;
+  "-c "*version_info*) exit 0 ;;
+  "-m pip") exit "$(cat "$here/pip-rc" 2>/dev/null || echo 0)" ;;
+  "-m pytest") [ -e "$here/pytest.py" ] && exec {real} "$here/pytest.py"; exit 0 ;;
+esac
+exec {real} "$@"
+"""
+
+# The base Python (PYTHON / PYTHON311): passes the version check and makes stub venvs.
+_BASE_PYTHON = """#!/bin/bash
+echo "$*" >> "$(dirname "$0")/base.log"
+case "$1 $2" in
+  "-c "*) exit 0 ;;
+  "-m venv") mkdir -p "$3/bin" && cp "$(dirname "$0")/venv-python" "$3/bin/python" &&
+             touch "$3/pip-ok" ;;
+esac
+"""
+
+
+@pytest.fixture
+def sandbox(tmp_path):
+    box = tmp_path / "check out"                      # a space in the checkout's path
+    (box / "tools").mkdir(parents=True)
+    shutil.copy(ROOT / "run.sh", box)
+    shutil.copy(ROOT / "tools" / "lines_summary.py", box / "tools")
+    for name in ("install_eevee_deps.sh", "install_chromium.sh"):
+        (box / "tools" / name).write_text("exit 0\n")
+    for line in ("", "-5.0", "-4.5", "-4.2"):
+        (box / f"requirements{line}.txt").write_text(f"bpy{line}\n")
+    stubs = tmp_path / "stubs"
+    stubs.mkdir()
+    (stubs / "venv-python").write_text(_VENV_PYTHON.format(real=sys.executable))
+    (stubs / "python").write_text(_BASE_PYTHON)
+    for f in stubs.iterdir():
+        f.chmod(0o755)
+    return box
+
+
+def _venv(box, line, stamp_of=None):
+    """A finished stub venv for `line`, its stamp that of `stamp_of` (a requirements text)."""
+    venv = box / VENVS[line]
+    (venv / "bin").mkdir(parents=True)
+    shutil.copy(box.parent / "stubs" / "venv-python", venv / "bin" / "python")
+    (venv / "pip-ok").touch()
+    if stamp_of is not None:
+        import hashlib
+        (venv / ".requirements.sha256").write_text(hashlib.sha256(stamp_of.encode()).hexdigest())
+    return venv
+
+
+def _run(box, *args, lines=None, **popen):
+    env = {**os.environ, "PYTHON": str(box.parent / "stubs" / "python"),
+           "PYTHON311": str(box.parent / "stubs" / "python"),
+           "PYENV_ROOT": str(box.parent / "no-pyenv")}
+    env.pop("LINES", None)
+    if lines is not None:
+        env["LINES"] = lines
+    return subprocess.Popen(["bash", str(box / "run.sh"), *args], cwd=box.parent, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **popen)
+
+
+def _done(box, *args, lines=None):
+    proc = _run(box, *args, lines=lines)
+    out, _ = proc.communicate(timeout=60)
+    return proc.returncode, out
+
+
+def _calls(venv):
+    log = venv / "calls.log"
+    return log.read_text().splitlines() if log.exists() else []
+
+
+def test_a_failed_install_fails_the_command_and_is_retried(sandbox):
+    """Before: pip's failure was ignored (set -e does not hold in $(...)), the new stamp was
+    written and the suite ran against the bpy the venv already had: exit 0, and every later run
+    skipped the install."""
+    venv = _venv(sandbox, "5.2", stamp_of="bpy==old\n")
+    (venv / "pip-rc").write_text("1")
+    stamp = (venv / ".requirements.sha256").read_text()
+    for args in (("test",), ("main",)):
+        rc, out = _done(sandbox, *args, lines="5.2")
+        assert rc != 0, out
+        assert "installing requirements.txt into .venv failed" in out, out
+    assert not any("pytest" in c or "demo" in c for c in _calls(venv)), _calls(venv)
+    assert (venv / ".requirements.sha256").read_text() == stamp
+    assert sum(c.startswith("-m pip install") for c in _calls(venv)) == 2     # retried
+
+
+def test_an_unfinished_venv_is_made_anew(sandbox):
+    """`python -m venv` interrupted before pip was in: before, the venv was reused, its pip
+    install failed on every run (and, the failure ignored, the suite ran without bpy)."""
+    venv = _venv(sandbox, "5.2")
+    (venv / "pip-ok").unlink()
+    rc, out = _done(sandbox, "test", lines="5.2")
+    assert rc == 0, out
+    assert ".venv is unfinished" in out, out
+    base = (sandbox.parent / "stubs" / "base.log").read_text().splitlines()
+    assert base[-1] == "-m venv .venv", base
+    assert (venv / "pip-ok").exists() and (venv / ".requirements.sha256").exists()
+    assert _calls(venv)[-2:] == ["-m pytest", "tools/lines_summary.py out/lines 5.2"]
+
+
+@pytest.mark.parametrize("lines", ["5.2 4.3", " ", "5.2,5.0"])
+def test_lines_are_checked_before_any_line_runs(sandbox, lines):
+    """Before: an unknown line was refused only when the loop reached it (after the lines
+    before it had run their whole suite), and LINES=" " ran nothing and exited 0."""
+    venv = _venv(sandbox, "5.2", stamp_of="bpy\n")
+    rc, out = _done(sandbox, "test", lines=lines)
+    assert rc == 2, out
+    assert "LINES" in out and "5.2 5.0 4.5 4.2" in out, out
+    assert _calls(venv) == []
+    assert not (sandbox / "out").exists()
+
+
+def test_a_line_asked_twice_runs_once_and_the_summary_needs_no_main_venv(sandbox):
+    """LINES=5.0 on a machine without the 5.2 venv: before, the summary was run with
+    .venv/bin/python, which did not exist: exit 1 after the line passed."""
+    venv = _venv(sandbox, "5.0", stamp_of="bpy-5.0\n")
+    rc, out = _done(sandbox, "test", "-k", "a b", lines="5.0 5.0")
+    assert rc == 0, out
+    assert [c for c in _calls(venv) if "pytest" in c] == ["-m pytest -k a b"]
+    assert "lines: 1 passed, 0 failed" in out, out
+    assert not (sandbox / ".venv").exists()
+
+
+def test_ctrl_c_stops_the_lines_that_follow(sandbox):
+    """pytest ends on Ctrl-C with exit 2, not by the signal, so bash went on to the next line:
+    before, each Ctrl-C stopped one line and the next one started."""
+    first = _venv(sandbox, "5.2", stamp_of="bpy\n")
+    second = _venv(sandbox, "5.0", stamp_of="bpy-5.0\n")
+    started = sandbox / "started"
+    (first / "pytest.py").write_text(
+        "import pathlib, sys, time\n"
+        f"pathlib.Path({str(started)!r}).touch()\n"
+        "try:\n    time.sleep(60)\nexcept KeyboardInterrupt:\n    sys.exit(2)\n")
+    proc = _run(sandbox, "test", lines="5.2 5.0", start_new_session=True)
+    try:
+        for _ in range(400):
+            if started.exists():
+                break
+            time.sleep(0.05)
+        assert started.exists()
+        os.killpg(proc.pid, signal.SIGINT)           # what a terminal's Ctrl-C does
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130, out
+    assert "interrupted" in out, out
+    assert _calls(second) == [], out
