@@ -20,8 +20,9 @@ cd "$(dirname "$0")"
 ALL_LINES="5.2 5.0 4.5 4.2"
 
 find_python() {   # $1 = 3.13 | 3.11; prints a matching interpreter
-  local want=$1 explicit cand
-  if [ "$want" = 3.13 ]; then explicit=${PYTHON:-}; else explicit=${PYTHON311:-}; fi
+  local want=$1 explicit cand var=PYTHON
+  [ "$want" = 3.13 ] || var=PYTHON311
+  explicit=${!var:-}
   local roots=("${PYENV_ROOT:-$HOME/.pyenv}")
   for cand in "$explicit" "python$want" python3 \
               "${roots[0]}"/versions/"$want"*/bin/python"$want"; do
@@ -31,8 +32,11 @@ find_python() {   # $1 = 3.13 | 3.11; prints a matching interpreter
          2>/dev/null; then
       echo "$cand"; return 0
     fi
+    if [ "$cand" = "$explicit" ]; then     # asked for by name: say why it is passed over
+      echo "surfgrad: $var=$cand is not a Python $want with its venv module; looking for one" \
+           "elsewhere" >&2
+    fi
   done
-  local var=PYTHON; [ "$want" = 3.13 ] || var=PYTHON311
   echo "surfgrad: Python $want is needed (the bpy wheels of this line exist only for $want)." >&2
   echo "  Install it with its venv module (e.g. 'pyenv install $want', or your system's" \
        "python$want and python$want-venv packages), or point $var=/path/to/python$want at one." >&2

@@ -175,3 +175,31 @@ def test_ctrl_c_stops_the_lines_that_follow(sandbox):
     assert proc.returncode == 130, out
     assert "interrupted" in out, out
     assert _calls(second) == [], out
+
+
+def test_no_interpreter_found_is_one_message_and_no_venv(sandbox):
+    """PYTHON at a Python of another version, none of 3.13 on PATH or under pyenv. Before:
+    the failure was ignored inside $(...), `"" -m venv .venv` and pip ran, then exec of a
+    missing .venv/bin/python: exit 127 after five 'not found' errors. PYTHON is also named when
+    it is passed over."""
+    tools = sandbox.parent / "path"
+    tools.mkdir()
+    for name in ("bash", "sha256sum", "cut", "cat", "grep", "rm", "mkdir", "dirname"):
+        (tools / name).symlink_to(shutil.which(name))
+    wrong = sandbox.parent / "stubs" / "python3.11"
+    wrong.write_text("#!/bin/bash\nexit 1\n")                 # fails the version check
+    wrong.chmod(0o755)
+    env = {"PATH": str(tools), "PYTHON": str(wrong), "PYENV_ROOT": str(sandbox.parent / "none"),
+           "HOME": str(sandbox.parent)}
+    res = subprocess.run([str(tools / "bash"), str(sandbox / "run.sh"), "main"], env=env,
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 1, res.stderr
+    assert res.stderr.splitlines() == [
+        f"surfgrad: PYTHON={wrong} is not a Python 3.13 with its venv module; looking for one"
+        " elsewhere",
+        "surfgrad: Python 3.13 is needed (the bpy wheels of this line exist only for 3.13).",
+        "  Install it with its venv module (e.g. 'pyenv install 3.13', or your system's"
+        " python3.13 and python3.13-venv packages), or point PYTHON=/path/to/python3.13 at one."]
+    assert sorted(p.name for p in sandbox.iterdir()) == [
+        "requirements-4.2.txt", "requirements-4.5.txt", "requirements-5.0.txt",
+        "requirements.txt", "run.sh", "tools"]
