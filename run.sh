@@ -51,9 +51,13 @@ quiet_pip() {   # pip without the machine's notes about unreachable extra indexe
   { "$@" 2>&1; } | { grep -v "is ignored: it is neither a file nor a directory" || true; } >&2
 }
 
+bpy_version() {   # $1 = venv; the bpy version installed there (from its metadata: no import)
+  "$1/bin/python" -c "import importlib.metadata as m; print(m.version('bpy'))" 2>/dev/null || true
+}
+
 setup_line() {   # $1 = line; prints the venv's python once it has the pinned requirements
   # Runs in $(...), where bash drops `set -e`: every step that can fail returns 1 itself.
-  local line=$1 venv reqs py stamp want
+  local line=$1 venv reqs py stamp want pin
   venv=$(line_venv "$line"); reqs=$(line_reqs "$line")
   if [ -x "$venv/bin/python" ] && ! "$venv/bin/python" -c \
        "import sys; sys.exit(sys.version_info[:2] != tuple(map(int, '$(line_python "$line")'.split('.'))))"; then
@@ -72,13 +76,17 @@ setup_line() {   # $1 = line; prints the venv's python once it has the pinned re
     if ! "$py" -m venv "$venv"; then
       rm -rf "$venv"
       echo "surfgrad: '$py -m venv $venv' failed (messages above); install that Python's" \
-           "venv module or point $([ "$line" = 5.2 ] && echo PYTHON || echo PYTHON311) at another" >&2
+           "venv module or point $([ "$line" = 5.2 ] && echo PYTHON || echo PYTHON311)" \
+           "at another" >&2
       return 1
     fi
   fi
   stamp="$venv/.requirements.sha256"
   want=$(sha256sum "$reqs" | cut -d' ' -f1) || return 1
-  if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ]; then
+  pin=$(sed -n 's/^bpy==\([^ #]*\).*/\1/p' "$reqs")
+  # The stamp alone would trust a venv whose bpy was removed or replaced since the install.
+  if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ] ||
+     [ "$(bpy_version "$venv")" != "$pin" ]; then
     echo "surfgrad: installing $reqs into $venv (bpy is large; pip's cache makes reruns quick)" >&2
     # The stamp is written only after both installs succeeded, so a failed or interrupted
     # install is retried on the next run instead of testing whatever bpy the venv had.
@@ -86,6 +94,11 @@ setup_line() {   # $1 = line; prints the venv's python once it has the pinned re
        ! quiet_pip "$venv/bin/python" -m pip install --quiet -r "$reqs"; then
       echo "surfgrad: installing $reqs into $venv failed (pip's messages above); rerun once" \
            "the package index is reachable" >&2
+      return 1
+    fi
+    if [ "$(bpy_version "$venv")" != "$pin" ]; then
+      echo "surfgrad: $venv has bpy '$(bpy_version "$venv")' after installing $reqs, which pins" \
+           "$pin; remove $venv and rerun" >&2
       return 1
     fi
     echo "$want" > "$stamp" || return 1
@@ -105,8 +118,8 @@ run_tests() {
     echo "surfgrad: LINES names no line (supported: $ALL_LINES; unset for all)" >&2; return 2
   fi
   # pytest ends on Ctrl-C with its own exit status, so bash would go on to the next line.
+  # (SIGTERM needs no trap: it ends bash at once.)
   trap 'echo "surfgrad: interrupted; the lines after it did not run" >&2; exit 130' INT
-  trap 'echo "surfgrad: terminated; the lines after it did not run" >&2; exit 143' TERM
   bash tools/install_eevee_deps.sh || true      # Mesa EGL for the EEVEE tests
   bash tools/install_chromium.sh || true        # headless Chromium for the report page test
   mkdir -p out/lines

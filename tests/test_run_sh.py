@@ -3,6 +3,7 @@ failing, LINES picked badly, Ctrl-C in the middle. run.sh runs in a sandbox (a c
 real tools/lines_summary.py) with stub interpreters in place of Python and the venvs, so nothing
 is installed and each run takes a fraction of a second. Red team 38a."""
 
+import hashlib
 import os
 import shutil
 import signal
@@ -18,16 +19,21 @@ pytestmark = pytest.mark.tier("child")
 ROOT = Path(__file__).resolve().parents[1]
 VENVS = {"5.2": ".venv", "5.0": ".venv-bpy50"}
 
-# A venv's python: logs its arguments; pip's exit status comes from pip-rc, `import pip` works
-# only where pip-ok exists, pytest runs pytest.py where there is one; anything else (the
-# lines' summary) goes to the real interpreter.
+# A venv's python: logs its arguments; pip's exit status comes from pip-rc, and an install
+# that succeeds puts the requirements' bpy pin in bpy-version (unless pip-keeps-bpy exists),
+# which the metadata query prints; `import pip` works only where pip-ok exists, pytest runs
+# pytest.py where there is one; anything else (the summary) goes to the real interpreter.
 _VENV_PYTHON = """#!/bin/bash
 here=$(cd "$(dirname "$0")/.." && pwd)
 echo "$*" >> "$here/calls.log"
 case "$1 $2" in
   "-c import pip") [ -e "$here/pip-ok" ]; exit ;;
   "-c "*version_info*) exit 0 ;;
-  "-m pip") exit "$(cat "$here/pip-rc" 2>/dev/null || echo 0)" ;;
+  "-c "*importlib.metadata*) cat "$here/bpy-version" 2>/dev/null; exit ;;
+  "-m pip") rc=$(cat "$here/pip-rc" 2>/dev/null || echo 0)
+            [ "$rc$5" = 0-r ] && [ ! -e "$here/pip-keeps-bpy" ] &&
+              sed -n 's/^bpy==\\([^ #]*\\).*/\\1/p' "$6" > "$here/bpy-version"
+            exit "$rc" ;;
   "-m pytest") [ -e "$here/pytest.py" ] && exec {real} "$here/pytest.py"; exit 0 ;;
 esac
 exec {real} "$@"
@@ -52,8 +58,8 @@ def sandbox(tmp_path):
     shutil.copy(ROOT / "tools" / "lines_summary.py", box / "tools")
     for name in ("install_eevee_deps.sh", "install_chromium.sh"):
         (box / "tools" / name).write_text("exit 0\n")
-    for line in ("", "-5.0", "-4.5", "-4.2"):
-        (box / f"requirements{line}.txt").write_text(f"bpy{line}\n")
+    for line, pin in (("", "5.2.3"), ("-5.0", "5.0.1"), ("-4.5", "4.5.15"), ("-4.2", "4.2.23")):
+        (box / f"requirements{line}.txt").write_text(f"bpy=={pin}    # a comment\npytest\n")
     stubs = tmp_path / "stubs"
     stubs.mkdir()
     (stubs / "venv-python").write_text(_VENV_PYTHON.format(real=sys.executable))
@@ -63,15 +69,20 @@ def sandbox(tmp_path):
     return box
 
 
+PINS = {"5.2": "5.2.3", "5.0": "5.0.1"}
+REQS = {"5.2": "requirements.txt", "5.0": "requirements-5.0.txt"}
+
+
 def _venv(box, line, stamp_of=None):
-    """A finished stub venv for `line`, its stamp that of `stamp_of` (a requirements text)."""
+    """A finished stub venv for `line` with its pinned bpy, its stamp that of `stamp_of` (a
+    requirements text; by default the sandbox's requirements file of that line)."""
     venv = box / VENVS[line]
     (venv / "bin").mkdir(parents=True)
     shutil.copy(box.parent / "stubs" / "venv-python", venv / "bin" / "python")
     (venv / "pip-ok").touch()
-    if stamp_of is not None:
-        import hashlib
-        (venv / ".requirements.sha256").write_text(hashlib.sha256(stamp_of.encode()).hexdigest())
+    (venv / "bpy-version").write_text(PINS[line] + "\n")
+    text = stamp_of if stamp_of is not None else (box / REQS[line]).read_text()
+    (venv / ".requirements.sha256").write_text(hashlib.sha256(text.encode()).hexdigest())
     return venv
 
 
@@ -131,7 +142,7 @@ def test_an_unfinished_venv_is_made_anew(sandbox):
 def test_lines_are_checked_before_any_line_runs(sandbox, lines):
     """Before: an unknown line was refused only when the loop reached it (after the lines
     before it had run their whole suite), and LINES=" " ran nothing and exited 0."""
-    venv = _venv(sandbox, "5.2", stamp_of="bpy\n")
+    venv = _venv(sandbox, "5.2")
     rc, out = _done(sandbox, "test", lines=lines)
     assert rc == 2, out
     assert "LINES" in out and "5.2 5.0 4.5 4.2" in out, out
@@ -142,7 +153,7 @@ def test_lines_are_checked_before_any_line_runs(sandbox, lines):
 def test_a_line_asked_twice_runs_once_and_the_summary_needs_no_main_venv(sandbox):
     """LINES=5.0 on a machine without the 5.2 venv: before, the summary was run with
     .venv/bin/python, which did not exist: exit 1 after the line passed."""
-    venv = _venv(sandbox, "5.0", stamp_of="bpy-5.0\n")
+    venv = _venv(sandbox, "5.0")
     rc, out = _done(sandbox, "test", "-k", "a b", lines="5.0 5.0")
     assert rc == 0, out
     assert [c for c in _calls(venv) if "pytest" in c] == ["-m pytest -k a b"]
@@ -153,8 +164,8 @@ def test_a_line_asked_twice_runs_once_and_the_summary_needs_no_main_venv(sandbox
 def test_ctrl_c_stops_the_lines_that_follow(sandbox):
     """pytest ends on Ctrl-C with exit 2, not by the signal, so bash went on to the next line:
     before, each Ctrl-C stopped one line and the next one started."""
-    first = _venv(sandbox, "5.2", stamp_of="bpy\n")
-    second = _venv(sandbox, "5.0", stamp_of="bpy-5.0\n")
+    first = _venv(sandbox, "5.2")
+    second = _venv(sandbox, "5.0")
     started = sandbox / "started"
     (first / "pytest.py").write_text(
         "import pathlib, sys, time\n"
@@ -203,3 +214,42 @@ def test_no_interpreter_found_is_one_message_and_no_venv(sandbox):
     assert sorted(p.name for p in sandbox.iterdir()) == [
         "requirements-4.2.txt", "requirements-4.5.txt", "requirements-5.0.txt",
         "requirements.txt", "run.sh", "tools"]
+
+
+def test_a_line_killed_or_with_no_test_fails_the_command(sandbox):
+    """A line whose pytest is killed (SIGKILL) and one that collects no test (pytest's exit 5)
+    are each FAILED in the summary, and the command exits 1."""
+    for line, body in (("5.2", "import os, signal\nos.kill(os.getpid(), signal.SIGKILL)\n"),
+                       ("5.0", "import sys\nsys.exit(5)\n")):
+        (_venv(sandbox, line) / "pytest.py").write_text(body)
+    rc, out = _done(sandbox, "test", lines="5.2 5.0")
+    assert rc == 1, out
+    assert "Blender 5.2: FAILED (exit 137)" in out and "Blender 5.0: FAILED (exit 5)" in out
+    assert "| 5.2 | ? | FAILED |" in out and "| 5.0 | ? | FAILED |" in out, out
+    assert out.rstrip().endswith("lines: 0 passed, 2 failed"), out
+
+
+def test_a_venv_whose_bpy_was_removed_or_replaced_is_installed_again(sandbox):
+    """The stamp matches but bpy is gone (pip uninstall) or another version (pip install
+    bpy==5.0.1 into the 5.2 venv). Before: the stamp was trusted and the suite ran; without bpy
+    its bpy tests skip, and the line was reported passed. Now the install runs again; where it
+    cannot give the pinned bpy, the line fails before its tests."""
+    venv = _venv(sandbox, "5.2")
+    for before in (None, "5.0.1"):
+        if before is None:
+            (venv / "bpy-version").unlink()
+        else:
+            (venv / "bpy-version").write_text(before + "\n")
+        (venv / "calls.log").unlink(missing_ok=True)
+        rc, out = _done(sandbox, "test", lines="5.2")
+        assert rc == 0, out
+        assert "-m pip install --quiet -r requirements.txt" in _calls(venv), out
+        assert (venv / "bpy-version").read_text() == "5.2.3\n"
+    (venv / "bpy-version").write_text("5.0.1\n")
+    (sandbox / "requirements.txt").write_text("bpy==5.2.3\npytest\n")   # same pin, new text
+    (venv / "pip-keeps-bpy").touch()                   # an install that leaves bpy as it is
+    (venv / "calls.log").unlink()
+    rc, out = _done(sandbox, "test", lines="5.2")
+    assert rc == 1, out
+    assert ".venv has bpy '5.0.1' after installing requirements.txt, which pins 5.2.3" in out
+    assert "-m pytest" not in _calls(venv)
