@@ -92,8 +92,8 @@ setup_line() {   # $1 = line; prints the venv's python once it has the pinned re
     # install is retried on the next run instead of testing whatever bpy the venv had.
     if ! quiet_pip "$venv/bin/python" -m pip install --quiet --upgrade pip ||
        ! quiet_pip "$venv/bin/python" -m pip install --quiet -r "$reqs"; then
-      echo "surfgrad: installing $reqs into $venv failed (pip's messages above); rerun once" \
-           "the package index is reachable" >&2
+      echo "surfgrad: installing $reqs into $venv failed (pip's messages above); the next" \
+           "run installs it again" >&2
       return 1
     fi
     if [ "$(bpy_version "$venv")" != "$pin" ]; then
