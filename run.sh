@@ -123,7 +123,7 @@ run_tests() {
   bash tools/install_eevee_deps.sh || true      # Mesa EGL for the EEVEE tests
   bash tools/install_chromium.sh || true        # headless Chromium for the report page test
   mkdir -p out/lines
-  rm -f out/lines/*.json
+  rm -f out/lines/*.json out/lines/summary.md    # an interrupted run leaves no older summary
   for line in "${lines[@]}"; do
     start=$SECONDS
     echo "surfgrad: ===== Blender $line =====" >&2

@@ -163,10 +163,13 @@ def test_a_line_asked_twice_runs_once_and_the_summary_needs_no_main_venv(sandbox
 
 def test_ctrl_c_stops_the_lines_that_follow(sandbox):
     """pytest ends on Ctrl-C with exit 2, not by the signal, so bash went on to the next line:
-    before, each Ctrl-C stopped one line and the next one started."""
+    before, each Ctrl-C stopped one line and the next one started. The last run's summary is
+    not left to look like this run's."""
     first = _venv(sandbox, "5.2")
     second = _venv(sandbox, "5.0")
     started = sandbox / "started"
+    (sandbox / "out" / "lines").mkdir(parents=True)
+    (sandbox / "out" / "lines" / "summary.md").write_text("| 5.2 | 5.2.3 | passed | 600 |\n")
     (first / "pytest.py").write_text(
         "import pathlib, sys, time\n"
         f"pathlib.Path({str(started)!r}).touch()\n"
@@ -186,6 +189,7 @@ def test_ctrl_c_stops_the_lines_that_follow(sandbox):
     assert proc.returncode == 130, out
     assert "interrupted" in out, out
     assert _calls(second) == [], out
+    assert list((sandbox / "out" / "lines").iterdir()) == []
 
 
 def test_no_interpreter_found_is_one_message_and_no_venv(sandbox):
