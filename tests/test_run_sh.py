@@ -39,13 +39,14 @@ esac
 exec {real} "$@"
 """
 
-# The base Python (PYTHON / PYTHON311): passes the version check and makes stub venvs.
+# The base Python (PYTHON / PYTHON311): passes the version check and makes stub venvs (or,
+# where venv-fails exists, half of one and fails, as Debian's Python without python3-venv).
 _BASE_PYTHON = """#!/bin/bash
 echo "$*" >> "$(dirname "$0")/base.log"
 case "$1 $2" in
   "-c "*) exit 0 ;;
   "-m venv") mkdir -p "$3/bin" && cp "$(dirname "$0")/venv-python" "$3/bin/python" &&
-             touch "$3/pip-ok" ;;
+             [ ! -e "$(dirname "$0")/venv-fails" ] && touch "$3/pip-ok" ;;
 esac
 """
 
@@ -257,3 +258,15 @@ def test_a_venv_whose_bpy_was_removed_or_replaced_is_installed_again(sandbox):
     assert rc == 1, out
     assert ".venv has bpy '5.0.1' after installing requirements.txt, which pins 5.2.3" in out
     assert "-m pytest" not in _calls(venv)
+
+
+def test_a_venv_that_cannot_be_made_is_one_message_and_no_venv(sandbox):
+    """`python -m venv` fails after making the folder (Debian's Python without its venv
+    package: ensurepip missing). Before: the failure was ignored, pip and the suite ran in the
+    half venv and the next runs reused it."""
+    (sandbox.parent / "stubs" / "venv-fails").touch()
+    rc, out = _done(sandbox, "test", lines="5.0")
+    assert rc == 1, out
+    assert "'" + str(sandbox.parent / "stubs" / "python") + " -m venv .venv-bpy50' failed" in out
+    assert "point PYTHON311 at another" in out, out
+    assert not (sandbox / ".venv-bpy50").exists()
