@@ -56,7 +56,9 @@ bpy_version() {   # $1 = venv; the bpy version installed there (from its metadat
 }
 
 setup_line() {   # $1 = line; prints the venv's python once it has the pinned requirements
-  # Runs in $(...), where bash drops `set -e`: every step that can fail returns 1 itself.
+  # Runs in $(...), where bash drops `set -e`: every step that can fail returns 1 itself, and
+  # Ctrl-C, which pip turns into its own exit status, ends it here (as in run_tests).
+  trap 'exit 130' INT
   local line=$1 venv reqs py stamp want pin
   venv=$(line_venv "$line"); reqs=$(line_reqs "$line")
   if [ -x "$venv/bin/python" ] && ! "$venv/bin/python" -c \
@@ -90,8 +92,10 @@ setup_line() {   # $1 = line; prints the venv's python once it has the pinned re
     echo "surfgrad: installing $reqs into $venv (bpy is large; pip's cache makes reruns quick)" >&2
     # The stamp is written only after both installs succeeded, so a failed or interrupted
     # install is retried on the next run instead of testing whatever bpy the venv had.
-    if ! quiet_pip "$venv/bin/python" -m pip install --quiet --upgrade pip ||
-       ! quiet_pip "$venv/bin/python" -m pip install --quiet -r "$reqs"; then
+    # A newer pip is welcome, not needed (offline, the pinned requirements may be there).
+    quiet_pip "$venv/bin/python" -m pip install --quiet --upgrade pip ||
+      echo "surfgrad: could not upgrade pip in $venv; going on with the one it has" >&2
+    if ! quiet_pip "$venv/bin/python" -m pip install --quiet -r "$reqs"; then
       echo "surfgrad: installing $reqs into $venv failed (pip's messages above); the next" \
            "run installs it again" >&2
       return 1
