@@ -20,8 +20,9 @@ cd "$(dirname "$0")"
 ALL_LINES="5.2 5.0 4.5 4.2"
 
 find_python() {   # $1 = 3.13 | 3.11; prints a matching interpreter
-  local want=$1 explicit cand
-  if [ "$want" = 3.13 ]; then explicit=${PYTHON:-}; else explicit=${PYTHON311:-}; fi
+  local want=$1 explicit cand var=PYTHON
+  [ "$want" = 3.13 ] || var=PYTHON311
+  explicit=${!var:-}
   local roots=("${PYENV_ROOT:-$HOME/.pyenv}")
   for cand in "$explicit" "python$want" python3 \
               "${roots[0]}"/versions/"$want"*/bin/python"$want"; do
@@ -31,8 +32,11 @@ find_python() {   # $1 = 3.13 | 3.11; prints a matching interpreter
          2>/dev/null; then
       echo "$cand"; return 0
     fi
+    if [ "$cand" = "$explicit" ]; then     # asked for by name: say why it is passed over
+      echo "surfgrad: $var=$cand is not a Python $want with its venv module; looking for one" \
+           "elsewhere" >&2
+    fi
   done
-  local var=PYTHON; [ "$want" = 3.13 ] || var=PYTHON311
   echo "surfgrad: Python $want is needed (the bpy wheels of this line exist only for $want)." >&2
   echo "  Install it with its venv module (e.g. 'pyenv install $want', or your system's" \
        "python$want and python$want-venv packages), or point $var=/path/to/python$want at one." >&2
@@ -47,44 +51,90 @@ quiet_pip() {   # pip without the machine's notes about unreachable extra indexe
   { "$@" 2>&1; } | { grep -v "is ignored: it is neither a file nor a directory" || true; } >&2
 }
 
+bpy_version() {   # $1 = venv; the bpy version installed there (from its metadata: no import)
+  "$1/bin/python" -c "import importlib.metadata as m; print(m.version('bpy'))" 2>/dev/null || true
+}
+
 setup_line() {   # $1 = line; prints the venv's python once it has the pinned requirements
-  local line=$1 venv reqs py stamp want
+  # Runs in $(...), where bash drops `set -e`: every step that can fail returns 1 itself, and
+  # Ctrl-C, which pip turns into its own exit status, ends it here (as in run_tests).
+  trap 'exit 130' INT
+  local line=$1 venv reqs py stamp want pin
   venv=$(line_venv "$line"); reqs=$(line_reqs "$line")
   if [ -x "$venv/bin/python" ] && ! "$venv/bin/python" -c \
        "import sys; sys.exit(sys.version_info[:2] != tuple(map(int, '$(line_python "$line")'.split('.'))))"; then
     echo "surfgrad: $venv has the wrong Python for Blender $line; making it anew" >&2
     rm -rf "$venv"
   fi
-  if [ ! -x "$venv/bin/python" ]; then
-    py=$(find_python "$(line_python "$line")")
+  # A venv that `python -m venv` did not finish (interrupted) or whose base Python is gone has
+  # no working pip: make it anew instead of failing in it on every run.
+  if [ -e "$venv" ] && ! "$venv/bin/python" -c "import pip" >/dev/null 2>&1; then
+    echo "surfgrad: $venv is unfinished (no working python or pip); making it anew" >&2
+    rm -rf "$venv"
+  fi
+  if [ ! -e "$venv" ]; then
+    py=$(find_python "$(line_python "$line")") || return 1
     echo "surfgrad: creating $venv with $py for Blender $line" >&2
-    "$py" -m venv "$venv"
+    if ! "$py" -m venv "$venv"; then
+      rm -rf "$venv"
+      echo "surfgrad: '$py -m venv $venv' failed (messages above); install that Python's" \
+           "venv module or point $([ "$line" = 5.2 ] && echo PYTHON || echo PYTHON311)" \
+           "at another" >&2
+      return 1
+    fi
   fi
   stamp="$venv/.requirements.sha256"
-  want=$(sha256sum "$reqs" | cut -d' ' -f1)
-  if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ]; then
+  want=$(sha256sum "$reqs" | cut -d' ' -f1) || return 1
+  pin=$(sed -n 's/^bpy==\([^ #]*\).*/\1/p' "$reqs")
+  # The stamp alone would trust a venv whose bpy was removed or replaced since the install.
+  if [ "$(cat "$stamp" 2>/dev/null || true)" != "$want" ] ||
+     [ "$(bpy_version "$venv")" != "$pin" ]; then
     echo "surfgrad: installing $reqs into $venv (bpy is large; pip's cache makes reruns quick)" >&2
-    quiet_pip "$venv/bin/python" -m pip install --quiet --upgrade pip
-    quiet_pip "$venv/bin/python" -m pip install --quiet -r "$reqs"
-    echo "$want" > "$stamp"
+    # The stamp is written only after both installs succeeded, so a failed or interrupted
+    # install is retried on the next run instead of testing whatever bpy the venv had.
+    # A newer pip is welcome, not needed (offline, the pinned requirements may be there).
+    quiet_pip "$venv/bin/python" -m pip install --quiet --upgrade pip ||
+      echo "surfgrad: could not upgrade pip in $venv; going on with the one it has" >&2
+    if ! quiet_pip "$venv/bin/python" -m pip install --quiet -r "$reqs"; then
+      echo "surfgrad: installing $reqs into $venv failed (pip's messages above); the next" \
+           "run installs it again" >&2
+      return 1
+    fi
+    if [ "$(bpy_version "$venv")" != "$pin" ]; then
+      echo "surfgrad: $venv has bpy '$(bpy_version "$venv")' after installing $reqs, which pins" \
+           "$pin; remove $venv and rerun" >&2
+      return 1
+    fi
+    echo "$want" > "$stamp" || return 1
   fi
   echo "$venv/bin/python"
 }
 
 run_tests() {
-  local lines=${LINES:-$ALL_LINES} line py start status=0 rc
+  local lines=() asked line py start status=0 rc summary_py=python3
+  read -r -a asked <<< "${LINES:-$ALL_LINES}"
+  for line in "${asked[@]}"; do             # the whole request is checked before any line runs
+    case " $ALL_LINES " in *" $line "*) ;; *)
+      echo "surfgrad: unknown line $line in LINES (supported: $ALL_LINES)" >&2; return 2 ;; esac
+    case " ${lines[*]} " in *" $line "*) ;; *) lines+=("$line") ;; esac
+  done
+  if [ ${#lines[@]} = 0 ]; then
+    echo "surfgrad: LINES names no line (supported: $ALL_LINES; unset for all)" >&2; return 2
+  fi
+  # pytest ends on Ctrl-C with its own exit status, so bash would go on to the next line.
+  # (SIGTERM needs no trap: it ends bash at once.)
+  trap 'echo "surfgrad: interrupted; the lines after it did not run" >&2; exit 130' INT
   bash tools/install_eevee_deps.sh || true      # Mesa EGL for the EEVEE tests
   bash tools/install_chromium.sh || true        # headless Chromium for the report page test
   mkdir -p out/lines
-  rm -f out/lines/*.json
-  for line in $lines; do
-    case " $ALL_LINES " in *" $line "*) ;; *)
-      echo "surfgrad: unknown line $line (supported: $ALL_LINES)" >&2; exit 2 ;; esac
+  rm -f out/lines/*.json out/lines/summary.md    # an interrupted run leaves no older summary
+  for line in "${lines[@]}"; do
     start=$SECONDS
     echo "surfgrad: ===== Blender $line =====" >&2
     if ! py=$(setup_line "$line"); then
       rc=1
     else
+      summary_py=$py
       rc=0
       SURFGRAD_REPORT_DIR="$PWD/out/lines" "$py" -m pytest "$@" || rc=$?
     fi
@@ -94,7 +144,7 @@ run_tests() {
          "in $((SECONDS - start)) s" >&2
     [ "$rc" = 0 ] || status=1
   done
-  "$(line_venv 5.2)/bin/python" tools/lines_summary.py out/lines $lines || status=1
+  "$summary_py" tools/lines_summary.py out/lines "${lines[@]}" || status=1
   return $status
 }
 
