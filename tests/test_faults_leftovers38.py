@@ -160,3 +160,20 @@ def test_a_uv_map_only_a_modifier_makes_is_refused_saying_how_to_bake_it(fresh, 
     settings = dict(plan.DEFAULTS, uv_map="Proj")
     assert plan.asset_problem(scan, settings) == MODIFIER_UV
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.tier("blender")
+def test_compare_reads_a_uint8_image_as_blender_reads_the_file(fresh):
+    """harness compare(image=<uint8 array>) gave both sides the values 0..255 (the bake's
+    image and the reference's pixels): they agreed, about a map no file holds. Now both
+    take value / 255, as Blender reads the PNG."""
+    from surfgrad_addon.harness.compare import prepare_inputs
+    obj = _plane(fresh)
+    rng = np.random.default_rng(5)
+    png = rng.integers(0, 256, size=(8, 8, 3), dtype=np.uint8)
+    inp = prepare_inputs(obj, image=png)
+    reference, image = inp.images["normal"]
+    blender = np.array(image.pixels[:], dtype=np.float64).reshape(8, 8, 4)[..., :3]
+    expected = png.astype(np.float64) / 255.0
+    assert np.abs(reference - expected).max() < 1e-7
+    assert np.abs(blender - expected).max() < 1e-7
