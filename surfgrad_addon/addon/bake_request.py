@@ -41,7 +41,7 @@ from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
 from .header_reads import one_header_read
-from .image_checks import image_problems, output_input_problems
+from .image_checks import image_problems, one_tile_write, output_input_problems
 from .image_memory import images_memory
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
@@ -205,7 +205,7 @@ def check(request, obj=None, warn=warn_stderr):
     """Check everything about `request` before baking; returns a CheckedRequest (its warnings
     already passed to `warn`) or raises BakeRequestError naming every problem and its fix."""
     # one read of the mesh, of each image file's header, and of each image's pixels
-    with one_read(), one_header_read(), one_pixel_read():
+    with one_read(), one_header_read(), one_pixel_read(), one_tile_write():
         return _check(request, obj, warn)
 
 
