@@ -77,7 +77,7 @@ def _checked(options):
             raise ValueError(f"extension {out['extension']!r}: use one of "
                              f"{', '.join(allowed)}")
     if out.get("filter_width") is not None:
-        fw = out["filter_width"]
+        fw = out["filter_width"] = _plain(out["filter_width"])
         if isinstance(fw, bool) or not isinstance(fw, (int, float)) or \
                 not math.isfinite(fw) or fw <= 0:
             raise ValueError(f"filter_width {fw!r}: give a positive number (the Bump node's "
@@ -153,7 +153,9 @@ def bake_normal_map(obj, output, space=_Request.space, resolution=_Request.resol
     range (warned on stderr) instead of refusing it. The request is checked first
     (addon/bake_request.py): a BakeRequestError (a ValueError) names every problem, and
     nothing is written. Returns the written path (the name with <UDIM> for tiles). log: called
-    with each progress line (None: quiet). Numbers may be numpy integers."""
+    with each progress line (None: quiet); an exception it raises reaches the caller as
+    raised (after '[3/3] wrote' the map is in place: a note on it says so). Numbers may be
+    numpy integers or floats."""
     from pathlib import Path
     from .addon.bake_request import bake
     if obj is None or not hasattr(obj, "name"):

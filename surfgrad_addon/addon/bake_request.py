@@ -41,7 +41,7 @@ from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
 from .header_reads import one_header_read
-from .image_checks import image_problems, output_input_problems
+from .image_checks import image_problems, one_tile_write, output_input_problems
 from .image_memory import images_memory
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
@@ -205,7 +205,7 @@ def check(request, obj=None, warn=warn_stderr):
     """Check everything about `request` before baking; returns a CheckedRequest (its warnings
     already passed to `warn`) or raises BakeRequestError naming every problem and its fix."""
     # one read of the mesh, of each image file's header, and of each image's pixels
-    with one_read(), one_header_read(), one_pixel_read():
+    with one_read(), one_header_read(), one_pixel_read(), one_tile_write():
         return _check(request, obj, warn)
 
 
@@ -273,6 +273,14 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
     is written, or BakeFailed when the bake itself fails."""
     import bpy
     r = request
+    raised = []                           # the caller's own log errors: theirs, not the bake's
+
+    def said(line):
+        try:
+            log(line)
+        except Exception as err:
+            raised.append(err)
+            raise
     with one_read():                      # the bake plans its tiles from the checked read
         # Silent for seconds per million faces (the mesh as it renders, its UV tiles).
         with heartbeat(log, f"      still checking {obj.name if obj else r.object}"):
@@ -282,9 +290,11 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
             result = NB.bake_normal_tiles(obj, r.output, r.space, r.resolution,
                                           checked.uv_map, r.margin, r.samples, checked.depth,
                                           r.tiles, r.empty_tiles, overwrite=r.overwrite,
-                                          log=log, threads=r.threads,
+                                          log=said, threads=r.threads,
                                           verify=lambda: _inputs_unchanged(checked))
         except RuntimeError as err:       # the bake operator or the image write
+            if any(err is e for e in raised):
+                raise
             # (MapNotWritten keeps its kind: a batch does not retry it)
             failed = MapNotWritten if isinstance(err, MapNotWritten) else BakeFailed
             raise failed(f"the bake of {obj.name!r} failed: {err}") from None

@@ -102,6 +102,10 @@ def _bake_batch(batch, args, log):
     if args.asset_list:
         listed = batch.read_asset_list(args.asset_list)
         if args.asset_index is not None:
+            if not listed:
+                raise ValueError(f"asset index {args.asset_index}: the list "
+                                 f"{args.asset_list} has no entries: add one .blend path a "
+                                 f"line")
             if not 0 <= args.asset_index < len(listed):
                 raise ValueError(f"asset index {args.asset_index}: the list "
                                  f"{args.asset_list} has {len(listed)} entries (0 to "

@@ -14,6 +14,7 @@ from . import material_inputs as MI
 from .bake_uvs import baked_mesh, modified
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .header_reads import one_header_read, path_headers
+from .read_once import ReadOnce
 from .image_channels import (cut_short_file, cut_short_problem, layered_file,
                              path_channel_problem, running_facts, undefined_channel_problem)
 
@@ -324,20 +325,38 @@ def packed_tiled(image):
     return image.source == "TILED" and len(getattr(image, "packed_files", ())) > 1
 
 
+# {image pointer: TemporaryDirectory of its packed tiles} in one_tile_write(): the image and
+# normal-map checks read the same files (and their pixels once: float_pixels keys by path).
+_tile_folders = ReadOnce(close=lambda folder: folder.cleanup())
+
+
+def one_tile_write():
+    """Within this block each packed UDIM tile is written to a temporary file once (the files
+    go when it ends). Nothing may change an image's packed data within it."""
+    return _tile_folders.scope()
+
+
 @contextlib.contextmanager
 def packed_tile_files(image, covered):
     """[(tile number, temporary file of its packed data)] of each of a packed UDIM image's
-    tiles the bake reads (`covered`, else all), for as long as the `with` lasts: bpy loads no
-    packed tile alone."""
-    with tempfile.TemporaryDirectory(prefix="surfgrad-tile-") as folder:
+    tiles the bake reads (`covered`, else all), for as long as the `with` lasts (inside
+    one_tile_write, as long as that): bpy loads no packed tile alone."""
+    scoped = _tile_folders.active
+    folder = _tile_folders.get(image.as_pointer(),
+                               lambda: tempfile.TemporaryDirectory(prefix="surfgrad-tile-"))
+    try:
         files = []
         for tile in image.packed_files:
             if covered and tile.tile_number not in covered:
                 continue
-            path = Path(folder) / f"tile{tile.tile_number}{Path(tile.filepath).suffix}"
-            path.write_bytes(tile.packed_file.data)
+            path = Path(folder.name) / f"tile{tile.tile_number}{Path(tile.filepath).suffix}"
+            if not path.exists():
+                path.write_bytes(tile.packed_file.data)
             files.append((tile.tile_number, path))
         yield files
+    finally:
+        if not scoped:
+            folder.cleanup()
 
 
 def _packed_tiles_problem(image, covered):

@@ -82,8 +82,8 @@ class PixelSize(NamedTuple):
 
 def pixel_size(f):
     """PixelSize from the start of the binary file object `f` (PNG, JPEG, single-part EXR,
-    TIFF, Radiance HDR, BMP), or None where the header does not say (another format, or a
-    damaged header)."""
+    TIFF, Radiance HDR, BMP, WebP, TGA), or None where the header does not say (another
+    format, or a damaged header)."""
     head = f.read(33)
     f.seek(0)
     if head[:4] in (b"II*\0", b"MM\0*"):
@@ -116,7 +116,42 @@ def pixel_size(f):
             return None
         x0, y0, x1, y1 = struct.unpack("<iiii", box)
         return PixelSize(x1 - x0 + 1, y1 - y0 + 1, True) if x1 >= x0 and y1 >= y0 else None
-    return None
+    if head[:4] == b"RIFF" and head[8:12] == b"WEBP":
+        return _webp_size(head)
+    return _tga_size(head)
+
+
+def _webp_size(head):
+    """PixelSize of a WebP from its first chunk (lossy VP8, lossless VP8L, extended VP8X's
+    canvas), or None. Blender loads it 8-bit."""
+    kind = head[12:16]
+    if kind == b"VP8X" and len(head) >= 30:
+        w, h = (int.from_bytes(head[i:i + 3], "little") + 1 for i in (24, 27))
+    elif kind == b"VP8L" and len(head) >= 25 and head[20] == 0x2F:
+        bits = int.from_bytes(head[21:25], "little")
+        w, h = (bits & 0x3FFF) + 1, ((bits >> 14) & 0x3FFF) + 1
+    elif kind == b"VP8 " and len(head) >= 30 and head[23:26] == b"\x9d\x01\x2a":
+        w, h = (v & 0x3FFF for v in struct.unpack("<HH", head[26:30]))
+    else:
+        return None
+    return PixelSize(w, h, False) if w and h else None
+
+
+# TGA has no magic: a header is taken as one only when every field is one TGA allows
+# (colour-mapped types 1/9 with a colour map, true-colour/grey 2/3/10/11 without one).
+TGA_TYPES = {1: 1, 9: 1, 2: 0, 3: 0, 10: 0, 11: 0}    # image type: its colour-map type
+TGA_DEPTHS = (8, 15, 16, 24, 32)
+
+
+def _tga_size(head):
+    """PixelSize of a TGA from its 18-byte header, or None (not a TGA's). Blender loads it
+    8-bit."""
+    if len(head) < 18:
+        return None
+    _, cmap, kind, _, _, _, _, _, w, h, depth, _ = struct.unpack("<BBBHHBHHHHBB", head[:18])
+    if TGA_TYPES.get(kind) != cmap or depth not in TGA_DEPTHS or not w or not h:
+        return None
+    return PixelSize(w, h, False)
 
 
 def exr_layered(f):

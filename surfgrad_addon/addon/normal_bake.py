@@ -180,6 +180,14 @@ def depth_for(output, depth):
     return depth
 
 
+def modifier_uv_problem(name, uv_map):
+    """A UV map only a modifier makes: it renders, but Blender's bake takes its UV map from
+    the mesh data (it refuses a name the data lacks)."""
+    return (f"object {name!r} has UV map {uv_map!r} only from a modifier; Blender's bake needs "
+            f"the UV map on the mesh data: apply the modifier (Object > Apply), or add a UV "
+            f"map of that name to the mesh (Object Data > UV Maps) and unwrap it")
+
+
 def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     """(uv_map, tiles to bake, tiles with UVs, warnings) for obj and the output name, or a
     NormalBakeError naming what is wrong. empty_tiles='skip' drops asked-for tiles that hold
@@ -204,6 +212,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
         raise NormalBakeError(problem)
     mesh = obj.data
     names = [uv.name for uv in mesh.uv_layers]
+    if uv_map and uv_map not in names and uv_map in baked_uv_tiles(obj):
+        raise NormalBakeError(modifier_uv_problem(obj.name, uv_map))
     if not names:
         raise NormalBakeError(f"object {obj.name!r} has no UV map; unwrap it first")
     uv_map = uv_map or next((uv.name for uv in mesh.uv_layers if uv.active_render), names[0])
@@ -396,7 +406,13 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         with interrupts.committing():             # a stop sees every tile or none
             _publish_all(temps, finals, tiles, overwrite, result["paths"])
         result["save_s"] = time.perf_counter() - t0
-        log(f"[3/3] wrote {', '.join(str(p) for p in finals.values())}")
+        written = ', '.join(str(p) for p in finals.values())
+        try:
+            log(f"[3/3] wrote {written}")
+        except Exception as err:                  # the caller's log, after the map is in place
+            err.add_note(f"surfgrad: raised by the log callback after the bake; the map is "
+                         f"written and complete: {written}")
+            raise
         return result
     finally:
         for tree, node, previous in reversed(added):

@@ -6,10 +6,16 @@ from contextlib import contextmanager
 
 class ReadOnce:
     """A cache that lives only inside `with scope():` (a nested scope shares the outer one);
-    outside any scope every get reads anew."""
+    outside any scope every get reads anew. close(value), if given, is called on each value
+    read when the outermost scope ends (a temporary file's folder)."""
 
-    def __init__(self):
+    def __init__(self, close=None):
         self._cache = None
+        self._close = close
+
+    @property
+    def active(self):
+        return self._cache is not None
 
     @contextmanager
     def scope(self):
@@ -20,7 +26,9 @@ class ReadOnce:
         try:
             yield
         finally:
-            self._cache = None
+            cache, self._cache = self._cache, None
+            for value in cache.values() if self._close else ():
+                self._close(value)
 
     def get(self, key, read):
         """read(), once per key within a scope."""

@@ -159,6 +159,9 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
     detail = DETAIL_UV if DETAIL_UV in names else uv_map
     inp = Inputs(obj=obj, uv_map=uv_map, detail_uv=detail, variant=variant)
     if isinstance(image, np.ndarray):       # pixels given directly (the stability suite)
+        # uint8 / uint16 (a PNG as imageio loads it) as Blender reads the file: both sides
+        # took 0..255 before, agreeing about a map no file holds.
+        image = R.image_sampling.image_values(image)
         inp.images["normal"] = (image[..., :3].astype(np.float32).astype(np.float64),
                                 bpy_float_image("sg_normal", image))
     elif image is not None:

@@ -16,10 +16,13 @@ _CHUNK = 1 << 24            # values per slice when counting non-finite ones (bo
 
 
 def plain_number(value):
-    """A numpy integer (a script's array arithmetic: np.int64(2048)) as the int it is, which
-    the requests' checks (and JSON) take; any other value as given, for the checks to judge."""
+    """A numpy integer or float (a script's array arithmetic: np.int64(2048), np.float32(2))
+    as the int or float it is, which the requests' checks (and JSON) take; any other value as
+    given, for the checks to judge."""
     if isinstance(value, numbers.Integral) and not isinstance(value, bool):
         return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
     return value
 
 

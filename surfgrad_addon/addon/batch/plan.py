@@ -301,7 +301,9 @@ def asset_problem(scan, s, blend_name=""):
     bake request's checks of its mesh and images, its UV map and layout."""
     name = scan["object"]
     if scan["type"] != "MESH":
-        return not_a_mesh(name, scan["type"], "pick mesh objects")
+        return scan.get("not_a_mesh") or not_a_mesh(name, scan["type"], "pick mesh objects")
+    if s["uv_map"] in scan.get("modifier_uvs", ()):
+        return NB.modifier_uv_problem(name, s["uv_map"])
     if not scan["uv_maps"]:
         return f"object {name!r} has no UV map; unwrap it first"
     if s["uv_map"] and s["uv_map"] not in scan["uv_maps"]:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from .. import bake_request as BR
 from ..bake_uvs import one_read
+from ..bake_target import object_not_a_mesh
 from .. import interrupts
 from ..exit_codes import MapNotWritten
 from ..image_checks import data_key, image_problems
@@ -74,7 +75,10 @@ def scan_open_file(objects=None, collections=None, everything=False):
                         layout.get(uv.name, ([], 0))
                     if uv.active_render:
                         entry["active_uv"] = uv.name
+                entry["modifier_uvs"] = sorted(set(layout) - set(entry["uv_maps"]))
                 entry["problems"] = _input_problems(obj)
+            else:                   # (an Empty showing a collection names its meshes)
+                entry["not_a_mesh"] = object_not_a_mesh(obj, "pick mesh objects")
             assets.append(entry)
     return {"assets": assets, "errors": errors}
 
