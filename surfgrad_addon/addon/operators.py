@@ -503,16 +503,29 @@ class NODE_PT_surfgrad(bpy.types.Panel):
         col.operator("surfgrad.update_groups", icon="FILE_REFRESH")   # group_updates.py
         draw_stale_warning(self.layout)
         draw_far_warning(self.layout, context)
+        draw_muted_layer_warning(self.layout, context)
+
+
+def _warning_box(layout, text):
+    """A boxed warning under the tools, wrapped to the sidebar; nothing for ''."""
+    if text:
+        box = layout.box()
+        for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
+            box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+
+
+def draw_muted_layer_warning(layout, context):
+    """A muted SG layer with its Normal linked tilts the surface: say so, with the fix."""
+    from .muted_layers import muted_layer_warning
+    text = muted_layer_warning(getattr(getattr(context, "space_data", None), "edit_tree", None))
+    _warning_box(layout, text)
 
 
 def draw_far_warning(layout, context):
     """Far from the origin, renders lose precision: say so under the tools, with the fix."""
     from .precise_bake import render_precision_warning
     text = render_precision_warning(getattr(context, "object", None))
-    if text:
-        box = layout.box()
-        for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
-            box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+    _warning_box(layout, text)
 
 
 CLASSES = (SURFGRAD_OT_add_layer_stack, SURFGRAD_OT_convert_node,
