@@ -11,7 +11,8 @@
 #                     chart), BENCH_SIZE^2 pixels and BENCH_SAMPLES samples (1024, 128: a GPU
 #                     renders the CPU bench's 320^2 x 64 in milliseconds, where timing is noise)
 #   gpu_check.log     the devices, each step's command, seconds and exit status, and the last
-#                     step's verdict: every GPU bake within the CPU's bars (p99 0.1, max 0.5 deg)
+#                     step's verdict: every GPU bake within the CPU's bars (p99 0.1, max 0.5 deg;
+#                     a GPU compare's reference weights Linear lookups as the texture unit does)
 # Each step has STEP_TIMEOUT seconds (240), the first bake (kernel compilation) WARM_TIMEOUT
 # (600). Exit 0 only when every step succeeded.
 set -uo pipefail
@@ -42,6 +43,12 @@ step() {        # step NAME COMMAND...: run it under the timeout, log its time a
 
 command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,memory.total \
   --format=csv,noheader | tee -a "$LOG"
+
+# Where the wheel has no CUDA kernel for the card (an H100 or H200 with 5.2.3), build it on every
+# core with the CUDA toolkit's ptxas first (tools/cycles_gpu_kernel.sh, about 80 s on 16 cores);
+# without ptxas the warm-up below has the driver compile it on one core.
+echo "== kernel: tools/cycles_gpu_kernel.sh" | tee -a "$LOG"
+bash tools/cycles_gpu_kernel.sh "$PY" 2>&1 | tee -a "$LOG"
 
 # Cycles compiles its GPU kernels on first use (OptiX's modules; CUDA's PTX where the wheel has
 # no binary for the card): minutes once, then cached on disk. One small bake pays for it here.

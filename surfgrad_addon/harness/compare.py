@@ -23,6 +23,7 @@ import json
 import os
 import sys
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,6 +41,7 @@ from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
                                   memory_problem)
 from ..addon.normal_bake import blend_relative_problem, cycles_problem, resolution_problem
 from ..addon.precise_bake import precise_far
+from ..reference import image_sampling as IS
 from ..reference import methods as M
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
@@ -213,9 +215,15 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     import bpy
     try:
         # Far out: a second user keeps the mesh in object space (before the mesh is read).
-        with m.scene(obj, inp), precise_far(obj, log):
+        # A GPU bake's Linear lookups use the texture unit's 8-bit weights: so does its
+        # reference (without, every normal-map method is ~0.2 degrees p99 off on the GPU).
+        gpu = device == "GPU"
+        with m.scene(obj, inp), precise_far(obj, log), \
+                (IS.gpu_texture_filter() if gpu else nullcontext()):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
                                          tiles=tiles, device=device, spread=m.spread)
+        report["reference_texture_filter"] = (
+            f"GPU texture unit ({IS.GPU_FILTER_WEIGHT_BITS}-bit weights)" if gpu else "exact")
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
         unbaked = UI.may_instance(obj) and UI.compare_warning(
             read_as_baked(obj, UI.read_instances), obj)

@@ -13,6 +13,10 @@ Both rules are pinned against Cycles bakes in tests/test_blender_pins.py.
 Pixels are floats as Blender holds them; uint8 / uint16 arrays (a PNG as imageio or PIL load it)
 are read as Blender reads the file, value / 255 and value / 65535.
 Extension: 'REPEAT' wraps periodically; 'EXTEND' clamps to the edge texel.
+
+Cycles on a GPU (CUDA, OptiX) leaves 'Linear' to the texture unit, whose bilinear weights carry
+8 fractional bits (CUDA C++ Programming Guide, texture fetching: 9-bit fixed point). Inside
+gpu_texture_filter() the weights are rounded to that grid: what a GPU bake samples.
 """
 
 from contextlib import contextmanager
@@ -66,6 +70,31 @@ def image_values(image):
     return values
 
 
+# The GPU texture unit's weight grid (gpu_texture_filter) and how a weight lands on it.
+GPU_FILTER_WEIGHT_BITS = 8
+GPU_FILTER_ROUNDING = "nearest"             # or "floor"
+_WEIGHT_STEPS = [None]                      # 2**bits inside gpu_texture_filter(); None: exact
+
+
+@contextmanager
+def gpu_texture_filter(bits=GPU_FILTER_WEIGHT_BITS):
+    """Within this block 'Linear' lookups weight texels as a GPU's texture unit does: each
+    weight on a grid of 1 / 2**bits (a GPU bake's normal-map lookups differ from the exact
+    weights by up to 0.2 degrees p99, 0.7 max: docs/performance.md)."""
+    previous = _WEIGHT_STEPS[0]
+    _WEIGHT_STEPS[0] = float(2 ** bits)
+    try:
+        yield
+    finally:
+        _WEIGHT_STEPS[0] = previous
+
+
+def _on_weight_grid(t):
+    steps = _WEIGHT_STEPS[0]
+    snap = np.floor if GPU_FILTER_ROUNDING == "floor" else np.round
+    return snap(t * steps) / steps
+
+
 def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     """Sample `image` at texture coordinates st (..., 2). Returns (...,) for a one-channel
     image, (..., C) otherwise, in the image's float type (float64 for other types; uint8 and
@@ -79,7 +108,7 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     # The compiled loop (same numbers) whenever numba is there: faster from one lookup up
     # (a call costs ~4 us against numpy's ~25 us; tools/bench_sampling.py for large ones). A
     # single point (st of shape (2,)) stays on numpy: numpy 1.x computes 0-d float32 in float64.
-    if (compiled.enabled() and st.ndim > 1 and st.shape[-1] == 2 and image.size
+    if (compiled.enabled() and _WEIGHT_STEPS[0] is None and st.ndim > 1 and st.shape[-1] == 2 and image.size
             and interpolation in INTERPOLATIONS and extension in EXTENSIONS):
         return sampling_kernels.sample(image, st, interpolation, extension)
     # Texels by flat index (y * width + x), channels as rows: each lookup gathers one
@@ -103,6 +132,8 @@ def sample_image(image, st, interpolation="Linear", extension="REPEAT"):
     y0 = cycles_int_part(v)
     tx = u - x0.astype(u.dtype)
     ty = v - y0.astype(v.dtype)
+    if _WEIGHT_STEPS[0] is not None:
+        tx, ty = _on_weight_grid(tx), _on_weight_grid(ty)
     x1 = wrap_texel_index(x0 + 1, width, extension)
     y1 = wrap_texel_index(y0 + 1, height, extension)
     x0 = wrap_texel_index(x0, width, extension)
