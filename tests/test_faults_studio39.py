@@ -5,8 +5,9 @@
   every bake named "Non-Color" for the image it bakes into, which Blender refuses under another
   configuration: bake-normal-map, bake-batch, compare and Freeze all ended in a raw TypeError
   (`enum "Non-Color" not found in ('dim', 'lin_rec709', 'raw', ...)`), exit 1, on every line.
-  Now they take the configuration's data space (`is_data`), and write the same bytes as
-  under Blender's own configuration, whatever its views and looks.
+  Now they take the configuration's data space (`is_data`), and write the values written
+  under Blender's own configuration, whatever its views and looks. The warning about a normal
+  map read as colour told the artist to pick Non-Color there; now it names the data space.
 - An ASCII locale (LC_ALL=C with Python's UTF-8 mode off: PYTHONUTF8=0, as some farms' images
   set it): `python -m surfgrad_addon` refused a UTF-8 --object or batch entry as "not UTF-8"
   (exit 2), and a batch of a file whose objects have non-ASCII names ended with "'ascii'
@@ -100,6 +101,12 @@ def test_a_studio_colour_configuration_bakes_the_same_data(tmp_path):
     assert studio["frozen_is_data"] is True and own["frozen_is_data"] is True
     assert studio["compared"] == own["compared"] > 150
     assert studio["p99"] <= 0.1 and studio["max"] <= 0.5, studio
+    # The fix a warning names is a colour space the artist has.
+    assert [w.split("; ")[-1] for w in studio["warnings"]] == [
+        "set the image's Color Space to raw (Image Texture node, or the Image Editor's sidebar)"]
+    assert own["warnings"][0].endswith("set the image's Color Space to Non-Color (Image "
+                                       "Texture node, or the Image Editor's sidebar)")
+    assert "'srgb_tx'" in studio["warnings"][0] and "'sRGB'" in own["warnings"][0]
 
 
 def test_an_ascii_locale_bakes_objects_named_in_utf8(tmp_path):

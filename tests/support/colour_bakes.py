@@ -1,6 +1,7 @@
 """The bakes a colour configuration could touch, on one small scene: a layered surface-gradient
 stack (tests/support/freeze_scene.py) on an 8 x 6 sphere, baked by api.bake_normal_map into a
-tangent-space 8-bit PNG and a half EXR, frozen (a 16-bit PNG) and compared with the reference.
+tangent-space 8-bit PNG and a half EXR, frozen (a 16-bit PNG) and compared with the reference;
+then its normal map tagged sRGB, and the warning that gives.
 `python colour_bakes.py FOLDER` runs them in a child (a colour configuration is read once, at
 Blender's start: OCIO) and prints their results as JSON; a test runs them in its own process too
 and compares the two."""
@@ -57,7 +58,13 @@ def bake_all(folder):
     frozen_is_data = bpy.data.images[record["image"]].colorspace_settings.is_data
     F.thaw(obj.active_material)
     report, _ = compare.compare_object(obj, "normal-map", SIZE, log=None)
-    return {"spaces": colour_spaces(), "frozen_is_data": frozen_is_data, "p99": report["p99_deg"],
+    # The artist's slip: the map tagged with the configuration's sRGB, and the fix named.
+    spaces = colour_spaces()
+    srgb = next(name for name in ("sRGB", "srgb_tx") if name in spaces)
+    bpy.data.images["Layered_source"].colorspace_settings.name = srgb
+    from surfgrad_addon.addon.normal_map_checks import colour_space_warnings
+    return {"spaces": spaces, "warnings": colour_space_warnings(obj),
+            "frozen_is_data": frozen_is_data, "p99": report["p99_deg"],
             "max": report["max_deg"], "compared": report["texels_compared"]}
 
 
