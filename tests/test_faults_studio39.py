@@ -12,7 +12,8 @@
   set it): `python -m surfgrad_addon` refused a UTF-8 --object or batch entry as "not UTF-8"
   (exit 2), and a batch of a file whose objects have non-ASCII names ended with "'ascii'
   codec can't encode character" (exit 2) from the line naming the asset, or failed the asset
-  making its path. Now the command runs again in UTF-8 mode, as Blender's own Python does.
+  making its path. Now the command runs again in UTF-8 mode, as Blender's own Python does
+  (only in an ASCII locale: one in Latin-1 decodes what its terminal sends as it should).
 """
 
 import json
