@@ -3,16 +3,16 @@
 - A studio OCIO configuration (the `OCIO` variable) without Blender's "Non-Color" space (its
   data space named otherwise, "raw" here, as ACES and many studio configurations name it):
   every bake named "Non-Color" for the image it bakes into, which Blender refuses under another
-  configuration: bake-normal-map, bake-batch, compare and Freeze all ended in a raw TypeError
-  (`enum "Non-Color" not found in ('dim', 'lin_rec709', 'raw', ...)`), exit 1, on every line.
+  configuration (`enum "Non-Color" not found in ('dim', 'lin_rec709', 'raw', ...)`), on every
+  line: bake-normal-map and compare ended in a raw TypeError traceback, exit 1; bake-batch
+  failed every asset with it, exit 1; Freeze raised it.
   Now they take the configuration's data space (`is_data`), and write the values written
   under Blender's own configuration, whatever its views and looks. The warning about a normal
   map read as colour told the artist to pick Non-Color there; now it names the data space.
 - An ASCII locale (LC_ALL=C with Python's UTF-8 mode off: PYTHONUTF8=0, as some farms' images
   set it): `python -m surfgrad_addon` refused a UTF-8 --object or batch entry as "not UTF-8"
-  (exit 2), and a batch of a file whose objects have non-ASCII names ended with "'ascii'
-  codec can't encode character" (exit 2) from the line naming the asset, or failed the asset
-  making its path. Now the command runs again in UTF-8 mode, as Blender's own Python does
+  (exit 2; a batch entry 'k.blend:Kugel_ü' failed its asset, exit 1), and a batch of a file
+  whose objects have non-ASCII names ended with "'ascii' codec can't encode character", exit 2. Now the command runs again in UTF-8 mode, as Blender's own Python does
   (only in an ASCII locale: one in Latin-1 decodes what its terminal sends as it should).
 """
 
