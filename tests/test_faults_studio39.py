@@ -12,8 +12,13 @@
 - An ASCII locale (LC_ALL=C with Python's UTF-8 mode off: PYTHONUTF8=0, as some farms' images
   set it): `python -m surfgrad_addon` refused a UTF-8 --object or batch entry as "not UTF-8"
   (exit 2; a batch entry 'k.blend:Kugel_ü' failed its asset, exit 1), and a batch of a file
-  whose objects have non-ASCII names ended with "'ascii' codec can't encode character", exit 2. Now the command runs again in UTF-8 mode, as Blender's own Python does
-  (only in an ASCII locale: one in Latin-1 decodes what its terminal sends as it should).
+  whose objects have non-ASCII names ended with "'ascii' codec can't encode character", exit
+  2. Now the command runs again in UTF-8 mode, as Blender's own Python does (only in an ASCII
+  locale: one in Latin-1 decodes what its terminal sends as it should).
+- Output Properties > Color Management set to Override: a `--depth half` bake (and
+  api.bake_normal_map in a session) put the mode back, and Blender, on every line, copied the
+  scene's view into the override: its own view, look, exposure, gamma, curves and linear space
+  were lost. Now the half EXR is saved through a scene of its own.
 """
 
 import json
@@ -65,7 +70,8 @@ colorspaces:
   - !<ColorSpace>
     name: srgb_tx
     isdata: false
-    from_scene_reference: !<ExponentWithLinearTransform> {gamma: 2.4, offset: 0.055, direction: inverse}
+    from_scene_reference: !<ExponentWithLinearTransform>
+      {gamma: 2.4, offset: 0.055, direction: inverse}
   - !<ColorSpace>
     name: dim
     isdata: false
