@@ -1,9 +1,20 @@
 """`python -m surfgrad_addon ...`: the proving harness's command line (harness/cli.py), from a
 checkout. Not part of the extension zip."""
 
+import codecs
 import os
 import signal
 import sys
+
+# An ASCII locale (LC_ALL=C or POSIX with Python's UTF-8 mode turned off): Blender's names and
+# paths are UTF-8, and an object named 'ü' could neither be printed nor made a path ('ascii'
+# codec can't encode, exit 2; a batch's asset failed), a UTF-8 --object was refused as "not
+# UTF-8". Blender's own Python always runs in UTF-8 mode; so does this command, started again
+# in it (its workers inherit it).
+if os.name == "posix" and codecs.lookup(sys.getfilesystemencoding()).name == "ascii" and \
+        os.environ.get("PYTHONUTF8") != "1":
+    os.environ["PYTHONUTF8"] = "1"
+    os.execv(sys.executable, [sys.executable, *sys.orig_argv[1:]])
 
 # Closed stdout / stderr / stdin (`>&-`): before anything opens a file on their descriptors;
 # a strict stdout made tolerant (paths that are not UTF-8).

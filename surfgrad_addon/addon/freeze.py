@@ -236,7 +236,7 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
         yield "baked"
         image = bpy.data.images.load(str(baked), check_existing=False)
         image.name = path.name if path else f"{stem}{suffix}"
-        image.colorspace_settings.name = "Non-Color"
+        image.colorspace_settings.is_data = True
         if path is None:
             image.pack()
             image.filepath_raw = f"//{image.name}"    # where File > Unpack would put it

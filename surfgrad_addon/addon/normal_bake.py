@@ -324,7 +324,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         f"material(s)")
     image = bpy.data.images.new(f"{obj.name}_normal", resolution, resolution, alpha=False,
                                 float_buffer=is_float, tiled=udim)
-    image.colorspace_settings.name = "Non-Color"
+    image.colorspace_settings.is_data = True
     added, temps = [], {}
     settings = SCENE_SETTINGS + ("render.bake.normal_space", "render.threads_mode",
                                  "render.threads")
@@ -398,7 +398,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         if missing:
             raise BakeFailed(f"Blender wrote no file {missing[0]}")
         if depth == "half":
-            _to_half_exr(bpy, scene, temps.values())
+            _to_half_exr(bpy, temps.values())
         for t in tiles:
             _check_written(bpy, temps[t], finals[t], resolution)
         if verify is not None:
@@ -445,30 +445,32 @@ def _make_tiles(bpy, image, tiles, resolution, is_float):
                                     height=resolution, float=is_float, alpha=False)
 
 
-def _to_half_exr(bpy, scene, paths):
-    """Rewrite float EXR files as half EXR (Image.save keeps a float buffer at 32 bits; the
-    scene's output settings choose 16, and are put back). The output's colour management
-    follows the scene: on 4.2 an Override to another linear space (Output Properties > Color
-    Management) converted the map's data into it, 18 degrees off (test_faults_images35)."""
-    # Put back last to first: the format first, then the depth and mode it allows.
-    keep = ("render.image_settings.color_management", "render.image_settings.exr_codec",
-            "render.image_settings.color_depth", "render.image_settings.color_mode",
-            "render.image_settings.file_format")
-    with restored(scene, keep):
-        scene.render.image_settings.color_management = "FOLLOW_SCENE"
-        scene.render.image_settings.file_format = "OPEN_EXR"
-        scene.render.image_settings.color_mode = "RGB"
-        scene.render.image_settings.color_depth = "16"
-        scene.render.image_settings.exr_codec = "ZIP"
+def _to_half_exr(bpy, paths):
+    """Rewrite float EXR files as half EXR (Image.save keeps a float buffer at 32 bits; a
+    scene's output settings choose 16). Through a scene of its own, removed after: the file's
+    Output colour management is not applied to the map's data (on 4.2 an Override to another
+    linear space converted it, 18 degrees off: test_faults_images35), nor changed (putting an
+    Override back copied the scene's view into it: the user's own view, look, exposure, gamma
+    and linear space there were lost, red team 39a)."""
+    scene = bpy.data.scenes.new(".surfgrad half EXR")
+    try:
+        settings = scene.render.image_settings
+        settings.color_management = "FOLLOW_SCENE"
+        settings.file_format = "OPEN_EXR"
+        settings.color_mode = "RGB"
+        settings.color_depth = "16"
+        settings.exr_codec = "ZIP"
         for path in paths:
             img = bpy.data.images.load(str(path))
             try:
-                img.colorspace_settings.name = "Non-Color"     # data: no colour conversion
+                img.colorspace_settings.is_data = True     # data: no colour conversion
                 half = path.with_name(path.stem + ".half" + path.suffix)
                 img.save_render(str(half), scene=scene)
                 os.replace(half, path)
             finally:
                 bpy.data.images.remove(img)
+    finally:
+        bpy.data.scenes.remove(scene)
 
 
 # A PNG's last 12 bytes: its IEND chunk (length 0, type, CRC), which libpng writes last.

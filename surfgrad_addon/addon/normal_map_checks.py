@@ -69,18 +69,31 @@ def unconverted(settings):
     return settings.is_data or settings.name in (working or WORKING_SPACE_4X, "scene_linear")
 
 
+def data_space():
+    """The name of the colour configuration's data space: Non-Color in Blender's own, another
+    in a studio's (OCIO), where a warning naming Non-Color named nothing the artist has."""
+    import bpy
+    probe = bpy.data.images.new(".surfgrad data space", 1, 1)
+    try:
+        probe.colorspace_settings.is_data = True
+        return probe.colorspace_settings.name
+    finally:
+        bpy.data.images.remove(probe)
+
+
 def colour_space_warnings(obj, only=None):
     """A warning per image read as colour into the Color of a Normal Map node, an SG Normal Map
     or an SG Tangent Normal (normal_map_images): sRGB (or any colour space that is not data)
     bends every texel's normal, and the bake, like Cycles' render, takes the bent one."""
-    out = []
+    out, data = [], None
     for mat, node, image, _ in normal_map_images(obj, only):
         if unconverted(image.colorspace_settings):
             continue
+        data = data or data_space()
         text = (f"image {image.name!r} is read in colour space "
                 f"{image.colorspace_settings.name!r} by {node} (material {mat.name!r}): a "
                 f"normal map is data, and this bends every normal (the bake takes them as "
-                f"Cycles renders them); set the image's Color Space to Non-Color (Image Texture "
+                f"Cycles renders them); set the image's Color Space to {data} (Image Texture "
                 f"node, or the Image Editor's sidebar)")
         if text not in out:
             out.append(text)

@@ -100,7 +100,7 @@ def _tiled_float_image(name, width, height, tiles):
     fails once the first tile is renumbered away from 1001: that tile has no buffer yet)."""
     import bpy
     image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True, tiled=True)
-    image.colorspace_settings.name = "Non-Color"
+    image.colorspace_settings.is_data = True
     image.generated_color = (0.0, 0.0, 0.0, 0.0)
     image.tiles[0].number = tiles[0]
     for number in tiles[1:]:
@@ -131,7 +131,7 @@ def _tile_pixels(image, tiles, width, height):
             tile = bpy.data.images.load(str(Path(folder) / f"bake.{number}.exr"),
                                         check_existing=False)
             try:
-                tile.colorspace_settings.name = "Non-Color"
+                tile.colorspace_settings.is_data = True
                 px = np.empty(width * height * 4, dtype=np.float32)
                 tile.pixels.foreach_get(px)
                 out[number] = px.reshape(height, width, 4)
@@ -248,7 +248,7 @@ def bake_vector(obj, build, width, height, uv_map=None, log=None, displacement=N
     _check_target(obj, uv_map)
     image = bpy.data.images.new("surfgrad_bake", width, height, alpha=True, float_buffer=True)
     # Before the pixels are written: a colour-space change reloads the buffer.
-    image.colorspace_settings.name = "Non-Color"
+    image.colorspace_settings.is_data = True
     try:
         # A cleared float image is (0, 0, 0, 0); baked texels get alpha 1.
         image.pixels.foreach_set(np.zeros(width * height * 4, dtype=np.float32))

@@ -24,7 +24,7 @@ def _normal_image(bpy, name, size, kind, seed):
     else:
         pixels = T.hemisphere_tile_image(size, tiles=4)
     img = bpy.data.images.new(name, size, size, alpha=False, float_buffer=True)
-    img.colorspace_settings.name = "Non-Color"
+    img.colorspace_settings.is_data = True
     rgba = np.concatenate([pixels, np.ones((size, size, 1))], axis=-1).astype(np.float32)
     img.pixels.foreach_set(rgba.ravel())
     img.pack()

@@ -99,7 +99,7 @@ def bpy_float_image(name, pixels):
     if px.shape[2] == 3:
         px = np.concatenate([px, np.ones((h, w, 1), np.float32)], axis=-1)
     img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True)
-    img.colorspace_settings.name = "Non-Color"
+    img.colorspace_settings.is_data = True
     img.pixels.foreach_set(px.ravel())
     img.pack()
     return img
@@ -124,7 +124,7 @@ def _load_image(path):
         img = bpy.data.images.load(str(path.resolve()), check_existing=False)
     except RuntimeError as err:
         raise CompareError(f"image {str(path)!r} could not be read ({err})") from err
-    img.colorspace_settings.name = "Non-Color"
+    img.colorspace_settings.is_data = True
     w, h = img.size
     if w == 0 or h == 0:
         bpy.data.images.remove(img)

@@ -21,7 +21,7 @@ def image(name, pixels):
     h, w = px.shape[:2]
     px = np.concatenate([px[..., :3], np.ones((h, w, 1), np.float32)], axis=-1)
     img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True)
-    img.colorspace_settings.name = "Non-Color"
+    img.colorspace_settings.is_data = True
     img.pixels.foreach_set(px.ravel())
     img.file_format = "OPEN_EXR"
     img.filepath_raw = f"//{name}.exr"
