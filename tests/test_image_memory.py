@@ -261,3 +261,24 @@ def test_a_damaged_film_header_is_not_read_nor_taken_for_tga(fmt, codec, tmp_pat
     path.write_bytes(data[:4] + b"\0\0\0\7" + data[8:] if fmt == "IRIS" else data[:40])
     with open(path, "rb") as f:
         assert pixel_size(f) is None
+
+
+@pytest.mark.tier("blender")
+def test_a_16_bit_sgi_is_counted_as_the_float_image_blender_loads(tmp_path):
+    """Blender writes SGI at 8 bits only: a verbatim 16-bit one (SGI image file format: the
+    512-byte header, then each channel's rows of big-endian shorts) made here by hand."""
+    bpy = pytest.importorskip("bpy")
+    from surfgrad_addon.addon.image_headers import pixel_size
+    w, h, z = 8, 6, 3
+    head = struct.pack(">HBBHHHHii", 474, 0, 2, 3, w, h, z, 0, 65535).ljust(512, b"\0")
+    path = tmp_path / "sgi16.rgb"
+    path.write_bytes(head + struct.pack(f">{w * h * z}H", *((i * 997) % 65536
+                                                            for i in range(w * h * z))))
+    with open(path, "rb") as f:
+        size = pixel_size(f)
+    loaded = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        assert (size.width, size.height, size.float_buffer) == (*loaded.size, loaded.is_float)
+        assert loaded.is_float                          # what makes it count 16 bytes a texel
+    finally:
+        bpy.data.images.remove(loaded)

@@ -2,7 +2,8 @@
 (SMPTE 268M), Cineon (Kodak's Cineon 4.5 file format), SGI (the SGI image file format) and
 JPEG 2000 (ISO/IEC 15444-1: a JP2 file's Image Header box, or a bare codestream's SIZ
 marker). Which ones Blender loads into a float buffer was measured against its loads
-(tests/test_image_memory.py, every line): more than 8 bits per sample, for each of them."""
+(tests/test_image_memory.py, every line): more than 8 bits per sample, for each of them (a
+16-bit SGI, which Blender does not write, made by hand there)."""
 
 import struct
 from typing import NamedTuple
