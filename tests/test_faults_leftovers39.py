@@ -139,3 +139,23 @@ def test_a_refused_update_gives_the_older_group_its_name_back(fresh):
     assert tree.name == "SG Parallax [Bumps]" and tree[VERSION_KEY] == G.VERSION - 1
     assert sorted(g.name for g in bpy.data.node_groups) == [
         ".SG Surface Gradient", ".SG UV Gradients", "SG Parallax [Bumps]"]
+
+
+def test_update_renames_a_group_named_for_a_librarys_image_by_its_bare_name(fresh, tmp_path):
+    """Up to version 22 a library's image was named without its library: "SG Height Map HQ
+    [Rock]" for Rock of lib.blend, today "SG Height Map HQ [Rock [lib.blend]]"."""
+    library = tmp_path / "lib.blend"
+    bpy.data.libraries.write(str(library), {_image("Rock")})
+    bpy.data.images.remove(bpy.data.images["Rock"])
+    with bpy.data.libraries.load(str(library), link=True) as (_, into):
+        into.images = ["Rock"]
+    rock = into.images[0]
+    assert rock.library is not None and rock.name_full == "Rock [lib.blend]"
+    tree = G.height_map_group(image=rock, variant="hq")
+    used = _use(new_material("M"), tree)
+    tree.name, tree[VERSION_KEY] = "SG Height Map HQ [Rock]", G.VERSION - 1
+    updated, left = U.update_stale_groups()
+    assert (updated, left) == (
+        ["SG Height Map HQ [Rock] (now SG Height Map HQ [Rock [lib.blend]])"], [])
+    assert tree.name == "SG Height Map HQ [Rock [lib.blend]]" and U.stale_groups() == []
+    _kept(*used, tree)

@@ -34,7 +34,8 @@ def stale_groups():
             if g.library is None and g.override_library is None and g.is_editable
             and isinstance(g.get(VERSION_KEY), int)
             and (g[VERSION_KEY] < G.VERSION or g[VERSION_KEY] == G.VERSION
-                 and (g.get(LINE_KEY) != line or renamed_target(g) is not None))]
+                 and (g.get(LINE_KEY) != line
+                      or not _COPY.search(g.name) and renamed_target(g) is not None))]
 
 
 def stale_text(stale):
@@ -72,9 +73,11 @@ def _per_image_request(tree):
     be told (not a per-image group, an image removed)."""
     name = _COPY.sub("", tree.name)
     key = next((k for k in _PER_IMAGE if name.startswith(k + " [")), None)
+    if key is None:
+        return None
     taps = _images(tree)
     images = [t.image for t in taps]
-    if key is None or not images or any(image is None for image in images):
+    if not images or any(image is None for image in images):
         return None
     if key == "SG Triplanar Height":
         if len(images) % 3:
