@@ -200,14 +200,14 @@ def _move_users(old, new):
     by socket name (the two were built apart: their socket identifiers may differ)."""
     for tree in _node_trees():
         for node in [n for n in tree.nodes if getattr(n, "node_tree", None) == old]:
-            values = {s.name: _plain(s.default_value) for s in node.inputs
+            values = {(s.name, s.type): _plain(s.default_value) for s in node.inputs
                       if hasattr(s, "default_value")}
             into = {s.name: [lk.from_socket for lk in s.links] for s in node.inputs}
             out = {s.name: [lk.to_socket for lk in s.links] for s in node.outputs}
             node.node_tree = new
             for socket in node.inputs:
-                if socket.name in values and hasattr(socket, "default_value"):
-                    socket.default_value = values[socket.name]
+                if (socket.name, socket.type) in values:    # (a type changed: its default)
+                    socket.default_value = values[socket.name, socket.type]
                 for source in into.get(socket.name, ()):
                     if not socket.is_linked:
                         tree.links.new(source, socket)
