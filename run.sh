@@ -114,9 +114,9 @@ setup_line() {   # $1 = line; prints the venv's python once it has the pinned re
 asked_lines() {   # prints the lines asked for and the variable that asked (or the default)
   # LINES is also the terminal's height (POSIX: a decimal integer), which some shells export:
   # a number there is the terminal's, not a list of lines. SURFGRAD_LINES comes first.
-  if [ -n "${SURFGRAD_LINES+set}" ]; then
+  if [ -n "${SURFGRAD_LINES:-}" ]; then
     echo "SURFGRAD_LINES $SURFGRAD_LINES"
-  elif [ -n "${LINES+set}" ] && ! [[ "$LINES" =~ ^[[:space:]]*[0-9]+[[:space:]]*$ ]]; then
+  elif [ -n "${LINES:-}" ] && ! [[ "$LINES" =~ ^[[:space:]]*[0-9]+[[:space:]]*$ ]]; then
     echo "LINES $LINES"
   else
     echo "SURFGRAD_LINES $ALL_LINES"

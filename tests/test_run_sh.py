@@ -353,7 +353,9 @@ def test_the_terminals_lines_variable_is_not_taken_for_blender_lines(sandbox):
     assert (ran("5.2"), ran("5.0")) == (["-m pytest"], ["-m pytest"]), out
     rc, out = _done(sandbox, "test", env_more={"SURFGRAD_LINES": "5.2,5.0"})
     assert rc == 2 and "unknown line 5.2,5.0 in SURFGRAD_LINES" in out, out
+    rc, out = _done(sandbox, "test", lines="", env_more={"SURFGRAD_LINES": ""})  # as unset
+    assert rc == 0 and "lines: 4 passed, 0 failed" in out, out
     rc, out = _done(sandbox, "test", lines=" 50 ")           # the terminal's: every line
     assert rc == 0, out
     assert "lines: 4 passed, 0 failed" in out, out
-    assert (ran("5.2"), ran("5.0")) == (["-m pytest"] * 2, ["-m pytest"] * 2), out
+    assert (ran("5.2"), ran("5.0")) == (["-m pytest"] * 3, ["-m pytest"] * 3), out
