@@ -6,9 +6,10 @@
 #   bash run.sh test [ARGS]   the test suite on every supported line: 5.2 LTS (the main line,
 #                             Python 3.13, .venv), then 5.0, 4.5 LTS and 4.2 LTS (Python 3.11,
 #                             .venv-bpy50/45/42); a table of the lines in out/lines/summary.md.
-#                             LINES="5.2 4.2" bash run.sh test -k decal picks lines; ARGS go to
-#                             pytest on each line (-m numpy|blender|bake|child|eevee picks tiers:
-#                             README, The two commands); seconds per tier in the summary.
+#                             SURFGRAD_LINES="5.2 4.2" bash run.sh test -k decal picks lines
+#                             (LINES too, where it holds lines, not the terminal's height); ARGS
+#                             go to pytest on each line (-m numpy|blender|bake|child|eevee picks
+#                             tiers: README, The two commands); seconds per tier in the summary.
 #   bash run.sh bench [ARGS]  speed against accuracy of every method, stability: out/bench
 #   bash run.sh bench-reference  throughput of the numpy reference: out/bench_reference.json
 #   bash run.sh bench-render [--quick]  render cost against Blender's own nodes: out/bench_render
@@ -110,20 +111,34 @@ setup_line() {   # $1 = line; prints the venv's python once it has the pinned re
   echo "$venv/bin/python"
 }
 
+asked_lines() {   # prints the lines asked for and the variable that asked (or the default)
+  # LINES is also the terminal's height (POSIX: a decimal integer), which some shells export:
+  # a number there is the terminal's, not a list of lines. SURFGRAD_LINES comes first.
+  if [ -n "${SURFGRAD_LINES:-}" ]; then
+    echo "SURFGRAD_LINES $SURFGRAD_LINES"
+  elif [ -n "${LINES:-}" ] && ! [[ "$LINES" =~ ^[[:space:]]*[0-9]+[[:space:]]*$ ]]; then
+    echo "LINES $LINES"
+  else
+    echo "SURFGRAD_LINES $ALL_LINES"
+  fi
+}
+
 run_tests() {
-  local lines=() asked line py start status=0 rc summary_py=python3
-  read -r -a asked <<< "${LINES:-$ALL_LINES}"
+  local lines=() asked line py start status=0 rc summary_py=python3 var test_pid=
+  read -r var asked <<< "$(asked_lines)"
+  read -r -a asked <<< "$asked"
   for line in "${asked[@]}"; do             # the whole request is checked before any line runs
     case " $ALL_LINES " in *" $line "*) ;; *)
-      echo "surfgrad: unknown line $line in LINES (supported: $ALL_LINES)" >&2; return 2 ;; esac
+      echo "surfgrad: unknown line $line in $var (supported: $ALL_LINES)" >&2; return 2 ;; esac
     case " ${lines[*]} " in *" $line "*) ;; *) lines+=("$line") ;; esac
   done
   if [ ${#lines[@]} = 0 ]; then
-    echo "surfgrad: LINES names no line (supported: $ALL_LINES; unset for all)" >&2; return 2
+    echo "surfgrad: $var names no line (supported: $ALL_LINES; unset for all)" >&2; return 2
   fi
-  # pytest ends on Ctrl-C with its own exit status, so bash would go on to the next line.
-  # (SIGTERM needs no trap: it ends bash at once.)
-  trap 'echo "surfgrad: interrupted; the lines after it did not run" >&2; exit 130' INT
+  # pytest ends on Ctrl-C with its own exit status, so bash would go on to the next line; it
+  # runs in the background (below), so bash waits for it to finish its own report first.
+  trap '[ -z "${test_pid:-}" ] || wait "$test_pid" || true
+        echo "surfgrad: interrupted; the lines after it did not run" >&2; exit 130' INT
   bash tools/install_eevee_deps.sh || true      # Mesa EGL for the EEVEE tests
   bash tools/install_chromium.sh || true        # headless Chromium for the report page test
   mkdir -p out/lines
@@ -136,7 +151,17 @@ run_tests() {
     else
       summary_py=$py
       rc=0
-      SURFGRAD_REPORT_DIR="$PWD/out/lines" "$py" -m pytest "$@" || rc=$?
+      # In the background, waited for: bash runs no trap until a foreground command ends, so
+      # a SIGTERM to bash alone (a farm's or CI runner's cancel) left pytest running. Ctrl-C
+      # still reaches it (a background command would ignore SIGINT) and so does the terminal.
+      ( trap - INT; export SURFGRAD_REPORT_DIR="$PWD/out/lines"; exec "$py" -m pytest "$@" ) \
+        <&0 &
+      test_pid=$!
+      trap 'kill -TERM "$test_pid" 2>/dev/null || true; wait "$test_pid" || true
+            echo "surfgrad: terminated; the lines after it did not run" >&2; exit 143' TERM
+      wait "$test_pid" || rc=$?
+      trap - TERM
+      test_pid=
     fi
     echo "{\"line\": \"$line\", \"exit\": $rc, \"seconds\": $((SECONDS - start))}" \
       > "out/lines/run-$line.json"

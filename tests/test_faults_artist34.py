@@ -357,19 +357,21 @@ def test_a_bake_of_a_52_group_on_45_is_refused_not_baked_as_zero(fresh, tmp_path
     assert foreign_node_problems(plane) == []
 
 
-def test_a_per_image_group_is_updated_for_its_image_and_a_copy_left_is_said(fresh):
+def test_a_per_image_group_is_updated_for_its_image_and_its_copy_joins_it(fresh):
+    """Until round 39 the copy was left, said ("add the group again"); now its users move to
+    the group of its image and extension (tests/test_faults_leftovers39.py) and it is gone."""
     image = bpy.data.images.new("Heights", 8, 4)
     tree = G.height_map_group(image, "hq", "EXTEND")
     copy = tree.copy()                               # "... [Heights].001", as an append makes
+    copy_name = copy.name
     for group in (tree, copy):
         group[VERSION_KEY] = G.VERSION - 1
     updated, left = U.update_stale_groups()
-    assert updated == [tree.name]
+    assert updated == [tree.name, f"{copy_name} (now {tree.name})"]
     assert tree[VERSION_KEY] == G.VERSION
     taps = [n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"]
     assert taps and all(t.image == image and t.extension == "EXTEND" for t in taps)
-    assert [name for name, _ in left] == [copy.name]
-    assert "add the group again" in left[0][1]
+    assert left == [] and copy_name not in bpy.data.node_groups
 
 
 def test_drivers_follow_their_inputs_when_a_rebuild_moves_them(fresh):

@@ -1,7 +1,8 @@
 """run.sh, the README's two commands, on a machine that is not ours: venvs half made, pip
 failing, LINES picked badly, Ctrl-C in the middle. run.sh runs in a sandbox (a copy of it, the
 real tools/lines_summary.py) with stub interpreters in place of Python and the venvs, so nothing
-is installed and each run takes a fraction of a second. Red team 38a."""
+is installed and each run takes a fraction of a second. Red team 38a; SIGTERM to bash alone
+and the terminal's LINES, red team 39b."""
 
 import hashlib
 import os
@@ -88,19 +89,21 @@ def _venv(box, line, stamp_of=None):
     return venv
 
 
-def _run(box, *args, lines=None, **popen):
+def _run(box, *args, lines=None, env_more=None, **popen):
     env = {**os.environ, "PYTHON": str(box.parent / "stubs" / "python"),
            "PYTHON311": str(box.parent / "stubs" / "python"),
            "PYENV_ROOT": str(box.parent / "no-pyenv")}
     env.pop("LINES", None)
+    env.pop("SURFGRAD_LINES", None)
     if lines is not None:
         env["LINES"] = lines
+    env.update(env_more or {})
     return subprocess.Popen(["bash", str(box / "run.sh"), *args], cwd=box.parent, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, **popen)
 
 
-def _done(box, *args, lines=None):
-    proc = _run(box, *args, lines=lines)
+def _done(box, *args, lines=None, env_more=None):
+    proc = _run(box, *args, lines=lines, env_more=env_more)
     out, _ = proc.communicate(timeout=60)
     return proc.returncode, out
 
@@ -295,3 +298,64 @@ def test_a_venv_that_cannot_be_made_is_one_message_and_no_venv(sandbox):
     assert "'" + str(sandbox.parent / "stubs" / "python") + " -m venv .venv-bpy50' failed" in out
     assert "point PYTHON311 at another" in out, out
     assert not (sandbox / ".venv-bpy50").exists()
+
+
+def test_sigterm_to_bash_alone_stops_the_running_pytest(sandbox):
+    """A farm's or CI runner's cancel sends SIGTERM to bash alone: before, bash ended at once
+    (killed by the signal) and left the line's pytest running to its end, orphaned. Now pytest
+    is stopped with it, the lines after it do not run, and the exit status is 143."""
+    first = _venv(sandbox, "5.2")
+    second = _venv(sandbox, "5.0")
+    started = sandbox / "started"
+    (first / "pytest.py").write_text(
+        "import os, pathlib, time\n"
+        f"pathlib.Path({str(started)!r}).write_text(str(os.getpid()))\n"
+        "time.sleep(60)\n")
+    proc = _run(sandbox, "test", lines="5.2 5.0", start_new_session=True)
+    pid = None
+    try:
+        for _ in range(400):
+            if started.exists() and started.read_text():
+                break
+            time.sleep(0.05)
+        pid = int(started.read_text())
+        os.kill(proc.pid, signal.SIGTERM)             # bash alone, not its process group
+        out, _ = proc.communicate(timeout=30)
+        assert proc.returncode == 143, out
+        assert "terminated" in out, out
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)                           # pytest is gone (and reaped)
+        assert _calls(second) == [], out
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        if pid is not None:
+            try:
+                os.kill(pid, signal.SIGKILL)          # the orphan, where it was left
+            except ProcessLookupError:
+                pass
+
+
+def test_the_terminals_lines_variable_is_not_taken_for_blender_lines(sandbox):
+    """Shells that export LINES (the terminal's height, a number: POSIX) made run.sh refuse to
+    run: "unknown line 50 in LINES", exit 2. SURFGRAD_LINES names the lines and comes first;
+    LINES still does where it holds line names."""
+    venvs = {line: _venv(sandbox, line) for line in ("5.2", "5.0")}
+
+    def ran(line):
+        return [c for c in _calls(venvs[line]) if c.startswith("-m pytest")]
+
+    rc, out = _done(sandbox, "test", lines="50", env_more={"SURFGRAD_LINES": "5.0"})
+    assert rc == 0, out
+    assert (ran("5.2"), ran("5.0")) == ([], ["-m pytest"]), out
+    rc, out = _done(sandbox, "test", lines="5.2")          # the documented LINES still works
+    assert rc == 0, out
+    assert (ran("5.2"), ran("5.0")) == (["-m pytest"], ["-m pytest"]), out
+    rc, out = _done(sandbox, "test", env_more={"SURFGRAD_LINES": "5.2,5.0"})
+    assert rc == 2 and "unknown line 5.2,5.0 in SURFGRAD_LINES" in out, out
+    rc, out = _done(sandbox, "test", lines="", env_more={"SURFGRAD_LINES": ""})  # as unset
+    assert rc == 0 and "lines: 4 passed, 0 failed" in out, out
+    rc, out = _done(sandbox, "test", lines=" 50 ")           # the terminal's: every line
+    assert rc == 0, out
+    assert "lines: 4 passed, 0 failed" in out, out
+    assert (ran("5.2"), ran("5.0")) == (["-m pytest"] * 3, ["-m pytest"] * 3), out

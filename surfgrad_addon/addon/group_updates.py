@@ -11,7 +11,7 @@ import textwrap
 import bpy
 
 from . import groups as G
-from .group_names import LINE_KEY, VERSION_KEY
+from .group_names import LINE_KEY, VERSION_KEY, fitting_name
 from .all_or_nothing import all_or_nothing
 from .node_builder import checked_first, running_line, take_notes
 
@@ -27,13 +27,15 @@ def report_notes(op):
 
 def stale_groups():
     """Our groups in this file (local, editable) built by an older surfgrad or for another
-    Blender line; a newer surfgrad's are left alone (node_builder refuses them)."""
+    Blender line, or named by an older one (a per-image group); a newer surfgrad's are left
+    alone (node_builder refuses them)."""
     line = running_line().line
     return [g for g in bpy.data.node_groups
             if g.library is None and g.override_library is None and g.is_editable
             and isinstance(g.get(VERSION_KEY), int)
             and (g[VERSION_KEY] < G.VERSION or g[VERSION_KEY] == G.VERSION
-                 and g.get(LINE_KEY) != line)]
+                 and (g.get(LINE_KEY) != line
+                      or not _COPY.search(g.name) and renamed_target(g) is not None))]
 
 
 def stale_text(stale):
@@ -58,22 +60,69 @@ def _images(tree):
     return [n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"]
 
 
-def _per_image(build, **options):
-    """A builder call for a per-image group: its image (one per plane for triplanar) and
-    extension as its Image Texture nodes hold them."""
-    def call(tree):
-        # Read now: the call runs more than once (node_builder.checked_first), and the first
-        # run rebuilds the tree, which frees its nodes.
-        taps = _images(tree)
-        images = [t.image for t in taps]
-        if not images or any(image is None for image in images):
+# Per-image group key -> its builder and the options its key stands for.
+_PER_IMAGE = {"SG Height Map HQ": (G.height_map_group, {"variant": "hq"}),
+              "SG Height Map One-Texel": (G.height_map_group, {"variant": "one-texel"}),
+              "SG Triplanar Height": (G.triplanar_height_group, {}),
+              "SG Parallax": (G.parallax_group, {})}
+
+
+def _per_image_request(tree):
+    """(key, images, extension) that per-image group `tree` was built for, as its Image
+    Texture nodes hold them (one image per plane for triplanar), or None where they cannot
+    be told (not a per-image group, an image removed)."""
+    name = _COPY.sub("", tree.name)
+    key = next((k for k in _PER_IMAGE if name.startswith(k + " [")), None)
+    if key is None:
+        return None
+    taps = _images(tree)
+    images = [t.image for t in taps]
+    if not images or any(image is None for image in images):
+        return None
+    if key == "SG Triplanar Height":
+        if len(images) % 3:
             return None
-        extension = {"extension": taps[0].extension}
-        if build is G.triplanar_height_group:
-            planes = images[::len(images) // 3] if len(images) % 3 == 0 else []
-            return (lambda: build(images=planes, **extension)) if len(planes) == 3 else None
-        return lambda: build(image=images[0], **options, **extension)
-    return call
+        images = images[::len(images) // 3]
+    return key, images, taps[0].extension
+
+
+def _per_image(tree):
+    """A builder call for per-image group `tree`: its images and extension as its nodes hold
+    them now (read now: the call runs more than once, node_builder.checked_first, and the
+    first run rebuilds the tree, which frees its nodes)."""
+    request = _per_image_request(tree)
+    if request is None:
+        return None
+    key, images, extension = request
+    build, options = _PER_IMAGE[key]
+    if key == "SG Triplanar Height":
+        return lambda: build(images=images, extension=extension)
+    return lambda: build(image=images[0], extension=extension, **options)
+
+
+def _older_names(key, images, extension):
+    """The names older surfgrads gave the per-image group `key` built for `images` and
+    `extension`: up to version 22 the images' names (a library's image without its library)
+    and no extension; version 23 did not escape " | " in a triplanar plane's image name."""
+    names = [im.name for im in images]
+    label = names[0] if len(set(names)) == 1 else " | ".join(names)
+    full = [im.name_full for im in images]
+    label23 = full[0] if len(set(full)) == 1 else " | ".join(full)
+    return {fitting_name(f"{key} [{label}]"),
+            fitting_name(f"{key} [{label23}]" + ("" if extension == "REPEAT"
+                                                 else f" ({extension})"))}
+
+
+def renamed_target(tree):
+    """The name per-image group `tree` gets now, where an older surfgrad named it otherwise
+    (its name, or its ".001" copy's, is what that version called it); else None."""
+    request = _per_image_request(tree)
+    if request is None:
+        return None
+    target = fitting_name(G.image_group_name(*request))
+    name = _COPY.sub("", tree.name)
+    return target if tree.name != target and name in _older_names(*request) | {target} \
+        else None
 
 
 # Name (before " [" or " (filter") -> how to make its builder call from the tree.
@@ -87,10 +136,7 @@ _BY_PREFIX = {
     "SG Height Map Forward (filter ": lambda t: (
         lambda fw=float(t.name.split("(filter ")[1].split(")")[0]):
         lambda: G.height_map_forward_group(fw))(),
-    "SG Height Map HQ [": _per_image(G.height_map_group, variant="hq"),
-    "SG Height Map One-Texel [": _per_image(G.height_map_group, variant="one-texel"),
-    "SG Triplanar Height [": _per_image(G.triplanar_height_group),
-    "SG Parallax [": _per_image(G.parallax_group),
+    **{key + " [": _per_image for key in _PER_IMAGE},
 }
 _HELPERS = {".SG Safe Normal": G.safe_normal_group,
             ".SG Surface Gradient": G.surface_gradient_group,
@@ -138,16 +184,70 @@ def _remove_unused_added(before):
             bpy.data.node_groups.remove(group)
 
 
+def _node_trees():
+    """Every local node tree of the file that a group node can be in."""
+    owners = (*bpy.data.materials, *bpy.data.worlds, *bpy.data.lights, *bpy.data.linestyles)
+    trees = [o.node_tree for o in owners if getattr(o, "node_tree", None) is not None]
+    return [t for t in (*trees, *bpy.data.node_groups) if t.library is None]
+
+
+def _plain(value):
+    return value if isinstance(value, (str, int, float, bool)) else tuple(value)
+
+
+def _move_users(old, new):
+    """Point every group node using `old` at `new`, keeping its inputs' values and its links
+    by socket name (the two were built apart: their socket identifiers may differ)."""
+    for tree in _node_trees():
+        for node in [n for n in tree.nodes if getattr(n, "node_tree", None) == old]:
+            values = {(s.name, s.type): _plain(s.default_value) for s in node.inputs
+                      if hasattr(s, "default_value")}
+            into = {s.name: [lk.from_socket for lk in s.links] for s in node.inputs}
+            out = {s.name: [lk.to_socket for lk in s.links] for s in node.outputs}
+            node.node_tree = new
+            for socket in node.inputs:
+                if (socket.name, socket.type) in values:    # (a type changed: its default)
+                    socket.default_value = values[socket.name, socket.type]
+                for source in into.get(socket.name, ()):
+                    if not socket.is_linked:
+                        tree.links.new(source, socket)
+            for socket in node.outputs:
+                for target in out.get(socket.name, ()):
+                    if not any(lk.from_socket == socket for lk in target.links):
+                        tree.links.new(socket, target)
+
+
+def _gather_renamed(stale):
+    """Give each per-image group an older surfgrad named otherwise the name it gets now, where
+    that name is free; returns ([(group, its old name)] renamed, [(old name, new name)] of
+    those whose new name another group holds: their users move to it after the rebuild)."""
+    renamed, merged = [], []
+    for tree in stale:
+        target = renamed_target(tree)
+        if target is None:
+            continue
+        old = tree.name
+        if bpy.data.node_groups.get((target, None)) is None:
+            tree.name = target
+            renamed.append((tree, old))
+        else:
+            merged.append((old, target))
+    return renamed, merged
+
+
 def update_stale_groups():
-    """Rebuild every stale group in place. Returns (updated names, [(name, why)] of those
-    left as they were). Raises ValueError, with nothing changed, when a group of the user's
-    holds one of our names (each rebuild also checks itself first: node_builder)."""
+    """Rebuild every stale group in place; a per-image group an older surfgrad named
+    otherwise takes today's name, or, where a group holds that name already, its users move
+    to that group and it is removed. Returns (updated names, [(name, why)] of those left as
+    they were). Raises ValueError, with nothing changed, when a group of the user's holds one
+    of our names (each rebuild also checks itself first: node_builder)."""
     foreign = _foreign_names()
     if foreign:
         raise ValueError(f"node group(s) {', '.join(map(repr, foreign))} are not "
                          f"surface-gradient groups but hold their names: rename them, then "
                          f"update the groups")
     stale = stale_groups()
+    names = [tree.name for tree in stale]        # a merged group is gone after the update
     calls, left = [], []
     for tree in stale:
         call = builder_call(tree)
@@ -158,14 +258,34 @@ def update_stale_groups():
         else:
             calls.append((tree.name, call))
     added = {g.name_full for g in bpy.data.node_groups}
-    checked_first(*(call for _, call in calls))       # one refusal: no group changed
+    renamed, merged = _gather_renamed([t for t in stale if t.name in dict(calls)])
+    try:
+        checked_first(*(call for _, call in calls))   # one refusal: no group changed
+    except BaseException:
+        for tree, old in renamed:
+            tree.name = old
+        raise
+    for old, target in merged:
+        group = bpy.data.node_groups.get((old, None))
+        _move_users(group, bpy.data.node_groups.get((target, None)))
+        if group.users == int(group.use_fake_user):
+            bpy.data.node_groups.remove(group)
     _remove_unused_added(added)
+    moved = {old: tree.name for tree, old in renamed} | {
+        old: new for old, new in merged if bpy.data.node_groups.get((old, None)) is None}
     still = {g.name for g in stale_groups()}
     skipped = {name for name, _ in left}
-    left += [(name, "its rebuild did not reach it (add the group again from the menu)")
-             for name, _ in calls if name in still]
-    updated = sorted(g.name for g in stale if g.name not in still and g.name not in skipped)
-    return updated, left
+    updated = []
+    for name in names:
+        now = moved.get(name, name)
+        if name in skipped:
+            continue
+        if now in still:
+            left.append((name, "its rebuild did not reach it (add the group again from the "
+                               "menu)"))
+        else:
+            updated.append(name if now == name else f"{name} (now {now})")
+    return sorted(updated), left
 
 
 class SURFGRAD_OT_update_groups(bpy.types.Operator):

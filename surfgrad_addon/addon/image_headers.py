@@ -21,6 +21,8 @@ import re
 import struct
 from typing import NamedTuple
 
+from .film_image_headers import SGI_MAGIC, film_format, film_header_size
+
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 # PNG colour type (IHDR) -> (channels, what they are): PNG spec, section 11.2.2.
 PNG_COLOUR_TYPES = {0: (1, "grey"), 2: (3, "RGB"), 3: (3, "palette of RGB colours"),
@@ -82,8 +84,8 @@ class PixelSize(NamedTuple):
 
 def pixel_size(f):
     """PixelSize from the start of the binary file object `f` (PNG, JPEG, single-part EXR,
-    TIFF, Radiance HDR, BMP, WebP, TGA), or None where the header does not say (another
-    format, or a damaged header)."""
+    TIFF, Radiance HDR, BMP, WebP, TGA; DPX, Cineon, SGI and JPEG 2000: film_image_headers),
+    or None where the header does not say (another format, or a damaged header)."""
     head = f.read(33)
     f.seek(0)
     if head[:4] in (b"II*\0", b"MM\0*"):
@@ -118,6 +120,9 @@ def pixel_size(f):
         return PixelSize(x1 - x0 + 1, y1 - y0 + 1, True) if x1 >= x0 and y1 >= y0 else None
     if head[:4] == b"RIFF" and head[8:12] == b"WEBP":
         return _webp_size(head)
+    if film_format(head):               # (a damaged one is not read as a TGA either)
+        film = film_header_size(f, head)
+        return film and PixelSize(film.width, film.height, film.float_buffer)
     return _tga_size(head)
 
 
@@ -295,7 +300,6 @@ def _jpeg_cut_short(f):
     return False                        # no scan: the load itself fails
 
 
-SGI_MAGIC = b"\x01\xda"
 # TIFF tags (TIFF 6.0): the first image's size and what a sample is (3: a float).
 TIFF_WIDTH, TIFF_HEIGHT, TIFF_BITS, TIFF_SAMPLE_FORMAT = 256, 257, 258, 339
 TIFF_SIZE = (TIFF_WIDTH, TIFF_HEIGHT, TIFF_BITS, TIFF_SAMPLE_FORMAT)

@@ -19,7 +19,7 @@ from typing import Callable
 from . import common  # noqa: F401 (VERSION lives there; builders read it at call time)
 from .common import (SAMPLER_GROUPS, BUMP_FILTER_WIDTH, FORWARD_FILTER_WIDTH, GATED_HELPERS, REQUIRES,  # noqa: F401
                      VERSION, FeatureUnavailable, decode_tangent_normal, directx_input,
-                     normal_input, safe_normal_group, sub_group, surface_gradient_group,
+                     image_group_name, normal_input, safe_normal_group, sub_group, surface_gradient_group,
                      unavailable_reason, uv_gradients_group)
 from .displacement import REST_ATTRIBUTE, displace_group, rest_position_group  # noqa: F401
 from .height_blend import height_blend_group

@@ -393,8 +393,12 @@ def image_group_name(key, images, extension):
     and `extension`: what makes two such groups differ is in it, so that a second use never
     rebuilds over the first one's group (which other materials use): a linked image by its
     library too (Blender's name_full, "A [lib.blend]"), three different planes each, and an
-    extension other than REPEAT."""
+    extension other than REPEAT. Where there are several (triplanar planes), each is escaped
+    ("\\" and "|" get a backslash) before they are joined by " | ", so that no image name
+    holding the separator names another set: "A | B", "C", "C" and "A", "B | C", "C"."""
     named = [im.name_full for im in images if im is not None]
+    if len(images) > 1:
+        named = [n.replace("\\", "\\\\").replace("|", "\\|") for n in named]
     label = named[0] if len(set(named)) == 1 and len(named) == len(images) else " | ".join(named)
     return key + (f" [{label}]" if label else "") + \
         ("" if extension == "REPEAT" else f" ({extension})")
