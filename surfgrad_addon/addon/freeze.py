@@ -24,7 +24,7 @@ from . import normal_bake as NB
 from .bake_target import object_not_a_mesh
 from .bake_uvs import one_read
 from .image_checks import image_problems
-from .material_inputs import edits_lost, linked_text
+from .material_inputs import cycles_output, edits_lost, linked_text
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
@@ -41,11 +41,6 @@ class FreezeCancelled(FreezeError):
     """The user cancelled; the material is as it was."""
 
 
-def _output(tree):
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
-    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-
-
 @contextmanager
 def _baking_the_stack_alone(tree, end):
     """For the bake only: the Material Output's Surface fed by a Diffuse BSDF whose Normal is
@@ -54,7 +49,7 @@ def _baking_the_stack_alone(tree, end):
     as it is gave a visibly flatter map (mean |live - frozen| 0.0156 against 0.0078 through a
     Diffuse BSDF, 160x90 renders); the Diffuse closure's normal is the stack's. Restored after,
     also when the bake fails or is cancelled."""
-    output = _output(tree)
+    output = cycles_output(tree)
     surface = output.inputs["Surface"]
     shader = surface.links[0].from_socket
     diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
@@ -79,26 +74,38 @@ def _upstream(socket):
     return seen
 
 
-def _is_sg(node):
+def _is_sg(node, seen=()):
+    """An SG group, or a group of the artist's with one inside (at any depth)."""
     tree = getattr(node, "node_tree", None) if node.bl_idname == "ShaderNodeGroup" else None
-    return tree is not None and tree.name.startswith(SG_PREFIX)
+    if tree is None or tree in seen:
+        return False
+    return tree.name.startswith(SG_PREFIX) or any(_is_sg(n, (*seen, tree)) for n in tree.nodes)
+
+
+def _is_shader(node):
+    """A node that makes a closure (a BSDF), not one that passes a normal on (a Bump node)."""
+    return any(o.type == "SHADER" for o in node.outputs)
 
 
 def find_stack(tree):
     """(the socket the stack ends in, [(shader node, Normal input)] it feeds) for the shaders
     reaching the active Material Output's Surface. Raises FreezeError naming the fix."""
-    output = _output(tree)
+    output = cycles_output(tree)
     if output is None or not output.inputs["Surface"].is_linked:
-        raise FreezeError("the material has no shader linked to its Material Output's Surface: "
-                          "link a BSDF first")
+        raise FreezeError("the material has no shader linked to the Surface of the Material "
+                          "Output Cycles renders (targeted at All or Cycles): link a BSDF first")
     shaders = [tree.nodes[n] for n in _upstream(output.inputs["Surface"])]
     fed = [(node, node.inputs[NORMAL]) for node in shaders
-           if NORMAL in node.inputs and node.inputs[NORMAL].is_linked and
+           if _is_shader(node) and NORMAL in node.inputs and node.inputs[NORMAL].is_linked and
            any(_is_sg(tree.nodes[n]) for n in _upstream(node.inputs[NORMAL]) |
                {node.inputs[NORMAL].links[0].from_node.name})]
     if not fed:
-        raise FreezeError("no surface-gradient stack feeds a BSDF Normal input: add one "
-                          "(Add > Surface Gradient > Add Surface-Gradient Layer Stack) first")
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+        which = (f" of the shader Cycles renders (through {output.name!r}, targeted at "
+                 f"{output.target.title()}: Cycles takes a Cycles output before an All one, "
+                 f"then the active one)" if len(outputs) > 1 else "")
+        raise FreezeError(f"no surface-gradient stack feeds a BSDF Normal input{which}: add one "
+                          f"(Add > Surface Gradient > Add Surface-Gradient Layer Stack) first")
     ends = {(s.links[0].from_node.name, s.links[0].from_socket.identifier) for _, s in fed}
     if len(ends) > 1:
         raise FreezeError(f"{len(ends)} different surface-gradient stacks feed the BSDF Normal "

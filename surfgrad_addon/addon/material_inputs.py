@@ -14,11 +14,15 @@ BUILT_IN = {"position", "normal", "generated", "orco", "tangent", "uv"}
 
 
 def cycles_output(tree):
-    """The Material Output node Cycles renders through: of the outputs targeted at All or
-    Cycles, the active one, else the first (Blender's ntreeShaderOutputNode rule)."""
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
-               and getattr(n, "target", "ALL") in ("ALL", "CYCLES")]
-    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    """The Material Output node Cycles renders through (Blender's ntreeShaderOutputNode rule):
+    an output targeted at Cycles wins over one targeted at All, even an active one; within the
+    target, the active one, else the first. None when every output is EEVEE's."""
+    for target in ("CYCLES", "ALL"):
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
+                   and getattr(n, "target", "ALL") == target]
+        if outputs:
+            return next((n for n in outputs if n.is_active_output), outputs[0])
+    return None
 
 
 def sequence_frame(image_user, scene_frame):

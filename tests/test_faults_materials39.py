@@ -1,0 +1,226 @@
+"""Red team 39c: materials as artists wire them by hand, and the tools on them.
+
+- Several Material Output nodes: Cycles renders through an output targeted at Cycles before
+  one targeted at All, even when the All one is the active output (Blender's
+  ntreeShaderOutputNode; pinned here on every line by baking each output's colour). The
+  checks before a bake (material_inputs.cycles_output) took the active All output, so an image
+  the Cycles output reads was never checked: a missing one baked Cycles' magenta with exit 0.
+  Freeze took the active output whatever its target: with the stack on an active All output
+  and a plain shader on a Cycles one, it reported success and wired in a flat map (every texel
+  (0.5, 0.5, 1.0)); with the stack on the Cycles output it was refused ("add one").
+- A Bump node after the stack (SG Resolve into the Bump's Normal, the Bump into the BSDF):
+  Freeze took the Bump node for a second shader fed by a stack and was refused with "2
+  different surface-gradient stacks feed the BSDF Normal inputs".
+- SG groups inside the artist's own node group (one or two levels): Freeze looked for SG
+  groups in the material's tree only and was refused with "no surface-gradient stack feeds a
+  BSDF Normal input: add one".
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
+from surfgrad_addon.addon.material_inputs import cycles_output  # noqa: E402
+from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
+from support.freeze_scene import layered_material  # noqa: E402
+from support.material_dump import material_dump  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+QUIET = dict(log=lambda *_: None)
+SIZE = 16
+COLOURS = {"R": (1.0, 0.0, 0.0, 1.0), "G": (0.0, 1.0, 0.0, 1.0), "B": (0.0, 0.0, 1.0, 1.0)}
+
+
+def _emission_outputs(obj, image, spec, active):
+    """A material of one Emission per (colour, target) output, output `active` made active."""
+    mat = new_material("Outputs")
+    tree = mat.node_tree
+    tree.nodes.clear()
+    outputs = []
+    for colour, target in spec:
+        out = tree.nodes.new("ShaderNodeOutputMaterial")
+        out.target = target
+        emission = tree.nodes.new("ShaderNodeEmission")
+        emission.inputs[0].default_value = COLOURS[colour]
+        tree.links.new(emission.outputs[0], out.inputs["Surface"])
+        outputs.append((colour, out))
+    outputs[active][1].is_active_output = True
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tree.nodes.active = tex
+    obj.data.materials.clear()
+    obj.data.materials.append(mat)
+    return mat, outputs
+
+
+def test_the_output_cycles_renders_is_the_one_the_checks_read():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.device = "CPU"
+    bpy.ops.mesh.primitive_plane_add()
+    obj = bpy.context.object
+    image = bpy.data.images.new("Emit", 4, 4, float_buffer=True)
+    cases = [([("R", "ALL"), ("G", "CYCLES")], 0),          # active All, inactive Cycles
+             ([("G", "CYCLES"), ("R", "ALL")], 1),
+             ([("R", "EEVEE"), ("G", "ALL")], 0),
+             ([("R", "ALL"), ("G", "ALL")], 1),
+             ([("R", "CYCLES"), ("G", "CYCLES")], 1),
+             ([("R", "CYCLES"), ("G", "ALL"), ("B", "ALL")], 2)]
+    for spec, active in cases:
+        mat, outputs = _emission_outputs(obj, image, spec, active)
+        bpy.ops.object.bake(type="EMIT")
+        texel = np.array(image.pixels[:]).reshape(-1, 4)[0, :3]
+        baked = "RGB"[int(texel.argmax())]
+        assert texel.max() > 0.9, (spec, texel)
+        chosen = cycles_output(mat.node_tree)
+        assert [c for c, out in outputs if out == chosen] == [baked], (spec, active)
+        bpy.data.materials.remove(mat)
+    _, outputs = _emission_outputs(obj, image, [("R", "EEVEE")], 0)
+    assert cycles_output(obj.active_material.node_tree) is None       # Cycles renders none
+
+
+def test_an_image_on_the_cycles_output_is_checked_beside_an_active_all_output():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_plane_add()
+    obj = bpy.context.object
+    mat = new_material("Two outputs")
+    tree = mat.node_tree
+    everyone = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    cycles = tree.nodes.new("ShaderNodeOutputMaterial")
+    cycles.target = "CYCLES"
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.name = "CyclesBumps"
+    tex.image = bpy.data.images.new("gone.png", 4, 4)
+    tex.image.source = "FILE"
+    tex.image.filepath = "/nonexistent/surfgrad/gone.png"
+    tree.links.new(tex.outputs["Color"], diffuse.inputs["Color"])
+    tree.links.new(diffuse.outputs[0], cycles.inputs["Surface"])
+    everyone.is_active_output = True
+    obj.data.materials.append(mat)
+    assert everyone.is_active_output and not cycles.is_active_output
+    text = "\n".join(image_problems(obj))
+    assert "'CyclesBumps'" in text and "gone.png" in text, text
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    obj = test_scenes.new_scene(["Sphere"])["Sphere"]
+    mat, bsdf = layered_material(obj)
+    return obj, mat, bsdf
+
+
+def frozen_pixels(obj, mat):
+    """Freeze, read the map, thaw: the material back exactly as it was."""
+    before = material_dump(mat)
+    record = F.freeze(obj, SIZE, **QUIET)
+    image = bpy.data.images[record["image"]]
+    pixels = np.array(image.pixels[:]).reshape(SIZE, SIZE, 4)[..., :3].copy()
+    F.thaw(mat)
+    assert material_dump(mat) == before
+    return pixels
+
+
+@pytest.fixture(scope="module")
+def plain(sphere):
+    obj, mat, _ = sphere
+    pixels = frozen_pixels(obj, mat)
+    covered = pixels.sum(-1) > 0
+    assert np.percentile(np.abs(pixels[covered] - (0.5, 0.5, 1.0)).max(-1), 50) > 0.05  # a stack
+    return pixels
+
+
+def test_freeze_bakes_through_the_output_cycles_renders(sphere, plain):
+    obj, mat, bsdf = sphere
+    tree = mat.node_tree
+    everyone = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    cycles = tree.nodes.new("ShaderNodeOutputMaterial")
+    cycles.target = "CYCLES"
+    other = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tree.links.new(other.outputs[0], cycles.inputs["Surface"])
+    everyone.is_active_output = True
+    try:
+        # The stack on the active All output, which Cycles does not render: refused, named.
+        before = material_dump(mat)
+        with pytest.raises(F.FreezeError, match=r"through 'Material Output.001', targeted at "
+                                                r"Cycles"):
+            F.freeze(obj, SIZE, **QUIET)
+        assert material_dump(mat) == before
+        # The stack's BSDF on the Cycles output: frozen, the same map as with one output.
+        tree.links.new(bsdf.outputs[0], cycles.inputs["Surface"])
+        tree.links.new(other.outputs[0], everyone.inputs["Surface"])
+        assert everyone.is_active_output
+        np.testing.assert_allclose(frozen_pixels(obj, mat), plain, atol=1e-6)
+    finally:
+        if F.RECORD in mat:                             # a freeze that should have failed
+            F.thaw(mat)
+        tree.links.new(bsdf.outputs[0], everyone.inputs["Surface"])
+        tree.nodes.remove(cycles)
+        tree.nodes.remove(other)
+
+
+def test_freeze_takes_a_bump_node_after_the_stack_as_part_of_it(sphere, plain):
+    obj, mat, bsdf = sphere
+    tree = mat.node_tree
+    end = bsdf.inputs["Normal"].links[0].from_socket
+    bump = tree.nodes.new("ShaderNodeBump")
+    bump.inputs["Strength"].default_value = 0.0        # passes the stack's normal on
+    tree.links.new(end, bump.inputs["Normal"])
+    tree.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+    try:
+        np.testing.assert_allclose(frozen_pixels(obj, mat), plain, atol=1e-6)
+    finally:
+        tree.links.new(end, bsdf.inputs["Normal"])
+        tree.nodes.remove(bump)
+
+
+def _chain(name, trees):
+    """An artist's group: Color in, Normal out, through one node of each of `trees` in turn
+    (the Group Input feeding our inputs)."""
+    group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    group.interface.new_socket("Color", in_out="INPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Normal", in_out="OUTPUT", socket_type="NodeSocketVector")
+    socket = group.nodes.new("NodeGroupInput").outputs["Color"]
+    for tree in trees:
+        node = group.nodes.new("ShaderNodeGroup")
+        node.node_tree = tree
+        group.links.new(socket, next(s for s in node.inputs
+                                     if s.name in ("Color", "Surface Gradient")))
+        socket = node.outputs[0]
+    group.links.new(socket, group.nodes.new("NodeGroupOutput").inputs["Normal"])
+    return group
+
+
+def test_freeze_finds_the_stack_inside_the_artists_own_groups(sphere):
+    obj, mat, bsdf = sphere
+    tree = mat.node_tree
+    resolve = bsdf.inputs["Normal"].links[0].from_node
+    combined = resolve.inputs["Surface Gradient"].links[0].from_socket
+    normal_map = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeGroup"
+                      and n.node_tree.name.startswith("SG Normal Map"))
+    colour = normal_map.inputs["Color"].links[0].from_socket
+    tree.links.new(normal_map.outputs[0], resolve.inputs["Surface Gradient"])
+    try:
+        alone = frozen_pixels(obj, mat)                 # SG Normal Map -> SG Resolve
+    finally:
+        tree.links.new(combined, resolve.inputs["Surface Gradient"])
+    one = _chain("My Normal", [normal_map.node_tree, resolve.node_tree])
+    two = _chain("My Look", [one])
+    for group in (one, two):                            # no SG group in the material's tree
+        node = tree.nodes.new("ShaderNodeGroup")
+        node.node_tree = group
+        tree.links.new(colour, node.inputs["Color"])
+        tree.links.new(node.outputs["Normal"], bsdf.inputs["Normal"])
+        try:
+            np.testing.assert_allclose(frozen_pixels(obj, mat), alone, atol=1e-6,
+                                       err_msg=group.name)
+        finally:
+            tree.links.new(resolve.outputs[0], bsdf.inputs["Normal"])
+            tree.nodes.remove(node)
