@@ -21,9 +21,10 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
-from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
+from surfgrad_addon.addon.image_checks import image_problems, uv_reference_problems  # noqa: E402,E501
 from surfgrad_addon.addon.material_inputs import cycles_output  # noqa: E402
 from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
 from support.freeze_scene import layered_material  # noqa: E402
@@ -224,3 +225,89 @@ def test_freeze_finds_the_stack_inside_the_artists_own_groups(sphere):
         finally:
             tree.links.new(resolve.outputs[0], bsdf.inputs["Normal"])
             tree.nodes.remove(node)
+
+
+def _emission_of(obj, image, make_source):
+    """Bake (EMIT, 4 x 4) |what make_source(tree) outputs| on obj; returns the first texel."""
+    mat = new_material("Emitted")
+    tree = mat.node_tree
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    emission = tree.nodes.new("ShaderNodeEmission")
+    absolute = tree.nodes.new("ShaderNodeVectorMath")
+    absolute.operation = "ABSOLUTE"
+    tree.links.new(make_source(tree).outputs[0], absolute.inputs[0])
+    tree.links.new(absolute.outputs[0], emission.inputs["Color"])
+    tree.links.new(emission.outputs[0], out.inputs["Surface"])
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tree.nodes.active = tex
+    obj.data.materials.clear()
+    obj.data.materials.append(mat)
+    bpy.ops.object.bake(type="EMIT")
+    bpy.data.materials.remove(mat)
+    return np.array(image.pixels[:]).reshape(-1, 4)[0, :3]
+
+
+def _node(kind, **settings):
+    def make(tree):
+        node = tree.nodes.new(kind)
+        for key, value in settings.items():
+            setattr(node, key, value)
+        return node
+    return make
+
+
+def test_a_colour_attribute_or_tangent_the_mesh_lacks_is_refused(tmp_path):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.cycles.device = "CPU"
+    bpy.ops.mesh.primitive_plane_add()
+    obj = bpy.context.object
+    colours = obj.data.color_attributes.new("Col", "FLOAT_COLOR", "CORNER")
+    colours.data.foreach_set("color", [0.6, 0.5, 0.9, 1.0] * len(colours.data))
+    image = bpy.data.images.new("Emit", 4, 4, float_buffer=True)
+    # What Cycles bakes for them on this line: zero (the normal map's colour then decodes to a
+    # normal 48 degrees off); the colour attribute named, its colour.
+    lacking = {"Color Attribute": _node("ShaderNodeVertexColor", layer_name="Missing"),
+               "Tangent": _node("ShaderNodeTangent", direction_type="UV_MAP", uv_map="Missing")}
+    for make in lacking.values():
+        assert np.abs(_emission_of(obj, image, make)).max() == 0.0
+    np.testing.assert_allclose(_emission_of(obj, image, _node(
+        "ShaderNodeVertexColor", layer_name="Col")), [0.6, 0.5, 0.9], atol=1e-6)
+
+    mat = new_material("Painted")
+    tree = mat.node_tree
+    bsdf = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    painted = tree.nodes.new("ShaderNodeVertexColor")
+    normal_map = tree.nodes.new("ShaderNodeGroup")
+    normal_map.node_tree = api.node_group("SG Normal Map")
+    resolve = tree.nodes.new("ShaderNodeGroup")
+    resolve.node_tree = api.node_group("SG Resolve")
+    tree.links.new(painted.outputs["Color"], normal_map.inputs["Color"])
+    tree.links.new(normal_map.outputs[0], resolve.inputs["Surface Gradient"])
+    tree.links.new(resolve.outputs[0], bsdf.inputs["Normal"])
+    obj.data.materials.clear()
+    obj.data.materials.append(mat)
+    output = tmp_path / "painted.png"
+    for name in ("Col", ""):                            # named, or the render one: baked
+        painted.layer_name = name
+        assert uv_reference_problems(obj) == []
+    for name in ("Missing", "UVMap"):                   # a UV map: garbage, or a crash
+        painted.layer_name = name
+        with pytest.raises(ValueError) as refused:
+            api.bake_normal_map(obj, str(output), resolution=8, **QUIET)
+        assert f"node 'Color Attribute' (material 'Painted') reads colour attribute {name!r}" \
+            in str(refused.value) and "(colour attributes: ['Col'])" in str(refused.value)
+        assert not output.exists()
+    painted.layer_name = ""
+    obj.data.color_attributes.remove(obj.data.color_attributes["Col"])
+    assert "reads the active render colour attribute" in uv_reference_problems(obj)[0]
+    tangent = tree.nodes.new("ShaderNodeTangent")
+    tangent.direction_type = "UV_MAP"
+    tangent.uv_map = "Missing"
+    tree.links.new(tangent.outputs[0], bsdf.inputs["Tangent"])
+    assert any("node 'Tangent' (material 'Painted') reads UV map 'Missing'" in p
+               for p in uv_reference_problems(obj))

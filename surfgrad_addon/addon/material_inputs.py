@@ -142,7 +142,8 @@ def uv_name_problem(mat, path, node, mesh_name, uv_maps, attributes, as_rendered
     kind = node.bl_idname
     if kind == "ShaderNodeNormalMap" and node.space == "TANGENT":
         name, what = node.uv_map, "UV map"
-    elif kind == "ShaderNodeUVMap":
+    elif kind == "ShaderNodeUVMap" or (kind == "ShaderNodeTangent" and
+                                       node.direction_type == "UV_MAP"):
         name, what = node.uv_map, "UV map"
     elif kind == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
         name, what = node.attribute_name, "attribute"
@@ -155,3 +156,20 @@ def uv_name_problem(mat, path, node, mesh_name, uv_maps, attributes, as_rendered
     return (f"node {path!r} (material {mat.name!r}) reads {what} {name!r}, which mesh "
             f"{mesh_name!r}{as_rendered} does not have (UV maps: {maps}): the bake would read "
             f"nothing there; pick one of its UV maps in the node, or rename the UV map")
+
+
+def colour_attribute_problem(mat, path, node, mesh_name, colours, as_rendered=""):
+    """A Color Attribute node naming no colour attribute of the mesh the bake renders
+    (`colours`, their names), or none named and the mesh has none: Cycles bakes zero there,
+    and for an attribute of another kind (a UV map) reads past it: garbage on 4.2, a crash
+    (exit 139) from 4.5 (tests/test_faults_materials39.py)."""
+    if node.bl_idname != "ShaderNodeVertexColor" or node.layer_name in colours or \
+            (not node.layer_name and colours):
+        return None
+    what = f"colour attribute {node.layer_name!r}" if node.layer_name else \
+        "the active render colour attribute"
+    return (f"node {path!r} (material {mat.name!r}) reads {what}, which mesh {mesh_name!r}"
+            f"{as_rendered} does not have (colour attributes: {list(colours)}): the bake "
+            f"would read nothing there, or a crash or garbage for an attribute of another "
+            f"kind (a UV map); pick one of its colour attributes in the node, or read a UV "
+            f"map or other attribute with an Attribute node")
