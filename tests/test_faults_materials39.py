@@ -14,6 +14,9 @@
 - SG groups inside the artist's own node group (one or two levels): Freeze looked for SG
   groups in the material's tree only and was refused with "no surface-gradient stack feeds a
   BSDF Normal input: add one".
+- The stack into a Principled BSDF's Normal and Coat Normal: Freeze wired the frozen map into
+  Normal only, so the "frozen" material still ran the whole live stack for the coat (none of
+  it framed), at the live stack's cost, not the built-in twin's.
 """
 
 import numpy as np
@@ -180,6 +183,36 @@ def test_freeze_takes_a_bump_node_after_the_stack_as_part_of_it(sphere, plain):
     finally:
         tree.links.new(end, bsdf.inputs["Normal"])
         tree.nodes.remove(bump)
+
+
+def test_freeze_wires_the_frozen_map_into_the_coat_normal_too(sphere, plain):
+    obj, mat, bsdf = sphere
+    tree = mat.node_tree
+    end = bsdf.inputs["Normal"].links[0].from_socket
+    surface = bsdf.outputs[0].links[0].to_socket
+    principled = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    for name in ("Normal", "Coat Normal"):
+        tree.links.new(end, principled.inputs[name])
+    tree.links.new(principled.outputs[0], surface)
+    tree.links.remove(bsdf.inputs["Normal"].links[0])   # the Principled BSDF alone uses it
+    before = material_dump(mat)
+    try:
+        record = F.freeze(obj, SIZE, **QUIET)
+        frozen = [principled.inputs[name].links[0].from_node for name in ("Normal", "Coat Normal")]
+        assert [n.bl_idname for n in frozen] == ["ShaderNodeNormalMap"] * 2, frozen
+        frame = tree.nodes[record["frame"]]
+        live = [n.name for n in tree.nodes if n.bl_idname == "ShaderNodeGroup"]
+        assert live and all(tree.nodes[n].parent == frame for n in live)   # none runs now
+        pixels = np.array(bpy.data.images[record["image"]].pixels[:])
+        np.testing.assert_allclose(pixels.reshape(SIZE, SIZE, 4)[..., :3], plain, atol=1e-6)
+        F.thaw(mat)
+        assert material_dump(mat) == before
+    finally:
+        if F.RECORD in mat:
+            F.thaw(mat)
+        tree.links.new(bsdf.outputs[0], surface)
+        tree.links.new(end, bsdf.inputs["Normal"])
+        tree.nodes.remove(principled)
 
 
 def _chain(name, trees):

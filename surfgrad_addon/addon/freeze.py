@@ -31,6 +31,9 @@ ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes 
 FRAME_LABEL = ADDED_LABEL + "live stack (frozen into {})"
 SG_PREFIX = "SG "
 NORMAL = "Normal"
+# A BSDF's normal inputs (Principled BSDF's coat has its own): the frozen map goes into each
+# the stack feeds, or the frozen material would still run the live stack for the others.
+NORMAL_INPUTS = (NORMAL, "Coat Normal")
 
 
 class FreezeError(ValueError):
@@ -92,13 +95,13 @@ def find_stack(tree):
     reaching the active Material Output's Surface. Raises FreezeError naming the fix."""
     output = cycles_output(tree)
     if output is None or not output.inputs["Surface"].is_linked:
-        raise FreezeError("the material has no shader linked to the Surface of the Material "
-                          "Output Cycles renders (targeted at All or Cycles): link a BSDF first")
+        raise FreezeError("the material has no shader linked to its Material Output's Surface: "
+                          "link a BSDF first (to an output targeted at All or Cycles, which "
+                          "Cycles renders)")
     shaders = [tree.nodes[n] for n in _upstream(output.inputs["Surface"])]
-    fed = [(node, node.inputs[NORMAL]) for node in shaders
-           if _is_shader(node) and NORMAL in node.inputs and node.inputs[NORMAL].is_linked and
-           any(_is_sg(tree.nodes[n]) for n in _upstream(node.inputs[NORMAL]) |
-               {node.inputs[NORMAL].links[0].from_node.name})]
+    fed = [(node, s) for node in shaders if _is_shader(node) for s in node.inputs
+           if s.name in NORMAL_INPUTS and s.is_linked and
+           any(_is_sg(tree.nodes[n]) for n in _upstream(s) | {s.links[0].from_node.name})]
     if not fed:
         outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
         which = (f" of the shader Cycles renders (through {output.name!r}, targeted at "
