@@ -17,6 +17,8 @@
 - The stack into a Principled BSDF's Normal and Coat Normal: Freeze wired the frozen map into
   Normal only, so the "frozen" material still ran the whole live stack for the coat (none of
   it framed), at the live stack's cost, not the built-in twin's.
+- One stack reaching a second BSDF (a Mix Shader's other branch, a coat) through a reroute:
+  Freeze took the reroute for a second stack ("2 different surface-gradient stacks").
 """
 
 import numpy as np
@@ -213,6 +215,38 @@ def test_freeze_wires_the_frozen_map_into_the_coat_normal_too(sphere, plain):
         tree.links.new(bsdf.outputs[0], surface)
         tree.links.new(end, bsdf.inputs["Normal"])
         tree.nodes.remove(principled)
+
+
+def test_freeze_takes_one_stack_reaching_two_shaders_through_a_reroute(sphere, plain):
+    """A Mix Shader of the Diffuse BSDF (the stack straight in) and a Glossy BSDF (the stack
+    through a reroute), and a third BSDF in the mix with no stack of its own."""
+    obj, mat, bsdf = sphere
+    tree = mat.node_tree
+    end = bsdf.inputs["Normal"].links[0].from_socket
+    surface = bsdf.outputs[0].links[0].to_socket
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+    reroute = tree.nodes.new("NodeReroute")
+    tree.links.new(bsdf.outputs[0], mix.inputs[1])
+    tree.links.new(glossy.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], surface)
+    tree.links.new(end, reroute.inputs[0])
+    tree.links.new(reroute.outputs[0], glossy.inputs["Normal"])
+    before = material_dump(mat)
+    try:
+        record = F.freeze(obj, SIZE, **QUIET)
+        frozen = {n.inputs["Normal"].links[0].from_node.bl_idname for n in (bsdf, glossy)}
+        assert frozen == {"ShaderNodeNormalMap"}
+        pixels = np.array(bpy.data.images[record["image"]].pixels[:])
+        np.testing.assert_allclose(pixels.reshape(SIZE, SIZE, 4)[..., :3], plain, atol=1e-6)
+        F.thaw(mat)                                     # the reroute's link back as it was
+        assert material_dump(mat) == before
+    finally:
+        if F.RECORD in mat:
+            F.thaw(mat)
+        tree.links.new(bsdf.outputs[0], surface)
+        for node in (mix, glossy, reroute):
+            tree.nodes.remove(node)
 
 
 def _chain(name, trees):

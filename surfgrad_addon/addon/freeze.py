@@ -109,12 +109,21 @@ def find_stack(tree):
                  f"then the active one)" if len(outputs) > 1 else "")
         raise FreezeError(f"no surface-gradient stack feeds a BSDF Normal input{which}: add one "
                           f"(Add > Surface Gradient > Add Surface-Gradient Layer Stack) first")
-    ends = {(s.links[0].from_node.name, s.links[0].from_socket.identifier) for _, s in fed}
+    ends = {(_source(s).node.name, _source(s).identifier) for _, s in fed}
     if len(ends) > 1:
         raise FreezeError(f"{len(ends)} different surface-gradient stacks feed the BSDF Normal "
                           f"inputs; one normal map holds one: feed them all from one SG "
                           f"Resolve, or freeze a material with one stack")
-    return fed[0][1].links[0].from_socket, fed
+    return _source(fed[0][1]), fed
+
+
+def _source(socket):
+    """The output feeding `socket`, through reroutes (one stack may reach several inputs
+    through reroutes of its own)."""
+    source = socket.links[0].from_socket
+    while source.node.bl_idname == "NodeReroute" and source.node.inputs[0].is_linked:
+        source = source.node.inputs[0].links[0].from_socket
+    return source
 
 
 def _stack_nodes(tree, fed):
@@ -250,7 +259,7 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
         if path is None:
             image.pack()
             image.filepath_raw = f"//{image.name}"    # where File > Unpack would put it
-        record = _wire(mat, tree, end, fed, uv_map, image)
+        record = _wire(mat, tree, fed, uv_map, image)
         try:
             yield "wired"                         # the last chance to cancel: nothing written
             if path is not None:
@@ -304,14 +313,14 @@ def _drawn_at(node):
     return x, y
 
 
-def _wire(mat, tree, end, fed, uv_map, image):
+def _wire(mat, tree, fed, uv_map, image):
     """Add the frozen chain, link it into the fed Normal inputs, frame the stack; returns the
     record (also stored on the material). Undone in full if anything fails."""
     x = min(_drawn_at(node)[0] for node, _ in fed)
     y = min(_drawn_at(node)[1] for node, _ in fed)
     record = {"image": image.name, "image_created": True, "file": "",
-              "links": [[end.node.name, end.identifier, node.name, s.identifier]
-                        for node, s in fed],
+              "links": [[s.links[0].from_node.name, s.links[0].from_socket.identifier,
+                         node.name, s.identifier] for node, s in fed],
               "added": [], "moved": {}, "frame": ""}
     stack = _stack_nodes(tree, fed)          # before the frozen chain takes their place
     try:
