@@ -19,6 +19,11 @@
   it framed), at the live stack's cost, not the built-in twin's.
 - One stack reaching a second BSDF (a Mix Shader's other branch, a coat) through a reroute:
   Freeze took the reroute for a second stack ("2 different surface-gradient stacks").
+- A Color Attribute node as the normal map, naming an attribute the mesh lacks: Cycles bakes
+  zero (the SG Normal Map of black: object-space normals 48 degrees off on a plane), and
+  bake-normal-map wrote it with exit 0; one naming a UV map crashed the bake (SIGSEGV, exit
+  139, measured on every line; at times on 4.2 values near 1e25 instead). A Tangent node
+  (UV Map) naming a missing UV map bakes a zero tangent. Both now refused before the bake.
 """
 
 import numpy as np
@@ -29,7 +34,8 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
-from surfgrad_addon.addon.image_checks import image_problems, uv_reference_problems  # noqa: E402,E501
+from surfgrad_addon.addon.image_checks import (image_problems,  # noqa: E402
+                                              uv_reference_problems)
 from surfgrad_addon.addon.material_inputs import cycles_output  # noqa: E402
 from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
 from support.freeze_scene import layered_material  # noqa: E402
