@@ -24,6 +24,10 @@
   bake-normal-map wrote it with exit 0; one naming a UV map crashed the bake (SIGSEGV, exit
   139, measured on every line; at times on 4.2 values near 1e25 instead). A Tangent node
   (UV Map) naming a missing UV map bakes a zero tangent. Both now refused before the bake.
+- A second material on the object, its faces unwrapped over the frozen material's (a part per
+  material on the whole 0-1 square): Freeze baked every material's faces into the map, and
+  theirs overwrote the frozen material's, exit 0 (every texel here). Now the other materials
+  bake into a throwaway image (normal_bake.bake_normal_tiles(only=...)).
 """
 
 import numpy as np
@@ -40,6 +44,7 @@ from surfgrad_addon.addon.material_inputs import cycles_output  # noqa: E402
 from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
 from support.freeze_scene import layered_material  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -384,3 +389,39 @@ def test_a_colour_attribute_or_tangent_the_mesh_lacks_is_refused(tmp_path):
     tree.links.new(tangent.outputs[0], bsdf.inputs["Tangent"])
     assert any("node 'Tangent' (material 'Painted') reads UV map 'Missing'" in p
                for p in uv_reference_problems(obj))
+
+
+def _quads(count):
+    """`count` unit quads side by side, each unwrapped onto the whole 0-1 square (as a
+    material per part often is), the layered stack's material on every face."""
+    scene_obj = test_scenes.new_scene(["Sphere"])["Sphere"]
+    verts = [(x + 2 * i, y, 0.0) for i in range(count) for x, y in ((0, 0), (1, 0), (1, 1),
+                                                                    (0, 1))]
+    mesh = bpy.data.meshes.new("Parts")
+    mesh.from_pydata(verts, [], [tuple(range(4 * i, 4 * i + 4)) for i in range(count)])
+    uv = mesh.uv_layers.new(name="UVMap")
+    uv.data.foreach_set("uv", [0, 0, 1, 0, 1, 1, 0, 1] * count)
+    obj = bpy.data.objects.new("Parts", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.data.objects.remove(scene_obj)
+    bpy.context.view_layer.objects.active = obj
+    mat, _ = layered_material(obj)
+    return obj, mat
+
+
+def test_freeze_bakes_the_frozen_materials_faces_alone():
+    """A second material on faces whose UVs overlap the frozen material's: Blender's bake
+    writes every material's faces, and they overwrote the frozen map (every texel of it
+    here, up to 0.94 off in 0..1, exit 0)."""
+    obj, mat = _quads(1)
+    alone = frozen_pixels(obj, mat)
+    obj, mat = _quads(2)
+    other, tree, bsdf = diffuse_material("Other part")
+    tilted = tree.nodes.new("ShaderNodeNormalMap")
+    tilted.inputs["Color"].default_value = (1.0, 0.5, 0.6, 1.0)
+    tree.links.new(tilted.outputs[0], bsdf.inputs["Normal"])
+    obj.data.materials.append(other)
+    obj.data.polygons[1].material_index = 1
+    images = set(bpy.data.images.keys())
+    np.testing.assert_allclose(frozen_pixels(obj, mat), alone, atol=1e-6)
+    assert set(bpy.data.images.keys()) == images        # the throwaway image is gone

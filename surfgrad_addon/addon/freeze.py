@@ -251,7 +251,7 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
     try:
         with _baking_the_stack_alone(tree, end):
             NB.bake_normal_tiles(obj, baked, "tangent", resolution, uv_map, samples=samples,
-                                 depth=depth, overwrite=True, log=log)
+                                 depth=depth, overwrite=True, log=log, only=mat)
         yield "baked"
         image = bpy.data.images.load(str(baked), check_existing=False)
         image.name = path.name if path else f"{stem}{suffix}"
