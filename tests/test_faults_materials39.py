@@ -28,6 +28,9 @@
   material on the whole 0-1 square): Freeze baked every material's faces into the map, and
   theirs overwrote the frozen material's, exit 0 (every texel here). Now the other materials
   bake into a throwaway image (normal_bake.bake_normal_tiles(only=...)).
+- The stack switched off by muting its link into the BSDF's Normal: Freeze baked and wired
+  it in unmuted (the frozen material showed the stack the live one did not), and Thaw left
+  the link unmuted. Now refused, naming the muted link.
 """
 
 import numpy as np
@@ -258,6 +261,24 @@ def test_freeze_takes_one_stack_reaching_two_shaders_through_a_reroute(sphere, p
         tree.links.new(bsdf.outputs[0], surface)
         for node in (mix, glossy, reroute):
             tree.nodes.remove(node)
+
+
+def test_freeze_of_a_stack_switched_off_by_a_muted_link_is_refused(sphere):
+    """Cycles renders the material as if the muted link were not there: the stack switched
+    off. Freeze baked the stack anyway and wired it in through a live link (the look changed),
+    and Thaw relinked it unmuted (the file changed)."""
+    obj, mat, bsdf = sphere
+    link = bsdf.inputs["Normal"].links[0]
+    link.is_muted = True
+    before = material_dump(mat)
+    try:
+        with pytest.raises(F.FreezeError, match=r"the link into 'Diffuse BSDF' Normal is muted"):
+            F.freeze(obj, SIZE, **QUIET)
+        assert material_dump(mat) == before
+    finally:
+        if F.RECORD in mat:
+            F.thaw(mat)
+        bsdf.inputs["Normal"].links[0].is_muted = False
 
 
 def _chain(name, trees):

@@ -65,15 +65,20 @@ def _baking_the_stack_alone(tree, end):
         tree.nodes.remove(diffuse)
 
 
+def _live(socket):
+    """The links into `socket` Cycles follows: a muted link (the artist's switch) is none."""
+    return [lk for lk in socket.links if lk.is_valid and not lk.is_muted]
+
+
 def _upstream(socket):
-    """Every node that feeds `socket`, at any depth (by name)."""
-    seen, todo = set(), [lk.from_node for lk in socket.links]
+    """Every node that feeds `socket`, at any depth (by name), through links Cycles follows."""
+    seen, todo = set(), [lk.from_node for lk in _live(socket)]
     while todo:
         node = todo.pop()
         if node.name in seen:
             continue
         seen.add(node.name)
-        todo += [lk.from_node for s in node.inputs for lk in s.links]
+        todo += [lk.from_node for s in node.inputs for lk in _live(s)]
     return seen
 
 
@@ -100,8 +105,13 @@ def find_stack(tree):
                           "Cycles renders)")
     shaders = [tree.nodes[n] for n in _upstream(output.inputs["Surface"])]
     fed = [(node, s) for node in shaders if _is_shader(node) for s in node.inputs
-           if s.name in NORMAL_INPUTS and s.is_linked and
-           any(_is_sg(tree.nodes[n]) for n in _upstream(s) | {s.links[0].from_node.name})]
+           if s.name in NORMAL_INPUTS and _live(s) and
+           any(_is_sg(tree.nodes[n]) for n in _upstream(s))]
+    muted = [f"{node.name!r} {s.name}" for node in shaders if _is_shader(node)
+             for s in node.inputs if s.name in NORMAL_INPUTS and s.is_linked and not _live(s)]
+    if not fed and muted:
+        raise FreezeError(f"the link into {', '.join(muted)} is muted, so Cycles renders the "
+                          f"material without what it brings: nothing to freeze; unmute it first")
     if not fed:
         outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
         which = (f" of the shader Cycles renders (through {output.name!r}, targeted at "
@@ -121,8 +131,8 @@ def _source(socket):
     """The output feeding `socket`, through reroutes (one stack may reach several inputs
     through reroutes of its own)."""
     source = socket.links[0].from_socket
-    while source.node.bl_idname == "NodeReroute" and source.node.inputs[0].is_linked:
-        source = source.node.inputs[0].links[0].from_socket
+    while source.node.bl_idname == "NodeReroute" and _live(source.node.inputs[0]):
+        source = _live(source.node.inputs[0])[0].from_socket
     return source
 
 
