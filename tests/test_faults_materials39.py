@@ -31,6 +31,8 @@
 - The stack switched off by muting its link into the BSDF's Normal: Freeze baked and wired
   it in unmuted (the frozen material showed the stack the live one did not), and Thaw left
   the link unmuted. Now refused, naming the muted link.
+- The stack and its BSDF inside the artist's shader group: refused with "add one" (there is
+  one); now the group is named, with the fix.
 """
 
 import numpy as np
@@ -279,6 +281,36 @@ def test_freeze_of_a_stack_switched_off_by_a_muted_link_is_refused(sphere):
         if F.RECORD in mat:
             F.thaw(mat)
         bsdf.inputs["Normal"].links[0].is_muted = False
+
+
+def test_freeze_names_the_shader_group_holding_the_stack(sphere):
+    """The stack and its BSDF inside the artist's shader group: refused, as before, but with
+    "no surface-gradient stack feeds a BSDF Normal input: add one", though there is one."""
+    obj, mat, bsdf = sphere
+    tree = mat.node_tree
+    surface = bsdf.outputs[0].links[0].to_socket
+    group = bpy.data.node_groups.new("My Rock Shader", "ShaderNodeTree")
+    group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+    normal_map = group.nodes.new("ShaderNodeGroup")
+    normal_map.node_tree = api.node_group("SG Normal Map")
+    resolve = group.nodes.new("ShaderNodeGroup")
+    resolve.node_tree = api.node_group("SG Resolve")
+    diffuse = group.nodes.new("ShaderNodeBsdfDiffuse")
+    group.links.new(normal_map.outputs[0], resolve.inputs["Surface Gradient"])
+    group.links.new(resolve.outputs[0], diffuse.inputs["Normal"])
+    group.links.new(diffuse.outputs[0], group.nodes.new("NodeGroupOutput").inputs["Shader"])
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    tree.links.new(node.outputs[0], surface)
+    before = material_dump(mat)
+    try:
+        with pytest.raises(F.FreezeError, match=r"the stack is inside shader node group "
+                                                r"'My Rock Shader': .* ungroup it"):
+            F.freeze(obj, SIZE, **QUIET)
+        assert material_dump(mat) == before
+    finally:
+        tree.links.new(bsdf.outputs[0], surface)
+        tree.nodes.remove(node)
 
 
 def _chain(name, trees):

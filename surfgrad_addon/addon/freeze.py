@@ -112,6 +112,13 @@ def find_stack(tree):
     if not fed and muted:
         raise FreezeError(f"the link into {', '.join(muted)} is muted, so Cycles renders the "
                           f"material without what it brings: nothing to freeze; unmute it first")
+    inside = sorted({repr(n.node_tree.name) for n in shaders if _is_shader(n) and _is_sg(n)})
+    if not fed and inside:
+        raise FreezeError(f"the stack is inside shader node group {', '.join(inside)}: Freeze "
+                          f"wires the frozen map into the material's own BSDF Normal inputs "
+                          f"(a group may serve other materials too); ungroup it (Ctrl+Alt+G) "
+                          f"or bring the stack's normal out of the group into a BSDF in the "
+                          f"material, then freeze")
     if not fed:
         outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
         which = (f" of the shader Cycles renders (through {output.name!r}, targeted at "
