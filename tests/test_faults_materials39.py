@@ -80,14 +80,19 @@ def _emission_outputs(obj, image, spec, active):
     return mat, outputs
 
 
-def test_the_output_cycles_renders_is_the_one_the_checks_read():
+def _cycles_plane():
+    """A fresh file holding a plane, Cycles on the CPU at 1 sample."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.samples = 1
     scene.cycles.device = "CPU"
     bpy.ops.mesh.primitive_plane_add()
-    obj = bpy.context.object
+    return bpy.context.object
+
+
+def test_the_output_cycles_renders_is_the_one_the_checks_read():
+    obj = _cycles_plane()
     image = bpy.data.images.new("Emit", 4, 4, float_buffer=True)
     cases = [([("R", "ALL"), ("G", "CYCLES")], 0),          # active All, inactive Cycles
              ([("G", "CYCLES"), ("R", "ALL")], 1),
@@ -390,13 +395,7 @@ def _node(kind, **settings):
 
 
 def test_a_colour_attribute_or_tangent_the_mesh_lacks_is_refused(tmp_path):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.engine = "CYCLES"
-    scene.cycles.samples = 1
-    scene.cycles.device = "CPU"
-    bpy.ops.mesh.primitive_plane_add()
-    obj = bpy.context.object
+    obj = _cycles_plane()
     colours = obj.data.color_attributes.new("Col", "FLOAT_COLOR", "CORNER")
     colours.data.foreach_set("color", [0.6, 0.5, 0.9, 1.0] * len(colours.data))
     image = bpy.data.images.new("Emit", 4, 4, float_buffer=True)
