@@ -8,6 +8,8 @@
   Freeze took the active output whatever its target: with the stack on an active All output
   and a plain shader on a Cycles one, it reported success and wired in a flat map (every texel
   (0.5, 0.5, 1.0)); with the stack on the Cycles output it was refused ("add one").
+  Add Layer Stack (the operator and api.add_layer_stack) wired the stack into the active All
+  output's BSDF: nothing changed in a Cycles render.
 - A Bump node after the stack (SG Resolve into the Bump's Normal, the Bump into the BSDF):
   Freeze took the Bump node for a second shader fed by a stack and was refused with "2
   different surface-gradient stacks feed the BSDF Normal inputs".
@@ -477,3 +479,21 @@ def test_freeze_bakes_the_frozen_materials_faces_alone():
     images = set(bpy.data.images.keys())
     np.testing.assert_allclose(frozen_pixels(obj, mat), alone, atol=1e-6)
     assert set(bpy.data.images.keys()) == images        # the throwaway image is gone
+
+
+def test_the_layer_stack_goes_into_the_shader_cycles_renders():
+    """Add Layer Stack wired the stack into the BSDF of the active All output beside a Cycles
+    one, which Cycles does not render: no change in a Cycles render."""
+    obj = _cycles_plane()
+    mat = new_material("Two outputs")
+    tree = mat.node_tree
+    everyone = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    cycles = tree.nodes.new("ShaderNodeOutputMaterial")
+    cycles.target = "CYCLES"
+    rendered = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tree.links.new(rendered.outputs[0], cycles.inputs["Surface"])
+    everyone.is_active_output = True
+    obj.data.materials.append(mat)
+    nodes = api.add_layer_stack(mat)
+    assert rendered.inputs["Normal"].links[0].from_node == nodes["resolve"]
+    assert nodes["resolve"].outputs[0].links[0].to_node == rendered
