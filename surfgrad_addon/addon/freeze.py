@@ -96,8 +96,9 @@ def _is_shader(node):
 
 
 def find_stack(tree):
-    """(the socket the stack ends in, [(shader node, Normal input)] it feeds) for the shaders
-    reaching the active Material Output's Surface. Raises FreezeError naming the fix."""
+    """(the socket the stack ends in, [(shader node, normal input)] it feeds) for the shaders
+    reaching the Surface of the Material Output Cycles renders. Raises FreezeError naming
+    the fix."""
     output = cycles_output(tree)
     if output is None or not output.inputs["Surface"].is_linked:
         raise FreezeError("the material has no shader linked to its Material Output's Surface: "
