@@ -274,8 +274,9 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
                       overwrite=False, log=print, threads=None, verify=None, only=None):
     """Bake obj's materials into normal map file(s) at `output` (with <UDIM>: one file per
     tile); with `only` (one of them), that material's faces alone (the others bake into a
-    throwaway image: where their UVs overlap its faces', they would overwrite them). threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch
-    of several processes gives each its share). Materials linked from a library bake through
+    throwaway image: where their UVs overlap its faces', they would overwrite them).
+    threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch of
+    several processes gives each its share). Materials linked from a library bake through
     temporary local copies (linked_materials.py). verify(): called once the files are written
     and checked, before they are put in place (it raises to publish nothing). Returns a dict:
     paths {tile: Path}, tiles, uv_map, depth, warnings, bake_s, save_s."""
