@@ -318,6 +318,8 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
                                    if s.material is not None))
     if not materials:
         raise NormalBakeError(f"object {obj.name!r} has no material to bake")
+    if only is not None and only not in materials:
+        raise NormalBakeError(f"object {obj.name!r} does not render material {only.name!r}")
     fmt, _, _ = FORMATS[output.suffix.lower()]
     is_float = depth != "8"
     scene = bpy.context.scene
