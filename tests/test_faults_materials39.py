@@ -44,6 +44,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon import normal_bake as NB  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.addon.image_checks import (image_problems,  # noqa: E402
                                               uv_reference_problems)
@@ -463,7 +464,7 @@ def _quads(count):
     return obj, mat
 
 
-def test_freeze_bakes_the_frozen_materials_faces_alone():
+def test_freeze_bakes_the_frozen_materials_faces_alone(tmp_path):
     """A second material on faces whose UVs overlap the frozen material's: Blender's bake
     writes every material's faces, and they overwrote the frozen map (every texel of it
     here, up to 0.94 off in 0..1, exit 0)."""
@@ -479,6 +480,11 @@ def test_freeze_bakes_the_frozen_materials_faces_alone():
     images = set(bpy.data.images.keys())
     np.testing.assert_allclose(frozen_pixels(obj, mat), alone, atol=1e-6)
     assert set(bpy.data.images.keys()) == images        # the throwaway image is gone
+    stranger = new_material("Not on Parts")
+    with pytest.raises(NB.NormalBakeError, match="does not render material 'Not on Parts'"):
+        NB.bake_normal_tiles(obj, tmp_path / "n.png", resolution=SIZE, log=QUIET["log"],
+                             only=stranger)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_the_layer_stack_goes_into_the_shader_cycles_renders():
