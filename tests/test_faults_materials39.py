@@ -35,6 +35,9 @@
   the link unmuted. Now refused, naming the muted link.
 - The stack and its BSDF inside the artist's shader group: refused with "add one" (there is
   one); now the group is named, with the fix.
+- Normal maps into SG Triplanar (Color X, Y, Z), SG Decal (Color) and SG Blend Normals
+  (Color A, B): the warnings about an sRGB, grey or -1..1 map (given for SG Normal Map and
+  the Normal Map node) were not given for them, by bake-normal-map or Freeze.
 """
 
 import numpy as np
@@ -49,6 +52,8 @@ from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.addon.image_checks import (image_problems,  # noqa: E402
                                               uv_reference_problems)
 from surfgrad_addon.addon.material_inputs import cycles_output  # noqa: E402
+from surfgrad_addon.addon.normal_map_checks import (colour_space_warnings,  # noqa: E402
+                                                    normal_map_images)
 from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
 from support.freeze_scene import layered_material  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
@@ -503,3 +508,40 @@ def test_the_layer_stack_goes_into_the_shader_cycles_renders():
     nodes = api.add_layer_stack(mat)
     assert rendered.inputs["Normal"].links[0].from_node == nodes["resolve"]
     assert nodes["resolve"].outputs[0].links[0].to_node == rendered
+
+
+def test_normal_maps_into_triplanar_decal_and_blend_normals_are_judged():
+    """An sRGB (or grey, or -1..1) normal map into SG Triplanar, SG Decal or SG Blend Normals
+    bends every normal as it does in SG Normal Map, which was warned about; these were not:
+    the bake (and Freeze) said nothing."""
+    obj = _cycles_plane()
+    image = bpy.data.images.new("Bricks normal", 4, 4)
+    image.colorspace_settings.name = "sRGB"
+    mat = new_material("Three ways")
+    tree = mat.node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    resolve = tree.nodes.new("ShaderNodeGroup")
+    resolve.node_tree = api.node_group("SG Resolve")
+    total = resolve.inputs["Surface Gradient"]
+    for name, inputs in [("SG Triplanar", ["Color X", "Color Z"]), ("SG Decal", ["Color"]),
+                         ("SG Blend Normals", ["Color B"])]:
+        node = tree.nodes.new("ShaderNodeGroup")
+        node.name = name
+        node.node_tree = api.node_group(name)
+        for socket in inputs:
+            tree.links.new(tex.outputs["Color"], node.inputs[socket])
+        add = tree.nodes.new("ShaderNodeVectorMath")          # the layers' gradients summed
+        tree.links.new(add.outputs[0], total)
+        tree.links.new(node.outputs[0], add.inputs[0])
+        total = add.inputs[1]
+    bsdf = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled")
+    tree.links.new(resolve.outputs[0], bsdf.inputs["Normal"])
+    obj.data.materials.append(mat)
+    read = sorted(what for _, what, img, _ in normal_map_images(obj) if img == image)
+    assert read == ["SG Blend Normals node 'SG Blend Normals' (Color B)", "SG Decal node "
+                    "'SG Decal'", "SG Triplanar node 'SG Triplanar' (Color X)",
+                    "SG Triplanar node 'SG Triplanar' (Color Z)"], read
+    warnings = colour_space_warnings(obj)
+    assert len(warnings) == 4 and all("'Bricks normal' is read in colour space 'sRGB'" in w
+                                      for w in warnings), warnings
