@@ -121,24 +121,31 @@ def test_the_output_cycles_renders_is_the_one_the_checks_read():
     assert cycles_output(obj.active_material.node_tree) is None       # Cycles renders none
 
 
+def _beside_a_cycles_output(tree):
+    """A Diffuse BSDF into a new Material Output targeted at Cycles, beside the tree's All
+    output, made the active one: (the All output, the Cycles output, its Diffuse BSDF)."""
+    everyone = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
+    cycles = tree.nodes.new("ShaderNodeOutputMaterial")
+    cycles.target = "CYCLES"
+    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tree.links.new(diffuse.outputs[0], cycles.inputs["Surface"])
+    everyone.is_active_output = True
+    return everyone, cycles, diffuse
+
+
 def test_an_image_on_the_cycles_output_is_checked_beside_an_active_all_output():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.mesh.primitive_plane_add()
     obj = bpy.context.object
     mat = new_material("Two outputs")
     tree = mat.node_tree
-    everyone = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
-    cycles = tree.nodes.new("ShaderNodeOutputMaterial")
-    cycles.target = "CYCLES"
-    diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    everyone, cycles, diffuse = _beside_a_cycles_output(tree)
     tex = tree.nodes.new("ShaderNodeTexImage")
     tex.name = "CyclesBumps"
     tex.image = bpy.data.images.new("gone.png", 4, 4)
     tex.image.source = "FILE"
     tex.image.filepath = "/nonexistent/surfgrad/gone.png"
     tree.links.new(tex.outputs["Color"], diffuse.inputs["Color"])
-    tree.links.new(diffuse.outputs[0], cycles.inputs["Surface"])
-    everyone.is_active_output = True
     obj.data.materials.append(mat)
     assert everyone.is_active_output and not cycles.is_active_output
     text = "\n".join(image_problems(obj))
@@ -175,12 +182,7 @@ def plain(sphere):
 def test_freeze_bakes_through_the_output_cycles_renders(sphere, plain):
     obj, mat, bsdf = sphere
     tree = mat.node_tree
-    everyone = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
-    cycles = tree.nodes.new("ShaderNodeOutputMaterial")
-    cycles.target = "CYCLES"
-    other = tree.nodes.new("ShaderNodeBsdfDiffuse")
-    tree.links.new(other.outputs[0], cycles.inputs["Surface"])
-    everyone.is_active_output = True
+    everyone, cycles, other = _beside_a_cycles_output(tree)
     try:
         # The stack on the active All output, which Cycles does not render: refused, named.
         before = material_dump(mat)
@@ -498,12 +500,7 @@ def test_the_layer_stack_goes_into_the_shader_cycles_renders():
     obj = _cycles_plane()
     mat = new_material("Two outputs")
     tree = mat.node_tree
-    everyone = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial")
-    cycles = tree.nodes.new("ShaderNodeOutputMaterial")
-    cycles.target = "CYCLES"
-    rendered = tree.nodes.new("ShaderNodeBsdfDiffuse")
-    tree.links.new(rendered.outputs[0], cycles.inputs["Surface"])
-    everyone.is_active_output = True
+    _, _, rendered = _beside_a_cycles_output(tree)
     obj.data.materials.append(mat)
     nodes = api.add_layer_stack(mat)
     assert rendered.inputs["Normal"].links[0].from_node == nodes["resolve"]
