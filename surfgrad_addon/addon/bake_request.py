@@ -9,7 +9,7 @@ files and the bake-batch planner) builds a BakeRequest and runs the same checks 
   area; far from the origin and overlapping UV islands (contested texels) are warnings;
 - the UV map and its tiles (reference.tiles): finite UVs with area, a layout the output covers;
   faces outside the UDIM range are an error unless allow_partial, then a printed warning;
-- every image the object's materials read (from the active Material Output, into node
+- every image the object's materials read (from the Material Output Cycles renders, into node
   groups): packed or on disk, loadable, and with finite pixels when float (image_checks.py);
 - the output: format and bit depth, a folder that exists and takes a file (a probe file is
   created and removed), no file replaced unless overwrite, never an image the materials read.

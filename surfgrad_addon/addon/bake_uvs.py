@@ -101,6 +101,7 @@ class BakedMesh:
     nonfinite_normals: int = 0              # face corners whose normal is NaN or Inf
     attribute_names: frozenset = frozenset()    # of the rendered mesh (UV maps among them)
     active_uv: str = None                   # its active UV map (tangent_uv.py)
+    colour_attributes: tuple = ()           # its colour attributes' names
 
 
 _meshes = ReadOnce()           # {object pointer: BakedMesh} inside one_read()
@@ -137,7 +138,8 @@ def baked_mesh(obj):
                              tuple(s.material is not None for s in evaluated.material_slots),
                              int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))),
                              frozenset(a.name for a in mesh.attributes),
-                             mesh.uv_layers.active.name if mesh.uv_layers.active else None)
+                             mesh.uv_layers.active.name if mesh.uv_layers.active else None,
+                             tuple(a.name for a in mesh.color_attributes))
         finally:
             evaluated.to_mesh_clear()
     return _meshes.get(obj.as_pointer(), lambda: read_as_baked(obj, read))

@@ -24,13 +24,16 @@ from . import normal_bake as NB
 from .bake_target import object_not_a_mesh
 from .bake_uvs import one_read
 from .image_checks import image_problems
-from .material_inputs import edits_lost, linked_text
+from .material_inputs import cycles_output, edits_lost, linked_text
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
 FRAME_LABEL = ADDED_LABEL + "live stack (frozen into {})"
 SG_PREFIX = "SG "
 NORMAL = "Normal"
+# A BSDF's normal inputs (Principled BSDF's coat has its own): the frozen map goes into each
+# the stack feeds, or the frozen material would still run the live stack for the others.
+NORMAL_INPUTS = (NORMAL, "Coat Normal")
 
 
 class FreezeError(ValueError):
@@ -41,11 +44,6 @@ class FreezeCancelled(FreezeError):
     """The user cancelled; the material is as it was."""
 
 
-def _output(tree):
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
-    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
-
-
 @contextmanager
 def _baking_the_stack_alone(tree, end):
     """For the bake only: the Material Output's Surface fed by a Diffuse BSDF whose Normal is
@@ -54,7 +52,7 @@ def _baking_the_stack_alone(tree, end):
     as it is gave a visibly flatter map (mean |live - frozen| 0.0156 against 0.0078 through a
     Diffuse BSDF, 160x90 renders); the Diffuse closure's normal is the stack's. Restored after,
     also when the bake fails or is cancelled."""
-    output = _output(tree)
+    output = cycles_output(tree)
     surface = output.inputs["Surface"]
     shader = surface.links[0].from_socket
     diffuse = tree.nodes.new("ShaderNodeBsdfDiffuse")
@@ -67,44 +65,83 @@ def _baking_the_stack_alone(tree, end):
         tree.nodes.remove(diffuse)
 
 
+def _live(socket):
+    """The links into `socket` Cycles follows: a muted link (the artist's switch) is none."""
+    return [lk for lk in socket.links if lk.is_valid and not lk.is_muted]
+
+
 def _upstream(socket):
-    """Every node that feeds `socket`, at any depth (by name)."""
-    seen, todo = set(), [lk.from_node for lk in socket.links]
+    """Every node that feeds `socket`, at any depth (by name), through links Cycles follows."""
+    seen, todo = set(), [lk.from_node for lk in _live(socket)]
     while todo:
         node = todo.pop()
         if node.name in seen:
             continue
         seen.add(node.name)
-        todo += [lk.from_node for s in node.inputs for lk in s.links]
+        todo += [lk.from_node for s in node.inputs for lk in _live(s)]
     return seen
 
 
-def _is_sg(node):
+def _is_sg(node, seen=()):
+    """An SG group, or a group of the artist's with one inside (at any depth)."""
     tree = getattr(node, "node_tree", None) if node.bl_idname == "ShaderNodeGroup" else None
-    return tree is not None and tree.name.startswith(SG_PREFIX)
+    if tree is None or tree in seen:
+        return False
+    return tree.name.startswith(SG_PREFIX) or any(_is_sg(n, (*seen, tree)) for n in tree.nodes)
+
+
+def _is_shader(node):
+    """A node that makes a closure (a BSDF), not one that passes a normal on (a Bump node)."""
+    return any(o.type == "SHADER" for o in node.outputs)
 
 
 def find_stack(tree):
-    """(the socket the stack ends in, [(shader node, Normal input)] it feeds) for the shaders
-    reaching the active Material Output's Surface. Raises FreezeError naming the fix."""
-    output = _output(tree)
+    """(the socket the stack ends in, [(shader node, normal input)] it feeds) for the shaders
+    reaching the Surface of the Material Output Cycles renders. Raises FreezeError naming
+    the fix."""
+    output = cycles_output(tree)
     if output is None or not output.inputs["Surface"].is_linked:
         raise FreezeError("the material has no shader linked to its Material Output's Surface: "
-                          "link a BSDF first")
+                          "link a BSDF first (to an output targeted at All or Cycles, which "
+                          "Cycles renders)")
     shaders = [tree.nodes[n] for n in _upstream(output.inputs["Surface"])]
-    fed = [(node, node.inputs[NORMAL]) for node in shaders
-           if NORMAL in node.inputs and node.inputs[NORMAL].is_linked and
-           any(_is_sg(tree.nodes[n]) for n in _upstream(node.inputs[NORMAL]) |
-               {node.inputs[NORMAL].links[0].from_node.name})]
+    fed = [(node, s) for node in shaders if _is_shader(node) for s in node.inputs
+           if s.name in NORMAL_INPUTS and _live(s) and
+           any(_is_sg(tree.nodes[n]) for n in _upstream(s))]
+    muted = [f"{node.name!r} {s.name}" for node in shaders if _is_shader(node)
+             for s in node.inputs if s.name in NORMAL_INPUTS and s.is_linked and not _live(s)]
+    if not fed and muted:
+        raise FreezeError(f"the link into {', '.join(muted)} is muted, so Cycles renders the "
+                          f"material without what it brings: nothing to freeze; unmute it first")
+    inside = sorted({repr(n.node_tree.name) for n in shaders if _is_shader(n) and _is_sg(n)})
+    if not fed and inside:
+        raise FreezeError(f"the stack is inside shader node group {', '.join(inside)}: Freeze "
+                          f"wires the frozen map into the material's own BSDF Normal inputs "
+                          f"(a group may serve other materials too); ungroup it (Ctrl+Alt+G) "
+                          f"or bring the stack's normal out of the group into a BSDF in the "
+                          f"material, then freeze")
     if not fed:
-        raise FreezeError("no surface-gradient stack feeds a BSDF Normal input: add one "
-                          "(Add > Surface Gradient > Add Surface-Gradient Layer Stack) first")
-    ends = {(s.links[0].from_node.name, s.links[0].from_socket.identifier) for _, s in fed}
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
+        which = (f" of the shader Cycles renders (through {output.name!r}, targeted at "
+                 f"{output.target.title()}: Cycles takes a Cycles output before an All one, "
+                 f"then the active one)" if len(outputs) > 1 else "")
+        raise FreezeError(f"no surface-gradient stack feeds a BSDF Normal input{which}: add one "
+                          f"(Add > Surface Gradient > Add Surface-Gradient Layer Stack) first")
+    ends = {(_source(s).node.name, _source(s).identifier) for _, s in fed}
     if len(ends) > 1:
         raise FreezeError(f"{len(ends)} different surface-gradient stacks feed the BSDF Normal "
                           f"inputs; one normal map holds one: feed them all from one SG "
                           f"Resolve, or freeze a material with one stack")
-    return fed[0][1].links[0].from_socket, fed
+    return _source(fed[0][1]), fed
+
+
+def _source(socket):
+    """The output feeding `socket`, through reroutes (one stack may reach several inputs
+    through reroutes of its own)."""
+    source = socket.links[0].from_socket
+    while source.node.bl_idname == "NodeReroute" and _live(source.node.inputs[0]):
+        source = _live(source.node.inputs[0])[0].from_socket
+    return source
 
 
 def _stack_nodes(tree, fed):
@@ -232,7 +269,7 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
     try:
         with _baking_the_stack_alone(tree, end):
             NB.bake_normal_tiles(obj, baked, "tangent", resolution, uv_map, samples=samples,
-                                 depth=depth, overwrite=True, log=log)
+                                 depth=depth, overwrite=True, log=log, only=mat)
         yield "baked"
         image = bpy.data.images.load(str(baked), check_existing=False)
         image.name = path.name if path else f"{stem}{suffix}"
@@ -240,7 +277,7 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
         if path is None:
             image.pack()
             image.filepath_raw = f"//{image.name}"    # where File > Unpack would put it
-        record = _wire(mat, tree, end, fed, uv_map, image)
+        record = _wire(mat, tree, fed, uv_map, image)
         try:
             yield "wired"                         # the last chance to cancel: nothing written
             if path is not None:
@@ -294,14 +331,14 @@ def _drawn_at(node):
     return x, y
 
 
-def _wire(mat, tree, end, fed, uv_map, image):
+def _wire(mat, tree, fed, uv_map, image):
     """Add the frozen chain, link it into the fed Normal inputs, frame the stack; returns the
     record (also stored on the material). Undone in full if anything fails."""
     x = min(_drawn_at(node)[0] for node, _ in fed)
     y = min(_drawn_at(node)[1] for node, _ in fed)
     record = {"image": image.name, "image_created": True, "file": "",
-              "links": [[end.node.name, end.identifier, node.name, s.identifier]
-                        for node, s in fed],
+              "links": [[s.links[0].from_node.name, s.links[0].from_socket.identifier,
+                         node.name, s.identifier] for node, s in fed],
               "added": [], "moved": {}, "frame": ""}
     stack = _stack_nodes(tree, fed)          # before the frozen chain takes their place
     try:

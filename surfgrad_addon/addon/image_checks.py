@@ -165,8 +165,8 @@ def output_input_problems(obj, finals):
 
 
 def uv_reference_problems(obj, only=None):
-    """Nodes naming a UV map (or attribute) the mesh the bake renders does not have (in the
-    object's materials, or material `only`). That mesh, not the viewport's: a modifier on in
+    """Nodes naming a UV map (an attribute, a colour attribute) the mesh the bake renders lacks
+    (in the object's materials, or material `only`). That mesh, not the viewport's: a modifier on in
     renders only that writes the UV map was refused, one on in the viewport only baked a flat
     map with exit 0."""
     baked = baked_mesh(obj)
@@ -179,7 +179,9 @@ def uv_reference_problems(obj, only=None):
             continue
         for node, path, _ in material_nodes(mat, memo):
             problem = MI.uv_name_problem(mat, path, node, obj.data.name, baked.layout,
-                                         baked.attribute_names, as_rendered)
+                                         baked.attribute_names, as_rendered) or \
+                MI.colour_attribute_problem(mat, path, node, obj.data.name,
+                                            baked.colour_attributes, as_rendered)
             if problem:
                 out.append(problem)
     return out

@@ -14,11 +14,15 @@ BUILT_IN = {"position", "normal", "generated", "orco", "tangent", "uv"}
 
 
 def cycles_output(tree):
-    """The Material Output node Cycles renders through: of the outputs targeted at All or
-    Cycles, the active one, else the first (Blender's ntreeShaderOutputNode rule)."""
-    outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
-               and getattr(n, "target", "ALL") in ("ALL", "CYCLES")]
-    return next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    """The Material Output node Cycles renders through (Blender's ntreeShaderOutputNode rule):
+    an output targeted at Cycles wins over one targeted at All, even an active one; within the
+    target, the active one, else the first. None when every output is EEVEE's."""
+    for target in ("CYCLES", "ALL"):
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
+                   and getattr(n, "target", "ALL") == target]
+        if outputs:
+            return next((n for n in outputs if n.is_active_output), outputs[0])
+    return None
 
 
 def sequence_frame(image_user, scene_frame):
@@ -138,7 +142,8 @@ def uv_name_problem(mat, path, node, mesh_name, uv_maps, attributes, as_rendered
     kind = node.bl_idname
     if kind == "ShaderNodeNormalMap" and node.space == "TANGENT":
         name, what = node.uv_map, "UV map"
-    elif kind == "ShaderNodeUVMap":
+    elif kind == "ShaderNodeUVMap" or (kind == "ShaderNodeTangent" and
+                                       node.direction_type == "UV_MAP"):
         name, what = node.uv_map, "UV map"
     elif kind == "ShaderNodeAttribute" and node.attribute_type == "GEOMETRY":
         name, what = node.attribute_name, "attribute"
@@ -151,3 +156,20 @@ def uv_name_problem(mat, path, node, mesh_name, uv_maps, attributes, as_rendered
     return (f"node {path!r} (material {mat.name!r}) reads {what} {name!r}, which mesh "
             f"{mesh_name!r}{as_rendered} does not have (UV maps: {maps}): the bake would read "
             f"nothing there; pick one of its UV maps in the node, or rename the UV map")
+
+
+def colour_attribute_problem(mat, path, node, mesh_name, colours, as_rendered=""):
+    """A Color Attribute node naming no colour attribute of the mesh the bake renders
+    (`colours`, their names), or none named and the mesh has none: Cycles bakes zero there
+    (tests/test_faults_materials39.py), and for an attribute of another kind (a UV map) reads
+    past it: measured, a crash (SIGSEGV) on every line, at times values near 1e25 on 4.2."""
+    if node.bl_idname != "ShaderNodeVertexColor" or node.layer_name in colours or \
+            (not node.layer_name and colours):
+        return None
+    what = f"colour attribute {node.layer_name!r}" if node.layer_name else \
+        "the active render colour attribute"
+    return (f"node {path!r} (material {mat.name!r}) reads {what}, which mesh {mesh_name!r}"
+            f"{as_rendered} does not have (colour attributes: {list(colours)}): the bake "
+            f"would read nothing there, or a crash or garbage for an attribute of another "
+            f"kind (a UV map); pick one of its colour attributes in the node, or read a UV "
+            f"map or other attribute with an Attribute node")

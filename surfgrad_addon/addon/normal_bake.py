@@ -271,20 +271,22 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
 
 def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,
                       margin=16, samples=1, depth=None, tiles=None, empty_tiles="error",
-                      overwrite=False, log=print, threads=None, verify=None):
+                      overwrite=False, log=print, threads=None, verify=None, only=None):
     """Bake obj's materials into normal map file(s) at `output` (with <UDIM>: one file per
-    tile). threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch
-    of several processes gives each its share). Materials linked from a library bake through
+    tile); with `only` (one of them), that material's faces alone (the others bake into a
+    throwaway image: where their UVs overlap its faces', they would overwrite them).
+    threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch of
+    several processes gives each its share). Materials linked from a library bake through
     temporary local copies (linked_materials.py). verify(): called once the files are written
     and checked, before they are put in place (it raises to publish nothing). Returns a dict:
     paths {tile: Path}, tiles, uv_map, depth, warnings, bake_s, save_s."""
     with one_read(), local_copies(obj):    # one render-mode pass: the plan, the tangents
         return _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth,
-                           tiles, empty_tiles, overwrite, log, threads, verify)
+                           tiles, empty_tiles, overwrite, log, threads, verify, only)
 
 
 def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, tiles,
-                empty_tiles, overwrite, log, threads, verify=None):
+                empty_tiles, overwrite, log, threads, verify=None, only=None):
     import bpy
 
     output = check_output(output)
@@ -316,6 +318,8 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
                                    if s.material is not None))
     if not materials:
         raise NormalBakeError(f"object {obj.name!r} has no material to bake")
+    if only is not None and only not in materials:
+        raise NormalBakeError(f"object {obj.name!r} does not render material {only.name!r}")
     fmt, _, _ = FORMATS[output.suffix.lower()]
     is_float = depth != "8"
     scene = bpy.context.scene
@@ -325,6 +329,9 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
     image = bpy.data.images.new(f"{obj.name}_normal", resolution, resolution, alpha=False,
                                 float_buffer=is_float, tiled=udim)
     image.colorspace_settings.is_data = True
+    # Blender's bake needs an image in every material; the ones not asked for get this one.
+    others = None if only is None or materials == [only] else \
+        bpy.data.images.new(f"{obj.name}_other_materials", 8, 8, tiled=udim)
     added, temps = [], {}
     settings = SCENE_SETTINGS + ("render.bake.normal_space", "render.threads_mode",
                                  "render.threads")
@@ -334,7 +341,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         for mat in materials:
             tree = mat.node_tree
             node = tree.nodes.new("ShaderNodeTexImage")
-            node.image = image
+            node.image = image if only in (None, mat) else others
             added.append((tree, node, tree.nodes.active))
             tree.nodes.active = node
         active_uv = mesh.uv_layers.active.name
@@ -419,6 +426,8 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
             tree.nodes.remove(node)
             tree.nodes.active = previous
         bpy.data.images.remove(image)
+        if others is not None:
+            bpy.data.images.remove(others)
         for p in temps.values():              # a failed save leaves nothing half-written
             if p.exists():
                 p.unlink()

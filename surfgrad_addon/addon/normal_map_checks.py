@@ -28,8 +28,12 @@ from .image_checks import (data_key, image_files, objects_nodes, packed_tile_fil
 from .header_reads import path_headers
 from .image_channels import layered_file, path_channels, read_channels
 
-# The nodes whose Color input takes a tangent-space normal map (0..1, three channels).
-NORMAL_MAP_GROUPS = ("SG Normal Map", "SG Tangent Normal")
+# The nodes' inputs that take a tangent-space normal map (0..1, three channels).
+NORMAL_MAP_INPUTS = {"Normal Map": ("Color",), "SG Normal Map": ("Color",),
+                     "SG Tangent Normal": ("Color",), "SG Decal": ("Color",),
+                     "SG Triplanar": ("Color X", "Color Y", "Color Z"),
+                     "SG Blend Normals": ("Color A", "Color B")}
+NORMAL_MAP_GROUPS = tuple(name for name in NORMAL_MAP_INPUTS if name.startswith("SG "))
 # ... with a per-UV-map suffix ("SG Normal Map [Detail]") or Blender's copy number (".001")
 _GROUP_NAME = re.compile(rf"({'|'.join(map(re.escape, NORMAL_MAP_GROUPS))})( \[.*\])?(\.\d+)?")
 # The working (scene linear) space before 5.0 made it a file setting (bpy.data.colorspace):
@@ -41,14 +45,18 @@ NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filter
 def normal_map_images(obj, only=None):
     """[(material, what the node is and its path, image, its Image Texture node)] for every
     image node whose Color output is read (through reroutes, and into node groups through
-    their inputs) into the Color input of a Normal Map node, an SG Normal Map or an SG Tangent
-    Normal the object's materials (or material `only`) reach."""
+    their inputs) into a normal map input (NORMAL_MAP_INPUTS: a Normal Map node's Color, SG
+    Normal Map's, SG Triplanar's Color X, ...) of a node the object's materials (or material
+    `only`) reach."""
     out = []
     for mat, node, path, outer in objects_nodes(obj, only):
         kind = _normal_map_kind(node)
-        tex = texture_feeding(node.inputs.get("Color"), outer) if kind else None
-        if tex is not None and tex.image is not None:
-            out.append((mat, f"{kind} node {path!r}", tex.image, tex))
+        names = NORMAL_MAP_INPUTS.get(kind, ())
+        for name in names:
+            tex = texture_feeding(node.inputs.get(name), outer)
+            if tex is not None and tex.image is not None:
+                which = f" ({name})" if len(names) > 1 else ""
+                out.append((mat, f"{kind} node {path!r}{which}", tex.image, tex))
     return out
 
 
@@ -82,8 +90,8 @@ def data_space():
 
 
 def colour_space_warnings(obj, only=None):
-    """A warning per image read as colour into the Color of a Normal Map node, an SG Normal Map
-    or an SG Tangent Normal (normal_map_images): sRGB (or any colour space that is not data)
+    """A warning per image read as colour into a normal map input of a Normal Map node or an
+    SG group (normal_map_images): sRGB (or any colour space that is not data)
     bends every texel's normal, and the bake, like Cycles' render, takes the bent one."""
     out, data = [], None
     for mat, node, image, _ in normal_map_images(obj, only):

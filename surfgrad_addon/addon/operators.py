@@ -13,7 +13,7 @@ from bpy.props import EnumProperty, StringProperty
 from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
 from .enum_input import set_choice
-from .material_inputs import edits_lost, linked_text
+from .material_inputs import cycles_output, edits_lost, linked_text
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .group_updates import draw_stale_warning, report_notes, take_notes
@@ -112,10 +112,11 @@ def _prebuild(tree, *builders):
 
 
 def _surface_shader(tree):
-    """The node linked (through reroutes) to the active Material Output's Surface, with a
-    Normal input."""
+    """The node linked (through reroutes) to the Surface of the Material Output the scene
+    renders through (in Cycles: cycles_output; else the active one), with a Normal input."""
     outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
-    output = next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    output = cycles_output(tree) if bpy.context.scene.render.engine == "CYCLES" else \
+        next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
     if output is None or not output.inputs["Surface"].is_linked:
         raise SurfgradError("The material has no shader linked to its Material Output's "
                             "Surface: link a BSDF first")
