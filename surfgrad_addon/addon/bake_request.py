@@ -36,6 +36,7 @@ from . import input_stamps
 from . import unrealized_instances as UI
 from .bake_console import heartbeat
 from .bake_uvs import baked_mesh, one_read
+from .cache_files import unread_cache_problems
 from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
@@ -323,9 +324,12 @@ def _inputs_unchanged(checked):
 
 def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
     """The evaluated mesh as the bake sees it (bake_uvs.baked_mesh: modifiers at their
-    render settings): finite positions, faces with area, finite UVs with area in `uv_map`;
-    far from the origin, and texels of `tiles` that overlapping UV islands contest at
+    render settings): its mesh caches read (cache_files.py), finite positions, faces with
+    area, finite UVs with area in `uv_map`; far from the origin, and texels of `tiles` that overlapping UV islands contest at
     `resolution`, add warnings."""
+    stale = unread_cache_problems(obj)      # (the mesh read would be the import's, not the cache's)
+    if stale:
+        return stale
     baked = baked_mesh(obj)
     positions, tris, matrix = baked.positions, baked.triangles, baked.matrix
     uv = baked.triangle_uvs.get(uv_map) if uv_map else None

@@ -1,0 +1,94 @@
+"""Red team 39d: assets as a pipeline TD receives them from other tools (Blender's own
+exporters and importers, run here on a few-face mesh made by code).
+
+1. An Alembic import of an animated mesh reads its shape through a Mesh Sequence Cache
+   modifier from the .abc file. Where that file is gone (the .blend moved to the farm without
+   it, a relative path broken) or damaged, Blender only logs "Could not create cache reader"
+   and renders the mesh the import stored (the first frame's): bake-normal-map wrote that
+   stale shape's map with exit 0 (an object-space map 0.38 off in 0..1 on 5.2 against the
+   cache's frame 10). Now refused, naming the modifier, the file and the fix
+   (addon/cache_files.py).
+"""
+
+import hashlib
+import shutil
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
+from test_faults_scene_settings import _pixels  # noqa: E402
+from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+RES = 16
+
+
+def _sha(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _alembic_asset(tmp_path):
+    """tmp_path/scene.blend: an Alembic import (cache tmp_path/anim.abc, relative) of a grid
+    whose shape key bends it over frames 1..10, at frame 10, with a material."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj = _object("Grid", [_grid(n=4)])
+    obj.shape_key_add(name="Basis")
+    key = obj.shape_key_add(name="Bend")
+    co = np.array([v.co for v in obj.data.vertices])
+    co[:, 2] += 0.5 * co[:, 0] ** 2
+    key.data.foreach_set("co", co.ravel())
+    for frame, value in ((1, 0.0), (10, 1.0)):
+        key.value = value
+        key.keyframe_insert("value", frame=frame)
+    abc = tmp_path / "anim.abc"
+    bpy.ops.wm.alembic_export(filepath=str(abc), start=1, end=10)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.wm.alembic_import(filepath=str(abc), relative_path=True)
+    (obj,) = [o for o in bpy.data.objects if o.type == "MESH"]
+    assert [m.type for m in obj.modifiers] == ["MESH_SEQUENCE_CACHE"]
+    obj.data.materials.clear()
+    obj.data.materials.append(diffuse_material("Mat")[0])
+    bpy.context.scene.frame_set(10)
+    blend = tmp_path / "scene.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), relative_remap=True)
+    return blend, abc, obj.name
+
+
+def _bake(capsys, blend, name, out):
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", name,
+                           "--output", str(out), "--resolution", str(RES), "--space",
+                           "object", "--margin", "0"])
+    return rc, capsys.readouterr().err
+
+
+def test_an_alembic_cache_that_cannot_be_read_is_refused(tmp_path, capsys):
+    blend, abc, name = _alembic_asset(tmp_path)
+    sha = _sha(blend)
+    rc, err = _bake(capsys, blend, name, tmp_path / "read.png")
+    assert rc == exit_codes.OK, err
+    bent = _pixels(tmp_path / "read.png")
+    # The cache's frame 10 is bent along x: object-space normals lean in x (not the flat
+    # first frame's, which the stale mesh gives).
+    assert np.abs(bent[..., 0] * 2 - 1).max() > 0.3
+    gone = tmp_path / "elsewhere"
+    gone.mkdir()
+    shutil.move(abc, gone / abc.name)
+    rc, err = _bake(capsys, blend, name, tmp_path / "missing.png")
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert "modifier 'MeshSequenceCache'" in err and "//anim.abc" in err and "missing" in err, err
+    assert "Find Missing Files" in err and "Traceback" not in err
+    abc.write_bytes(b"not an archive " * 8)          # damaged
+    rc, err = _bake(capsys, blend, name, tmp_path / "damaged.png")
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert "could not read" in err and "//anim.abc" in err, err
+    assert not (tmp_path / "missing.png").exists() and not (tmp_path / "damaged.png").exists()
+    assert _sha(blend) == sha
+    shutil.move(gone / abc.name, abc)                  # back: bakes the cache's frame again
+    rc, err = _bake(capsys, blend, name, tmp_path / "again.png")
+    assert rc == exit_codes.OK, err
+    assert np.array_equal(_pixels(tmp_path / "again.png"), bent)
