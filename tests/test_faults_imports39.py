@@ -8,9 +8,16 @@ exporters and importers, run here on a few-face mesh made by code).
    stale shape's map with exit 0 (an object-space map 0.38 off in 0..1 on 5.2 against the
    cache's frame 10). Now refused, naming the modifier, the file and the fix
    (addon/cache_files.py).
+2. An asset list naming an object whose name ends in a space ("Rock " beside "Rock": a
+   duplicate an importer or a script renamed): each line was stripped, so the batch baked
+   "Rock" in its place, exit 0 (and "Rock " alone could not be named in a list at all). Now
+   the name is kept as written; a name the file lacks falls back to it without the trailing
+   spaces (a stray space an editor left), as before (batch/plan.read_asset_list,
+   batch/session.scan_open_file).
 """
 
 import hashlib
+import json
 import shutil
 
 import numpy as np
@@ -19,6 +26,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon.batch import plan  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 from test_faults_scene_settings import _pixels  # noqa: E402
 from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
@@ -92,3 +100,29 @@ def test_an_alembic_cache_that_cannot_be_read_is_refused(tmp_path, capsys):
     rc, err = _bake(capsys, blend, name, tmp_path / "again.png")
     assert rc == exit_codes.OK, err
     assert np.array_equal(_pixels(tmp_path / "again.png"), bent)
+
+
+def test_an_asset_list_keeps_an_object_name_s_trailing_spaces(tmp_path, capsys):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mat = diffuse_material("Mat")[0]
+    # "Rock" flat, "Rock " bumped: an object-space map tells them apart.
+    for name, n, bump in (("Rock", 1, 0.0), ("Rock ", 4, 1.0), ("Stone", 1, 0.0)):
+        verts, faces, uvs = _grid(n=n)
+        verts[:, 2] *= bump
+        _object(name, [(verts, faces, uvs)]).data.materials.append(mat)
+    blend = tmp_path / "a.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    listing = tmp_path / "list.txt"
+    listing.write_text("a.blend:Rock \n  a.blend:Stone \t\n")
+    assert plan.read_asset_list(listing) == [f"{blend}:Rock ", f"{blend}:Stone \t"]
+    rc = commands.execute(["bake-batch", "--asset-list", str(listing), "--output",
+                           str(tmp_path / "maps" / "{object}.png"), "--resolution", str(RES),
+                           "--space", "object", "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.OK, err
+    manifest = json.loads((tmp_path / "maps" / "surfgrad-bake-manifest.json").read_text())
+    assert sorted(a["object"] for a in manifest["assets"].values()) == ["Rock ", "Stone"]
+    rock = _pixels(tmp_path / "maps" / "Rock.png") * 2 - 1
+    assert np.abs(rock[..., 0]).max() > 0.2                 # the bumped "Rock ", not "Rock"
+    stone = _pixels(tmp_path / "maps" / "Stone.png") * 2 - 1
+    assert np.abs(stone - (0, 0, 1)).max() < 0.02           # flat: the stray tab was dropped

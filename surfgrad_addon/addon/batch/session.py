@@ -36,6 +36,8 @@ def scan_open_file(objects=None, collections=None, everything=False):
                 errors.append({"object": pattern, "error": bad})
                 continue
             exact = bpy.data.objects.get(pattern)       # a name with * or [ in it is a name
+            if exact is None and pattern != pattern.strip():    # a list line's stray spaces
+                exact = bpy.data.objects.get(pattern.strip())
             hits = [exact] if exact else \
                 [o for o in bpy.data.objects if fnmatch.fnmatchcase(o.name, pattern)]
             if not hits:
