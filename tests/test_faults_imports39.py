@@ -14,6 +14,12 @@ exporters and importers, run here on a few-face mesh made by code).
    the name is kept as written; a name the file lacks falls back to it without the trailing
    spaces (a stray space an editor left), as before (batch/plan.read_asset_list,
    batch/session.scan_open_file).
+3. An object name longer than Blender keeps (63 bytes up to 4.5, 255 from 5.0), as another
+   tool's asset list gives it: Blender cut it when the object was made, at a whole UTF-8
+   character (an "é" across the limit goes whole). bake-batch failed the asset with "no object
+   named '...' in a.blend" (exit 1) and named no fix; bake-normal-map and compare listed the
+   objects. Now each says the name's length, the line's limit and the name the file has
+   (addon/object_names.py).
 """
 
 import hashlib
@@ -126,3 +132,31 @@ def test_an_asset_list_keeps_an_object_name_s_trailing_spaces(tmp_path, capsys):
     assert np.abs(rock[..., 0]).max() > 0.2                 # the bumped "Rock ", not "Rock"
     stone = _pixels(tmp_path / "maps" / "Stone.png") * 2 - 1
     assert np.abs(stone - (0, 0, 1)).max() < 0.02           # flat: the stray tab was dropped
+
+
+def test_a_name_longer_than_blender_keeps_is_refused_with_the_name_the_file_has(tmp_path,
+                                                                               capsys):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    limit = bpy.types.ID.bl_rna.properties["name"].length_max - 1
+    assert limit == (63 if bpy.app.version < (5, 0, 0) else 255)     # the line's fact
+    full = "x" * (limit - 1) + "\u00e9"        # the 2-byte "é" crosses the limit
+    obj = _object(full, [_grid(n=1)])
+    obj.data.materials.append(diffuse_material("Mat")[0])
+    assert obj.name == "x" * (limit - 1)          # Blender dropped the "é" whole
+    cut = obj.name
+    blend = tmp_path / "a.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    listing = tmp_path / "list.txt"
+    listing.write_text(f"a.blend:{full}\n", encoding="utf-8")
+    out = tmp_path / "maps" / "{object}.png"
+    rc = commands.execute(["bake-batch", "--asset-list", str(listing), "--output", str(out),
+                           "--resolution", str(RES), "--workers", "0"])
+    err = capsys.readouterr().err
+    fix = f"is {limit + 1} bytes, and Blender {bpy.app.version[0]}.{bpy.app.version[1]} " \
+          f"keeps {limit}, so the object is called {cut!r} in the file: give that name"
+    assert rc == exit_codes.BAKE_FAILED and fix in err, err
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", full,
+                           "--output", str(tmp_path / "one.png"), "--resolution", str(RES)])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST and fix in err, err
+    assert not (tmp_path / "one.png").exists() and not list((tmp_path / "maps").glob("*.png"))

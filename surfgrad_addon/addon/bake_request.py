@@ -46,6 +46,7 @@ from .image_checks import image_problems, one_tile_write, output_input_problems
 from .image_memory import images_memory
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
+from .object_names import missing_object_problem
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -221,8 +222,7 @@ def _check(request, obj, warn):
     if obj is None:
         obj = bpy.data.objects.get(request.object)
         if obj is None:
-            raise BakeRequestError([f"no object named {request.object!r}; objects: "
-                                    f"{sorted(o.name for o in bpy.data.objects)}"])
+            raise BakeRequestError([missing_object_problem(request.object, where=False)])
     warnings = []
     try:
         uv_map, tiles, with_uvs, tile_warnings, outside = NB.plan_tile_layout(

@@ -14,6 +14,7 @@ from ..exit_codes import MapNotWritten
 from ..image_checks import data_key, image_problems
 from ..input_stamps import read_files
 from ..material_inputs import missing_library_problem
+from ..object_names import missing_object_problem
 from .. import normal_bake as NB
 from .. import utf8_names
 
@@ -41,8 +42,7 @@ def scan_open_file(objects=None, collections=None, everything=False):
             hits = [exact] if exact else \
                 [o for o in bpy.data.objects if fnmatch.fnmatchcase(o.name, pattern)]
             if not hits:
-                errors.append({"object": pattern, "error": f"no object named {pattern!r} in "
-                               f"{Path(bpy.data.filepath).name}"})
+                errors.append({"object": pattern, "error": missing_object_problem(pattern)})
             chosen += hits
     for name in collections or ():
         coll = bpy.data.collections.get(name)
@@ -150,7 +150,7 @@ def run_request(request, log=lambda *_: None):
             _fault(request)
             obj = bpy.data.objects.get(request["object"])
             if obj is None:
-                raise NB.NormalBakeError(f"no object named {request['object']!r}")
+                raise NB.NormalBakeError(missing_object_problem(request["object"]))
             bake_request = BR.BakeRequest.from_settings(
                 obj.name, request["output"], request["settings"], tiles=request.get("tiles"),
                 empty_tiles=request.get("empty_tiles", "error"),
