@@ -7,7 +7,8 @@ exporters and importers, run here on a few-face mesh made by code).
    and renders the mesh the import stored (the first frame's): bake-normal-map wrote that
    stale shape's map with exit 0 (an object-space map 0.38 off in 0..1 on 5.2 against the
    cache's frame 10). Now refused, naming the modifier, the file and the fix
-   (addon/cache_files.py).
+   (addon/cache_files.py). A USD import of time-sampled points reads through the same
+   modifier and is held to the same rule (read: baked; missing: refused).
 2. An asset list naming an object whose name ends in a space ("Rock " beside "Rock": a
    duplicate an importer or a script renamed): each line was stripped, so the batch baked
    "Rock" in its place, exit 0 (and "Rock " alone could not be named in a list at all). Now
@@ -33,6 +34,8 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.batch import plan  # noqa: E402
+from surfgrad_addon.addon.cache_files import unread_cache_problems  # noqa: E402
+from surfgrad_addon.addon.open_blend import open_mainfile  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 from test_faults_scene_settings import _pixels  # noqa: E402
 from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
@@ -106,6 +109,47 @@ def test_an_alembic_cache_that_cannot_be_read_is_refused(tmp_path, capsys):
     rc, err = _bake(capsys, blend, name, tmp_path / "again.png")
     assert rc == exit_codes.OK, err
     assert np.array_equal(_pixels(tmp_path / "again.png"), bent)
+
+
+USDA = """#usda 1.0
+(
+    defaultPrim = "Root"
+    startTimeCode = 1
+    endTimeCode = 10
+    upAxis = "Z"
+)
+def Xform "Root"
+{
+    def Mesh "Tile"
+    {
+        int[] faceVertexCounts = [4]
+        int[] faceVertexIndices = [0, 1, 2, 3]
+        point3f[] points.timeSamples = {
+            1: [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)],
+            10: [(-1, -1, 0), (1, -1, 0.8), (1, 1, 0.8), (-1, 1, 0)],
+        }
+        texCoord2f[] primvars:st = [(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)] (
+            interpolation = "faceVarying"
+        )
+    }
+}
+"""
+
+
+def test_a_usd_mesh_cache_is_read_or_refused(tmp_path):
+    usd = tmp_path / "anim.usda"
+    usd.write_text(USDA)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.wm.usd_import(filepath=str(usd), relative_path=True)
+    assert [m.type for m in bpy.data.objects["Tile"].modifiers] == ["MESH_SEQUENCE_CACHE"]
+    blend = tmp_path / "usd.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), relative_remap=True)
+    open_mainfile(str(blend))
+    assert unread_cache_problems(bpy.data.objects["Tile"]) == []
+    usd.rename(tmp_path / "moved.usda")
+    open_mainfile(str(blend))
+    (problem,) = unread_cache_problems(bpy.data.objects["Tile"])
+    assert "'//anim.usda'" in problem and "which is missing" in problem, problem
 
 
 def test_an_asset_list_keeps_an_object_name_s_trailing_spaces(tmp_path, capsys):
