@@ -142,6 +142,7 @@ def test_a_usd_mesh_cache_is_read_or_refused(tmp_path):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.wm.usd_import(filepath=str(usd), relative_path=True)
     assert [m.type for m in bpy.data.objects["Tile"].modifiers] == ["MESH_SEQUENCE_CACHE"]
+    bpy.context.scene.frame_set(10)
     blend = tmp_path / "usd.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), relative_remap=True)
     open_mainfile(str(blend))
@@ -150,6 +151,16 @@ def test_a_usd_mesh_cache_is_read_or_refused(tmp_path):
     open_mainfile(str(blend))
     (problem,) = unread_cache_problems(bpy.data.objects["Tile"])
     assert "'//anim.usda'" in problem and "which is missing" in problem, problem
+    (tmp_path / "moved.usda").rename(usd)
+    open_mainfile(str(blend))
+    tile = bpy.data.objects["Tile"]
+    evaluated = tile.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    assert max(v.co.z for v in evaluated.vertices) > 0.1       # frame 10 read from the cache
+    tile.modifiers[0].object_path = "/Root/Nope"      # a path the file lacks: the stored mesh
+    evaluated = tile.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    assert max(abs(v.co.z) for v in evaluated.vertices) < 1e-6
+    (problem,) = unread_cache_problems(tile)
+    assert "holds no object '/Root/Nope'" in problem and "'/Root/Tile'" in problem, problem
 
 
 def test_an_asset_list_keeps_an_object_name_s_trailing_spaces(tmp_path, capsys):

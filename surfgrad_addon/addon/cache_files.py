@@ -1,7 +1,8 @@
-"""Mesh caches a bake cannot read (an Alembic or USD import's Mesh Sequence Cache modifier, a
-Transform Cache constraint) whose file moved, is gone or is damaged: Blender only logs a
-warning and renders the mesh (or transform) the import stored, another shape than the cache's
-at the current frame, so the bake wrote a map of a stale mesh with exit 0.
+"""Mesh caches a bake cannot read (an Alembic or USD import's Mesh Sequence Cache modifier)
+whose file moved, is gone or is damaged: Blender only logs a warning and renders the mesh the
+import stored, another shape than the cache's at the current frame, so the bake wrote a map of
+a stale mesh with exit 0. (A Transform Cache constraint moves the object only, which changes
+no texel of a tangent- or object-space map.)
 
 A cache Blender could read lists the file's object paths (CacheFile.object_paths, filled when
 the file is opened, not saved with the .blend); one it could not read lists none."""
@@ -10,13 +11,10 @@ from pathlib import Path
 
 
 def _users(obj):
-    """(what, cache file, object path) of each render-enabled cache reader on obj."""
+    """(what, cache file, object path) of each render-enabled mesh cache reader on obj."""
     for mod in obj.modifiers:
         if mod.type == "MESH_SEQUENCE_CACHE" and mod.show_render and mod.cache_file:
             yield f"modifier {mod.name!r}", mod.cache_file, mod.object_path
-    for con in obj.constraints:
-        if con.type == "TRANSFORM_CACHE" and con.enabled and con.cache_file:
-            yield f"constraint {con.name!r}", con.cache_file, con.object_path
 
 
 def unread_cache_problems(obj):
