@@ -21,6 +21,13 @@ exporters and importers, run here on a few-face mesh made by code).
    named '...' in a.blend" (exit 1) and named no fix; bake-normal-map and compare listed the
    objects. Now each says the name's length, the line's limit and the name the file has
    (addon/object_names.py).
+4. A .blend given to bake-batch as a symbolic link (a versioned asset store: proj/rock.blend
+   links to store/rock_v3.blend, the textures beside the link): the batch resolved the link
+   and opened the target, so Blender took the file's relative paths ('//stripes.png') from the
+   target's folder, where an older flat map lay: a flat map with exit 0 (0.25 off in the PNG's
+   0..1; the stripes 0.5 apart), while bake-normal-map of the same path, as Blender, read the
+   textures beside the link. And {file} was the target's name. Now the batch opens the path
+   as given (batch/plan.grouped_entries, batch/session.open_blend).
 """
 
 import hashlib
@@ -37,7 +44,7 @@ from surfgrad_addon.addon.batch import plan  # noqa: E402
 from surfgrad_addon.addon.cache_files import unread_cache_problems  # noqa: E402
 from surfgrad_addon.addon.open_blend import open_mainfile  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
-from test_faults_scene_settings import _pixels  # noqa: E402
+from test_faults_scene_settings import _pixels, _scene  # noqa: E402
 from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -215,3 +222,30 @@ def test_a_name_longer_than_blender_keeps_is_refused_with_the_name_the_file_has(
     err = capsys.readouterr().err
     assert rc == exit_codes.BAD_REQUEST and fix in err, err
     assert not (tmp_path / "one.png").exists() and not list((tmp_path / "maps").glob("*.png"))
+
+
+def test_a_blend_given_as_a_symbolic_link_reads_its_textures_beside_the_link(tmp_path,
+                                                                            capsys):
+    proj, store = tmp_path / "proj", tmp_path / "store"
+    proj.mkdir()
+    store.mkdir()
+    blend = _scene(proj)                     # proj/plain.blend reads '//stripes.png'
+    assert [i.filepath for i in bpy.data.images] == ["//stripes.png"]
+    shutil.move(blend, store / "plain_v3.blend")
+    blend.symlink_to(store / "plain_v3.blend")
+    flat = bpy.data.images.new("flat", 8, 8)        # an older, flat map beside the target
+    flat.pixels.foreach_set(np.tile(np.float32([0.5, 0.5, 1.0, 1.0]), 64))
+    flat.filepath_raw, flat.file_format = str(store / "stripes.png"), "PNG"
+    flat.save()
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(tmp_path / "single.png"), "--resolution", str(RES)])
+    assert rc == exit_codes.OK, capsys.readouterr().err
+    rc = commands.execute(["bake-batch", str(blend), "--output",
+                           str(tmp_path / "maps" / "{file}_{object}.png"), "--resolution",
+                           str(RES), "--workers", "0"])
+    assert rc == exit_codes.OK, capsys.readouterr().err
+    single = _pixels(tmp_path / "single.png")
+    assert np.ptp(single[..., 0]) > 0.4              # the stripes beside the link
+    (batch,) = (tmp_path / "maps").glob("*.png")
+    assert np.array_equal(_pixels(batch), single)
+    assert batch.name == "plain_Plane.png"            # {file}: the name given, not the target's

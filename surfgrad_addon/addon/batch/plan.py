@@ -5,6 +5,7 @@ tell an unchanged asset (skipped unless forced), and the time a worker may take.
 import fnmatch
 import hashlib
 import json
+import os
 import re
 from pathlib import Path
 
@@ -255,7 +256,9 @@ def grouped_entries(blends):
     per_file, whole = {}, set()
     for entry in blends:
         blend, obj = split_entry(entry)
-        blend = str(Path(blend).resolve())
+        # Not resolved: a symbolic link stays one, as Blender opens it ('//' paths are from
+        # the link's folder; resolved, the batch read the textures beside the link's target).
+        blend = os.path.abspath(blend)
         per_file.setdefault(blend, [])
         if obj:
             per_file[blend].append(obj)

@@ -120,9 +120,8 @@ def open_blend(path):
     """Open `path` unless this session opened it last and it is still the open file (every
     bake puts back what it touched); returns the seconds it took."""
     import bpy
-    path = str(Path(path).resolve())
-    if _OPENED[0] == path and bpy.data.filepath and \
-            str(Path(bpy.data.filepath).resolve()) == path:
+    path = os.path.abspath(path)        # a symbolic link opened as one (plan.grouped_entries)
+    if _OPENED[0] == path and bpy.data.filepath and os.path.abspath(bpy.data.filepath) == path:
         return 0.0
     t0 = time.perf_counter()
     from ..open_blend import open_mainfile
