@@ -28,6 +28,10 @@ exporters and importers, run here on a few-face mesh made by code).
    0..1; the stripes 0.5 apart), while bake-normal-map of the same path, as Blender, read the
    textures beside the link. And {file} was the target's name. Now the batch opens the path
    as given (batch/plan.grouped_entries, batch/session.open_blend).
+5. An object linked from a library under the name of a local object ("Rock" linked beside
+   the file's own "Rock"): bake-batch of every object baked the local one and left the linked
+   one out without a word, exit 0, where a linked object alone fails its asset naming the fix
+   (exit 1). Now it fails the same way, named "Rock [lib.blend]" (batch/session.py).
 """
 
 import hashlib
@@ -249,3 +253,27 @@ def test_a_blend_given_as_a_symbolic_link_reads_its_textures_beside_the_link(tmp
     (batch,) = (tmp_path / "maps").glob("*.png")
     assert np.array_equal(_pixels(batch), single)
     assert batch.name == "plain_Plane.png"            # {file}: the name given, not the target's
+
+
+def test_a_linked_object_under_a_local_object_s_name_is_named(tmp_path, capsys):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    _object("Rock", [_grid(n=1)]).data.materials.append(diffuse_material("Mat")[0])
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "lib.blend"))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    _object("Rock", [_grid(n=2)]).data.materials.append(diffuse_material("Own")[0])
+    with bpy.data.libraries.load(str(tmp_path / "lib.blend"), link=True) as (_, linked):
+        linked.objects = ["Rock"]
+    bpy.context.scene.collection.objects.link(linked.objects[0])
+    assert sorted(bool(o.library) for o in bpy.data.objects) == [False, True]
+    blend = tmp_path / "main.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    rc = commands.execute(["bake-batch", str(blend), "--output",
+                           str(tmp_path / "maps" / "{object}.png"), "--resolution", str(RES),
+                           "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAKE_FAILED, err
+    assert "main.blend:Rock [lib.blend]: object 'Rock' linked from library" in err, err
+    assert "Make Local" in err
+    manifest = json.loads((tmp_path / "maps" / "surfgrad-bake-manifest.json").read_text())
+    assert sorted((a["object"], a["status"]) for a in manifest["assets"].values()) == [
+        ("Rock", "baked"), ("Rock [lib.blend]", "failed")]

@@ -59,9 +59,12 @@ def scan_open_file(objects=None, collections=None, everything=False):
     with one_read():        # each object's rendered mesh read once for all its checks
         seen, assets = set(), []
         for obj in chosen:
-            if obj.name in seen:
+            if obj.as_pointer() in seen:
                 continue
-            seen.add(obj.name)
+            seen.add(obj.as_pointer())
+            if bpy.data.objects.get(obj.name) is not obj:   # was skipped without a word
+                errors.append(_shadowed(obj))
+                continue
             missing = missing_library_problem(obj)
             if missing:
                 errors.append({"object": obj.name, "error": missing})
@@ -83,6 +86,18 @@ def scan_open_file(objects=None, collections=None, everything=False):
                 entry["not_a_mesh"] = object_not_a_mesh(obj, "pick mesh objects")
             assets.append(entry)
     return {"assets": assets, "errors": errors}
+
+
+def _shadowed(obj):
+    """The failure of an object linked from a library under the name of another object of
+    the file (a local one): a bake names its object, and that name is the other's."""
+    import bpy
+    lib = Path(obj.library.filepath).name
+    return {"object": f"{obj.name} [{lib}]",
+            "error": f"object {obj.name!r} linked from library {obj.library.filepath!r} has "
+                     f"the name of another object in {Path(bpy.data.filepath).name}, which a "
+                     f"bake of {obj.name!r} takes: bake it in the library file, or make it "
+                     f"local (Object > Relations > Make Local), which gives it a name of its own"}
 
 
 def _input_problems(obj):
