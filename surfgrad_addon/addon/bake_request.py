@@ -36,6 +36,7 @@ from . import input_stamps
 from . import unrealized_instances as UI
 from .bake_console import heartbeat
 from .bake_uvs import baked_mesh, one_read
+from .cache_files import unread_cache_problems
 from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
@@ -45,6 +46,7 @@ from .image_checks import image_problems, one_tile_write, output_input_problems
 from .image_memory import images_memory
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
+from .object_names import missing_object_problem
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -220,8 +222,7 @@ def _check(request, obj, warn):
     if obj is None:
         obj = bpy.data.objects.get(request.object)
         if obj is None:
-            raise BakeRequestError([f"no object named {request.object!r}; objects: "
-                                    f"{sorted(o.name for o in bpy.data.objects)}"])
+            raise BakeRequestError([missing_object_problem(request.object, where=False)])
     warnings = []
     try:
         uv_map, tiles, with_uvs, tile_warnings, outside = NB.plan_tile_layout(
@@ -323,9 +324,12 @@ def _inputs_unchanged(checked):
 
 def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
     """The evaluated mesh as the bake sees it (bake_uvs.baked_mesh: modifiers at their
-    render settings): finite positions, faces with area, finite UVs with area in `uv_map`;
-    far from the origin, and texels of `tiles` that overlapping UV islands contest at
+    render settings): its mesh caches read (cache_files.py), finite positions, faces with
+    area, finite UVs with area in `uv_map`; far from the origin, and texels of `tiles` that overlapping UV islands contest at
     `resolution`, add warnings."""
+    stale = unread_cache_problems(obj)      # (the mesh read would be the import's, not the cache's)
+    if stale:
+        return stale
     baked = baked_mesh(obj)
     positions, tris, matrix = baked.positions, baked.triangles, baked.matrix
     uv = baked.triangle_uvs.get(uv_map) if uv_map else None

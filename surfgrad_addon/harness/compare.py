@@ -40,6 +40,7 @@ from ..addon import unrealized_instances as UI
 from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
                                   memory_problem)
 from ..addon.normal_bake import blend_relative_problem, cycles_problem, resolution_problem
+from ..addon.object_names import missing_object_problem
 from ..addon.precise_bake import precise_far
 from ..reference import image_sampling as IS
 from ..reference import methods as M
@@ -565,8 +566,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
         scenes.new_scene()
     obj = bpy.data.objects.get(object_name)
     if obj is None:
-        raise CompareError(f"no object named {object_name!r}; objects: "
-                           f"{sorted(o.name for o in bpy.data.objects)}")
+        raise CompareError(missing_object_problem(object_name, where=False))
     # A large mesh takes a minute and more (1M faces at 32^2: 69 s) that said nothing. On
     # stderr: the bake holds stdout while it runs (bake_console.quiet_bake).
     with D.selected(bpy.context.scene, cycles_device) as chosen, \

@@ -5,6 +5,7 @@ tell an unchanged asset (skipped unless forced), and the time a worker may take.
 import fnmatch
 import hashlib
 import json
+import os
 import re
 from pathlib import Path
 
@@ -255,7 +256,9 @@ def grouped_entries(blends):
     per_file, whole = {}, set()
     for entry in blends:
         blend, obj = split_entry(entry)
-        blend = str(Path(blend).resolve())
+        # Not resolved: a symbolic link stays one, as Blender opens it ('//' paths are from
+        # the link's folder; resolved, the batch read the textures beside the link's target).
+        blend = os.path.abspath(blend)
         per_file.setdefault(blend, [])
         if obj:
             per_file[blend].append(obj)
@@ -267,7 +270,8 @@ def grouped_entries(blends):
 def read_asset_list(path):
     """An asset list: one `file.blend` or `file.blend:Object` a line (# comments); relative
     paths are taken from the list's folder, `~` is the home folder (as a shell would have it
-    on the command line). Returns the entries with absolute paths."""
+    on the command line; an object's name is kept as written, trailing spaces too: the
+    session falls back to the name without them). Returns the entries with absolute paths."""
     path = Path(path)
     if path.is_dir():
         raise BatchError(f"asset list {path} is a folder: give the list's file (one .blend "
@@ -280,8 +284,8 @@ def read_asset_list(path):
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
-        blend, obj = split_entry(line)
-        p = Path(blend).expanduser()
+        blend, obj = split_entry(raw.lstrip())      # an object's name may end in spaces
+        p = Path(blend.rstrip() if obj is None else blend).expanduser()
         p = p if p.is_absolute() else path.parent / p
         entries.append(f"{p}:{obj}" if obj else str(p))
     return entries

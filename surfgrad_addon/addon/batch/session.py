@@ -14,6 +14,7 @@ from ..exit_codes import MapNotWritten
 from ..image_checks import data_key, image_problems
 from ..input_stamps import read_files
 from ..material_inputs import missing_library_problem
+from ..object_names import missing_object_problem
 from .. import normal_bake as NB
 from .. import utf8_names
 
@@ -36,11 +37,12 @@ def scan_open_file(objects=None, collections=None, everything=False):
                 errors.append({"object": pattern, "error": bad})
                 continue
             exact = bpy.data.objects.get(pattern)       # a name with * or [ in it is a name
+            if exact is None and pattern != pattern.strip():    # a list line's stray spaces
+                exact = bpy.data.objects.get(pattern.strip())
             hits = [exact] if exact else \
                 [o for o in bpy.data.objects if fnmatch.fnmatchcase(o.name, pattern)]
             if not hits:
-                errors.append({"object": pattern, "error": f"no object named {pattern!r} in "
-                               f"{Path(bpy.data.filepath).name}"})
+                errors.append({"object": pattern, "error": missing_object_problem(pattern)})
             chosen += hits
     for name in collections or ():
         coll = bpy.data.collections.get(name)
@@ -57,9 +59,12 @@ def scan_open_file(objects=None, collections=None, everything=False):
     with one_read():        # each object's rendered mesh read once for all its checks
         seen, assets = set(), []
         for obj in chosen:
-            if obj.name in seen:
+            if obj.as_pointer() in seen:
                 continue
-            seen.add(obj.name)
+            seen.add(obj.as_pointer())
+            if bpy.data.objects.get(obj.name) is not obj:   # was skipped without a word
+                errors.append(_shadowed(obj))
+                continue
             missing = missing_library_problem(obj)
             if missing:
                 errors.append({"object": obj.name, "error": missing})
@@ -81,6 +86,18 @@ def scan_open_file(objects=None, collections=None, everything=False):
                 entry["not_a_mesh"] = object_not_a_mesh(obj, "pick mesh objects")
             assets.append(entry)
     return {"assets": assets, "errors": errors}
+
+
+def _shadowed(obj):
+    """The failure of an object linked from a library under the name of another object of
+    the file (a local one): a bake names its object, and that name is the other's."""
+    import bpy
+    lib = Path(obj.library.filepath).name
+    return {"object": f"{obj.name} [{lib}]",
+            "error": f"object {obj.name!r} linked from library {obj.library.filepath!r} has "
+                     f"the name of another object in {Path(bpy.data.filepath).name}, which a "
+                     f"bake of {obj.name!r} takes: bake it in the library file, or make it "
+                     f"local (Object > Relations > Make Local), which gives it a name of its own"}
 
 
 def _input_problems(obj):
@@ -118,9 +135,8 @@ def open_blend(path):
     """Open `path` unless this session opened it last and it is still the open file (every
     bake puts back what it touched); returns the seconds it took."""
     import bpy
-    path = str(Path(path).resolve())
-    if _OPENED[0] == path and bpy.data.filepath and \
-            str(Path(bpy.data.filepath).resolve()) == path:
+    path = os.path.abspath(path)        # a symbolic link opened as one (plan.grouped_entries)
+    if _OPENED[0] == path and bpy.data.filepath and os.path.abspath(bpy.data.filepath) == path:
         return 0.0
     t0 = time.perf_counter()
     from ..open_blend import open_mainfile
@@ -148,7 +164,7 @@ def run_request(request, log=lambda *_: None):
             _fault(request)
             obj = bpy.data.objects.get(request["object"])
             if obj is None:
-                raise NB.NormalBakeError(f"no object named {request['object']!r}")
+                raise NB.NormalBakeError(missing_object_problem(request["object"]))
             bake_request = BR.BakeRequest.from_settings(
                 obj.name, request["output"], request["settings"], tiles=request.get("tiles"),
                 empty_tiles=request.get("empty_tiles", "error"),
