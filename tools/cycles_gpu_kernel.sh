@@ -4,7 +4,7 @@
 # The 5.2.3 wheel carries kernels for sm_50 to sm_86 and sm_120, none for an H100 or H200
 # (sm_90): Cycles then has the driver compile the wheel's PTX on first use, on one core (an
 # earlier try on an H200 did not see that finish within its time). ptxas from a CUDA toolkit
-# builds the same kernel from the same PTX on every core (70 and 83 s on a 16-core H100
+# builds the same kernel from the same PTX on every core (a minute or so on a 16-core H100
 # machine) into the wheel's cycles/lib, where Cycles looks before the PTX. Remove
 # kernel_sm_XY.cubin.zst there to go back to the wheel as shipped.
 # CUDA_HOME names the toolkit (default: ptxas on the PATH, else /usr/local/cuda*).

@@ -253,6 +253,81 @@ def post_resolve_table(docs):
     return rows
 
 
+def gpu_render_cost_table(docs):
+    """`bench-render` on a GPU (tools/gpu_check.sh): each SG material's render time and ratio
+    to its twin with OptiX and with CUDA on the same card, one run each (issue 21, item 4)."""
+    optix, cuda = load(docs, "gpu_render_cost_optix.json"), load(docs, "gpu_render_cost_cuda.json")
+    by_key = {r["key"]: r for r in cuda["rows"]}
+
+    def target(r):
+        if "target" not in r:
+            return ""
+        return ("met" if r["ratio"] <= r["target"] else
+                f"missed by {r['ratio'] - r['target']:.2f}")
+    rows = [f"| material | OptiX s | OptiX ratio | CUDA s | CUDA ratio | target |",
+            "|---|---|---|---|---|---|"]
+    for r in optix["rows"]:
+        c = by_key[r["key"]]
+        if "ratio" not in r:
+            rows.append(f"| {r['label']} | {r['seconds']:.3f} |  | {c['seconds']:.3f} |  |  |")
+            continue
+        t = (f"{r['target']:.2f}x: OptiX {target(r)}, CUDA {target(c)}" if "target" in r else "")
+        rows.append(f"| {r['label']} | {r['seconds']:.3f} | **{r['ratio']:.2f}x** "
+                    f"| {c['seconds']:.3f} | **{c['ratio']:.2f}x** | {t} |")
+    rows.append(f"\n{optix['cycles_device']} and {cuda['cycles_device']}, Blender "
+                f"{optix['blender']}, {optix['size']}², {optix['samples']} samples, median of "
+                f"{optix['repeats']} interleaved rounds; each bench took about "
+                f"{optix['seconds']:.0f} s and {cuda['seconds']:.0f} s.")
+    return rows
+
+
+def _worst_by_method(reports):
+    worst = {}
+    for r in reports:
+        key = (r["method"], r.get("variant"))
+        p, m = worst.get(key, (0.0, 0.0))
+        worst[key] = (max(p, r["p99_deg"]), max(m, r["max_deg"]))
+    return worst
+
+
+def gpu_compare_table(docs):
+    """`compare-all` on a GPU (OptiX): every method on every test object, against the reference
+    with exact bilinear weights (what the CPU does) and with the texture unit's 1/256 weights
+    (image_sampling.gpu_texture_filter, what a GPU compare uses now). Worst case per method."""
+    exact = load(docs, "gpu_compare_exact_weights.json")
+    model = load(docs, "gpu_compare.json")
+    a, b = _worst_by_method(exact), _worst_by_method(model)
+
+    def over(pm):
+        return pm[0] > 0.1 or pm[1] > 0.5
+    rows = ["| method | exact weights: p99 / max deg | texture unit's weights: p99 / max deg |",
+            "|---|---|---|"]
+    for key in sorted(a):
+        name = key[0] + (f" ({key[1]})" if key[1] else "")
+        cells = [f"{pm[0]:.3f} / {pm[1]:.3f}" + (" over" if over(pm) else "")
+                 for pm in (a[key], b[key])]
+        rows.append(f"| {name} | {cells[0]} | {cells[1]} |")
+    n_over = [sum(r["p99_deg"] > 0.1 or r["max_deg"] > 0.5 for r in x) for x in (exact, model)]
+    rows.append(f"\n{model[0]['cycles_device']}, Blender 5.2.3, {model[0]['resolution']}² "
+                f"texels, {len(model)} cases; over the CPU's bars (p99 0.1, max 0.5 deg): "
+                f"{n_over[0]} with exact weights, {n_over[1]} with the texture unit's.")
+    return rows
+
+
+def gpu_filter_probe_table(docs):
+    """The GPU bake of five methods against the reference with the weights exact, rounded to
+    the nearest 1/256 and floored to it (the rounding the texture unit uses)."""
+    d = load(docs, "gpu_filter_probe.json")
+    cases = sorted({k.rsplit(" ", 1)[0] for k in d})
+    rows = ["| method, object | exact | nearest 1/256 | floored 1/256 |", "|---|---|---|---|"]
+    for c in cases:
+        rows.append(f"| {c} | " + " | ".join(
+            f"{d[f'{c} {m}'][0]:.4f} / {d[f'{c} {m}'][1]:.4f}"
+            for m in ("exact", "nearest", "floor")) + " |")
+    rows.append("\np99 / max degrees, 64² texels, OptiX on an H100.")
+    return rows
+
+
 TABLES = {"bench-compare": bench_compare_table,
           "bench-compare-before": bench_compare_before_table,
           "bench-batch": bench_batch_table,
@@ -261,7 +336,10 @@ TABLES = {"bench-compare": bench_compare_table,
           "render-cost-instructions": render_cost_instructions_table,
           "render-cost-parts": render_cost_parts_table,
           "noise-footprint": noise_footprint_table,
-          "post-resolve": post_resolve_table}
+          "post-resolve": post_resolve_table,
+          "gpu-render-cost": gpu_render_cost_table,
+          "gpu-compare": gpu_compare_table,
+          "gpu-filter-probe": gpu_filter_probe_table}
 # The committed JSON each table reads (every docs/*.json must be read by one: a test checks).
 SOURCES = {"bench-compare": ("bench_compare.json",),
            "bench-compare-before": ("bench_compare_before.json",),
@@ -272,7 +350,10 @@ SOURCES = {"bench-compare": ("bench_compare.json",),
            "render-cost-instructions": ("render_cost_instructions.json",),
            "render-cost-parts": ("render_cost_parts.json",),
            "noise-footprint": ("noise_footprint.json",),
-           "post-resolve": ("exhibits/post-resolve.json",)}
+           "post-resolve": ("exhibits/post-resolve.json",),
+           "gpu-render-cost": ("gpu_render_cost_optix.json", "gpu_render_cost_cuda.json"),
+           "gpu-compare": ("gpu_compare_exact_weights.json", "gpu_compare.json"),
+           "gpu-filter-probe": ("gpu_filter_probe.json",)}
 
 
 def pages(root=ROOT):

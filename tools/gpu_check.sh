@@ -45,7 +45,7 @@ command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,m
   --format=csv,noheader | tee -a "$LOG"
 
 # Where the wheel has no CUDA kernel for the card (an H100 or H200 with 5.2.3), build it on every
-# core with the CUDA toolkit's ptxas first (tools/cycles_gpu_kernel.sh, about 80 s on 16 cores);
+# core with the CUDA toolkit's ptxas first (tools/cycles_gpu_kernel.sh, a minute or so on 16 cores);
 # without ptxas the warm-up below has the driver compile it on one core.
 echo "== kernel: tools/cycles_gpu_kernel.sh" | tee -a "$LOG"
 bash tools/cycles_gpu_kernel.sh "$PY" 2>&1 | tee -a "$LOG"

@@ -79,8 +79,8 @@ _WEIGHT_STEPS = [None]                      # 2**bits inside gpu_texture_filter(
 @contextmanager
 def gpu_texture_filter(bits=GPU_FILTER_WEIGHT_BITS):
     """Within this block 'Linear' lookups weight texels as a GPU's texture unit does: each
-    weight on a grid of 1 / 2**bits (a GPU bake's normal-map lookups differ from the exact
-    weights by up to 0.2 degrees p99, 0.7 max: docs/performance.md)."""
+    weight on a grid of 1 / 2**bits (against exact weights a GPU bake of a normal map is off by
+    tenths of a degree: docs/performance.md, "On a GPU")."""
     previous = _WEIGHT_STEPS[0]
     _WEIGHT_STEPS[0] = float(2 ** bits)
     try:
