@@ -23,6 +23,7 @@ from pathlib import Path
 from . import normal_bake as NB
 from .bake_target import object_not_a_mesh
 from .bake_uvs import one_read
+from .cache_files import unread_cache_problems
 from .image_checks import image_problems
 from .material_inputs import cycles_output, edits_lost, linked_text
 
@@ -232,6 +233,9 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
     problem = NB.resolution_problem(resolution, *NB.RESOLUTION_RANGE)
     if problem:
         raise FreezeError(problem)
+    stale = unread_cache_problems(obj)   # the mesh baked would be the import's, not the cache's
+    if stale:
+        raise FreezeError("; ".join(stale))
     with one_read():          # the mesh as it renders: one render-mode pass for both checks
         try:
             uv_map, _, _, _ = NB.plan_tiles(obj, "freeze.png", uv_map or None)
