@@ -13,10 +13,16 @@
    for the file "a.blend:Rock.blend" and failed the asset (exit 1), and such an object could
    not be named at all. Now the file is the text up to the first ".blend:" naming an existing
    file, else up to the first (batch/plan.split_entry; docs/pipelines.md).
+3. A normal map's image wired into a Normal Map node (or an SG group) through a muted link:
+   Cycles reads the socket's own value there (pinned here by a bake), but the normal-map
+   warnings' walk back to the image (image_checks.texture_feeding) followed the muted link
+   and warned about an image the bake never reads ("read in colour space 'sRGB'"). Now it
+   follows the links Cycles follows (material_inputs.live_links, which Freeze uses too).
 """
 
 import json
 
+import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
@@ -24,12 +30,14 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon.batch import plan  # noqa: E402
+from surfgrad_addon.addon.normal_map_checks import colour_space_warnings  # noqa: E402
 from surfgrad_addon.addon.open_blend import open_mainfile  # noqa: E402
 from surfgrad_addon.harness import compare  # noqa: E402
 from support.freeze_scene import layered_material  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 from test_faults_imports39 import USDA  # noqa: E402
+from test_faults_materials39 import _cycles_plane, _emission_outputs  # noqa: E402
 from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -84,3 +92,41 @@ def test_an_asset_list_names_an_object_whose_name_holds_dot_blend_colon(tmp_path
     assert rc == exit_codes.OK, err
     manifest = json.loads((tmp_path / "maps" / "surfgrad-bake-manifest.json").read_text())
     assert [a["object"] for a in manifest["assets"].values()] == ["Rock.blend:v2"]
+
+
+def test_a_normal_map_read_through_a_muted_link_is_not_warned_about():
+    obj = _cycles_plane()
+    target = bpy.data.images.new("Emit", 4, 4, float_buffer=True)
+    mat, _ = _emission_outputs(obj, target, [("G", "ALL")], 0)
+    tree = mat.node_tree
+    red = bpy.data.images.new("Red", 4, 4)
+    red.generated_color = (1.0, 0.0, 0.0, 1.0)
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = red
+    emission = next(n for n in tree.nodes if n.bl_idname == "ShaderNodeEmission")
+    link = tree.links.new(tex.outputs["Color"], emission.inputs["Color"])
+    baked = {}
+    for muted in (True, False):          # Cycles' fact: a muted link leaves the socket's value
+        link.is_muted = muted
+        bpy.ops.object.bake(type="EMIT")
+        baked[muted] = np.array(target.pixels[:]).reshape(-1, 4)[0, :3]
+    assert np.allclose(baked[True], (0, 1, 0), atol=0.01), baked
+    assert np.allclose(baked[False], (1, 0, 0), atol=0.01), baked
+    mat, _, bsdf = diffuse_material("Normals")
+    obj.data.materials.clear()
+    obj.data.materials.append(mat)
+    tree = mat.node_tree
+    srgb = tree.nodes.new("ShaderNodeTexImage")
+    srgb.image = bpy.data.images.new("Bumps", 4, 4)       # read as sRGB: a warned slip
+    assert srgb.image.colorspace_settings.name == "sRGB"
+    reroute = tree.nodes.new("NodeReroute")
+    nmap = tree.nodes.new("ShaderNodeNormalMap")
+    into_reroute = tree.links.new(srgb.outputs["Color"], reroute.inputs[0])
+    into_map = tree.links.new(reroute.outputs[0], nmap.inputs["Color"])
+    tree.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
+    (warning,) = colour_space_warnings(obj)
+    assert "image 'Bumps' is read in colour space 'sRGB'" in warning, warning
+    for muted in (into_map, into_reroute):
+        muted.is_muted = True
+        assert colour_space_warnings(obj) == []
+        muted.is_muted = False
