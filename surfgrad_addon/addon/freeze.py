@@ -23,8 +23,9 @@ from pathlib import Path
 from . import normal_bake as NB
 from .bake_target import object_not_a_mesh
 from .bake_uvs import one_read
+from .cache_files import unread_cache_problems
 from .image_checks import image_problems
-from .material_inputs import cycles_output, edits_lost, linked_text
+from .material_inputs import cycles_output, edits_lost, linked_text, live_links
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
@@ -65,20 +66,15 @@ def _baking_the_stack_alone(tree, end):
         tree.nodes.remove(diffuse)
 
 
-def _live(socket):
-    """The links into `socket` Cycles follows: a muted link (the artist's switch) is none."""
-    return [lk for lk in socket.links if lk.is_valid and not lk.is_muted]
-
-
 def _upstream(socket):
     """Every node that feeds `socket`, at any depth (by name), through links Cycles follows."""
-    seen, todo = set(), [lk.from_node for lk in _live(socket)]
+    seen, todo = set(), [lk.from_node for lk in live_links(socket)]
     while todo:
         node = todo.pop()
         if node.name in seen:
             continue
         seen.add(node.name)
-        todo += [lk.from_node for s in node.inputs for lk in _live(s)]
+        todo += [lk.from_node for s in node.inputs for lk in live_links(s)]
     return seen
 
 
@@ -106,10 +102,10 @@ def find_stack(tree):
                           "Cycles renders)")
     shaders = [tree.nodes[n] for n in _upstream(output.inputs["Surface"])]
     fed = [(node, s) for node in shaders if _is_shader(node) for s in node.inputs
-           if s.name in NORMAL_INPUTS and _live(s) and
+           if s.name in NORMAL_INPUTS and live_links(s) and
            any(_is_sg(tree.nodes[n]) for n in _upstream(s))]
     muted = [f"{node.name!r} {s.name}" for node in shaders if _is_shader(node)
-             for s in node.inputs if s.name in NORMAL_INPUTS and s.is_linked and not _live(s)]
+             for s in node.inputs if s.name in NORMAL_INPUTS and s.is_linked and not live_links(s)]
     if not fed and muted:
         raise FreezeError(f"the link into {', '.join(muted)} is muted, so Cycles renders the "
                           f"material without what it brings: nothing to freeze; unmute it first")
@@ -139,8 +135,8 @@ def _source(socket):
     """The output feeding `socket`, through reroutes (one stack may reach several inputs
     through reroutes of its own)."""
     source = socket.links[0].from_socket
-    while source.node.bl_idname == "NodeReroute" and _live(source.node.inputs[0]):
-        source = _live(source.node.inputs[0])[0].from_socket
+    while source.node.bl_idname == "NodeReroute" and live_links(source.node.inputs[0]):
+        source = live_links(source.node.inputs[0])[0].from_socket
     return source
 
 
@@ -232,6 +228,9 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
     problem = NB.resolution_problem(resolution, *NB.RESOLUTION_RANGE)
     if problem:
         raise FreezeError(problem)
+    stale = unread_cache_problems(obj)   # the mesh baked would be the import's, not the cache's
+    if stale:
+        raise FreezeError("; ".join(stale))
     with one_read():          # the mesh as it renders: one render-mode pass for both checks
         try:
             uv_map, _, _, _ = NB.plan_tiles(obj, "freeze.png", uv_map or None)

@@ -199,9 +199,9 @@ def sequence_file(image, node):
 def texture_feeding(socket, outer=()):
     """The Image Texture node whose output reaches `socket` (through reroutes, and out of the
     node groups `outer`, the group nodes `socket` lies in, outermost first, through their
-    inputs), or None."""
-    while socket is not None and socket.is_linked:
-        link = socket.links[0]
+    inputs), or None. Through links Cycles follows: a muted one leaves the socket its value."""
+    while socket is not None and (links := MI.live_links(socket)):
+        link = links[0]
         source = link.from_node
         if source.bl_idname == "NodeReroute":
             socket = source.inputs[0]

@@ -13,6 +13,12 @@ MAGENTA = "Cycles would bake its magenta 'missing' colour"
 BUILT_IN = {"position", "normal", "generated", "orco", "tangent", "uv"}
 
 
+def live_links(socket):
+    """The links into `socket` Cycles follows: a muted link (the artist's switch) is none, and
+    the socket takes its own value."""
+    return [lk for lk in socket.links if lk.is_valid and not lk.is_muted]
+
+
 def cycles_output(tree):
     """The Material Output node Cycles renders through (Blender's ntreeShaderOutputNode rule):
     an output targeted at Cycles wins over one targeted at All, even an active one; within the

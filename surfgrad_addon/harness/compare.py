@@ -34,6 +34,7 @@ from ..addon.bake_console import heartbeat
 from ..addon.bake_request import folder_problem, name_problem, zero_scale_problem
 from ..addon.bake_target import bake_target_problem
 from ..addon.bake_uvs import long_name_problem, not_rendered_problem, read_as_baked
+from ..addon.cache_files import unread_cache_problems
 from ..addon.exit_codes import BakeFailed
 from ..addon.image_channels import path_channel_problem, running_facts
 from ..addon import unrealized_instances as UI
@@ -228,7 +229,10 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
         unbaked = UI.may_instance(obj) and UI.compare_warning(
             read_as_baked(obj, UI.read_instances), obj)
-        for w in (limit, unbaked):
+        # Warned, not refused: bake and reference read the same stored mesh, so the figures
+        # hold for it; only the shape is not the one the asset renders with its cache.
+        stale = [f"{p}; compared: the stored mesh" for p in unread_cache_problems(obj)]
+        for w in (limit, unbaked, *stale):
             if w:
                 report["warnings"].append(w)
                 if log:

@@ -241,13 +241,18 @@ def _tile_list(value):
         raise BatchError(str(err)) from None
 
 
-def split_entry(entry):
-    """'file.blend' or 'file.blend:Object' -> (file, object or None)."""
+def split_entry(entry, folder="."):
+    """'file.blend' or 'file.blend:Object' -> (file, object or None). An object's name may
+    hold ".blend:" too: the file is the text up to the first ".blend:" naming an existing file
+    (relative paths from `folder`), or, where none does, up to the first (refused as missing)."""
     text = str(entry)
-    head, sep, tail = text.rpartition(".blend:")
-    if sep and tail:
-        return head + ".blend", tail
-    return text, None
+    cuts = [m.start() + len(".blend") for m in re.finditer(r"\.blend:", text)
+            if m.end() < len(text)]
+    if not cuts:
+        return text, None
+    exists = [c for c in cuts if (Path(folder) / Path(text[:c]).expanduser()).is_file()]
+    cut = (exists or cuts)[0]
+    return text[:cut], text[cut + 1:]
 
 
 def grouped_entries(blends):
@@ -284,7 +289,7 @@ def read_asset_list(path):
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
-        blend, obj = split_entry(raw.lstrip())      # an object's name may end in spaces
+        blend, obj = split_entry(raw.lstrip(), path.parent)   # a name may end in spaces
         p = Path(blend.rstrip() if obj is None else blend).expanduser()
         p = p if p.is_absolute() else path.parent / p
         entries.append(f"{p}:{obj}" if obj else str(p))
