@@ -11,7 +11,7 @@ of them. Now the scene's engine picks the output by its target, on every line (E
 BLENDER_EEVEE_NEXT on 4.2 and 4.5, BLENDER_EEVEE from 5.0).
 
 The rule was measured with EEVEE renders of one Emission per output on 5.2 (red into the
-output the old choice took, green into the other): green in each of the three cases below.
+first output, green into the second): green, the output expected here, in all three cases.
 Not a test here: an EEVEE render takes about a minute on a machine without a GPU.
 """
 
