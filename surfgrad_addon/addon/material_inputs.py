@@ -19,16 +19,22 @@ def live_links(socket):
     return [lk for lk in socket.links if lk.is_valid and not lk.is_muted]
 
 
-def cycles_output(tree):
-    """The Material Output node Cycles renders through (Blender's ntreeShaderOutputNode rule):
-    an output targeted at Cycles wins over one targeted at All, even an active one; within the
-    target, the active one, else the first. None when every output is EEVEE's."""
-    for target in ("CYCLES", "ALL"):
+def render_output(tree, target):
+    """The Material Output node the engine `target` ("CYCLES" or "EEVEE") renders through
+    (Blender's ntreeShaderOutputNode rule): an output targeted at that engine wins over one
+    targeted at All, even an active one; within the target, the active one, else the first.
+    None when every output is the other engine's."""
+    for kind in (target, "ALL"):
         outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
-                   and getattr(n, "target", "ALL") == target]
+                   and getattr(n, "target", "ALL") == kind]
         if outputs:
             return next((n for n in outputs if n.is_active_output), outputs[0])
     return None
+
+
+def cycles_output(tree):
+    """The Material Output node Cycles renders through (render_output)."""
+    return render_output(tree, "CYCLES")
 
 
 def sequence_frame(image_user, scene_frame):

@@ -13,7 +13,7 @@ from bpy.props import EnumProperty, StringProperty
 from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
 from .enum_input import set_choice
-from .material_inputs import cycles_output, edits_lost, linked_text
+from .material_inputs import edits_lost, linked_text, render_output
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .group_updates import draw_stale_warning, report_notes, take_notes
@@ -111,12 +111,24 @@ def _prebuild(tree, *builders):
     return groups
 
 
+# The engines that render a material's nodes, as a Material Output's target names them (EEVEE
+# is BLENDER_EEVEE_NEXT on 4.2 and 4.5, BLENDER_EEVEE from 5.0).
+OUTPUT_TARGETS = {"CYCLES": "CYCLES", "BLENDER_EEVEE": "EEVEE", "BLENDER_EEVEE_NEXT": "EEVEE"}
+TARGET_NAMES = {"CYCLES": "Cycles", "EEVEE": "EEVEE"}          # as the output's menu says
+
+
 def _surface_shader(tree):
-    """The node linked (through reroutes) to the Surface of the Material Output the scene
-    renders through (in Cycles: cycles_output; else the active one), with a Normal input."""
+    """The node linked (through reroutes) to the Surface of the Material Output the scene's
+    engine renders through (render_output; another engine: the active one), with a Normal
+    input."""
     outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"]
-    output = cycles_output(tree) if bpy.context.scene.render.engine == "CYCLES" else \
+    target = OUTPUT_TARGETS.get(bpy.context.scene.render.engine)
+    output = render_output(tree, target) if target else \
         next((n for n in outputs if n.is_active_output), outputs[0] if outputs else None)
+    if output is None and outputs:
+        raise SurfgradError(f"Every Material Output of the material is targeted at another "
+                            f"engine than the scene's ({TARGET_NAMES[target]}): set one's "
+                            f"target to All or {TARGET_NAMES[target]} (the menu on the node)")
     if output is None or not output.inputs["Surface"].is_linked:
         raise SurfgradError("The material has no shader linked to its Material Output's "
                             "Surface: link a BSDF first")
