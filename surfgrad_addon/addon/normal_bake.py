@@ -395,17 +395,16 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         image.file_format = fmt
         try:
             image.save()
-        except RuntimeError as err:          # Blender's two lines: "Could not write ...: EINVAL"
-            reason = str(err).strip().splitlines()[0].removeprefix("Error: ")
-            raise MapNotWritten(f"Blender could not write the map for {str(output)!r} ({reason}): "
-                             f"free space in {str(output.parent)!r} (the disk may be full), "
-                             f"check that the folder still takes files, and bake again") \
-                from None
+        except RuntimeError as err:
+            raise _not_written(output, err) from None
         missing = [str(p) for p in temps.values() if not p.is_file()]
         if missing:
             raise BakeFailed(f"Blender wrote no file {missing[0]}")
         if depth == "half":
-            _to_half_exr(bpy, temps.values())
+            try:
+                _to_half_exr(bpy, temps.values())
+            except RuntimeError as err:     # (its own temporary file: the user's output named)
+                raise _not_written(output, err) from None
         for t in tiles:
             _check_written(bpy, temps[t], finals[t], resolution)
         if verify is not None:
@@ -454,6 +453,15 @@ def _make_tiles(bpy, image, tiles, resolution, is_float):
                                     height=resolution, float=is_float, alpha=False)
 
 
+def _not_written(output, err):
+    """The refusal for a save of the map for `output` Blender raised `err` for (its two lines:
+    "Could not write ...: EINVAL"; a full disk, a folder in the way of a temporary file)."""
+    reason = str(err).strip().splitlines()[0].removeprefix("Error: ")
+    return MapNotWritten(f"Blender could not write the map for {str(output)!r} ({reason}): "
+                         f"free space in {str(output.parent)!r} (the disk may be full), "
+                         f"check that the folder still takes files, and bake again")
+
+
 def _to_half_exr(bpy, paths):
     """Rewrite float EXR files as half EXR (Image.save keeps a float buffer at 32 bits; a
     scene's output settings choose 16). Through a scene of its own, removed after: the file's
@@ -474,7 +482,12 @@ def _to_half_exr(bpy, paths):
             try:
                 img.colorspace_settings.is_data = True     # data: no colour conversion
                 half = path.with_name(path.stem + ".half" + path.suffix)
-                img.save_render(str(half), scene=scene)
+                try:
+                    img.save_render(str(half), scene=scene)
+                except RuntimeError:
+                    if half.is_file():          # a half-written copy (a full disk)
+                        half.unlink()
+                    raise
                 os.replace(half, path)
             finally:
                 bpy.data.images.remove(img)
