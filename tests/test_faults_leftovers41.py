@@ -13,6 +13,10 @@
    the temporary '.<name>.part<pid>.half.exr', a full disk there): BakeFailed, exit 1, naming
    only that temporary file, with no fix. Now the MapNotWritten refusal a failed save of the
    map gets (the output named, the fix), exit 1 all the same, nothing written.
+3. `python -m surfgrad_addon` in an ASCII locale starts itself again in UTF-8 mode (round 39);
+   a user's script running it through runpy.run_module(..., run_name="__main__") was started
+   again too, so the script ran twice. Now only a process started as `python [options] -m
+   surfgrad_addon` restarts (sys.orig_argv); another goes on and says how to run in UTF-8.
 """
 
 import os
@@ -25,6 +29,7 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
 from surfgrad_addon.addon.normal_map_checks import colour_space_warnings  # noqa: E402
+from support.child import run_python  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 from test_faults_materials39 import _cycles_plane, _emission_outputs  # noqa: E402
 
@@ -136,3 +141,28 @@ def test_a_failed_save_of_the_half_exr_copy_is_refused_as_a_map_not_written(tmp_
     assert f"could not write the map for {str(maps / 'map.exr')!r}" in err, err
     assert "check that the folder still takes files" in err and "Traceback" not in err, err
     assert sorted(p.name for p in maps.iterdir()) == [in_the_way.name]
+
+
+ASCII_LOCALE = {"LC_ALL": "C", "LANG": "C", "PYTHONUTF8": "0", "PYTHONCOERCECLOCALE": "0"}
+UTF8_ADVICE = "run it in UTF-8 mode (PYTHONUTF8=1 or python -X utf8)"
+
+
+@pytest.mark.tier("child")
+def test_only_python_dash_m_itself_restarts_in_utf8_mode(tmp_path):
+    script = tmp_path / "user_script.py"
+    script.write_text("import runpy, sys\n"
+                      "print('user script ran', flush=True)\n"
+                      "sys.argv = ['surfgrad_addon', '--help']\n"
+                      "try:\n"
+                      "    runpy.run_module('surfgrad_addon', run_name='__main__')\n"
+                      "except SystemExit as stop:\n"
+                      "    print('exit', stop.code, sys.flags.utf8_mode)\n")
+    child = run_python([script], env=ASCII_LOCALE, timeout=120)
+    assert child.stdout.count("user script ran") == 1, child.stdout
+    assert "usage: python -m surfgrad_addon" in child.stdout and "exit 0 0" in child.stdout
+    assert UTF8_ADVICE in child.stderr, child.stderr
+    # Options before -m, one of them joined to it: still this module's own process.
+    child = run_python(["-X", "faulthandler", "-Bm", "surfgrad_addon", "--help"],
+                       env=ASCII_LOCALE, timeout=120)
+    assert child.returncode == 0 and "usage: python -m surfgrad_addon" in child.stdout
+    assert child.stderr == "", child.stderr           # started again in UTF-8: no advice
