@@ -4,11 +4,11 @@
    passes on only the inputs a muted node's internal links name (pinned here by EMIT bakes: a
    muted Image Texture bakes the socket's own value; a muted Normal Map node never reads its
    Color (5.2 bakes the socket's own value, 4.2 black); a muted group passes its input on and
-   never reads its inside). The image
-   checks walked every input of a muted node and into a muted group, so they refused an image
-   Cycles never reads (a missing file behind a muted Image Texture: bake refused, exit 1), and
-   the normal-map warnings warned about a muted Normal Map node's sRGB image. Now both walks
-   follow what Cycles reads (image_checks._reached, texture_feeding).
+   never reads its inside). The image checks walked every input of a muted node and into a
+   muted group, so they refused an image Cycles never reads (a missing file behind a muted
+   Image Texture: bake refused, exit 1), and the normal-map warnings warned about a muted
+   Normal Map node's sRGB image. Now both walks follow what Cycles reads (a muted node's
+   internal links: image_checks._reached, texture_feeding).
 2. --depth half when Blender's save of the half EXR copy itself fails (a folder in the way of
    the temporary '.<name>.part<pid>.half.exr', a full disk there): BakeFailed, exit 1, naming
    only that temporary file, with no fix. Now the MapNotWritten refusal a failed save of the
