@@ -87,8 +87,8 @@ def nonfinite_pixels_problem(label, n, beyond=0, largest=0.0):
         return f"{label} has non-finite pixels (NaN or Inf, {n} value(s)); {fix}"
     if beyond:
         return (f"{label} has {beyond} pixel value(s) beyond +-{OVERFLOWING:.0e} (up to "
-                f"{largest:.3g}), which overflow a shader's float32 arithmetic to Inf (the "
-                f"normals there are Blender's fallback, not the image's); {fix}")
+                f"{largest:.3g}), which overflow a shader's float32 arithmetic to Inf (Cycles "
+                f"shades its fallbacks there, not what the image holds); {fix}")
     return None
 
 
