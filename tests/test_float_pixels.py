@@ -15,7 +15,10 @@ def _naive(texels):
     nonfinite = sum(1 for v in texels.ravel() if not np.isfinite(v))
     below = tuple(sum(1 for v in texels[:, c] if v < 0) if texels.shape[1] >= 2 else 0
                   for c in (0, 1))
-    return nonfinite, below
+    colours = [row[:3] for row in texels]
+    high = [[v for v in row if v > 1.01] for row in colours]
+    above = sum(1 for h in high if h)
+    return nonfinite, below, above, max((v for h in high for v in h), default=0.0)
 
 
 @pytest.mark.parametrize("channels", [1, 3, 4])
@@ -23,15 +26,16 @@ def _naive(texels):
 def test_the_sliced_counts_are_the_value_by_value_counts(channels, slice_texels, monkeypatch):
     monkeypatch.setattr(FP, "_SLICE_TEXELS", slice_texels)
     rng = np.random.default_rng(channels * 31 + slice_texels)
-    texels = rng.uniform(-0.3, 1.0, (53, channels)).astype(np.float32)
+    texels = rng.uniform(-0.3, 1.3, (53, channels)).astype(np.float32)
     flat = texels.ravel()
     flat[rng.choice(flat.size, 6, replace=False)] = [np.nan, np.inf, -np.inf, np.nan,
                                                      -np.inf, 3.4e38]
     facts = FP.summed(texels)
-    nonfinite, below = _naive(texels)
+    nonfinite, below, above, largest = _naive(texels)
     assert facts.texels == 53
     assert facts.nonfinite == nonfinite == 5
     assert facts.below_zero == below
+    assert facts.above_one == above > 0 and facts.largest == largest
     assert facts.share_below_zero() == tuple(n / 53 for n in below)
 
 
@@ -41,6 +45,20 @@ def test_values_at_float32s_limit_are_finite_and_one_nan_among_them_is_counted()
     assert FP.summed(texels).nonfinite == 0
     texels[5, 2] = np.nan
     assert FP.summed(texels).nonfinite == 1
+
+
+def test_texels_above_one_are_counted_once_each_and_alpha_is_not():
+    """Red team 41: a normal map's texels above 1 (a 1e30 export) are counted per texel, over
+    R, G and B; alpha above 1 and a 0..1 map's rounding (1.0, 1.001) are no such texel."""
+    texels = np.full((6, 4), 0.5, np.float32)
+    texels[0, :3] = 1e30                    # one texel, three values above 1
+    texels[1, 1] = 1.5
+    texels[2, 3] = 7.0                      # alpha
+    texels[3, :3] = 1.0
+    texels[4, 2] = 1.001
+    facts = FP.summed(texels)
+    assert (facts.above_one, facts.largest) == (2, np.float32(1e30))
+    assert FP.summed(texels[2:]).above_one == 0
 
 
 @pytest.mark.tier("bake")
@@ -128,3 +146,24 @@ def test_memory_running_out_mid_command_is_one_line_not_a_traceback(tmp_path, ca
     assert "surfgrad: error: ran out of memory" in err and "Traceback" not in err, err
     assert not (tmp_path / "m.png").exists() and list(tmp_path.glob("*.png")) == [
         tmp_path / "n.png"], list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("slice_texels", [1, 1 << 22])
+def test_values_past_what_a_shader_squares_are_counted_as_the_compare_check_counts(
+        slice_texels, monkeypatch):
+    """Red team 41: finite values beyond +-1e18 (a shader's float32 squares of them overflow)
+    are counted by magnitude, in the bake's sliced read and compare's check alike; NaN still
+    names itself first."""
+    from surfgrad_addon.reference import input_checks as IC
+    monkeypatch.setattr(FP, "_SLICE_TEXELS", slice_texels)
+    texels = np.full((5, 4), 0.5, np.float32)
+    texels[0, 0], texels[2, 3], texels[4, 1] = 2e18, -3e20, 9e17
+    facts = FP.summed(texels)
+    assert (facts.nonfinite, facts.beyond, facts.largest_magnitude) == (0, 2, np.float32(3e20))
+    assert IC.pixels_problem("image 'x'", texels) == IC.nonfinite_pixels_problem(
+        "image 'x'", 0, 2, float(np.float32(3e20)))
+    assert "has 2 pixel value(s) beyond +-1e+18 (up to 3e+20)" in IC.pixels_problem(
+        "image 'x'", texels)
+    assert IC.pixels_problem("image 'x'", texels[1:2]) is None
+    texels[1, 1] = np.nan
+    assert "non-finite pixels (NaN or Inf, 1 value(s))" in IC.pixels_problem("image 'x'", texels)

@@ -10,11 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..reference.input_checks import overflowing
 from .read_once import ReadOnce
 
 _pixels = ReadOnce()            # {image pointer or file path: PixelFacts} in one_pixel_read()
 _SLICE_TEXELS = 1 << 22         # texels per slice of the counts (bounded temporaries)
 GB = 1024 ** 3
+ABOVE_ONE = 1.01                # no 0..1 map, nor its rounding or filtering, holds more
 
 
 class PixelsTooLarge(Exception):
@@ -35,6 +37,10 @@ class PixelFacts:
     texels: int
     nonfinite: int              # values (not texels) that are NaN or +-Inf
     below_zero: tuple           # texels below 0 in R and in G ((0, 0) with under 2 channels)
+    above_one: int = 0          # texels above ABOVE_ONE in R, G or B (the colour channels)
+    largest: float = 0.0        # the largest colour value of those (0 where there are none)
+    beyond: int = 0             # values past +-input_checks.OVERFLOWING (refused as NaN is)
+    largest_magnitude: float = 0.0  # the largest magnitude of those (0 where there are none)
 
     def share_below_zero(self):
         """(R, G): the share of texels below 0 in each."""
@@ -98,15 +104,23 @@ def summed(texels):
     """PixelFacts of (N, C) float texels, counted slice by slice. A slice whose float64 sum is
     finite has no NaN or Inf (float32 values cannot overflow it): only others are counted
     value by value, which is several times slower."""
-    nonfinite, below = 0, [0, 0]
+    nonfinite, below, above, largest, beyond, magnitude = 0, [0, 0], 0, 0.0, 0, 0.0
+    colours = min(3, texels.shape[1])
     for i in range(0, len(texels), _SLICE_TEXELS):
         part = texels[i:i + _SLICE_TEXELS]
         with np.errstate(invalid="ignore"):             # (Inf + -Inf: NaN, as wanted)
             finite = np.isfinite(np.add.reduce(part, axis=None, dtype=np.float64))
         if not finite:
             nonfinite += int(np.count_nonzero(~np.isfinite(part)))
+        else:
+            n, most = overflowing(part)
+            beyond, magnitude = beyond + n, max(magnitude, most)
         for c in range(min(2, texels.shape[1])):
             below[c] += int(np.count_nonzero(part[:, c] < 0))
+        high = part[:, :colours] > ABOVE_ONE
+        if high.any():
+            above += int(np.count_nonzero(high.any(axis=1)))
+            largest = max(largest, float(part[:, :colours][high].max()))
     if texels.shape[1] < 2:
         below = [0, 0]
-    return PixelFacts(len(texels), nonfinite, tuple(below))
+    return PixelFacts(len(texels), nonfinite, tuple(below), above, largest, beyond, magnitude)

@@ -297,7 +297,8 @@ def _one_image_problem(image):
             facts = pixel_facts(image)          # only float buffers can hold NaN / Inf
         except PixelsTooLarge as err:
             return str(err)
-        return facts and IC.nonfinite_pixels_problem(what, facts.nonfinite)
+        return facts and IC.nonfinite_pixels_problem(what, facts.nonfinite, facts.beyond,
+                                                      facts.largest_magnitude)
     finally:
         if not had_data and image.has_data:
             image.buffers_free()
@@ -415,7 +416,8 @@ def file_problem(what, path, shown=None):
             facts = file_facts(path, probe)     # (read once with normal_map_checks' range)
         except PixelsTooLarge as err:
             return str(err)
-        return facts and IC.nonfinite_pixels_problem(f"{what} ({shown})", facts.nonfinite)
+        return facts and IC.nonfinite_pixels_problem(f"{what} ({shown})", facts.nonfinite,
+                                                      facts.beyond, facts.largest_magnitude)
     finally:
         if probe is not None:
             bpy.data.images.remove(probe)

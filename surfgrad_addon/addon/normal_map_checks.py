@@ -15,6 +15,9 @@ bends them, naming the image, the node and the fix.
 - A float image whose normals are stored in -1..1, not 0..1 (more than NEGATIVE_SHARE of its
   texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
   tilt, so every normal is pulled toward (-1, -1).
+- A float image with texels above 1 in R, G or B (1e30 from a broken export, values of a
+  height or world-space map): they hold no normal a 0..1 map can, and tilt as their values
+  happen to point; the warning counts them and says the largest.
 Channels and range are judged in every file the bake reads: each UDIM tile's (of the tiles
 baked; of a packed UDIM image, each tile's packed data), the frame file an Image Sequence reads
 now, and the warning names it.
@@ -128,13 +131,13 @@ def normal_map_warnings(obj, only=None, covered=()):
 
 
 def _file_problems(image, files, covered):
-    """(channels problem, range problem) of the image's `files`; of a packed UDIM image, of
+    """(channels problem, range problems) of the image's `files`; of a packed UDIM image, of
     each packed tile the bake reads (its own pixels are its first tile's)."""
     if packed_tiled(image):
         with packed_tile_files(image, covered) as tiles:
             files = [(f"tile {number}: its packed data", path) for number, path in tiles]
-            return _channels_problem(image, files), _range_problem(image, files)
-    return _channels_problem(image, files), _range_problem(image, files)
+            return (_channels_problem(image, files), *_range_problems(image, files))
+    return (_channels_problem(image, files), *_range_problems(image, files))
 
 
 def _own_files(image, tex, covered):
@@ -170,30 +173,30 @@ def _channels_problem(image, files):
     return None
 
 
-def _range_problem(image, files):
-    """A float file of the image (each of `files`, else the image's own pixels) with more than
-    NEGATIVE_SHARE of its texels below 0 in R or G, or None."""
+def _range_problems(image, files):
+    """(below 0, above 1): of the first float file of the image (of `files`, else the image's
+    own pixels) with more than NEGATIVE_SHARE of its texels below 0 in R or G, and of the
+    first with any texel above 1 (float_pixels.ABOVE_ONE), what is wrong, or None."""
     if files:
-        for what, path in files:
-            header = path_headers(path)
-            if header and header.layered:
-                continue            # (a multilayer EXR: refused unloaded, image_checks)
-            problem = _range_text(lambda p=path: file_facts(p), f" ({what})")
-            if problem:
-                return problem
-        return None
-    if image.source not in ("FILE", "TILED") or (not image.has_data and layered_file(image)):
-        return None
-    return _range_text(lambda: pixel_facts(image), "")
+        reads = [(lambda p=path: file_facts(p), f" ({what})") for what, path in files
+                 if not getattr(path_headers(path), "layered", False)]  # (refused: image_checks)
+    elif image.source not in ("FILE", "TILED") or (not image.has_data and layered_file(image)):
+        reads = []
+    else:
+        reads = [(lambda: pixel_facts(image), "")]
+    below = above = None
+    for read, where in reads:
+        try:
+            facts = read()  # (read once with image_checks' finite test: float_pixels)
+        except PixelsTooLarge:
+            continue            # (image_checks refuses the bake for it)
+        if facts is not None:
+            below = below or _below_text(facts, where)
+            above = above or _above_text(facts, where)
+    return below, above
 
 
-def _range_text(read, where):
-    try:
-        facts = read()      # (read once with image_checks' finite test: float_pixels)
-    except PixelsTooLarge:
-        return None         # (image_checks refuses the bake for it)
-    if facts is None:
-        return None
+def _below_text(facts, where):
     shares = facts.share_below_zero()     # (0, 0) with fewer than two channels
     if max(shares) <= NEGATIVE_SHARE:
         return None
@@ -202,6 +205,15 @@ def _range_text(read, where):
             f"is read as 0..1 (0.5 is no tilt), so every normal is pulled toward (-1, -1) (the "
             f"bake takes them as Cycles renders them); store it as n * 0.5 + 0.5 (re-export "
             f"it as a 0..1 tangent-space normal map)")
+
+
+def _above_text(facts, where):
+    if not facts.above_one:
+        return None
+    return (f"has {facts.above_one} of its {facts.texels} texels above 1 in R, G or B (up to "
+            f"{facts.largest:.3g}){where}: a normal map is read as 0..1, so those texels hold "
+            f"no normal it can store and tilt as their values happen to point (the bake takes "
+            f"them as Cycles renders them); clamp the map to 0..1 or re-export it")
 
 
 def input_warnings(obj, only=None):

@@ -13,6 +13,11 @@ import numpy as np
 # small parts do not change it).
 RELATIVE_AREA_EPS = 1e-12
 _CHUNK = 1 << 24            # values per slice when counting non-finite ones (bounded memory)
+# A pixel value beyond this is refused as NaN and Inf are: a shader's float32 length of a
+# colour read as a vector (2 v - 1, squared and summed) overflows to Inf from ~5e18, and Cycles
+# then gives its fallback normal (flat; a zero vector from 4.2's Normal Map node) while the
+# float64 reference tilts the normal as the value points (red team 41: 55 deg apart).
+OVERFLOWING = 1e18
 
 
 def plain_number(value):
@@ -52,18 +57,39 @@ def finite_problem(label, values, fix="fix the mesh data before baking"):
 
 
 def pixels_problem(label, pixels):
-    """None when an image's pixels are all finite, else what is wrong and the fix."""
-    if all_finite(pixels):
-        return None
-    return nonfinite_pixels_problem(label, nonfinite_count(pixels))
+    """None when an image's pixels are all finite and within OVERFLOWING, else what is wrong
+    and the fix."""
+    if not all_finite(pixels):
+        return nonfinite_pixels_problem(label, nonfinite_count(pixels))
+    return nonfinite_pixels_problem(label, 0, *overflowing(pixels))
 
 
-def nonfinite_pixels_problem(label, n):
-    """The refusal of an image with `n` (> 0) non-finite pixel values, or None for 0."""
-    if not n:
-        return None
-    return (f"{label} has non-finite pixels (NaN or Inf, {n} value(s)); fix or clamp them "
-            f"before using it (e.g. re-save it from an image editor, or a Math node clamp)")
+def overflowing(values):
+    """(how many finite values lie beyond +-OVERFLOWING, the largest magnitude of those or 0),
+    counted slice by slice."""
+    flat = np.asarray(values).ravel()
+    count, largest = 0, 0.0
+    for i in range(0, flat.size, _CHUNK):
+        part = flat[i:i + _CHUNK]
+        if part.size and max(float(part.max()), -float(part.min())) > OVERFLOWING:
+            big = np.abs(part[np.abs(part) > OVERFLOWING])
+            count += big.size
+            largest = max(largest, float(big.max()))
+    return count, largest
+
+
+def nonfinite_pixels_problem(label, n, beyond=0, largest=0.0):
+    """The refusal of an image with `n` non-finite pixel values, or else `beyond` values past
+    +-OVERFLOWING (the largest magnitude `largest`), or None where both are 0."""
+    fix = "fix or clamp them before using it (e.g. re-save it from an image editor, or a Math "\
+          "node clamp)"
+    if n:
+        return f"{label} has non-finite pixels (NaN or Inf, {n} value(s)); {fix}"
+    if beyond:
+        return (f"{label} has {beyond} pixel value(s) beyond +-{OVERFLOWING:.0e} (up to "
+                f"{largest:.3g}), which overflow a shader's float32 arithmetic to Inf (Cycles "
+                f"shades its fallbacks there, not what the image holds); {fix}")
+    return None
 
 
 def triangle_areas(positions, triangles):
