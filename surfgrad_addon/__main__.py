@@ -7,7 +7,6 @@ import signal
 import sys
 
 
-
 def _started_as_this_module():
     """True when this process is `python [options] -m surfgrad_addon ...` itself (its command
     line, sys.orig_argv, read as CPython reads its options), not a script or `-c` that runs
