@@ -263,8 +263,10 @@ def _chart(result, path):
     ax.invert_yaxis()
     ax.set_xlabel("render time / Blender's own nodes\n(black: target; green: met, orange: "
                   "missed, grey: no target)")
-    ax.set_title(f"Render cost, Cycles {result.get('cycles_device', 'CPU')} "
-                 f"{result['size']}^2, {result['samples']} samples",
+    # The device on a line of its own: a GPU's name ("OPTIX: NVIDIA H100 80GB HBM3") ran the
+    # title off the picture.
+    ax.set_title(f"Render cost, Cycles {result.get('cycles_device', 'CPU')}\n"
+                 f"{result['size']}\u00b2 pixels, {result['samples']} samples",
                  fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
