@@ -126,6 +126,40 @@ def render_cost_table(docs):
     return rows
 
 
+def render_cost_lines_table(docs):
+    """Issue 21's render cost on every line in quick mode (tools/render_cost_lines.py): each SG
+    material's ratio to its twin with the groups before the issue and now, both in one run."""
+    data = load(docs, "render_cost_lines.json")
+    lines = data["lines"]
+    by = [({r["key"]: r for r in e["before"]["rows"]}, {r["key"]: r for r in e["after"]["rows"]})
+          for e in lines]
+
+    def cell(was, now, key):
+        b, a = was.get(key, {}), now.get(key)
+        if a is None:
+            return "(not on this line)"
+        text = (f"{b['ratio']:.2f}x" if "ratio" in b else "-") + f" -> **{a['ratio']:.2f}x**"
+        if "target" in a:
+            text += " met" if a["ratio"] <= a["target"] else ""
+        return text
+    rows = ["| material | target | " + " | ".join(f"{e['line']}: before -> now" for e in lines)
+            + " |", "|---|---|" + "---|" * len(lines)]
+    for r in lines[0]["after"]["rows"]:
+        if "ratio" not in r:
+            continue
+        target = f"{r['target']:.2f}x" if "target" in r else ""
+        rows.append(f"| {r['label']} | {target} | "
+                    + " | ".join(cell(was, now, r["key"]) for was, now in by) + " |")
+    layer = "; ".join(f"{e['line']} SG {e['after']['marginal_layer']['sg_s']:.3f} s, built-in "
+                      f"{e['after']['marginal_layer']['builtin_s']:.3f} s" for e in lines)
+    rows.append(f"\nOne more normal-map layer in a stack, now: {layer}. "
+                + ", ".join(f"Blender {e['after']['blender']}" for e in lines)
+                + f"; {data['size']}², {data['samples']} samples, median of {data['repeats']} "
+                f"interleaved rounds, no EEVEE; before = {data['before_commit']}, now = "
+                f"{data['after_commit']}.")
+    return rows
+
+
 def render_cost_instructions_table(docs):
     """`shader_instructions`' counts: instructions inside Cycles' shader interpreter per frame
     (callgrind), each SG material and its twin, before (the commit the JSON names) and now."""
@@ -333,6 +367,7 @@ TABLES = {"bench-compare": bench_compare_table,
           "bench-batch": bench_batch_table,
           "render-cost-folded": render_cost_folded_table,
           "render-cost": render_cost_table,
+          "render-cost-lines": render_cost_lines_table,
           "render-cost-instructions": render_cost_instructions_table,
           "render-cost-parts": render_cost_parts_table,
           "noise-footprint": noise_footprint_table,
@@ -347,6 +382,7 @@ SOURCES = {"bench-compare": ("bench_compare.json",),
            "render-cost-folded": ("render_cost_folded.json",),
            "render-cost": ("render_cost.json", "render_cost_before.json",
                            "render_cost_earlier.json"),
+           "render-cost-lines": ("render_cost_lines.json",),
            "render-cost-instructions": ("render_cost_instructions.json",),
            "render-cost-parts": ("render_cost_parts.json",),
            "noise-footprint": ("noise_footprint.json",),
