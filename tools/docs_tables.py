@@ -162,7 +162,8 @@ def render_cost_targets_table(docs):
     first = max(r["eevee_first_ratio"] for r in builtin)
     later = max(r["eevee_later_ratio"] for r in builtin)
     rows.append(f"| EEVEE first render <= {EEVEE_FIRST_TARGET:.2f}x (the largest over "
-                f"{len(builtin)} materials) | {first:.2f}x | {verdict(first <= EEVEE_FIRST_TARGET)} | |")
+                f"{len(builtin)} materials) | {first:.2f}x "
+                f"| {verdict(first <= EEVEE_FIRST_TARGET)} | |")
     rows.append(f"| EEVEE later renders <= {EEVEE_LATER_TARGET:.2f}x (the largest) | {later:.2f}x "
                 f"| {verdict(later <= EEVEE_LATER_TARGET)} | |")
     rows.append(f"\nBlender {now['blender']}, Cycles {now.get('cycles_device', 'CPU')}, "
