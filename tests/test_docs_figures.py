@@ -257,3 +257,30 @@ def test_path_rules_catch_a_moved_module():
 def test_readme_is_a_front_door():
     lines = (ROOT / "README.md").read_text().count("\n")
     assert lines <= README_MAX_LINES, f"README.md has {lines} lines; move detail into docs/"
+
+
+def _targets_with(tmp_path, changes):
+    """The targets table written from docs/render_cost.json with some rows' figures changed."""
+    data = _json("render_cost.json")
+    for row in data["rows"]:
+        row.update(changes.get(row["key"], {}))
+    (tmp_path / "render_cost.json").write_text(json.dumps(data))
+    rows = docs_tables.render_cost_targets_table(tmp_path)
+    return {r.split("|")[1].strip(): r.split("|")[3].strip() for r in rows[2:] if "|" in r}
+
+
+def test_the_targets_table_calls_each_target_by_its_figure(tmp_path):
+    """Issue 21's targets: a ratio at its target is met, one above it missed; a stack is met
+    only when every stack is under its built-in chain; EEVEE goes by the worst material."""
+    met = _targets_with(tmp_path, {
+        "nm-sg": {"ratio": 1.05}, "bump-sg": {"ratio": 1.0}, "uv2-sg": {"ratio": 1.1},
+        "tri-sg": {"ratio": 1.15}, "layers2-sg": {"ratio": 0.9}, "layers3-sg": {"ratio": 0.99}})
+    assert [v for k, v in met.items() if not k.startswith("EEVEE")] == ["met"] * 5
+    missed = _targets_with(tmp_path, {
+        "nm-sg": {"ratio": 1.051}, "layers2-sg": {"ratio": 0.9}, "layers3-sg": {"ratio": 1.0},
+        "uv2-sg": {"eevee_first_ratio": 1.11, "eevee_later_ratio": 1.03}})
+    assert missed["SG Normal Map + SG Resolve <= 1.05x its twin"] == "**missed**"
+    assert missed["stacks of two or more layers cheaper than the built-in chain (< 1.00x)"] \
+        == "**missed**"
+    eevee = {k: v for k, v in missed.items() if k.startswith("EEVEE")}
+    assert list(eevee.values()) == ["**missed**", "**missed**"]
