@@ -1,6 +1,22 @@
 """Red team 42a: leftovers earlier rounds noticed and left.
 
-1. A per-image group (SG Height Map HQ, SG Parallax, SG Triplanar Height) under the name of an
+1. Freeze walked the material itself to find the stack and took muted nodes as live: a stack
+   into a muted BSDF, or into a BSDF a muted Mix Shader does not pass on (its first shader
+   goes on), is not rendered, yet it was baked through Freeze's Diffuse stand-in and wired
+   in, reported as frozen. Now Freeze follows what Cycles renders
+   (a muted node passes on only what its internal links name) and refuses such a stack,
+   naming the muted node, as it refuses one behind a muted link; the material unchanged.
+   A muted Material Output (pinned here by EMIT bakes on every line): 5.0 and 5.2 render
+   through it as if it were live; 4.2 and 4.5 render nothing through it (black; the flat
+   normal in a normal bake) and take no other output instead (LineFacts.muted_output_renders).
+   On 4.2 and 4.5 Freeze baked and wired in a flat map (the stack gone once the output is
+   unmuted), bake-normal-map wrote a flat map without a word, and the image checks refused a
+   missing image Cycles never reads there. Now Freeze refuses, the bake warns, and the checks
+   read nothing behind such an output.
+   Muted nodes inside a live stack (a layer, its Image Texture, a Bump or Normal Map node
+   after it) were fine: the bake is Cycles', so the frozen map equals a bake of the live
+   material to 1e-5 on every line, and Thaw restores it exactly.
+2. A per-image group (SG Height Map HQ, SG Parallax, SG Triplanar Height) under the name of an
    image it no longer holds: "SG Parallax [Bumps]" appended from another file into one that
    has an image "Bumps" (the group keeps its name, its image comes in as "Bumps.001"), or its
    image renamed by the artist. Asking for the group of the file's own "Bumps" (Add > Surface
@@ -12,16 +28,93 @@
    threw it away unused. Now the group takes that name first and is rebuilt in place.
 """
 
+import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
+from surfgrad_addon.addon.material_inputs import muted_output_warnings  # noqa: E402
+from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
+from support.material_dump import material_dump  # noqa: E402
+from test_faults_materials39 import (QUIET, SIZE, _cycles_plane,  # noqa: E402,F401
+                                     _emission_outputs, frozen_pixels, plain, sphere)
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.addon.group_names import VERSION_KEY  # noqa: E402
 from surfgrad_addon.addon.group_updates import update_stale_groups  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
+
+
+@pytest.mark.tier("bake")
+def test_a_muted_material_output_renders_as_the_line_fact():
+    obj = _cycles_plane()
+    target = bpy.data.images.new("Emit", 4, 4, float_buffer=True)
+    mat, ((_, out),) = _emission_outputs(obj, target, [("R", "ALL")], 0)
+    gone = bpy.data.images.new("Gone", 4, 4)
+    gone.source, gone.filepath = "FILE", "/nonexistent/gone.png"
+    tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = gone
+    emission = out.inputs["Surface"].links[0].from_node
+    mat.node_tree.links.new(tex.outputs["Alpha"], emission.inputs["Strength"])
+    renders = facts_for(bpy.app.version).muted_output_renders
+    for muted in (False, True):
+        out.mute = muted
+        bpy.ops.object.bake(type="EMIT")
+        texel = np.array(target.pixels[:]).reshape(-1, 4)[0, :3]
+        red = (1.0, 0.0, 0.0) if renders or not muted else (0.0, 0.0, 0.0)
+        assert np.allclose(texel, red, atol=0.01), (muted, texel)   # (its magenta: not read)
+        read = renders or not muted
+        assert any("'Gone'" in p for p in image_problems(obj)) == read, muted
+        warned = muted_output_warnings(obj)
+        assert (warned == []) == read, warned
+    assert "Material Output 'Material Output' is muted" in warned[0] if warned else renders
+
+
+def _freeze_refused(obj, mat, match):
+    before = material_dump(mat)
+    try:
+        with pytest.raises(F.FreezeError, match=match):
+            F.freeze(obj, SIZE, **QUIET)
+    finally:
+        if F.RECORD in mat:
+            F.thaw(mat)
+    assert material_dump(mat) == before
+
+
+@pytest.mark.tier("bake")
+def test_freeze_follows_what_cycles_renders_through_muted_nodes(sphere, plain):
+    obj, mat, bsdf = sphere
+    tree = mat.node_tree
+    out = bsdf.outputs[0].links[0].to_node
+    bsdf.mute = True
+    try:
+        _freeze_refused(obj, mat, r"node 'Diffuse BSDF' is muted, so Cycles renders")
+    finally:
+        bsdf.mute = False
+    mix = tree.nodes.new("ShaderNodeMixShader")       # muted: passes its first shader on
+    other = tree.nodes.new("ShaderNodeBsdfDiffuse")
+    tree.links.new(other.outputs[0], mix.inputs[1])
+    tree.links.new(bsdf.outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], out.inputs["Surface"])
+    mix.mute = True
+    try:
+        _freeze_refused(obj, mat, rf"node {mix.name!r} is muted")
+    finally:
+        tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+        tree.nodes.remove(mix)
+        tree.nodes.remove(other)
+    out.mute = True
+    try:
+        if facts_for(bpy.app.version).muted_output_renders:
+            np.testing.assert_allclose(frozen_pixels(obj, mat), plain, atol=1e-6)
+        else:
+            _freeze_refused(obj, mat, r"nothing to freeze: its Material Output 'Material "
+                                      r"Output' is muted")
+    finally:
+        out.mute = False
 
 PER_IMAGE = ("SG Height Map HQ", "SG Parallax", "SG Triplanar Height")
 

@@ -36,9 +36,10 @@ def material_images(obj, only=None):
 
 def material_nodes(mat, memo):
     """(node, path, group nodes it lies in) of every node `mat` reads through the output
-    Cycles renders."""
+    Cycles renders (none through a muted one on 4.2 and 4.5: MI.renders_nothing)."""
     output = MI.cycles_output(mat.node_tree)
-    return _reached(mat.node_tree, [output] if output else [], memo)
+    read = output is not None and not MI.renders_nothing(output)
+    return _reached(mat.node_tree, [output] if read else [], memo)
 
 
 def data_key(block):
