@@ -16,7 +16,16 @@
    Muted nodes inside a live stack (a layer, its Image Texture, a Bump or Normal Map node
    after it) were fine: the bake is Cycles', so the frozen map equals a bake of the live
    material to 1e-5 on every line, and Thaw restores it exactly.
-2. A per-image group (SG Height Map HQ, SG Parallax, SG Triplanar Height) under the name of an
+2. What a muted SG group passes on: Blender takes a linked input before an unlinked one (its
+   find_internally_linked_input; 4.2 and 4.5 do not show a group node's internal links to
+   Python). So muting SG Volume Gradient, its Normal unlinked and SG Noise's Gradient linked
+   (the usual layer), passes the unprojected gradient on at Bump Scale 1: on the freeze
+   tests' sphere 75.9 deg mean (p99 169) from the layer switched off (Bump Scale 0), on every
+   line; artists.md called that layer flat, and the sidebar, which took the first vector
+   input, said nothing. So for a muted SG Resolve whose Normal is unlinked: its Surface
+   Gradient becomes the normal. Now the sidebar names what each muted group passes (the
+   internal links where Python shows them, else Blender's rule), pinned by a bake per line.
+3. A per-image group (SG Height Map HQ, SG Parallax, SG Triplanar Height) under the name of an
    image it no longer holds: "SG Parallax [Bumps]" appended from another file into one that
    has an image "Bumps" (the group keeps its name, its image comes in as "Bumps.001"), or its
    image renamed by the artist. Asking for the group of the file's own "Bumps" (Add > Surface
@@ -36,7 +45,12 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
+from surfgrad_addon.addon.node_vocabulary import VMath  # noqa: E402
+from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.material_inputs import muted_output_warnings  # noqa: E402
+from surfgrad_addon.addon.muted_layers import passed_input, wrong_muted_layers  # noqa: E402
+from support import bake_probe as probe  # noqa: E402
+from test_muted_layers import _gradient_groups  # noqa: E402
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
 from test_faults_materials39 import (QUIET, SIZE, _cycles_plane,  # noqa: E402,F401
@@ -71,6 +85,39 @@ def test_a_muted_material_output_renders_as_the_line_fact():
         warned = muted_output_warnings(obj)
         assert (warned == []) == read, warned
     assert "Material Output 'Material Output' is muted" in warned[0] if warned else renders
+
+
+@pytest.mark.tier("bake")
+def test_a_muted_group_passes_a_linked_input_before_an_unlinked_one():
+    """Each SG group with two vector inputs or more, and SG Resolve, muted with only its last
+    vector input linked: a bake reads what each passes on (its tag: a base-8 digit)."""
+    probe.new_scene()
+    pr = probe.EmissionProbe(probe.add_uv_plane())
+    trees = {**_gradient_groups(), "SG Resolve": G.resolve_group()}
+    cases, total = [], None
+    for name, tree in sorted(trees.items()):
+        node = pr.node("ShaderNodeGroup", node_tree=tree)
+        vectors = [s for s in node.inputs if s.type == "VECTOR"]
+        if len(vectors) < 2:
+            pr.nodes.remove(node)
+            continue
+        channel, place = divmod(len(cases), 6)
+        tag = [0.0, 0.0, 0.0]
+        tag[channel] = float(8 ** place)
+        pr.link(pr.combine(*tag), vectors[-1])
+        node.mute = True
+        out = next(s for s in node.outputs if s.type == "VECTOR")
+        total = out if total is None else pr.vmath(VMath.ADD, total, out)
+        cases.append((name, node, out, vectors[-1]))
+    assert {"SG Volume Gradient", "SG Resolve"} <= {name for name, *_ in cases}
+    px = pr.bake(total, 2, 2)[0, 0, :3].astype(np.int64)
+    for k, (name, node, out, last) in enumerate(cases):
+        channel, place = divmod(k, 6)
+        assert int(px[channel]) // 8 ** place % 8 == 1, (name, px)     # the linked one
+        assert passed_input(node, out).identifier == last.identifier, name
+    warned = sorted(group for _, group, _ in wrong_muted_layers(pr.tree))
+    assert warned == sorted(name for name, *_, last in cases if last.name != "A"), warned
+    assert "SG Volume Gradient" in warned and "SG Resolve" in warned
 
 
 def _freeze_refused(obj, mat, match):
