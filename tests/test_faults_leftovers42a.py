@@ -48,7 +48,8 @@ from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
 from surfgrad_addon.addon.node_vocabulary import VMath  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.material_inputs import muted_output_warnings  # noqa: E402
-from surfgrad_addon.addon.muted_layers import passed_input, wrong_muted_layers  # noqa: E402
+from surfgrad_addon.addon.muted_layers import (blender_rule_input, passed_input,  # noqa: E402
+                                               wrong_muted_layers)
 from support import bake_probe as probe  # noqa: E402
 from test_muted_layers import _gradient_groups  # noqa: E402
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
@@ -115,6 +116,7 @@ def test_a_muted_group_passes_a_linked_input_before_an_unlinked_one():
         channel, place = divmod(k, 6)
         assert int(px[channel]) // 8 ** place % 8 == 1, (name, px)     # the linked one
         assert passed_input(node, out).identifier == last.identifier, name
+        assert blender_rule_input(node).identifier == last.identifier, name
     warned = sorted(group for _, group, _ in wrong_muted_layers(pr.tree))
     assert warned == sorted(name for name, *_, last in cases if last.name != "A"), warned
     assert "SG Volume Gradient" in warned and "SG Resolve" in warned

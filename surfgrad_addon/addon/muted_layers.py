@@ -16,10 +16,16 @@ _VECTOR_PRIORITY = {"VECTOR": 4, "VALUE": 3, "INT": 2, "BOOLEAN": 1}
 
 
 def passed_input(node, output):
-    """The input muted `node` passes to its vector output `output` (None: none)."""
+    """The input muted `node` passes to its vector output `output` (None: none): its internal
+    links, where Blender has made them (a tree no object's material has used yet has none)."""
     if node.internal_links:
         return next((lk.from_socket for lk in node.internal_links
                      if lk.to_socket.identifier == output.identifier), None)
+    return blender_rule_input(node)
+
+
+def blender_rule_input(node):
+    """The input Blender's rule picks for a muted node's vector output (_VECTOR_PRIORITY)."""
     chosen, priority, linked = None, -1, False
     for socket in node.inputs:
         p = _VECTOR_PRIORITY.get(socket.type, -1) if socket.enabled else -1
