@@ -25,7 +25,16 @@
    input, said nothing. So for a muted SG Resolve whose Normal is unlinked: its Surface
    Gradient becomes the normal. Now the sidebar names what each muted group passes (the
    internal links where Python shows them, else Blender's rule), pinned by a bake per line.
-3. A per-image group (SG Height Map HQ, SG Parallax, SG Triplanar Height) under the name of an
+3. SG Parallax reading a float height image beyond 0..1 (heights in other units, a map centred
+   on 0): exit 0 and no word, where a normal map above 1 is warned about (round 41; SG Decal's
+   Color is judged as every normal map input is, measured: its texels above 1 and its -1..1
+   storage are warned about). The group does as the reference does (compare with heights 0..3
+   and -0.5..0.5: p99 0.0005 deg), but the march starts at 1, so the relief beyond is cut off:
+   heights 0..2, 0..3, 0..10 against the same relief as 0..1 at Depth x2, x3, x10: mean 4.4,
+   11.0, 35.8 deg, p99 65, 71, 116 (the reference, 64^2 on the sphere); heights shifted by
+   -0.5: mean 8.0, p99 69. Now bake-normal-map and Freeze warn, naming the image, the counts
+   and the fix.
+4. A per-image group (SG Height Map HQ, SG Parallax, SG Triplanar Height) under the name of an
    image it no longer holds: "SG Parallax [Bumps]" appended from another file into one that
    has an image "Bumps" (the group keeps its name, its image comes in as "Bumps.001"), or its
    image renamed by the artist. Asking for the group of the file's own "Bumps" (Add > Surface
@@ -48,6 +57,10 @@ from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
 from surfgrad_addon.addon.node_vocabulary import VMath  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.material_inputs import muted_output_warnings  # noqa: E402
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon.parallax_heights import parallax_height_warnings  # noqa: E402
+from surfgrad_addon.addon.ui import add_group_node  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 from surfgrad_addon.addon.muted_layers import (blender_rule_input, passed_input,  # noqa: E402
                                                wrong_muted_layers)
 from support import bake_probe as probe  # noqa: E402
@@ -222,3 +235,49 @@ def test_update_reaches_an_older_group_named_for_another_image(tmp_path):
     assert (updated, left) == ([f"{key} [Bumps] (now {key} [Bumps.001])"], [])
     assert _group_of(bpy.data.materials["Theirs"]) == group and _held(group) == ["Bumps.001"]
     assert group[VERSION_KEY] == api.node_group(key, image=mine)[VERSION_KEY]
+
+
+def _height_exr(path, low, high):
+    """An 8 x 8 float EXR of heights from `low` to `high` along x, loaded."""
+    img = bpy.data.images.new(path.stem, 8, 8, float_buffer=True)
+    img.colorspace_settings.is_data = True          # saved as the values are
+    ramp = np.linspace(low, high, 8, dtype=np.float32)
+    px = np.ones((8, 8, 4), np.float32)
+    px[..., :3] = ramp[None, :, None]
+    img.pixels.foreach_set(px.ravel())
+    img.filepath_raw, img.file_format = str(path), "OPEN_EXR"
+    img.save()
+    bpy.data.images.remove(img)
+    image = bpy.data.images.load(str(path))
+    image.colorspace_settings.is_data = True
+    return image
+
+
+@pytest.mark.tier("bake")
+def test_parallax_heights_beyond_0_to_1_are_warned(tmp_path, capsys):
+    obj = _cycles_plane()
+    mat, tree, bsdf = diffuse_material("Steps")
+    obj.data.materials.append(mat)
+    node = tree.nodes.new("ShaderNodeGroup")
+    for low, high, words in ((0.0, 1.0, None), (0.0, 3.0, "has 40 above 1 (up to 3) of its 64"),
+                             (-0.5, 0.5, "has 32 below 0 of its 64")):
+        image = _height_exr(tmp_path / f"h{low}_{high}.exr", low, high)
+        node.node_tree = api.node_group("SG Parallax", image=image)
+        tree.links.new(node.outputs[0], bsdf.inputs["Normal"])
+        warned = parallax_height_warnings(obj)
+        assert warned == [] if words is None else words in warned[0], warned
+    assert "read as heights by SG Parallax node 'Group'" in warned[0], warned
+    if G.unavailable_reason("SG Parallax (Sampler)") is None:      # 5.0+: in a Sampler zone
+        tex = tree.nodes.new("ShaderNodeTexImage")
+        tex.image = image
+        tree.nodes.active = tex
+        sampler = add_group_node(tree, "SG Parallax (Sampler)")
+        tree.links.new(sampler.outputs[0], bsdf.inputs["Normal"])
+        (warned,) = parallax_height_warnings(obj)
+        assert f"by SG Parallax node {sampler.name!r}" in warned and "has 32 below 0" in warned
+    blend = tmp_path / "steps.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(tmp_path / "map.png"), "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.OK and "SG Parallax marches heights 0..1" in err, err
