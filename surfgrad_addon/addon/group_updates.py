@@ -211,8 +211,9 @@ def _move_users(old, new):
 
 def _gather_renamed(stale):
     """Give each per-image group named otherwise than for the images it holds (by an older
-    surfgrad, or an image renamed since) the name it gets now, where that name is free; returns ([(group, its old name)] renamed, [(old name, new name)] of
-    those whose new name another group holds: their users move to it after the rebuild)."""
+    surfgrad, or an image renamed since) the name it gets now, where that name is free;
+    returns ([(group, its old name)] renamed, [(old name, new name)] of those whose new name
+    another group holds: their users move to it after the rebuild)."""
     renamed, merged = [], []
     for tree in stale:
         target = renamed_target(tree, any_name=True)
