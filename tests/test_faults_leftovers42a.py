@@ -34,6 +34,8 @@
    11.0, 35.8 deg, p99 65, 71, 116 (the reference, 64^2 on the sphere); heights shifted by
    -0.5: mean 8.0, p99 69. Now bake-normal-map and Freeze warn, naming the image, the counts
    and the fix.
+   SG Triplanar (Sampler) (5.0+, its normal map in a Sampler zone) got none of the normal-map
+   warnings (an sRGB, grey or out-of-range map) SG Triplanar gets: now judged the same.
 4. A per-image group (SG Height Map HQ, SG Parallax, SG Triplanar Height) under the name of an
    image it no longer holds: "SG Parallax [Bumps]" appended from another file into one that
    has an image "Bumps" (the group keeps its name, its image comes in as "Bumps.001"), or its
@@ -58,6 +60,7 @@ from surfgrad_addon.addon.node_vocabulary import VMath  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.material_inputs import muted_output_warnings  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon.normal_map_checks import colour_space_warnings  # noqa: E402
 from surfgrad_addon.addon.parallax_heights import parallax_height_warnings  # noqa: E402
 from surfgrad_addon.addon.ui import add_group_node  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
@@ -281,3 +284,25 @@ def test_parallax_heights_beyond_0_to_1_are_warned(tmp_path, capsys):
                            "--output", str(tmp_path / "map.png"), "--resolution", "16"])
     err = capsys.readouterr().err
     assert rc == exit_codes.OK and "SG Parallax marches heights 0..1" in err, err
+
+
+@pytest.mark.tier("blender")
+def test_a_normal_map_in_the_triplanar_sampler_zone_is_judged():
+    if G.unavailable_reason("SG Triplanar (Sampler)") is not None:
+        pytest.skip("SG Triplanar (Sampler) needs closures (Blender 5.0+)")
+    obj = _cycles_plane()
+    mat, tree, bsdf = diffuse_material("Rocks")
+    obj.data.materials.append(mat)
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.new("Bumps", 4, 4)       # read as sRGB: a warned slip
+    tree.nodes.active = tex
+    node = add_group_node(tree, "SG Triplanar (Sampler)")
+    resolve = tree.nodes.new("ShaderNodeGroup")
+    resolve.node_tree = G.resolve_group()
+    tree.links.new(node.outputs[0], resolve.inputs["Surface Gradient"])
+    tree.links.new(resolve.outputs[0], bsdf.inputs["Normal"])
+    (warning,) = colour_space_warnings(obj)
+    assert f"'Bumps' is read in colour space 'sRGB' by SG Triplanar (Sampler) node " \
+           f"{node.name!r}" in warning, warning
+    tex.image.colorspace_settings.is_data = True
+    assert colour_space_warnings(obj) == []

@@ -226,6 +226,21 @@ def texture_feeding(socket, outer=()):
     return None
 
 
+def sampler_textures(socket):
+    """The Image Texture nodes upstream of a Sampler group's Sampler input `socket` (in the
+    Sampler zone linked into it), through links Cycles follows."""
+    found, seen, todo = [], set(), [lk.from_node for lk in MI.live_links(socket)]
+    while todo:
+        node = todo.pop()
+        if node.name in seen:
+            continue
+        seen.add(node.name)
+        if node.bl_idname == "ShaderNodeTexImage":
+            found.append(node)
+        todo += [lk.from_node for s in node.inputs for lk in MI.live_links(s)]
+    return found
+
+
 def image_files(image):
     """The files an unpacked file image reads (one per UDIM tile for a tiled one)."""
     import bpy

@@ -27,7 +27,7 @@ import re
 
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .image_checks import (data_key, image_files, objects_nodes, packed_tile_files,
-                           packed_tiled, sequence_file, texture_feeding)
+                           packed_tiled, sampler_textures, sequence_file, texture_feeding)
 from .header_reads import path_headers
 from .image_channels import layered_file, path_channels, read_channels
 
@@ -35,6 +35,7 @@ from .image_channels import layered_file, path_channels, read_channels
 NORMAL_MAP_INPUTS = {"Normal Map": ("Color",), "SG Normal Map": ("Color",),
                      "SG Tangent Normal": ("Color",), "SG Decal": ("Color",),
                      "SG Triplanar": ("Color X", "Color Y", "Color Z"),
+                     "SG Triplanar (Sampler)": ("Sampler",),          # 5.0+: its zone's image
                      "SG Blend Normals": ("Color A", "Color B")}
 NORMAL_MAP_GROUPS = tuple(name for name in NORMAL_MAP_INPUTS if name.startswith("SG "))
 # ... with a per-UV-map suffix ("SG Normal Map [Detail]") or Blender's copy number (".001")
@@ -56,10 +57,13 @@ def normal_map_images(obj, only=None):
         kind = _normal_map_kind(node)
         names = NORMAL_MAP_INPUTS.get(kind, ())
         for name in names:
-            tex = texture_feeding(node.inputs.get(name), outer)
-            if tex is not None and tex.image is not None:
-                which = f" ({name})" if len(names) > 1 else ""
-                out.append((mat, f"{kind} node {path!r}{which}", tex.image, tex))
+            socket = node.inputs.get(name)
+            texes = sampler_textures(socket) if name == "Sampler" and socket is not None else \
+                [texture_feeding(socket, outer)]
+            for tex in texes:
+                if tex is not None and tex.image is not None:
+                    which = f" ({name})" if len(names) > 1 else ""
+                    out.append((mat, f"{kind} node {path!r}{which}", tex.image, tex))
     return out
 
 

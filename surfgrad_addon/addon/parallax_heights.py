@@ -4,8 +4,7 @@ and baked as they are. SG Parallax marches its heights from 1 (Depth above the s
 centred on 0) has its relief cut off where it leaves that range: the group does as the
 reference does, but not what the map holds (tests/test_faults_leftovers42a.py)."""
 
-from .image_checks import data_key, objects_nodes
-from .material_inputs import live_links
+from .image_checks import data_key, objects_nodes, sampler_textures
 from .normal_map_checks import own_files, range_facts
 
 PER_IMAGE = "SG Parallax ["          # the per-image group's name: its image inside
@@ -24,22 +23,8 @@ def parallax_height_images(obj, only=None):
         group = getattr(node, "node_tree", None) if node.type == "GROUP" else None
         if group is not None and group.name.split(".")[0] == SAMPLER and "Sampler" in node.inputs:
             out += [(mat, f"SG Parallax node {path!r}", tex)
-                    for tex in _textures_feeding(node.inputs["Sampler"])]
+                    for tex in sampler_textures(node.inputs["Sampler"])]
     return out
-
-
-def _textures_feeding(socket):
-    """The Image Texture nodes upstream of `socket` (through a Sampler zone's output)."""
-    found, seen, todo = [], set(), [lk.from_node for lk in live_links(socket)]
-    while todo:
-        node = todo.pop()
-        if node.name in seen:
-            continue
-        seen.add(node.name)
-        if node.bl_idname == "ShaderNodeTexImage":
-            found.append(node)
-        todo += [lk.from_node for s in node.inputs for lk in live_links(s)]
-    return found
 
 
 def parallax_height_warnings(obj, only=None, covered=()):
