@@ -44,9 +44,11 @@ from .foreign_nodes import foreign_node_problems
 from .header_reads import one_header_read
 from .image_checks import image_problems, one_tile_write, output_input_problems
 from .image_memory import images_memory
+from .material_inputs import muted_output_warnings
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 from .object_names import missing_object_problem
+from .parallax_heights import parallax_height_warnings
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -254,9 +256,10 @@ def _check(request, obj, warn):
     # so where they do not fit they are not loaded (nor checked further).
     problem = bake_memory_problem(request.resolution, len(tiles), images_memory(obj, tiles))
     problems += [problem] if problem else image_problems(obj, tiles)   # (its tiles)
-    warnings += colour_space_warnings(obj)
+    warnings += colour_space_warnings(obj) + muted_output_warnings(obj)
     if not problem:
         warnings += normal_map_warnings(obj, covered=tiles)     # grey files, -1..1 floats
+        warnings += parallax_height_warnings(obj, covered=tiles)
     depth = NB.depth_for(request.output, request.depth)
     finals = {t: T.tile_path(request.output, t) for t in tiles}
     problems += output_problems(request.output, finals, request.overwrite)

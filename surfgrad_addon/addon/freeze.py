@@ -25,7 +25,8 @@ from .bake_target import object_not_a_mesh
 from .bake_uvs import one_read
 from .cache_files import unread_cache_problems
 from .image_checks import image_problems
-from .material_inputs import cycles_output, edits_lost, linked_text, live_links
+from .material_inputs import (cycles_output, edits_lost, linked_text, live_links,
+                              muted_output_text, renders_nothing)
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
@@ -66,16 +67,24 @@ def _baking_the_stack_alone(tree, end):
         tree.nodes.remove(diffuse)
 
 
-def _upstream(socket):
-    """Every node that feeds `socket`, at any depth (by name), through links Cycles follows."""
-    seen, todo = set(), [lk.from_node for lk in live_links(socket)]
+def _upstream(socket, rendered=False):
+    """Every node that feeds `socket`, at any depth (by name), through links Cycles follows.
+    `rendered`: only the nodes Cycles evaluates for it: a muted node is none, and passes on
+    only the inputs its internal links name (as image_checks._reached walks)."""
+    seen, found, todo = set(), set(), [lk.from_node for lk in live_links(socket)]
     while todo:
         node = todo.pop()
         if node.name in seen:
             continue
         seen.add(node.name)
-        todo += [lk.from_node for s in node.inputs for lk in live_links(s)]
-    return seen
+        inputs = node.inputs
+        if rendered and node.mute:
+            passed = {lk.from_socket.identifier for lk in node.internal_links}
+            inputs = [s for s in inputs if s.identifier in passed]
+        else:
+            found.add(node.name)
+        todo += [lk.from_node for s in inputs for lk in live_links(s)]
+    return found
 
 
 def _is_sg(node, seen=()):
@@ -84,6 +93,15 @@ def _is_sg(node, seen=()):
     if tree is None or tree in seen:
         return False
     return tree.name.startswith(SG_PREFIX) or any(_is_sg(n, (*seen, tree)) for n in tree.nodes)
+
+
+def _fed(tree, output, rendered=False):
+    """(the nodes reaching `output`'s Surface, [(shader node, normal input)] an SG group
+    feeds), as Cycles renders them (`rendered`: _upstream) or as they are drawn."""
+    nodes = [tree.nodes[n] for n in _upstream(output.inputs["Surface"], rendered)]
+    return nodes, [(node, s) for node in nodes if _is_shader(node) for s in node.inputs
+                   if s.name in NORMAL_INPUTS and live_links(s) and
+                   any(_is_sg(tree.nodes[n]) for n in _upstream(s, rendered))]
 
 
 def _is_shader(node):
@@ -100,15 +118,22 @@ def find_stack(tree):
         raise FreezeError("the material has no shader linked to its Material Output's Surface: "
                           "link a BSDF first (to an output targeted at All or Cycles, which "
                           "Cycles renders)")
-    shaders = [tree.nodes[n] for n in _upstream(output.inputs["Surface"])]
-    fed = [(node, s) for node in shaders if _is_shader(node) for s in node.inputs
-           if s.name in NORMAL_INPUTS and live_links(s) and
-           any(_is_sg(tree.nodes[n]) for n in _upstream(s))]
-    muted = [f"{node.name!r} {s.name}" for node in shaders if _is_shader(node)
+    if renders_nothing(output):
+        raise FreezeError(f"nothing to freeze: {muted_output_text(output)}")
+    # What Cycles renders: a muted node (a BSDF, a Mix Shader, an SG group) passes on only the
+    # inputs its internal links name; a stack behind one is not rendered (baked, it was wired
+    # in as if it were).
+    shaders, fed = _fed(tree, output, rendered=True)
+    muted = [f"the link into {node.name!r} {s.name}" for node in shaders if _is_shader(node)
              for s in node.inputs if s.name in NORMAL_INPUTS and s.is_linked and not live_links(s)]
+    drawn, stacked = _fed(tree, output) if not fed else ((), ())
+    between = {n for _, s in stacked for n in _upstream(s)} | {n.name for n, _ in stacked}
+    muted += [f"node {n.name!r}" for n in drawn if stacked and n.mute and
+              (n.name in between or _is_shader(n))]
     if not fed and muted:
-        raise FreezeError(f"the link into {', '.join(muted)} is muted, so Cycles renders the "
-                          f"material without what it brings: nothing to freeze; unmute it first")
+        raise FreezeError(f"{', '.join(muted)} {'is' if len(muted) == 1 else 'are'} muted, so "
+                          f"Cycles renders the material without what the stack brings: nothing "
+                          f"to freeze; unmute it first")
     inside = sorted({repr(n.node_tree.name) for n in shaders if _is_shader(n) and _is_sg(n)})
     if not fed and inside:
         raise FreezeError(f"the stack is inside shader node group {', '.join(inside)}: Freeze "

@@ -11,6 +11,7 @@ import textwrap
 import bpy
 
 from . import groups as G
+from .groups.common import held_images
 from .group_names import LINE_KEY, VERSION_KEY, fitting_name
 from .all_or_nothing import all_or_nothing
 from .node_builder import checked_first, running_line, take_notes
@@ -56,10 +57,6 @@ def _interior(tree, bl_idname, prop):
     return None if node is None else getattr(node, prop)
 
 
-def _images(tree):
-    return [n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage"]
-
-
 # Per-image group key -> its builder and the options its key stands for.
 _PER_IMAGE = {"SG Height Map HQ": (G.height_map_group, {"variant": "hq"}),
               "SG Height Map One-Texel": (G.height_map_group, {"variant": "one-texel"}),
@@ -75,15 +72,8 @@ def _per_image_request(tree):
     key = next((k for k in _PER_IMAGE if name.startswith(k + " [")), None)
     if key is None:
         return None
-    taps = _images(tree)
-    images = [t.image for t in taps]
-    if not images or any(image is None for image in images):
-        return None
-    if key == "SG Triplanar Height":
-        if len(images) % 3:
-            return None
-        images = images[::len(images) // 3]
-    return key, images, taps[0].extension
+    held = held_images(tree, 3 if key == "SG Triplanar Height" else 1)
+    return held and (key, *held)
 
 
 def _per_image(tree):
@@ -113,16 +103,18 @@ def _older_names(key, images, extension):
                                                  else f" ({extension})"))}
 
 
-def renamed_target(tree):
+def renamed_target(tree, any_name=False):
     """The name per-image group `tree` gets now, where an older surfgrad named it otherwise
-    (its name, or its ".001" copy's, is what that version called it); else None."""
+    (its name, or its ".001" copy's, is what that version called it), or with `any_name`
+    where its name is any other (an image of another name: renamed, or appended beside one
+    of its name); else None."""
     request = _per_image_request(tree)
     if request is None:
         return None
     target = fitting_name(G.image_group_name(*request))
     name = _COPY.sub("", tree.name)
-    return target if tree.name != target and name in _older_names(*request) | {target} \
-        else None
+    return target if tree.name != target and (
+        any_name or name in _older_names(*request) | {target}) else None
 
 
 # Name (before " [" or " (filter") -> how to make its builder call from the tree.
@@ -218,12 +210,13 @@ def _move_users(old, new):
 
 
 def _gather_renamed(stale):
-    """Give each per-image group an older surfgrad named otherwise the name it gets now, where
-    that name is free; returns ([(group, its old name)] renamed, [(old name, new name)] of
-    those whose new name another group holds: their users move to it after the rebuild)."""
+    """Give each per-image group named otherwise than for the images it holds (by an older
+    surfgrad, or an image renamed since) the name it gets now, where that name is free;
+    returns ([(group, its old name)] renamed, [(old name, new name)] of those whose new name
+    another group holds: their users move to it after the rebuild)."""
     renamed, merged = [], []
     for tree in stale:
-        target = renamed_target(tree)
+        target = renamed_target(tree, any_name=True)
         if target is None:
             continue
         old = tree.name

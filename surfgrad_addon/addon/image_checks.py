@@ -36,9 +36,10 @@ def material_images(obj, only=None):
 
 def material_nodes(mat, memo):
     """(node, path, group nodes it lies in) of every node `mat` reads through the output
-    Cycles renders."""
+    Cycles renders (none through a muted one on 4.2 and 4.5: MI.renders_nothing)."""
     output = MI.cycles_output(mat.node_tree)
-    return _reached(mat.node_tree, [output] if output else [], memo)
+    read = output is not None and not MI.renders_nothing(output)
+    return _reached(mat.node_tree, [output] if read else [], memo)
 
 
 def data_key(block):
@@ -223,6 +224,21 @@ def texture_feeding(socket, outer=()):
         else:
             return source if source.bl_idname == "ShaderNodeTexImage" else None
     return None
+
+
+def sampler_textures(socket):
+    """The Image Texture nodes upstream of a Sampler group's Sampler input `socket` (in the
+    Sampler zone linked into it), through links Cycles follows."""
+    found, seen, todo = [], set(), [lk.from_node for lk in MI.live_links(socket)]
+    while todo:
+        node = todo.pop()
+        if node.name in seen:
+            continue
+        seen.add(node.name)
+        if node.bl_idname == "ShaderNodeTexImage":
+            found.append(node)
+        todo += [lk.from_node for s in node.inputs for lk in MI.live_links(s)]
+    return found
 
 
 def image_files(image):

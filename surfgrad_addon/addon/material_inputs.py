@@ -37,6 +37,32 @@ def cycles_output(tree):
     return render_output(tree, "CYCLES")
 
 
+def renders_nothing(output):
+    """True where Cycles renders nothing through `output`: muted, on a line whose Cycles does
+    not pass a muted Material Output on (4.2, 4.5: LineFacts.muted_output_renders)."""
+    import bpy
+    from ..reference.blender_lines import facts_for
+    return output is not None and output.mute and \
+        not facts_for(bpy.app.version).muted_output_renders
+
+
+def muted_output_warnings(obj):
+    """A warning per material of obj that Cycles renders nothing through (renders_nothing):
+    its faces bake the flat normal, whatever its nodes hold."""
+    return [f"material {slot.material.name!r}: {muted_output_text(output)}; its faces bake "
+            f"flat" for slot in obj.material_slots
+            if slot.material is not None and slot.material.node_tree is not None
+            and renders_nothing(output := cycles_output(slot.material.node_tree))]
+
+
+def muted_output_text(output):
+    """Why nothing is rendered through `output` (renders_nothing), and the fix."""
+    import bpy
+    return (f"its Material Output {output.name!r} is muted, and Blender "
+            f"{bpy.app.version_string} renders nothing through a muted output (no closure: the "
+            f"flat normal); unmute it (select it, M)")
+
+
 def sequence_frame(image_user, scene_frame):
     """The frame number an Image Sequence's image user reads at `scene_frame` (Blender's
     BKE_image_user_frame_get: start, duration, cyclic, then the offset)."""

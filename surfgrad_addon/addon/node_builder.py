@@ -45,13 +45,15 @@ class BuildError(RuntimeError):
 
 
 def ensure_group(name, version, build, description=None, stale=None, tree_type="ShaderNodeTree",
-                 interface=None):
+                 interface=None, held_name=None):
     """Return node group `name`, (re)building it with build(GroupBuilder) unless it already
     carries `version` (and `stale(tree)`, if given, is false: e.g. an image it references is
     gone). tree_type: "ShaderNodeTree" or "GeometryNodeTree". interface: the group's
-    GroupInterface (its sockets, and the description unless one is given). Checked whole first
-    (checked_first): a refusal anywhere in it, a helper's too, changes no existing group."""
-    args = (name, version, build, description, stale, tree_type, interface)
+    GroupInterface (its sockets, and the description unless one is given). held_name(tree):
+    of a per-image group, the name it gets for the images it holds (None where one is gone).
+    Checked whole first (checked_first): a refusal anywhere in it, a helper's too, changes no
+    existing group."""
+    args = (name, version, build, description, stale, tree_type, interface, held_name)
     if _CHECK.scratch is None and not _CHECK.done:
         return checked_first(lambda: _ensure(*args))[0]
     return _ensure(*args)
@@ -129,7 +131,7 @@ def _build_checked(scratch):
                 bpy.data.node_groups.remove(built.group)
 
 
-def _ensure(name, version, build, description, stale, tree_type, interface):
+def _ensure(name, version, build, description, stale, tree_type, interface, held_name=None):
     if description is None:
         description = interface.describe()
     name = fitting_name(name)
@@ -158,13 +160,20 @@ def _ensure(name, version, build, description, stale, tree_type, interface):
             scratch = bpy.data.node_groups.new(f"{name} (build check)", tree_type)
             _CHECK.scratch[name] = _Scratch(scratch, tree is None and not copies,
                                             (name, version, build, description, stale,
-                                             tree_type, interface))
+                                             tree_type, interface, held_name))
             _rebuild(scratch, description, build, interface, 0, "")
         return tree if current else _CHECK.scratch[name].group
     for copy in copies:
         _rebuild(copy, description, build, interface, version, line)
     if current:
         return tree
+    held = held_name and tree is not None and held_name(tree)
+    if held and fitting_name(held) != name:
+        # Another image's group under this image's name (that image renamed, by the artist or
+        # by an append that brought in one of the same name): rebuilt here, every material
+        # using it would read this image. It takes its own image's name; this one is new.
+        tree.name = fitting_name(held)
+        tree = None
     if tree is None:
         tree = bpy.data.node_groups.new(name, tree_type)
     _rebuild(tree, description, build, interface, version, line)

@@ -27,7 +27,7 @@ import re
 
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .image_checks import (data_key, image_files, objects_nodes, packed_tile_files,
-                           packed_tiled, sequence_file, texture_feeding)
+                           packed_tiled, sampler_textures, sequence_file, texture_feeding)
 from .header_reads import path_headers
 from .image_channels import layered_file, path_channels, read_channels
 
@@ -35,6 +35,7 @@ from .image_channels import layered_file, path_channels, read_channels
 NORMAL_MAP_INPUTS = {"Normal Map": ("Color",), "SG Normal Map": ("Color",),
                      "SG Tangent Normal": ("Color",), "SG Decal": ("Color",),
                      "SG Triplanar": ("Color X", "Color Y", "Color Z"),
+                     "SG Triplanar (Sampler)": ("Sampler",),          # 5.0+: its zone's image
                      "SG Blend Normals": ("Color A", "Color B")}
 NORMAL_MAP_GROUPS = tuple(name for name in NORMAL_MAP_INPUTS if name.startswith("SG "))
 # ... with a per-UV-map suffix ("SG Normal Map [Detail]") or Blender's copy number (".001")
@@ -56,10 +57,13 @@ def normal_map_images(obj, only=None):
         kind = _normal_map_kind(node)
         names = NORMAL_MAP_INPUTS.get(kind, ())
         for name in names:
-            tex = texture_feeding(node.inputs.get(name), outer)
-            if tex is not None and tex.image is not None:
-                which = f" ({name})" if len(names) > 1 else ""
-                out.append((mat, f"{kind} node {path!r}{which}", tex.image, tex))
+            socket = node.inputs.get(name)
+            texes = sampler_textures(socket) if name == "Sampler" and socket is not None else \
+                [texture_feeding(socket, outer)]
+            for tex in texes:
+                if tex is not None and tex.image is not None:
+                    which = f" ({name})" if len(names) > 1 else ""
+                    out.append((mat, f"{kind} node {path!r}{which}", tex.image, tex))
     return out
 
 
@@ -117,7 +121,7 @@ def normal_map_warnings(obj, only=None, covered=()):
     where empty). Each file is read once."""
     out, seen = [], {}
     for mat, node, image, tex in normal_map_images(obj, only):
-        files = _own_files(image, tex, covered)
+        files = own_files(image, tex, covered)
         key = (data_key(image), tuple(files))   # a library's image may share a name
         if key not in seen:
             seen[key] = _file_problems(image, files, covered)
@@ -140,7 +144,7 @@ def _file_problems(image, files, covered):
     return (_channels_problem(image, files), *_range_problems(image, files))
 
 
-def _own_files(image, tex, covered):
+def own_files(image, tex, covered):
     """(what, path) of each file the bake reads from `image` (read by Image Texture `tex`)
     that the image's own load does not: each UDIM tile's (of `covered`, all where empty), the
     frame file an Image Sequence reads now; [] for one file or packed data (the image's)."""
@@ -173,10 +177,9 @@ def _channels_problem(image, files):
     return None
 
 
-def _range_problems(image, files):
-    """(below 0, above 1): of the first float file of the image (of `files`, else the image's
-    own pixels) with more than NEGATIVE_SHARE of its texels below 0 in R or G, and of the
-    first with any texel above 1 (float_pixels.ABOVE_ONE), what is wrong, or None."""
+def range_facts(image, files):
+    """[(PixelFacts, where: " (the file)" or "")] of each float file of the image (of `files`,
+    else the image's own pixels) that can be read."""
     if files:
         reads = [(lambda p=path: file_facts(p), f" ({what})") for what, path in files
                  if not getattr(path_headers(path), "layered", False)]  # (refused: image_checks)
@@ -184,15 +187,25 @@ def _range_problems(image, files):
         reads = []
     else:
         reads = [(lambda: pixel_facts(image), "")]
-    below = above = None
+    found = []
     for read, where in reads:
         try:
             facts = read()  # (read once with image_checks' finite test: float_pixels)
         except PixelsTooLarge:
             continue            # (image_checks refuses the bake for it)
         if facts is not None:
-            below = below or _below_text(facts, where)
-            above = above or _above_text(facts, where)
+            found.append((facts, where))
+    return found
+
+
+def _range_problems(image, files):
+    """(below 0, above 1): of the first float file of the image (range_facts) with more than
+    NEGATIVE_SHARE of its texels below 0 in R or G, and of the first with any texel above 1
+    (float_pixels.ABOVE_ONE), what is wrong, or None."""
+    below = above = None
+    for facts, where in range_facts(image, files):
+        below = below or _below_text(facts, where)
+        above = above or _above_text(facts, where)
     return below, above
 
 

@@ -74,6 +74,10 @@ class LineFacts:
     # A shader node group can have Menu sockets and a Menu Switch node (5.0 and later); 4.2 and
     # 4.5 refuse NodeSocketMenu in a shader tree, so an enumeration is an integer there.
     menu_sockets: bool = True
+    # Cycles renders through a muted Material Output as through a live one (5.0 and later);
+    # 4.2 and 4.5 render nothing through it (no closure: an EMIT bake gives black, a normal
+    # bake the flat normal), and take no other output in its place.
+    muted_output_renders: bool = True
     # Where a bake shades texel (i, j): ((i + x) / W, (j + y) / H). Same on every line.
     bake_texel_offset: tuple = (0.501, 0.502)
     # MikkTSpace tangents come from Cycles' own triangles (not the quads Blender's
@@ -95,10 +99,11 @@ LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,
                         "normal_map_replaces_non_finite": False, "menu_sockets": False,
-                        "free_normals": False, "exr_two_colours_fill_zero": True}),
+                        "free_normals": False, "exr_two_colours_fill_zero": True,
+                        "muted_output_renders": False}),
     "4.5": LineFacts(line="4.5", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "normal_map_replaces_non_finite": False,
-                        "menu_sockets": False}),
+                        "menu_sockets": False, "muted_output_renders": False}),
     "5.0": LineFacts(line="5.0", eevee_engine="BLENDER_EEVEE", **_UP_TO_5_0),
     "5.2": LineFacts(line="5.2", eevee_engine="BLENDER_EEVEE", bake_differential_scale=0.5,
                      bump_filter_width=True, packed_normals=True, normal_map_unit_normal=True,

@@ -62,12 +62,13 @@ def require(name):
         raise FeatureUnavailable(reason)
 
 
-def ensure(key, build, name=None, stale=None, tree_type="ShaderNodeTree", **fields):
+def ensure(key, build, name=None, stale=None, tree_type="ShaderNodeTree", held_name=None,
+           **fields):
     """ensure_group for the group INTERFACES[key] (named `name`, default `key`), at VERSION;
     `fields` fill its description (an image's or UV map's name)."""
     iface = INTERFACES[key]
     return ensure_group(name or key, VERSION, build, iface.describe(**fields), stale, tree_type,
-                        iface)
+                        iface, held_name)
 
 
 def normal_input(b, spec=S.NORMAL):
@@ -402,6 +403,24 @@ def image_group_name(key, images, extension):
     label = named[0] if len(set(named)) == 1 and len(named) == len(images) else " | ".join(named)
     return key + (f" [{label}]" if label else "") + \
         ("" if extension == "REPEAT" else f" ({extension})")
+
+
+def held_images(tree, planes=1):
+    """(the images, one per plane, and the extension) the Image Texture nodes of per-image
+    group `tree` hold now, or None where one is gone."""
+    taps = [nd for nd in tree.nodes if nd.bl_idname == "ShaderNodeTexImage"]
+    images = [t.image for t in taps]
+    if not images or None in images or len(images) % planes:
+        return None
+    return images[::len(images) // planes], taps[0].extension
+
+
+def held_images_name(key, planes=1):
+    """held_name for ensure: the name per-image group `key` gets for the images a tree holds."""
+    def held_name(tree):
+        held = held_images(tree, planes)
+        return held and image_group_name(key, *held)
+    return held_name
 
 
 def images_stale(expected):

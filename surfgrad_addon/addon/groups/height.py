@@ -6,8 +6,9 @@ from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from . import common
 from .common import (FORWARD_FILTER_WIDTH, ImageTaps, SamplerTaps, bump_surface_gradient, ensure,
-                     image_group_name, images_stale, normal_input, scaled_position_inputs,
-                     sub_group, surfgrad_reaching, texel_count_inputs, uv_gradients_group, uv_input)
+                     held_images_name, image_group_name, images_stale, normal_input,
+                     scaled_position_inputs, sub_group, surfgrad_reaching, texel_count_inputs,
+                     uv_gradients_group, uv_input)
 from .projection import triplanar_surface_gradient, triplanar_weights, weighted_derivatives
 
 
@@ -115,7 +116,8 @@ def height_map_group(image=None, variant="hq", extension="REPEAT"):
 
     key = f"SG Height Map {HEIGHT_LABELS[variant]}"
     fields = {"image": image.name_full} if image is not None else {}
-    tree = ensure(key, build, image_group_name(key, [image], extension), stale=stale, **fields)
+    tree = ensure(key, build, image_group_name(key, [image], extension), stale=stale,
+                  held_name=held_images_name(key), **fields)
     tree["surfgrad_size"] = [w, h]
     return tree
 
@@ -208,7 +210,8 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
         return same_images(tree) or list(tree.get("surfgrad_size", ())) != stamp
 
     key = "SG Triplanar Height"
-    tree = ensure(key, build, image_group_name(key, plane_images, extension), stale=stale)
+    tree = ensure(key, build, image_group_name(key, plane_images, extension), stale=stale,
+                  held_name=held_images_name(key, planes=3))
     tree["surfgrad_size"] = stamp
     return tree
 

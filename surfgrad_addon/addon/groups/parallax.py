@@ -4,8 +4,9 @@ offset limiting and parallax occlusion."""
 from ..node_vocabulary import Math, VMath
 from ...reference import socket_specs as S
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON
-from .common import (ImageTaps, SamplerTaps, ensure, image_group_name, images_stale,
-                     normal_input, require, sub_group, uv_gradients_group, uv_input, where_zero)
+from .common import (ImageTaps, SamplerTaps, ensure, held_images_name, image_group_name,
+                     images_stale, normal_input, require, sub_group, uv_gradients_group,
+                     uv_input, where_zero)
 
 
 POM_STEPS = 8
@@ -19,7 +20,8 @@ def parallax_group(image=None, extension="REPEAT"):
     stale = images_stale(lambda count: [image] * count)
     key = "SG Parallax"
     return ensure(key, lambda b: _parallax_body(b, lambda b: ImageTaps(b, image, extension)),
-                  image_group_name(key, [image], extension), stale=stale)
+                  image_group_name(key, [image], extension), stale=stale,
+                  held_name=held_images_name(key))
 
 
 def parallax_sampler_group():
