@@ -1,0 +1,150 @@
+"""Red team 42c: `compare` and `bake-normal-map` on meshes as other tools and artists make them.
+
+1. More than eight UV maps (an importer's extra 2D channels on face corners: glTF custom
+   attributes, USD primvars; Blender lists every one as a UV map, and bakes any of them):
+   the reference built its tangents on a temporary mesh through `uv_layers.new`, which makes
+   at most eight and returned None for the ninth. Before, on 5.2: compare of any UV map of
+   such a mesh (the first one too) ended in "surfgrad: error: 'bpy_prop_collection[key]: key
+   "Ninth" not found'", exit 2. Now the temporary mesh takes them as attributes
+   (harness/mesh_data.triangle_mikktspace), and compare is within the bar.
+2. A material that only a Geometry Nodes Set Material gives the object (no material slot of
+   the object holds it): Cycles renders and bakes it on its faces, but the checks before a bake
+   read the object's own slots only. Before: an image it reads that is missing baked Cycles'
+   magenta 'missing' colour into those faces, exit 0 (object-space texels (0.37, 0.48, 0.98)
+   on 5.2, 98 of the 196 covered at 16^2). Now the checks read every material the object
+   renders with (addon/bake_uvs.rendered_materials): refused, naming the image and the material.
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.harness import compare  # noqa: E402
+from surfgrad_addon.reference import images  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
+from test_faults_unseen_meshes31 import P99, MAX, empty_file  # noqa: E402,F401
+from test_faults_unseen_meshes32 import _grid, _object  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+RES = 32
+
+
+def _ninth_uv_map(obj):
+    """obj with UV maps UV1..UV7 beside 'UVMap' (eight, the most uv_layers.new makes) and a
+    ninth, 'Ninth', as an importer writes it (a 2D vector attribute on face corners): 'UVMap'
+    turned a quarter."""
+    mesh = obj.data
+    for i in range(1, 8):
+        mesh.uv_layers.new(name=f"UV{i}")
+    uv = np.empty(len(mesh.loops) * 2)
+    mesh.uv_layers["UVMap"].uv.foreach_get("vector", uv)
+    uv = uv.reshape(-1, 2)
+    mesh.attributes.new("Ninth", "FLOAT2", "CORNER").data.foreach_set(
+        "vector", np.column_stack([uv[:, 1], 1.0 - uv[:, 0]]).ravel())
+    mesh.update()
+    return obj
+
+
+def test_a_mesh_with_more_than_eight_uv_maps_is_compared(empty_file):
+    """1. Before: KeyError 'key "Ninth" not found' for either UV map."""
+    obj = _ninth_uv_map(_object("Many", [_grid(uv_size=0.9)]))
+    assert len(obj.data.uv_layers) == 9 and obj.data.uv_layers.new(name="Tenth") is None
+    for uv_map in ("UVMap", "Ninth"):
+        report = compare.compare(obj, "normal-map", RES, uv_map=uv_map)
+        assert report["uv_map"] == uv_map
+        assert report["texels_compared"] > 700, report
+        assert report["p99_deg"] <= P99 and report["max_deg"] <= MAX, report
+    assert [m.name for m in bpy.data.meshes] == ["Many"]        # the temporary mesh is gone
+
+
+def _normal_map_material(name, image):
+    """A Diffuse BSDF whose normal is a tangent-space Normal Map node of `image`."""
+    mat, tree, bsdf = diffuse_material(name)
+    normal_map = tree.nodes.new("ShaderNodeNormalMap")
+    texture = tree.nodes.new("ShaderNodeTexImage")
+    texture.image = image
+    tree.links.new(texture.outputs["Color"], normal_map.inputs["Color"])
+    tree.links.new(normal_map.outputs["Normal"], bsdf.inputs["Normal"])
+    return mat
+
+
+def _bumps():
+    """A packed float image of bumps (a tangent-space normal map)."""
+    return compare.bpy_float_image("bumps", images.hemisphere_tile_image(32))
+
+
+def _set_material_modifier(obj, material):
+    """A Geometry Nodes modifier giving `material` to obj's faces at x > 0."""
+    tree = bpy.data.node_groups.new("Set Material", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    new, link = tree.nodes.new, tree.links.new
+    group_in, group_out = new("NodeGroupInput"), new("NodeGroupOutput")
+    set_material = new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = material
+    xyz, greater = new("ShaderNodeSeparateXYZ"), new("FunctionNodeCompare")
+    greater.data_type, greater.operation = "FLOAT", "GREATER_THAN"
+    link(new("GeometryNodeInputPosition").outputs[0], xyz.inputs[0])
+    link(xyz.outputs["X"], greater.inputs[0])
+    link(greater.outputs[0], set_material.inputs["Selection"])
+    link(group_in.outputs[0], set_material.inputs["Geometry"])
+    link(set_material.outputs[0], group_out.inputs[0])
+    obj.modifiers.new("GeometryNodes", "NODES").node_group = tree
+
+
+def _object_space_map(tmp_path, obj, name):
+    out = tmp_path / f"{name}.exr"
+    api.bake_normal_map(obj, str(out), resolution=16, space="object", depth="float", margin=0,
+                        log=None)
+    img = bpy.data.images.load(str(out))
+    px = np.empty(len(img.pixels), np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px.reshape(-1, 4)[:, :3]
+
+
+def _two_materials(by_nodes):
+    """The grid with 'Base' (a plain Diffuse) in its one slot and 'Other' (bumps) on its faces
+    at x > 0: given by a Set Material node (`by_nodes`), or by a second slot and the faces'
+    material index."""
+    verts, faces, uvs = _grid(uv_size=0.9)
+    obj = _object("Parts", [(verts, faces, uvs)])
+    obj.data.materials.append(diffuse_material("Base")[0])
+    other = _normal_map_material("Other", _bumps())
+    if by_nodes:
+        _set_material_modifier(obj, other)
+    else:
+        obj.data.materials.append(other)
+        right = np.array([verts[f, 0].mean() > 0 for f in map(list, faces)], np.int32)
+        obj.data.polygons.foreach_set("material_index", right)
+        obj.data.update()
+    return obj, other
+
+
+def test_a_material_only_geometry_nodes_give_is_checked(empty_file, tmp_path):
+    """2. What the refusal rests on: the bake renders the Set Material's material on its faces
+    (the map is the one of the same material in a slot of its own, texel for texel, and those
+    faces are bumped). Before: its missing image baked, exit 0; now refused, nothing written."""
+    obj, other = _two_materials(by_nodes=False)
+    in_slot = _object_space_map(tmp_path, obj, "in_slot")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj, other = _two_materials(by_nodes=True)
+    assert [s.material.name for s in obj.material_slots] == ["Base"]
+    by_nodes = _object_space_map(tmp_path, obj, "by_nodes")
+    assert np.array_equal(by_nodes, in_slot)
+    covered = np.abs(by_nodes).sum(1) > 0
+    assert covered.sum() > 150 and np.ptp(by_nodes[covered], axis=0).max() > 0.2  # bumped
+
+    gone = bpy.data.images.new("gone", 8, 8)
+    gone.source, gone.filepath = "FILE", str(tmp_path / "gone.png")
+    next(n for n in other.node_tree.nodes if n.type == "TEX_IMAGE").image = gone
+    out = tmp_path / "n.png"
+    with pytest.raises(ValueError) as err:
+        api.bake_normal_map(obj, str(out), resolution=16, log=None)
+    assert (f"image 'gone' reads '{tmp_path / 'gone.png'}', which does not exist: Cycles would "
+            f"bake its magenta 'missing' colour") in str(err.value)
+    assert "(read by 'Image Texture' in material 'Other')" in str(err.value)
+    assert not out.exists()
