@@ -13,6 +13,8 @@
    magenta 'missing' colour into those faces, exit 0 (object-space texels (0.37, 0.48, 0.98)
    on 5.2, 98 of the 196 covered at 16^2). Now the checks read every material the object
    renders with (addon/bake_uvs.rendered_materials): refused, naming the image and the material.
+   And a batch's list of the files a .blend reads (its manifest's inputs, which tell a
+   repainted texture) left out such a material's UDIM tiles: a repainted tile was not seen.
 """
 
 import numpy as np
@@ -148,3 +150,22 @@ def test_a_material_only_geometry_nodes_give_is_checked(empty_file, tmp_path):
             f"bake its magenta 'missing' colour") in str(err.value)
     assert "(read by 'Image Texture' in material 'Other')" in str(err.value)
     assert not out.exists()
+
+
+@pytest.mark.tier("blender")
+def test_a_batch_lists_the_tiles_of_a_material_only_geometry_nodes_give(empty_file, tmp_path,
+                                                                       monkeypatch):
+    """2. The UDIM tile a Set Material's material reads is among the files a batch stamps
+    (before: left out), read from the viewport's evaluated object: no render-mode pass."""
+    from surfgrad_addon.addon import render_mesh
+    from surfgrad_addon.addon.batch import session
+    passes, real = [], render_mesh.read_in_render_mode
+    monkeypatch.setattr(render_mesh, "read_in_render_mode",
+                        lambda *a, **k: passes.append(1) or real(*a, **k))
+    obj, other = _two_materials(by_nodes=True)
+    tiled = bpy.data.images.new("painted", 8, 8, tiled=True)
+    tiled.filepath = str(tmp_path / "painted.<UDIM>.png")
+    (tmp_path / "painted.1001.png").write_bytes(b"")
+    next(n for n in other.node_tree.nodes if n.type == "TEX_IMAGE").image = tiled
+    assert session.dependencies_of_open_file() == [str(tmp_path / "painted.1001.png")]
+    assert passes == []

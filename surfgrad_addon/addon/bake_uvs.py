@@ -167,14 +167,22 @@ def uv_active(mesh, uv_map):
         mesh.uv_layers.active = mesh.uv_layers[before]
 
 
-def rendered_materials(obj):
+def rendered_materials(obj, viewport=False):
     """The distinct materials obj renders with: its own slots' and those the mesh as it
     renders adds (a Geometry Nodes Set Material of a material the object has no slot for:
     Cycles renders and bakes it, and the checks had not read it, so a missing texture there
-    baked Cycles' magenta with exit 0)."""
+    baked Cycles' magenta with exit 0). viewport: those of the viewport's evaluated object,
+    no render-mode pass (a batch's list of the files a whole .blend reads)."""
+    import bpy
     own = [s.material for s in obj.material_slots]
-    return [m for m in dict.fromkeys(own + list(baked_mesh(obj).slot_materials))
-            if m is not None]
+    if not modified(obj):
+        added = []
+    elif viewport:
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        added = [s.material and s.material.original for s in evaluated.material_slots]
+    else:
+        added = list(baked_mesh(obj).slot_materials)
+    return [m for m in dict.fromkeys(own + added) if m is not None]
 
 
 def baked_uv_tiles(obj):

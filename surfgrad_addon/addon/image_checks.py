@@ -19,12 +19,13 @@ from .image_channels import (cut_short_file, cut_short_problem, layered_file,
                              path_channel_problem, running_facts, undefined_channel_problem)
 
 
-def material_images(obj, only=None):
+def material_images(obj, only=None, viewport=False):
     """[(material, node path, node, image or None)] for every image node the object's
     materials (or material `only`) read: reached from the Material Output Cycles uses
-    (material_inputs.py) through links, into node groups."""
+    (material_inputs.py) through links, into node groups. viewport: the materials of obj as
+    the viewport evaluates it (bake_uvs.rendered_materials)."""
     found, memo = [], {}
-    for mat in checked_materials(obj, only):
+    for mat in checked_materials(obj, only, viewport):
         if mat.node_tree is None:
             continue                                # (a tree without use_nodes: checked too)
         for node, path, _ in material_nodes(mat, memo):
@@ -33,10 +34,10 @@ def material_images(obj, only=None):
     return found
 
 
-def checked_materials(obj, only=None):
+def checked_materials(obj, only=None, viewport=False):
     """The materials to check: `only`, or every material obj renders with (bake_uvs.
     rendered_materials: a Geometry Nodes Set Material's too)."""
-    return [only] if only is not None else rendered_materials(obj)
+    return [only] if only is not None else rendered_materials(obj, viewport)
 
 
 def material_nodes(mat, memo):
