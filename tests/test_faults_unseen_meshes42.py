@@ -15,6 +15,13 @@
    renders with (addon/bake_uvs.rendered_materials): refused, naming the image and the material.
    And a batch's list of the files a .blend reads (its manifest's inputs, which tell a
    repainted texture) left out such a material's UDIM tiles: a repainted tile was not seen.
+3. Freeze of a material on an object a Set Material gives another material none of its slots
+   holds: Freeze bakes the frozen material's faces alone, the other materials into a
+   throwaway image, but Blender's bake finds that material no image of its own and wrote its
+   faces into the frozen map. Before: two quads on one UV square, the second given a tilted
+   normal by the Set Material: 196 of the 256 texels of the frozen material's map up to 103
+   degrees off, and Freeze wired it in. Now refused, naming the material and the fix (add it
+   to a slot, which bakes the map of the frozen material alone: normal_bake.unslotted_problem).
 """
 
 import numpy as np
@@ -169,3 +176,64 @@ def test_a_batch_lists_the_tiles_of_a_material_only_geometry_nodes_give(empty_fi
     next(n for n in other.node_tree.nodes if n.type == "TEX_IMAGE").image = tiled
     assert session.dependencies_of_open_file() == [str(tmp_path / "painted.1001.png")]
     assert passes == []
+
+
+def _quads(n, stack=False):
+    """n unit quads side by side, each over the UV square; the first's material 'Base' (a
+    bumped Diffuse, or with the layer stack), the others 'Other' (a tilted normal) through a
+    Set Material node (by_nodes) or a slot of its own."""
+    verts = [(1.1 * k + x, y, 0.0) for k in range(n) for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
+    faces = [[4 * k, 4 * k + 1, 4 * k + 2, 4 * k + 3] for k in range(n)]
+    uvs = np.array([(0.05 + 0.9 * x, 0.05 + 0.9 * y) for x, y, _ in verts[:4]] * n)
+    obj = _object("Quads", [(np.array(verts), faces, uvs)])
+    base = diffuse_material("Base")[0] if stack else _normal_map_material("Base", _bumps())
+    if stack:
+        api.add_layer_stack(base)
+    obj.data.materials.append(base)
+    other, tree, bsdf = diffuse_material("Other")
+    tilted = tree.nodes.new("ShaderNodeNormalMap")
+    tilted.inputs["Color"].default_value = (1.0, 0.5, 0.6, 1.0)
+    tree.links.new(tilted.outputs[0], bsdf.inputs["Normal"])
+    return obj, base, other
+
+
+def _frozen_map(tmp_path, obj, base, name):
+    from surfgrad_addon.addon import normal_bake
+    out = tmp_path / f"{name}.exr"
+    normal_bake.bake_normal_tiles(obj, out, resolution=16, depth="float", margin=0,
+                                  overwrite=True, log=lambda *_: None, only=base)
+    img = bpy.data.images.load(str(out))
+    px = np.empty(len(img.pixels), np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    return px.reshape(-1, 4)[:, :3]
+
+
+def test_freeze_refuses_a_material_only_geometry_nodes_give(empty_file, tmp_path):
+    """3. Before: the frozen map held the other material's faces (196 texels up to 103 deg
+    off); now refused. The fix it names, a slot for that material, freezes the map of the
+    frozen material's faces alone."""
+    from surfgrad_addon.addon import freeze, normal_bake
+    obj, base, other = _quads(1)
+    alone = _frozen_map(tmp_path, obj, base, "alone")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj, base, other = _quads(2)
+    _set_material_modifier(obj, other)             # the second quad's faces: x > 1
+    obj.modifiers[0].node_group.nodes["Compare"].inputs[1].default_value = 1.05
+    with pytest.raises(normal_bake.NormalBakeError) as err:
+        _frozen_map(tmp_path, obj, base, "frozen")
+    assert str(err.value) == (
+        "object 'Quads' renders material(s) ['Other'] that none of its material slots holds "
+        "(a Geometry Nodes Set Material gives them): Blender's bake writes their faces into "
+        "the map of material 'Base', over its faces where their UVs overlap; add them to the "
+        "object's material slots (Material Properties > +)")
+    assert not (tmp_path / "frozen.exr").exists()
+    obj.data.materials.append(other)                # the fix
+    assert np.abs(_frozen_map(tmp_path, obj, base, "slotted") - alone).max() < 1e-5
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj, base, other = _quads(2, stack=True)
+    _set_material_modifier(obj, other)
+    obj.modifiers[0].node_group.nodes["Compare"].inputs[1].default_value = 1.05
+    with pytest.raises(freeze.FreezeError, match="renders material\\(s\\) \\['Other'\\]"):
+        freeze.freeze(obj, resolution=16)
