@@ -22,6 +22,11 @@
    normal by the Set Material: 196 of the 256 texels of the frozen material's map up to 103
    degrees off, and Freeze wired it in. Now refused, naming the material and the fix (add it
    to a slot, which bakes the map of the frozen material alone: normal_bake.unslotted_problem).
+4. compare on an object whose Set Material gives some faces a material (in a slot of the
+   object or not): compare puts its own material in every slot, but the node gives those
+   faces theirs whatever the slots hold, so they baked with it, not with the method's groups.
+   Before: a correct SG Normal Map called p99 180 / max 180 deg wrong, exit 0. Now refused,
+   exit 2, naming the material and the fix (harness/bake._other_materials_problem).
 """
 
 import numpy as np
@@ -237,3 +242,28 @@ def test_freeze_refuses_a_material_only_geometry_nodes_give(empty_file, tmp_path
     obj.modifiers[0].node_group.nodes["Compare"].inputs[1].default_value = 1.05
     with pytest.raises(freeze.FreezeError, match="renders material\\(s\\) \\['Other'\\]"):
         freeze.freeze(obj, resolution=16)
+
+
+@pytest.mark.parametrize("slotted", [False, True])
+def test_compare_refuses_faces_a_set_material_gives_another_material(empty_file, tmp_path,
+                                                                      slotted):
+    """4. Before: p99 180 / max 180 deg, exit 0; now refused, the slots as they were."""
+    from surfgrad_addon.harness.cli import main
+    obj, other = _two_materials(by_nodes=True)
+    if slotted:
+        obj.data.materials.append(other)
+    slots = [s.material.name for s in obj.material_slots]
+    with pytest.raises(RuntimeError) as err:
+        compare.compare(obj, "normal-map", RES)
+    assert str(err.value).startswith(
+        "object 'Parts' renders material(s) ['Other'] on faces whatever its material slots "
+        "hold (a Geometry Nodes Set Material")
+    assert [s.material.name for s in obj.material_slots] == slots
+    assert sorted(m.name for m in bpy.data.materials) == ["Base", "Other"]
+    if slotted:                                   # the command: a refusal, nothing written
+        blend = tmp_path / "parts.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+        out = tmp_path / "out" / "c.json"
+        assert main(["compare", "--blend", str(blend), "--object", "Parts", "--method",
+                     "normal-map", "--resolution", "16", "--json", str(out)]) == 2
+        assert not out.parent.exists()
