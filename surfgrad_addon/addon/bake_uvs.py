@@ -97,11 +97,17 @@ class BakedMesh:
     instances: tuple = ()
     triangle_faces: np.ndarray = None       # (T,) the face of each triangle
     face_materials: np.ndarray = None       # (F,) each face's material index
-    filled_slots: tuple = ()                # per material slot of the rendered object: has one
+    slot_materials: tuple = ()              # per material slot of the rendered object: its
+    #                                         material (the original data-block) or None
     nonfinite_normals: int = 0              # face corners whose normal is NaN or Inf
     attribute_names: frozenset = frozenset()    # of the rendered mesh (UV maps among them)
     active_uv: str = None                   # its active UV map (tangent_uv.py)
     colour_attributes: tuple = ()           # its colour attributes' names
+
+    @property
+    def filled_slots(self):
+        """Per material slot of the rendered object: whether it holds a material."""
+        return tuple(m is not None for m in self.slot_materials)
 
 
 _meshes = ReadOnce()           # {object pointer: BakedMesh} inside one_read()
@@ -135,7 +141,8 @@ def baked_mesh(obj):
             return BakedMesh(layout, positions.reshape(-1, 3), tris.reshape(-1, 3),
                              np.array(evaluated.matrix_world, dtype=np.float64), uvs,
                              instances, faces, materials,
-                             tuple(s.material is not None for s in evaluated.material_slots),
+                             tuple(s.material and s.material.original
+                                   for s in evaluated.material_slots),
                              int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))),
                              frozenset(a.name for a in mesh.attributes),
                              mesh.uv_layers.active.name if mesh.uv_layers.active else None,
@@ -158,6 +165,24 @@ def uv_active(mesh, uv_map):
         yield
     finally:
         mesh.uv_layers.active = mesh.uv_layers[before]
+
+
+def rendered_materials(obj, viewport=False):
+    """The distinct materials obj renders with: its own slots' and those the mesh as it
+    renders adds (a Geometry Nodes Set Material of a material the object has no slot for:
+    Cycles renders and bakes it, and the checks had not read it, so a missing texture there
+    baked Cycles' magenta with exit 0). viewport: those of the viewport's evaluated object,
+    no render-mode pass (a batch's list of the files a whole .blend reads)."""
+    import bpy
+    own = [s.material for s in obj.material_slots]
+    if not modified(obj):
+        added = []
+    elif viewport:
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        added = [s.material and s.material.original for s in evaluated.material_slots]
+    else:
+        added = list(baked_mesh(obj).slot_materials)
+    return [m for m in dict.fromkeys(own + added) if m is not None]
 
 
 def baked_uv_tiles(obj):

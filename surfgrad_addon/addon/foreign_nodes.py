@@ -5,6 +5,7 @@ bakes as if its output were zero, a different look with no error, so the bake is
 (bake_request.py), naming the material, the group and the fix."""
 
 from ..reference.blender_lines import facts_for
+from .bake_uvs import rendered_materials
 
 MENU_SWITCH = "GeometryNodeMenuSwitch"
 
@@ -22,7 +23,7 @@ def foreign_node_problems(obj):
     menus = facts_for(bpy.app.version).menu_sockets
     here = f"Blender {bpy.app.version_string}"
     problems = []
-    for mat in {s.material for s in obj.material_slots if s.material is not None}:
+    for mat in rendered_materials(obj):
         if mat.node_tree is None:
             continue
         found, seen, trees = [], set(), [(mat.node_tree, None)]

@@ -269,7 +269,8 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         path = _check_file(filepath, overwrite) if filepath else None
         # The images the material reads, as bake-normal-map checks them: a missing one, or one
         # Blender loads other than its file says, would be frozen into the map.
-        problems = image_problems(obj, only=mat)
+        problem = NB.unslotted_problem(obj, mat)       # (its map would hold theirs too)
+        problems = [problem] if problem else image_problems(obj, only=mat)
         if problems:
             raise FreezeError("; ".join(problems))
     return mat, tree, end, fed, uv_map, path

@@ -11,7 +11,7 @@ from pathlib import Path
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
-from .bake_uvs import baked_mesh, modified
+from .bake_uvs import baked_mesh, modified, rendered_materials
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .header_reads import one_header_read, path_headers
 from .read_once import ReadOnce
@@ -19,19 +19,25 @@ from .image_channels import (cut_short_file, cut_short_problem, layered_file,
                              path_channel_problem, running_facts, undefined_channel_problem)
 
 
-def material_images(obj, only=None):
+def material_images(obj, only=None, viewport=False):
     """[(material, node path, node, image or None)] for every image node the object's
     materials (or material `only`) read: reached from the Material Output Cycles uses
-    (material_inputs.py) through links, into node groups."""
+    (material_inputs.py) through links, into node groups. viewport: the materials of obj as
+    the viewport evaluates it (bake_uvs.rendered_materials)."""
     found, memo = [], {}
-    for slot in obj.material_slots:
-        mat = slot.material
-        if mat is None or mat.node_tree is None or only not in (None, mat):
+    for mat in checked_materials(obj, only, viewport):
+        if mat.node_tree is None:
             continue                                # (a tree without use_nodes: checked too)
         for node, path, _ in material_nodes(mat, memo):
             if node.bl_idname in ("ShaderNodeTexImage", "ShaderNodeTexEnvironment"):
                 found.append((mat, path, node, node.image))
     return found
+
+
+def checked_materials(obj, only=None, viewport=False):
+    """The materials to check: `only`, or every material obj renders with (bake_uvs.
+    rendered_materials: a Geometry Nodes Set Material's too)."""
+    return [only] if only is not None else rendered_materials(obj, viewport)
 
 
 def material_nodes(mat, memo):
@@ -89,13 +95,11 @@ def image_problems(obj, covered=(), only=None):
     nodes refer to."""
     import bpy
     out, checked = [], set()
-    for slot in obj.material_slots:
-        if slot.material is not None and only in (None, slot.material):
-            # (a missing library's placeholder has no tree either: its library is the fix)
-            problem = MI.missing_library_problem(slot.material, "material") or \
-                MI.no_tree_problem(slot.material)
-            if problem and problem not in out:
-                out.append(problem)
+    for mat in checked_materials(obj, only):
+        # (a missing library's placeholder has no tree either: its library is the fix)
+        problem = MI.missing_library_problem(mat, "material") or MI.no_tree_problem(mat)
+        if problem and problem not in out:
+            out.append(problem)
     out += uv_reference_problems(obj, only)
     out += linked_group_problems(obj, only)
     for mat, path, node, image in material_images(obj, only):
@@ -143,9 +147,8 @@ def objects_nodes(obj, only=None):
     """(material, node, path, the group nodes it lies in) for every node the object's
     materials (or material `only`) read through the output Cycles renders (material_nodes)."""
     memo = {}
-    for slot in obj.material_slots:
-        mat = slot.material
-        if mat is None or mat.node_tree is None or only not in (None, mat):
+    for mat in checked_materials(obj, only):
+        if mat.node_tree is None:
             continue
         for node, path, outer in material_nodes(mat, memo):
             yield mat, node, path, outer
@@ -181,9 +184,8 @@ def uv_reference_problems(obj, only=None):
     as_rendered = " as it renders (its modifiers at their render settings)" \
         if modified(obj) else ""
     out, memo = [], {}
-    for slot in obj.material_slots:
-        mat = slot.material
-        if mat is None or mat.node_tree is None or only not in (None, mat):
+    for mat in checked_materials(obj, only):
+        if mat.node_tree is None:
             continue
         for node, path, _ in material_nodes(mat, memo):
             problem = MI.uv_name_problem(mat, path, node, obj.data.name, baked.layout,

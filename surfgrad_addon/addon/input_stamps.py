@@ -29,12 +29,13 @@ def stamps(obj):
     return {p: _stat(p) for p in read_files(obj)}
 
 
-def read_files(obj):
+def read_files(obj, viewport=False):
     """The image files on disk obj's materials read, sorted (each UDIM tile; a sequence's file
-    for the current frame)."""
+    for the current frame). viewport: its materials as the viewport evaluates it
+    (bake_uvs.rendered_materials)."""
     import bpy
     paths = set()
-    for _mat, _path, node, image in material_images(obj):
+    for _mat, _path, node, image in material_images(obj, viewport=viewport):
         if image is None or image.packed_file is not None or not image.filepath or \
                 image.source in ("GENERATED", "VIEWER"):
             continue

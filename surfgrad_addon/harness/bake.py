@@ -71,6 +71,9 @@ def _temporary_material(obj, material):
         for slot in obj.material_slots:
             slot.material = material
     try:
+        problem = _other_materials_problem(obj, material)
+        if problem:
+            raise BakeError(problem)
         yield
     finally:
         if added:
@@ -79,6 +82,23 @@ def _temporary_material(obj, material):
         else:
             for slot, mat in zip(obj.material_slots, saved):
                 slot.material = mat
+
+
+def _other_materials_problem(obj, material):
+    """None, or the refusal of an object whose modifiers give faces another material than
+    `material` in its every slot (a Geometry Nodes Set Material, a Boolean transferring its
+    cutter's): those faces bake with it, not with the graph (compare called a correct group
+    180 degrees wrong there)."""
+    from ..addon.bake_uvs import read_as_baked
+    others = read_as_baked(obj, lambda evaluated, _: sorted(
+        {s.material.original.name for s in evaluated.material_slots
+         if s.material is not None and s.material.original != material}))
+    if not others:
+        return None
+    return (f"object {obj.name!r} renders material(s) {others} on faces whatever its material "
+            f"slots hold (a Geometry Nodes Set Material, or a Boolean modifier transferring its "
+            f"cutter's materials): those faces would bake with them, not with the method's "
+            f"groups; compare a copy without that modifier, or with the Set Material node muted")
 
 
 def _check_target(obj, uv_map):

@@ -210,7 +210,9 @@ def triangle_mikktspace(arrays, flat=None, packed_normals=True):
         extra_uv = beyond + np.tile([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], (extra, 1)) + \
             np.repeat(np.arange(extra) * 2.0, 3)[:, None]
         for name, uv in arrays.uv_maps.items():
-            tmp.uv_layers.new(name=name)
+            # As an attribute: uv_layers.new makes at most 8 (it returned None for a ninth,
+            # an importer's extra channel, and compare ended in a KeyError).
+            tmp.attributes.new(name, "FLOAT2", "CORNER")
             tmp.uv_layers[name].uv.foreach_set(
                 "vector", np.concatenate([uv.reshape(-1, 2), extra_uv]).reshape(-1))
         n = 3 * len(arrays.triangles)

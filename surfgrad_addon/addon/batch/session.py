@@ -124,7 +124,7 @@ def dependencies_of_open_file():
         materials = tuple(s.material and data_key(s.material) for s in obj.material_slots)
         if obj.type == "MESH" and materials not in walked:
             walked.add(materials)
-            paths += read_files(obj)
+            paths += read_files(obj, viewport=True)     # (a render-mode pass per object: no)
     return sorted({str(Path(p).resolve()) for p in paths})
 
 
