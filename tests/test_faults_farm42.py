@@ -22,6 +22,12 @@
   password entry for its user id: a container run under an arbitrary uid, measured in a user
   namespace as uid 4242): the batch printed Python's bare "Could not determine home
   directory.", exit 2, naming neither the list nor the fix. Now it names both.
+- compare-all with a relative --out, run from a folder other than the checkout (a farm
+  task's working folder) with --workers 2: its worker process runs in the checkout and took
+  the relative path from there, so the run failed, exit 1, "compare-all worker 1 failed
+  (exit 1): FileNotFoundError: ... 'ca/heat/blend-pd_Torus.png'" (a checkout holding such a
+  folder would have had the worker's heat maps written into it). Now the worker gets the
+  folder absolute.
 """
 
 import os
@@ -36,6 +42,8 @@ from surfgrad_addon.addon import commands, exit_codes, interrupts  # noqa: E402
 from surfgrad_addon.addon.batch import BatchError, read_asset_list  # noqa: E402
 from surfgrad_addon.addon.normal_bake import PNG_END  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
+from surfgrad_addon.harness import compare_all as CA  # noqa: E402
+from support.child import ROOT  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -110,3 +118,15 @@ def test_a_tilde_in_an_asset_list_without_a_home_folder_names_the_list(tmp_path,
                               f"or relative to the list's folder")
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
     assert read_asset_list(listing) == [str(tmp_path / "home" / "a.blend")]
+
+
+@pytest.mark.tier("child")
+def test_compare_all_workers_take_a_relative_out_from_the_callers_folder(tmp_path,
+                                                                          monkeypatch):
+    out = "rt42b-relative-compare"                   # relative to tmp_path, not the checkout
+    monkeypatch.chdir(tmp_path)
+    reports = CA.run_all(out, 8, workers=2, methods=["normal-map"], log=lambda *_: None)
+    assert len(reports) == 4                          # the four test objects
+    heat = sorted(p.name for p in (tmp_path / out / "heat").iterdir())
+    assert len(heat) == 4 and all(n.startswith("normal-map_") for n in heat), heat
+    assert not (ROOT / out).exists()
