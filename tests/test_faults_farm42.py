@@ -28,6 +28,10 @@
   (exit 1): FileNotFoundError: ... 'ca/heat/blend-pd_Torus.png'" (a checkout holding such a
   folder would have had the worker's heat maps written into it). Now the worker gets the
   folder absolute.
+- The main job's and the benches' --out is written in a sibling `.NAME.partial-PID`, and a
+  run removed one of its own id as "left by a killed process": a second run under the same
+  id (another container) removed the first's files under way, and the two then wrote one
+  folder. Now the sibling carries the process's token too, and nothing is removed.
 """
 
 import os
@@ -43,6 +47,7 @@ from surfgrad_addon.addon.batch import BatchError, read_asset_list  # noqa: E402
 from surfgrad_addon.addon.normal_bake import PNG_END  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from surfgrad_addon.harness import compare_all as CA  # noqa: E402
+from surfgrad_addon.harness.staged_folder import staged  # noqa: E402
 from support.child import ROOT  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -130,3 +135,17 @@ def test_compare_all_workers_take_a_relative_out_from_the_callers_folder(tmp_pat
     heat = sorted(p.name for p in (tmp_path / out / "heat").iterdir())
     assert len(heat) == 4 and all(n.startswith("normal-map_") for n in heat), heat
     assert not (ROOT / out).exists()
+
+
+@pytest.mark.tier("numpy")
+def test_a_same_id_run_working_folder_beside_the_output_is_left_alone(tmp_path):
+    theirs = tmp_path / f".demo.partial-{os.getpid()}"       # another container's run
+    (theirs / "compare").mkdir(parents=True)
+    (theirs / "compare" / "heat.png").write_text("their heat map, under way")
+    final = tmp_path / "demo"
+    with staged(final, overwrite=False) as work:
+        assert work != theirs
+        (work / "index.html").write_text("our page")
+    assert (theirs / "compare" / "heat.png").read_text() == "their heat map, under way"
+    assert sorted(p.name for p in final.iterdir()) == ["index.html"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [theirs.name, "demo"]
