@@ -373,13 +373,17 @@ def test_entries_for_the_same_file_are_merged_not_narrowed(assets, tmp_path):
 
 @pytest.mark.tier("blender")
 def test_partial_file_pattern_matches_what_a_bake_writes(tmp_path):
-    pid = 4321
-    keep = [".rock.part43210.png", "rock.png", ".rock.part4321", ".other.part4321.png"]
-    gone = [".rock.part4321.png", ".rock.1001.part4321.png", ".rock.1002.part4321.half.exr"]
+    """The process's own temporary files only: another process's with the same id (a farm
+    task in another container: red team 42b) keeps its files, so does an older surfgrad's."""
+    pid, tok = 4321, "0123abcd"
+    keep = [f".rock.part43210-{tok}.png", "rock.png", f".rock.part4321-{tok}",
+            f".other.part4321-{tok}.png", ".rock.part4321-89abcdef.png", ".rock.part4321.png"]
+    gone = [f".rock.part4321-{tok}.png", f".rock.1001.part4321-{tok}.png",
+            f".rock.1002.part4321-{tok}.half.exr"]
     for name in keep + gone:
         (tmp_path / name).write_text("x")
-    removed = interrupts.remove_partials(tmp_path / "rock.<UDIM>.png", pid) + \
-        interrupts.remove_partials(tmp_path / "rock.png", pid)
+    removed = interrupts.remove_partials(tmp_path / "rock.<UDIM>.png", pid, tok) + \
+        interrupts.remove_partials(tmp_path / "rock.png", pid, tok)
     assert sorted(Path(p).name for p in removed) == sorted(gone)
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(keep)
 

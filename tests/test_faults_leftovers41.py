@@ -19,14 +19,12 @@
    surfgrad_addon` restarts (sys.orig_argv); another goes on and says how to run in UTF-8.
 """
 
-import os
-
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon import commands, exit_codes, interrupts  # noqa: E402
 from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
 from surfgrad_addon.addon.normal_map_checks import colour_space_warnings  # noqa: E402
 from support.child import run_python  # noqa: E402
@@ -131,7 +129,7 @@ def test_a_failed_save_of_the_half_exr_copy_is_refused_as_a_map_not_written(tmp_
     blend = tmp_path / "scene.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
     maps = tmp_path / "maps"
-    in_the_way = maps / f".map.part{os.getpid()}.half.exr"     # this process bakes
+    in_the_way = interrupts.partial_path(maps / "map.exr", ".half.exr")   # this process's
     in_the_way.mkdir(parents=True)
     rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
                            "--output", str(maps / "map.exr"), "--resolution", "16",

@@ -27,6 +27,7 @@ leave the session's own signal handling alone.
 
 import os
 import re
+import secrets
 import signal
 import sys
 import threading
@@ -286,18 +287,42 @@ def on_stop(cleanup):
         _state["cleanups"].remove(cleanup)
 
 
-def partial_pattern(output, pid):
-    """A regex matching the temporary files a bake of `output` in process `pid` writes
-    (normal_bake: `.{stem}.part{pid}{suffix}`, with <UDIM> as the tile number, and the
+# What makes this process's temporary file names its own beside a shared output: a process id
+# alone is not (farm tasks in containers, each its own process-id space, run Blender under the
+# same small id: two tasks baking one map wrote, published and removed each other's temporary
+# file, red team 42b). A batch gives each worker its token (PART_TOKEN_ENV) to find its files.
+PART_TOKEN_ENV = "SURFGRAD_PART_TOKEN"
+PART_TOKEN_LENGTH = 8                       # hex digits
+
+
+def new_part_token():
+    return secrets.token_hex(PART_TOKEN_LENGTH // 2)
+
+
+PART_TOKEN = os.environ.pop(PART_TOKEN_ENV, "") or new_part_token()
+
+
+def partial_path(output, suffix=None):
+    """The temporary file a bake of `output` (a Path) writes beside it before the rename:
+    `.{stem}.part{pid}-{token}{suffix}`."""
+    return output.parent / (f".{output.stem}.part{os.getpid()}-{PART_TOKEN}"
+                            f"{output.suffix if suffix is None else suffix}")
+
+
+def partial_pattern(output, pid, token=None):
+    """A regex matching the temporary files a bake of `output` in process `pid` with `token`
+    (this process's by default) writes (partial_path, with <UDIM> as the tile number, and the
     `.half` copy of a half-float EXR)."""
     stem = re.escape(Path(str(output)).stem).replace(re.escape("<UDIM>"), r"\d+")
-    return re.compile(rf"\.{stem}\.part{int(pid)}\..+")
+    token = re.escape(PART_TOKEN if token is None else token)
+    return re.compile(rf"\.{stem}\.part{int(pid)}-{token}\..+")
 
 
-def remove_partials(output, pid):
-    """Remove the temporary files of a bake of `output` by process `pid`; returns them."""
+def remove_partials(output, pid, token=None):
+    """Remove the temporary files of a bake of `output` by process `pid` (with `token`: this
+    process's by default); returns them."""
     folder = Path(str(output)).parent
-    pattern = partial_pattern(output, pid)
+    pattern = partial_pattern(output, pid, token)
     removed = []
     try:
         names = os.listdir(folder)

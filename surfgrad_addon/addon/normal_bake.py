@@ -23,6 +23,7 @@ overwrite.
 """
 
 import os
+import re
 import time
 from pathlib import Path
 
@@ -80,8 +81,9 @@ tile_path = T.tile_path
 _tiles_text = T.tiles_text
 
 
-# What the temporary file beside the output adds to its name: ".", ".part", a process id.
-TEMP_NAME_EXTRA = 1 + len(".part") + 7
+# What the temporary file beside the output adds to its name: ".", ".part", a process id,
+# "-" and the process's token (interrupts.partial_path).
+TEMP_NAME_EXTRA = 1 + len(".part") + 7 + 1 + interrupts.PART_TOKEN_LENGTH
 
 
 def check_output(output, overwrite_check=True):
@@ -122,11 +124,23 @@ def blend_relative_problem(output, what="output"):
             f"give the folder itself, absolute or relative to the current folder")
 
 
+# Tile tokens as other tools or a hurried hand spell them (Blender fills in '<UDIM>' only,
+# case and all; Mari writes '$UDIM'): each was written into the file's name.
+OTHER_TILE_TOKENS = re.compile(r"<udim>|<uvtile>|\$udim", re.IGNORECASE)
+
+
 def udim_token_problem(output, what="output"):
     """<UDIM> in a folder (never filled in), or more than once in the file name: Blender fills
     in the first only, the second became a stray number and the bake's temporary files were
-    left behind, exit 1. <UVTILE> anywhere: it was written as a file named with it."""
+    left behind, exit 1. <UVTILE> anywhere: it was written as a file named with it; so were
+    '<udim>' (another case) and '$UDIM' (red team 42b)."""
     path = Path(str(output))
+    other = [t for t in OTHER_TILE_TOKENS.findall(str(output)) if t != UVTILE_TOKEN and
+             t != UDIM_TOKEN]
+    if other:
+        return (f"{what} {str(output)!r} has {other[0]!r}, a tile token this bake does not "
+                f"fill in (it would be a file named with it): write {UDIM_TOKEN}, in capitals, "
+                f"in the file name")
     if UVTILE_TOKEN in str(output):
         return (f"{what} {str(output)!r} has {UVTILE_TOKEN}, which this bake does not fill in "
                 f"(it would be a file named with it): put {UDIM_TOKEN} in the file name "
@@ -408,7 +422,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
             from .cancel_reason import cancelled_text
             raise BakeFailed(cancelled_text(obj, outcome))
         t0 = time.perf_counter()
-        temp = output.parent / f".{output.stem}.part{os.getpid()}{output.suffix}"
+        temp = interrupts.partial_path(output)
         temps = {t: tile_path(temp, t) for t in tiles}
         image.filepath_raw = blender_tile_path(temp.resolve()) if udim else str(temp.resolve())
         image.file_format = fmt

@@ -86,8 +86,11 @@ def run_shard(out, resolution, shard, shards, log=print, methods=None, cycles_de
 def _start_worker(out, resolution, shard, shards, methods, temp, cycles_device="CPU"):
     """A child running one shard; its errors go to a file (a pipe nobody reads while this
     process runs its own share could fill and stall it). Its temporary files go to `temp`,
-    which this process removes: a child killed on a stop cannot clean up after itself."""
-    cmd = [sys.executable, "-m", "surfgrad_addon.harness.compare_all", "--out", str(out),
+    which this process removes: a child killed on a stop cannot clean up after itself. It
+    runs in the checkout (cwd=ROOT), so `out` goes to it absolute: a relative --out given from
+    another folder was the checkout's, and the run failed (red team 42b)."""
+    cmd = [sys.executable, "-m", "surfgrad_addon.harness.compare_all", "--out",
+           os.path.abspath(out),
            "--resolution", str(resolution), "--shard", str(shard), "--shards", str(shards),
            "--cycles-device", cycles_device]
     cmd += ["--methods", *methods] if methods else []

@@ -1,6 +1,6 @@
 """An output folder written whole or not at all (the main job's out/demo).
 
-The command writes into a hidden sibling, `.NAME.partial-PID`, and moves what it wrote into
+The command writes into a hidden sibling, `.NAME.partial-PID-TOKEN`, and moves what it wrote into
 the folder only at the end. A failure or a stop (Ctrl-C, SIGTERM) removes the sibling, so
 the folder keeps exactly what it held before: a stopped rerun with --overwrite leaves the last
 complete run in place, not a mix of two runs under the old report page.
@@ -45,8 +45,9 @@ def staged(final, overwrite):
         raise FileExistsError(why)
     made = [d for d in (final.parent, *final.parent.parents) if not d.exists()]
     final.parent.mkdir(parents=True, exist_ok=True)
-    work = final.parent / f".{final.name}.partial-{os.getpid()}"
-    shutil.rmtree(work, ignore_errors=True)        # left by a killed process with this pid
+    # Named by this process's id and token: another run's under the same id (a container's)
+    # was removed here as if left by a killed process, and the two then shared one folder.
+    work = final.parent / f".{final.name}.partial-{os.getpid()}-{interrupts.PART_TOKEN}"
     work.mkdir()
 
     def forget(_signal_name=None):
@@ -82,7 +83,7 @@ def _publish(work, final):
     for entry in sorted(work.iterdir()):
         dest = final / entry.name
         if dest.exists() or dest.is_symlink():
-            old = final / f".{entry.name}.old-{os.getpid()}"
+            old = final / f".{entry.name}.old-{os.getpid()}-{interrupts.PART_TOKEN}"
             os.rename(dest, old)                   # never a moment with neither
             os.rename(entry, dest)
             if old.is_dir() and not old.is_symlink():

@@ -250,9 +250,25 @@ def split_entry(entry, folder="."):
             if m.end() < len(text)]
     if not cuts:
         return text, None
-    exists = [c for c in cuts if (Path(folder) / Path(text[:c]).expanduser()).is_file()]
+    exists = [c for c in cuts if (Path(folder) / home_path(text[:c])).is_file()]
     cut = (exists or cuts)[0]
     return text[:cut], text[cut + 1:]
+
+
+def home_path(text, listing=None):
+    """`text` with a leading `~` as the home folder. Where this process has none (HOME unset
+    and no password entry for its user id: a container run under an arbitrary uid), Python
+    raised "Could not determine home directory.", which the batch printed alone (exit 2):
+    the path as written, or, for a line of the asset list `listing`, a BatchError naming it."""
+    try:
+        return Path(text).expanduser()
+    except RuntimeError:
+        if listing is None:
+            return Path(text)
+        raise BatchError(f"asset list {listing}: {text!r} starts with '~', but this process "
+                         f"has no home folder (HOME is not set, and the system knows none for "
+                         f"this user): set HOME, or write the path in full or relative to the "
+                         f"list's folder") from None
 
 
 def grouped_entries(blends):
@@ -290,7 +306,7 @@ def read_asset_list(path):
         if not line or line.startswith("#"):
             continue
         blend, obj = split_entry(raw.lstrip(), path.parent)   # a name may end in spaces
-        p = Path(blend.rstrip() if obj is None else blend).expanduser()
+        p = home_path(blend.rstrip() if obj is None else blend, path)
         p = p if p.is_absolute() else path.parent / p
         entries.append(f"{p}:{obj}" if obj else str(p))
     return entries

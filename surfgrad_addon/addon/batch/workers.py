@@ -53,6 +53,7 @@ class Worker:
         env = dict(os.environ if env is None else env)
         env.update(TMPDIR=self.tempdir, TEMP=self.tempdir, TMP=self.tempdir)
         env[OWN_TEMPDIR] = self.tempdir
+        self.part_token = env[interrupts.PART_TOKEN_ENV] = interrupts.new_part_token()
         self.proc = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.STDOUT, text=True, bufsize=1, env=env,
                                      # Blender prints paths as their bytes, not always UTF-8:
@@ -234,7 +235,7 @@ class Pool:
             worker.kill()
             self.procs[slot] = None
             if req["op"] == "bake":
-                interrupts.remove_partials(req["output"], worker.proc.pid)
+                interrupts.remove_partials(req["output"], worker.proc.pid, worker.part_token)
             return {"op": req["op"], "id": req.get("id"), "status": "error", "kind": "timeout",
                     "error": f"no reply from its worker process in {req['timeout']:.0f} s: "
                              f"taken as hung and killed (not retried); if it only needs "
@@ -243,7 +244,7 @@ class Pool:
             code = worker.exit_code()
             self.procs[slot] = None
             if req["op"] == "bake":
-                interrupts.remove_partials(req["output"], worker.proc.pid)
+                interrupts.remove_partials(req["output"], worker.proc.pid, worker.part_token)
             tail = "\n    ".join(worker.tail[-5:])
             if code in STOP_CODES:
                 return {"op": req["op"], "id": req.get("id"), "status": "error",
@@ -269,7 +270,7 @@ class Pool:
             worker.kill()
             _, req = self.current.get(slot, (None, None))
             if req and req["op"] == "bake":
-                interrupts.remove_partials(req["output"], worker.proc.pid)
+                interrupts.remove_partials(req["output"], worker.proc.pid, worker.part_token)
         return stopped
 
     def start_times(self):
