@@ -59,15 +59,22 @@ os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
 # Ctrl-C is held while the modules load: a KeyboardInterrupt raised inside a C extension's
 # import of numpy (numba's) is printed and swallowed there, and the command then ran to the
 # end with exit 0 (seen on 4.5). Let go once they are loaded, a pending Ctrl-C stops here.
+# SIGTERM is held too: its default action ended the process with no line (exit 143) before
+# the command's own stop was in place (red team 43a); one that came meanwhile is said here.
 _HOLD = hasattr(signal, "pthread_sigmask")
+_HELD = {signal.SIGINT, signal.SIGTERM}
 if _HOLD:
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    signal.pthread_sigmask(signal.SIG_BLOCK, _HELD)
 
 try:
     from .addon.command_line import leave
     from .harness.cli import main
+    if _HOLD and signal.SIGTERM in signal.sigpending():
+        print("surfgrad: terminated by SIGTERM before the command began: nothing was done; "
+              "exit code 143", file=sys.stderr, flush=True)
+        os._exit(143)
     if _HOLD:
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD)
     code = leave(main())
 except KeyboardInterrupt:
     # Ctrl-C outside a command's own stop (interrupts.stoppable): while the modules load

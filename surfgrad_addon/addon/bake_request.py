@@ -149,7 +149,7 @@ class BakeRequest:
                                option="--if-tile-empty")
     overwrite: bool = _option(False, "replace an existing file")
     allow_partial: bool = _option(False, "bake a UV layout with faces outside the UDIM range "
-                                         "(u 0..10, v >= 0); those faces are left out, with a "
+                                         f"({T.UDIM_SPAN}); those faces are left out, with a "
                                          "warning (default: refused)")
     threads: int = _option(None, "Cycles threads per bake (default: every core)")
 
@@ -239,7 +239,7 @@ def _check(request, obj, warn):
     warnings += notes
     if outside and not request.allow_partial:
         problems.append(f"{outside} face(s) of UV map {uv_map!r} of object {obj.name!r} lie "
-                        f"outside the UDIM range (u 0..10, v >= 0) and would not be baked: "
+                        f"outside the UDIM range ({T.UDIM_SPAN}) and would not be baked: "
                         f"move them into tiles (UV > Pack Islands), or bake the rest on "
                         f"purpose with --allow-partial (api: allow_partial=True; settings "
                         f"file: \"allow_partial\": true)")

@@ -74,7 +74,7 @@ def _tiles_of(tri_uv, faces):
 
 def uv_tiles(mesh, uv_map):
     """The UDIM tiles the faces of `uv_map` cover, sorted, and how many faces lie (partly)
-    outside the UDIM range (u in 0..10, v >= 0). Exact (reference/tiles.py): a tile counts
+    outside the UDIM range (u in 0..10, v in 0..100). Exact (reference/tiles.py): a tile counts
     when a face's triangle covers part of it, not when only its bounding box reaches in, and
     a face across the range's border still names the tiles its inside part covers."""
     if len(mesh.polygons) == 0:

@@ -131,6 +131,10 @@ def run_bake_normal_map(args):
     """bake-normal-map with parsed options: open --blend (if given, inside Blender too), bake
     --object. Raises ValueError (or NormalBakeError) naming the problem."""
     from . import interrupts
+    from .normal_bake import brace_token_problem
+    problem = brace_token_problem(args.output)
+    if problem:                     # before --blend is opened: nothing has run
+        raise ValueError(problem)
     # Ctrl-C / SIGTERM: the bake stops, its temporary files go, exit 130 / 143 (interrupts.py).
     with interrupts.stoppable("the bake"), interrupts.partials_of(args.output):
         _bake_normal_map(args)

@@ -129,6 +129,23 @@ def blend_relative_problem(output, what="output"):
 OTHER_TILE_TOKENS = re.compile(r"<udim>|<uvtile>|\$udim", re.IGNORECASE)
 
 
+# A '{name}' in an output name: the batch's tokens, or Blender 5's path templates
+# ('{blend_name}'), which Blender fills in for renders and File Output nodes, not here.
+BRACE_TOKEN = re.compile(r"\{[^}]*\}")
+
+
+def brace_token_problem(output):
+    """bake-normal-map fills in no '{...}' token: one was kept literally (a file named
+    '{blend_name}_nrm.png', exit 0), where the batch refuses an unknown one (red team 43a)."""
+    found = BRACE_TOKEN.findall(str(output))
+    if not found:
+        return None
+    return (f"output {str(output)!r} has {found[0]}, which bake-normal-map does not fill in "
+            f"(neither Blender's path templates such as {{blend_name}} nor the batch's "
+            f"tokens; it would be a file named with it): write the name itself, or bake with "
+            f"bake-batch, whose output pattern fills in {{file}}, {{object}} and {{uv}}")
+
+
 def udim_token_problem(output, what="output"):
     """<UDIM> in a folder (never filled in), or more than once in the file name: Blender fills
     in the first only, the second became a stray number and the bake's temporary files were
@@ -260,7 +277,7 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     warnings = []
     if outside:
         warnings.append(f"{outside} face(s) of UV map {uv_map!r} lie outside the UDIM range "
-                        f"(u 0..10, v >= 0) and are not baked")
+                        f"({T.UDIM_SPAN}) and are not baked")
     where = f"UV map {uv_map!r} of object {obj.name!r}"
     if not with_uvs:
         raise NormalBakeError(f"{where} has no faces in any UDIM tile: unwrap it into the "

@@ -250,7 +250,7 @@ def target_tiles(mesh, uv_map, name, tiles=None):
     """What a bake of `uv_map` fills, as Blender's bake does it: (tiles, faces outside, note).
     [1001] is the
     plain 0..1 image. Asked-for `tiles`: those UDIM tiles. Otherwise a layout whose every face
-    lies on the UDIM grid (u 0..10, v >= 0) is a UDIM layout: every tile its faces cover; a
+    lies on the UDIM grid (u 0..10, v 0..100) is a UDIM layout: every tile its faces cover; a
     layout with faces beyond it (tiling UVs, negative tiles) is baked as a plain image bakes
     it, the 0..1 square. Faces outside: how many lie (partly) outside the target, whose parts
     there a bake does not write (no wrap) and the comparison cannot see; `note` says so, or
@@ -282,7 +282,7 @@ def target_tiles(mesh, uv_map, name, tiles=None):
         if R.tiles.UDIM_FIRST not in with_uvs:
             raise CompareError(
                 f"UV map {uv_map!r} of {name!r} puts nothing inside the bake target: its UVs "
-                f"span {span}, with faces outside the UDIM tiles (u 0..10, v >= 0), so a bake "
+                f"span {span}, with faces outside the UDIM tiles ({R.tiles.UDIM_SPAN}), so a bake "
                 f"fills the 0..1 square as a plain image does, and nothing lies there (a bake "
                 f"does not wrap); move the islands into the UV square (UV > Pack Islands), "
                 f"onto UDIM tiles, or ask for the UDIM tiles to compare (--tiles)")

@@ -24,6 +24,7 @@ from pathlib import Path
 from ..addon.batch.manifest import hold, release
 from ..addon.batch.plan import BatchError
 from ..addon.exit_codes import BakeFailed
+from ..addon.process_ends import how_it_ended
 from . import cycles_device as D
 from .compare import CompareError, compare_object
 from .heat_map import write_heat_map
@@ -225,12 +226,17 @@ def _collect(out, resolution, workers, methods, children, log, cycles_device="CP
         err = child.errors.read()
         shard_file = out / SHARD_FILE.format(k)
         if child.returncode != 0 or not shard_file.is_file():
-            lines = (err or "").strip().splitlines()
-            # A failure after baking began (exit 1), not a refused request (2, as before).
-            raise BakeFailed(f"compare-all worker {k} failed (exit {child.returncode}): "
-                             f"{lines[-1] if lines else 'no output'}")
+            raise worker_failure(k, child.returncode, err)
         reports.update({int(i): r for i, r in json.loads(shard_file.read_text()).items()})
     return [reports[i] for i in sorted(reports)]
+
+
+def worker_failure(k, returncode, err):
+    """A failure after baking began (exit 1), not a refused request (2, as before). One
+    killed by a signal names it: "exit -9: no output" did not say SIGKILL (red team 43a)."""
+    lines = (err or "").strip().splitlines()
+    return BakeFailed(f"compare-all worker {k} failed ({how_it_ended(returncode)})"
+                      f"{': ' + lines[-1] if lines else ''}")
 
 
 def table_markdown(reports, resolution, cycles_device="CPU", devices=()):

@@ -16,6 +16,9 @@ import numpy as np
 UDIM_FIRST = 1001
 UDIM_COLUMNS = 10
 UDIM_LAST = 2000          # Blender's highest tile number
+UDIM_ROWS = (UDIM_LAST - UDIM_FIRST + 1) // UDIM_COLUMNS
+# The tiles' UV square in words, for messages: v >= 100 lies beyond tile 2000, outside too.
+UDIM_SPAN = f"u 0..{UDIM_COLUMNS}, v 0..{UDIM_ROWS}"
 UDIM_TOKEN = "<UDIM>"     # in an output name: one file per tile, the number in its place
 UVTILE_TOKEN = "<UVTILE>"    # Blender's other tile token (read in textures, not written)
 

@@ -9,6 +9,7 @@ import threading
 from pathlib import Path
 
 from .. import bake_request as BR
+from .. import interrupts
 from ..exit_codes import BakeFailed
 from .. import normal_bake as NB
 from .plan import BatchError
@@ -162,7 +163,7 @@ def _write_json(path, data):
     temporary (OSError)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    temp = path.with_name(f".{path.name}.part{os.getpid()}")
+    temp = interrupts.partial_path(path)      # its process token too: see interrupts.py
     try:
         temp.write_text(json.dumps(data, indent=1, sort_keys=False))
         os.replace(temp, path)

@@ -143,7 +143,7 @@ def check_pattern(pattern):
         raise BatchError(f"output pattern {pattern!r} ends in a folder: give a file name")
     if Path(name).suffix.lower() not in NB.FORMATS:
         raise BatchError(f"output pattern {pattern!r}: end it in .png or .exr")
-    left = re.findall(r"\{[^}]*\}", pattern.replace("{file}", "").replace("{object}", "")
+    left = NB.BRACE_TOKEN.findall(pattern.replace("{file}", "").replace("{object}", "")
                       .replace("{uv}", ""))
     if left:
         raise BatchError(f"output pattern {pattern!r}: unknown token {left[0]}; the tokens are "
@@ -342,7 +342,7 @@ def asset_problem(scan, s, blend_name=""):
     outside = scan.get("outside", {}).get(uv, 0)
     if outside and not s.get("allow_partial"):
         return (f"{outside} face(s) of UV map {uv!r} of object {name!r} lie outside the UDIM "
-                f"range (u 0..10, v >= 0) and would not be baked: move them into tiles, or "
+                f"range ({T.UDIM_SPAN}) and would not be baked: move them into tiles, or "
                 f"bake the rest on purpose with --allow-partial (settings file: "
                 f"\"allow_partial\": true for {blend_name}:{name})")
     return None

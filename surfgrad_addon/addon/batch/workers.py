@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from .. import interrupts
+from ..process_ends import how_it_ended
 from . import worker_main
 from .worker_main import OWN_TEMPDIR, RESULT_MARK, TEMPDIR_PREFIX
 from .session import run_request
@@ -252,7 +253,7 @@ class Pool:
                         "error": f"its worker process was stopped by {STOP_CODES[code]} "
                                  f"(not retried)"}
             reply = {"op": req["op"], "id": req.get("id"), "status": "error", "kind": "crash",
-                     "error": f"the worker process died (exit code {code})"
+                     "error": f"the worker process died ({how_it_ended(code, 'exit code')})"
                               + (f"; its last output:\n    {tail}" if tail else "")}
         return reply
 
