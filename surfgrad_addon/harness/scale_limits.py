@@ -11,6 +11,14 @@
   degrees there (perturbing the reference's positions by +-0.5 ulp alone: p99 0.16 /
   max 0.38 deg at 1 km). No route in float32 nodes can do better, so compare warns where that
   floor reaches the bar instead of calling the group wrong.
+- Small objects: the methods whose height derivative comes from the bake's texel steps
+  (Listing 6's scale-dependent bump, the parallax march) lose precision in Cycles' float32 as
+  the object shrinks, whatever the resolution (16^2 to 256^2 the same): SG Height Map HQ on the
+  unit sphere scaled to 1e-5 p99 0.08 deg, 1e-6 0.67, 1e-8 169 (the torus is worse: 1e-4
+  0.48); the float64 reference keeps its answer from 1e-6 to 1e-8 (and flattens by 1e-12, at
+  the paper's determinant guard, where the bake is wrong too). Normal maps, triplanar, volume
+  noise and the box decal agree down to 1e-8 and beyond. compare refuses the others on an
+  object below SMALL_LIMITS, before baking, naming its size and the fix.
 """
 
 import numpy as np
@@ -74,3 +82,35 @@ def _limit(image_size):
     """The reach below which float32_coordinate_warning stays silent."""
     ulp = TEXEL_FRACTION / (POSITION_ULPS * image_size)
     return ulp * 2.0 ** 23
+
+
+# The half-size (metres) below which compare refuses a method. Measured at 16^2 (red team
+# 43b; p99 / max deg against the bar 0.1 / 0.5) on the test torus (half-size 1.4 x its
+# scale), the worse test object but for the filtered noise; the error grows as 1 / size
+# (16^2 to 256^2 the same): Forward height map 1.4e-2 m 0.04 / 0.07, 1.4e-3 0.28 / 0.64 (HQ
+# 1.4e-3 0.05 / 0.05, 1.4e-4 0.48 / 0.62); height-blend 0.14 0.01 / 0.02, 1.4e-2 0.33 / 0.46;
+# the overwriting decal 1.4e-2 0.04 / 0.05, 1.4e-3 0.32 / 0.58; parallax 1.4e-2 0.07 / 0.23,
+# 1.4e-3 0.42 / 4.0; the procedural basis 1.4e-3 0.03 / 0.05, 1.4e-4 0.28 / 0.43; SG Noise's
+# filtered footprint (the sphere) 1e-5 0.0, 1e-6 90. The Sampler groups measured as their
+# plain groups (the same references); they take the same limits.
+SMALL_LIMITS = {"height-map": 1e-2, "height-map-sampler": 1e-2, "height-blend": 0.1,
+                "decal-overwrite": 1e-2, "parallax": 2e-2, "parallax-sampler": 2e-2,
+                "procedural-basis": 2e-3, "volume-noise-filtered": 1e-4}
+
+
+def small_object_problem(obj, method):
+    """Why method cannot be compared on obj because obj is too small for Cycles' float32
+    derivatives, else None."""
+    limit = SMALL_LIMITS.get(method)
+    if limit is None:
+        return None
+    half, _ = world_extent(obj)
+    if half >= limit or half <= 0.0:        # zero: the zero-scale and empty-mesh checks say
+        return None
+    factor = 10.0 ** np.ceil(np.log10(limit / half) - 1e-3)     # float32 scales: 1e-8 -> 1e4
+    fix = (f"scale it up by {factor:.0f} or more (or the whole scene, with Scene > Units > Unit "
+           f"Scale set to {1.0 / factor:g} to keep its units)")
+    return (f"object {obj.name!r} is {2.0 * half:.3g} m across: below {2.0 * limit:g} m, "
+            f"Cycles' float32 derivatives that {method} bakes from lose precision (the bake "
+            f"and the float64 reference then differ by degrees, not by the group), so it is "
+            f"not compared; {fix} and compare again")
