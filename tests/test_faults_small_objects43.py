@@ -17,7 +17,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.harness import compare, scale_limits, scenes  # noqa: E402
-from surfgrad_addon.harness.cli import main  # noqa: E402
+from support.compare_cli import compare_cli_refuses  # noqa: E402
 from surfgrad_addon.harness.methods import METHODS  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -49,12 +49,7 @@ def test_a_tiny_object_is_refused_before_anything_is_made(tmp_path):
         "more (or the whole scene, with Scene > Units > Unit Scale set to 1e-06 to keep its "
         "units) and compare again")
     assert len(bpy.data.images) == images and tuple(obj.scale) == pytest.approx((1e-8,) * 3)
-    blend = tmp_path / "tiny.blend"
-    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    out = tmp_path / "out" / "c.json"
-    assert main(["compare", "--blend", str(blend), "--object", "Sphere", "--method",
-                 "parallax", "--resolution", "16", "--json", str(out)]) == 2
-    assert not out.parent.exists()
+    assert compare_cli_refuses(tmp_path, "tiny.blend", "Sphere", "parallax")
 
 
 @pytest.mark.parametrize("method", ["normal-map", "triplanar"])
@@ -78,16 +73,15 @@ def test_below_the_limit_the_bake_leaves_the_bar(monkeypatch, name, scale, metho
 @pytest.mark.parametrize("method", sorted(m for m in scale_limits.SMALL_LIMITS
                                            if not m.endswith("-sampler")))
 def test_at_the_limit_every_refused_method_is_within_the_bar(method):
-    """The limits hold: the object just above each is compared and agrees, on the torus (the
-    worse test object; the sphere for the filtered noise). The Sampler groups (5.0+) share
-    their plain group's limit and reference."""
+    """The limits hold on every line: the torus (the worse test object) just above each is
+    compared and agrees. The Sampler groups (5.0+) share their plain group's limit and
+    reference."""
     half = scale_limits.SMALL_LIMITS[method] * 1.01
-    for name in (("Sphere",) if method == "volume-noise-filtered" else ("Torus",)):
-        unit = scale_limits.world_extent(_scaled(name, 1.0))[0]
-        obj = _scaled(name, half / unit)
-        assert scale_limits.world_extent(obj)[0] == pytest.approx(half, rel=1e-3)
-        report = _compare(obj, method)
-        assert report["p99_deg"] <= P99 and report["max_deg"] <= MAX, (name, report)
+    unit = scale_limits.world_extent(_scaled("Torus", 1.0))[0]
+    obj = _scaled("Torus", half / unit)
+    assert scale_limits.world_extent(obj)[0] == pytest.approx(half, rel=1e-3)
+    report = _compare(obj, method)
+    assert report["p99_deg"] <= P99 and report["max_deg"] <= MAX, report
 
 
 def test_the_reference_holds_where_the_bake_does_not():
