@@ -86,13 +86,14 @@ def _limit(image_size):
 
 # The half-size (metres) below which compare refuses a method. Measured at 16^2 (red team
 # 43b; p99 / max deg against the bar 0.1 / 0.5) on the test torus (half-size 1.4 x its
-# scale), the worse test object; the error grows as 1 / size (16^2 to 256^2 the same): Forward height map 1.4e-2 m 0.04 / 0.07, 1.4e-3 0.28 / 0.64 (HQ
-# 1.4e-3 0.05 / 0.05, 1.4e-4 0.48 / 0.62); height-blend 0.14 0.01 / 0.02, 1.4e-2 0.33 / 0.46;
-# the overwriting decal 1.4e-2 0.04 / 0.05, 1.4e-3 0.32 / 0.58; parallax 1.4e-2 0.07 / 0.23,
-# 1.4e-3 0.42 / 4.0; the procedural basis 1.4e-3 0.03 / 0.05, 1.4e-4 0.28 / 0.43. SG Noise's
-# filtered footprint differs by line: on 5.2 the sphere 1e-5 0.0, 1e-6 90; on 5.0 and 4.5 the
-# sphere 1e-3 0.53 / 0.84; on 4.2 the torus 1e-2 0.47 / 0.88, 5e-2 0.05 / 0.08 (one limit,
-# the worst line's). The Sampler groups measured as their plain groups (the same references);
+# scale), the worse test object; the error grows as 1 / size (16^2 to 256^2 the same):
+# Forward height map 1.4e-2 m 0.04 / 0.07, 1.4e-3 0.28 / 0.64 (HQ 1.4e-3 0.05 / 0.05,
+# 1.4e-4 0.48 / 0.62); height-blend 0.14 0.01 / 0.02, 1.4e-2 0.33 / 0.46; the overwriting
+# decal 1.4e-2 0.04 / 0.05, 1.4e-3 0.32 / 0.58; parallax 1.4e-2 0.07 / 0.23, 1.4e-3 0.42 /
+# 4.0; the procedural basis 1.4e-3 0.03 / 0.05, 1.4e-4 0.28 / 0.43. SG Noise's filtered
+# footprint differs by line: on 5.2 the sphere 1e-5 0.0, 1e-6 90; on 5.0 and 4.5 the sphere
+# 1e-3 0.53 / 0.84; on 4.2 the torus 1e-2 0.47 / 0.88, 5e-2 0.05 / 0.08 (one limit, the
+# worst line's). The Sampler groups measured as their plain groups (the same references);
 # they take the same limits. Figures on 5.2 unless named.
 SMALL_LIMITS = {"height-map": 1e-2, "height-map-sampler": 1e-2, "height-blend": 0.1,
                 "decal-overwrite": 1e-2, "parallax": 2e-2, "parallax-sampler": 2e-2,
