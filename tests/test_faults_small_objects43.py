@@ -18,6 +18,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.harness import compare, scale_limits, scenes  # noqa: E402
 from support.compare_cli import compare_cli_refuses  # noqa: E402
+from surfgrad_addon.harness.cli import main  # noqa: E402
 from surfgrad_addon.harness.methods import METHODS  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -106,3 +107,41 @@ def test_the_reference_holds_where_the_bake_does_not():
     cos = np.sum(normals[0] * normals[1], -1) / np.prod(
         [np.linalg.norm(n, axis=-1) for n in normals], axis=0)
     assert len(cos) > 150 and np.degrees(np.arccos(np.clip(cos, -1, 1))).max() < 0.05
+
+
+def _height_map_material(obj):
+    """SG Height Map Forward in a layer stack: its derivative comes from the bake's steps."""
+    from surfgrad_addon import api
+    from surfgrad_addon.addon.compat import new_material
+    mat = new_material("Tiny")
+    obj.data.materials.append(mat)
+    combine = api.add_layer_stack(mat, "UVMap")["combine"]
+    height = mat.node_tree.nodes.new("ShaderNodeGroup")
+    height.node_tree = api.node_group("SG Height Map Forward")
+    height.name = "Height"
+    mat.node_tree.links.new(height.outputs["Surface Gradient"], combine.inputs["B"])
+
+
+def test_bake_normal_map_refuses_or_warns_on_a_tiny_object(tmp_path, capsys):
+    """Before: bake-normal-map baked SG Height Map on a 2e-8 m sphere with exit 0 (compare of
+    the same group there: p99 169 deg). Now refused below 2e-6 m across, exit 2, no file;
+    warned about below compare's limit (0.02 m), baked."""
+    texts = {}
+    for scale, rc in ((1e-8, 2), (1e-4, 0)):
+        obj = _scaled("Sphere", scale)
+        _height_map_material(obj)
+        blend = tmp_path / f"s{scale:g}.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+        out = tmp_path / f"s{scale:g}.png"
+        capsys.readouterr()
+        assert main(["bake-normal-map", "--blend", str(blend), "--object", "Sphere", "--output",
+                     str(out), "--resolution", "16", "--samples", "1"]) == rc
+        texts[scale] = capsys.readouterr().err
+        assert out.exists() is (rc == 0)
+    assert ("object 'Sphere' is 2e-08 m across: the height derivatives of SG Height Map "
+            "Forward node 'Height' (material 'Tiny') come from the bake's texel steps, which "
+            "Cycles' float32 holds only to degrees below 2e-06 m, so the map would be wrong; "
+            "scale it up by 1000000 or more") in texts[1e-8]
+    assert ("object 'Sphere' is 0.0002 m across: the height derivatives of SG Height Map "
+            "Forward node 'Height' (material 'Tiny') come from the bake's texel steps, which "
+            "Cycles' float32 holds to within 0.1 degree only above 0.02 m") in texts[1e-4]

@@ -24,6 +24,7 @@
 import numpy as np
 
 from ..addon.far_limits import FAR_REPEATS
+from ..addon.small_objects import scale_up_text, world_extent
 
 # Methods whose texture coordinate is the world position x Scale (Scale 1 in compare).
 WORLD_PROJECTED = ("triplanar", "triplanar-height", "triplanar-sampler",
@@ -34,15 +35,6 @@ POSITION_ULPS = 4.0
 # Warn where that many ulp reach this fraction of a texel of the projected image: 100 m with
 # a 128-pixel image (4 ulp = 3e-5 m = 0.004 texel) gave p99 0.15 deg; 10 m (0.0005) 0.01.
 TEXEL_FRACTION = 2e-3
-
-
-def world_extent(obj):
-    """(half-size, farthest reach from the world origin) of obj's bounding box, in metres."""
-    m = np.array(obj.matrix_world, dtype=np.float64)
-    box = np.array([tuple(c) for c in obj.bound_box], dtype=np.float64)
-    world = box @ m[:3, :3].T + m[:3, 3]
-    half = 0.5 * float(np.max(world.max(axis=0) - world.min(axis=0)))
-    return half, float(np.abs(world).max())
 
 
 def parallax_depth(obj, depth):
@@ -109,9 +101,7 @@ def small_object_problem(obj, method):
     half, _ = world_extent(obj)
     if half >= limit or half <= 0.0:        # zero: the zero-scale and empty-mesh checks say
         return None
-    factor = 10.0 ** np.ceil(np.log10(limit / half) - 1e-3)     # float32 scales: 1e-8 -> 1e4
-    fix = (f"scale it up by {factor:.0f} or more (or the whole scene, with Scene > Units > Unit "
-           f"Scale set to {1.0 / factor:g} to keep its units)")
+    fix = scale_up_text(limit, half)
     return (f"object {obj.name!r} is {2.0 * half:.3g} m across: below {2.0 * limit:g} m, "
             f"Cycles' float32 derivatives that {method} bakes from lose precision (the bake "
             f"and the float64 reference then differ by degrees, not by the group), so it is "
