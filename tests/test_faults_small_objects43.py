@@ -145,3 +145,34 @@ def test_bake_normal_map_refuses_or_warns_on_a_tiny_object(tmp_path, capsys):
     assert ("object 'Sphere' is 0.0002 m across: the height derivatives of SG Height Map "
             "Forward node 'Height' (material 'Tiny') come from the bake's texel steps, which "
             "Cycles' float32 holds to within 0.1 degree only above 0.02 m") in texts[1e-4]
+
+
+def test_a_nan_in_a_second_uv_map_the_material_reads_is_refused(tmp_path, capsys):
+    """Before: a NaN in a UV map a Normal Map node's tangents read (not the baked map) baked
+    with exit 0, 15 texels up to 5 deg off (round 35 refused NaN only in the baked map). Now
+    refused, exit 2, naming the map, the node and the fix; the clean map passes the check."""
+    from surfgrad_addon.addon.compat import new_material
+    from surfgrad_addon.addon.bake_uvs import baked_mesh
+    from surfgrad_addon.addon.material_uv_maps import read_uv_map_problems
+    obj = _scaled("Sphere", 1.0)
+    obj.data.uv_layers.new(name="Detail")
+    mat = new_material("Reads Detail")
+    obj.data.materials.append(mat)
+    nodes = mat.node_tree.nodes
+    normal = nodes.new("ShaderNodeNormalMap")
+    normal.uv_map, normal.name = "Detail", "Detail Normal"
+    normal.inputs["Color"].default_value = (0.7, 0.5, 0.9, 1.0)
+    mat.node_tree.links.new(normal.outputs["Normal"],
+                            nodes["Principled BSDF"].inputs["Normal"])
+    assert read_uv_map_problems(obj, baked_mesh(obj).triangle_uvs, "UVMap") == []
+    obj.data.uv_layers["Detail"].data[0].uv = (float("nan"), 0.5)
+    blend = tmp_path / "nan.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    out = tmp_path / "nan.png"
+    capsys.readouterr()
+    assert main(["bake-normal-map", "--blend", str(blend), "--object", "Sphere", "--output",
+                 str(out), "--resolution", "16", "--samples", "1", "--uv-map", "UVMap"]) == 2
+    assert ("the UVs of UV map 'Detail' of object 'Sphere', which node 'Detail Normal' of "
+            "material 'Reads Detail' reads, contain non-finite values (NaN or Inf); unwrap it "
+            "again (UV > Unwrap) or remove it") in capsys.readouterr().err
+    assert not out.exists()

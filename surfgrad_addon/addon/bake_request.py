@@ -45,6 +45,7 @@ from .header_reads import one_header_read
 from .image_checks import image_problems, one_tile_write, output_input_problems
 from .image_memory import images_memory
 from .material_inputs import muted_output_warnings
+from .material_uv_maps import read_uv_map_problems
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 from .object_names import missing_object_problem
@@ -377,6 +378,7 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
                 hole = IC.collapsed_uv_faces_warning(uv_map, obj.name, uv, world, tris,
                                                      baked.triangle_faces)
                 warnings += [hole] if hole else []
+    out += read_uv_map_problems(obj, baked.triangle_uvs, uv_map)
     far = float(np.max(np.linalg.norm(world, axis=1))) if len(world) else 0.0  # Euclidean
     if far > FAR_FROM_ORIGIN_M:
         warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: the bake "
