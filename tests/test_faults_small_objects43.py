@@ -9,6 +9,12 @@ HQ on the unit sphere scaled to 1e-8 (2e-8 m across): mean 30 / p99 169 deg; One
 and 1e-8 are the same (the relief at a fixed world Bump Scale is then all slope), the bake's
 are not. Now compare refuses before baking (exit 2), naming the object, its size and the
 fix; normal maps, triplanar and volume noise, which agree down to 1e-8, are compared as before.
+bake-normal-map through SG Height Map, SG Parallax or SG Tangent Normal warns below those sizes
+and refuses below 2e-6 m across (addon/small_objects.py).
+
+A NaN in a UV map a material node reads besides the baked one (a Normal Map node's tangents, a
+UV Map node's lookup) baked wrong texels with exit 0; now refused as one in the baked map is
+(addon/material_uv_maps.py).
 """
 
 import numpy as np
