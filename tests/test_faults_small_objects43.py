@@ -161,7 +161,7 @@ def test_a_nan_in_a_second_uv_map_the_material_reads_is_refused(tmp_path, capsys
     from surfgrad_addon.addon.bake_uvs import baked_mesh
     from surfgrad_addon.addon.material_uv_maps import read_uv_map_problems
     obj = _scaled("Sphere", 1.0)
-    obj.data.uv_layers.new(name="Detail")
+    assert [uv.name for uv in obj.data.uv_layers] == ["UVMap", "Detail"]   # the test sphere's
     mat = new_material("Reads Detail")
     obj.data.materials.append(mat)
     nodes = mat.node_tree.nodes
