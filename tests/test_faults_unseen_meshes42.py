@@ -248,7 +248,7 @@ def test_freeze_refuses_a_material_only_geometry_nodes_give(empty_file, tmp_path
 def test_compare_refuses_faces_a_set_material_gives_another_material(empty_file, tmp_path,
                                                                       slotted):
     """4. Before: p99 180 / max 180 deg, exit 0; now refused, the slots as they were."""
-    from surfgrad_addon.harness.cli import main
+    from support.compare_cli import compare_cli_refuses
     obj, other = _two_materials(by_nodes=True)
     if slotted:
         obj.data.materials.append(other)
@@ -261,9 +261,4 @@ def test_compare_refuses_faces_a_set_material_gives_another_material(empty_file,
     assert [s.material.name for s in obj.material_slots] == slots
     assert sorted(m.name for m in bpy.data.materials) == ["Base", "Other"]
     if slotted:                                   # the command: a refusal, nothing written
-        blend = tmp_path / "parts.blend"
-        bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-        out = tmp_path / "out" / "c.json"
-        assert main(["compare", "--blend", str(blend), "--object", "Parts", "--method",
-                     "normal-map", "--resolution", "16", "--json", str(out)]) == 2
-        assert not out.parent.exists()
+        assert compare_cli_refuses(tmp_path, "parts.blend", "Parts", "normal-map")

@@ -45,10 +45,12 @@ from .header_reads import one_header_read
 from .image_checks import image_problems, one_tile_write, output_input_problems
 from .image_memory import images_memory
 from .material_inputs import muted_output_warnings
+from .material_uv_maps import read_uv_map_problems
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 from .object_names import missing_object_problem
 from .parallax_heights import parallax_height_warnings
+from .small_objects import small_object_messages
 
 OVERLAP_CHECK_SIZE = 512     # texels a side the overlap warning counts at (cost bound)
 FAR_FROM_ORIGIN_M = 1000.0     # beyond this float32 positions cost Bump-node precision
@@ -251,6 +253,9 @@ def _check(request, obj, warn):
         problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots)
         problems += [problem] if problem else []
     problems += foreign_node_problems(obj)          # a newer line's nodes: baked as zero
+    small, notes = small_object_messages(obj)      # float32 derivatives on a tiny object
+    problems += small
+    warnings += notes
     stamped = input_stamps.stamps(obj)              # before the checks read the files
     # Before the image checks load the images: one too large for the process crashed the load,
     # so where they do not fit they are not loaded (nor checked further).
@@ -373,6 +378,7 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
                 hole = IC.collapsed_uv_faces_warning(uv_map, obj.name, uv, world, tris,
                                                      baked.triangle_faces)
                 warnings += [hole] if hole else []
+    out += read_uv_map_problems(obj, baked.triangle_uvs, uv_map)
     far = float(np.max(np.linalg.norm(world, axis=1))) if len(world) else 0.0  # Euclidean
     if far > FAR_FROM_ORIGIN_M:
         warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: the bake "

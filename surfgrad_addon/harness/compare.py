@@ -208,6 +208,9 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     if variant not in m.variants and len(m.variants) > 1:
         raise CompareError(f"method {method!r} has no variant {variant!r}; use one of "
                            f"{list(m.variants)}")
+    problem = scale_limits.small_object_problem(obj, method)     # before any image is made
+    if problem:
+        raise CompareError(problem)
     inp = prepare_inputs(obj, uv_map, image, variant)
     inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
     notes = [depth_note] if depth_note and m.reference is METHODS["parallax"].reference else []

@@ -11,11 +11,20 @@
   degrees there (perturbing the reference's positions by +-0.5 ulp alone: p99 0.16 /
   max 0.38 deg at 1 km). No route in float32 nodes can do better, so compare warns where that
   floor reaches the bar instead of calling the group wrong.
+- Small objects: the methods whose height derivative comes from the bake's texel steps
+  (Listing 6's scale-dependent bump, the parallax march) lose precision in Cycles' float32 as
+  the object shrinks, whatever the resolution (16^2 to 256^2 the same): SG Height Map HQ on the
+  unit sphere scaled to 1e-5 p99 0.08 deg, 1e-6 0.67, 1e-8 169 (the torus is worse: 1e-4
+  0.48); the float64 reference keeps its answer from 1e-6 to 1e-8 (and flattens by 1e-12, at
+  the paper's determinant guard, where the bake is wrong too). Normal maps, triplanar, volume
+  noise and the box decal agree down to 1e-8 and beyond. compare refuses the others on an
+  object below SMALL_LIMITS, before baking, naming its size and the fix.
 """
 
 import numpy as np
 
 from ..addon.far_limits import FAR_REPEATS
+from ..addon.small_objects import scale_up_text, world_extent
 
 # Methods whose texture coordinate is the world position x Scale (Scale 1 in compare).
 WORLD_PROJECTED = ("triplanar", "triplanar-height", "triplanar-sampler",
@@ -26,15 +35,6 @@ POSITION_ULPS = 4.0
 # Warn where that many ulp reach this fraction of a texel of the projected image: 100 m with
 # a 128-pixel image (4 ulp = 3e-5 m = 0.004 texel) gave p99 0.15 deg; 10 m (0.0005) 0.01.
 TEXEL_FRACTION = 2e-3
-
-
-def world_extent(obj):
-    """(half-size, farthest reach from the world origin) of obj's bounding box, in metres."""
-    m = np.array(obj.matrix_world, dtype=np.float64)
-    box = np.array([tuple(c) for c in obj.bound_box], dtype=np.float64)
-    world = box @ m[:3, :3].T + m[:3, 3]
-    half = 0.5 * float(np.max(world.max(axis=0) - world.min(axis=0)))
-    return half, float(np.abs(world).max())
 
 
 def parallax_depth(obj, depth):
@@ -74,3 +74,35 @@ def _limit(image_size):
     """The reach below which float32_coordinate_warning stays silent."""
     ulp = TEXEL_FRACTION / (POSITION_ULPS * image_size)
     return ulp * 2.0 ** 23
+
+
+# The half-size (metres) below which compare refuses a method. Measured at 16^2 (red team
+# 43b; p99 / max deg against the bar 0.1 / 0.5) on the test torus (half-size 1.4 x its
+# scale), the worse test object; the error grows as 1 / size (16^2 to 256^2 the same):
+# Forward height map 1.4e-2 m 0.04 / 0.07, 1.4e-3 0.28 / 0.64 (HQ 1.4e-3 0.05 / 0.05,
+# 1.4e-4 0.48 / 0.62); height-blend 0.14 0.01 / 0.02, 1.4e-2 0.33 / 0.46; the overwriting
+# decal 1.4e-2 0.04 / 0.05, 1.4e-3 0.32 / 0.58; parallax 1.4e-2 0.07 / 0.23, 1.4e-3 0.42 /
+# 4.0; the procedural basis 1.4e-3 0.03 / 0.05, 1.4e-4 0.28 / 0.43. SG Noise's filtered
+# footprint differs by line: on 5.2 the sphere 1e-5 0.0, 1e-6 90; on 5.0 and 4.5 the sphere
+# 1e-3 0.53 / 0.84; on 4.2 the torus 1e-2 0.47 / 0.88, 5e-2 0.05 / 0.08 (one limit, the
+# worst line's). The Sampler groups measured as their plain groups (the same references);
+# they take the same limits. Figures on 5.2 unless named.
+SMALL_LIMITS = {"height-map": 1e-2, "height-map-sampler": 1e-2, "height-blend": 0.1,
+                "decal-overwrite": 1e-2, "parallax": 2e-2, "parallax-sampler": 2e-2,
+                "procedural-basis": 2e-3, "volume-noise-filtered": 5e-2}
+
+
+def small_object_problem(obj, method):
+    """Why method cannot be compared on obj because obj is too small for Cycles' float32
+    derivatives, else None."""
+    limit = SMALL_LIMITS.get(method)
+    if limit is None:
+        return None
+    half, _ = world_extent(obj)
+    if half >= limit or half <= 0.0:        # zero: the zero-scale and empty-mesh checks say
+        return None
+    fix = scale_up_text(limit, half)
+    return (f"object {obj.name!r} is {2.0 * half:.3g} m across: below {2.0 * limit:g} m, "
+            f"Cycles' float32 derivatives that {method} bakes from lose precision (the bake "
+            f"and the float64 reference then differ by degrees, not by the group), so it is "
+            f"not compared; {fix} and compare again")
