@@ -26,7 +26,7 @@ from .bake_uvs import one_read
 from .cache_files import unread_cache_problems
 from .image_checks import image_problems
 from .material_inputs import (cycles_output, edits_lost, linked_text, live_links,
-                              muted_output_text, renders_nothing)
+                              muted_output_text, renders_nothing, upstream_nodes)
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
@@ -68,23 +68,8 @@ def _baking_the_stack_alone(tree, end):
 
 
 def _upstream(socket, rendered=False):
-    """Every node that feeds `socket`, at any depth (by name), through links Cycles follows.
-    `rendered`: only the nodes Cycles evaluates for it: a muted node is none, and passes on
-    only the inputs its internal links name (as image_checks._reached walks)."""
-    seen, found, todo = set(), set(), [lk.from_node for lk in live_links(socket)]
-    while todo:
-        node = todo.pop()
-        if node.name in seen:
-            continue
-        seen.add(node.name)
-        inputs = node.inputs
-        if rendered and node.mute:
-            passed = {lk.from_socket.identifier for lk in node.internal_links}
-            inputs = [s for s in inputs if s.identifier in passed]
-        else:
-            found.add(node.name)
-        todo += [lk.from_node for s in inputs for lk in live_links(s)]
-    return found
+    """The names of the nodes that feed `socket` (material_inputs.upstream_nodes)."""
+    return set(upstream_nodes(socket, rendered))
 
 
 def _is_sg(node, seen=()):

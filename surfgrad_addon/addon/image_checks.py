@@ -229,18 +229,10 @@ def texture_feeding(socket, outer=()):
 
 
 def sampler_textures(socket):
-    """The Image Texture nodes upstream of a Sampler group's Sampler input `socket` (in the
-    Sampler zone linked into it), through links Cycles follows."""
-    found, seen, todo = [], set(), [lk.from_node for lk in MI.live_links(socket)]
-    while todo:
-        node = todo.pop()
-        if node.name in seen:
-            continue
-        seen.add(node.name)
-        if node.bl_idname == "ShaderNodeTexImage":
-            found.append(node)
-        todo += [lk.from_node for s in node.inputs for lk in MI.live_links(s)]
-    return found
+    """The Image Texture nodes Cycles reads upstream of a Sampler group's Sampler input
+    `socket` (in the Sampler zone linked into it; MI.upstream_nodes, muted ones left out)."""
+    return [n for n in MI.upstream_nodes(socket, rendered=True).values()
+            if n.bl_idname == "ShaderNodeTexImage"]
 
 
 def image_files(image):

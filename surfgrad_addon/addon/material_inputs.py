@@ -19,6 +19,26 @@ def live_links(socket):
     return [lk for lk in socket.links if lk.is_valid and not lk.is_muted]
 
 
+
+def upstream_nodes(socket, rendered=False):
+    """{name: node} of every node that feeds `socket`, at any depth, through links Cycles
+    follows, in the order met. `rendered`: only the nodes Cycles evaluates for it: a muted node
+    is none, and passes on only the inputs its internal links name."""
+    seen, found, todo = set(), {}, [lk.from_node for lk in live_links(socket)]
+    while todo:
+        node = todo.pop()
+        if node.name in seen:
+            continue
+        seen.add(node.name)
+        inputs = node.inputs
+        if rendered and node.mute:
+            passed = {lk.from_socket.identifier for lk in node.internal_links}
+            inputs = [s for s in inputs if s.identifier in passed]
+        else:
+            found[node.name] = node
+        todo += [lk.from_node for s in inputs for lk in live_links(s)]
+    return found
+
 def render_output(tree, target):
     """The Material Output node the engine `target` ("CYCLES" or "EEVEE") renders through
     (Blender's ntreeShaderOutputNode rule): an output targeted at that engine wins over one
