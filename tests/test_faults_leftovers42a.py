@@ -58,7 +58,7 @@ from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
 from surfgrad_addon.addon.node_vocabulary import VMath  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
-from surfgrad_addon.addon.material_inputs import muted_output_warnings  # noqa: E402
+from surfgrad_addon.addon.image_checks import muted_output_warnings  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.normal_map_checks import colour_space_warnings  # noqa: E402
 from surfgrad_addon.addon.parallax_heights import parallax_height_warnings  # noqa: E402

@@ -42,9 +42,9 @@ from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
 from .header_reads import one_header_read
-from .image_checks import image_problems, one_tile_write, output_input_problems
+from .image_checks import (image_problems, muted_output_warnings, one_tile_write,
+                           output_input_problems)
 from .image_memory import images_memory
-from .material_inputs import muted_output_warnings
 from .material_uv_maps import read_uv_map_problems
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings

@@ -40,6 +40,15 @@ def checked_materials(obj, only=None, viewport=False):
     return [only] if only is not None else rendered_materials(obj, viewport)
 
 
+def muted_output_warnings(obj):
+    """A warning per material obj renders with (checked_materials: a Geometry Nodes Set
+    Material's too) that Cycles renders nothing through (MI.renders_nothing): its faces bake
+    the flat normal, whatever its nodes hold."""
+    return [f"material {mat.name!r}: {MI.muted_output_text(output)}; its faces bake flat"
+            for mat in checked_materials(obj) if mat.node_tree is not None
+            and MI.renders_nothing(output := MI.cycles_output(mat.node_tree))]
+
+
 def material_nodes(mat, memo):
     """(node, path, group nodes it lies in) of every node `mat` reads through the output
     Cycles renders (none through a muted one on 4.2 and 4.5: MI.renders_nothing)."""

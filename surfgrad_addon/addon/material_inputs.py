@@ -66,15 +66,6 @@ def renders_nothing(output):
         not facts_for(bpy.app.version).muted_output_renders
 
 
-def muted_output_warnings(obj):
-    """A warning per material of obj that Cycles renders nothing through (renders_nothing):
-    its faces bake the flat normal, whatever its nodes hold."""
-    return [f"material {slot.material.name!r}: {muted_output_text(output)}; its faces bake "
-            f"flat" for slot in obj.material_slots
-            if slot.material is not None and slot.material.node_tree is not None
-            and renders_nothing(output := cycles_output(slot.material.node_tree))]
-
-
 def muted_output_text(output):
     """Why nothing is rendered through `output` (renders_nothing), and the fix."""
     import bpy
