@@ -106,12 +106,14 @@ def build_without_directx():
 
 def build_listings():
     """Materials made of the listings' nodes alone, with the groups' named extras (Listing 2's
-    clamp before the Normal Map node, Listing 5's facing-away branch, SG Resolve's guard) and
-    nothing else: what the SG materials should fold down to."""
+    clamp before the Normal Map node, Listing 5's facing-away branch, SG Resolve's guard, the
+    inverted Bump node's floor for steep heights) and nothing else: what the SG materials
+    should fold down to."""
     from surfgrad_addon.addon import groups as G
     from surfgrad_addon.addon.groups import common as C
     from surfgrad_addon.harness.bench import render_materials as M
     from surfgrad_addon.addon.node_vocabulary import Math, VMath
+    from surfgrad_addon.reference.vecmath import FLT_EPSILON
 
     def guard(g, v):
         return g.group(G.safe_normal_group(), Vector=v).outputs[0]
@@ -125,7 +127,8 @@ def build_listings():
     def forward(g, ctx):
         n = g.geometry("Normal")
         nb = g.bump(M.noise_texture(g), n, G.FORWARD_FILTER_WIDTH)
-        grad = g.vmath(VMath.MULTIPLY_ADD, nb, g.math(Math.DIVIDE, -1.0, g.dot(nb, n)), n)
+        k = g.math(Math.MAXIMUM, g.dot(nb, n), FLT_EPSILON)     # steep heights' floor
+        grad = g.vmath(VMath.MULTIPLY_ADD, nb, g.math(Math.DIVIDE, -1.0, k), n)
         sg = g.scale(grad, M.BUMP_DISTANCE)
         return guard(g, g.sub(n, sg))
 

@@ -12,7 +12,7 @@ from ...reference.group_interfaces import INTERFACES
 from ...reference.vecmath import DIVIDE_FLOOR, FLT_EPSILON, NODE_Z_FLOOR, TSPACE_Z_CLAMP
 
 
-VERSION = 23
+VERSION = 24
 
 
 class FeatureUnavailable(ValueError):
@@ -140,12 +140,19 @@ def surface_gradient_group():
     return ensure(".SG Surface Gradient", build)
 
 
-def bump_surface_gradient(b, height, n, filter_width):
+def bump_surface_gradient(b, height, n, filter_width, steep=False):
     """The Bump node inverted: its normal nb = normalize(N - grad_S h) (Strength 1, Distance 1)
-    gives back g = N - nb / (nb . N)."""
+    gives back g = N - nb / (nb . N). steep: for heights of any slope (a user's Height input),
+    nb . N floored at FLT_EPSILON (one Maximum)."""
     nb = b.bump(height, n, filter_width)
+    k = b.dot(nb, n)
+    if steep:
+        # nb . N = 1 / |N - grad_S h| > 0, but past slopes of about 1e7 it is float32 noise
+        # around zero, and a negative k turned the normal over (180 degrees at 1e8): floored,
+        # g points along nb as the truth does (tests/test_steep_heights.py).
+        k = b.math(Math.MAXIMUM, k, FLT_EPSILON)
     # n + nb * (-1 / (nb . N)): one Multiply Add for the Scale and the Subtract.
-    return b.vmath(VMath.MULTIPLY_ADD, nb, b.math(Math.DIVIDE, -1.0, b.dot(nb, n)), n)
+    return b.vmath(VMath.MULTIPLY_ADD, nb, b.math(Math.DIVIDE, -1.0, k), n)
 
 
 # Shifted copies see UV + fw * dUV: for linear attributes any step is exact, and a large one

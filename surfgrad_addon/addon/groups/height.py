@@ -141,7 +141,7 @@ def height_map_forward_group(filter_width=None):
         height, scale = b.input("Height"), b.input(S.BUMP_SCALE)
         with b.frame("Listing 7: forward differences along the render's differentials "
                      "(the Bump node, inverted: g = N - n / (n . N))"):
-            g = bump_surface_gradient(b, height, n, fw)
+            g = bump_surface_gradient(b, height, n, fw, steep=True)
         b.output(S.SURFACE_GRADIENT_OUT, b.scale(g, scale))
     key = "SG Height Map Forward"
     return ensure(key, build, key + ("" if fw == FORWARD_FILTER_WIDTH else f" (filter {fw:g})"))
