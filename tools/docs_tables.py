@@ -130,7 +130,8 @@ EEVEE_FIRST_TARGET, EEVEE_LATER_TARGET = 1.10, 1.02     # issue 21: against a bu
 # Issue 21's targets, each with where docs/performance.md gives the measured cause of a miss.
 TARGET_ROWS = (("nm-sg", "SG Normal Map + SG Resolve <= 1.05x its twin",
                 "Listing 2's clamp of z, Listing 5's facing-away branch, the guard"),
-               ("bump-sg", "SG Height Map Forward <= 1.05x", "the Bump node inverted, the guard"),
+               ("bump-sg", "SG Height Map Forward <= 1.05x",
+                "the Bump node inverted (with its floor for steep heights), the guard"),
                ("uv2-sg", "SG Procedural Basis on a second UV map <= 1.10x",
                 "two inverted Bump nodes (six UV evaluations), Listing 4"),
                ("tri-sg", "SG Triplanar (three maps, Precise Far From Origin off) <= 1.15x",
@@ -230,7 +231,8 @@ def render_cost_instructions_table(docs):
     counted = d["counted"].replace("*svm_eval_nodes*", "`svm_eval_nodes`")   # not italics
     rows.append(f"\nBlender {d['blender']}, {d['size']}² pixels, {d['samples']} samples; "
                 f"{counted}; before = {d.get('before_commit', '-')}, now = {d['commit']}."
-                + (f" {d['note']} (stacks_commit = {d['stacks_commit']})" if "note" in d else ""))
+                + (f" {d['note']} ({', '.join(f'{k} = {v}' for k, v in d.items() if k.endswith('_commit') and k != 'before_commit')})"
+                   if "note" in d else ""))
     return rows
 
 
