@@ -22,22 +22,16 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.harness import compare, scale_limits, scenes  # noqa: E402
+from surfgrad_addon.harness import compare, scale_limits  # noqa: E402
+from support.small_objects import bake_open_file, height_map_stack  # noqa: E402
+from support.small_objects import scaled_test_object as _scaled  # noqa: E402
 from support.compare_cli import compare_cli_refuses  # noqa: E402
-from surfgrad_addon.harness.cli import main  # noqa: E402
 from surfgrad_addon.harness.methods import METHODS  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
 RES = 16
 P99, MAX = 0.1, 0.5
-
-
-def _scaled(name, scale):
-    obj = scenes.new_scene((name,))[name]
-    obj.scale = (scale,) * 3
-    bpy.context.view_layer.update()
-    return obj
 
 
 def _compare(obj, method, variant=None):
@@ -50,11 +44,11 @@ def test_a_tiny_object_is_refused_before_anything_is_made(tmp_path):
     with pytest.raises(compare.CompareError) as err:
         _compare(obj, "height-map", "hq")
     assert str(err.value) == (
-        "object 'Sphere' is 2e-08 m across: below 0.02 m, Cycles' float32 derivatives that "
+        "object 'Sphere' is 2e-08 m across: below 0.001 m, Cycles' float32 derivatives that "
         "height-map bakes from lose precision (the bake and the float64 reference then differ "
-        "by degrees, not by the group), so it is not compared; scale it up by 1000000 or "
-        "more (or the whole scene, with Scene > Units > Unit Scale set to 1e-06 to keep its "
-        "units) and compare again")
+        "by degrees, not by the group), so it is not compared; scale it up by 100000 or "
+        "more (or the whole scene, with Scene > Units > Unit Scale set to 1e-05 to keep its "
+        "units) and compare again")        # round 44b: the limit with the relief scaled
     assert len(bpy.data.images) == images and tuple(obj.scale) == pytest.approx((1e-8,) * 3)
     assert compare_cli_refuses(tmp_path, "tiny.blend", "Sphere", "parallax")
 
@@ -115,35 +109,15 @@ def test_the_reference_holds_where_the_bake_does_not():
     assert len(cos) > 150 and np.degrees(np.arccos(np.clip(cos, -1, 1))).max() < 0.05
 
 
-def _height_map_material(obj):
-    """SG Height Map Forward in a layer stack: its derivative comes from the bake's steps."""
-    from surfgrad_addon import api
-    from surfgrad_addon.addon.compat import new_material
-    mat = new_material("Tiny")
-    obj.data.materials.append(mat)
-    combine = api.add_layer_stack(mat, "UVMap")["combine"]
-    height = mat.node_tree.nodes.new("ShaderNodeGroup")
-    height.node_tree = api.node_group("SG Height Map Forward")
-    height.name = "Height"
-    mat.node_tree.links.new(height.outputs["Surface Gradient"], combine.inputs["B"])
-
-
 def test_bake_normal_map_refuses_or_warns_on_a_tiny_object(tmp_path, capsys):
     """Before: bake-normal-map baked SG Height Map on a 2e-8 m sphere with exit 0 (compare of
     the same group there: p99 169 deg). Now refused below 2e-6 m across, exit 2, no file;
     warned about below compare's limit (0.02 m), baked."""
     texts = {}
     for scale, rc in ((1e-8, 2), (1e-4, 0)):
-        obj = _scaled("Sphere", scale)
-        _height_map_material(obj)
-        blend = tmp_path / f"s{scale:g}.blend"
-        bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-        out = tmp_path / f"s{scale:g}.png"
-        capsys.readouterr()
-        assert main(["bake-normal-map", "--blend", str(blend), "--object", "Sphere", "--output",
-                     str(out), "--resolution", "16", "--samples", "1"]) == rc
-        texts[scale] = capsys.readouterr().err
-        assert out.exists() is (rc == 0)
+        height_map_stack(_scaled("Sphere", scale))
+        code, texts[scale], written = bake_open_file(tmp_path, capsys, f"s{scale:g}")
+        assert code == rc and written is (rc == 0)
     assert ("object 'Sphere' is 2e-08 m across: the height derivatives of SG Height Map "
             "Forward node 'Height' (material 'Tiny') come from the bake's texel steps, which "
             "Cycles' float32 holds only to degrees below 2e-06 m, so the map would be wrong; "
@@ -172,13 +146,8 @@ def test_a_nan_in_a_second_uv_map_the_material_reads_is_refused(tmp_path, capsys
                             nodes["Principled BSDF"].inputs["Normal"])
     assert read_uv_map_problems(obj, baked_mesh(obj).triangle_uvs, "UVMap") == []
     obj.data.uv_layers["Detail"].data[0].uv = (float("nan"), 0.5)
-    blend = tmp_path / "nan.blend"
-    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    out = tmp_path / "nan.png"
-    capsys.readouterr()
-    assert main(["bake-normal-map", "--blend", str(blend), "--object", "Sphere", "--output",
-                 str(out), "--resolution", "16", "--samples", "1", "--uv-map", "UVMap"]) == 2
+    rc, err, written = bake_open_file(tmp_path, capsys, "nan", "--uv-map", "UVMap")
+    assert rc == 2 and not written
     assert ("the UVs of UV map 'Detail' of object 'Sphere', which node 'Detail Normal' of "
             "material 'Reads Detail' reads, contain non-finite values (NaN or Inf); unwrap it "
-            "again (UV > Unwrap) or remove it") in capsys.readouterr().err
-    assert not out.exists()
+            "again (UV > Unwrap) or remove it") in err

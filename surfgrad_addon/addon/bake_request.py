@@ -330,11 +330,12 @@ def _inputs_unchanged(checked):
 
 # The checks ---------------------------------------------------------------------------------
 
-def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
+def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None, only=None):
     """The evaluated mesh as the bake sees it (bake_uvs.baked_mesh: modifiers at their
     render settings): its mesh caches read (cache_files.py), finite positions, faces with
-    area, finite UVs with area in `uv_map`; far from the origin, and texels of `tiles` that overlapping UV islands contest at
-    `resolution`, add warnings."""
+    area, finite UVs with area in `uv_map`, finite UVs in the maps its materials (or material
+    `only`) read; far from the origin, and texels of `tiles` that overlapping UV islands
+    contest at `resolution`, add warnings."""
     stale = unread_cache_problems(obj)      # (the mesh read would be the import's, not the cache's)
     if stale:
         return stale
@@ -378,7 +379,7 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None):
                 hole = IC.collapsed_uv_faces_warning(uv_map, obj.name, uv, world, tris,
                                                      baked.triangle_faces)
                 warnings += [hole] if hole else []
-    out += read_uv_map_problems(obj, baked.triangle_uvs, uv_map)
+    out += read_uv_map_problems(obj, baked.triangle_uvs, uv_map, only)
     far = float(np.max(np.linalg.norm(world, axis=1))) if len(world) else 0.0  # Euclidean
     if far > FAR_FROM_ORIGIN_M:
         warnings.append(f"object {obj.name!r} reaches {far:.0f} m from the origin: the bake "

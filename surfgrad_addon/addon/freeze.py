@@ -22,9 +22,13 @@ from pathlib import Path
 
 from . import normal_bake as NB
 from .bake_target import object_not_a_mesh
+from .bake_request import mesh_problems
 from .bake_uvs import one_read
 from .cache_files import unread_cache_problems
 from .image_checks import image_problems
+from .normal_map_checks import input_warnings
+from .parallax_heights import parallax_height_warnings
+from .small_objects import small_object_messages
 from .material_inputs import (cycles_output, edits_lost, linked_text, live_links,
                               muted_output_text, renders_nothing, upstream_nodes)
 
@@ -256,9 +260,21 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         # Blender loads other than its file says, would be frozen into the map.
         problem = NB.unslotted_problem(obj, mat)       # (its map would hold theirs too)
         problems = [problem] if problem else image_problems(obj, only=mat)
+        # The mesh as bake-normal-map checks it (NaN in the baked UV map or one the material
+        # reads, positions, faces with area), and an object too small for the float32
+        # derivatives of the groups it bakes through: each baked wrong texels with no word.
+        problems += mesh_problems(obj, uv_map, [], only=mat)
+        problems += small_object_messages(obj, only=mat)[0]
         if problems:
             raise FreezeError("; ".join(problems))
     return mat, tree, end, fed, uv_map, path
+
+
+def freeze_warnings(obj, mat):
+    """What the Freeze operator reports once the freeze is done, as bake-normal-map warns of
+    it: what bends the normal maps the material reads, parallax heights, a small object."""
+    return (input_warnings(obj, mat) + parallax_height_warnings(obj, mat) +
+            small_object_messages(obj, only=mat)[1])
 
 
 def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,

@@ -13,8 +13,6 @@ from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from . import freeze as F
 from .operators import tree_owner
-from .normal_map_checks import input_warnings
-from .parallax_heights import parallax_height_warnings
 
 STAGES = ("checked", "baked", "wired")
 
@@ -62,7 +60,7 @@ unlinked, in a frame (Thaw brings it back)"""
         # What bends the normal maps the stack reads: reported once the freeze is done.
         obj = context.object
         mat = shown_material(context) or getattr(obj, "active_material", None)
-        self._warnings = input_warnings(obj, mat) + parallax_height_warnings(obj, mat) \
+        self._warnings = F.freeze_warnings(obj, mat) \
             if mat is not None and obj is not None else []
         self._steps = F.freeze_steps(obj, self.resolution, self.uv_map, self.filepath,
                                      self.overwrite, self.samples, mat=shown_material(context))

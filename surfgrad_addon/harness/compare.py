@@ -82,6 +82,7 @@ class Inputs:
     projector: object = None                         # a temporary decal projector (an empty)
     modifier: object = None                          # a temporary SG Displace modifier
     parallax_scale: float = None                     # None: methods.PARALLAX_SCALE
+    relief_scale: float = None                       # None: 1 (method_registry.relief)
 
     def pixels(self, name):
         return self.images[name][0]
@@ -213,7 +214,11 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         raise CompareError(problem)
     inp = prepare_inputs(obj, uv_map, image, variant)
     inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
+    m, inp.relief_scale = scale_limits.scaled_relief(obj, m)
     notes = [depth_note] if depth_note and m.reference is METHODS["parallax"].reference else []
+    if inp.relief_scale < 1.0:
+        notes.append(f"relief for the comparison: x {inp.relief_scale:.3g}, scaled to the "
+                     f"half-size of {obj.name!r} (a scaled copy of the unit object)")
     for note in notes:
         if log:
             log(f"note: {note}")

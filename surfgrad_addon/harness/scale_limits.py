@@ -11,12 +11,14 @@
   degrees there (perturbing the reference's positions by +-0.5 ulp alone: p99 0.16 /
   max 0.38 deg at 1 km). No route in float32 nodes can do better, so compare warns where that
   floor reaches the bar instead of calling the group wrong.
-- Small objects: the methods whose height derivative comes from the bake's texel steps
-  (Listing 6's scale-dependent bump, the parallax march) lose precision in Cycles' float32 as
-  the object shrinks, whatever the resolution (16^2 to 256^2 the same): SG Height Map HQ on the
-  unit sphere scaled to 1e-5 p99 0.08 deg, 1e-6 0.67, 1e-8 169 (the torus is worse: 1e-4
-  0.48); the float64 reference keeps its answer from 1e-6 to 1e-8 (and flattens by 1e-12, at
-  the paper's determinant guard, where the bake is wrong too). Normal maps, triplanar, volume
+- Small objects: the relief (Bump Scale, noise amount) shrinks with the object, so that a small
+  object is compared as a scaled copy of the unit one (scaled_relief; before round 44b it was
+  a fixed 0.05 m, and SG Height Map HQ on the unit sphere scaled to 1e-5 was p99 0.08 deg,
+  1e-6 0.67, 1e-8 169). Even so, the methods whose height derivative comes from the bake's
+  texel steps (Listing 6's scale-dependent bump, the parallax march, the procedural basis)
+  lose precision in Cycles' float32 as the object shrinks, whatever the resolution (16^2 to
+  256^2 the same); the float64 reference keeps its answer (and flattens by 1e-12, at the
+  paper's determinant guard, where the bake is wrong too). Normal maps, triplanar, volume
   noise and the box decal agree down to 1e-8 and beyond. compare refuses the others on an
   object below SMALL_LIMITS, before baking, naming its size and the fix.
 """
@@ -48,6 +50,29 @@ def parallax_depth(obj, depth):
                   f"repeats, where the occlusion march is chaotic in float32)")
 
 
+# The methods whose relief is a length (metres): a Bump Scale, SG Noise's amount (the
+# parameters named; height-blend's lengths are in its graph and reference, which both read
+# method_registry.relief). The comparison's lengths suit the unit test objects (half-size
+# UNIT_HALF); on a smaller object they shrink with it, so that it is compared as a scaled copy
+# of the unit one (a fixed 0.05 m relief on a 1e-8 m sphere is all slope, and float32 loses it
+# ten times sooner: SMALL_LIMITS). SG Noise reads object-space positions: its pattern already
+# scales with the object, so its Scale stays.
+RELIEF_LENGTHS = {"height-map": ("bump_scale",), "height-map-sampler": ("bump_scale",),
+                  "volume-noise-filtered": ("amount",), "height-blend": ()}
+UNIT_HALF = 1.0
+
+
+def scaled_relief(obj, method):
+    """(method with its relief lengths scaled to obj, the factor): the factor is obj's
+    half-size / UNIT_HALF where that is below 1 and method's relief is a length, else 1."""
+    half, _ = world_extent(obj)
+    if method.name not in RELIEF_LENGTHS or not 0.0 < half < UNIT_HALF:
+        return method, 1.0
+    r = half / UNIT_HALF
+    values = dict(method.values)
+    return method.at(**{k: values[k] * r for k in RELIEF_LENGTHS[method.name]}), r
+
+
 def float32_coordinate_warning(obj, method, image_size):
     """A warning where method's world-projected texture coordinates on obj are too large for
     float32 to place within the bar, else None."""
@@ -76,20 +101,26 @@ def _limit(image_size):
     return ulp * 2.0 ** 23
 
 
-# The half-size (metres) below which compare refuses a method. Measured at 16^2 (red team
-# 43b; p99 / max deg against the bar 0.1 / 0.5) on the test torus (half-size 1.4 x its
-# scale), the worse test object; the error grows as 1 / size (16^2 to 256^2 the same):
-# Forward height map 1.4e-2 m 0.04 / 0.07, 1.4e-3 0.28 / 0.64 (HQ 1.4e-3 0.05 / 0.05,
-# 1.4e-4 0.48 / 0.62); height-blend 0.14 0.01 / 0.02, 1.4e-2 0.33 / 0.46; the overwriting
-# decal 1.4e-2 0.04 / 0.05, 1.4e-3 0.32 / 0.58; parallax 1.4e-2 0.07 / 0.23, 1.4e-3 0.42 /
-# 4.0; the procedural basis 1.4e-3 0.03 / 0.05, 1.4e-4 0.28 / 0.43. SG Noise's filtered
-# footprint differs by line: on 5.2 the sphere 1e-5 0.0, 1e-6 90; on 5.0 and 4.5 the sphere
-# 1e-3 0.53 / 0.84; on 4.2 the torus 1e-2 0.47 / 0.88, 5e-2 0.05 / 0.08 (one limit, the
-# worst line's). The Sampler groups measured as their plain groups (the same references);
-# they take the same limits. Figures on 5.2 unless named.
-SMALL_LIMITS = {"height-map": 1e-2, "height-map-sampler": 1e-2, "height-blend": 0.1,
+# The half-size (metres) below which compare refuses a method, with the relief scaled to the
+# object (scaled_relief). Measured at 16^2 (red team 44b; p99 / max deg against the bar 0.1 / 0.5)
+# on the test torus (half-size 1.4 x its scale), the worse test object; the error grows about as 1
+# / size, 16^2 to 256^2 the same. Height map, scaled relief (5.2; the worst variant, Forward):
+# 1.4e-3 m 0.022 / 0.031, 5e-4 0.042 / 0.12, 1.4e-4 0.20 / 0.43 (4.5 and 5.0: 5.6e-4 0.052 /
+# 0.088, 1.4e-4 0.15 / 0.48); HQ 1.4e-4 0.078 / 0.088, 1.4e-5 0.55. height-blend (the rock's Bump
+# Scale and the sand's amount scaled) 1.4e-2 0.044 / 0.056, 1e-2 0.046 / 0.074, 1.4e-3 0.42 /
+# 0.69, every line. SG Noise's filtered footprint (its amount scaled) differs by line: 4.2 1.4e-2
+# 0.023 / 0.035, 5e-3 0.042 / 0.060, 1.4e-3 0.17 / 0.43 (fixed relief, 5e-3: 1.02 / 1.77); 4.5 and
+# 5.0 1.4e-3 0.057 / 0.105, 1.4e-4 0.64 to 1.1; 5.2 0.00004 / 0.00009 down to 1.4e-5, 1.4e-6 21
+# (one limit, the worst line's). Not relief in metres, so as round 43b measured them: the
+# overwriting decal 1.4e-2 0.04 / 0.05, 1.4e-3 0.32 / 0.58; parallax (its depth already the
+# object's half-size) 1.4e-2 0.07 / 0.23, 1.4e-3 0.42 / 4.0; the procedural basis 1.4e-3 0.03 /
+# 0.05, 1.4e-4 0.28 / 0.43. With the fixed 0.05 m relief (before round 44b) the limits were height
+# map 1e-2, height-blend 0.1, filtered noise 5e-2 (4.2: 1e-2 0.47 / 0.88; 4.2's Forward height map
+# at 5e-4 then 0.66 / 1.08, now 5.2's 0.042 / 0.12). The Sampler groups measured as their plain
+# groups (the same references); they take the same limits. Figures on 5.2 unless named.
+SMALL_LIMITS = {"height-map": 5e-4, "height-map-sampler": 5e-4, "height-blend": 1e-2,
                 "decal-overwrite": 1e-2, "parallax": 2e-2, "parallax-sampler": 2e-2,
-                "procedural-basis": 2e-3, "volume-noise-filtered": 5e-2}
+                "procedural-basis": 2e-3, "volume-noise-filtered": 5e-3}
 
 
 def small_object_problem(obj, method):

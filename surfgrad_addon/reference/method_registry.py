@@ -110,6 +110,13 @@ def accepts(function, keyword):
     return keyword in inspect.signature(function).parameters
 
 
+def relief(inp):
+    """The comparison's relief factor: 1, or the object's half-size in metres where compare
+    shrank the relief to it (harness/scale_limits.scaled_relief): height-blend's relief
+    lengths (the rock's Bump Scale, the sand's amount) are multiplied by it."""
+    return getattr(inp, "relief_scale", None) or 1.0
+
+
 def parallax_depth(inp):
     """The comparison's parallax depth: PARALLAX_SCALE, or what compare set for a small object
     (harness/scale_limits.parallax_depth)."""
@@ -225,10 +232,11 @@ def _blend(mode):
 def _height_blend(inp, td, contrast):
     """Rock (SG Height Map HQ of the height image, its height the image's Linear sample) and
     sand (SG Noise through SG Volume Gradient, its height the noise's value) by height."""
-    n, rock = M.height_map_surfgrad(td, inp.pixels("height"), "hq", HEIGHT_BUMP_SCALE,
+    r = relief(inp)
+    n, rock = M.height_map_surfgrad(td, inp.pixels("height"), "hq", HEIGHT_BUMP_SCALE * r,
                                     inp.uv_map)
     rock_height = sample_image(inp.pixels("height"), td.uv(inp.uv_map))
-    _, sand = M.volume_noise_surfgrad(td, NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)
+    _, sand = M.volume_noise_surfgrad(td, NOISE_SCALE, NOISE_AMOUNT * r, NOISE_OCTAVES)
     sand_height, _ = M.noise_gradient_world(td, NOISE_SCALE, NOISE_OCTAVES)
     sg, _, _ = surfgrad_height_blend((rock, sand), (rock_height, sand_height), contrast,
                                      offsets=(0.0, SAND_LEVEL))
