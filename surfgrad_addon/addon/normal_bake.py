@@ -29,6 +29,7 @@ from pathlib import Path
 
 from ..reference import tiles as T
 from . import interrupts
+from .bake_closures import diffuse_stand_ins
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import (bake_target_problem, object_not_a_mesh, own_materials,
                           visible_for_bake)
@@ -397,6 +398,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 own_materials(bpy.context.view_layer), \
+                diffuse_stand_ins(mat.node_tree for mat in materials), \
                 tangents_of(obj, uv_map, space), \
                 precise_far(obj, log):           # far out: as precise as at the origin
             mesh = obj.data         # either may stand a copy of the render mesh in for it
