@@ -79,3 +79,25 @@ def test_a_normal_map_bakes_as_given_through_any_bsdf(tmp_path, shader):
     degrees = np.degrees(np.arccos(np.clip(got @ normal, -1.0, 1.0)))
     assert degrees.max() < 0.05, degrees.max()
     assert material_dump(mat) == before
+
+
+def test_a_muted_link_stays_muted_through_the_stand_in(tmp_path):
+    """Finding 1: a second BSDF (flat) behind a muted link into a Mix Shader renders nothing,
+    and its Diffuse stand-in must not either: the map is the first BSDF's normal alone (with
+    the second mixed in at 0.5 it would lie 30 degrees off)."""
+    obj, mat, normal = _tilted_plane("ShaderNodeBsdfPrincipled")
+    tree = mat.node_tree
+    output = tree.nodes["Material Output"]
+    tilted = output.inputs["Surface"].links[0].from_node
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = 0.5
+    flat = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    tree.links.new(tilted.outputs[0], mix.inputs[1])
+    tree.links.new(flat.outputs[0], mix.inputs[2]).is_muted = True
+    tree.links.new(mix.outputs[0], output.inputs["Surface"])
+    before = material_dump(mat)
+    got = _baked_normals(obj, tmp_path / "n.exr")
+    degrees = np.degrees(np.arccos(np.clip(got @ normal, -1.0, 1.0)))
+    assert degrees.max() < 0.05, degrees.max()
+    assert material_dump(mat) == before
+    assert [link.is_muted for link in mix.inputs[2].links] == [True]
