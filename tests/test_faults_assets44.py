@@ -15,6 +15,17 @@ here by code, a few faces, so no test reads a fetched file.
    DamagedHelmet, 29.7 on revelryengine's Barrel. Freeze already baked its stack through a
    Diffuse stand-in; now every normal-map bake does (addon/bake_closures.py): each BSDF of the
    material's own tree stands in as a Diffuse BSDF fed the same Normal, for the bake only.
+2. A UV layout lying whole one tile off the UDIM grid: Khronos' DamagedHelmet (the glTF
+   sample most viewers open first) has its UVs at v 1..2 in the file, which Blender's glTF
+   importer turns into v -1..0; its textures repeat, so it renders right. bake-normal-map
+   refused it with "has no faces in any UDIM tile: unwrap it into the 0-1 square", and a batch
+   with "15442 face(s) ... lie outside the UDIM range ... move them into tiles, or bake the
+   rest on purpose with --allow-partial"; --allow-partial then failed the asset (exit 1) with
+   the first message. Unwrapping again would undo the asset's layout (mirrored halves stacked
+   on one island), and --allow-partial bakes nothing. Now both say where its UVs lie and the
+   whole tiles that move it into tile 1001 (+0 in u, +1 in v), which keeps every island
+   (normal_bake.no_tile_problem); a batch no longer offers --allow-partial for a layout with
+   nothing in any tile.
 """
 
 import math
@@ -25,6 +36,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon.batch import plan, session  # noqa: E402
 from support.blender import new_material  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
 
@@ -101,3 +113,36 @@ def test_a_muted_link_stays_muted_through_the_stand_in(tmp_path):
     assert degrees.max() < 0.05, degrees.max()
     assert material_dump(mat) == before
     assert [link.is_muted for link in mix.inputs[2].links] == [True]
+
+
+def _plane_a_tile_below():
+    """A plane whose UVs fill the square one tile below tile 1001 (v -1..0), as the glTF
+    importer turns a file's v 1..2."""
+    obj, _, _ = _tilted_plane("ShaderNodeBsdfPrincipled")
+    for loop in obj.data.uv_layers["UVMap"].data:
+        loop.uv = (loop.uv[0], loop.uv[1] - 1.0)
+    return obj
+
+
+WHOLE_TILES = ("UV map 'UVMap' of object 'Plane' has no faces in any UDIM tile (its UVs span "
+               "u 0..1, v -1..0; the tiles are u 0..10, v 0..100), so nothing would be baked: "
+               "move its UVs by whole tiles, +0 in u and +1 in v, into tile 1001")
+
+
+def test_a_layout_one_tile_off_the_grid_is_told_the_whole_tiles_to_move(tmp_path):
+    """Finding 2, bake-normal-map and the API: the refusal names the span and the move."""
+    obj = _plane_a_tile_below()
+    with pytest.raises(ValueError) as err:
+        api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=RES, log=None)
+    assert str(err.value).startswith(WHOLE_TILES), str(err.value)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_batch_does_not_offer_allow_partial_for_a_layout_with_no_tile():
+    """Finding 2, bake-batch: its scan's refusal is the same, without --allow-partial (which
+    baked nothing and failed the asset)."""
+    _plane_a_tile_below()
+    scan = session.scan_open_file()["assets"][0]
+    settings = {"uv_map": None, "allow_partial": False}
+    problem = plan.asset_problem(scan, settings, "helmet.blend")
+    assert problem.startswith(WHOLE_TILES) and "allow-partial" not in problem, problem
