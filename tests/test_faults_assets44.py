@@ -115,6 +115,34 @@ def test_a_muted_link_stays_muted_through_the_stand_in(tmp_path):
     assert [link.is_muted for link in mix.inputs[2].links] == [True]
 
 
+def test_a_node_group_with_a_normal_input_is_not_stood_in(tmp_path):
+    """Finding 1: a group of the artist's (a Normal input, a Shader output) whose own nodes
+    make the normal is baked as it is: a Diffuse stand-in fed its unlinked Normal input would
+    bake the surface flat (30 degrees off here; 30 degrees bends no closure)."""
+    obj, mat, _ = _tilted_plane("ShaderNodeBsdfPrincipled")
+    tilt = math.radians(30.0)
+    normal = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
+    group = bpy.data.node_groups.new("Rock Shader", "ShaderNodeTree")
+    group.interface.new_socket("Normal", in_out="INPUT", socket_type="NodeSocketVector")
+    group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+    group.nodes.new("NodeGroupInput")
+    rgb = group.nodes.new("ShaderNodeRGB")
+    rgb.outputs[0].default_value = (*(normal * 0.5 + 0.5), 1.0)
+    normal_map = group.nodes.new("ShaderNodeNormalMap")
+    bsdf = group.nodes.new("ShaderNodeBsdfPrincipled")
+    group.links.new(rgb.outputs[0], normal_map.inputs["Color"])
+    group.links.new(normal_map.outputs[0], bsdf.inputs["Normal"])
+    group.links.new(bsdf.outputs[0], group.nodes.new("NodeGroupOutput").inputs[0])
+    tree = mat.node_tree
+    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        tree.nodes.remove(node)
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    got = _baked_normals(obj, tmp_path / "n.exr")
+    degrees = np.degrees(np.arccos(np.clip(got @ normal, -1.0, 1.0)))
+    assert degrees.max() < 0.05, degrees.max()
+
 def _plane_a_tile_below():
     """A plane whose UVs fill the square one tile below tile 1001 (v -1..0), as the glTF
     importer turns a file's v 1..2."""

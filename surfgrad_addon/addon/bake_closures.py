@@ -18,12 +18,15 @@ from contextlib import contextmanager
 
 NORMAL = "Normal"
 DIFFUSE = "ShaderNodeBsdfDiffuse"
+GROUP = "ShaderNodeGroup"
 
 
 def _stands_in(node):
-    """A node making a closure from a Normal input, other than a Diffuse BSDF."""
-    return (node.bl_idname != DIFFUSE and not node.mute and NORMAL in node.inputs and
-            any(o.type == "SHADER" for o in node.outputs))
+    """A BSDF node making a closure from a Normal input, other than a Diffuse BSDF. A node
+    group is not one, whatever its sockets: its Normal input may be the base its own nodes
+    bend (an SG stack inside), which a stand-in fed that input would drop."""
+    return (node.bl_idname not in (DIFFUSE, GROUP) and not node.mute and
+            NORMAL in node.inputs and any(o.type == "SHADER" for o in node.outputs))
 
 
 @contextmanager
