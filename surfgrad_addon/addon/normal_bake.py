@@ -27,13 +27,17 @@ import re
 import time
 from pathlib import Path
 
+import numpy as np
+
 from ..reference import tiles as T
 from . import interrupts
+from .bake_closures import diffuse_stand_ins
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import (bake_target_problem, object_not_a_mesh, own_materials,
                           visible_for_bake)
-from .bake_uvs import (baked_uv_tiles, long_name_problem, not_rendered_problem,  # noqa: F401
-                       one_read, rendered_materials, uv_active, uv_tiles)  # (uv_tiles)
+from .bake_uvs import (baked_mesh, baked_uv_tiles, long_name_problem,  # noqa: F401
+                       not_rendered_problem, one_read, rendered_materials, uv_active,
+                       uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import local_copies
 from .material_inputs import missing_library_problem
@@ -235,6 +239,27 @@ def unslotted_problem(obj, only):
             f"UVs overlap; add them to the object's material slots (Material Properties > +)")
 
 
+def no_tile_problem(obj_name, uv_map, uvs=None):
+    """Why a UV map whose faces lie in no UDIM tile bakes nothing, and the fix. A layout lying
+    whole in one square off the grid (a glTF's UVs offset by whole tiles, which its Repeat
+    textures wrap: Khronos' DamagedHelmet lies in v -1..0 here) is told the whole tiles to
+    move it by, which keeps its islands as they are (mirrored halves stacked included)."""
+    text = f"UV map {uv_map!r} of object {obj_name!r} has no faces in any UDIM tile"
+    fix = "move its islands into the 0-1 square (tile 1001) or onto UDIM tiles"
+    uv = None if uvs is None else np.asarray(uvs, dtype=np.float64).reshape(-1, 2)
+    if uv is not None and len(uv) and np.isfinite(uv).all():
+        lo, hi = uv.min(0), uv.max(0)
+        text += (f" (its UVs span u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}; "
+                 f"the tiles are {T.UDIM_SPAN})")
+        cell = np.floor(lo)
+        if (np.floor(hi - T.BORDER_EPS) == cell).all():
+            du, dv = (int(-c) for c in cell)
+            fix = (f"move its UVs by whole tiles, {du:+d} in u and {dv:+d} in v, into tile "
+                   f"{T.UDIM_FIRST} (UV > Transform > Move; its islands stay as they are, and "
+                   f"image textures set to Repeat read the same), or {fix}")
+    return f"{text}, so nothing would be baked: {fix}"
+
+
 def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     """(uv_map, tiles to bake, tiles with UVs, warnings) for obj and the output name, or a
     NormalBakeError naming what is wrong. empty_tiles='skip' drops asked-for tiles that hold
@@ -271,6 +296,7 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
         raise NormalBakeError(problem)
     with uv_active(mesh, uv_map):       # read as the bake renders it (tangent_uv.py)
         layout = baked_uv_tiles(obj)
+        uvs = baked_mesh(obj).triangle_uvs.get(uv_map)
     if uv_map not in layout:
         raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout))
     with_uvs, outside = layout[uv_map]
@@ -280,8 +306,7 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
                         f"({T.UDIM_SPAN}) and are not baked")
     where = f"UV map {uv_map!r} of object {obj.name!r}"
     if not with_uvs:
-        raise NormalBakeError(f"{where} has no faces in any UDIM tile: unwrap it into the "
-                              f"0-1 square (tile 1001) or UDIM tiles")
+        raise NormalBakeError(no_tile_problem(obj.name, uv_map, uvs))
     udim = UDIM_TOKEN in Path(output).name
     if tiles:
         tiles = sorted({int(t) for t in tiles})
@@ -397,6 +422,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 own_materials(bpy.context.view_layer), \
+                diffuse_stand_ins(mat.node_tree for mat in materials), \
                 tangents_of(obj, uv_map, space), \
                 precise_far(obj, log):           # far out: as precise as at the origin
             mesh = obj.data         # either may stand a copy of the render mesh in for it

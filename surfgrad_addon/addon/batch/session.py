@@ -80,6 +80,10 @@ def scan_open_file(objects=None, collections=None, everything=False):
                         layout.get(uv.name, ([], 0))
                     if uv.active_render:
                         entry["active_uv"] = uv.name
+                    if not entry["uv_maps"][uv.name] and entry["outside"][uv.name]:
+                        uvs = NB.baked_mesh(obj).triangle_uvs[uv.name].reshape(-1, 2)
+                        entry.setdefault("uv_spans", {})[uv.name] = \
+                            [uvs.min(0).tolist(), uvs.max(0).tolist()]   # (told in its refusal)
                 entry["modifier_uvs"] = sorted(set(layout) - set(entry["uv_maps"]))
                 entry["problems"] = _input_problems(obj)
             else:                   # (an Empty showing a collection names its meshes)
