@@ -175,6 +175,9 @@ def _check_file(filepath, overwrite):
     if filepath.startswith("//") and not bpy.data.filepath:
         raise FreezeError(f"{filepath!r} is relative to the .blend file, which is not saved "
                           f"yet: save the file first, or give an absolute path (or pack)")
+    problem = NB.brace_token_problem(filepath, "Freeze's Save As", None)
+    if problem:                           # Blender 5's {blend_name} is not filled in here
+        raise FreezeError(problem)
     path = Path(bpy.path.abspath(filepath))
     try:
         NB.check_output(path)

@@ -215,6 +215,16 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         progress.known += len(entries)
         return jobs, [e for e in entries if e.get("status") in ("failed", "skipped")]
 
+    def on_pending(req, maps):
+        """A bake is about to put `maps` ({tile: (final, temporary file)}) in place: record
+        them first, with the hash of what they will hold, so that a run killed before it
+        records the bake (SIGKILL, a worker's crash) is followed by one that knows them as
+        its own (plan.replaceable), not as someone's file that "exists"."""
+        entry = report["assets"][req["id"]]
+        entry["pending"] = {str(t): {"path": str(final), "sha256": P.sha256_file(temp)}
+                            for t, (final, temp) in maps.items()}
+        M.write(manifest_path, M.merged(previous, report, files))
+
     def on_reply(req, reply, retry):
         if req["op"] == "scan":
             if retry:
@@ -238,9 +248,12 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             {k: reply.get(k) for k in ("status", "kind", "error", "load_s", "bake_s",
                                        "save_s", "total_s") if k in reply})
         if retry:
+            # (it may have died after putting its maps in place: they are its own)
+            req["overwrite"] = req["overwrite"] or P.replaceable(entry, req["output"], [])
             log(f"[batch] {what}: {reply['error']} - retrying once in a fresh process")
             return []
         if reply["status"] == "ok":
+            entry.pop("pending", None)
             entry.update(status="baked", tiles=reply["tiles"], uv_map=reply["uv_map"],
                          depth=reply["depth"], warnings=reply["warnings"],
                          timings={k: reply.get(k) for k in ("load_s", "bake_s", "save_s",
@@ -285,8 +298,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                 raise P.BatchError(P.joined(problems) + "\n(nothing was baked)")
             for folder in sorted(folders):
                 folder.mkdir(parents=True, exist_ok=True)
+                _note_leftovers(folder, warn)
             M.write(manifest_path, M.merged(previous, report, files))
-            pool.map(requests, on_reply)
+            pool.map(requests, on_reply, on_pending)
         report["process_start_s"] = pool.start_times()
     except BaseException:
         M.release(manifest_path)          # a refusal, an error: the run ends here
@@ -304,3 +318,15 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     log(f"[batch] {c['baked']} baked, {c['skipped']} skipped, {c['failed']} failed in "
         f"{report['total_s']:.1f} s; manifest {manifest_path}")
     return report
+
+
+def _note_leftovers(folder, warn):
+    """Name the temporary files of other runs in an output folder: a run killed with SIGKILL
+    leaves its own (a map being checked, a manifest being written), and one of them may be a
+    run under way on another machine, so they are named for the TD, not removed."""
+    found = interrupts.others_partials(folder)
+    if found:
+        warn(f"{len(found)} temporary file(s) of other runs in {str(folder)!r} "
+            f"({', '.join(found[:3])}{', ...' if len(found) > 3 else ''}): left by killed "
+            f"runs, or runs under way elsewhere; once no run writes there, remove them "
+            f"(rm {str(folder / '.*.part*-*')})")

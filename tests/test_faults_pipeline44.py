@@ -1,0 +1,202 @@
+"""Red team 44c: a TD's headless runs and a farm's tasks, killed, re-queued, squeezed.
+
+1. A batch killed (SIGKILL: a farm's hard kill, the out-of-memory killer; or a worker dying)
+   after a bake put its map in place and before the manifest recorded it: the rerun failed
+   that asset, exit 1, "Rock.png exists; pass --overwrite to replace it" (the map was the
+   killed run's own), and a worker's retry in the same run did too. Now the batch records
+   the files a bake is about to put in place, with the hash of their complete temporary
+   files, before they are put there (`pending` in the manifest; a worker waits for that
+   record), and a rerun (or the retry) takes a file still holding that content as its own
+   and bakes it again; a file that holds anything else is still refused.
+2. A run that bakes an asset again (--force, a repainted texture, new settings) and does not
+   finish it (killed, stopped with SIGTERM: a farm's cancel, or failed) wrote the manifest
+   without the maps the earlier run had recorded for that asset: the next run took them for
+   someone's files and failed the asset, "Rock.png exists", exit 1. Now such an entry keeps
+   them on record (`earlier_files`) until a bake records its own.
+3. A '{...}' in the output of `api.bake_normal_map` and of Freeze's Save As (Blender 5's path
+   template '{blend_name}', the batch's '{object}'): a file named '{blend_name}_nrm.png' was
+   written, where `bake-normal-map` refuses it (round 43a). Now both refuse it with the same
+   words (normal_bake.brace_token_problem), nothing written, the material unchanged.
+4. The hidden working folder of a main job or bench (`.NAME.partial-PID-TOKEN`, beside its
+   --out) killed with SIGKILL stayed for good, one more per killed run on a farm's share.
+   Now a run records who it is in it (machine, boot, process-id space, process start:
+   harness/run_owner.py), and the next run into that --out removes those whose run provably
+   ended, one line each; it leaves, and names once with the command, those it cannot tell
+   (another machine's, another container's, one without a record): they may be live.
+   A bake's temporary files beside its maps and manifest (`.Rock.part<pid>-<token>.png`),
+   which carry no such record, are named by the batch's next run into that folder (a
+   warning with the command), not removed.
+"""
+
+import json
+import os
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import commands, exit_codes, freeze  # noqa: E402
+from surfgrad_addon.addon.compat import new_material  # noqa: E402
+from surfgrad_addon.addon import normal_bake as NB  # noqa: E402
+from surfgrad_addon.addon.batch import bake_batch, session  # noqa: E402
+from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
+from surfgrad_addon.harness import run_owner, scenes  # noqa: E402
+from surfgrad_addon.harness.staged_folder import staged  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+SMALL = ["--workers", "0", "--resolution", "16", "--margin", "0"]
+
+
+class _Killed(BaseException):
+    """Stands for a SIGKILL: nothing after it runs."""
+
+
+def test_a_batch_killed_after_publishing_a_map_is_finished_by_its_rerun(tmp_path, capsys,
+                                                                       monkeypatch):
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock", "Stone"), tiles=(1001,),
+                           image_size=16)
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    command = ["bake-batch", str(blend), "--output", str(maps / "{object}.png"), *SMALL]
+    publish_all = NB._publish_all
+
+    def killed_after_publishing(temps, finals, *args):
+        publish_all(temps, finals, *args)
+        if finals[1001].name == "Stone.png":
+            raise _Killed                 # the second map is in place, not yet recorded
+    monkeypatch.setattr(NB, "_publish_all", killed_after_publishing)
+    with pytest.raises(_Killed):
+        commands.execute(command)
+    monkeypatch.undo()
+    stone = maps / "Stone.png"
+    killed_map = stone.read_bytes()
+    assert killed_map.endswith(NB.PNG_END)
+    recorded = json.loads((maps / "surfgrad-bake-manifest.json").read_text())["assets"]
+    assert [k.rsplit(":", 1)[1] for k, a in recorded.items() if a.get("status")] == ["Rock"]
+    # what a killed bake leaves too (its file under check), and one of a live run elsewhere
+    leftovers = [maps / ".Stone.part4242-0123abcd.png", maps / ".Rock.part77-89abcdef.png"]
+    for p in leftovers:
+        p.write_bytes(b"a map under way")
+    capsys.readouterr()
+    assert commands.execute(command) == 0, capsys.readouterr().err       # before: 1, exists
+    err = capsys.readouterr().err
+    assert "exists" not in err, err
+    assert (f"warning: 2 temporary file(s) of other runs in {str(maps)!r} "
+            f"({leftovers[1].name}, {leftovers[0].name}): left by killed runs") in err, err
+    assert all(p.read_bytes() == b"a map under way" for p in leftovers)
+    for p in leftovers:
+        p.unlink()
+    assert stone.read_bytes().endswith(NB.PNG_END)
+    records = json.loads((maps / "surfgrad-bake-manifest.json").read_text())["assets"]
+    assert {a["object"]: a["status"] for a in records.values()} == {"Rock": "skipped",
+                                                                     "Stone": "baked"}
+    assert all("pending" not in a for a in records.values())
+
+    # A file of the user's at that name after such a kill: refused, left as it was.
+    stone_record = next(a for a in records.values() if a["object"] == "Stone")
+    stone_record.pop("files")
+    stone_record["status"] = None
+    stone_record["pending"] = {"1001": {"path": str(stone), "sha256": "0" * 64}}
+    manifest = json.loads((maps / "surfgrad-bake-manifest.json").read_text())
+    manifest["assets"] = records
+    (maps / "surfgrad-bake-manifest.json").write_text(json.dumps(manifest))
+    stone.write_bytes(killed_map[:-12])                 # (a file no bake of ours wrote)
+    assert commands.execute(command) == exit_codes.BAKE_FAILED
+    assert f"{stone} exists; pass --overwrite" in capsys.readouterr().err
+    assert stone.read_bytes() == killed_map[:-12]
+
+
+def test_a_run_that_did_not_finish_a_rebake_keeps_the_earlier_maps_on_record(tmp_path, capsys,
+                                                                            monkeypatch):
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=16)
+    maps = tmp_path / "maps"
+    command = ["bake-batch", str(blend), "--output", str(maps / "{object}.png"), *SMALL]
+    assert commands.execute(command) == 0
+    first = (maps / "Rock.png").read_bytes()
+
+    def killed(*_):
+        raise _Killed                      # while the map is being written, none published
+    monkeypatch.setattr(NB, "_check_written", killed)
+    with pytest.raises(_Killed):
+        commands.execute(command + ["--force"])
+    monkeypatch.undo()
+    assert (maps / "Rock.png").read_bytes() == first
+    capsys.readouterr()
+    assert commands.execute(command) == 0, capsys.readouterr().err       # before: 1, exists
+    records = json.loads((maps / "surfgrad-bake-manifest.json").read_text())["assets"]
+    assert [a["status"] for a in records.values()] == ["baked"]
+    (maps / "Rock.png").write_bytes(first[:-12])          # edited since: the user's now
+    assert commands.execute(command + ["--force"]) == exit_codes.BAKE_FAILED
+    assert "Rock.png exists; pass --overwrite" in capsys.readouterr().err
+    assert (maps / "Rock.png").read_bytes() == first[:-12]
+
+
+@pytest.mark.tier("blender")
+def test_a_brace_token_in_the_api_and_freeze_output_is_refused_as_the_cli_does(fresh,
+                                                                              tmp_path):
+    obj = scenes.new_scene(["Plane"])["Plane"]
+    mat = new_material("API")
+    obj.data.materials.append(mat)
+    api.add_layer_stack(mat)
+    nodes = len(mat.node_tree.nodes)
+    for name in ("{blend_name}_nrm.png", "{object}.png"):
+        token = name[:name.index("}") + 1]
+        with pytest.raises(ValueError) as err:
+            api.bake_normal_map(obj, tmp_path / name, resolution=16, log=None)
+        assert f"has {token}, which api.bake_normal_map does not fill in" in str(err.value)
+        assert "api.bake_batch" in str(err.value)
+        with pytest.raises(freeze.FreezeError) as err:
+            freeze.check(obj, 16, filepath=str(tmp_path / name))
+        assert f"has {token}, which Freeze's Save As does not fill in" in str(err.value)
+    assert list(tmp_path.iterdir()) == [] and len(mat.node_tree.nodes) == nodes
+
+
+@pytest.mark.tier("child")
+def test_a_worker_dead_after_publishing_its_map_is_retried_to_the_end(tmp_path):
+    """The worker process exits (70) once Stone's map is in place, before it replies. Before:
+    the retry failed Stone, "Stone.png exists", exit 1."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock", "Stone"), tiles=(1001,),
+                           image_size=16)
+    maps = tmp_path / "maps"
+    report = bake_batch([str(blend)], str(maps / "{object}.png"), workers=1,
+                        defaults={"resolution": 16, "margin": 0}, log=lambda *_: None,
+                        worker_env=dict(os.environ,
+                                        **{session.FAULT_ENV: "die-published-once:Stone"}))
+    stone = report["assets"][f"{blend.resolve()}:Stone"]
+    assert [a["status"] for a in stone["attempts"]] == ["error", "ok"], stone
+    assert "exit code 70" in stone["attempts"][0]["error"]
+    assert report["counts"] == {"baked": 2, "skipped": 0, "failed": 0}
+    assert (maps / "Stone.png").read_bytes().endswith(NB.PNG_END)
+    assert sorted(p.name for p in maps.iterdir()) == ["Rock.png", "Stone.png",
+                                                      "surfgrad-bake-manifest.json"]
+
+
+@pytest.mark.tier("numpy")
+def test_working_folders_of_killed_runs_go_only_when_their_run_provably_ended(tmp_path,
+                                                                              capfd):
+    free = int(open("/proc/sys/kernel/pid_max").read()) - 1
+    while os.path.exists(f"/proc/{free}"):
+        free -= 1                                 # an id no process of this machine has
+    here = run_owner.identity()
+    owners = {"killed": dict(here, pid=free, start="1"),
+              "reused": dict(here, start=str(int(here["start"]) - 1)),   # our id, not us
+              "elsewhere": dict(here, pid=free, boot="another machine"),
+              "container": dict(here, pid=free, pid_space="pid:[1]"),
+              "live": here}
+    for name, owner in [*owners.items(), ("unrecorded", None)]:
+        folder = tmp_path / f".demo.partial-{name}"
+        folder.mkdir()
+        (folder / "index.html").write_text(name)
+        if owner:
+            (folder / run_owner.RECORD_NAME).write_text(json.dumps(owner))
+    with staged(tmp_path / "demo", overwrite=False) as work:
+        (work / "index.html").write_text("ours")
+    err = capfd.readouterr().err
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == [f".demo.partial-{n}" for n in ("container", "elsewhere", "live",
+                                                    "unrecorded")] + ["demo"], left
+    assert err.count("surfgrad: removed ") == 2 and "partial-killed" in err, err
+    assert "4 working folder(s) of other runs" in err and "rm -r " in err, err
+    assert sorted(p.name for p in (tmp_path / "demo").iterdir()) == ["index.html"]
