@@ -26,10 +26,20 @@
    A bake's temporary files beside its maps and manifest (`.Rock.part<pid>-<token>.png`),
    which carry no such record, are named by the batch's next run into that folder (a
    warning with the command), not removed.
+5. A manifest the file-size limit (`ulimit -f`, SIGXFSZ, which Python ignores: EFBIG) would not
+   take whole: the run failed, exit 1, telling the TD to "free space ... (the disk may be
+   full)" on a disk with room. Now it names the limit and how to raise it.
+6. Two assets whose outputs are one file through a symbolic link (`out/{file}/...` where
+   `out/b` links to `out/a`, a versioned store's layout): the batch baked the first and,
+   with --overwrite, replaced its map with the second's, exit 0, both recorded as baked (one
+   recorded map was gone); without it, failed the second after baking the first, exit 1.
+   Now refused before anything bakes, exit 2, naming both and the file, as two assets on one
+   name are.
 """
 
 import json
 import os
+import resource
 
 import pytest
 
@@ -39,7 +49,8 @@ from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes, freeze  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
 from surfgrad_addon.addon import normal_bake as NB  # noqa: E402
-from surfgrad_addon.addon.batch import bake_batch, session  # noqa: E402
+from surfgrad_addon.addon.batch import bake_batch, manifest, session  # noqa: E402
+from surfgrad_addon.addon.exit_codes import BakeFailed  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 from surfgrad_addon.harness import run_owner, scenes  # noqa: E402
 from surfgrad_addon.harness.staged_folder import staged  # noqa: E402
@@ -200,3 +211,38 @@ def test_working_folders_of_killed_runs_go_only_when_their_run_provably_ended(tm
     assert err.count("surfgrad: removed ") == 2 and "partial-killed" in err, err
     assert "4 working folder(s) of other runs" in err and "rm -r " in err, err
     assert sorted(p.name for p in (tmp_path / "demo").iterdir()) == ["index.html"]
+
+
+@pytest.mark.tier("numpy")
+def test_a_manifest_over_the_file_size_limit_names_the_limit(tmp_path):
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps({"surfgrad": "x", "assets": {}}))
+    old = path.read_bytes()
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (4096, hard))
+    try:
+        with pytest.raises(BakeFailed) as err:
+            manifest.write_final(path, {"assets": {"a": {"note": "x" * 10000}}})
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+    assert "(File too large)" in str(err.value) and "ulimit -f" in str(err.value), err.value
+    assert "disk may be full" not in str(err.value)
+    assert path.read_bytes() == old and os.listdir(tmp_path) == ["m.json"]
+
+
+def test_two_outputs_on_one_file_through_a_symbolic_link_are_refused_before_baking(tmp_path,
+                                                                                   capsys):
+    for name in ("a", "b"):
+        BA.write_asset(tmp_path / f"{name}.blend", ("Rock",), tiles=(1001,), image_size=16)
+    (tmp_path / "out" / "a").mkdir(parents=True)
+    (tmp_path / "out" / "b").symlink_to("a")
+    for more in ([], ["--overwrite"]):
+        rc = commands.execute(["bake-batch", str(tmp_path / "a.blend"), str(tmp_path / "b.blend"),
+                               "--output", str(tmp_path / "out" / "{file}" / "{object}.png"),
+                               *SMALL, *more])
+        err = capsys.readouterr().err
+        assert rc == exit_codes.BAD_REQUEST, err                 # before: 1, or 0 replaced
+        assert (f"b.blend:Rock and a.blend:Rock would write {tmp_path}/out/b/Rock.png and "
+                f"{tmp_path}/out/a/Rock.png, one file ({tmp_path.resolve()}/out/a/Rock.png: "
+                f"a symbolic link on the way)") in err, err
+        assert os.listdir(tmp_path / "out" / "a") == []

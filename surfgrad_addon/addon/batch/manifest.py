@@ -153,7 +153,9 @@ REFUSED = (errno.EACCES, errno.EPERM, errno.EROFS)
 def _unwritten(path, err):
     folder = repr(str(Path(path).parent))
     fix = (f"check that {folder} still takes files (its permissions, a read-only mount)"
-           if err.errno in REFUSED else f"free space in {folder} (the disk may be full)")
+           if err.errno in REFUSED else
+           "raise this process's file-size limit (ulimit -f; a farm job's file-size limit)"
+           if err.errno == errno.EFBIG else f"free space in {folder} (the disk may be full)")
     return (f"manifest {path} could not be written ({err.strerror}): it does not record "
             f"this run; {fix} and bake again (--overwrite to replace the maps it could not "
             f"record)")

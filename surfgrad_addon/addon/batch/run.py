@@ -165,10 +165,17 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry["settings"] = s
             out = P.expand(output, name, a["object"], uv)
             entry["output"] = out
-            seen_as = output_key(out)
+            # (resolved: two names of one folder through a symbolic link are one file)
+            seen_as = output_key(Path(out).resolve())
             if seen_as in outputs_seen:
                 other, other_blend, other_out = outputs_seen[seen_as]
-                if other_out != out:           # one file where case (or form) is ignored
+                if other_out != out and Path(other_out).resolve() == Path(out).resolve():
+                    collisions.append(
+                        f"{name}:{a['object']} and {other} would write {out} and "
+                        f"{other_out}, one file ({Path(out).resolve()}: a symbolic link on "
+                        f"the way): the second map would replace the first; make the output "
+                        f"pattern tell them apart, or bake them in two runs")
+                elif other_out != out:         # one file where case (or form) is ignored
                     collisions.append(
                         f"{name}:{a['object']} and {other} would write {out} and "
                         f"{other_out}, one file on this file system "
@@ -221,8 +228,11 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         records the bake (SIGKILL, a worker's crash) is followed by one that knows them as
         its own (plan.replaceable), not as someone's file that "exists"."""
         entry = report["assets"][req["id"]]
-        entry["pending"] = {str(t): {"path": str(final), "sha256": P.sha256_file(temp)}
-                            for t, (final, temp) in maps.items()}
+        try:
+            entry["pending"] = {str(t): {"path": str(final), "sha256": P.sha256_file(temp)}
+                                for t, (final, temp) in maps.items()}
+        except OSError:                 # (gone: its publish fails and says so)
+            return
         M.write(manifest_path, M.merged(previous, report, files))
 
     def on_reply(req, reply, retry):
