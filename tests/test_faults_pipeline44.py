@@ -3,7 +3,9 @@
 1. A batch killed (SIGKILL: a farm's hard kill, the out-of-memory killer; or a worker dying)
    after a bake put its map in place and before the manifest recorded it: the rerun failed
    that asset, exit 1, "Rock.png exists; pass --overwrite to replace it" (the map was the
-   killed run's own), and a worker's retry in the same run did too. Now the batch records
+   killed run's own), and a worker's retry in the same run did too (measured with a real
+   SIGKILL of `bake-batch --workers 0` sent as soon as the second or third of three maps
+   appeared: both reruns exit 1; the manifest's temporary file was left once). Now the batch records
    the files a bake is about to put in place, with the hash of their complete temporary
    files, before they are put there (`pending` in the manifest; a worker waits for that
    record), and a rerun (or the retry) takes a file still holding that content as its own
@@ -37,8 +39,9 @@
    name are.
 7. compare-all --overwrite stopped (SIGTERM, Ctrl-C) or failed midway wrote each case's heat
    map over the earlier run's as it went, and the stop took back only the new names: measured
-   with a rerun at 16^2 over a run at 8^2 stopped after 20 s, 12 of its 124 heat maps were
-   the stopped run's (16 px) under the earlier run's tables (8 px), exit 143. Now the cases
+   with a rerun at 16^2 over a run at 8^2, stopped by SIGTERM once ten heat maps were
+   rewritten, 12 of its 124 heat maps were the stopped run's (16 px) under the earlier run's
+   tables (8 px), exit 143. Now the cases
    write into a hidden sibling of heat/ and everything is moved in at the end, in one commit
    (a stop waits for it); a stopped or failed run leaves the folder as it was.
 """
