@@ -59,4 +59,18 @@ def gone(folder):
         return False
     here = identity()
     same_space = all(here[k] and owner.get(k) == here[k] for k in ("host", "boot", "pid_space"))
-    return same_space and bool(start) and _start_time(pid) != start
+    return same_space and pid > 0 and bool(start) and not _runs(pid, start)
+
+
+def _runs(pid, start):
+    """Whether process `pid` that started at `start` may still run: another user's process
+    (EPERM), or one whose start this process cannot read (/proc mounted with hidepid), is
+    taken as running."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    now = _start_time(pid)
+    return not now or now == start
