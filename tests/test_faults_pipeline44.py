@@ -32,9 +32,10 @@
    take whole: the run failed, exit 1, telling the TD to "free space ... (the disk may be
    full)" on a disk with room. Now it names the limit and how to raise it.
 6. Two assets whose outputs are one file through a symbolic link (`out/{file}/...` where
-   `out/b` links to `out/a`, a versioned store's layout): the batch baked the first and,
-   with --overwrite, replaced its map with the second's, exit 0, both recorded as baked (one
-   recorded map was gone); without it, failed the second after baking the first, exit 1.
+   `out/b` links to `out/a`, a versioned store's layout) or through '..' (`out/{file}/../
+   {object}.png`): the batch baked the first and, with --overwrite, replaced its map with
+   the second's, exit 0, both recorded as baked (one recorded map was gone); without it,
+   failed the second after baking the first, exit 1.
    Now refused before anything bakes, exit 2, naming both and the file, as two assets on one
    name are.
 7. compare-all --overwrite stopped (SIGTERM, Ctrl-C) or failed midway wrote each case's heat
@@ -244,18 +245,21 @@ def test_two_outputs_on_one_file_through_a_symbolic_link_are_refused_before_baki
                                                                                    capsys):
     for name in ("a", "b"):
         BA.write_asset(tmp_path / f"{name}.blend", ("Rock",), tiles=(1001,), image_size=16)
-    (tmp_path / "out" / "a").mkdir(parents=True)
-    (tmp_path / "out" / "b").symlink_to("a")
-    for more in ([], ["--overwrite"]):
-        rc = commands.execute(["bake-batch", str(tmp_path / "a.blend"), str(tmp_path / "b.blend"),
-                               "--output", str(tmp_path / "out" / "{file}" / "{object}.png"),
-                               *SMALL, *more])
-        err = capsys.readouterr().err
-        assert rc == exit_codes.BAD_REQUEST, err                 # before: 1, or 0 replaced
-        assert (f"b.blend:Rock and a.blend:Rock would write {tmp_path}/out/b/Rock.png and "
-                f"{tmp_path}/out/a/Rock.png, one file ({tmp_path.resolve()}/out/a/Rock.png: "
-                f"a symbolic link on the way)") in err, err
-        assert os.listdir(tmp_path / "out" / "a") == []
+    out = tmp_path / "out"
+    (out / "a").mkdir(parents=True)
+    (out / "b").symlink_to("a")
+    for pattern, one in ((out / "{file}" / "{object}.png", out / "a" / "Rock.png"),
+                         (out / "{file}" / ".." / "{object}.png", out / "Rock.png")):
+        for more in ([], ["--overwrite"]):
+            rc = commands.execute(["bake-batch", str(tmp_path / "a.blend"),
+                                   str(tmp_path / "b.blend"), "--output", str(pattern),
+                                   *SMALL, *more])
+            err = capsys.readouterr().err
+            assert rc == exit_codes.BAD_REQUEST, err             # before: 1, or 0 replaced
+            b, a = (str(pattern).format(file=f, object="Rock") for f in "ba")
+            assert (f"b.blend:Rock and a.blend:Rock would write {b} and {a}, one file "
+                    f"({one.resolve()}, through a symbolic link or '..' on the way)") in err, err
+            assert os.listdir(out / "a") == [] and sorted(os.listdir(out)) == ["a", "b"]
 
 
 def test_a_failed_compare_all_rerun_leaves_the_earlier_heat_maps_and_tables(tmp_path,

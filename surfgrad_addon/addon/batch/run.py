@@ -165,16 +165,16 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry["settings"] = s
             out = P.expand(output, name, a["object"], uv)
             entry["output"] = out
-            # (resolved: two names of one folder through a symbolic link are one file)
+            # (resolved: two names of one folder through a symbolic link or '..' are one file)
             seen_as = output_key(Path(out).resolve())
             if seen_as in outputs_seen:
                 other, other_blend, other_out = outputs_seen[seen_as]
                 if other_out != out and Path(other_out).resolve() == Path(out).resolve():
                     collisions.append(
                         f"{name}:{a['object']} and {other} would write {out} and "
-                        f"{other_out}, one file ({Path(out).resolve()}: a symbolic link on "
-                        f"the way): the second map would replace the first; make the output "
-                        f"pattern tell them apart, or bake them in two runs")
+                        f"{other_out}, one file ({Path(out).resolve()}, through a symbolic "
+                        f"link or '..' on the way): the second map would replace the first; "
+                        f"make the output pattern tell them apart, or bake them in two runs")
                 elif other_out != out:         # one file where case (or form) is ignored
                     collisions.append(
                         f"{name}:{a['object']} and {other} would write {out} and "
