@@ -18,7 +18,9 @@
 3. A '{...}' in the output of `api.bake_normal_map` and of Freeze's Save As (Blender 5's path
    template '{blend_name}', the batch's '{object}'): a file named '{blend_name}_nrm.png' was
    written, where `bake-normal-map` refuses it (round 43a). Now both refuse it with the same
-   words (normal_bake.brace_token_problem), nothing written, the material unchanged.
+   words (normal_bake.brace_token_problem), nothing written, the material unchanged. So is
+   '<UDIM>' in Freeze's Save As (one image, of the 0-1 square): a file named 'n.<UDIM>.png'
+   was written and the frozen material read it.
 4. The hidden working folder of a main job or bench (`.NAME.partial-PID-TOKEN`, beside its
    --out) killed with SIGKILL stayed for good, one more per killed run on a farm's share.
    Now a run records who it is in it (machine, boot, process-id space, process start:
@@ -172,6 +174,9 @@ def test_a_brace_token_in_the_api_and_freeze_output_is_refused_as_the_cli_does(f
         with pytest.raises(freeze.FreezeError) as err:
             freeze.check(obj, 16, filepath=str(tmp_path / name))
         assert f"has {token}, which Freeze's Save As does not fill in" in str(err.value)
+    with pytest.raises(freeze.FreezeError, match=r"has <UDIM>, which Freeze does not fill in.*"
+                                                 r"'[^']*/n\.1001\.png'"):
+        freeze.freeze(obj, 16, filepath=str(tmp_path / "n.<UDIM>.png"), log=lambda *_: None)
     assert list(tmp_path.iterdir()) == [] and len(mat.node_tree.nodes) == nodes
 
 
