@@ -157,9 +157,13 @@ def bake_normal_map(obj, output, space=_Request.space, resolution=_Request.resol
     raised (after '[3/3] wrote' the map is in place: a note on it says so). Numbers may be
     numpy integers or floats."""
     from pathlib import Path
-    from .addon.bake_request import bake
+    from .addon.bake_request import BakeRequestError, bake
+    from .addon.normal_bake import brace_token_problem
     if obj is None or not hasattr(obj, "name"):
         raise ValueError("give a mesh object to bake")
+    problem = brace_token_problem(output, "api.bake_normal_map", "api.bake_batch")
+    if problem:                           # as the command line's (one check, shared)
+        raise BakeRequestError([problem])
     request = _Request(obj.name, str(output), space, _plain(resolution), uv_map, _plain(margin),
                        _plain(samples), depth, tiles, overwrite=overwrite,
                        allow_partial=allow_partial)

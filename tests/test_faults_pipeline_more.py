@@ -214,7 +214,7 @@ def test_a_manifest_the_disk_cannot_take_is_one_line_and_leaves_no_temporary(tmp
     assert "Traceback" not in run.stderr
     last = run.stderr.strip().splitlines()[-1]
     assert last.startswith(f"surfgrad: error: manifest {out / MANIFEST_NAME} could not be "
-                           f"written") and "free space" in last, run.stderr[-2000:]
+                           f"written") and "ulimit -f" in last, run.stderr[-2000:]
     # An earlier, smaller write (after the scan) stays whole; no temporary, no lock file.
     assert sorted(p.name for p in out.iterdir()) == ["a_Plane.png", MANIFEST_NAME]
     assert json.loads((out / MANIFEST_NAME).read_text())["files"]

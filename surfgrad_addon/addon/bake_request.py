@@ -276,8 +276,9 @@ def _check(request, obj, warn):
     return CheckedRequest(request, uv_map, tiles, with_uvs, depth, finals, warnings, stamped)
 
 
-def bake(request, obj=None, log=print, warn=warn_stderr):
-    """Check `request`, then bake it (normal_bake.bake_normal_tiles). Returns its result dict
+def bake(request, obj=None, log=print, warn=warn_stderr, before_publish=None):
+    """Check `request`, then bake it (normal_bake.bake_normal_tiles; before_publish: see
+    there). Returns its result dict
     (paths, tiles, uv_map, depth, warnings, timings). Raises BakeRequestError before anything
     is written, or BakeFailed when the bake itself fails."""
     import bpy
@@ -300,7 +301,8 @@ def bake(request, obj=None, log=print, warn=warn_stderr):
                                           checked.uv_map, r.margin, r.samples, checked.depth,
                                           r.tiles, r.empty_tiles, overwrite=r.overwrite,
                                           log=said, threads=r.threads,
-                                          verify=lambda: _inputs_unchanged(checked))
+                                          verify=lambda: _inputs_unchanged(checked),
+                                          before_publish=before_publish)
         except RuntimeError as err:       # the bake operator or the image write
             if any(err is e for e in raised):
                 raise

@@ -179,6 +179,13 @@ def _check_file(filepath, overwrite):
     if filepath.startswith("//") and not bpy.data.filepath:
         raise FreezeError(f"{filepath!r} is relative to the .blend file, which is not saved "
                           f"yet: save the file first, or give an absolute path (or pack)")
+    problem = NB.brace_token_problem(filepath, "Freeze's Save As", None)
+    if problem:                           # Blender 5's {blend_name} is not filled in here
+        raise FreezeError(problem)
+    if NB.UDIM_TOKEN in filepath:         # (a file named with it was written)
+        raise FreezeError(f"Save As {filepath!r} has {NB.UDIM_TOKEN}, which Freeze does not "
+                          f"fill in: it bakes one image, of the 0-1 UV square; write the name "
+                          f"itself (for tile 1001: {filepath.replace(NB.UDIM_TOKEN, '1001')!r})")
     path = Path(bpy.path.abspath(filepath))
     try:
         NB.check_output(path)

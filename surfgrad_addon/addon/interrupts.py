@@ -318,6 +318,21 @@ def partial_pattern(output, pid, token=None):
     return re.compile(rf"\.{stem}\.part{int(pid)}-{token}\..+")
 
 
+# Any process's temporary file (partial_path): `.{stem}.part{pid}-{token}{suffix}`
+ANY_PARTIAL = re.compile(rf"\..+\.part\d+-[0-9a-f]{{{PART_TOKEN_LENGTH}}}\..+")
+
+
+def others_partials(folder):
+    """The names of temporary files in `folder` of bakes other than this process's: left by
+    killed runs, or another run's under way (no process id tells which on a farm's share)."""
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return []
+    return sorted(n for n in names if ANY_PARTIAL.fullmatch(n) and
+                  f".part{os.getpid()}-{PART_TOKEN}." not in n)
+
+
 def remove_partials(output, pid, token=None):
     """Remove the temporary files of a bake of `output` by process `pid` (with `token`: this
     process's by default); returns them."""

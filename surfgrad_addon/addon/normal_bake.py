@@ -138,16 +138,19 @@ OTHER_TILE_TOKENS = re.compile(r"<udim>|<uvtile>|\$udim", re.IGNORECASE)
 BRACE_TOKEN = re.compile(r"\{[^}]*\}")
 
 
-def brace_token_problem(output):
-    """bake-normal-map fills in no '{...}' token: one was kept literally (a file named
-    '{blend_name}_nrm.png', exit 0), where the batch refuses an unknown one (red team 43a)."""
+def brace_token_problem(output, by="bake-normal-map", batch="bake-batch"):
+    """A single bake (`by`: bake-normal-map, api.bake_normal_map, Freeze's Save As) fills in no
+    '{...}' token: one was kept literally (a file named '{blend_name}_nrm.png', exit 0), where
+    the batch refuses an unknown one (red teams 43a, 44c). `batch`: the batch to point to, or
+    None."""
     found = BRACE_TOKEN.findall(str(output))
     if not found:
         return None
-    return (f"output {str(output)!r} has {found[0]}, which bake-normal-map does not fill in "
+    return (f"output {str(output)!r} has {found[0]}, which {by} does not fill in "
             f"(neither Blender's path templates such as {{blend_name}} nor the batch's "
-            f"tokens; it would be a file named with it): write the name itself, or bake with "
-            f"bake-batch, whose output pattern fills in {{file}}, {{object}} and {{uv}}")
+            f"tokens; it would be a file named with it): write the name itself" +
+            (f", or bake with {batch}, whose output pattern fills in {{file}}, {{object}} and "
+             f"{{uv}}" if batch else ""))
 
 
 def udim_token_problem(output, what="output"):
@@ -343,22 +346,27 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
 
 def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,
                       margin=16, samples=1, depth=None, tiles=None, empty_tiles="error",
-                      overwrite=False, log=print, threads=None, verify=None, only=None):
+                      overwrite=False, log=print, threads=None, verify=None, only=None,
+                      before_publish=None):
     """Bake obj's materials into normal map file(s) at `output` (with <UDIM>: one file per
     tile); with `only` (one of them), that material's faces alone (the others bake into a
     throwaway image: where their UVs overlap its faces', they would overwrite them).
     threads: CPU threads for Cycles (None: Blender's own choice, every core; a batch of
     several processes gives each its share). Materials linked from a library bake through
     temporary local copies (linked_materials.py). verify(): called once the files are written
-    and checked, before they are put in place (it raises to publish nothing). Returns a dict:
-    paths {tile: Path}, tiles, uv_map, depth, warnings, bake_s, save_s."""
+    and checked, before they are put in place (it raises to publish nothing);
+    before_publish({tile: (final Path, its complete temporary file)}): called after it (a batch
+    records what it is about to publish). Returns a dict: paths {tile: Path}, tiles, uv_map,
+    depth, warnings, bake_s, save_s."""
     with one_read(), local_copies(obj):    # one render-mode pass: the plan, the tangents
         return _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth,
-                           tiles, empty_tiles, overwrite, log, threads, verify, only)
+                           tiles, empty_tiles, overwrite, log, threads, verify, only,
+                           before_publish)
 
 
 def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, tiles,
-                empty_tiles, overwrite, log, threads, verify=None, only=None):
+                empty_tiles, overwrite, log, threads, verify=None, only=None,
+                before_publish=None):
     import bpy
 
     output = check_output(output)
@@ -485,6 +493,8 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
             _check_written(bpy, temps[t], finals[t], resolution)
         if verify is not None:
             verify()
+        if before_publish is not None:
+            before_publish({t: (finals[t], temps[t]) for t in tiles})
         with interrupts.committing():             # a stop sees every tile or none
             _publish_all(temps, finals, tiles, overwrite, result["paths"])
         result["save_s"] = time.perf_counter() - t0

@@ -6,8 +6,9 @@
 The cases (method, variant, object) are dealt round-robin to `workers` processes (default:
 one per core, at most 2): this process runs share 0, child processes (this Python with the
 bpy module, `python -m surfgrad_addon.harness.compare_all --shard ...`) the others, each in
-its own fresh test scene, writing its heat maps and its reports (a JSON file in the output
-folder, removed after). The table and compare.json list the cases in the serial order, so
+its own fresh test scene, writing its heat maps and its reports (a JSON file, removed after)
+into a hidden sibling of the heat/ folder, whose heat maps go into heat/ with the tables at
+the end (a stopped or failed run leaves the folder as it was). The table and compare.json list the cases in the serial order, so
 they are the same for any number of workers. Inside a Blender binary one process runs all.
 Every process bakes on the Cycles device asked for (cycles_device.py; each report names it).
 """
@@ -26,9 +27,11 @@ from ..addon.batch.plan import BatchError
 from ..addon.exit_codes import BakeFailed
 from ..addon.process_ends import how_it_ended
 from . import cycles_device as D
+from . import run_owner
 from .compare import CompareError, compare_object
 from .heat_map import write_heat_map
 from .methods import METHODS, cases, unavailable_reason
+from .staged_folder import clear_leftovers
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARD_FILE = ".compare_shard_{}.json"
@@ -126,26 +129,30 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
     devices = D.check(cycles_device)
     created = [d for d in (*reversed(out.parents), out, out / "heat") if not d.exists()]
     _hold(table_json)
-    before = set((out / "heat").glob("*.png")) if (out / "heat").is_dir() else set()
     (out / "heat").mkdir(parents=True, exist_ok=True)
+    # Every case writes into a hidden sibling of heat/, moved in at the end: a stopped or
+    # failed rerun with --overwrite left its heat maps among the earlier run's, whose tables
+    # they did not match (red team 44c). A killed run's goes as staged_folder's do.
+    stage = out / f".heat.partial-{os.getpid()}-{interrupts.PART_TOKEN}"
+    (stage / "heat").mkdir(parents=True)
+    run_owner.record(stage)
+    clear_leftovers(out / "heat", stage)
     temp = Path(tempfile.mkdtemp(prefix="surfgrad-compare-all-"))
     children = []
+    committed = []
 
     def forget(_signal_name=None):
-        """Kill the workers, remove their temporary files, this run's new heat maps and the
-        folders it made: on a stop, and on a failure (a run that fails writes nothing)."""
+        """Kill the workers, remove their temporary files, this run's heat maps and the
+        folders it made: on a stop, and on a failure (a run that fails writes nothing). Once
+        its files are moved in (a stop waits for that), the run is whole: they stay."""
         for child in children:
             if child.poll() is None:
                 child.kill()
                 child.wait()
         shutil.rmtree(temp, ignore_errors=True)
-        for f in set((out / "heat").glob("*.png")) - before:
-            f.unlink(missing_ok=True)
-        for k in range(1, len(children) + 1):
-            (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
-            (out / SHARD_FILE.format(k)).with_suffix(".tmp").unlink(missing_ok=True)
+        shutil.rmtree(stage, ignore_errors=True)
         release(table_json)                   # its lock file is in a folder removed next
-        for d in reversed(created):
+        for d in reversed(created if not committed else ()):
             try:
                 d.rmdir()
             except OSError:
@@ -162,9 +169,9 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
                 workers = 1
             for k in range(1, workers):
                 with interrupts.committing():     # a stop's clean-up sees every child
-                    children.append(_start_worker(out, resolution, k, workers, methods,
+                    children.append(_start_worker(stage, resolution, k, workers, methods,
                                                   temp, cycles_device))
-            reports = _collect(out, resolution, workers, methods, children, log,
+            reports = _collect(stage, resolution, workers, methods, children, log,
                                cycles_device)
         except BaseException as err:
             forget()
@@ -177,22 +184,24 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
                     child.kill()
                     child.wait()
                 child.errors.close()
-                (out / SHARD_FILE.format(k)).unlink(missing_ok=True)
+                (stage / SHARD_FILE.format(k)).unlink(missing_ok=True)
             shutil.rmtree(temp, ignore_errors=True)
-        with interrupts.committing():             # both tables or, on a stop, neither
+        try:
+            # A full disk or a file-size limit: before, a cut-off compare.json was left with
+            # the heat maps and a raw OSError traceback. Now nothing is moved in.
+            (stage / table_json.name).write_text(json.dumps(reports, indent=2))
+            (stage / table_md.name).write_text(table_markdown(reports, resolution,
+                                                              cycles_device, devices))
+        except OSError as err:
+            forget()
+            raise _not_written(out, err) from None
+        with interrupts.committing():             # every file or, on a stop before, none
+            committed.append(True)
+            for f in sorted((stage / "heat").iterdir()):
+                os.replace(f, out / "heat" / f.name)
             for p in (table_json, table_md):
-                interrupts.placed(p)
-            try:
-                table_json.write_text(json.dumps(reports, indent=2))
-                table_md.write_text(table_markdown(reports, resolution, cycles_device,
-                                                   devices))
-            except OSError as err:
-                # A full disk or a file-size limit: before, a cut-off compare.json was left
-                # with the heat maps and a raw OSError traceback. Now nothing is left.
-                for p in (table_json, table_md):
-                    p.unlink(missing_ok=True)
-                forget()
-                raise _not_written(out, err) from None
+                os.replace(stage / p.name, p)
+            shutil.rmtree(stage, ignore_errors=True)
     release(table_json)
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")
     return reports

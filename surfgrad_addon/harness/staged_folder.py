@@ -3,7 +3,9 @@
 The command writes into a hidden sibling, `.NAME.partial-PID-TOKEN`, and moves what it wrote into
 the folder only at the end. A failure or a stop (Ctrl-C, SIGTERM) removes the sibling, so
 the folder keeps exactly what it held before: a stopped rerun with --overwrite leaves the last
-complete run in place, not a mix of two runs under the old report page.
+complete run in place, not a mix of two runs under the old report page. A run killed with
+SIGKILL cannot remove its sibling: the next run into that folder removes those whose run is
+provably gone (run_owner.py) and names the others, which may be live runs elsewhere.
 """
 
 import errno
@@ -14,6 +16,7 @@ from pathlib import Path
 
 from ..addon import interrupts
 from ..addon.exit_codes import BakeFailed
+from . import run_owner
 
 
 # Write errors that mean the disk (or the folder) took no more: a full disk, a quota, a
@@ -49,6 +52,8 @@ def staged(final, overwrite):
     # was removed here as if left by a killed process, and the two then shared one folder.
     work = final.parent / f".{final.name}.partial-{os.getpid()}-{interrupts.PART_TOKEN}"
     work.mkdir()
+    run_owner.record(work)
+    clear_leftovers(final, work)
 
     def forget(_signal_name=None):
         shutil.rmtree(work, ignore_errors=True)
@@ -62,6 +67,7 @@ def staged(final, overwrite):
         try:
             yield work
             with interrupts.committing():          # a stop waits for the move, whole
+                (work / run_owner.RECORD_NAME).unlink()
                 _publish(work, final)
         except OSError as err:
             forget()
@@ -74,6 +80,32 @@ def staged(final, overwrite):
         except BaseException:
             forget()
             raise
+
+
+def clear_leftovers(final, work, say=interrupts.say):
+    """Remove the working folders of killed runs into `final` whose run is provably gone (one
+    line each); name, once, those it cannot tell (another machine's or container's, or older
+    than the record): a TD removes them once no run writes into `final`."""
+    prefix = f".{final.name}.partial-"
+    try:
+        others = sorted(p for p in final.parent.iterdir()
+                        if p.name.startswith(prefix) and p != work and p.is_dir() and
+                        not p.is_symlink())
+    except OSError:
+        return
+    unknown = []
+    for other in others:
+        if run_owner.gone(other):
+            shutil.rmtree(other, ignore_errors=True)
+            say(f"surfgrad: removed {other}, the working folder of a run on this machine "
+                f"that was killed (its process has ended)")
+        else:
+            unknown.append(other.name)
+    if unknown:
+        say(f"surfgrad: note: {len(unknown)} working folder(s) of other runs beside "
+            f"{str(final)!r} ({', '.join(unknown[:3])}{', ...' if len(unknown) > 3 else ''}) "
+            f"may be runs under way on other machines, so they are left: once no run writes "
+            f"into {str(final)!r}, remove them (rm -r {str(final.parent / prefix)}*)")
 
 
 def _publish(work, final):

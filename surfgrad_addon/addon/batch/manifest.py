@@ -97,11 +97,12 @@ def _shape_problem(data):
         if not isinstance(value, dict):
             return f"{where} is not a table"
     for key, asset in data["assets"].items():
-        written = asset.get("files") or {}
-        if not isinstance(written, dict) or not all(
-                isinstance(r, dict) and isinstance(r.get("path"), str) and
-                isinstance(r.get("sha256"), str) for r in written.values()):
-            return f"assets[{key!r}][\"files\"] is not a table of {{path, sha256}} records"
+        for table in ("files", "earlier_files", "pending"):
+            written = asset.get(table) or {}
+            if not isinstance(written, dict) or not all(
+                    isinstance(r, dict) and isinstance(r.get("path"), str) and
+                    isinstance(r.get("sha256"), str) for r in written.values()):
+                return f"assets[{key!r}][\"{table}\"] is not a table of {{path, sha256}} records"
     for key, f in data.get("files", {}).items():
         deps = f.get("dependencies", [])
         if not isinstance(deps, list) or not all(isinstance(d, str) for d in deps):
@@ -152,7 +153,9 @@ REFUSED = (errno.EACCES, errno.EPERM, errno.EROFS)
 def _unwritten(path, err):
     folder = repr(str(Path(path).parent))
     fix = (f"check that {folder} still takes files (its permissions, a read-only mount)"
-           if err.errno in REFUSED else f"free space in {folder} (the disk may be full)")
+           if err.errno in REFUSED else
+           "raise this process's file-size limit (ulimit -f; a farm job's file-size limit)"
+           if err.errno == errno.EFBIG else f"free space in {folder} (the disk may be full)")
     return (f"manifest {path} could not be written ({err.strerror}): it does not record "
             f"this run; {fix} and bake again (--overwrite to replace the maps it could not "
             f"record)")
@@ -248,7 +251,14 @@ def merged(previous, report, files):
     """The manifest: this run's report, with earlier runs' assets and files kept."""
     out = dict(report)
     out["assets"] = dict(previous.get("assets", {}))
-    out["assets"].update(report["assets"])
+    for key, entry in report["assets"].items():
+        # An asset not (yet) baked by this run (failed, interrupted, killed) keeps on record
+        # the maps an earlier run wrote: forgotten, a rerun took them for someone's files
+        # ("exists", exit 1) after any run that had not finished them.
+        before = previous.get("assets", {}).get(key, {})
+        earlier = before.get("files") or before.get("earlier_files")
+        out["assets"][key] = dict(entry, earlier_files=earlier) \
+            if earlier and not entry.get("files") else entry
     out["files"] = dict(previous.get("files", {}))
     for blend, f in files.items():
         out["files"][blend] = {"input_hash": f["input_hash"],

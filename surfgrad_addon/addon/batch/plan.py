@@ -351,15 +351,24 @@ def asset_problem(scan, s, blend_name=""):
 
 
 def replaceable(prev, output, tiles):
-    """Whether a bake of `output` (UDIM `tiles`) may replace the files at its names without
-    --overwrite: the earlier run's files are unchanged, and every file there now is one of
-    them. One it does not record (the pattern, or the UV tiles, changed since) is someone
+    """Whether a bake of `output` (UDIM `tiles`, and the tiles of its pending files) may
+    replace the files at its names without --overwrite: the earlier run's files are unchanged,
+    and every file there now is one of them, or one a run was about to record when it was
+    killed (its "pending" records: put in place, not yet recorded) still holding what that run
+    wrote ("earlier_files": those of a run before one that did not finish the asset). One it does not record (the pattern, or the UV tiles, changed since) is someone
     else's: it was replaced, exit 0."""
-    if not unchanged_outputs(prev):
+    written = [*(prev.get("files") or {}).values(), *(prev.get("earlier_files") or {}).values()]
+    hashes = {}                                   # path -> the contents recorded for it
+    for r in [*written, *(prev.get("pending") or {}).values()]:
+        hashes.setdefault(str(Path(r["path"]).resolve()), set()).add(r["sha256"])
+    now = {p: _file_hash(Path(p)) for p in hashes}
+    written = {str(Path(r["path"]).resolve()) for r in written}
+    if any(now[p] not in hashes[p] for p in written):     # edited or removed since
         return False
-    ours = {str(Path(r["path"]).resolve()) for r in prev["files"].values()}
-    finals = {T.tile_path(Path(output).resolve(), t) for t in tiles}
-    return all(str(f) in ours or not f.exists() for f in finals)
+    ours = {p for p in hashes if now[p] in hashes[p]}
+    finals = {T.tile_path(Path(output).resolve(), t) for t in tiles} | \
+        {Path(r["path"]).resolve() for r in (prev.get("pending") or {}).values()}
+    return bool(ours) and all(str(f) in ours or not f.exists() for f in finals)
 
 
 def same_bake_files(prev, entry):

@@ -165,10 +165,17 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry["settings"] = s
             out = P.expand(output, name, a["object"], uv)
             entry["output"] = out
-            seen_as = output_key(out)
+            # (resolved: two names of one folder through a symbolic link or '..' are one file)
+            seen_as = output_key(Path(out).resolve())
             if seen_as in outputs_seen:
                 other, other_blend, other_out = outputs_seen[seen_as]
-                if other_out != out:           # one file where case (or form) is ignored
+                if other_out != out and Path(other_out).resolve() == Path(out).resolve():
+                    collisions.append(
+                        f"{name}:{a['object']} and {other} would write {out} and "
+                        f"{other_out}, one file ({Path(out).resolve()}, through a symbolic "
+                        f"link or '..' on the way): the second map would replace the first; "
+                        f"make the output pattern tell them apart, or bake them in two runs")
+                elif other_out != out:         # one file where case (or form) is ignored
                     collisions.append(
                         f"{name}:{a['object']} and {other} would write {out} and "
                         f"{other_out}, one file on this file system "
@@ -215,6 +222,19 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         progress.known += len(entries)
         return jobs, [e for e in entries if e.get("status") in ("failed", "skipped")]
 
+    def on_pending(req, maps):
+        """A bake is about to put `maps` ({tile: (final, temporary file)}) in place: record
+        them first, with the hash of what they will hold, so that a run killed before it
+        records the bake (SIGKILL, a worker's crash) is followed by one that knows them as
+        its own (plan.replaceable), not as someone's file that "exists"."""
+        entry = report["assets"][req["id"]]
+        try:
+            entry["pending"] = {str(t): {"path": str(final), "sha256": P.sha256_file(temp)}
+                                for t, (final, temp) in maps.items()}
+        except OSError:                 # (gone: its publish fails and says so)
+            return
+        M.write(manifest_path, M.merged(previous, report, files))
+
     def on_reply(req, reply, retry):
         if req["op"] == "scan":
             if retry:
@@ -238,9 +258,12 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             {k: reply.get(k) for k in ("status", "kind", "error", "load_s", "bake_s",
                                        "save_s", "total_s") if k in reply})
         if retry:
+            # (it may have died after putting its maps in place: they are its own)
+            req["overwrite"] = req["overwrite"] or P.replaceable(entry, req["output"], [])
             log(f"[batch] {what}: {reply['error']} - retrying once in a fresh process")
             return []
         if reply["status"] == "ok":
+            entry.pop("pending", None)
             entry.update(status="baked", tiles=reply["tiles"], uv_map=reply["uv_map"],
                          depth=reply["depth"], warnings=reply["warnings"],
                          timings={k: reply.get(k) for k in ("load_s", "bake_s", "save_s",
@@ -285,8 +308,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                 raise P.BatchError(P.joined(problems) + "\n(nothing was baked)")
             for folder in sorted(folders):
                 folder.mkdir(parents=True, exist_ok=True)
+                _note_leftovers(folder, warn)
             M.write(manifest_path, M.merged(previous, report, files))
-            pool.map(requests, on_reply)
+            pool.map(requests, on_reply, on_pending)
         report["process_start_s"] = pool.start_times()
     except BaseException:
         M.release(manifest_path)          # a refusal, an error: the run ends here
@@ -304,3 +328,15 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     log(f"[batch] {c['baked']} baked, {c['skipped']} skipped, {c['failed']} failed in "
         f"{report['total_s']:.1f} s; manifest {manifest_path}")
     return report
+
+
+def _note_leftovers(folder, warn):
+    """Name the temporary files of other runs in an output folder: a run killed with SIGKILL
+    leaves its own (a map being checked, a manifest being written), and one of them may be a
+    run under way on another machine, so they are named for the TD, not removed."""
+    found = interrupts.others_partials(folder)
+    if found:
+        warn(f"{len(found)} temporary file(s) of other runs in {str(folder)!r} "
+            f"({', '.join(found[:3])}{', ...' if len(found) > 3 else ''}): left by killed "
+            f"runs, or runs under way elsewhere; once no run writes there, remove them "
+            f"(rm {str(folder / '.*.part*-*')})")

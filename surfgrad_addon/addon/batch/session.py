@@ -18,7 +18,8 @@ from ..object_names import missing_object_problem
 from .. import normal_bake as NB
 from .. import utf8_names
 
-FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT", "die-once:OBJECT", "hang:OBJECT"
+FAULT_ENV = "SURFGRAD_BATCH_FAULT"          # tests: "die:OBJECT", "die-once:OBJECT", "hang:OBJECT",
+# "die-published-once:OBJECT" (once its map is in place)
 
 
 def scan_open_file(objects=None, collections=None, everything=False):
@@ -149,11 +150,12 @@ def open_blend(path):
     return time.perf_counter() - t0
 
 
-def run_request(request, log=lambda *_: None):
+def run_request(request, log=lambda *_: None, before_publish=None):
     """Do one request in this session: {"op": "scan", blend, objects, collections} or
     {"op": "bake", blend, object, output, settings, tiles, empty_tiles, overwrite}. Returns the
     reply dict (status "ok", or "error" with kind "input" / "output" / "crash" and the
-    message; only a crash is retried)."""
+    message; only a crash is retried). before_publish({tile: (final, temporary file)}): the
+    batch records the bake's files before they are put in place (normal_bake)."""
     t0, cpu0 = time.perf_counter(), time.process_time()
     reply = {"op": request["op"], "id": request.get("id")}
     try:
@@ -175,7 +177,9 @@ def run_request(request, log=lambda *_: None):
                 overwrite=request.get("overwrite", False), threads=request.get("threads"))
             # warnings travel in the reply: the parent prints them once
             with interrupts.partials_of(request["output"]):     # a stop removes its temps
-                res = BR.bake(bake_request, obj, log=log, warn=lambda *_: None)
+                res = BR.bake(bake_request, obj, log=log, warn=lambda *_: None,
+                              before_publish=before_publish)
+            _fault(request, "die-published-once")
             reply.update({"paths": {str(t): str(p) for t, p in res["paths"].items()},
                           "tiles": res["tiles"], "uv_map": res["uv_map"], "depth": res["depth"],
                           "warnings": res["warnings"], "bake_s": res["bake_s"],
@@ -192,13 +196,20 @@ def run_request(request, log=lambda *_: None):
     return reply
 
 
-def _fault(request):
-    """Test hook (SURFGRAD_BATCH_FAULT): make this worker process die or hang on an asset."""
+def _fault(request, after=None):
+    """Test hook (SURFGRAD_BATCH_FAULT): make this worker process die or hang on an asset
+    (before its bake; with `after`, that kind once the map is in place)."""
     fault = os.environ.get(FAULT_ENV, "")
     if ":" in fault and request.get("in_worker"):
         kind, name = fault.split(":", 1)
-        if name == request["object"] and (kind == "die" or
-                                          (kind == "die-once" and request.get("attempt") == 1)):
+        if name != request["object"]:
+            return
+        once = request.get("attempt") == 1
+        if after is not None:
+            if kind == after and once:
+                os._exit(70)
+            return
+        if kind == "die" or (kind == "die-once" and once):
             os._exit(70)
-        if name == request["object"] and kind == "hang":
+        if kind == "hang":
             time.sleep(24 * 3600)

@@ -42,6 +42,16 @@ def reply(data):
     sys.stdout.flush()
 
 
+def announce(files):
+    """Tell the batch the files this bake is about to put in place ({tile: (final, temporary
+    file)}), and wait until it has recorded them (a "pending" reply, answered by one line): a
+    batch killed in between then finds them recorded. No answer (the batch is gone): nothing
+    is put in place."""
+    reply({"op": "pending", "files": {str(t): [str(f), str(p)] for t, (f, p) in files.items()}})
+    if not sys.stdin.readline().strip():
+        raise RuntimeError("the batch ended before it recorded the map; nothing published")
+
+
 def watch_parent(poll_s=0.5):
     """A batch killed with SIGKILL (a farm's hard kill, the OOM killer) cannot stop its
     workers, each in a process group of its own: the one baking would go on to the end of its
@@ -91,7 +101,8 @@ def serve(run_request, interrupts):
             line = line.strip()
             if not line:
                 continue
-            reply(run_request(json.loads(line), log=lambda *a: print(*a, flush=True)))
+            reply(run_request(json.loads(line), log=lambda *a: print(*a, flush=True),
+                              before_publish=announce))
     # Input ends when the batch is done with this worker, or died (its end of the pipe
     # closes before this process is re-parented, so getppid cannot tell which yet).
     remove_own_tempdir()

@@ -75,9 +75,11 @@ class Worker:
             pass
         self.lines.put(None)
 
-    def call(self, request, timeout=None):
+    def call(self, request, timeout=None, on_pending=None):
         """Send a request and wait for its reply: None if the process died first, TIMED_OUT
-        after `timeout` seconds (the process is left to the caller)."""
+        after `timeout` seconds (the process is left to the caller). A bake's "pending" line
+        (worker_main.announce) is passed to on_pending({tile: (final, temporary file)}) and
+        then answered."""
         try:
             self.proc.stdin.write(json.dumps(request) + "\n")
             self.proc.stdin.flush()
@@ -96,6 +98,16 @@ class Worker:
                 reply = json.loads(line[len(RESULT_MARK):])
                 if reply.get("op") == "ready":
                     self.ready_s = time.perf_counter() - self.started
+                    continue
+                if reply.get("op") == "pending":
+                    if on_pending is not None and \
+                            on_pending({t: tuple(v) for t, v in reply["files"].items()}) is False:
+                        return None                 # (stopped: no answer, nothing published)
+                    try:
+                        self.proc.stdin.write("recorded\n")
+                        self.proc.stdin.flush()
+                    except (BrokenPipeError, OSError):
+                        return None
                     continue
                 return reply
             self.tail = (self.tail + [line.rstrip()])[-15:]
@@ -153,10 +165,11 @@ class Pool:
         self.current = {}                         # slot -> (worker, request) in flight
         self.stopped = False
 
-    def map(self, requests, on_reply):
+    def map(self, requests, on_reply, on_pending=None):
         """Run `requests`; on_reply(request, reply, retry) may return follow-up requests: the
         same thread runs the first next (its worker has that file open), the rest go first in
-        line for any worker."""
+        line for any worker. on_pending(request, files): a bake is about to put `files` in
+        place (Worker.call)."""
         todo, urgent = queue.Queue(), queue.Queue()
         for r in requests:
             todo.put(dict(r, attempt=1))
@@ -187,7 +200,7 @@ class Pool:
                     time.sleep(0.02)
                     continue
                 try:
-                    reply = self._call(slot, req, lock)
+                    reply = self._call(slot, req, lock, on_pending)
                     if self.stopped:              # the batch is being stopped: no reply
                         return
                     retry = reply["status"] == "error" and reply.get("kind") == "crash" \
@@ -215,7 +228,7 @@ class Pool:
         for t in threads:
             t.join()
 
-    def _call(self, slot, req, lock):
+    def _call(self, slot, req, lock, on_pending=None):
         worker = self.procs[slot]
         if worker is None or worker.proc.poll() is not None:
             if worker is not None:
@@ -225,7 +238,14 @@ class Pool:
             self.current[slot] = (worker, req)
         if self.stopped:                          # stop() ran while this one was starting
             worker.kill()
-        reply = worker.call(dict(req, in_worker=True), req.get("timeout"))
+        def pending(files):
+            with lock:
+                if self.stopped:
+                    return False
+                if on_pending is not None:
+                    on_pending(req, files)
+                return True
+        reply = worker.call(dict(req, in_worker=True), req.get("timeout"), pending)
         with lock:
             self.current.pop(slot, None)
         if worker.ready_s is not None and not getattr(worker, "counted", False):
@@ -292,11 +312,16 @@ class InProcess:
         self.log, self.retries = log, retries
         self.lock = threading.RLock()
 
-    def map(self, requests, on_reply):
+    def map(self, requests, on_reply, on_pending=None):
         todo = [dict(r, attempt=1) for r in requests]
+
+        def pending(req, files):
+            with interrupts.committing(), self.lock:
+                if on_pending is not None:
+                    on_pending(req, files)
         while todo:
             req = todo.pop(0)
-            reply = run_request(req)
+            reply = run_request(req, before_publish=lambda files, req=req: pending(req, files))
             reply["attempt"] = req["attempt"]
             retry = reply["status"] == "error" and reply.get("kind") == "crash" \
                 and req["attempt"] <= self.retries
