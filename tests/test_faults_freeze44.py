@@ -1,0 +1,125 @@
+"""Red team 44d: Freeze against bake-normal-map, warning for warning and refusal for refusal.
+
+A frozen map is a bake: the artist must hear what a TD hears from bake-normal-map for the same
+object and material. Measured on 5.2 and 4.2, before the fix (main at 444fa62):
+
+1. bake_request.mesh_problems' warnings were thrown away by freeze.check: overlapping UV
+   islands (the map keeps one face's texels), faces collapsed in UV (holes the margin fills),
+   an object far from the origin. Freeze reported none of them (operator: FINISHED, no
+   WARNING), where bake-normal-map prints each. Now freeze.check passes them to `warn` and
+   the operator reports them (also before a refusal, with the other warnings).
+2. Faces beyond the UDIM tiles (u < 0 here) were frozen with no word: bake-normal-map refuses
+   them (exit 1, "lie outside the UDIM range"); the frozen material samples the image at
+   those faces' wrapped UVs, texels of other faces. Now refused like faces outside the 0-1
+   square, before anything changes.
+3. Save As naming the file of an image the object's materials read (here its base colour
+   texture), with Overwrite: Freeze replaced that file with the normal map (its bytes
+   changed, the material then read a normal map as colour). bake-normal-map refuses that
+   output even with --overwrite (image_checks.output_input_problems); now Freeze does too,
+   and the file is as it was.
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon import freeze_operators as FO  # noqa: E402
+from surfgrad_addon.addon import operators as O  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
+from test_faults_operators35 import registered  # noqa: E402,F401 (a fixture)
+
+pytestmark = pytest.mark.tier("bake")
+
+SIZE = 16
+SQUARE = [(0.1, 0.1), (0.9, 0.1), (0.9, 0.9), (0.1, 0.9)]
+
+
+def _quads(fresh, uvs, at=(0.0, 0.0, 0.0)):
+    """Unit quads side by side at `at`, quad k with the UV corners uvs[k]; its material 'Rock'
+    a layer stack into a Diffuse BSDF. Returns (object, material)."""
+    verts = [(1.5 * k + x, y, 0.0) for k in range(len(uvs))
+             for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
+    faces = [[4 * k + i for i in range(4)] for k in range(len(uvs))]
+    mesh = bpy.data.meshes.new("Quads")
+    mesh.from_pydata(verts, [], faces)
+    mesh.uv_layers.new(name="UVMap").uv.foreach_set("vector", np.ravel(uvs))
+    mesh.update()
+    obj = bpy.data.objects.new("Quads", mesh)
+    obj.location = at
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    mat, tree, _ = diffuse_material("Rock")
+    O.add_layer_stack(tree)
+    mesh.materials.append(mat)
+    bpy.context.view_layer.update()
+    return obj, mat
+
+
+def _tree_state(mat):
+    tree = mat.node_tree
+    return (sorted(n.name for n in tree.nodes),
+            sorted((lk.from_node.name, lk.from_socket.identifier, lk.to_node.name,
+                    lk.to_socket.identifier) for lk in tree.links),
+            sorted(i.name for i in bpy.data.images), F.RECORD in mat)
+
+
+def test_the_operator_reports_the_mesh_warnings_bake_normal_map_prints(fresh, registered,
+                                                                         capfd):
+    """Quads 1 and 2 on the same UV square, quad 3 collapsed to a UV line, 2 km out. Before:
+    FINISHED and no warning. Now the three warnings, and the freeze done."""
+    line = [(0.1, 0.1), (0.9, 0.1), (0.9, 0.1), (0.1, 0.1)]
+    obj, mat = _quads(fresh, [SQUARE, SQUARE, line], at=(2000.0, 0.0, 0.0))
+    registered(*FO.CLASSES)
+    capfd.readouterr()
+    assert bpy.ops.surfgrad.freeze_stack(resolution=SIZE) == {'FINISHED'}
+    said = capfd.readouterr()
+    warnings = [w for w in (said.out + said.err).splitlines() if "Warning" in w]
+    assert F.RECORD in mat
+    overlap = [w for w in warnings if "UV map 'UVMap' of object 'Quads': " in w and
+               "of tile 1001's texels lie under more than one face" in w]
+    far = [w for w in warnings if "object 'Quads' reaches 2004 m from the origin" in w]
+    hole = [w for w in warnings if "UV map 'UVMap' of object 'Quads': 1 face(s) with area on "
+            "the mesh have none in UV space (their UVs collapsed to a point or a line: faces "
+            "2), so the bake writes no texel for them" in w]
+    assert len(overlap) == 1 and len(far) == 1 and len(hole) == 1, warnings
+    # Texel centres strictly inside both quads at 16^2: 12 x 12 in the 0.1-0.9 square, less
+    # the 12 on the diagonal both split along: 132 / 256.
+    assert "52% of tile 1001's texels" in overlap[0]
+
+
+def test_freeze_refuses_faces_beyond_the_udim_tiles(fresh):
+    """Quad 2 at u in [-0.9, -0.1]. Before: frozen, no word (bake-normal-map: exit 1). Now
+    refused with the fix, nothing changed."""
+    obj, mat = _quads(fresh, [SQUARE, [(u - 1.0, v) for u, v in SQUARE]])
+    before = _tree_state(mat)
+    with pytest.raises(F.FreezeError) as err:
+        F.freeze(obj, SIZE)
+    assert str(err.value) == (
+        "UV map 'UVMap' of 'Quads' has faces outside the 0-1 UV square: a frozen stack is one "
+        "image of that square; pick (or unwrap) a UV map inside it")
+    assert _tree_state(mat) == before
+
+
+def test_freeze_refuses_to_save_over_an_image_the_material_reads(fresh, tmp_path):
+    """Before: with Overwrite the base colour texture's file became the normal map. Now
+    refused as bake-normal-map refuses it; the file and the material as they were."""
+    obj, mat = _quads(fresh, [SQUARE])
+    colour = bpy.data.images.new("colour", 4, 4)
+    colour.pixels.foreach_set(np.tile([0.8, 0.2, 0.1, 1.0], 16).astype(np.float32))
+    path = tmp_path / "rock.png"
+    colour.filepath_raw, colour.file_format = str(path), "PNG"
+    colour.save()
+    tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = colour
+    bsdf = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeBsdfDiffuse")
+    mat.node_tree.links.new(tex.outputs["Color"], bsdf.inputs["Color"])
+    data, before = path.read_bytes(), _tree_state(mat)
+    with pytest.raises(F.FreezeError) as err:
+        F.freeze(obj, SIZE, filepath=str(path), overwrite=True)
+    assert str(err.value) == (
+        f"output {str(path)!r} is the file of image 'colour', which material 'Rock' reads: "
+        f"the bake would replace its own input; write the map to another file")
+    assert path.read_bytes() == data and _tree_state(mat) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rock.png"]
