@@ -17,6 +17,11 @@ object and material. Measured on 5.2 and 4.2, before the fix (main at 444fa62):
    changed, the material then read a normal map as colour). bake-normal-map refuses that
    output even with --overwrite (image_checks.output_input_problems); now Freeze does too,
    and the file is as it was.
+4. A stack whose SG Blend Normals was saved on 5.2 (its Method a Menu Switch, which 4.5's
+   shader trees cannot evaluate): 4.5 froze it as if the blend were zero, with no word, where
+   bake-normal-map refuses it (foreign_nodes.py, red team 34). Now freeze.check refuses it with
+   the same words, for the frozen material (foreign_node_problems(obj, only=mat)); 5.0 and 5.2
+   freeze it (pinned); 4.2 cannot read a 5.x file at all (test_faults_artist34.py).
 """
 
 import numpy as np
@@ -28,6 +33,8 @@ from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon import freeze_operators as FO  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
+from surfgrad_addon.addon.node_builder import running_line  # noqa: E402
+from test_faults_artist34 import _open_saved_on_52  # noqa: E402
 from test_faults_operators35 import registered  # noqa: E402,F401 (a fixture)
 
 pytestmark = pytest.mark.tier("bake")
@@ -123,3 +130,42 @@ def test_freeze_refuses_to_save_over_an_image_the_material_reads(fresh, tmp_path
         f"the bake would replace its own input; write the map to another file")
     assert path.read_bytes() == data and _tree_state(mat) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rock.png"]
+
+
+BLEND_IN_STACK = """
+import sys, bpy
+from surfgrad_addon import api
+from surfgrad_addon.addon import groups as G
+from surfgrad_addon.addon.compat import new_material
+from surfgrad_addon.addon.enum_input import set_choice
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.mesh.primitive_plane_add(size=2)
+mat = new_material("Rock")
+bpy.context.object.data.materials.append(mat)
+stack = api.add_layer_stack(mat)
+blend = mat.node_tree.nodes.new("ShaderNodeGroup")
+blend.node_tree, blend.name = G.blend_normals_group(), "RNM blend"
+set_choice(blend.inputs["Method"], 3)
+mat.node_tree.links.new(blend.outputs[0], stack["normal_map"].inputs["Color"])
+"""
+SAVE = "bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])\n"
+
+
+@pytest.mark.tier("child")
+def test_freeze_refuses_a_node_this_line_cannot_evaluate(fresh, tmp_path):
+    """On 4.5, a 5.2 file's SG Blend Normals in the stack. Before: frozen (as zero). Now
+    refused naming the node, nothing changed. 5.0 and 5.2 (built here: no child) freeze it."""
+    if running_line().menu_sockets:
+        exec(BLEND_IN_STACK, {})
+        obj = bpy.data.objects["Plane"]
+        assert F.check(obj, SIZE)[0] == bpy.data.materials["Rock"]
+        return
+    if not _open_saved_on_52(tmp_path, BLEND_IN_STACK + SAVE):
+        return
+    obj, mat = bpy.data.objects["Plane"], bpy.data.materials["Rock"]
+    before = _tree_state(mat)
+    with pytest.raises(F.FreezeError) as err:
+        F.freeze(obj, SIZE)
+    assert (f"material 'Rock' uses node(s) 'Menu Switch' in node group 'SG Blend Normals' "
+            f"that Blender {bpy.app.version_string} cannot evaluate") in str(err.value)
+    assert _tree_state(mat) == before

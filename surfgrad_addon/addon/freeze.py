@@ -25,6 +25,7 @@ from .bake_target import object_not_a_mesh
 from .bake_request import mesh_problems
 from .bake_uvs import one_read
 from .cache_files import unread_cache_problems
+from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
 from .normal_map_checks import input_warnings
 from .parallax_heights import parallax_height_warnings
@@ -268,6 +269,7 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         warnings = []
         problems += mesh_problems(obj, uv_map, warnings, [NB.UDIM_FIRST], resolution, only=mat)
         problems += small_object_messages(obj, only=mat)[0]
+        problems += foreign_node_problems(obj, only=mat)      # a newer line's: baked as zero
         # A Save As path that is the file of an image the object's materials read.
         problems += output_input_problems(obj, {NB.UDIM_FIRST: path}) if path else []
         for warning in warnings:
