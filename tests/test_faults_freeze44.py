@@ -22,6 +22,11 @@ object and material. Measured on 5.2 and 4.2, before the fix (main at 444fa62):
    bake-normal-map refuses it (foreign_nodes.py, red team 34). Now freeze.check refuses it with
    the same words, for the frozen material (foreign_node_problems(obj, only=mat)); 5.0 and 5.2
    freeze it (pinned); 4.2 cannot read a 5.x file at all (test_faults_artist34.py).
+5. A Geometry Nodes modifier that makes the second quad (UVs in the right half) an unrealized
+   instance with the frozen material: Freeze baked the realized quad alone and wired the map
+   in, the instance reading flat background texels, with no word (bake-normal-map refuses it,
+   unrealized_instances.py). Now refused naming the fix (Realize Instances), without the
+   command line's --allow-partial, for the frozen material's instances alone.
 """
 
 import numpy as np
@@ -169,3 +174,53 @@ def test_freeze_refuses_a_node_this_line_cannot_evaluate(fresh, tmp_path):
     assert (f"material 'Rock' uses node(s) 'Menu Switch' in node group 'SG Blend Normals' "
             f"that Blender {bpy.app.version_string} cannot evaluate") in str(err.value)
     assert _tree_state(mat) == before
+
+
+def _instance_second_quad(obj):
+    """Geometry Nodes: face 1 becomes an unrealized instance, face 0 stays mesh."""
+    ng = bpy.data.node_groups.new("Instance one", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    n = ng.nodes
+    gi, go = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
+    index, equal = n.new("GeometryNodeInputIndex"), n.new("FunctionNodeCompare")
+    equal.data_type, equal.operation = "INT", "EQUAL"
+    a, b = [s for s in equal.inputs if s.type == "INT"][:2]      # (4.2: every type's; 5.x: two)
+    b.default_value = 1
+    split = n.new("GeometryNodeSeparateGeometry")
+    split.domain = "FACE"
+    inst, join = n.new("GeometryNodeGeometryToInstance"), n.new("GeometryNodeJoinGeometry")
+    ng.links.new(index.outputs[0], a)
+    ng.links.new(gi.outputs[0], split.inputs["Geometry"])
+    ng.links.new(equal.outputs[0], split.inputs["Selection"])
+    ng.links.new(split.outputs["Selection"], inst.inputs[0])
+    ng.links.new(split.outputs["Inverted"], join.inputs[0])
+    ng.links.new(inst.outputs[0], join.inputs[0])
+    ng.links.new(join.outputs[0], go.inputs[0])
+    obj.modifiers.new("Instance one", "NODES").node_group = ng
+    bpy.context.view_layer.update()
+
+
+def test_freeze_refuses_instances_of_its_material_the_bake_leaves_out(fresh):
+    """Before: frozen, the instanced quad's half of the map flat. Now refused, nothing
+    changed; the fix it names (Realize Instances) freezes."""
+    left = [(0.05 + 0.4 * u, v) for u, v in SQUARE]
+    obj, mat = _quads(fresh, [left, [(u + 0.5, v) for u, v in left]])
+    _instance_second_quad(obj)
+    before = _tree_state(mat)
+    with pytest.raises(F.FreezeError) as err:
+        F.freeze(obj, SIZE)
+    text = str(err.value)
+    assert text.startswith("object 'Quads' renders 1 unrealized instance(s) of ") and (
+        "(1 faces), which Blender's bake leaves out (it bakes only the realized mesh); they "
+        "use its material(s) on ") in text and text.endswith(
+        "that the realized mesh leaves empty, so the map would lack them: add a Realize "
+        "Instances node before the Group Output of its Geometry Nodes (or apply the modifier, "
+        "or Object > Apply > Make Instances Real)")
+    assert "allow-partial" not in text and _tree_state(mat) == before
+    ng = obj.modifiers[0].node_group
+    realize = ng.nodes.new("GeometryNodeRealizeInstances")
+    ng.links.new(ng.nodes["Join Geometry"].outputs[0], realize.inputs[0])
+    ng.links.new(realize.outputs[0], ng.nodes["Group Output"].inputs[0])
+    bpy.context.view_layer.update()
+    assert F.check(obj, SIZE)[0] == mat

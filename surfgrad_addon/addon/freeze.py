@@ -21,9 +21,10 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import normal_bake as NB
+from . import unrealized_instances as UI
 from .bake_target import object_not_a_mesh
 from .bake_request import mesh_problems
-from .bake_uvs import one_read
+from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
 from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
@@ -270,6 +271,12 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         problems += mesh_problems(obj, uv_map, warnings, [NB.UDIM_FIRST], resolution, only=mat)
         problems += small_object_messages(obj, only=mat)[0]
         problems += foreign_node_problems(obj, only=mat)      # a newer line's: baked as zero
+        # Unrealized instances of the material: the bake leaves them out of the map they read.
+        baked = baked_mesh(obj)
+        more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
+                                           uv_map, [NB.UDIM_FIRST], resolution, None, only=mat)
+        problems += more
+        warnings += notes
         # A Save As path that is the file of an image the object's materials read.
         problems += output_input_problems(obj, {NB.UDIM_FIRST: path}) if path else []
         for warning in warnings:
