@@ -27,6 +27,11 @@ object and material. Measured on 5.2 and 4.2, before the fix (main at 444fa62):
    in, the instance reading flat background texels, with no word (bake-normal-map refuses it,
    unrealized_instances.py). Now refused naming the fix (Realize Instances), without the
    command line's --allow-partial, for the frozen material's instances alone.
+6. Resolution 16384 (the operator's maximum) on a machine of 24 GB and no swap (this one;
+   the memory read stubbed as in test_faults_pipeline32.py): bake-normal-map refuses it (at
+   least 45 GB), Freeze started the bake, which the OOM killer ends with SIGKILL, the
+   artist's Blender session and unsaved work with it (not run: it would take the shared
+   machine's memory). Now refused first with the same words, the fix naming Resolution.
 """
 
 import numpy as np
@@ -165,6 +170,8 @@ def test_freeze_refuses_a_node_this_line_cannot_evaluate(fresh, tmp_path):
         obj = bpy.data.objects["Plane"]
         assert F.check(obj, SIZE)[0] == bpy.data.materials["Rock"]
         return
+    if running_line().line == "4.2":      # reads no 5.x file (test_faults_artist34.py)
+        return
     if not _open_saved_on_52(tmp_path, BLEND_IN_STACK + SAVE):
         return
     obj, mat = bpy.data.objects["Plane"], bpy.data.materials["Rock"]
@@ -224,3 +231,27 @@ def test_freeze_refuses_instances_of_its_material_the_bake_leaves_out(fresh):
     ng.links.new(realize.outputs[0], ng.nodes["Group Output"].inputs[0])
     bpy.context.view_layer.update()
     assert F.check(obj, SIZE)[0] == mat
+
+
+def test_freeze_refuses_a_bake_larger_than_the_machine(fresh, monkeypatch):
+    """Before: check passed at 16384 (the bake would be killed). Now refused, nothing
+    changed; 8192 (11.3 GB) passes."""
+    import resource
+    from surfgrad_addon.addon import memory_limit as ML
+    gb = 1024 ** 3
+    monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
+    monkeypatch.setattr(ML, "resident_in_use", lambda: gb // 2)
+    monkeypatch.setattr(ML, "_kb_line", lambda path, key: {"MemTotal": 24 * gb,
+                                                           "SwapTotal": 0}.get(key))
+    monkeypatch.setattr(ML, "CGROUP_LIMITS", ())
+    obj, mat = _quads(fresh, [SQUARE])
+    before = _tree_state(mat)
+    with pytest.raises(F.FreezeError) as err:
+        F.check(obj, 16384)
+    assert str(err.value) == (
+        "a 16384x16384 bake of 1 tile(s) needs at least 45.0 GB of memory beyond the 0.5 GB "
+        "this process holds, more than this machine's 24.0 GB of memory and 0.0 GB of swap, "
+        "where the system would kill the bake: bake at a lower Resolution, or on a machine "
+        "with more memory")
+    assert _tree_state(mat) == before
+    assert F.check(obj, 8192)[0] == mat

@@ -28,6 +28,8 @@ from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
 from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
+from .image_memory import images_memory
+from .memory_limit import bake_memory_problem
 from .normal_map_checks import input_warnings
 from .parallax_heights import parallax_height_warnings
 from .small_objects import small_object_messages
@@ -261,7 +263,8 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         path = _check_file(filepath, overwrite) if filepath else None
         # The images the material reads, as bake-normal-map checks them: a missing one, or one
         # Blender loads other than its file says, would be frozen into the map.
-        problem = NB.unslotted_problem(obj, mat)       # (its map would hold theirs too)
+        problem = NB.unslotted_problem(obj, mat) or \
+            _memory_problem(obj, resolution)            # (its map would hold theirs too)
         problems = [problem] if problem else image_problems(obj, only=mat)
         # The mesh as bake-normal-map checks it (NaN in the baked UV map or one the material
         # reads, positions, faces with area), and an object too small for the float32
@@ -284,6 +287,13 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         if problems:
             raise FreezeError("; ".join(problems))
     return mat, tree, end, fed, uv_map, path
+
+
+def _memory_problem(obj, resolution):
+    """bake-normal-map's memory check, before the images are loaded: a bake the system
+    would kill (SIGKILL) ends the artist's Blender session, the unsaved work with it."""
+    problem = bake_memory_problem(resolution, 1, images_memory(obj, [NB.UDIM_FIRST]))
+    return problem and problem.replace("--resolution", "Resolution")
 
 
 def _outside_square_text(obj, uv_map):
