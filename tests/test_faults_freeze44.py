@@ -42,6 +42,8 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon import freeze_operators as FO  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
+from support.geometry_nodes import geometry_group  # noqa: E402
+from support.machine_memory import machine_without_swap  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 from surfgrad_addon.addon.node_builder import running_line  # noqa: E402
 from test_faults_artist34 import _open_saved_on_52  # noqa: E402
@@ -185,11 +187,8 @@ def test_freeze_refuses_a_node_this_line_cannot_evaluate(fresh, tmp_path):
 
 def _instance_second_quad(obj):
     """Geometry Nodes: face 1 becomes an unrealized instance, face 0 stays mesh."""
-    ng = bpy.data.node_groups.new("Instance one", "GeometryNodeTree")
-    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
-    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    ng, gi, go = geometry_group("Instance one")
     n = ng.nodes
-    gi, go = n.new("NodeGroupInput"), n.new("NodeGroupOutput")
     index, equal = n.new("GeometryNodeInputIndex"), n.new("FunctionNodeCompare")
     equal.data_type, equal.operation = "INT", "EQUAL"
     a, b = [s for s in equal.inputs if s.type == "INT"][:2]      # (4.2: every type's; 5.x: two)
@@ -236,14 +235,8 @@ def test_freeze_refuses_instances_of_its_material_the_bake_leaves_out(fresh):
 def test_freeze_refuses_a_bake_larger_than_the_machine(fresh, monkeypatch):
     """Before: check passed at 16384 (the bake would be killed). Now refused, nothing
     changed; 8192 (11.3 GB) passes."""
-    import resource
-    from surfgrad_addon.addon import memory_limit as ML
     gb = 1024 ** 3
-    monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
-    monkeypatch.setattr(ML, "resident_in_use", lambda: gb // 2)
-    monkeypatch.setattr(ML, "_kb_line", lambda path, key: {"MemTotal": 24 * gb,
-                                                           "SwapTotal": 0}.get(key))
-    monkeypatch.setattr(ML, "CGROUP_LIMITS", ())
+    machine_without_swap(monkeypatch, 24 * gb, gb // 2)
     obj, mat = _quads(fresh, [SQUARE])
     before = _tree_state(mat)
     with pytest.raises(F.FreezeError) as err:
