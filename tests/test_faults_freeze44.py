@@ -32,6 +32,14 @@ object and material. Measured on 5.2 and 4.2, before the fix (main at 444fa62):
    least 45 GB), Freeze started the bake, which the OOM killer ends with SIGKILL, the
    artist's Blender session and unsaved work with it (not run: it would take the shared
    machine's memory). Now refused first with the same words, the fix naming Resolution.
+7. The noise reference (reference/noise.py, the filtered volume noise's and the plain one's)
+   counted the box of lattice cells it hashes with np.prod, which wraps past 2^63: cells some
+   2e6 apart on every axis (`compare --method volume-noise-filtered` on a mesh 2e5 m across,
+   object coordinates x Scale 4 x the octaves' lacunarity) gave a negative count and a raw
+   "ValueError: negative dimensions are not allowed", exit 1 with a traceback. Scale itself
+   is set by no user route (CLI, api, operator and bench use the default); the object's size
+   reaches it. Now counted in Python integers: that compare runs (p99 2e-5 deg; its octaves
+   are finer than the footprint there and fade out).
 """
 
 import numpy as np
@@ -248,3 +256,27 @@ def test_freeze_refuses_a_bake_larger_than_the_machine(fresh, monkeypatch):
         "with more memory")
     assert _tree_state(mat) == before
     assert F.check(obj, 8192)[0] == mat
+
+
+def test_the_noise_reference_hashes_cells_millions_apart():
+    """Two points 2.4e6 cells apart on every axis (a box of 1.4e19 cells, between 2^63 and
+    2^64): before, ValueError (np.prod wrapped to a negative count). Now each point's value
+    and gradient as when evaluated alone."""
+    from surfgrad_addon.reference.noise import gradient_noise
+    p = np.array([[0.3, 0.6, 0.2], [2.4e6 + 0.7, -2.4e6 + 0.1, 2.4e6 + 0.45]])
+    value, gradient = gradient_noise(p)
+    for i in range(2):
+        alone = gradient_noise(p[i:i + 1])
+        assert value[i] == alone[0][0] and np.array_equal(gradient[i], alone[1][0])
+    assert np.all(np.isfinite(gradient)) and np.abs(value).max() > 0
+
+
+def test_compare_of_filtered_noise_on_a_mesh_2e5_m_across(fresh):
+    """The user route (compare's own function; the CLI calls it). Before: a raw ValueError."""
+    import mathutils
+    from support.small_objects import scaled_test_object
+    from surfgrad_addon.harness import compare
+    obj = scaled_test_object("Sphere", 1.0)
+    obj.data.transform(mathutils.Matrix.Scale(1e5, 4))
+    report = compare.compare_object(obj, "volume-noise-filtered", SIZE, log=None)[0]
+    assert report["texels_compared"] > 150 and report["p99_deg"] < 0.1, report
