@@ -26,7 +26,10 @@ object and material. Measured on 5.2 and 4.2, before the fix (main at 444fa62):
    instance with the frozen material: Freeze baked the realized quad alone and wired the map
    in, the instance reading flat background texels, with no word (bake-normal-map refuses it,
    unrealized_instances.py). Now refused naming the fix (Realize Instances), without the
-   command line's --allow-partial, for the frozen material's instances alone.
+   command line's --allow-partial, for the frozen material's instances alone. A mesh made all
+   of instances was refused blaming its UV map ("is not on the mesh as it renders ... pick one
+   of those, or fix the modifiers"); now with bake-normal-map's words, naming the instances
+   and Realize Instances.
 6. Resolution 16384 (the operator's maximum) on a machine of 24 GB and no swap (this one;
    the memory read stubbed as in test_faults_pipeline32.py): bake-normal-map refuses it (at
    least 45 GB), Freeze started the bake, which the OOM killer ends with SIGKILL, the
@@ -238,6 +241,24 @@ def test_freeze_refuses_instances_of_its_material_the_bake_leaves_out(fresh):
     ng.links.new(realize.outputs[0], ng.nodes["Group Output"].inputs[0])
     bpy.context.view_layer.update()
     assert F.check(obj, SIZE)[0] == mat
+
+
+def test_freeze_names_a_mesh_made_all_of_instances(fresh):
+    """Before: "UV map 'UVMap' ... is not on the mesh as it renders". Now the instances."""
+    obj, mat = _quads(fresh, [SQUARE])
+    ng, gi, go = geometry_group("All instances")
+    inst = ng.nodes.new("GeometryNodeGeometryToInstance")
+    ng.links.new(gi.outputs[0], inst.inputs[0])
+    ng.links.new(inst.outputs[0], go.inputs[0])
+    obj.modifiers.new("All instances", "NODES").node_group = ng
+    bpy.context.view_layer.update()
+    with pytest.raises(F.FreezeError) as err:
+        F.check(obj, SIZE)
+    assert str(err.value) == (
+        "object 'Quads' renders all its faces as 1 unrealized instance(s) and Blender's bake "
+        "renders only the realized mesh, which has none: add a Realize Instances node before "
+        "the Group Output of its Geometry Nodes (or apply the modifier, or Object > Apply > "
+        "Make Instances Real)")
 
 
 def test_freeze_refuses_a_bake_larger_than_the_machine(fresh, monkeypatch):

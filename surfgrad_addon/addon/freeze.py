@@ -23,7 +23,7 @@ from pathlib import Path
 from . import normal_bake as NB
 from . import unrealized_instances as UI
 from .bake_target import object_not_a_mesh
-from .bake_request import mesh_problems
+from .bake_request import _only_instances, mesh_problems
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
 from .foreign_nodes import foreign_node_problems
@@ -257,7 +257,8 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
             text = str(err).replace(" (--object NAME)", "")
             if NB.UDIM_TOKEN in text:                 # one image: the 0-1 square alone
                 text = _outside_square_text(obj, uv_map)
-            raise FreezeError(text) from None
+            # All faces instances: the layout's error would blame the UV map.
+            raise FreezeError((_only_instances(obj) or [text])[0]) from None
         if outside:         # beyond the UDIM tiles: bake-normal-map refuses them too
             raise FreezeError(_outside_square_text(obj, uv_map))
         path = _check_file(filepath, overwrite) if filepath else None
