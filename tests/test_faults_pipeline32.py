@@ -566,14 +566,10 @@ def test_a_bake_larger_than_the_machine_is_refused_naming_its_memory(monkeypatch
     no swap (this one): the OOM killer would end it (SIGKILL, no line; not run here, it would
     take the shared machine's memory). Refused naming the machine's memory; a container's
     lower cgroup limit is named instead where it has one."""
-    import resource
     from surfgrad_addon.addon import memory_limit as ML
+    from support.machine_memory import machine_without_swap
     gb = 1024 ** 3
-    monkeypatch.setattr(resource, "getrlimit", lambda _: (resource.RLIM_INFINITY,) * 2)
-    monkeypatch.setattr(ML, "resident_in_use", lambda: gb // 2)
-    monkeypatch.setattr(ML, "_kb_line", lambda path, key: {"MemTotal": 24 * gb,
-                                                           "SwapTotal": 0}.get(key))
-    monkeypatch.setattr(ML, "CGROUP_LIMITS", ())
+    machine_without_swap(monkeypatch, 24 * gb, gb // 2)
     problem = ML.bake_memory_problem(16384, 1)
     assert problem == ("a 16384x16384 bake of 1 tile(s) needs at least 45.0 GB of memory beyond "
                        "the 0.5 GB this process holds, more than this machine's 24.0 GB of "

@@ -5,7 +5,7 @@ bakes as if its output were zero, a different look with no error, so the bake is
 (bake_request.py), naming the material, the group and the fix."""
 
 from ..reference.blender_lines import facts_for
-from .bake_uvs import rendered_materials
+from .image_checks import checked_materials
 
 MENU_SWITCH = "GeometryNodeMenuSwitch"
 
@@ -16,14 +16,14 @@ def _cannot_evaluate(node, menus):
     return node.bl_idname == "NodeUndefined" or (node.bl_idname == MENU_SWITCH and not menus)
 
 
-def foreign_node_problems(obj):
-    """A sentence per material of `obj` using a node this Blender cannot evaluate (at any
-    depth of node groups)."""
+def foreign_node_problems(obj, only=None):
+    """A sentence per material of `obj` (or material `only`: Freeze's) using a node this
+    Blender cannot evaluate (at any depth of node groups)."""
     import bpy                 # not at import: the CLI imports bake_request without Blender
     menus = facts_for(bpy.app.version).menu_sockets
     here = f"Blender {bpy.app.version_string}"
     problems = []
-    for mat in rendered_materials(obj):
+    for mat in checked_materials(obj, only):
         if mat.node_tree is None:
             continue
         found, seen, trees = [], set(), [(mat.node_tree, None)]

@@ -21,11 +21,15 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from . import normal_bake as NB
+from . import unrealized_instances as UI
 from .bake_target import object_not_a_mesh
-from .bake_request import mesh_problems
-from .bake_uvs import one_read
+from .bake_request import _only_instances, mesh_problems
+from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
-from .image_checks import image_problems
+from .foreign_nodes import foreign_node_problems
+from .image_checks import image_problems, output_input_problems
+from .image_memory import images_memory
+from .memory_limit import bake_memory_problem
 from .normal_map_checks import input_warnings
 from .parallax_heights import parallax_height_warnings
 from .small_objects import small_object_messages
@@ -214,10 +218,11 @@ def _other_meshes_using(obj, mat):
 
 
 def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
-          mat=None):
+          mat=None, warn=lambda _: None):
     """Everything freeze needs, checked before anything changes: (material, tree, stack end,
     fed Normal inputs, uv_map, output Path or None for pack). `mat`: one of obj's materials
-    (the one a Shader Editor shows); None: obj's active material."""
+    (the one a Shader Editor shows); None: obj's active material. bake-normal-map's warnings
+    on the mesh and its UV map go to `warn`, also when the freeze is refused."""
     if obj is None:
         raise FreezeError("no active object: select the mesh whose material to freeze")
     if NB.cycles_problem():
@@ -254,27 +259,55 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         raise FreezeError("; ".join(stale))
     with one_read():          # the mesh as it renders: one render-mode pass for both checks
         try:
-            uv_map, _, _, _ = NB.plan_tiles(obj, "freeze.png", uv_map or None)
+            uv_map, _, _, _, outside = NB.plan_tile_layout(obj, "freeze.png", uv_map or None)
         except NB.NormalBakeError as err:
             text = str(err).replace(" (--object NAME)", "")
             if NB.UDIM_TOKEN in text:                 # one image: the 0-1 square alone
-                text = (f"UV map {uv_map or 'the active render UV map'!r} of {obj.name!r} has "
-                        f"faces outside the 0-1 UV square: a frozen stack is one image of that "
-                        f"square; pick (or unwrap) a UV map inside it")
-            raise FreezeError(text) from None
+                text = _outside_square_text(obj, uv_map)
+            # All faces instances: the layout's error would blame the UV map.
+            raise FreezeError((_only_instances(obj) or [text])[0]) from None
+        if outside:         # beyond the UDIM tiles: bake-normal-map refuses them too
+            raise FreezeError(_outside_square_text(obj, uv_map))
         path = _check_file(filepath, overwrite) if filepath else None
         # The images the material reads, as bake-normal-map checks them: a missing one, or one
         # Blender loads other than its file says, would be frozen into the map.
-        problem = NB.unslotted_problem(obj, mat)       # (its map would hold theirs too)
+        problem = NB.unslotted_problem(obj, mat) or \
+            _memory_problem(obj, resolution)            # (its map would hold theirs too)
         problems = [problem] if problem else image_problems(obj, only=mat)
         # The mesh as bake-normal-map checks it (NaN in the baked UV map or one the material
         # reads, positions, faces with area), and an object too small for the float32
         # derivatives of the groups it bakes through: each baked wrong texels with no word.
-        problems += mesh_problems(obj, uv_map, [], only=mat)
+        # Its warnings too: far from the origin, faces collapsed in UV, overlapping islands.
+        warnings = []
+        problems += mesh_problems(obj, uv_map, warnings, [NB.UDIM_FIRST], resolution, only=mat)
         problems += small_object_messages(obj, only=mat)[0]
+        problems += foreign_node_problems(obj, only=mat)      # a newer line's: baked as zero
+        # Unrealized instances of the material: the bake leaves them out of the map they read.
+        baked = baked_mesh(obj)
+        more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
+                                           uv_map, [NB.UDIM_FIRST], resolution, None, only=mat)
+        problems += more
+        warnings += notes
+        # A Save As path that is the file of an image the object's materials read.
+        problems += output_input_problems(obj, {NB.UDIM_FIRST: path}) if path else []
+        for warning in warnings:
+            warn(warning)
         if problems:
             raise FreezeError("; ".join(problems))
     return mat, tree, end, fed, uv_map, path
+
+
+def _memory_problem(obj, resolution):
+    """bake-normal-map's memory check, before the images are loaded: a bake the system
+    would kill (SIGKILL) ends the artist's Blender session, the unsaved work with it."""
+    problem = bake_memory_problem(resolution, 1, images_memory(obj, [NB.UDIM_FIRST]))
+    return problem and problem.replace("--resolution", "Resolution")
+
+
+def _outside_square_text(obj, uv_map):
+    return (f"UV map {uv_map or 'the active render UV map'!r} of {obj.name!r} has faces "
+            f"outside the 0-1 UV square: a frozen stack is one image of that square; pick (or "
+            f"unwrap) a UV map inside it")
 
 
 def freeze_warnings(obj, mat):
@@ -285,12 +318,13 @@ def freeze_warnings(obj, mat):
 
 
 def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
-                 samples=1, log=lambda *_: None, mat=None):
+                 samples=1, log=lambda *_: None, mat=None, warn=lambda _: None):
     """Freeze obj's active material (see the module doc), yielding "checked", "baked" and
     "wired" (the file is written after it); the generator's return value is the record.
-    Throw FreezeCancelled in at a stage to cancel."""
+    Throw FreezeCancelled in at a stage to cancel. `warn`: check's warnings."""
     import bpy
-    mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite, mat)
+    mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite, mat,
+                                              warn)
     yield "checked"
     suffix = path.suffix.lower() if path else ".png"
     depth = "16" if suffix == ".png" else "float"         # 8 bits would cost ~0.3 degrees
@@ -341,9 +375,9 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
 
 
 def freeze(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
-           samples=1, log=lambda *_: None, cancel=lambda stage: False):
+           samples=1, log=lambda *_: None, cancel=lambda stage: False, warn=lambda _: None):
     """Run freeze_steps to the end; `cancel(stage)` True after a stage cancels the freeze."""
-    steps = freeze_steps(obj, resolution, uv_map, filepath, overwrite, samples, log)
+    steps = freeze_steps(obj, resolution, uv_map, filepath, overwrite, samples, log, warn=warn)
     stage = next(steps)
     try:
         while True:

@@ -63,7 +63,8 @@ unlinked, in a frame (Thaw brings it back)"""
         self._warnings = F.freeze_warnings(obj, mat) \
             if mat is not None and obj is not None else []
         self._steps = F.freeze_steps(obj, self.resolution, self.uv_map, self.filepath,
-                                     self.overwrite, self.samples, mat=shown_material(context))
+                                     self.overwrite, self.samples, mat=shown_material(context),
+                                     warn=lambda w: self._warnings.append(w))
         if not self.interactive or context.window is None or bpy.app.background:
             self.interactive = False
             return self._finish(self._run_all)

@@ -100,13 +100,17 @@ def compare_warning(instances, obj):
     return f"{_what(instances, obj)}: they are not compared; to compare them, {FIX}"
 
 
-def instance_problems(instances, obj, mesh_uv, uv_map, tiles, resolution, allow_partial):
+def instance_problems(instances, obj, mesh_uv, uv_map, tiles, resolution, allow_partial,
+                      only=None):
     """(problems, warnings) for obj's unrealized instances: instance faces of obj's own
-    materials on texels of `tiles` that the realized mesh (triangle UVs `mesh_uv`) leaves
-    empty make the map partial (a problem, unless allow_partial); other instances a warning."""
+    materials (or material `only`: Freeze's) on texels of `tiles` that the realized mesh
+    (triangle UVs `mesh_uv`) leaves empty make the map partial (a problem, unless
+    allow_partial; None: there is no such option to name, as in Freeze); other instances a
+    warning."""
     if not instances:
         return [], []
-    own = {s.material.name for s in obj.material_slots if s.material}
+    own = {only.name} if only is not None else \
+        {s.material.name for s in obj.material_slots if s.material}
     size = min(int(resolution or CHECK_SIZE), CHECK_SIZE)
     theirs = []                  # the UV triangles of instance faces of obj's materials
     for m in instances:
@@ -130,6 +134,8 @@ def instance_problems(instances, obj, mesh_uv, uv_map, tiles, resolution, allow_
         text = (f"{what}; they use its material(s) on {missing} texel(s) (counted at "
                 f"{size}^2 a tile) that the realized mesh leaves empty, so the map would "
                 f"lack them")
+        if allow_partial is None:
+            return [f"{text}: {FIX}"], []
         if not allow_partial:
             return [f"{text}: {FIX}, or bake the rest on purpose with --allow-partial (api: "
                     f"allow_partial=True; settings file: \"allow_partial\": true)"], []

@@ -114,10 +114,13 @@ def _unique_rows(cells):
     lo = k.min(axis=0)
     span = k.max(axis=0) - lo + 1
     o = k - lo
-    if int(np.prod(span)) <= max(4 * len(k), 1 << 16):
+    # The box's cell count in Python integers: np.prod wraps past 2^63 (cells 2e6 apart on
+    # every axis: a 1e5 m mesh at Scale 4) to a negative count, which passed the test below.
+    box = int(span[0]) * int(span[1]) * int(span[2])
+    if box <= max(4 * len(k), 1 << 16):
         # Few cells in a small box (a block of texels): mark them in a dense table, no sort.
         key = (o[:, 0] * span[1] + o[:, 1]) * span[2] + o[:, 2]
-        present = np.zeros(int(np.prod(span)), dtype=bool)
+        present = np.zeros(box, dtype=bool)
         present[key] = True
         first_key = np.nonzero(present)[0]
         index = np.cumsum(present) - 1
