@@ -1,5 +1,5 @@
 """For a normal-map bake only: each BSDF a material renders stands in as a Diffuse BSDF fed the
-same Normal.
+same Normal, white.
 
 Cycles' NORMAL bake averages the normals of the closures the shader makes, and every closure
 but the diffuse ones changes its normal first: Principled BSDF, Glossy, Metallic, Glass,
@@ -7,11 +7,15 @@ Refraction, Translucent and Subsurface bend it (their bump correction, or a side
 Baked as they were, the map of a Principled BSDF (every glTF, FBX or OBJ import) whose normal
 map leans 60 degrees from the surface came out 8.3 degrees flatter, a Metallic or Glass BSDF's
 15.3, on 4.2 and 5.2 alike, exit 0 (tests/test_faults_assets44.py). A Diffuse closure's normal
-is the Normal input as given. Freeze does the same for its stack (freeze.py).
+is the Normal input as given, but Cycles drops a closure of no weight: a Diffuse BSDF of black
+Color (or black texels of its Color) baked the surface's own normal, so it stands in too,
+white (tests/test_faults_bake_closures45.py). Freeze does the same for its stack (freeze.py).
 
-Only the material's own tree is changed (a BSDF inside a node group, which other materials
-may share, is left as it is), and only nodes that render: a muted BSDF, and links that are
-muted, stay as they are. Everything is put back on exit, also when the bake fails.
+A node group holding a BSDF (at any depth) is baked through a copy of it, stood in the same
+way, that its group node uses for the bake: other materials sharing the group are untouched
+(before, a Principled BSDF inside a group baked 8.3 degrees flat, a Glass one 15.3). Only
+nodes that render: a muted BSDF or group, and links that are muted, stay as they are.
+Everything is put back on exit, also when the bake fails.
 """
 
 from contextlib import contextmanager
@@ -19,41 +23,67 @@ from contextlib import contextmanager
 NORMAL = "Normal"
 DIFFUSE = "ShaderNodeBsdfDiffuse"
 GROUP = "ShaderNodeGroup"
+WHITE = (1.0, 1.0, 1.0, 1.0)
 
 
 def _stands_in(node):
-    """A BSDF node making a closure from a Normal input, other than a Diffuse BSDF. A node
-    group is not one, whatever its sockets: its Normal input may be the base its own nodes
-    bend (an SG stack inside), which a stand-in fed that input would drop."""
-    return (node.bl_idname not in (DIFFUSE, GROUP) and not node.mute and
-            NORMAL in node.inputs and any(o.type == "SHADER" for o in node.outputs))
+    """A BSDF node making a closure from a Normal input. A group node is not one, whatever
+    its sockets: its Normal input may be the base its own nodes bend (an SG stack inside),
+    which a stand-in fed that input would drop; its BSDFs stand in inside a copy."""
+    return (node.bl_idname != GROUP and not node.mute and NORMAL in node.inputs and
+            any(o.type == "SHADER" for o in node.outputs))
+
+
+def _holds_bsdf(tree):
+    return any(_stands_in(n) or _group_with_bsdf(n) for n in tree.nodes)
+
+
+def _group_with_bsdf(node):
+    return (node.bl_idname == GROUP and not node.mute and node.node_tree is not None and
+            _holds_bsdf(node.node_tree))
+
+
+def _stand_in(tree, made, swapped):
+    for node in [n for n in tree.nodes if _group_with_bsdf(n)]:
+        copy = node.node_tree.copy()
+        swapped.append((node, node.node_tree, copy))
+        node.node_tree = copy
+        _stand_in(copy, made, swapped)
+    for node in [n for n in tree.nodes if _stands_in(n)]:
+        out = next(o for o in node.outputs if o.type == "SHADER")
+        if not out.links:
+            continue
+        diffuse = tree.nodes.new(DIFFUSE)
+        diffuse.inputs["Color"].default_value = WHITE
+        relinked = []
+        made.append((tree, diffuse, relinked))
+        for link in node.inputs[NORMAL].links:
+            if not link.is_muted:
+                tree.links.new(link.from_socket, diffuse.inputs[NORMAL])
+        for link in list(out.links):
+            to, muted = link.to_socket, link.is_muted
+            relinked.append((out, to, muted))
+            tree.links.new(diffuse.outputs[0], to).is_muted = muted
 
 
 @contextmanager
 def diffuse_stand_ins(trees):
-    """For the duration: in each tree, every BSDF's links out come from a Diffuse BSDF fed
-    its Normal (the same link, or the shading normal where it has none)."""
+    """For the duration: in each tree (and in copies of the groups it uses), every BSDF's links
+    out come from a white Diffuse BSDF fed its Normal (the same link, or the shading normal
+    where it has none)."""
     made = []           # (tree, diffuse, [(bsdf output, to_socket, muted)])
+    swapped = []        # (group node, its group, the copy it uses for the bake)
     try:
         for tree in dict.fromkeys(trees):
-            for node in [n for n in tree.nodes if _stands_in(n)]:
-                out = next(o for o in node.outputs if o.type == "SHADER")
-                if not out.links:
-                    continue
-                diffuse = tree.nodes.new(DIFFUSE)
-                diffuse.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-                relinked = []
-                made.append((tree, diffuse, relinked))
-                for link in node.inputs[NORMAL].links:
-                    if not link.is_muted:
-                        tree.links.new(link.from_socket, diffuse.inputs[NORMAL])
-                for link in list(out.links):
-                    to, muted = link.to_socket, link.is_muted
-                    relinked.append((out, to, muted))
-                    tree.links.new(diffuse.outputs[0], to).is_muted = muted
+            _stand_in(tree, made, swapped)
         yield
     finally:
         for tree, diffuse, relinked in reversed(made):
             for out, to, muted in relinked:
                 tree.links.new(out, to).is_muted = muted
             tree.nodes.remove(diffuse)
+        if swapped:
+            import bpy
+            for node, group, copy in reversed(swapped):
+                node.node_tree = group
+                bpy.data.node_groups.remove(copy)
