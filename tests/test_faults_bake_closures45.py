@@ -5,7 +5,10 @@ normal-map bake (bake-normal-map, bake-batch, api.bake_normal_map) makes of a ma
    takes the surface's own normal, so a map fed through a black Diffuse BSDF (or the black
    texels of a texture in its Color) baked flat: 60.0 degrees off for a normal map leaning 60
    degrees, on 5.2 and 4.2 alike, exit 0 (round 44 stood in every BSDF but the Diffuse one).
-   Now a Diffuse BSDF stands in too, as a white one.
+   A grey one mixed with another BSDF weighed by its Color, not the Mix Shader's factor as
+   docs/pipelines.md says: a 0.2 grey Diffuse BSDF fed that map, mixed at 0.5 with a flat
+   Principled BSDF, baked 21.1 degrees from the factor's mix. Now a Diffuse BSDF stands in too,
+   as a white one.
 2. A BSDF inside a node group (an asset library's shader group, a group of the artist's) was
    baked as it was: a normal map leaning 60 degrees through a Principled BSDF in a group came
    out 8.26 degrees flatter, through a Glass BSDF in a group in a group 15.29, on 5.2 and 4.2
@@ -37,6 +40,24 @@ def test_a_black_diffuse_bsdf_bakes_the_normal_it_is_given(tmp_path):
     before = material_dump(mat)
     assert _degrees_off(_baked_normals(obj, tmp_path / "n.exr"), normal) < 0.05
     assert material_dump(mat) == before
+
+
+def test_bsdfs_with_different_normals_mix_by_the_factor(tmp_path):
+    """Finding 1: a grey Diffuse BSDF fed the map and a Principled BSDF fed none, mixed at
+    0.5, bake the normal halfway between the map's and the surface's (before: 21.1 degrees
+    from it, the Diffuse BSDF weighed by its grey)."""
+    obj, mat, normal = _tilted_plane("ShaderNodeBsdfDiffuse")
+    tree = mat.node_tree
+    diffuse = tree.nodes["Diffuse BSDF"]
+    diffuse.inputs["Color"].default_value = (0.2, 0.2, 0.2, 1.0)
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = 0.5
+    tree.links.new(diffuse.outputs[0], mix.inputs[1])
+    tree.links.new(tree.nodes.new("ShaderNodeBsdfPrincipled").outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    halfway = normal + np.array([0.0, 0.0, 1.0])
+    got = _baked_normals(obj, tmp_path / "n.exr")
+    assert _degrees_off(got, halfway / np.linalg.norm(halfway)) < 0.05
 
 
 def _group(name, shader, normal_from):
