@@ -11,10 +11,15 @@ normal-map bake (bake-normal-map, bake-batch, api.bake_normal_map) makes of a ma
    as a white one.
 2. A BSDF inside a node group (an asset library's shader group, a group of the artist's) was
    baked as it was: a normal map leaning 60 degrees through a Principled BSDF in a group came
-   out 8.26 degrees flatter, through a Glass BSDF in a group in a group 15.29, on 5.2 and 4.2
-   alike, exit 0. Now a group holding a BSDF at any depth is baked through a copy stood in the
+   out 8.26 degrees flatter, through a Glass BSDF in a group 15.29 (5.2), the test's mix of
+   both (one group inside the other) 10.9 on 5.2 and 4.2 alike, exit 0. Now a group holding a BSDF at any depth is baked through a copy stood in the
    same way, which its group node uses for the bake only; the group, its users, the other
    materials sharing it and the material are as they were after.
+3. A hair BSDF (Hair, Principled Hair: no Normal input; on a mesh, hair cards) makes a closure
+   whose bake normal is neither the surface's nor any map's: mixed at 0.5 with a Principled
+   BSDF fed a map leaning 60 degrees, a Principled Hair BSDF baked 45.0 degrees from the map
+   and 52.2 from the factor's mix (the map and the surface's normal halfway; a Hair BSDF 3.7),
+   on 5.2 and 4.2 alike. Now it stands in as a white Diffuse BSDF fed the surface's normal.
 """
 
 import numpy as np
@@ -58,6 +63,25 @@ def test_bsdfs_with_different_normals_mix_by_the_factor(tmp_path):
     halfway = normal + np.array([0.0, 0.0, 1.0])
     got = _baked_normals(obj, tmp_path / "n.exr")
     assert _degrees_off(got, halfway / np.linalg.norm(halfway)) < 0.05
+
+
+@pytest.mark.parametrize("hair", ["ShaderNodeBsdfHair", "ShaderNodeBsdfHairPrincipled"])
+def test_a_hair_bsdf_mixes_in_the_surface_normal(tmp_path, hair):
+    """Finding 3: a hair BSDF mixed at 0.5 with a BSDF fed the map bakes the normal halfway
+    between the map's and the surface's (before: 3.7 degrees from it through
+    a Hair BSDF, 52.2 through a Principled Hair BSDF)."""
+    obj, mat, normal = _tilted_plane("ShaderNodeBsdfPrincipled")
+    tree = mat.node_tree
+    mix = tree.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = 0.5
+    tree.links.new(tree.nodes.new(hair).outputs[0], mix.inputs[1])
+    tree.links.new(tree.nodes["Principled BSDF"].outputs[0], mix.inputs[2])
+    tree.links.new(mix.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    before = material_dump(mat)
+    halfway = normal + np.array([0.0, 0.0, 1.0])
+    got = _baked_normals(obj, tmp_path / "n.exr")
+    assert _degrees_off(got, halfway / np.linalg.norm(halfway)) < 0.05
+    assert material_dump(mat) == before
 
 
 def _group(name, shader, normal_from):

@@ -9,7 +9,10 @@ map leans 60 degrees from the surface came out 8.3 degrees flatter, a Metallic o
 15.3, on 4.2 and 5.2 alike, exit 0 (tests/test_faults_assets44.py). A Diffuse closure's normal
 is the Normal input as given, but Cycles drops a closure of no weight: a Diffuse BSDF of black
 Color (or black texels of its Color) baked the surface's own normal, so it stands in too,
-white (tests/test_faults_bake_closures45.py). Freeze does the same for its stack (freeze.py).
+white (tests/test_faults_bake_closures45.py). A hair BSDF (on hair cards) stands in fed the
+surface's normal, which it is given: its own closure's normal is neither (mixed at 0.5 with a
+BSDF fed a map leaning 60 degrees, a Principled Hair BSDF baked 45 degrees from the map).
+Freeze does the same for its stack (freeze.py).
 
 A node group holding a BSDF (at any depth) is baked through a copy of it, stood in the same
 way, that its group node uses for the bake: other materials sharing the group are untouched
@@ -23,14 +26,18 @@ from contextlib import contextmanager
 NORMAL = "Normal"
 DIFFUSE = "ShaderNodeBsdfDiffuse"
 GROUP = "ShaderNodeGroup"
+HAIR = ("ShaderNodeBsdfHair", "ShaderNodeBsdfHairPrincipled")
 WHITE = (1.0, 1.0, 1.0, 1.0)
 
 
 def _stands_in(node):
-    """A BSDF node making a closure from a Normal input. A group node is not one, whatever
-    its sockets: its Normal input may be the base its own nodes bend (an SG stack inside),
-    which a stand-in fed that input would drop; its BSDFs stand in inside a copy."""
-    return (node.bl_idname != GROUP and not node.mute and NORMAL in node.inputs and
+    """A BSDF node making a closure from a Normal input, or a hair BSDF (no Normal input: on a
+    mesh its closure's normal is neither the surface's nor any given one). A group node is not
+    one, whatever its sockets: its Normal input may be the base its own nodes bend (an SG
+    stack inside), which a stand-in fed that input would drop; its BSDFs stand in inside a
+    copy."""
+    return (node.bl_idname != GROUP and not node.mute and
+            (NORMAL in node.inputs or node.bl_idname in HAIR) and
             any(o.type == "SHADER" for o in node.outputs))
 
 
@@ -57,7 +64,7 @@ def _stand_in(tree, made, swapped):
         diffuse.inputs["Color"].default_value = WHITE
         relinked = []
         made.append((tree, diffuse, relinked))
-        for link in node.inputs[NORMAL].links:
+        for link in node.inputs[NORMAL].links if NORMAL in node.inputs else ():
             if not link.is_muted:
                 tree.links.new(link.from_socket, diffuse.inputs[NORMAL])
         for link in list(out.links):
