@@ -80,6 +80,18 @@ def _baked_normals(obj, path):
     return px / np.linalg.norm(px, axis=-1, keepdims=True)
 
 
+def group_only(mat, group):
+    """Make `mat`'s tree render `group` alone (its first output into the Surface); return
+    its group node."""
+    tree = mat.node_tree
+    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        tree.nodes.remove(node)
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    return node
+
+
 @pytest.mark.parametrize("shader", ["ShaderNodeBsdfPrincipled", "ShaderNodeBsdfGlass"])
 def test_a_normal_map_bakes_as_given_through_any_bsdf(tmp_path, shader):
     """Finding 1: the plane's every texel is the tangent-space normal fed in (measured before:
@@ -133,12 +145,7 @@ def test_a_node_group_with_a_normal_input_is_not_stood_in(tmp_path):
     group.links.new(rgb.outputs[0], normal_map.inputs["Color"])
     group.links.new(normal_map.outputs[0], bsdf.inputs["Normal"])
     group.links.new(bsdf.outputs[0], group.nodes.new("NodeGroupOutput").inputs[0])
-    tree = mat.node_tree
-    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-        tree.nodes.remove(node)
-    node = tree.nodes.new("ShaderNodeGroup")
-    node.node_tree = group
-    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    group_only(mat, group)
     got = _baked_normals(obj, tmp_path / "n.exr")
     degrees = np.degrees(np.arccos(np.clip(got @ normal, -1.0, 1.0)))
     assert degrees.max() < 0.05, degrees.max()

@@ -28,7 +28,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from support.material_dump import material_dump  # noqa: E402
-from test_faults_assets44 import _baked_normals, _tilted_plane  # noqa: E402
+from test_faults_assets44 import _baked_normals, _tilted_plane, group_only  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -118,12 +118,7 @@ def test_a_bsdf_inside_a_node_group_bakes_the_normal_it_is_given(tmp_path):
     outer.links.new(principled.outputs[0], mix.inputs[1])
     outer.links.new(nested.outputs[0], mix.inputs[2])
     outer.links.new(mix.outputs[0], outer.nodes["Group Output"].inputs[0])
-    tree = mat.node_tree
-    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-        tree.nodes.remove(node)
-    node = tree.nodes.new("ShaderNodeGroup")
-    node.node_tree = outer
-    tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    node = group_only(mat, outer)
     other = mat.copy()
     before = (material_dump(mat), material_dump(other), sorted(bpy.data.node_groups.keys()),
               outer.users, inner.users, len(outer.nodes), len(inner.nodes))
