@@ -12,9 +12,10 @@ normal-map bake (bake-normal-map, bake-batch, api.bake_normal_map) makes of a ma
 2. A BSDF inside a node group (an asset library's shader group, a group of the artist's) was
    baked as it was: a normal map leaning 60 degrees through a Principled BSDF in a group came
    out 8.26 degrees flatter, through a Glass BSDF in a group 15.29 (5.2), the test's mix of
-   both (one group inside the other) 10.9 on 5.2 and 4.2 alike, exit 0. Now a group holding a BSDF at any depth is baked through a copy stood in the
-   same way, which its group node uses for the bake only; the group, its users, the other
-   materials sharing it and the material are as they were after.
+   both (one group inside the other) 10.9 on 5.2 and 4.2 alike, exit 0. Now a group holding
+   a BSDF at any depth is baked through a copy stood in the same way, which its group node
+   uses for the bake only; the group, its users, the other materials sharing it and the
+   material are as they were after.
 3. A hair BSDF (Hair, Principled Hair: no Normal input; on a mesh, hair cards) makes a closure
    whose bake normal is neither the surface's nor any map's: mixed at 0.5 with a Principled
    BSDF fed a map leaning 60 degrees, a Principled Hair BSDF baked 45.0 degrees from the map
