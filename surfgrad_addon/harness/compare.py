@@ -209,7 +209,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     if variant not in m.variants and len(m.variants) > 1:
         raise CompareError(f"method {method!r} has no variant {variant!r}; use one of "
                            f"{list(m.variants)}")
-    problem = scale_limits.small_object_problem(obj, method)     # before any image is made
+    problem = (scale_limits.small_object_problem(obj, method)   # before any image is made
+               or scale_limits.noise_reach_problem(obj, method))
     if problem:
         raise CompareError(problem)
     inp = prepare_inputs(obj, uv_map, image, variant)
