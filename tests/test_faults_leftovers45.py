@@ -8,15 +8,25 @@
    within 0.01). Now compare refuses, exit 2, before anything is made, naming the object's
    reach, the limit and the fixes, beyond harness/scale_limits.NOISE_REACH_LIMITS (measured on
    5.2, 5.0, 4.5 and 4.2: volume-noise 150 m, the layered stack 300 m).
+2. A face whose shading normal faces away from it at a corner (flipped custom normals; the
+   lizardman of castle-engine/demo-models, frozen: one texel 178.8 degrees off): Cycles shades
+   the back side there, so a tangent-space map does not render back as baked. compare leaves
+   those texels out and warns (a quad, one corner's custom normal flipped: 256 of 1024 texels
+   at 32^2, every line); bake-normal-map and Freeze said nothing (exit 0, FINISHED). Now both
+   warn, naming the faces and the fix (addon/facing_away.py, through bake_request.mesh_problems,
+   which freeze.check shares).
 """
 
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.harness import compare, scale_limits  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
 from support.compare_cli import compare_cli_refuses  # noqa: E402
-from support.small_objects import scaled_test_object  # noqa: E402
+from support.small_objects import bake_open_file, scaled_test_object  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -70,3 +80,51 @@ def test_a_mesh_beyond_the_noise_limit_is_refused_before_anything_is_made(tmp_pa
     assert scale_limits.noise_reach_problem(obj, "volume-noise-filtered") is None
     assert _compare(obj, "normal-map")["p99_deg"] <= P99
     assert compare_cli_refuses(tmp_path, "big.blend", "Sphere", "volume-noise")
+
+
+AWAY = ("1 face(s) of mesh 'Quads' of object 'Quads' (faces 1) have a shading normal facing "
+        "away from the face at a corner (normals flipped), where Cycles shades the back side: "
+        "the baked map does not render back as baked there. If that is not meant, recalculate "
+        "the normals (Mesh > Normals > Recalculate Outside) or fix the custom normals")
+
+
+def _quads_with_a_flipped_corner(flip=True):
+    """Two smooth unit quads, UVs side by side, a layer stack in their material; the first
+    corner of quad 1 has its custom normal flipped under the face (flip)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    verts = [(1.5 * k + x, y, 0.0) for k in range(2) for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
+    mesh = bpy.data.meshes.new("Quads")
+    mesh.from_pydata(verts, [], [[0, 1, 2, 3], [4, 5, 6, 7]])
+    uvs = [(0.05 + 0.5 * k + 0.4 * x, 0.1 + 0.8 * y) for k in range(2)
+           for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
+    mesh.uv_layers.new(name="UVMap").uv.foreach_set("vector", [c for uv in uvs for c in uv])
+    mesh.polygons.foreach_set("use_smooth", [True, True])
+    normals = [(0.0, 0.0, 1.0)] * 8
+    if flip:
+        normals[4] = (0.3, 0.0, -0.95)
+    mesh.normals_split_custom_set(normals)
+    mesh.update()
+    obj = bpy.data.objects.new("Quads", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    mat, tree, _ = diffuse_material("Rock")
+    O.add_layer_stack(tree)
+    mesh.materials.append(mat)
+    bpy.context.view_layer.update()
+    return obj
+
+
+def test_bake_and_freeze_warn_where_a_corner_normal_faces_away(tmp_path, capsys):
+    """Before: bake-normal-map exit 0 with no word, Freeze's checks no warning. Now both warn."""
+    obj = _quads_with_a_flipped_corner()
+    said = []
+    F.check(obj, 16, warn=said.append)
+    assert said == [AWAY]
+    report = _compare(obj, "normal-map")        # compare's own count of the texels it leaves out
+    assert report["excluded"]["backfacing"] > 0
+    rc, err, written = bake_open_file(tmp_path, capsys, "away", obj_name="Quads")
+    assert rc == 0 and written and f"warning: {AWAY}" in err
+    # the same quads with every normal up: no such warning
+    said = []
+    F.check(_quads_with_a_flipped_corner(flip=False), 16, warn=said.append)
+    assert said == []
