@@ -15,6 +15,10 @@
    at 32^2, every line); bake-normal-map and Freeze said nothing (exit 0, FINISHED). Now both
    warn, naming the faces and the fix (addon/facing_away.py, through bake_request.mesh_problems,
    which freeze.check shares).
+3. compare on a UV layout lying whole one tile off the UDIM grid (Khronos' DamagedHelmet as
+   imported: v -1..0): its refusal (exit 2) told the user to "move the islands into the UV
+   square (UV > Pack Islands)", which would undo stacked mirrored halves. Now it names the
+   whole tiles to move it by, as bake-normal-map does (normal_bake.whole_tile_move, shared).
 """
 
 import pytest
@@ -128,3 +132,17 @@ def test_bake_and_freeze_warn_where_a_corner_normal_faces_away(tmp_path, capsys)
     said = []
     F.check(_quads_with_a_flipped_corner(flip=False), 16, warn=said.append)
     assert said == []
+
+
+def test_compare_names_the_whole_tiles_for_a_layout_one_tile_off_the_grid():
+    from test_faults_assets44 import _plane_a_tile_below
+    obj = _plane_a_tile_below()
+    with pytest.raises(compare.CompareError) as err:
+        _compare(obj, "normal-map")
+    assert str(err.value) == (
+        "UV map 'UVMap' of 'Plane' puts nothing inside the bake target: its UVs span u 0..1, "
+        "v -1..0, with faces outside the UDIM tiles (u 0..10, v 0..100), so a bake fills the "
+        "0..1 square as a plain image does, and nothing lies there (a bake does not wrap); "
+        "move its UVs by whole tiles, +0 in u and +1 in v, into tile 1001 (UV > Transform > "
+        "Move; its islands stay as they are, and image textures set to Repeat read the same), "
+        "or ask for the UDIM tiles to compare (--tiles)")
