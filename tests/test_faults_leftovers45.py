@@ -19,6 +19,12 @@
    imported: v -1..0): its refusal (exit 2) told the user to "move the islands into the UV
    square (UV > Pack Islands)", which would undo stacked mirrored halves. Now it names the
    whole tiles to move it by, as bake-normal-map does (normal_bake.whole_tile_move, shared).
+4. `bake-batch --workers N` with a .blend removed (or renamed) between the scan and its bake:
+   the worker's open raised BlendOpenError, a ValueError, so the reply was kind "crash"
+   ("BlendOpenError: ... could not be opened (Cannot read file ...)") and the asset was
+   baked again in a fresh process, to fail the same way. Now it is an ordinary per-asset
+   failure (kind "input", not retried: workers retry only "crash") naming the file and that
+   it does not exist (open_blend.open_mainfile; batch/session.run_request).
 """
 
 import pytest
@@ -27,6 +33,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
+from surfgrad_addon.addon.batch import session  # noqa: E402
 from surfgrad_addon.harness import compare, scale_limits  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
 from support.compare_cli import compare_cli_refuses  # noqa: E402
@@ -146,3 +153,15 @@ def test_compare_names_the_whole_tiles_for_a_layout_one_tile_off_the_grid():
         "move its UVs by whole tiles, +0 in u and +1 in v, into tile 1001 (UV > Transform > "
         "Move; its islands stay as they are, and image textures set to Repeat read the same), "
         "or ask for the UDIM tiles to compare (--tiles)")
+
+
+def test_a_blend_removed_after_the_scan_fails_its_asset_without_a_retry(tmp_path):
+    """The worker's request as the batch sends it, for a file that is gone. Before: kind
+    "crash" (retried once). Now kind "input", naming the file."""
+    gone = tmp_path / "Rock.blend"
+    reply = session.run_request({"op": "bake", "id": 1, "blend": str(gone), "object": "Rock",
+                                 "output": str(tmp_path / "Rock.png"), "settings": {}})
+    assert reply["status"] == "error" and reply["kind"] == "input", reply
+    assert reply["error"] == (f".blend file {str(gone)!r} does not exist (removed or "
+                              f"renamed?): give a .blend file that exists")
+    assert list(tmp_path.iterdir()) == []
