@@ -32,10 +32,9 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import freeze as F  # noqa: E402
-from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.addon.batch import session  # noqa: E402
 from surfgrad_addon.harness import compare, scale_limits  # noqa: E402
-from support.materials import diffuse_material  # noqa: E402
+from test_faults_freeze44 import _quads  # noqa: E402
 from support.compare_cli import compare_cli_refuses  # noqa: E402
 from support.small_objects import bake_open_file, scaled_test_object  # noqa: E402
 
@@ -58,6 +57,13 @@ def _compare(obj, method):
     return compare.compare_object(obj, method, RES, log=None)[0]
 
 
+def _refusal(obj, method):
+    """compare's refusal of method on obj (CompareError's text)."""
+    with pytest.raises(compare.CompareError) as err:
+        _compare(obj, method)
+    return str(err.value)
+
+
 @pytest.mark.parametrize("method", sorted(scale_limits.NOISE_REACH_LIMITS))
 def test_unfiltered_noise_holds_at_its_reach_limit(method):
     """On every line: the sphere reaching just inside the limit is compared and agrees."""
@@ -77,9 +83,7 @@ def test_beyond_the_limit_the_bake_leaves_the_bar(monkeypatch):
 def test_a_mesh_beyond_the_noise_limit_is_refused_before_anything_is_made(tmp_path):
     obj = _big_mesh("Sphere", 1e3)
     images = len(bpy.data.images)
-    with pytest.raises(compare.CompareError) as err:
-        _compare(obj, "volume-noise")
-    assert str(err.value) == (
+    assert _refusal(obj, "volume-noise") == (
         "object 'Sphere' reaches 1000 m from its origin in object space: beyond 150 m, the "
         "unfiltered noise coordinates that volume-noise reads (object position x Scale) hold "
         "in Cycles' float32 only to a fraction of a noise cell (the bake and the float64 "
@@ -100,27 +104,18 @@ AWAY = ("1 face(s) of mesh 'Quads' of object 'Quads' (faces 1) have a shading no
 
 
 def _quads_with_a_flipped_corner(flip=True):
-    """Two smooth unit quads, UVs side by side, a layer stack in their material; the first
+    """Two smooth unit quads side by side in UV, a layer stack in their material; the first
     corner of quad 1 has its custom normal flipped under the face (flip)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    verts = [(1.5 * k + x, y, 0.0) for k in range(2) for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
-    mesh = bpy.data.meshes.new("Quads")
-    mesh.from_pydata(verts, [], [[0, 1, 2, 3], [4, 5, 6, 7]])
-    uvs = [(0.05 + 0.5 * k + 0.4 * x, 0.1 + 0.8 * y) for k in range(2)
-           for x, y in ((0, 0), (1, 0), (1, 1), (0, 1))]
-    mesh.uv_layers.new(name="UVMap").uv.foreach_set("vector", [c for uv in uvs for c in uv])
+    left = [(0.05, 0.1), (0.45, 0.1), (0.45, 0.9), (0.05, 0.9)]
+    obj, _ = _quads(None, [left, [(u + 0.5, v) for u, v in left]])
+    mesh = obj.data
     mesh.polygons.foreach_set("use_smooth", [True, True])
     normals = [(0.0, 0.0, 1.0)] * 8
     if flip:
         normals[4] = (0.3, 0.0, -0.95)
     mesh.normals_split_custom_set(normals)
     mesh.update()
-    obj = bpy.data.objects.new("Quads", mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    bpy.context.view_layer.objects.active = obj
-    mat, tree, _ = diffuse_material("Rock")
-    O.add_layer_stack(tree)
-    mesh.materials.append(mat)
     bpy.context.view_layer.update()
     return obj
 
@@ -144,9 +139,7 @@ def test_bake_and_freeze_warn_where_a_corner_normal_faces_away(tmp_path, capsys)
 def test_compare_names_the_whole_tiles_for_a_layout_one_tile_off_the_grid():
     from test_faults_assets44 import _plane_a_tile_below
     obj = _plane_a_tile_below()
-    with pytest.raises(compare.CompareError) as err:
-        _compare(obj, "normal-map")
-    assert str(err.value) == (
+    assert _refusal(obj, "normal-map") == (
         "UV map 'UVMap' of 'Plane' puts nothing inside the bake target: its UVs span u 0..1, "
         "v -1..0, with faces outside the UDIM tiles (u 0..10, v 0..100), so a bake fills the "
         "0..1 square as a plain image does, and nothing lies there (a bake does not wrap); "
