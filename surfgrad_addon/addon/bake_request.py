@@ -37,6 +37,7 @@ from . import unrealized_instances as UI
 from .bake_console import heartbeat
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
+from .facing_away import facing_away_warning
 from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
@@ -364,6 +365,8 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None, only=None):
                    f"stand-in: fix what wrote them (a Set Mesh Normal node, a script, an "
                    f"importer), or clear them (Object Data > Geometry Data > Clear Custom "
                    f"Split Normals Data)")
+    away = facing_away_warning(what, baked.facing_away_faces)
+    warnings += [away] if away else []
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     problem = IC.collapsed_mesh_problem(what, world, tris)
     if problem:

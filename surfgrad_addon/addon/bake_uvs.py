@@ -16,6 +16,7 @@ import numpy as np
 
 from ..reference import tiles as T
 from .bake_target import bake_target_problem
+from .facing_away import facing_away_triangles
 from .mesh_triangles import triangle_uvs, triangles
 from .read_once import ReadOnce
 from .unrealized_instances import read_instances
@@ -103,6 +104,7 @@ class BakedMesh:
     attribute_names: frozenset = frozenset()    # of the rendered mesh (UV maps among them)
     active_uv: str = None                   # its active UV map (tangent_uv.py)
     colour_attributes: tuple = ()           # its colour attributes' names
+    facing_away_faces: tuple = ()           # faces with a corner normal facing away (facing_away.py)
 
     @property
     def filled_slots(self):
@@ -146,7 +148,10 @@ def baked_mesh(obj):
                              int(np.count_nonzero(~np.isfinite(normals.reshape(-1, 3)).all(1))),
                              frozenset(a.name for a in mesh.attributes),
                              mesh.uv_layers.active.name if mesh.uv_layers.active else None,
-                             tuple(a.name for a in mesh.color_attributes))
+                             tuple(a.name for a in mesh.color_attributes),
+                             tuple(np.unique(faces[facing_away_triangles(
+                                 positions.reshape(-1, 3), tris.reshape(-1, 3),
+                                 normals.reshape(-1, 3)[loops].reshape(-1, 3, 3))]).tolist()))
         finally:
             evaluated.to_mesh_clear()
     return _meshes.get(obj.as_pointer(), lambda: read_as_baked(obj, read))

@@ -243,10 +243,8 @@ def unslotted_problem(obj, only):
 
 
 def no_tile_problem(obj_name, uv_map, uvs=None):
-    """Why a UV map whose faces lie in no UDIM tile bakes nothing, and the fix. A layout lying
-    whole in one square off the grid (a glTF's UVs offset by whole tiles, which its Repeat
-    textures wrap: Khronos' DamagedHelmet lies in v -1..0 here) is told the whole tiles to
-    move it by, which keeps its islands as they are (mirrored halves stacked included)."""
+    """Why a UV map whose faces lie in no UDIM tile bakes nothing, and the fix (whole_tile_move
+    where it lies whole in one square off the grid)."""
     text = f"UV map {uv_map!r} of object {obj_name!r} has no faces in any UDIM tile"
     fix = "move its islands into the 0-1 square (tile 1001) or onto UDIM tiles"
     uv = None if uvs is None else np.asarray(uvs, dtype=np.float64).reshape(-1, 2)
@@ -254,13 +252,27 @@ def no_tile_problem(obj_name, uv_map, uvs=None):
         lo, hi = uv.min(0), uv.max(0)
         text += (f" (its UVs span u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}; "
                  f"the tiles are {T.UDIM_SPAN})")
-        cell = np.floor(lo)
-        if (np.floor(hi - T.BORDER_EPS) == cell).all():
-            du, dv = (int(-c) for c in cell)
-            fix = (f"move its UVs by whole tiles, {du:+d} in u and {dv:+d} in v, into tile "
-                   f"{T.UDIM_FIRST} (UV > Transform > Move; its islands stay as they are, and "
-                   f"image textures set to Repeat read the same), or {fix}")
+        move = whole_tile_move(uv)
+        fix = f"{move}, or {fix}" if move else fix
     return f"{text}, so nothing would be baked: {fix}"
+
+
+def whole_tile_move(uvs):
+    """For UVs (..., 2) lying whole in one square off the UDIM grid (a glTF's UVs offset by
+    whole tiles, which its Repeat textures wrap: Khronos' DamagedHelmet lies in v -1..0 as
+    imported), the whole tiles that move them into tile 1001, which keeps the islands as they
+    are (mirrored halves stacked included; Pack Islands would undo that); else None."""
+    uv = np.asarray(uvs, dtype=np.float64).reshape(-1, 2)
+    if not len(uv) or not np.isfinite(uv).all():
+        return None
+    lo, hi = uv.min(0), uv.max(0)
+    cell = np.floor(lo)
+    if not (np.floor(hi - T.BORDER_EPS) == cell).all() or not cell.any():
+        return None
+    du, dv = (int(-c) for c in cell)
+    return (f"move its UVs by whole tiles, {du:+d} in u and {dv:+d} in v, into tile "
+            f"{T.UDIM_FIRST} (UV > Transform > Move; its islands stay as they are, and image "
+            f"textures set to Repeat read the same)")
 
 
 def plan_tiles(obj, output, uv_map=None, tiles=None, empty_tiles="error"):

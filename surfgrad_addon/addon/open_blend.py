@@ -18,7 +18,10 @@ def open_mainfile(path, load_ui=False):
     import bpy
     if Path(path).is_dir():
         raise BlendOpenError(f".blend file {str(path)!r} is a folder: give a .blend file")
-    if Path(path).exists() and not Path(path).is_file():     # a pipe would block the read
+    if not Path(path).exists():       # a batch's file removed or renamed after its scan
+        raise BlendOpenError(f".blend file {str(path)!r} does not exist (removed or renamed?): "
+                             f"give a .blend file that exists")
+    if not Path(path).is_file():     # a pipe would block the read
         raise BlendOpenError(f".blend file {str(path)!r} is not a regular file (a pipe or "
                              f"device?): give a .blend file")
     try:

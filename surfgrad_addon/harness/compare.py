@@ -40,7 +40,8 @@ from ..addon.image_channels import path_channel_problem, running_facts
 from ..addon import unrealized_instances as UI
 from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
                                   memory_problem)
-from ..addon.normal_bake import blend_relative_problem, cycles_problem, resolution_problem
+from ..addon.normal_bake import (blend_relative_problem, cycles_problem, resolution_problem,
+                                 whole_tile_move)
 from ..addon.object_names import missing_object_problem
 from ..addon.precise_bake import precise_far
 from ..reference import image_sampling as IS
@@ -209,7 +210,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     if variant not in m.variants and len(m.variants) > 1:
         raise CompareError(f"method {method!r} has no variant {variant!r}; use one of "
                            f"{list(m.variants)}")
-    problem = scale_limits.small_object_problem(obj, method)     # before any image is made
+    problem = (scale_limits.small_object_problem(obj, method)   # before any image is made
+               or scale_limits.noise_reach_problem(obj, method))
     if problem:
         raise CompareError(problem)
     inp = prepare_inputs(obj, uv_map, image, variant)
@@ -288,12 +290,15 @@ def target_tiles(mesh, uv_map, name, tiles=None):
     else:
         tiles, where = [R.tiles.UDIM_FIRST], "the 0..1 UV square (a plain image)"
         if R.tiles.UDIM_FIRST not in with_uvs:
+            move = whole_tile_move(uv)
+            fix = (f"{move}, or ask for the UDIM tiles to compare (--tiles)" if move else
+                   "move the islands into the UV square (UV > Pack Islands), onto UDIM tiles, "
+                   "or ask for the UDIM tiles to compare (--tiles)")
             raise CompareError(
                 f"UV map {uv_map!r} of {name!r} puts nothing inside the bake target: its UVs "
                 f"span {span}, with faces outside the UDIM tiles ({R.tiles.UDIM_SPAN}), so a bake "
                 f"fills the 0..1 square as a plain image does, and nothing lies there (a bake "
-                f"does not wrap); move the islands into the UV square (UV > Pack Islands), "
-                f"onto UDIM tiles, or ask for the UDIM tiles to compare (--tiles)")
+                f"does not wrap); {fix}")
     outside = np.unique(faces[R.tiles.triangles_outside(uv, tiles)])
     note = None
     if len(outside) and where:

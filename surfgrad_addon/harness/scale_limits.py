@@ -137,3 +137,42 @@ def small_object_problem(obj, method):
             f"Cycles' float32 derivatives that {method} bakes from lose precision (the bake "
             f"and the float64 reference then differ by degrees, not by the group), so it is "
             f"not compared; {fix} and compare again")
+
+
+# The reach (metres from the object's origin, in object space) beyond which compare refuses a
+# method whose SG Noise reads the object coordinates unfiltered: each octave's coordinate
+# (object position x Scale x its frequency) holds in Cycles' float32 only to a fraction of a
+# noise cell there (red team 45b). p99 / max deg at 16^2, the test sphere's mesh (radius 1)
+# scaled, the torus's (reach 1.4) in brackets, 5.2, 5.0, 4.5 and 4.2 within 0.01: volume-noise
+# at 100 0.061 / 0.083 (0.075 / 0.148), 150 0.088 / 0.097 (0.084 / 0.12), 200 0.12 / 0.14
+# (0.14 / 0.18), 1e3 0.60 / 0.80; the layered stack (its noise's amount smaller) 300 0.044 /
+# 0.059 (0.062 / 0.149), 1e3 0.21 / 0.32 (5.2). The filtered noise fades those octaves out
+# and agrees (3e4 m: p99 2e-5).
+NOISE_REACH_LIMITS = {"volume-noise": 150.0, "layered": 300.0}
+
+
+def object_reach(obj):
+    """The farthest corner of obj's bounding box from its origin, in object space (metres)."""
+    box = np.array([tuple(c) for c in obj.bound_box], dtype=np.float64)
+    return float(np.abs(box).max()) if box.size else 0.0
+
+
+def noise_reach_problem(obj, method):
+    """Why method cannot be compared on obj because its unfiltered noise coordinates are too
+    large for Cycles' float32, else None."""
+    limit = NOISE_REACH_LIMITS.get(method)
+    if limit is None:
+        return None
+    reach = object_reach(obj)
+    if not reach > limit:
+        return None
+    factor = 10.0 ** np.ceil(np.log10(reach / limit) - 1e-3)
+    fix = ("compare --method volume-noise-filtered (its Filter Footprint fades those octaves "
+           "out and holds)" if method == "volume-noise" else
+           "compare --method volume-noise-filtered for the noise alone")
+    return (f"object {obj.name!r} reaches {reach:.4g} m from its origin in object space: "
+            f"beyond {limit:g} m, the unfiltered noise coordinates that {method} reads "
+            f"(object position x Scale) hold in Cycles' float32 only to a fraction of a noise "
+            f"cell (the bake and the float64 reference then differ by float32, not by the "
+            f"group), so it is not compared; scale its mesh down by {factor:.0f} or more about "
+            f"its origin (Edit Mode), or {fix}")

@@ -15,6 +15,7 @@ from ..image_checks import data_key, image_problems
 from ..input_stamps import read_files
 from ..material_inputs import missing_library_problem
 from ..object_names import missing_object_problem
+from ..open_blend import BlendOpenError
 from .. import normal_bake as NB
 from .. import utf8_names
 
@@ -185,7 +186,7 @@ def run_request(request, log=lambda *_: None, before_publish=None):
                           "warnings": res["warnings"], "bake_s": res["bake_s"],
                           "save_s": res["save_s"], "dependencies": dependencies_of_open_file()})
         reply["status"] = "ok"
-    except NB.NormalBakeError as err:
+    except (NB.NormalBakeError, BlendOpenError) as err:     # the same in a fresh process
         reply.update(status="error", kind="input", error=str(err))
     except MapNotWritten as err:                # a full disk: the same in a fresh process
         reply.update(status="error", kind="output", error=str(err))
