@@ -7,6 +7,11 @@ out negative the resolved normal turned over (on the unit sphere: a height image
 a maximum of 180 degrees off the float64 reference, times 1e8 a mean of 69 degrees, 156 of 512
 texels facing away from the surface where the truth does not; every line). The floor on nb . N
 keeps g along nb, as the truth is.
+
+What the floor cannot give back: the Bump node's normal is a unit vector, so past slopes of about
+1e7 it no longer carries the slope's size, and where such heights meet a tiny Bump Scale (1e-6
+and less) the result is flatter than the truth (docs/proof.md, "Stability"); it still never
+faces away from the surface where the truth does not.
 """
 
 import numpy as np
@@ -61,3 +66,10 @@ def test_steep_heights_never_turn_the_normal_over(gain, bump_scale):
     assert r["faces_away_where_truth_does_not"] == 0
     assert r["max_deg"] < 0.05, r["max_deg"]
     assert np.isfinite(r["mean_deg"]) and r["mean_deg"] < 0.01
+
+
+def test_steep_heights_with_a_tiny_bump_scale_are_flatter_but_never_turned_over():
+    r = _compare(1e10, 1e-8)
+    assert r["finite_unit_fraction_all"] == 1.0
+    assert r["faces_away_where_truth_does_not"] == 0
+    assert r["mean_deg"] > 1.0          # the documented limit: the size of the slope is lost
