@@ -50,6 +50,7 @@ from .material_uv_maps import read_uv_map_problems
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import colour_space_warnings, normal_map_warnings
 from .object_names import missing_object_problem
+from .object_space_scale import object_space_scale_problem
 from .parallax_heights import parallax_height_warnings
 from .small_objects import small_object_messages
 
@@ -236,6 +237,9 @@ def _check(request, obj, warn):
         raise BakeRequestError(_only_instances(obj) or [str(err)]) from None
     problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution)
     baked = baked_mesh(obj)
+    if request.space == "object":        # Blender writes it bent under an uneven scale
+        problem = object_space_scale_problem(obj, baked.matrix)
+        problems += [problem] if problem else []
     more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
                                        uv_map, tiles, request.resolution, request.allow_partial)
     problems += more
