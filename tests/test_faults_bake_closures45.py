@@ -21,6 +21,10 @@ normal-map bake (bake-normal-map, bake-batch, api.bake_normal_map) makes of a ma
    BSDF fed a map leaning 60 degrees, a Principled Hair BSDF baked 45.0 degrees from the map
    and 52.2 from the factor's mix (the map and the surface's normal halfway; a Hair BSDF 3.7),
    on 5.2 and 4.2 alike. Now it stands in as a white Diffuse BSDF fed the surface's normal.
+4. (Coordinator, on merging.) A BSDF in a material that only a Geometry Nodes Set Material
+   gives the object (the checks read such materials since round 42c) had no stand-in: a
+   Principled BSDF fed the map leaning 60 degrees baked 8.3 degrees flatter there, exit 0,
+   where the same material in a slot bakes the map. Now its BSDFs stand in as a slot's do.
 """
 
 import numpy as np
@@ -28,6 +32,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from support.geometry_nodes import geometry_group  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
 from test_faults_assets44 import _baked_normals, _tilted_plane, group_only  # noqa: E402
 
@@ -128,3 +133,23 @@ def test_a_bsdf_inside_a_node_group_bakes_the_normal_it_is_given(tmp_path):
              outer.users, inner.users, len(outer.nodes), len(inner.nodes))
     assert after == before
     assert node.node_tree == outer and nested.node_tree == inner
+
+
+def test_a_bsdf_a_set_material_gives_bakes_the_normal_it_is_given(tmp_path):
+    """Finding 4: the plane's slot holds a plain material, a Set Material node gives every face
+    the Principled BSDF fed the map: every texel is the map's normal (before: 8.3 degrees
+    flatter), and the material is as it was after."""
+    obj, mat, normal = _tilted_plane("ShaderNodeBsdfPrincipled")
+    obj.data.materials.clear()
+    slot = bpy.data.materials.new("Slot")
+    slot.use_nodes = True                   # (4.2 and 4.5 make a material without a tree)
+    obj.data.materials.append(slot)
+    tree, group_in, group_out = geometry_group("Set Material")
+    set_material = tree.nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = mat
+    tree.links.new(group_in.outputs[0], set_material.inputs["Geometry"])
+    tree.links.new(set_material.outputs[0], group_out.inputs[0])
+    obj.modifiers.new("GeometryNodes", "NODES").node_group = tree
+    before = material_dump(mat)
+    assert _degrees_off(_baked_normals(obj, tmp_path / "n.exr"), normal) < 0.05
+    assert material_dump(mat) == before

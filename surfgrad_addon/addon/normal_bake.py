@@ -39,7 +39,7 @@ from .bake_uvs import (baked_mesh, baked_uv_tiles, long_name_problem,  # noqa: F
                        not_rendered_problem, one_read, rendered_materials, uv_active,
                        uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
-from .linked_materials import local_copies
+from .linked_materials import is_linked, local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
 from .tangent_uv import tangents_of
@@ -242,6 +242,15 @@ def unslotted_problem(obj, only):
             f"UVs overlap; add them to the object's material slots (Material Properties > +)")
 
 
+def _stand_in_trees(obj, materials):
+    """The trees whose BSDFs stand in for the bake (bake_closures.py): the slots' materials and
+    those a Geometry Nodes Set Material gives the object (Cycles bakes their faces too; a
+    linked one, which cannot be edited, is left as it is)."""
+    added = [m for m in rendered_materials(obj) if m not in materials and
+             m.node_tree is not None and not is_linked(m)]
+    return [m.node_tree for m in materials + added]
+
+
 def no_tile_problem(obj_name, uv_map, uvs=None):
     """Why a UV map whose faces lie in no UDIM tile bakes nothing, and the fix (whole_tile_move
     where it lies whole in one square off the grid)."""
@@ -442,7 +451,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 own_materials(bpy.context.view_layer), \
-                diffuse_stand_ins(mat.node_tree for mat in materials), \
+                diffuse_stand_ins(_stand_in_trees(obj, materials)), \
                 tangents_of(obj, uv_map, space), \
                 precise_far(obj, log):           # far out: as precise as at the origin
             mesh = obj.data         # either may stand a copy of the render mesh in for it
