@@ -18,6 +18,14 @@ A node group holding a BSDF (at any depth) is baked through a copy of it, stood 
 way, that its group node uses for the bake: other materials sharing the group are untouched
 (before, a Principled BSDF inside a group baked 8.3 degrees flat, a Glass one 15.3). Only
 nodes that render: a muted BSDF or group, and links that are muted, stay as they are.
+
+A closure with no normal of its own (Transparent BSDF, Holdout, Ray Portal BSDF) is unlinked
+for the bake: added to a BSDF (an Add Shader), a Transparent BSDF or a Holdout made Cycles bake
+a zero vector (grey 0.5, not a unit normal) in every texel, with exit 0, where the BSDF renders
+its map; so did a Ray Portal on 5.2, and mixed with the BSDF at 0.5 (on 4.2 added too) it
+pulled the map halfway to the surface's normal, 30 degrees off
+(tests/test_faults_bake_closures47.py). Unlinked, it makes no closure: the other closures'
+normals are baked, or the surface's where there are none.
 Everything is put back on exit, also when the bake fails.
 """
 
@@ -28,6 +36,7 @@ DIFFUSE = "ShaderNodeBsdfDiffuse"
 GROUP = "ShaderNodeGroup"
 HAIR = ("ShaderNodeBsdfHair", "ShaderNodeBsdfHairPrincipled")
 WHITE = (1.0, 1.0, 1.0, 1.0)
+NO_NORMAL = ("ShaderNodeBsdfTransparent", "ShaderNodeHoldout", "ShaderNodeBsdfRayPortal")
 
 
 def _stands_in(node):
@@ -41,13 +50,19 @@ def _stands_in(node):
             any(o.type == "SHADER" for o in node.outputs))
 
 
-def _holds_bsdf(tree):
-    return any(_stands_in(n) or _group_with_bsdf(n) for n in tree.nodes)
+def _unlinked(node):
+    """A closure with no normal of its own, unlinked for the bake."""
+    return node.bl_idname in NO_NORMAL and not node.mute
+
+
+def holds_stand_ins(tree):
+    """The tree, or a group it uses, has a node that stands in or is unlinked for the bake."""
+    return any(_stands_in(n) or _unlinked(n) or _group_with_bsdf(n) for n in tree.nodes)
 
 
 def _group_with_bsdf(node):
     return (node.bl_idname == GROUP and not node.mute and node.node_tree is not None and
-            _holds_bsdf(node.node_tree))
+            holds_stand_ins(node.node_tree))
 
 
 def _stand_in(tree, made, swapped):
@@ -56,6 +71,12 @@ def _stand_in(tree, made, swapped):
         swapped.append((node, node.node_tree, copy))
         node.node_tree = copy
         _stand_in(copy, made, swapped)
+    for node in [n for n in tree.nodes if _unlinked(n)]:
+        out = next(o for o in node.outputs if o.type == "SHADER")
+        relinked = [(out, link.to_socket, link.is_muted) for link in out.links]
+        made.append((tree, None, relinked))
+        for link in list(out.links):
+            tree.links.remove(link)
     for node in [n for n in tree.nodes if _stands_in(n)]:
         out = next(o for o in node.outputs if o.type == "SHADER")
         if not out.links:
@@ -77,8 +98,8 @@ def _stand_in(tree, made, swapped):
 def diffuse_stand_ins(trees):
     """For the duration: in each tree (and in copies of the groups it uses), every BSDF's links
     out come from a white Diffuse BSDF fed its Normal (the same link, or the shading normal
-    where it has none)."""
-    made = []           # (tree, diffuse, [(bsdf output, to_socket, muted)])
+    where it has none), and every closure with no normal of its own has no links out."""
+    made = []           # (tree, diffuse or None, [(closure output, to_socket, muted)])
     swapped = []        # (group node, its group, the copy it uses for the bake)
     try:
         for tree in dict.fromkeys(trees):
@@ -88,7 +109,8 @@ def diffuse_stand_ins(trees):
         for tree, diffuse, relinked in reversed(made):
             for out, to, muted in relinked:
                 tree.links.new(out, to).is_muted = muted
-            tree.nodes.remove(diffuse)
+            if diffuse is not None:
+                tree.nodes.remove(diffuse)
         if swapped:
             import bpy
             for node, group, copy in reversed(swapped):

@@ -25,13 +25,14 @@ overwrite.
 import os
 import re
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
 from ..reference import tiles as T
 from . import interrupts
-from .bake_closures import diffuse_stand_ins
+from .bake_closures import diffuse_stand_ins, holds_stand_ins
 from .bake_console import heartbeat, quiet_bake
 from .bake_target import (bake_target_problem, object_not_a_mesh, own_materials,
                           visible_for_bake)
@@ -39,7 +40,8 @@ from .bake_uvs import (baked_mesh, baked_uv_tiles, long_name_problem,  # noqa: F
                        not_rendered_problem, one_read, rendered_materials, uv_active,
                        uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
-from .linked_materials import is_linked, local_copies
+from .linked_materials import (is_linked, linked_user_problem, local_copies,
+                               remapped_copies)
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
 from .tangent_uv import tangents_of
@@ -242,13 +244,17 @@ def unslotted_problem(obj, only):
             f"UVs overlap; add them to the object's material slots (Material Properties > +)")
 
 
-def _stand_in_trees(obj, materials):
-    """The trees whose BSDFs stand in for the bake (bake_closures.py): the slots' materials and
-    those a Geometry Nodes Set Material gives the object (Cycles bakes their faces too; a
-    linked one, which cannot be edited, is left as it is)."""
+@contextmanager
+def _stand_ins(obj, materials):
+    """For the bake, the BSDFs of the slots' materials and of those a Geometry Nodes Set
+    Material gives the object (Cycles bakes their faces too) stand in (bake_closures.py); a
+    linked one, which cannot be edited, through a local copy its users use meanwhile."""
     added = [m for m in rendered_materials(obj) if m not in materials and
-             m.node_tree is not None and not is_linked(m)]
-    return [m.node_tree for m in materials + added]
+             m.node_tree is not None]
+    with remapped_copies([m for m in added if is_linked(m)]) as copies, \
+            diffuse_stand_ins([m.node_tree for m in materials + copies + added
+                               if not is_linked(m)]):
+        yield
 
 
 def no_tile_problem(obj_name, uv_map, uvs=None):
@@ -424,6 +430,11 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
     problem = only is not None and unslotted_problem(obj, only)
     if problem:
         raise NormalBakeError(problem)
+    problem = linked_user_problem(obj, [m for m in rendered_materials(obj) if is_linked(m) and
+                                        m.node_tree is not None and
+                                        holds_stand_ins(m.node_tree)])
+    if problem:
+        raise NormalBakeError(problem)
     fmt, _, _ = FORMATS[output.suffix.lower()]
     is_float = depth != "8"
     scene = bpy.context.scene
@@ -451,7 +462,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 own_materials(bpy.context.view_layer), \
-                diffuse_stand_ins(_stand_in_trees(obj, materials)), \
+                _stand_ins(obj, materials), \
                 tangents_of(obj, uv_map, space), \
                 precise_far(obj, log):           # far out: as precise as at the origin
             mesh = obj.data         # either may stand a copy of the render mesh in for it
