@@ -15,6 +15,10 @@ makes of a material's shaders, after the Diffuse stand-ins of rounds 44 and 45
    one too) the node, the material, its users and the file's materials are as they were.
    Where a linked node group gives it, which cannot be pointed at a copy, the bake is refused
    naming the group and the fix (make it local), and nothing is written.
+3. A Principled BSDF with a coat (Coat Weight 1) whose Coat Normal is not its Normal (unlinked:
+   the surface's) renders the coat with that normal; the map holds its Normal (Cycles' own
+   bake had averaged them: 27.9 degrees off the map), with no word of it. Now the bake warns,
+   naming the material and the node (on stderr, in the API's and the batch's warnings).
 """
 
 import numpy as np
@@ -124,3 +128,19 @@ def test_a_linked_material_a_linked_group_gives_is_refused(tmp_path):
         _baked_normals(obj, tmp_path / "n.exr")
     assert _state(linked, tree) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["library.blend"]
+
+
+def test_a_coat_fed_another_normal_is_warned_of(tmp_path, capsys):
+    """Finding 3: the map is the Normal, and a warning names the node; fed the same normal
+    the coat is not warned of."""
+    obj, mat, normal = _tilted_plane("ShaderNodeBsdfPrincipled")
+    tree = mat.node_tree
+    principled = tree.nodes["Principled BSDF"]
+    principled.inputs["Coat Weight"].default_value = 1.0
+    capsys.readouterr()
+    assert _degrees_off(_baked_normals(obj, tmp_path / "n.exr"), normal) < 0.05
+    warned = "material 'Imported': Principled BSDF 'Principled BSDF' has a coat"
+    assert warned in capsys.readouterr().err
+    tree.links.new(tree.nodes["Normal Map"].outputs[0], principled.inputs["Coat Normal"])
+    assert _degrees_off(_baked_normals(obj, tmp_path / "same.exr"), normal) < 0.05
+    assert "has a coat" not in capsys.readouterr().err

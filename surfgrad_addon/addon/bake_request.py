@@ -34,6 +34,7 @@ from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from . import input_stamps
 from . import unrealized_instances as UI
+from .bake_closures import coat_normal_warnings
 from .bake_console import heartbeat
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
@@ -43,8 +44,8 @@ from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
 from .header_reads import one_header_read
-from .image_checks import (image_problems, muted_output_warnings, one_tile_write,
-                           output_input_problems)
+from .image_checks import (checked_materials, image_problems, muted_output_warnings,
+                           one_tile_write, output_input_problems)
 from .image_memory import images_memory
 from .material_uv_maps import read_uv_map_problems
 from .memory_limit import bake_memory_problem
@@ -267,6 +268,7 @@ def _check(request, obj, warn):
     problem = bake_memory_problem(request.resolution, len(tiles), images_memory(obj, tiles))
     problems += [problem] if problem else image_problems(obj, tiles)   # (its tiles)
     warnings += colour_space_warnings(obj) + muted_output_warnings(obj)
+    warnings += coat_normal_warnings(checked_materials(obj))     # the map holds the Normal
     if not problem:
         warnings += normal_map_warnings(obj, covered=tiles)     # grey files, -1..1 floats
         warnings += parallax_height_warnings(obj, covered=tiles)
