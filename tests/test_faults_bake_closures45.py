@@ -32,7 +32,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from support.geometry_nodes import geometry_group  # noqa: E402
+from support.geometry_nodes import set_material_group  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
 from test_faults_assets44 import _baked_normals, _tilted_plane, group_only  # noqa: E402
 
@@ -144,12 +144,7 @@ def test_a_bsdf_a_set_material_gives_bakes_the_normal_it_is_given(tmp_path):
     slot = bpy.data.materials.new("Slot")
     slot.use_nodes = True                   # (4.2 and 4.5 make a material without a tree)
     obj.data.materials.append(slot)
-    tree, group_in, group_out = geometry_group("Set Material")
-    set_material = tree.nodes.new("GeometryNodeSetMaterial")
-    set_material.inputs["Material"].default_value = mat
-    tree.links.new(group_in.outputs[0], set_material.inputs["Geometry"])
-    tree.links.new(set_material.outputs[0], group_out.inputs[0])
-    obj.modifiers.new("GeometryNodes", "NODES").node_group = tree
+    obj.modifiers.new("GeometryNodes", "NODES").node_group = set_material_group(mat)
     before = material_dump(mat)
     assert _degrees_off(_baked_normals(obj, tmp_path / "n.exr"), normal) < 0.05
     assert material_dump(mat) == before

@@ -28,7 +28,7 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import normal_bake  # noqa: E402
 from surfgrad_addon.addon.exit_codes import BakeFailed  # noqa: E402
-from support.geometry_nodes import geometry_group  # noqa: E402
+from support.geometry_nodes import set_material_group  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
 from test_faults_assets44 import _baked_normals, _tilted_plane  # noqa: E402
 
@@ -62,11 +62,7 @@ def _linked_set_material(tmp_path, linked_group):
     Geometry Nodes group)."""
     _, mat, normal = _tilted_plane("ShaderNodeBsdfPrincipled")
     mat.name = name = "Library Material"
-    tree, group_in, group_out = geometry_group("Set Material")
-    set_material = tree.nodes.new("GeometryNodeSetMaterial")
-    set_material.inputs["Material"].default_value = mat
-    tree.links.new(group_in.outputs[0], set_material.inputs["Geometry"])
-    tree.links.new(set_material.outputs[0], group_out.inputs[0])
+    tree = set_material_group(mat)
     group_name = tree.name
     library = str(tmp_path / "library.blend")
     bpy.data.libraries.write(library, {mat, tree}, fake_user=True)
@@ -80,14 +76,7 @@ def _linked_set_material(tmp_path, linked_group):
     slot = bpy.data.materials.new("Slot")
     slot.use_nodes = True                   # (4.2 and 4.5 make a material without a tree)
     obj.data.materials.append(slot)
-    if linked_group:
-        tree = bpy.data.node_groups[group_name]
-    else:
-        tree, group_in, group_out = geometry_group("Set Material")
-        set_material = tree.nodes.new("GeometryNodeSetMaterial")
-        set_material.inputs["Material"].default_value = linked
-        tree.links.new(group_in.outputs[0], set_material.inputs["Geometry"])
-        tree.links.new(set_material.outputs[0], group_out.inputs[0])
+    tree = bpy.data.node_groups[group_name] if linked_group else set_material_group(linked)
     obj.modifiers.new("GeometryNodes", "NODES").node_group = tree
     return obj, linked, normal, tree
 
