@@ -10,12 +10,12 @@ in a live session). A command stopped by a signal ends the process without savin
 so the .blend on disk is never touched.
 
 A linked material that only a Geometry Nodes Set Material gives the object (no slot holds it)
-bakes through a local copy too: for the bake every local user of it (the Set Material node, a
-modifier's Material input) uses the copy (ID.user_remap), whose BSDFs then stand in as a
-slot's do (bake_closures.py); before, it baked as it was, a Principled BSDF's map 8.3 degrees
-flat with exit 0 (tests/test_faults_bake_closures47.py). Every user gets it back after. Linked
-data keeps what it uses, so where a linked node group of the object's modifiers gives such a
-material with a BSDF, the bake is refused, naming the group and the fix (make it local).
+bakes through a local copy too: for the bake every local user of it (the Set Material node)
+uses the copy (ID.user_remap), whose BSDFs then stand in as a slot's do (bake_closures.py);
+before, it baked as it was, a Principled BSDF's map 8.3 degrees flat with exit 0
+(tests/test_faults_bake_closures47.py). Every user gets it back after. Linked data keeps what
+it uses, so where a linked node group of the object's modifiers gives such a material with a
+BSDF, the bake is refused, naming the group and the fix (make it local).
 
 A missing library is refused before (material_inputs.missing_library_problem); a library override is
 local data and bakes as it is. A slot of a linked object or mesh cannot be reassigned: the

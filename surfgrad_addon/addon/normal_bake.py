@@ -251,8 +251,9 @@ def _stand_ins(obj, materials):
     linked one, which cannot be edited, through a local copy its users use meanwhile."""
     added = [m for m in rendered_materials(obj) if m not in materials and
              m.node_tree is not None]
-    with remapped_copies([m for m in added if is_linked(m)]) as copies, \
-            diffuse_stand_ins([m.node_tree for m in materials + copies + added
+    with remapped_copies([m for m in added if is_linked(m) and
+                          holds_stand_ins(m.node_tree)]) as copies, \
+            diffuse_stand_ins([m.node_tree for m in materials + added + copies
                                if not is_linked(m)]):
         yield
 
