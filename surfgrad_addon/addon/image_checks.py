@@ -215,11 +215,13 @@ def sequence_file(image, node):
                                                           bpy.context.scene.frame_current))
 
 
-def texture_feeding(socket, outer=()):
-    """The Image Texture node whose output reaches `socket` (through reroutes, and out of the
+def textures_feeding(socket, outer=(), through=()):
+    """The Image Texture nodes whose output reaches `socket` (through reroutes, out of the
     node groups `outer`, the group nodes `socket` lies in, outermost first, through their
-    inputs), or None. Through links Cycles follows: a muted one leaves the socket its value;
-    a muted node passes on only the input its internal link names (an Image Texture none)."""
+    inputs, and through every linked input of a node whose bl_idname is in `through`).
+    Through links Cycles follows: a muted one leaves the socket its value; a muted node passes
+    on only the input its internal link names (an Image Texture none)."""
+    found = []
     while socket is not None and (links := MI.live_links(socket)):
         link = links[0]
         source = link.from_node
@@ -232,9 +234,15 @@ def texture_feeding(socket, outer=()):
             socket = next((s for s in outer[-1].inputs
                            if s.identifier == link.from_socket.identifier), None)
             outer = outer[:-1]
+        elif source.bl_idname in through:
+            for tex in (t for s in source.inputs if s.enabled
+                        for t in textures_feeding(s, outer, through)):
+                if tex not in found:
+                    found.append(tex)
+            return found
         else:
-            return source if source.bl_idname == "ShaderNodeTexImage" else None
-    return None
+            return [source] if source.bl_idname == "ShaderNodeTexImage" else []
+    return found
 
 
 def sampler_textures(socket):

@@ -1,0 +1,117 @@
+"""Red team 47b: leftovers earlier rounds noticed and did not probe.
+
+1. A normal map's image reaching the Normal Map node (or an SG normal-map group) through
+   Vector Math (USD's and some glTF imports' scale and bias: Image > Multiply Add > Normal
+   Map): read as sRGB it bends every normal as it does wired straight in, but the colour-space
+   warning's walk back to the image (image_checks.texture_feeding) stopped at the Vector Math
+   node, so bake-normal-map, bake-batch, the API and Freeze baked the bent map with exit 0 and
+   no word, on every line. Now the colour-space warning follows Vector Math nodes' inputs
+   (normal_map_checks.COLOUR_MATH); the file checks (channels, -1..1 range) do not, as math
+   may remap a map's range on purpose. `compare` reads no user material (its own graph, its
+   --image as data): nothing to warn there.
+2. Freeze checks the images its stack reads, then (a modal run: the artist may save over a
+   texture meanwhile) bakes; Cycles loads the files anew. A file removed between the check and
+   the bake baked Cycles' magenta into every texel (a 32^2 freeze: 1024 of 1024 texels off,
+   up to 0.77 in a channel), one rewritten baked pixels no check saw; both were wired in and
+   reported as frozen. bake-normal-map stamps the files and compares after its bake
+   (input_stamps.py); now Freeze does too and refuses, the material and the folder as they
+   were.
+"""
+
+import os
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon.normal_map_checks import colour_space_warnings  # noqa: E402
+from support.freeze_scene import layered_material  # noqa: E402
+from support.material_dump import material_dump  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
+from test_faults_materials39 import _cycles_plane  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+
+def test_an_srgb_normal_map_read_through_vector_math_is_warned_about():
+    obj = _cycles_plane()
+    mat, _, bsdf = diffuse_material("Imported")
+    obj.data.materials.append(mat)
+    tree = mat.node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.new("Bumps", 4, 4)            # sRGB: a warned slip
+    scale_bias = tree.nodes.new("ShaderNodeVectorMath")
+    scale_bias.operation = "MULTIPLY_ADD"
+    scale_bias.inputs[1].default_value = (1.0, 1.0, 1.0)
+    scale_bias.inputs[2].default_value = (0.0, 0.0, 0.0)
+    nmap = tree.nodes.new("ShaderNodeNormalMap")
+    tree.links.new(tex.outputs["Color"], scale_bias.inputs[0])
+    tree.links.new(scale_bias.outputs[0], nmap.inputs["Color"])
+    tree.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
+    said = "image 'Bumps' is read in colour space 'sRGB' by Normal Map node 'Normal Map'"
+    (warning,) = colour_space_warnings(obj)
+    assert said in warning, warning
+    assert sum(said in w for w in F.freeze_warnings(obj, mat)) == 1
+    # The image as the scale's input (Scale and Multiply: any linked input of the math).
+    tree.links.new(tex.outputs["Color"], scale_bias.inputs[1])
+    scale_bias.inputs[0].default_value = (1.0, 1.0, 1.0)
+    tree.links.remove(scale_bias.inputs[0].links[0])
+    assert [said in w for w in colour_space_warnings(obj)] == [True]
+    tex.image.colorspace_settings.is_data = True
+    assert colour_space_warnings(obj) == []
+
+
+def _stack_reading_a_file(folder):
+    """A plane whose layered stack reads its normal map from an EXR file in `folder`, not
+    loaded (Cycles loads it at the bake, as after reopening the file)."""
+    obj = _cycles_plane()
+    obj.data.uv_layers[0].name = "UVMap"
+    mat, _ = layered_material(obj)
+    tex = next(n for n in mat.node_tree.nodes if n.bl_idname == "ShaderNodeTexImage")
+    packed = tex.image
+    packed.filepath_raw = str(folder / "source.exr")
+    packed.file_format = "OPEN_EXR"
+    packed.save()
+    tex.image = bpy.data.images.load(str(folder / "source.exr"))
+    tex.image.colorspace_settings.is_data = True
+    bpy.data.images.remove(packed)
+    return obj, mat
+
+
+@pytest.mark.parametrize("change", ["removed", "rewritten"])
+def test_freeze_refuses_an_input_file_changed_between_its_check_and_its_bake(change, tmp_path):
+    obj, mat = _stack_reading_a_file(tmp_path)
+    source = tmp_path / "source.exr"
+    before = material_dump(mat)
+    steps = F.freeze_steps(obj, 16, filepath=str(tmp_path / "frozen.png"))
+    assert next(steps) == "checked"
+    if change == "removed":
+        os.remove(source)
+    else:                     # another map saved over it (a new file: size, time, inode)
+        flat = bpy.data.images.new("flat", 8, 8, float_buffer=True)
+        flat.filepath_raw = str(tmp_path / "new.exr")
+        flat.file_format = "OPEN_EXR"
+        flat.save()
+        bpy.data.images.remove(flat)
+        os.replace(tmp_path / "new.exr", source)
+    with pytest.raises(F.FreezeError) as err:
+        next(steps)
+    assert f"image file {str(source)!r} changed while it was baked" in str(err.value)
+    assert "freeze again" in str(err.value)
+    assert material_dump(mat) == before
+    assert F.RECORD not in mat
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == ([] if change == "removed" else ["source.exr"]), left
+
+
+def test_freeze_of_a_stack_reading_an_unchanged_file_is_frozen(tmp_path):
+    """The stamps of a file left alone match: the freeze goes through, its map the file's."""
+    obj, mat = _stack_reading_a_file(tmp_path)
+    record = F.freeze(obj, 16, filepath=str(tmp_path / "frozen.png"))
+    assert record["file"] == str(tmp_path / "frozen.png")
+    frozen = bpy.data.images[record["image"]]
+    px = np.array(frozen.pixels[:]).reshape(-1, 4)[:, :3] * 2 - 1
+    assert np.allclose(np.linalg.norm(px, axis=1), 1.0, atol=0.02)
+    assert (px[:, 2] < 0.99).sum() > 50      # the hemisphere tiles lean: not a flat map
