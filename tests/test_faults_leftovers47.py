@@ -2,12 +2,14 @@
 
 1. A normal map's image reaching the Normal Map node (or an SG normal-map group) through
    Vector Math (USD's and some glTF imports' scale and bias: Image > Multiply Add > Normal
-   Map): read as sRGB it bends every normal as it does wired straight in, but the colour-space
-   warning's walk back to the image (image_checks.texture_feeding) stopped at the Vector Math
+   Map), or through a DirectX map's green flip (Separate Color, Math, Combine Color) or a Mix:
+   read as sRGB it bends every normal as it does wired straight in, but the colour-space
+   warning's walk back to the image (image_checks.texture_feeding) stopped at the first such
    node, so bake-normal-map, bake-batch, the API and Freeze baked the bent map with exit 0 and
-   no word, on every line. Now the colour-space warning follows Vector Math nodes' inputs
-   (normal_map_checks.COLOUR_MATH); the file checks (channels, -1..1 range) do not, as math
-   may remap a map's range on purpose. `compare` reads no user material (its own graph, its
+   no word, on every line (5.2 and 4.2 probed). Now the colour-space warning follows those
+   nodes (normal_map_checks.COLOUR_MATH; a Mix's A and B, not its Factor, where a mask is
+   colour); the file checks (channels, -1..1 range) do not, as math may remap a map's range
+   on purpose. `compare` reads no user material (its own graph, its
    --image as data): nothing to warn there.
 2. Freeze checks the images its stack reads, then (a modal run: the artist may save over a
    texture meanwhile) bakes; Cycles loads the files anew. A file removed between the check and
@@ -47,29 +49,47 @@ from test_faults_materials39 import _cycles_plane  # noqa: E402
 pytestmark = pytest.mark.tier("bake")
 
 
-def test_an_srgb_normal_map_read_through_vector_math_is_warned_about():
+def test_an_srgb_normal_map_read_through_math_is_warned_about():
     obj = _cycles_plane()
     mat, _, bsdf = diffuse_material("Imported")
     obj.data.materials.append(mat)
     tree = mat.node_tree
-    tex = tree.nodes.new("ShaderNodeTexImage")
+    nodes, link = tree.nodes.new, tree.links.new
+    tex = nodes("ShaderNodeTexImage")
     tex.image = bpy.data.images.new("Bumps", 4, 4)            # sRGB: a warned slip
-    scale_bias = tree.nodes.new("ShaderNodeVectorMath")
+    scale_bias = nodes("ShaderNodeVectorMath")                 # USD's scale and bias
     scale_bias.operation = "MULTIPLY_ADD"
     scale_bias.inputs[1].default_value = (1.0, 1.0, 1.0)
     scale_bias.inputs[2].default_value = (0.0, 0.0, 0.0)
-    nmap = tree.nodes.new("ShaderNodeNormalMap")
-    tree.links.new(tex.outputs["Color"], scale_bias.inputs[0])
-    tree.links.new(scale_bias.outputs[0], nmap.inputs["Color"])
-    tree.links.new(nmap.outputs["Normal"], bsdf.inputs["Normal"])
+    nmap = nodes("ShaderNodeNormalMap")
+    link(tex.outputs["Color"], scale_bias.inputs[0])
+    link(scale_bias.outputs[0], nmap.inputs["Color"])
+    link(nmap.outputs["Normal"], bsdf.inputs["Normal"])
     said = "image 'Bumps' is read in colour space 'sRGB' by Normal Map node 'Normal Map'"
     (warning,) = colour_space_warnings(obj)
     assert said in warning, warning
     assert sum(said in w for w in F.freeze_warnings(obj, mat)) == 1
-    # The image as the scale's input (Scale and Multiply: any linked input of the math).
-    tree.links.new(tex.outputs["Color"], scale_bias.inputs[1])
-    scale_bias.inputs[0].default_value = (1.0, 1.0, 1.0)
-    tree.links.remove(scale_bias.inputs[0].links[0])
+    # A DirectX map's green flip (Separate Color, 1 - G, Combine Color), then mixed with a
+    # mask in its Factor: the map is warned about, the mask (colour, not a normal) is not.
+    split, flip, join = (nodes(k) for k in ("ShaderNodeSeparateColor", "ShaderNodeMath",
+                                            "ShaderNodeCombineColor"))
+    flip.operation = "SUBTRACT"
+    flip.inputs[0].default_value = 1.0
+    link(tex.outputs["Color"], split.inputs[0])
+    for channel in (0, 2):
+        link(split.outputs[channel], join.inputs[channel])
+    link(split.outputs[1], flip.inputs[1])
+    link(flip.outputs[0], join.inputs[1])
+    mix = nodes("ShaderNodeMix")
+    mix.data_type = "RGBA"
+    mask = nodes("ShaderNodeTexImage")
+    mask.image = bpy.data.images.new("Mask", 4, 4)
+    (a,) = (s for s in mix.inputs if s.name == "A" and s.enabled)
+    (factor,) = (s for s in mix.inputs if s.name == "Factor" and s.enabled)
+    (result,) = (s for s in mix.outputs if s.enabled)
+    link(join.outputs[0], a)
+    link(mask.outputs["Color"], factor)
+    link(result, nmap.inputs["Color"])
     assert [said in w for w in colour_space_warnings(obj)] == [True]
     tex.image.colorspace_settings.is_data = True
     assert colour_space_warnings(obj) == []

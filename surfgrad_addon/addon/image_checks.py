@@ -215,10 +215,11 @@ def sequence_file(image, node):
                                                           bpy.context.scene.frame_current))
 
 
-def textures_feeding(socket, outer=(), through=()):
+def textures_feeding(socket, outer=(), through=None):
     """The Image Texture nodes whose output reaches `socket` (through reroutes, out of the
     node groups `outer`, the group nodes `socket` lies in, outermost first, through their
-    inputs, and through every linked input of a node whose bl_idname is in `through`).
+    inputs, and through a node whose bl_idname `through` maps to the names of the inputs to
+    follow, None for all).
     Through links Cycles follows: a muted one leaves the socket its value; a muted node passes
     on only the input its internal link names (an Image Texture none)."""
     found = []
@@ -234,9 +235,11 @@ def textures_feeding(socket, outer=(), through=()):
             socket = next((s for s in outer[-1].inputs
                            if s.identifier == link.from_socket.identifier), None)
             outer = outer[:-1]
-        elif source.bl_idname in through:
-            for tex in (t for s in source.inputs if s.enabled
-                        for t in textures_feeding(s, outer, through)):
+        elif through and source.bl_idname in through:
+            names = through[source.bl_idname]
+            followed = [s for s in source.inputs
+                        if s.enabled and (names is None or s.name in names)]
+            for tex in (t for s in followed for t in textures_feeding(s, outer, through)):
                 if tex not in found:
                     found.append(tex)
             return found

@@ -43,18 +43,26 @@ _GROUP_NAME = re.compile(rf"({'|'.join(map(re.escape, NORMAL_MAP_GROUPS))})( \[.
 # The working (scene linear) space before 5.0 made it a file setting (bpy.data.colorspace):
 # the scene_linear role of the colour configuration 4.2 and 4.5 ship.
 WORKING_SPACE_4X = "Linear Rec.709"
-# Nodes the colour-space warning follows back to an image (the file checks do not: math may
-# remap a -1..1 map's range on purpose).
-COLOUR_MATH = ("ShaderNodeVectorMath",)
+# The nodes the colour-space warning follows back to an image, and the inputs it follows (None:
+# all): the colour is converted before any of them reads it. USD's and glTF's scale and bias
+# (Vector Math Multiply Add), a DirectX map's green flip (Separate, Math or Invert, Combine),
+# two maps mixed; not a Mix's Factor (a mask is colour). The file checks do not follow them:
+# math may remap a -1..1 map's range on purpose.
+COLOUR_MATH = {"ShaderNodeVectorMath": None, "ShaderNodeMath": None,
+               "ShaderNodeSeparateColor": None, "ShaderNodeCombineColor": None,
+               "ShaderNodeSeparateXYZ": None, "ShaderNodeCombineXYZ": None,
+               "ShaderNodeSeparateRGB": None, "ShaderNodeCombineRGB": None,
+               "ShaderNodeInvert": ("Color",), "ShaderNodeMix": ("A", "B"),
+               "ShaderNodeMixRGB": ("Color1", "Color2")}
 NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filtering, has any
 
 
-def normal_map_images(obj, only=None, through=()):
+def normal_map_images(obj, only=None, through=None):
     """[(material, what the node is and its path, image, its Image Texture node)] for every
     image node whose Color output is read (through reroutes, into node groups through their
-    inputs, and through the nodes whose bl_idname is in `through`) into a normal map input
-    (NORMAL_MAP_INPUTS: a Normal Map node's Color, SG Normal Map's, SG Triplanar's Color X,
-    ...) of a node the object's materials (or material `only`) reach."""
+    inputs, and through the nodes `through` names: image_checks.textures_feeding) into a
+    normal map input (NORMAL_MAP_INPUTS: a Normal Map node's Color, SG Normal Map's, SG
+    Triplanar's Color X, ...) of a node the object's materials (or material `only`) reach."""
     out = []
     for mat, node, path, outer in objects_nodes(obj, only):
         kind = _normal_map_kind(node)
@@ -103,8 +111,8 @@ def colour_space_warnings(obj, only=None):
     """A warning per image read as colour into a normal map input of a Normal Map node or an
     SG group (normal_map_images): sRGB (or any colour space that is not data)
     bends every texel's normal, and the bake, like Cycles' render, takes the bent one. Also
-    through Vector Math (USD's and some glTF imports' scale and bias: Image > Multiply Add >
-    Normal Map): the colour is converted before any math reads it."""
+    through the nodes COLOUR_MATH names (USD's scale and bias: Image > Multiply Add > Normal
+    Map; a DirectX map's green flip)."""
     out, data = [], None
     for mat, node, image, _ in normal_map_images(obj, only, through=COLOUR_MATH):
         if unconverted(image.colorspace_settings):
