@@ -2,14 +2,14 @@
 
 1. A normal map's image reaching the Normal Map node (or an SG normal-map group) through
    Vector Math (USD's and some glTF imports' scale and bias: Image > Multiply Add > Normal
-   Map), or through a DirectX map's green flip (Separate Color, Math, Combine Color) or a Mix:
+   Map), or through a DirectX map's green flip (Separate Color, Math, Combine Color):
    read as sRGB it bends every normal as it does wired straight in, but the colour-space
    warning's walk back to the image (image_checks.texture_feeding) stopped at the first such
    node, so bake-normal-map, bake-batch, the API and Freeze baked the bent map with exit 0 and
    no word, on every line (5.2 and 4.2 probed). Now the colour-space warning follows those
-   nodes (normal_map_checks.COLOUR_MATH; a Mix's A and B, not its Factor, where a mask is
-   colour); the file checks (channels, -1..1 range) do not, as math may remap a map's range
-   on purpose. `compare` reads no user material (its own graph, its
+   nodes (normal_map_checks.COLOUR_MATH; not an Invert's Factor, where a mask is colour; a
+   live Mix stays unwarned, as round 41 decided); the file checks (channels, -1..1 range) do
+   not, as math may remap a map's range on purpose. `compare` reads no user material (its own graph, its
    --image as data): nothing to warn there.
 2. Freeze checks the images its stack reads, then (a modal run: the artist may save over a
    texture meanwhile) bakes; Cycles loads the files anew. A file removed between the check and
@@ -69,8 +69,9 @@ def test_an_srgb_normal_map_read_through_math_is_warned_about():
     (warning,) = colour_space_warnings(obj)
     assert said in warning, warning
     assert sum(said in w for w in F.freeze_warnings(obj, mat)) == 1
-    # A DirectX map's green flip (Separate Color, 1 - G, Combine Color), then mixed with a
-    # mask in its Factor: the map is warned about, the mask (colour, not a normal) is not.
+    # A DirectX map's green flip (Separate Color, 1 - G, Combine Color), then through an
+    # Invert of Factor 0 whose Factor a mask sets: the map is warned about, the mask (colour,
+    # not a normal) is not.
     split, flip, join = (nodes(k) for k in ("ShaderNodeSeparateColor", "ShaderNodeMath",
                                             "ShaderNodeCombineColor"))
     flip.operation = "SUBTRACT"
@@ -80,16 +81,12 @@ def test_an_srgb_normal_map_read_through_math_is_warned_about():
         link(split.outputs[channel], join.inputs[channel])
     link(split.outputs[1], flip.inputs[1])
     link(flip.outputs[0], join.inputs[1])
-    mix = nodes("ShaderNodeMix")
-    mix.data_type = "RGBA"
+    invert = nodes("ShaderNodeInvert")
     mask = nodes("ShaderNodeTexImage")
     mask.image = bpy.data.images.new("Mask", 4, 4)
-    (a,) = (s for s in mix.inputs if s.name == "A" and s.enabled)
-    (factor,) = (s for s in mix.inputs if s.name == "Factor" and s.enabled)
-    (result,) = (s for s in mix.outputs if s.enabled)
-    link(join.outputs[0], a)
-    link(mask.outputs["Color"], factor)
-    link(result, nmap.inputs["Color"])
+    link(join.outputs[0], invert.inputs["Color"])
+    link(mask.outputs["Color"], invert.inputs["Fac"])
+    link(invert.outputs["Color"], nmap.inputs["Color"])
     assert [said in w for w in colour_space_warnings(obj)] == [True]
     tex.image.colorspace_settings.is_data = True
     assert colour_space_warnings(obj) == []
