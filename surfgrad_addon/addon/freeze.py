@@ -29,6 +29,7 @@ from .cache_files import unread_cache_problems
 from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
 from .image_memory import images_memory
+from .input_stamps import changed_problem, stamps
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import input_warnings
 from .parallax_heights import parallax_height_warnings
@@ -220,7 +221,8 @@ def _other_meshes_using(obj, mat):
 def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,
           mat=None, warn=lambda _: None):
     """Everything freeze needs, checked before anything changes: (material, tree, stack end,
-    fed Normal inputs, uv_map, output Path or None for pack). `mat`: one of obj's materials
+    fed Normal inputs, uv_map, output Path or None for pack, the stamps of the image files it
+    reads: input_stamps.stamps, taken before the checks read them). `mat`: one of obj's materials
     (the one a Shader Editor shows); None: obj's active material. bake-normal-map's warnings
     on the mesh and its UV map go to `warn`, also when the freeze is refused."""
     if obj is None:
@@ -251,6 +253,7 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
                           f"makes it single-user)")
     tree = mat.node_tree
     end, fed = find_stack(tree)
+    stamped = stamps(obj, mat)
     problem = NB.resolution_problem(resolution, *NB.RESOLUTION_RANGE)
     if problem:
         raise FreezeError(problem)
@@ -294,7 +297,7 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
             warn(warning)
         if problems:
             raise FreezeError("; ".join(problems))
-    return mat, tree, end, fed, uv_map, path
+    return mat, tree, end, fed, uv_map, path, stamped
 
 
 def _memory_problem(obj, resolution):
@@ -323,8 +326,8 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
     "wired" (the file is written after it); the generator's return value is the record.
     Throw FreezeCancelled in at a stage to cancel. `warn`: check's warnings."""
     import bpy
-    mat, tree, end, fed, uv_map, path = check(obj, resolution, uv_map, filepath, overwrite, mat,
-                                              warn)
+    mat, tree, end, fed, uv_map, path, stamped = check(obj, resolution, uv_map, filepath,
+                                                       overwrite, mat, warn)
     yield "checked"
     suffix = path.suffix.lower() if path else ".png"
     depth = "16" if suffix == ".png" else "float"         # 8 bits would cost ~0.3 degrees
@@ -337,6 +340,11 @@ def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", 
         with _baking_the_stack_alone(tree, end):
             NB.bake_normal_tiles(obj, baked, "tangent", resolution, uv_map, samples=samples,
                                  depth=depth, overwrite=True, log=log, only=mat)
+        # A file removed or rewritten since the checks (the modal run lets the artist save
+        # over a texture meanwhile) baked Cycles' magenta or unchecked pixels into the map.
+        changed = changed_problem(stamped)
+        if changed:
+            raise FreezeError(changed.replace("bake again", "freeze again"))
         yield "baked"
         image = bpy.data.images.load(str(baked), check_existing=False)
         image.name = path.name if path else f"{stem}{suffix}"

@@ -215,11 +215,14 @@ def sequence_file(image, node):
                                                           bpy.context.scene.frame_current))
 
 
-def texture_feeding(socket, outer=()):
-    """The Image Texture node whose output reaches `socket` (through reroutes, and out of the
+def textures_feeding(socket, outer=(), through=None):
+    """The Image Texture nodes whose output reaches `socket` (through reroutes, out of the
     node groups `outer`, the group nodes `socket` lies in, outermost first, through their
-    inputs), or None. Through links Cycles follows: a muted one leaves the socket its value;
-    a muted node passes on only the input its internal link names (an Image Texture none)."""
+    inputs, and through a node whose bl_idname `through` maps to the names of the inputs to
+    follow, None for all).
+    Through links Cycles follows: a muted one leaves the socket its value; a muted node passes
+    on only the input its internal link names (an Image Texture none)."""
+    found = []
     while socket is not None and (links := MI.live_links(socket)):
         link = links[0]
         source = link.from_node
@@ -232,9 +235,17 @@ def texture_feeding(socket, outer=()):
             socket = next((s for s in outer[-1].inputs
                            if s.identifier == link.from_socket.identifier), None)
             outer = outer[:-1]
+        elif through and source.bl_idname in through:
+            names = through[source.bl_idname]
+            followed = [s for s in source.inputs
+                        if s.enabled and (names is None or s.name in names)]
+            for tex in (t for s in followed for t in textures_feeding(s, outer, through)):
+                if tex not in found:
+                    found.append(tex)
+            return found
         else:
-            return source if source.bl_idname == "ShaderNodeTexImage" else None
-    return None
+            return [source] if source.bl_idname == "ShaderNodeTexImage" else []
+    return found
 
 
 def sampler_textures(socket):

@@ -23,19 +23,20 @@ def _stat(path):
     return (s.st_size, s.st_mtime_ns, s.st_ino)
 
 
-def stamps(obj):
+def stamps(obj, only=None):
     """{path: (size, mtime_ns, inode) or None} of every image file on disk obj's materials
-    read (each UDIM tile; a sequence's file for the current frame)."""
-    return {p: _stat(p) for p in read_files(obj)}
+    (or material `only`: Freeze's) read (each UDIM tile; a sequence's file for the current
+    frame)."""
+    return {p: _stat(p) for p in read_files(obj, only=only)}
 
 
-def read_files(obj, viewport=False):
-    """The image files on disk obj's materials read, sorted (each UDIM tile; a sequence's file
-    for the current frame). viewport: its materials as the viewport evaluates it
-    (bake_uvs.rendered_materials)."""
+def read_files(obj, viewport=False, only=None):
+    """The image files on disk obj's materials (or material `only`) read, sorted (each UDIM
+    tile; a sequence's file for the current frame). viewport: its materials as the viewport
+    evaluates it (bake_uvs.rendered_materials)."""
     import bpy
     paths = set()
-    for _mat, _path, node, image in material_images(obj, viewport=viewport):
+    for _mat, _path, node, image in material_images(obj, only, viewport):
         if image is None or image.packed_file is not None or not image.filepath or \
                 image.source in ("GENERATED", "VIEWER"):
             continue

@@ -27,7 +27,7 @@ import re
 
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .image_checks import (data_key, image_files, objects_nodes, packed_tile_files,
-                           packed_tiled, sampler_textures, sequence_file, texture_feeding)
+                           packed_tiled, sampler_textures, sequence_file, textures_feeding)
 from .header_reads import path_headers
 from .image_channels import layered_file, path_channels, read_channels
 
@@ -43,15 +43,25 @@ _GROUP_NAME = re.compile(rf"({'|'.join(map(re.escape, NORMAL_MAP_GROUPS))})( \[.
 # The working (scene linear) space before 5.0 made it a file setting (bpy.data.colorspace):
 # the scene_linear role of the colour configuration 4.2 and 4.5 ship.
 WORKING_SPACE_4X = "Linear Rec.709"
+# The nodes the colour-space warning follows back to an image, and the inputs it follows (None:
+# all): the colour is converted before any of them reads it. USD's scale and bias (Vector Math
+# Multiply Add), a DirectX map's green flip (Separate, Math or Invert, Combine); not Invert's
+# Factor (a mask is colour), nor a live Mix (not a plain read: tests/test_faults_leftovers41).
+# The file checks do not follow them: math may remap a -1..1 map's range on purpose.
+COLOUR_MATH = {"ShaderNodeVectorMath": None, "ShaderNodeMath": None,
+               "ShaderNodeSeparateColor": None, "ShaderNodeCombineColor": None,
+               "ShaderNodeSeparateXYZ": None, "ShaderNodeCombineXYZ": None,
+               "ShaderNodeSeparateRGB": None, "ShaderNodeCombineRGB": None,
+               "ShaderNodeInvert": ("Color",)}
 NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filtering, has any
 
 
-def normal_map_images(obj, only=None):
+def normal_map_images(obj, only=None, through=None):
     """[(material, what the node is and its path, image, its Image Texture node)] for every
-    image node whose Color output is read (through reroutes, and into node groups through
-    their inputs) into a normal map input (NORMAL_MAP_INPUTS: a Normal Map node's Color, SG
-    Normal Map's, SG Triplanar's Color X, ...) of a node the object's materials (or material
-    `only`) reach."""
+    image node whose Color output is read (through reroutes, into node groups through their
+    inputs, and through the nodes `through` names: image_checks.textures_feeding) into a
+    normal map input (NORMAL_MAP_INPUTS: a Normal Map node's Color, SG Normal Map's, SG
+    Triplanar's Color X, ...) of a node the object's materials (or material `only`) reach."""
     out = []
     for mat, node, path, outer in objects_nodes(obj, only):
         kind = _normal_map_kind(node)
@@ -59,7 +69,7 @@ def normal_map_images(obj, only=None):
         for name in names:
             socket = node.inputs.get(name)
             texes = sampler_textures(socket) if name == "Sampler" and socket is not None else \
-                [texture_feeding(socket, outer)]
+                textures_feeding(socket, outer, through)
             for tex in texes:
                 if tex is not None and tex.image is not None:
                     which = f" ({name})" if len(names) > 1 else ""
@@ -99,9 +109,11 @@ def data_space():
 def colour_space_warnings(obj, only=None):
     """A warning per image read as colour into a normal map input of a Normal Map node or an
     SG group (normal_map_images): sRGB (or any colour space that is not data)
-    bends every texel's normal, and the bake, like Cycles' render, takes the bent one."""
+    bends every texel's normal, and the bake, like Cycles' render, takes the bent one. Also
+    through the nodes COLOUR_MATH names (USD's scale and bias: Image > Multiply Add > Normal
+    Map; a DirectX map's green flip)."""
     out, data = [], None
-    for mat, node, image, _ in normal_map_images(obj, only):
+    for mat, node, image, _ in normal_map_images(obj, only, through=COLOUR_MATH):
         if unconverted(image.colorspace_settings):
             continue
         data = data or data_space()

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from .. import bake_request as BR
 from .. import interrupts
-from ..exit_codes import BakeFailed
+from ..exit_codes import BakeFailed, MapNotWritten
 from .. import normal_bake as NB
 from .plan import BatchError
 
@@ -136,6 +136,17 @@ def write_final(path, data):
             raise BakeFailed(_unwritten(path, err)) from None
 
 
+def write_pending(path, data):
+    """Record the files a bake is about to put in place (run.on_pending): MapNotWritten when
+    the manifest cannot take it (a full disk), so that the bake puts nothing there. Before, the
+    map went in unrecorded and the next run failed the asset on it ("exists")."""
+    with _WRITE_LOCK:
+        try:
+            _write_json(path, data)
+        except OSError as err:
+            raise MapNotWritten(_unwritten(path, err, pending=True)) from None
+
+
 def write_last(path, data):
     """The stop's write: holds the write lock for good (the process ends after this, and no
     other write may follow or overlap)."""
@@ -150,12 +161,15 @@ def write_last(path, data):
 REFUSED = (errno.EACCES, errno.EPERM, errno.EROFS)
 
 
-def _unwritten(path, err):
+def _unwritten(path, err, pending=False):
     folder = repr(str(Path(path).parent))
     fix = (f"check that {folder} still takes files (its permissions, a read-only mount)"
            if err.errno in REFUSED else
            "raise this process's file-size limit (ulimit -f; a farm job's file-size limit)"
            if err.errno == errno.EFBIG else f"free space in {folder} (the disk may be full)")
+    if pending:
+        return (f"manifest {path} could not record the map before it was put in place "
+                f"({err.strerror}), so none was: {fix} and bake again")
     return (f"manifest {path} could not be written ({err.strerror}): it does not record "
             f"this run; {fix} and bake again (--overwrite to replace the maps it could not "
             f"record)")

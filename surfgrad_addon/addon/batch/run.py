@@ -8,6 +8,7 @@ from pathlib import Path
 from .. import bake_request as BR
 from .. import interrupts
 from .. import normal_bake as NB
+from ..exit_codes import MapNotWritten
 from . import manifest as M
 from . import plan as P
 from .output_names import one_file_because, output_key
@@ -233,7 +234,11 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                                 for t, (final, temp) in maps.items()}
         except OSError:                 # (gone: its publish fails and says so)
             return
-        M.write(manifest_path, M.merged(previous, report, files))
+        try:
+            M.write_pending(manifest_path, M.merged(previous, report, files))
+        except MapNotWritten:           # (the bake puts nothing in place: no record of it)
+            entry.pop("pending")
+            raise
 
     def on_reply(req, reply, retry):
         if req["op"] == "scan":

@@ -23,6 +23,8 @@ from pathlib import Path
 RESULT_MARK = "@@surfgrad-batch "          # a worker's reply line (other output is its log)
 TEMPDIR_PREFIX = "surfgrad-worker-"         # the temp folder the batch makes for each worker
 OWN_TEMPDIR = "SURFGRAD_WORKER_TMPDIR"      # names it to the worker (also its TMPDIR)
+# The batch's answer to a "pending" line when it could not record the files (then its reason).
+UNRECORDED = "unrecorded "
 PACKAGE = "_surfgrad_batch"                 # the name the worker loads surfgrad under
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]     # surfgrad's folder (its __init__.py)
 
@@ -46,9 +48,13 @@ def announce(files):
     """Tell the batch the files this bake is about to put in place ({tile: (final, temporary
     file)}), and wait until it has recorded them (a "pending" reply, answered by one line): a
     batch killed in between then finds them recorded. No answer (the batch is gone): nothing
-    is put in place."""
+    is put in place; nor where the batch could not record them (its reason: MapNotWritten)."""
     reply({"op": "pending", "files": {str(t): [str(f), str(p)] for t, (f, p) in files.items()}})
-    if not sys.stdin.readline().strip():
+    line = sys.stdin.readline()
+    if line.startswith(UNRECORDED):
+        exit_codes = importlib.import_module(f"{PACKAGE}.addon.exit_codes")
+        raise exit_codes.MapNotWritten(json.loads(line[len(UNRECORDED):]))
+    if not line.strip():
         raise RuntimeError("the batch ended before it recorded the map; nothing published")
 
 

@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from .. import interrupts
+from ..exit_codes import MapNotWritten
 from ..process_ends import how_it_ended
 from . import worker_main
 from .worker_main import OWN_TEMPDIR, RESULT_MARK, TEMPDIR_PREFIX
@@ -79,7 +80,7 @@ class Worker:
         """Send a request and wait for its reply: None if the process died first, TIMED_OUT
         after `timeout` seconds (the process is left to the caller). A bake's "pending" line
         (worker_main.announce) is passed to on_pending({tile: (final, temporary file)}) and
-        then answered."""
+        then answered: recorded, or why not (a str it returns: the worker fails the bake)."""
         try:
             self.proc.stdin.write(json.dumps(request) + "\n")
             self.proc.stdin.flush()
@@ -100,11 +101,14 @@ class Worker:
                     self.ready_s = time.perf_counter() - self.started
                     continue
                 if reply.get("op") == "pending":
-                    if on_pending is not None and \
-                            on_pending({t: tuple(v) for t, v in reply["files"].items()}) is False:
+                    answer = True if on_pending is None else \
+                        on_pending({t: tuple(v) for t, v in reply["files"].items()})
+                    if answer is False:
                         return None                 # (stopped: no answer, nothing published)
                     try:
-                        self.proc.stdin.write("recorded\n")
+                        self.proc.stdin.write(
+                            f"{worker_main.UNRECORDED}{json.dumps(answer)}\n"
+                            if isinstance(answer, str) else "recorded\n")
                         self.proc.stdin.flush()
                     except (BrokenPipeError, OSError):
                         return None
@@ -243,7 +247,10 @@ class Pool:
                 if self.stopped:
                     return False
                 if on_pending is not None:
-                    on_pending(req, files)
+                    try:
+                        on_pending(req, files)
+                    except MapNotWritten as err:    # (the manifest took no record of them)
+                        return str(err)
                 return True
         reply = worker.call(dict(req, in_worker=True), req.get("timeout"), pending)
         with lock:
