@@ -3,7 +3,9 @@ place, decided by what the running Blender has rather than by its version number
 
 - Geometry Nodes modifier inputs: ID properties (`mod[identifier]`) up to 5.0; from 5.1
   `mod.properties.inputs.<identifier>.value`, and item assignment raises TypeError.
-- A new material has a node tree from 5.0; before, only after `use_nodes = True`.
+- A new material has a node tree from 5.0; before, only after `use_nodes = True`. Up to 4.5 a
+  material keeps its tree with Use Nodes off (an old file's, or switched off) and renders
+  without it; from 5.0 `use_nodes` is deprecated and always True.
 - An action's F-curves: `action.fcurves` up to 4.5; from 5.0 only in the channelbag of the
   animation data's slot (bpy_extras.anim_utils).
 (tests/test_line_facts.py pins both on every line.)
@@ -17,6 +19,17 @@ def new_material(name):
     if mat.node_tree is None:
         mat.use_nodes = True
     return mat
+
+
+def renders_its_nodes(mat):
+    """Whether Cycles renders `mat` through its node tree (see the module's note)."""
+    if mat.node_tree is None:
+        return False
+    rna = getattr(mat, "bl_rna", None)
+    prop = rna.properties.get("use_nodes") if rna is not None else None
+    if prop is None or getattr(prop, "is_deprecated", False):     # 5.0 on: always
+        return True
+    return mat.use_nodes
 
 
 def _identifier(mod, name):

@@ -35,7 +35,8 @@ from .normal_map_checks import input_warnings
 from .parallax_heights import parallax_height_warnings
 from .small_objects import small_object_messages
 from .material_inputs import (cycles_output, edits_lost, linked_text, live_links,
-                              muted_output_text, renders_nothing, upstream_nodes)
+                              muted_output_text, no_tree_problem, renders_nothing,
+                              upstream_nodes)
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
@@ -277,6 +278,7 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         problem = NB.unslotted_problem(obj, mat) or \
             _memory_problem(obj, resolution)            # (its map would hold theirs too)
         problems = [problem] if problem else image_problems(obj, only=mat)
+        problems += _treeless_problems(obj, mat)
         # The mesh as bake-normal-map checks it (NaN in the baked UV map or one the material
         # reads, positions, faces with area), and an object too small for the float32
         # derivatives of the groups it bakes through: each baked wrong texels with no word.
@@ -298,6 +300,15 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         if problems:
             raise FreezeError("; ".join(problems))
     return mat, tree, end, fed, uv_map, path, stamped
+
+
+def _treeless_problems(obj, mat):
+    """The object's other materials without a node tree (4.2, 4.5): the bake puts an image
+    node in every material of the object (normal_bake.py), and in one without a tree it ended
+    in a raw AttributeError (red team 47c)."""
+    others = dict.fromkeys(s.material for s in obj.material_slots
+                           if s.material is not None and s.material is not mat)
+    return [no_tree_problem(m) for m in others if m.node_tree is None]
 
 
 def _memory_problem(obj, resolution):

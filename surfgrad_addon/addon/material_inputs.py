@@ -6,6 +6,7 @@ sentence naming the thing and the fix (bake_request.py gathers them before anyth
 import re
 from pathlib import Path
 
+from .compat import renders_its_nodes
 from .open_blend import newer_than_running
 
 MAGENTA = "Cycles would bake its magenta 'missing' colour"
@@ -176,7 +177,14 @@ def no_tree_problem(mat):
     """A material without a node tree (Use Nodes never turned on, before 5.0): the bake writes
     through an Image Texture node in each material, and has nowhere to put one."""
     if mat.node_tree is not None:
-        return None
+        if renders_its_nodes(mat):
+            return None
+        # Up to 4.5: Cycles renders it without the tree, and the bake finds no image in it
+        # (it failed after the checks with "Blender gave no reason", exit 1).
+        return (f"material {mat.name!r} has Use Nodes off, so Cycles renders it without its "
+                f"nodes and the bake has nowhere to write its faces: turn on Use Nodes for it "
+                f"(Material Properties > Surface; its nodes then render), or give its faces "
+                f"another material")
     return (f"material {mat.name!r} has no node tree (Use Nodes is off), so the bake has "
             f"nowhere to write its faces: turn on Use Nodes for it (Material Properties > "
             f"Surface), or give its faces another material")

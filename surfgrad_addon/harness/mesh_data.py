@@ -198,7 +198,8 @@ def triangle_mikktspace(arrays, flat=None, packed_normals=True):
         smooth = np.ones(len(tmp.polygons), dtype=bool) if flat is None else ~flat
         tmp.polygons.foreach_set("use_smooth", smooth)
         values = _intended_normals(tmp, _mikktspace_normals(arrays.corner_normals,
-                                                            packed_normals), flat)
+                                                            packed_normals), flat,
+                                   arrays.positions, arrays.triangles, packed_normals)
         extra = 0
         if not _free_normals(tmp, values.reshape(-1)):
             # No float normals (4.2): encoded ones, on a mesh whose fans are the groups Cycles
@@ -260,18 +261,42 @@ def _with_welded_fans(bpy, tmp, arrays, values, smooth):
     return tmp, 0
 
 
-def _intended_normals(tmp, corner_normals, flat):
+def _intended_normals(tmp, corner_normals, flat, positions, triangles, packed_normals):
     """(T, 3, 3) float32: the corner normals MikkTSpace is to see on the temporary triangle
-    mesh `tmp`: the given ones, and on a flat triangle (`flat`, or None) Blender's face normal
-    of it, what Cycles feeds MikkTSpace there (Mesh::Triangle::compute_normal) and what a flat
-    face without custom normals gives (read before any attribute is added: Blender then leaves
+    mesh `tmp`: the given ones, and on a flat triangle (`flat`, or None) what Cycles feeds
+    MikkTSpace there: on 5.2 (`packed_normals`) its own float32 triangle normal
+    (cycles_triangle_normals); up to 5.0 Blender's face normal of it, what a flat face without
+    custom normals gives (read before any attribute is added: Blender then leaves
     polygon_normals zero)."""
     values = np.asarray(corner_normals, dtype=np.float32)
     if flat is None:
         return values
-    face_normals = np.empty(len(tmp.polygons) * 3, dtype=np.float32)
-    tmp.polygon_normals.foreach_get("vector", face_normals)
+    if packed_normals:
+        face_normals = cycles_triangle_normals(positions, triangles)
+    else:
+        face_normals = np.empty(len(tmp.polygons) * 3, dtype=np.float32)
+        tmp.polygon_normals.foreach_get("vector", face_normals)
     return np.where(flat[:, None, None], face_normals.reshape(-1, 1, 3), values)
+
+
+def cycles_triangle_normals(positions, triangles):
+    """(T, 3) float32: Cycles' Mesh::Triangle::compute_normal in its float32 operations,
+    cross(v1 - v0, v2 - v0) over its length, (1, 0, 0) where that is 0. MikkTSpace welds
+    corners whose normals are bitwise equal, and Blender's face normal of a triangle (another
+    formula) differs from it in the last bit on some: on 5.2 the two triangles of a flat quad
+    then welded in one and not the other, and compare called a correct SG Normal Map up to 30
+    degrees wrong on a quad of castle-engine's chopper (red team 47c). Up to 5.0 Blender's face
+    normal is the one that agrees (measured on the same quad)."""
+    p = np.asarray(positions, dtype=np.float32)[np.asarray(triangles, dtype=np.int64)]
+    a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    n = np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+                  a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                  a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
+    length = np.sqrt(n[:, 0] * n[:, 0] + n[:, 1] * n[:, 1] + n[:, 2] * n[:, 2])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = n / length[:, None]
+    out[length == 0] = (1.0, 0.0, 0.0)
+    return out.astype(np.float32)
 
 
 def _encode_normals(tmp, values, flat):
