@@ -244,6 +244,15 @@ def unslotted_problem(obj, only):
             f"UVs overlap; add them to the object's material slots (Material Properties > +)")
 
 
+
+def linked_group_problem(obj):
+    """None, or the refusal of a linked material with BSDFs to stand in that a linked node
+    group of obj's modifiers gives it (linked_materials.linked_user_problem): bake_request
+    checks it with the rest of the request, and the bake (Freeze's too) again."""
+    return linked_user_problem(obj, [m for m in rendered_materials(obj) if is_linked(m) and
+                                     m.node_tree is not None and holds_stand_ins(m.node_tree)])
+
+
 @contextmanager
 def _stand_ins(obj, materials):
     """For the bake, the BSDFs of the slots' materials and of those a Geometry Nodes Set
@@ -431,9 +440,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
     problem = only is not None and unslotted_problem(obj, only)
     if problem:
         raise NormalBakeError(problem)
-    problem = linked_user_problem(obj, [m for m in rendered_materials(obj) if is_linked(m) and
-                                        m.node_tree is not None and
-                                        holds_stand_ins(m.node_tree)])
+    problem = linked_group_problem(obj)
     if problem:
         raise NormalBakeError(problem)
     fmt, _, _ = FORMATS[output.suffix.lower()]
