@@ -9,6 +9,14 @@ at the other entry points.
    normal (60 degrees off the map fed it), and since round 47 it stands in, its Normal baked as
    EEVEE renders it, with no word that Cycles renders the material without it. It still stands
    in, and the bake warns, naming the material and the node.
+3. Freeze of a local material on an object whose other slot holds a linked material that a
+   Geometry Nodes Set Material (a local group) gives it too passed its checks, then was refused
+   by the bake with a wrong reason (a material 'none of its material slots holds': one does).
+   For the bake the slot held a local copy while the Set Material still gave the linked
+   material, a material no slot held; let through, Blender's bake wrote its faces into the
+   last slot's map (measured: the other material's 60-degree normal in the frozen map). Now
+   every local user of a linked material (the slots and the Set Material alike) uses one copy
+   (linked_materials.local_copies): the freeze is done, its map holds its own faces alone.
 Freeze bakes its stack alone through a Diffuse BSDF (freeze._baking_the_stack_alone), so a
 Transparent BSDF or Holdout added to its Principled BSDF leaves its map as it was (probed, 5.2).
 """
@@ -20,10 +28,12 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.addon import normal_bake  # noqa: E402
+from surfgrad_addon.addon import freeze, normal_bake  # noqa: E402
 from surfgrad_addon.addon.bake_request import BakeRequestError  # noqa: E402
 from test_faults_assets44 import _baked_normals, _tilted_plane  # noqa: E402
+from support.geometry_nodes import geometry_group  # noqa: E402
 from test_faults_bake_closures47 import _degrees_off, _linked_set_material  # noqa: E402
+from test_faults_freeze44 import SIZE, _quads  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -51,3 +61,37 @@ def test_an_eevee_specular_bakes_its_normal_and_is_warned_of(tmp_path, capsys, m
     monkeypatch.setattr(normal_bake, "_stand_ins", lambda *_: contextlib.nullcontext())
     surface = _degrees_off(_baked_normals(obj, tmp_path / "cycles.exr"), np.array([0, 0, 1.0]))
     assert surface < 0.05
+
+
+def test_freeze_beside_a_linked_slot_a_set_material_also_gives(tmp_path):
+    """Finding 3: two quads, Rock (a layer stack) and the library's material in its slots, the
+    second quad given the library's material by a Set Material too. The freeze is done (before:
+    refused, naming no fault of the file's): the map is Rock's flat stack, nowhere the other
+    material's normal, and the slot and the Set Material hold the library's material again."""
+    _, library_mat, _ = _tilted_plane("ShaderNodeBsdfPrincipled")
+    library_mat.name = "Library Material"
+    bpy.data.libraries.write(str(tmp_path / "library.blend"), {library_mat}, fake_user=True)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj, rock = _quads(None, [[(0.05, 0.05), (0.45, 0.05), (0.45, 0.95), (0.05, 0.95)],
+                              [(0.55, 0.05), (0.95, 0.05), (0.95, 0.95), (0.55, 0.95)]])
+    with bpy.data.libraries.load(str(tmp_path / "library.blend"), link=True) as (_, into):
+        into.materials = ["Library Material"]
+    linked = bpy.data.materials["Library Material", str(tmp_path / "library.blend")]
+    obj.data.materials.append(linked)
+    obj.data.polygons[1].material_index = 1
+    tree, group_in, group_out = geometry_group("Set Material")
+    setter = tree.nodes.new("GeometryNodeSetMaterial")
+    setter.inputs["Material"].default_value = linked
+    tree.links.new(tree.nodes.new("GeometryNodeInputIndex").outputs[0],
+                   setter.inputs["Selection"])            # the second quad (index 1)
+    tree.links.new(group_in.outputs[0], setter.inputs["Geometry"])
+    tree.links.new(setter.outputs[0], group_out.inputs[0])
+    obj.modifiers.new("GeometryNodes", "NODES").node_group = tree
+    record = freeze.freeze(obj, resolution=SIZE)
+    pixels = np.array(bpy.data.images[record["image"]].pixels[:]).reshape(SIZE, SIZE, 4)
+    # Rock's flat stack on its quad, the bake's flat background elsewhere: nowhere the other's
+    # 60 degrees (0.93, 0.5, 0.75)
+    assert np.allclose(pixels[..., :3], [0.5, 0.5, 1.0], atol=0.01)
+    assert [s.material for s in obj.material_slots] == [rock, linked]
+    assert setter.inputs["Material"].default_value == linked
+    assert len(bpy.data.materials) == 2
