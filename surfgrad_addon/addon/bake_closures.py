@@ -31,7 +31,11 @@ Everything is put back on exit, also when the bake fails.
 A Principled BSDF's map is its Normal: a coat (Coat Weight above 0) fed another Coat Normal
 renders with that one (unlinked, the surface's), which a single map cannot hold; Cycles' own
 bake had averaged the two (27.9 degrees off a map leaning 60 degrees, Coat Normal unlinked).
-The bake warns of it (coat_normal_warnings; before round 47 it said nothing).
+The bake warns of it (stand_in_warnings; before round 47 it said nothing).
+
+EEVEE's Specular BSDF makes no closure in Cycles (a Cycles bake of it alone gave the surface's
+normal, the map fed it lost): it stands in like any BSDF, its Normal baked as EEVEE renders it,
+and the bake warns that Cycles renders the material without it (round 48).
 """
 
 from contextlib import contextmanager
@@ -42,6 +46,7 @@ GROUP = "ShaderNodeGroup"
 HAIR = ("ShaderNodeBsdfHair", "ShaderNodeBsdfHairPrincipled")
 WHITE = (1.0, 1.0, 1.0, 1.0)
 PRINCIPLED = "ShaderNodeBsdfPrincipled"
+EEVEE_SPECULAR = "ShaderNodeEeveeSpecular"     # Cycles renders no closure for it
 NO_NORMAL = ("ShaderNodeBsdfTransparent", "ShaderNodeHoldout", "ShaderNodeBsdfRayPortal")
 
 
@@ -105,30 +110,44 @@ def _source(socket):
     return next((link.from_socket for link in socket.links if not link.is_muted), None)
 
 
-def _other_coats(tree, seen):
-    """The Principled BSDFs in tree, and in the groups it uses, that render a coat whose Coat
-    Normal is not their Normal."""
+def _baked(tree, seen):
+    """The nodes of tree, and of the groups it uses, that stand in with links out."""
     for node in tree.nodes:
         if _group_with_bsdf(node) and node.node_tree not in seen:
             seen.add(node.node_tree)
-            yield from _other_coats(node.node_tree, seen)
-        elif node.bl_idname == PRINCIPLED and _stands_in(node) and \
-                any(o.links for o in node.outputs):
-            weight = node.inputs["Coat Weight"]
-            if (weight.links or weight.default_value > 0) and \
-                    _source(node.inputs["Coat Normal"]) != _source(node.inputs[NORMAL]):
-                yield node
+            yield from _baked(node.node_tree, seen)
+        elif _stands_in(node) and any(o.links for o in node.outputs):
+            yield node
 
 
-def coat_normal_warnings(materials):
-    """A warning per Principled BSDF of `materials` whose coat renders with another normal
-    than the one the map holds."""
-    return [f"material {mat.name!r}: Principled BSDF {node.name!r}"
-            f"{'' if node.id_data == mat.node_tree else f' in group {node.id_data.name!r}'} "
-            f"has a coat (Coat Weight) fed another Coat Normal than its Normal (unlinked: the "
-            f"surface's); the map holds its Normal, not the coat's"
+def _other_coat(node):
+    """A Principled BSDF rendering a coat whose Coat Normal is not its Normal."""
+    if node.bl_idname != PRINCIPLED:
+        return False
+    weight = node.inputs["Coat Weight"]
+    return (weight.links or weight.default_value > 0) and \
+        _source(node.inputs["Coat Normal"]) != _source(node.inputs[NORMAL])
+
+
+COAT = ("has a coat (Coat Weight) fed another Coat Normal than its Normal (unlinked: the "
+        "surface's); the map holds its Normal, not the coat's")
+EEVEE_ONLY = ("is EEVEE's alone: Cycles renders no closure for it, so the map holds its Normal "
+              "as EEVEE renders it, which Cycles does not; use a Glossy or Principled BSDF "
+              "where the map is for Cycles")
+
+
+def _warned(mat, node, what):
+    where = "" if node.id_data == mat.node_tree else f" in group {node.id_data.name!r}"
+    return f"material {mat.name!r}: {node.bl_label} {node.name!r}{where} {what}"
+
+
+def stand_in_warnings(materials):
+    """A warning per BSDF of `materials` whose map is not the normal Cycles renders it with:
+    a Principled BSDF's coat fed another normal, an EEVEE-only Specular BSDF."""
+    return [_warned(mat, node, COAT if _other_coat(node) else EEVEE_ONLY)
             for mat in materials if mat.node_tree is not None
-            for node in _other_coats(mat.node_tree, set())]
+            for node in _baked(mat.node_tree, set())
+            if _other_coat(node) or node.bl_idname == EEVEE_SPECULAR]
 
 
 @contextmanager

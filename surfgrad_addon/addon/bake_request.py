@@ -34,7 +34,7 @@ from ..reference import uv_overlap as UV
 from . import normal_bake as NB
 from . import input_stamps
 from . import unrealized_instances as UI
-from .bake_closures import coat_normal_warnings
+from .bake_closures import stand_in_warnings
 from .bake_console import heartbeat
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
@@ -259,6 +259,8 @@ def _check(request, obj, warn):
         problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots)
         problems += [problem] if problem else []
     problems += foreign_node_problems(obj)          # a newer line's nodes: baked as zero
+    problem = NB.linked_group_problem(obj)          # a copy cannot stand in for it
+    problems += [problem] if problem else []
     small, notes = small_object_messages(obj)      # float32 derivatives on a tiny object
     problems += small
     warnings += notes
@@ -268,7 +270,7 @@ def _check(request, obj, warn):
     problem = bake_memory_problem(request.resolution, len(tiles), images_memory(obj, tiles))
     problems += [problem] if problem else image_problems(obj, tiles)   # (its tiles)
     warnings += colour_space_warnings(obj) + muted_output_warnings(obj)
-    warnings += coat_normal_warnings(checked_materials(obj))     # the map holds the Normal
+    warnings += stand_in_warnings(checked_materials(obj))   # maps Cycles renders otherwise
     if not problem:
         warnings += normal_map_warnings(obj, covered=tiles)     # grey files, -1..1 floats
         warnings += parallax_height_warnings(obj, covered=tiles)

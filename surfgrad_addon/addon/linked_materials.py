@@ -4,14 +4,15 @@ Cycles bakes into an Image Texture node the bake adds to each material (normal_b
 cancels the bake for a material linked from a library ("No active and selected image texture
 node found"): linked data takes no lasting edit. So for the bake each slot holding such a
 material gets a local copy of it (ID.copy of linked data is local; its node groups and images
-stay the library's), baked exactly as a local material is, and afterwards every slot gets its
+stay the library's), baked exactly as a local material is, and afterwards every user gets its
 material back and every copy is removed, whatever happens (an exception, a KeyboardInterrupt
 in a live session). A command stopped by a signal ends the process without saving anything,
 so the .blend on disk is never touched.
 
-A linked material that only a Geometry Nodes Set Material gives the object (no slot holds it)
-bakes through a local copy too: for the bake every local user of it (the Set Material node)
-uses the copy (ID.user_remap), whose BSDFs then stand in as a slot's do (bake_closures.py);
+For the bake every local user of such a material (a slot, a Set Material node) uses the copy
+(ID.user_remap). A linked material that only a Geometry Nodes Set Material gives the object (no
+slot holds it) bakes through a local copy too, whose BSDFs then stand in as a slot's do
+(bake_closures.py);
 before, it baked as it was, a Principled BSDF's map 8.3 degrees flat with exit 0
 (tests/test_faults_bake_closures47.py). Every user gets it back after. Linked data keeps what
 it uses, so where a linked node group of the object's modifiers gives such a material with a
@@ -32,48 +33,29 @@ def is_linked(mat):
 
 
 @contextmanager
-def local_copies(obj):
-    """For the duration, each of obj's slots holding a linked material holds a local copy of
-    it (one copy per material, shared by its slots, as the bake adds one node per material).
-    Yields {linked material: copy}. Nothing is done for an object or mesh that is itself
-    linked (its slots cannot be reassigned; the bake's checks refuse it)."""
+def local_copies(obj, given=()):
+    """For the duration, every local user of each linked material of obj's slots, and of each
+    of `given` (linked materials a Set Material gives obj), uses one local copy of it
+    (ID.user_remap): the slots and the Set Material nodes of local node groups alike (a slot's
+    copy alone left a Set Material of the same material giving a material no slot held, whose
+    faces Blender's bake wrote into the last slot's map: Freeze refused it, round 48). Yields
+    {linked material: copy}. Nothing is done for an object or mesh that is itself linked (its
+    slots cannot be reassigned; the bake's checks refuse it)."""
     import bpy
     if obj is None or obj.type != "MESH" or obj.library is not None or \
             obj.data.library is not None:
         yield {}
         return
-    copies, swapped = {}, []
+    slots = [s.material for s in obj.material_slots]
+    copies = {}
     try:
-        for index, slot in enumerate(obj.material_slots):
-            mat = slot.material
-            if not is_linked(mat):
-                continue
-            if mat not in copies:
+        for mat in dict.fromkeys(slots + list(given)):
+            if is_linked(mat):
                 copies[mat] = mat.copy()
-            swapped.append((index, mat))
-            slot.material = copies[mat]
+                mat.user_remap(copies[mat])
         yield copies
     finally:
-        for index, mat in reversed(swapped):
-            obj.material_slots[index].material = mat      # written where the slot links
-        for copy in copies.values():
-            bpy.data.materials.remove(copy)
-
-
-@contextmanager
-def remapped_copies(materials):
-    """For the duration, every local user of each linked material in `materials` uses a local
-    copy of it instead (linked data that uses it keeps it). Yields the copies."""
-    import bpy
-    swapped = []
-    try:
-        for mat in materials:
-            copy = mat.copy()
-            swapped.append((mat, copy))
-            mat.user_remap(copy)
-        yield [copy for _, copy in swapped]
-    finally:
-        for mat, copy in reversed(swapped):
+        for mat, copy in reversed(copies.items()):
             copy.user_remap(mat)
             bpy.data.materials.remove(copy)
 
@@ -92,7 +74,7 @@ def _modifier_groups(obj):
 
 def linked_user_problem(obj, materials):
     """None, or the refusal of the linked `materials` a Set Material gives obj (each with a
-    BSDF to stand in) that a linked node group of its modifiers uses: remapped_copies cannot
+    BSDF to stand in) that a linked node group of its modifiers uses: local_copies cannot
     reach them there, and they would bake as they are (a Principled BSDF 8.3 degrees flat)."""
     import bpy
     groups = [g for g in _modifier_groups(obj) if g.library is not None]

@@ -40,8 +40,7 @@ from .bake_uvs import (baked_mesh, baked_uv_tiles, long_name_problem,  # noqa: F
                        not_rendered_problem, one_read, rendered_materials, uv_active,
                        uv_tiles)  # (uv_tiles)
 from .exit_codes import BakeFailed, MapNotWritten
-from .linked_materials import (is_linked, linked_user_problem, local_copies,
-                               remapped_copies)
+from .linked_materials import is_linked, linked_user_problem, local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
 from .tangent_uv import tangents_of
@@ -244,18 +243,32 @@ def unslotted_problem(obj, only):
             f"UVs overlap; add them to the object's material slots (Material Properties > +)")
 
 
+
+def linked_group_problem(obj):
+    """None, or the refusal of a linked material with BSDFs to stand in that a linked node
+    group of obj's modifiers gives it (linked_materials.linked_user_problem): bake_request
+    checks it with the rest of the request, and the bake (Freeze's too) again."""
+    return linked_user_problem(obj, [m for m in rendered_materials(obj) if is_linked(m) and
+                                     m.node_tree is not None and holds_stand_ins(m.node_tree)])
+
+
 @contextmanager
-def _stand_ins(obj, materials):
-    """For the bake, the BSDFs of the slots' materials and of those a Geometry Nodes Set
-    Material gives the object (Cycles bakes their faces too) stand in (bake_closures.py); a
-    linked one, which cannot be edited, through a local copy its users use meanwhile."""
+def _stand_ins(obj, materials, copies):
+    """For the bake, the BSDFs of the slots' materials, of those a Geometry Nodes Set Material
+    gives the object (Cycles bakes their faces too) and of the local `copies` of linked ones
+    (local_copies) stand in (bake_closures.py)."""
     added = [m for m in rendered_materials(obj) if m not in materials and
              m.node_tree is not None]
-    with remapped_copies([m for m in added if is_linked(m) and
-                          holds_stand_ins(m.node_tree)]) as copies, \
-            diffuse_stand_ins([m.node_tree for m in materials + added + copies
-                               if not is_linked(m)]):
+    with diffuse_stand_ins([m.node_tree for m in materials + added + list(copies.values())
+                            if not is_linked(m)]):
         yield
+
+
+def _linked_given(obj):
+    """The linked materials with BSDFs to stand in that a Set Material gives obj."""
+    slots = {s.material for s in obj.material_slots}
+    return [m for m in rendered_materials(obj) if is_linked(m) and m not in slots and
+            m.node_tree is not None and holds_stand_ins(m.node_tree)]
 
 
 def no_tile_problem(obj_name, uv_map, uvs=None):
@@ -386,15 +399,18 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
     before_publish({tile: (final Path, its complete temporary file)}): called after it (a batch
     records what it is about to publish). Returns a dict: paths {tile: Path}, tiles, uv_map,
     depth, warnings, bake_s, save_s."""
-    with one_read(), local_copies(obj):    # one render-mode pass: the plan, the tangents
+    with one_read():                # (a Set Material's, before its users use the copies)
+        given = _linked_given(obj)
+    # one render-mode pass: the plan, the tangents
+    with local_copies(obj, given) as copies, one_read():
         return _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth,
                            tiles, empty_tiles, overwrite, log, threads, verify, only,
-                           before_publish)
+                           before_publish, copies)
 
 
 def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, tiles,
                 empty_tiles, overwrite, log, threads, verify=None, only=None,
-                before_publish=None):
+                before_publish=None, copies=None):
     import bpy
 
     output = check_output(output)
@@ -431,9 +447,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
     problem = only is not None and unslotted_problem(obj, only)
     if problem:
         raise NormalBakeError(problem)
-    problem = linked_user_problem(obj, [m for m in rendered_materials(obj) if is_linked(m) and
-                                        m.node_tree is not None and
-                                        holds_stand_ins(m.node_tree)])
+    problem = linked_group_problem(obj)
     if problem:
         raise NormalBakeError(problem)
     fmt, _, _ = FORMATS[output.suffix.lower()]
@@ -463,7 +477,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
         active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 own_materials(bpy.context.view_layer), \
-                _stand_ins(obj, materials), \
+                _stand_ins(obj, materials, copies or {}), \
                 tangents_of(obj, uv_map, space), \
                 precise_far(obj, log):           # far out: as precise as at the origin
             mesh = obj.data         # either may stand a copy of the render mesh in for it
