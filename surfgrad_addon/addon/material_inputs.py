@@ -182,6 +182,18 @@ def no_tree_problem(mat):
             f"Surface), or give its faces another material")
 
 
+def nodes_off_problem(mat, what):
+    """A material that does not render through nodes (Use Nodes off, 4.2 and 4.5; never turned
+    on there: no tree): an edit of its nodes (`what`, e.g. "a layer stack") would not render,
+    and turning Use Nodes on for the artist would change its look unasked."""
+    from .compat import renders_nodes
+    if renders_nodes(mat):
+        return None
+    return (f"material {mat.name!r} does not use nodes (Use Nodes is off), so {what} would "
+            f"not render: turn on Use Nodes (Material Properties > Surface, or the Shader "
+            f"Editor's header), then try again")
+
+
 def uv_name_problem(mat, path, node, mesh_name, uv_maps, attributes, as_rendered=""):
     """A Normal Map (tangent space), UV Map or Attribute (Geometry) node naming a UV map or
     attribute that mesh `mesh_name` lacks: `uv_maps` (in order) and `attributes` are the names

@@ -11,8 +11,10 @@ from bpy.props import BoolProperty, StringProperty
 
 from . import freeze_operators, group_updates, groups, operators
 from ..reference import socket_specs as S
+from ..reference.group_interfaces import INTERFACES
 from .all_or_nothing import all_or_nothing
 from .far_precision import needs_precise_far, set_precise_far_on_node
+from .group_names import VERSION_KEY
 from .material_inputs import edits_lost
 
 MENU_IDNAME = "NODE_MT_surfgrad_add"
@@ -163,11 +165,17 @@ in this file first if needed"""
 
     @classmethod
     def description(cls, _context, properties):
+        # What the group does: our group's description, else its interface's (a new file
+        # lacks the group, and the tooltip said only "Add ... group node"; a group of the
+        # user's under its name says nothing of ours).
         name = properties.group
-        tree = bpy.data.node_groups.get(name)
-        text = tree.description.rstrip(". ") if tree is not None else ""
+        tree = bpy.data.node_groups.get((name, None))
+        iface = INTERFACES.get(name)
+        text = tree.description if tree is not None and VERSION_KEY in tree else \
+            iface.describe() if iface is not None else ""
         how = (f"Add an \u201c{name}\u201d group node" if tree is not None else
                f"Add an \u201c{name}\u201d group node (the group is created in this file)")
+        text = text.rstrip(". ")
         return f"{text}.\n{how}" if text else how
 
     @classmethod

@@ -1,0 +1,180 @@
+"""Red team 47d: what an artist meets in the Shader Editor with groups they edited, and with a
+material that does not use nodes.
+
+1. A current surfgrad group whose sockets the artist edited (SG Combine's input A renamed
+   "Base" in the N panel): Add Layer Stack reused it and failed linking A, a raw KeyError
+   traceback in the report (5.2, 4.2 alike). Now every request for that group (the operators,
+   the Add menu, api.node_group) is refused naming the group, what differs and the fix
+   (rename it), with nothing changed.
+2. An older surfgrad's group whose socket the artist renamed ("Scale B" to "Amount B", a Value
+   node linked into it): Update surfgrad Groups (and an Add of the group) rebuilt it, dropping
+   the renamed socket with its link and value, and said nothing: the look changed without a
+   word. Now a warning names the node, the socket and the link (node_builder's notes).
+3. A group edited inside (a node muted, added or set otherwise). Current, it was reused as it
+   was: `compare --blend` of a file whose SG Normal Map [UVMap] had its Normal Map node muted
+   reported the normal-map method 90.0 degrees off (mean; p99 166.7), exit 0 (5.2), calling
+   surfgrad's correct group wrong; a new node from the Add menu did not do what the menu
+   says. Older, its rebuild replaced the edit without a word. Groups now carry a digest of
+   their inside as built (group_names.INSIDE_KEY, node_builder.inside_digest): a current one
+   edited since is refused as in 1 (compare: exit 2, naming it), an older one's rebuild says
+   so, with the fix. Groups built before this digest cannot be told (no digest).
+4. A material that does not use nodes (4.2 and 4.5: Use Nodes off, or never turned on): Add
+   Layer Stack turned Use Nodes on before its checks, so a refused stack (a group of the user's
+   named "SG Resolve") left the material using nodes, its look changed; with a tree and Use
+   Nodes off it added a stack the material does not render and reported success; Freeze
+   ended in "the bake ... did not finish; Blender gave no reason". Now each is refused naming
+   the material and Use Nodes, nothing changed. From 5.0 a material always uses nodes
+   (pinned here: setting Use Nodes off is ignored).
+5. The Add menu's tooltips in a file without the groups (every new file): each said only
+   "Add an "SG Resolve" group node (the group is created in this file)", nothing of what the
+   group does; with a group of the user's under that name, the user's description. Now each
+   says what our group does, the description the group gets when built.
+"""
+
+from types import SimpleNamespace
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon import groups as G  # noqa: E402
+from surfgrad_addon.addon import group_updates as U  # noqa: E402
+from surfgrad_addon.addon import operators as O  # noqa: E402
+from surfgrad_addon.addon import ui  # noqa: E402
+from surfgrad_addon.addon.compat import new_material, renders_nodes  # noqa: E402
+from surfgrad_addon.addon.group_names import VERSION_KEY  # noqa: E402
+from test_faults_operators35 import _groups, registered  # noqa: E402,F401
+
+pytestmark = pytest.mark.tier("blender")
+NODES_OPTIONAL = bpy.app.version < (5, 0)     # 4.2 and 4.5: Use Nodes can be off
+
+
+def _input(group, name):
+    return next(it for it in group.interface.items_tree
+                if it.item_type == "SOCKET" and it.in_out == "INPUT" and it.name == name)
+
+
+def _plane_with(mat):
+    bpy.ops.mesh.primitive_plane_add()
+    bpy.context.object.data.materials.append(mat)
+    return bpy.context.object
+
+
+def test_a_current_group_with_edited_sockets_is_refused_by_name(fresh, registered):
+    mat = new_material("Rock")
+    _plane_with(mat)
+    _input(G.combine_group(), "A").name = "Base"
+    before, nodes = _groups(), len(mat.node_tree.nodes)
+    registered(*O.CLASSES)
+    with pytest.raises(RuntimeError) as said:
+        bpy.ops.surfgrad.add_layer_stack()
+    assert str(said.value) == (
+        "Error: node group 'SG Combine' was edited after surfgrad made it (no input 'A'; an "
+        "input 'Base' of its own): rename it to keep your version, so surfgrad can add its "
+        "own\n"), str(said.value)
+    assert _groups() == before and len(mat.node_tree.nodes) == nodes
+
+
+def test_a_rebuild_dropping_a_socket_the_artist_renamed_names_its_link(fresh):
+    tree = new_material("Rock").node_tree
+    group = G.combine_group()
+    _input(group, "Scale B").name = "Amount B"
+    group[VERSION_KEY] = G.VERSION - 1
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.node_tree, node.name = group, "Layers"
+    value = tree.nodes.new("ShaderNodeValue")
+    value.name = "Wetness"
+    tree.links.new(value.outputs[0], node.inputs["Amount B"])
+    U.take_notes()
+    assert U.update_stale_groups() == (["SG Combine"], [])
+    assert not any(s.is_linked for s in node.inputs)          # Blender drops it with the socket
+    assert U.take_notes() == [
+        "'Layers' (SG Combine) in material 'Rock': its input 'Amount B' is not one of the "
+        "group's sockets now (renamed or added in the group?), so its link from 'Wetness' "
+        "went with it: check it"]
+
+
+def test_a_current_group_edited_inside_is_refused_and_a_saved_one_is_not_called_edited(
+        fresh, tmp_path):
+    normal_map, decal = G.normal_map_group(""), G.decal_group()     # (decal: a Menu Switch)
+    for group in bpy.data.node_groups:
+        group.use_fake_user = True
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "groups.blend"))
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "groups.blend"))
+    groups = _groups()
+    assert G.normal_map_group("") == bpy.data.node_groups["SG Normal Map"]  # reused as built
+    assert G.decal_group() == bpy.data.node_groups["SG Decal"] and _groups() == groups
+    normal_map = bpy.data.node_groups["SG Normal Map"]
+    next(n for n in normal_map.nodes if n.bl_idname == "ShaderNodeNormalMap").mute = True
+    with pytest.raises(ValueError, match=r"^node group 'SG Normal Map' was edited after "
+                                         r"surfgrad made it \(inside: a node or link added, "
+                                         r"removed, muted or set otherwise\): rename it"):
+        G.normal_map_group("")
+
+
+def test_a_rebuild_replacing_an_edit_inside_an_older_group_says_so(fresh):
+    clean, edited = G.combine_group(), G.resolve_group()
+    next(n for n in edited.nodes if n.bl_idname == "ShaderNodeVectorMath").mute = True
+    for group in (clean, edited):
+        group[VERSION_KEY] = G.VERSION - 1
+    U.take_notes()
+    assert U.update_stale_groups() == (["SG Combine", "SG Resolve"], [])
+    assert not any(n.mute for n in edited.nodes)
+    assert U.take_notes() == [           # the unedited one rebuilt without a word
+        "node group 'SG Resolve' was edited inside after surfgrad made it (a node or link "
+        "added, removed, muted or set otherwise), and its rebuild for this version replaced "
+        "that edit: to keep it, undo (Ctrl+Z) and rename the group"]
+
+
+def _nodes_off(mat, with_tree):
+    """`mat` made not to use nodes where the line allows it: returns whether it does."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        if with_tree and mat.node_tree is None:
+            mat.use_nodes = True
+        mat.use_nodes = False
+    return renders_nodes(mat)
+
+
+@pytest.mark.parametrize("with_tree", [False, True])
+def test_a_material_not_using_nodes_is_refused_unchanged(fresh, registered, with_tree):
+    mat = bpy.data.materials.new("Bare")
+    obj = _plane_with(mat)
+    assert _nodes_off(mat, with_tree) is not NODES_OPTIONAL    # pinned: from 5.0 always on
+    bpy.data.node_groups.new("SG Resolve", "ShaderNodeTree")  # the user's: a later refusal
+    registered(*O.CLASSES)
+    with pytest.raises(RuntimeError) as said:
+        bpy.ops.surfgrad.add_layer_stack()
+    if not NODES_OPTIONAL:
+        assert "'SG Resolve' already exists and is not a surface-gradient group" in \
+            str(said.value)
+        return
+    assert str(said.value).startswith(
+        "Error: material 'Bare' does not use nodes (Use Nodes is off), so this edit would not "
+        "render: turn on Use Nodes"), str(said.value)
+    assert not renders_nodes(mat) and (mat.node_tree is not None) == with_tree
+    if with_tree:
+        nodes = len(mat.node_tree.nodes)
+        with pytest.raises(F.FreezeError, match="material 'Bare' does not use nodes .* so a "
+                                                "frozen map would not render"):
+            F.freeze(obj, 16, log=lambda *_: None)
+        assert len(mat.node_tree.nodes) == nodes
+
+
+def test_every_add_menu_tooltip_says_what_its_group_does_before_it_is_built(fresh):
+    names = ui.menu_group_names()
+    foreign = bpy.data.node_groups.new(names[0], "ShaderNodeTree")
+    foreign.description = "the user's own"
+
+    def tip(name):
+        return ui.SURFGRAD_OT_add_group.description(None, SimpleNamespace(group=name))
+
+    before = {name: tip(name) for name in names}
+    bpy.data.node_groups.remove(foreign)
+    assert all(len(text.split("\n")[0]) > 40 for text in before.values()), before
+    builders = dict(G.MENU_GROUPS)
+    for name in (names[0], "SG Combine", names[-1]):     # (building all of them takes seconds)
+        built = builders[name]().description.rstrip(". ")
+        assert before[name].startswith(built + ".\n"), before[name]
