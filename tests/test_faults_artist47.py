@@ -29,6 +29,11 @@ material that does not use nodes.
    "Add an "SG Resolve" group node (the group is created in this file)", nothing of what the
    group does; with a group of the user's under that name, the user's description. Now each
    says what our group does, the description the group gets when built.
+6. A material linked from a library whose surfgrad groups an older surfgrad or another line
+   built (a 5.x library linked on 4.5: its Menu Switch dropped, the group renders zero): the
+   sidebar counted only the file's own stale groups, so it said nothing, and Update cannot
+   reach a library's group. Now the sidebar names the library and the fix (update the groups
+   there, on this line).
 """
 
 from types import SimpleNamespace
@@ -178,3 +183,37 @@ def test_every_add_menu_tooltip_says_what_its_group_does_before_it_is_built(fres
     for name in (names[0], "SG Combine", names[-1]):     # (building all of them takes seconds)
         built = builders[name]().description.rstrip(". ")
         assert before[name].startswith(built + ".\n"), before[name]
+
+
+class _Sidebar:
+    """What draw_stale_warning puts in the sidebar: [(labels, operators)] per box."""
+    def __init__(self):
+        self.boxes = []
+
+    def box(self):
+        box = SimpleNamespace(labels=[], operators=[])
+        box.label = lambda text, icon: box.labels.append(text)
+        box.operator = lambda idname, icon: box.operators.append(idname)
+        self.boxes.append(box)
+        return box
+
+
+def test_the_sidebar_names_a_librarys_stale_groups_and_where_to_update_them(fresh, tmp_path):
+    library = tmp_path / "library.blend"
+    mat = new_material("Lib")
+    mat.use_fake_user = True                       # (saved without a user)
+    mat.node_tree.nodes.new("ShaderNodeGroup").node_tree = G.blend_normals_group()
+    bpy.data.node_groups["SG Blend Normals"][VERSION_KEY] = G.VERSION - 1
+    bpy.ops.wm.save_as_mainfile(filepath=str(library))
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with bpy.data.libraries.load(str(library), link=True) as (_, into):
+        into.materials = ["Lib"]
+    assert U.stale_groups() == []                  # not the file's: Update cannot reach it
+    sidebar = _Sidebar()
+    U.draw_stale_warning(sidebar)
+    [box] = sidebar.boxes
+    text = "".join("".join(box.labels).split())     # (wrapped to the sidebar, the path too)
+    said = (f"1 surface-gradient group(s) linked from '{library}' were built by an older "
+            f"surfgrad")
+    assert text.startswith("".join(said.split())) and "UpdatesurfgradGroupsthere" in text
+    assert box.operators == []

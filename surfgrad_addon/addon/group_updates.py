@@ -51,6 +51,25 @@ def stale_text(stale):
             f"Blender {here}")
 
 
+def linked_stale_text():
+    """What the sidebar says of our groups linked from a library (a linked material's) that an
+    older surfgrad or another Blender line built: they render as built (some wrong: 4.5 drops
+    a 5.x group's Menu Switch), and Update cannot reach them; None when there are none."""
+    line = running_line().line
+    stale = [g for g in bpy.data.node_groups
+             if g.library is not None and isinstance(g.get(VERSION_KEY), int)
+             and (g[VERSION_KEY] < G.VERSION or g.get(LINE_KEY) != line)]
+    if not stale:
+        return None
+    libraries = ", ".join(sorted({repr(g.library.filepath) for g in stale}))
+    lines = sorted({g.get(LINE_KEY) for g in stale} - {None, line})
+    where = f" or for Blender {', '.join(lines)}" if lines else ""
+    return (f"{len(stale)} surface-gradient group(s) linked from {libraries} were built by an "
+            f"older surfgrad{where}, and may render differently here; this file cannot "
+            f"change them: update them in that file with Blender {line} (Update surfgrad "
+            f"Groups there, then save it), or link from a file made for Blender {line}")
+
+
 def _interior(tree, bl_idname, prop):
     """`prop` of the first node of type `bl_idname` in `tree` (None if there is none)."""
     node = next((n for n in tree.nodes if n.bl_idname == bl_idname), None)
@@ -309,10 +328,12 @@ line built, for this one, keeping every node's values and links"""
 
 
 def draw_stale_warning(layout):
-    """In the sidebar: the stale groups, if any, and the button that updates them."""
-    text = stale_text(stale_groups())
-    if text:
-        box = layout.box()
-        for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
-            box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
-        box.operator(SURFGRAD_OT_update_groups.bl_idname, icon="FILE_REFRESH")
+    """In the sidebar: the stale groups, if any, and the button that updates them; the stale
+    groups of libraries, which only their own files can update."""
+    for text, button in ((stale_text(stale_groups()), True), (linked_stale_text(), False)):
+        if text:
+            box = layout.box()
+            for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
+                box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+            if button:
+                box.operator(SURFGRAD_OT_update_groups.bl_idname, icon="FILE_REFRESH")
