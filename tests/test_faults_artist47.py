@@ -34,8 +34,17 @@ material that does not use nodes.
    sidebar counted only the file's own stale groups, so it said nothing, and Update cannot
    reach a library's group. Now the sidebar names the library and the fix (update the groups
    there, on this line).
+7. A height image Blender cannot read (its file missing or unreadable: 0 x 0 pixels) in the
+   active Image Texture: on 4.2 and 4.5 Add > SG Height Map HQ and SG Triplanar Height ended
+   in a raw ZeroDivisionError traceback (their texel step, 1/size), as did
+   api.node_group(..., image=...) and Update surfgrad Groups of such a group on every line;
+   now a ValueError naming the image, its file and the fix, nothing added. From 5.0 the
+   Sampler group was added with Image Width and Height 1, without a word (once the file
+   loads, the group steps a whole image per texel); now they keep their default and a warning
+   names the image and says to set them.
 """
 
+import re
 from types import SimpleNamespace
 
 import pytest
@@ -49,6 +58,7 @@ from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.addon import ui  # noqa: E402
 from surfgrad_addon.addon.compat import new_material, renders_nodes  # noqa: E402
 from surfgrad_addon.addon.group_names import VERSION_KEY  # noqa: E402
+from test_extension import _shader_editor  # noqa: E402
 from test_faults_operators35 import _groups, registered  # noqa: E402,F401
 
 pytestmark = pytest.mark.tier("blender")
@@ -217,3 +227,37 @@ def test_the_sidebar_names_a_librarys_stale_groups_and_where_to_update_them(fres
             f"surfgrad")
     assert text.startswith("".join(said.split())) and "UpdatesurfgradGroupsthere" in text
     assert box.operators == []
+
+
+def test_a_height_image_blender_cannot_read_is_named_not_divided_by(fresh):
+    missing = bpy.data.images.new("Bumps", 8, 8)
+    missing.source, missing.filepath = "FILE", "//no/such/bumps.png"
+    tree = new_material("Rock").node_tree
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = missing
+    tree.nodes.active = tex
+    said = "image 'Bumps' has no pixels here (its file '//no/such/bumps.png' is missing or "
+    for build in (lambda: G.height_map_group(image=missing),
+                  lambda: G.triplanar_height_group(image=missing)):
+        with pytest.raises(ValueError, match=re.escape(said)):
+            build()
+    assert list(bpy.data.node_groups) == []
+    sampler = "SG Height Map HQ (Sampler)"
+    name = sampler if ui.groups.offered(sampler) else "SG Height Map HQ"
+    reports = []
+    op = SimpleNamespace(group=name, use_transform=False,
+                         report=lambda kind, text: reports.append((set(kind), text)))
+    with bpy.context.temp_override(**_shader_editor(bpy, tree)[0]):
+        result = ui.SURFGRAD_OT_add_group.execute(op, bpy.context)
+    if name == sampler:      # 5.0 and later: added, its size left at the default, and said
+        node = tree.nodes.active
+        assert result == {'FINISHED'} and node.node_tree.name == sampler
+        assert (node.inputs["Image Width"].default_value,
+                node.inputs["Image Height"].default_value) == (1024, 1024)
+        assert reports == [({'WARNING'}, f"Image 'Bumps' could not be read (its file "
+                                         f"'//no/such/bumps.png' is missing or unreadable), so "
+                                         f"{sampler}'s Image Width and Height are not its "
+                                         f"size: set them once it loads")]
+    else:
+        assert result == {'CANCELLED'} and reports[0][0] == {'ERROR'}, reports
+        assert reports[0][1].startswith(said) and list(bpy.data.node_groups) == []
