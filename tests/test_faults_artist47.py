@@ -38,7 +38,8 @@ material that does not use nodes.
    active Image Texture: on 4.2 and 4.5 Add > SG Height Map HQ and SG Triplanar Height ended
    in a raw ZeroDivisionError traceback (their texel step, 1/size), as did
    api.node_group(..., image=...) and Update surfgrad Groups of such a group on every line;
-   now a ValueError naming the image, its file and the fix, nothing added. From 5.0 the
+   now a ValueError naming the image, its file and the fix, nothing added (Update leaves
+   that group as it was, saying why, and updates the others). From 5.0 the
    Sampler group was added with Image Width and Height 1, without a word (once the file
    loads, the group steps a whole image per texel); now they keep their default and a warning
    names the image and says to set them.
@@ -261,3 +262,17 @@ def test_a_height_image_blender_cannot_read_is_named_not_divided_by(fresh):
     else:
         assert result == {'CANCELLED'} and reports[0][0] == {'ERROR'}, reports
         assert reports[0][1].startswith(said) and list(bpy.data.node_groups) == []
+
+
+def test_the_update_leaves_a_height_group_whose_image_is_unreadable_and_does_the_rest(fresh):
+    image = bpy.data.images.new("Stones", 8, 8)
+    height = G.height_map_group(image=image)
+    new_material("Rock").node_tree.nodes.new("ShaderNodeGroup").node_tree = height
+    for group in (height, G.resolve_group()):
+        group[VERSION_KEY] = G.VERSION - 1
+    image.source, image.filepath = "FILE", "//gone/stones.png"     # its file moved away
+    image.reload()
+    assert U.update_stale_groups() == (["SG Resolve"], [(
+        "SG Height Map HQ [Stones]", "its image 'Stones' has no pixels here (its file "
+        "'//gone/stones.png' is missing or unreadable): fix it, then update again")])
+    assert height[VERSION_KEY] == G.VERSION - 1

@@ -95,6 +95,19 @@ def _per_image_request(tree):
     return held and (key, *held)
 
 
+def _unread_image(tree):
+    """Why per-image height group `tree` cannot be rebuilt now (one update refused for it
+    alone): an image it steps by whose pixels Blender does not hold (a missing or unreadable
+    file); else None."""
+    request = _per_image_request(tree)
+    if request is None or request[0] == "SG Parallax":        # (parallax takes no texel step)
+        return None
+    unread = next((im for im in request[1] if not (im.size[0] and im.size[1])), None)
+    return unread and (f"its image {unread.name!r} has no pixels here (its file "
+                       f"{unread.filepath!r} is missing or unreadable): fix it, then update "
+                       f"again")
+
+
 def _per_image(tree):
     """A builder call for per-image group `tree`: its images and extension as its nodes hold
     them now (read now: the call runs more than once, node_builder.checked_first, and the
@@ -263,7 +276,7 @@ def update_stale_groups():
     calls, left = [], []
     for tree in stale:
         call = builder_call(tree)
-        reason = G.unavailable_reason(_COPY.sub("", tree.name))
+        reason = G.unavailable_reason(_COPY.sub("", tree.name)) or _unread_image(tree)
         if call is None or reason:
             left.append((tree.name, reason or "its build cannot be told from the group "
                                               "(add it again from the menu)"))
