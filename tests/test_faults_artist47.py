@@ -43,6 +43,10 @@ material that does not use nodes.
    Sampler group was added with Image Width and Height 1, without a word (once the file
    loads, the group steps a whole image per texel); now they keep their default and a warning
    names the image and says to set them.
+8. Add Layer Stack with the editor showing the inside of a node group of the user's (Tab): it
+   was refused with "The material has no shader linked to its Material Output's Surface:
+   link a BSDF first", though the material has one. Now it names the group and the fix
+   (leave the group).
 """
 
 import re
@@ -276,3 +280,19 @@ def test_the_update_leaves_a_height_group_whose_image_is_unreadable_and_does_the
         "SG Height Map HQ [Stones]", "its image 'Stones' has no pixels here (its file "
         "'//gone/stones.png' is missing or unreadable): fix it, then update again")])
     assert height[VERSION_KEY] == G.VERSION - 1
+
+
+def test_a_layer_stack_asked_inside_a_node_group_names_the_group(fresh, registered):
+    mat = new_material("Rock")
+    _plane_with(mat)
+    mine = bpy.data.node_groups.new("My Layers", "ShaderNodeTree")
+    mat.node_tree.nodes.new("ShaderNodeGroup").node_tree = mine
+    registered(*O.CLASSES)
+    with bpy.context.temp_override(**_shader_editor(bpy, mine)[0]):
+        with pytest.raises(RuntimeError) as said:
+            bpy.ops.surfgrad.add_layer_stack()
+    assert str(said.value).startswith(
+        "Error: The editor shows the inside of node group 'My Layers', which has no Material "
+        "Output: the layer stack goes into a material's BSDF; leave the group (Tab)"), \
+        str(said.value)
+    assert len(mine.nodes) == 0

@@ -133,6 +133,10 @@ def _surface_shader(tree):
         raise SurfgradError(f"Every Material Output of the material is targeted at another "
                             f"engine than the scene's ({TARGET_NAMES[target]}): set one's "
                             f"target to All or {TARGET_NAMES[target]} (the menu on the node)")
+    if output is None and tree_owner(tree) is None:     # a node group: no output of its own
+        raise SurfgradError(f"The editor shows the inside of node group {tree.name!r}, which "
+                            f"has no Material Output: the layer stack goes into a material's "
+                            f"BSDF; leave the group (Tab) and add it to the material")
     if output is None or not output.inputs["Surface"].is_linked:
         raise SurfgradError("The material has no shader linked to its Material Output's "
                             "Surface: link a BSDF first")
