@@ -47,6 +47,12 @@ material that does not use nodes.
    was refused with "The material has no shader linked to its Material Output's Surface:
    link a BSDF first", though the material has one. Now it names the group and the fix
    (leave the group).
+9. `compare` (harness api.compare in a session; the CLI on a --blend) built its method's groups
+   through the file's: an older surfgrad's SG Normal Map [UVMap] was rebuilt in place in the
+   user's session (its version and an edit inside it gone: the user's file changed, the
+   docstring's promise "the file is the user's" broken), and a current one the artist edited
+   was judged (item 3: 90 degrees). Now the file's groups under surfgrad's names are renamed
+   aside while it runs: it judges surfgrad's own groups, and the file's are as they were.
 """
 
 import re
@@ -63,6 +69,8 @@ from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.addon import ui  # noqa: E402
 from surfgrad_addon.addon.compat import new_material, renders_nodes  # noqa: E402
 from surfgrad_addon.addon.group_names import VERSION_KEY  # noqa: E402
+from surfgrad_addon.harness import compare as C  # noqa: E402
+from surfgrad_addon.harness import scenes as test_scenes  # noqa: E402
 from test_extension import _shader_editor  # noqa: E402
 from test_faults_operators35 import _groups, registered  # noqa: E402,F401
 
@@ -296,3 +304,21 @@ def test_a_layer_stack_asked_inside_a_node_group_names_the_group(fresh, register
         "Output: the layer stack goes into a material's BSDF; leave the group (Tab)"), \
         str(said.value)
     assert len(mine.nodes) == 0
+
+
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("edit", ["older", "muted"])
+def test_compare_judges_surfgrads_groups_and_leaves_the_files_as_they_were(fresh, edit):
+    obj = test_scenes.new_scene(["Sphere"])["Sphere"]
+    group = G.normal_map_group(obj.data.uv_layers.active.name)
+    name = group.name
+    new_material("Mine").node_tree.nodes.new("ShaderNodeGroup").node_tree = group
+    if edit == "older":
+        group[VERSION_KEY] = G.VERSION - 1
+        group.nodes.new("ShaderNodeValue").name = "My note"
+    else:
+        next(n for n in group.nodes if n.bl_idname == "ShaderNodeNormalMap").mute = True
+    before = _groups()
+    report = C.compare(obj, "normal-map", 16)
+    assert report["p99_deg"] < 0.01, report["p99_deg"]    # (muted, judged: 90 deg mean)
+    assert _groups() == before and group.name == name
