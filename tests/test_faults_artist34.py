@@ -34,7 +34,7 @@ from surfgrad_addon.addon.compat import animated_fcurves, new_material  # noqa: 
 from surfgrad_addon.addon.bake_request import BakeRequest, BakeRequestError, bake  # noqa: E402
 from surfgrad_addon.addon.enum_input import set_choice  # noqa: E402
 from surfgrad_addon.addon.foreign_nodes import foreign_node_problems  # noqa: E402
-from surfgrad_addon.addon.group_names import LINE_KEY, VERSION_KEY  # noqa: E402
+from surfgrad_addon.addon.group_names import INSIDE_KEY, LINE_KEY, VERSION_KEY  # noqa: E402
 from surfgrad_addon.addon.node_builder import running_line, take_notes  # noqa: E402
 from surfgrad_addon.reference import compositing as C  # noqa: E402
 
@@ -52,6 +52,7 @@ def _as_older_integer(tree, name):
         iface.remove(old)
         iface.new_socket(name, in_out="INPUT", socket_type="NodeSocketInt")
     tree[VERSION_KEY] = G.VERSION - 1
+    del tree[INSIDE_KEY]          # (an older surfgrad took no digest of its inside)
 
 
 def _older_decal_node():
@@ -384,6 +385,7 @@ def test_drivers_follow_their_inputs_when_a_rebuild_moves_them(fresh):
     iface.remove(next(it for it in iface.items_tree
                       if it.item_type == "SOCKET" and it.name == "DirectX"))
     tree[VERSION_KEY] = G.VERSION - 1
+    del tree[INSIDE_KEY]
     mat = new_material("Rock")
     decal = mat.node_tree.nodes.new("ShaderNodeGroup")
     decal.node_tree, decal.name = tree, 'Decal "A"'       # a name the path escapes

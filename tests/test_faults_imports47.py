@@ -8,7 +8,7 @@ code, a few faces, so no test reads a fetched file.
    but passed this one, and Blender's bake then found no image to write ("No active image
    found"): bake-normal-map failed after its checks, exit 1, "Blender gave no reason (check
    its materials and modifiers)", on 4.2 and 4.5. Now refused before baking, exit 2, naming
-   the material and the fix (material_inputs.no_tree_problem, compat.renders_its_nodes).
+   the material and the fix (material_inputs.no_tree_problem, compat.renders_nodes).
    From 5.0 Use Nodes is deprecated and always on (setting it off does nothing), pinned.
 2. Freeze of an object with another material that has no node tree (4.2, 4.5: a material of
    an old file, or made by a script, never given Use Nodes): the bake puts an image node in

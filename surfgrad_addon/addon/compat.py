@@ -3,12 +3,13 @@ place, decided by what the running Blender has rather than by its version number
 
 - Geometry Nodes modifier inputs: ID properties (`mod[identifier]`) up to 5.0; from 5.1
   `mod.properties.inputs.<identifier>.value`, and item assignment raises TypeError.
-- A new material has a node tree from 5.0; before, only after `use_nodes = True`. Up to 4.5 a
-  material keeps its tree with Use Nodes off (an old file's, or switched off) and renders
-  without it; from 5.0 `use_nodes` is deprecated and always True.
+- A new material has a node tree from 5.0; before, only after `use_nodes = True`. Up to 4.5
+  Use Nodes can be off with a tree there (the material renders without it); from 5.0 it is
+  always on (setting it off is ignored) and reading it is deprecated.
 - An action's F-curves: `action.fcurves` up to 4.5; from 5.0 only in the channelbag of the
   animation data's slot (bpy_extras.anim_utils).
-(tests/test_line_facts.py pins both on every line.)
+(tests/test_line_facts.py pins the tree and the F-curves on every line,
+tests/test_faults_artist47.py Use Nodes.)
 """
 
 
@@ -21,15 +22,13 @@ def new_material(name):
     return mat
 
 
-def renders_its_nodes(mat):
-    """Whether Cycles renders `mat` through its node tree (see the module's note)."""
-    if mat.node_tree is None:
-        return False
-    rna = getattr(mat, "bl_rna", None)
-    prop = rna.properties.get("use_nodes") if rna is not None else None
-    if prop is None or getattr(prop, "is_deprecated", False):     # 5.0 on: always
-        return True
-    return mat.use_nodes
+def renders_nodes(mat):
+    """True when material `mat` renders through its node tree (Use Nodes on, where the line
+    lets it be off), without 5.0's deprecation warning for reading `use_nodes`."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        return mat.node_tree is not None and getattr(mat, "use_nodes", True)
 
 
 def _identifier(mod, name):

@@ -35,8 +35,8 @@ from .normal_map_checks import input_warnings
 from .parallax_heights import parallax_height_warnings
 from .small_objects import small_object_messages
 from .material_inputs import (cycles_output, edits_lost, linked_text, live_links,
-                              muted_output_text, no_tree_problem, renders_nothing,
-                              upstream_nodes)
+                              muted_output_text, no_tree_problem, nodes_off_problem,
+                              renders_nothing, upstream_nodes)
 
 RECORD = "surfgrad_freeze"
 ADDED_LABEL = "surfgrad: "        # on every node the freeze adds: Thaw removes only those
@@ -245,6 +245,9 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         raise FreezeError(linked_text(f"material {mat.name!r}"))
     if RECORD in mat:
         raise FreezeError(f"material {mat.name!r} is frozen already: thaw it first")
+    off = nodes_off_problem(mat, "a frozen map")    # Blender's bake fails, naming nothing
+    if off:
+        raise FreezeError(off)
     others = _other_meshes_using(obj, mat)
     if others:
         raise FreezeError(f"material {mat.name!r} is also used by {', '.join(others)} (not "

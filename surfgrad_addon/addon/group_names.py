@@ -10,6 +10,9 @@ VERSION_KEY = "surfgrad_version"
 # The Blender line a group was built for: a few interiors differ by line (the interface never
 # does), so a file saved on one line gets its groups rebuilt when used on another.
 LINE_KEY = "surfgrad_line"
+# A digest of the group's inside as built (node_builder.inside_digest): an artist's edit of it
+# is told apart from our build when a rebuild would replace it.
+INSIDE_KEY = "surfgrad_inside"
 
 
 def fitting_name(name):

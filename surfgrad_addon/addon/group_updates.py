@@ -51,6 +51,25 @@ def stale_text(stale):
             f"Blender {here}")
 
 
+def linked_stale_text():
+    """What the sidebar says of our groups linked from a library (a linked material's) that an
+    older surfgrad or another Blender line built: they render as built (some wrong: 4.5 drops
+    a 5.x group's Menu Switch), and Update cannot reach them; None when there are none."""
+    line = running_line().line
+    stale = [g for g in bpy.data.node_groups
+             if g.library is not None and isinstance(g.get(VERSION_KEY), int)
+             and (g[VERSION_KEY] < G.VERSION or g.get(LINE_KEY) != line)]
+    if not stale:
+        return None
+    libraries = ", ".join(sorted({repr(g.library.filepath) for g in stale}))
+    lines = sorted({g.get(LINE_KEY) for g in stale} - {None, line})
+    where = f" or for Blender {', '.join(lines)}" if lines else ""
+    return (f"{len(stale)} surface-gradient group(s) linked from {libraries} were built by an "
+            f"older surfgrad{where}, and may render differently here; this file cannot "
+            f"change them: update them in that file with Blender {line} (Update surfgrad "
+            f"Groups there, then save it), or link from a file made for Blender {line}")
+
+
 def _interior(tree, bl_idname, prop):
     """`prop` of the first node of type `bl_idname` in `tree` (None if there is none)."""
     node = next((n for n in tree.nodes if n.bl_idname == bl_idname), None)
@@ -74,6 +93,19 @@ def _per_image_request(tree):
         return None
     held = held_images(tree, 3 if key == "SG Triplanar Height" else 1)
     return held and (key, *held)
+
+
+def _unread_image(tree):
+    """Why per-image height group `tree` cannot be rebuilt now (one update refused for it
+    alone): an image it steps by whose pixels Blender does not hold (a missing or unreadable
+    file); else None."""
+    request = _per_image_request(tree)
+    if request is None or request[0] == "SG Parallax":        # (parallax takes no texel step)
+        return None
+    unread = next((im for im in request[1] if not (im.size[0] and im.size[1])), None)
+    return unread and (f"its image {unread.name!r} has no pixels here (its file "
+                       f"{unread.filepath!r} is missing or unreadable): fix it, then update "
+                       f"again")
 
 
 def _per_image(tree):
@@ -244,7 +276,7 @@ def update_stale_groups():
     calls, left = [], []
     for tree in stale:
         call = builder_call(tree)
-        reason = G.unavailable_reason(_COPY.sub("", tree.name))
+        reason = G.unavailable_reason(_COPY.sub("", tree.name)) or _unread_image(tree)
         if call is None or reason:
             left.append((tree.name, reason or "its build cannot be told from the group "
                                               "(add it again from the menu)"))
@@ -309,10 +341,12 @@ line built, for this one, keeping every node's values and links"""
 
 
 def draw_stale_warning(layout):
-    """In the sidebar: the stale groups, if any, and the button that updates them."""
-    text = stale_text(stale_groups())
-    if text:
-        box = layout.box()
-        for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
-            box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
-        box.operator(SURFGRAD_OT_update_groups.bl_idname, icon="FILE_REFRESH")
+    """In the sidebar: the stale groups, if any, and the button that updates them; the stale
+    groups of libraries, which only their own files can update."""
+    for text, button in ((stale_text(stale_groups()), True), (linked_stale_text(), False)):
+        if text:
+            box = layout.box()
+            for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
+                box.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+            if button:
+                box.operator(SURFGRAD_OT_update_groups.bl_idname, icon="FILE_REFRESH")

@@ -6,7 +6,7 @@ sentence naming the thing and the fix (bake_request.py gathers them before anyth
 import re
 from pathlib import Path
 
-from .compat import renders_its_nodes
+from .compat import renders_nodes
 from .open_blend import newer_than_running
 
 MAGENTA = "Cycles would bake its magenta 'missing' colour"
@@ -177,7 +177,7 @@ def no_tree_problem(mat):
     """A material without a node tree (Use Nodes never turned on, before 5.0): the bake writes
     through an Image Texture node in each material, and has nowhere to put one."""
     if mat.node_tree is not None:
-        if renders_its_nodes(mat):
+        if renders_nodes(mat):
             return None
         # Up to 4.5: Cycles renders it without the tree, and the bake finds no image in it
         # (it failed after the checks with "Blender gave no reason", exit 1).
@@ -188,6 +188,17 @@ def no_tree_problem(mat):
     return (f"material {mat.name!r} has no node tree (Use Nodes is off), so the bake has "
             f"nowhere to write its faces: turn on Use Nodes for it (Material Properties > "
             f"Surface), or give its faces another material")
+
+
+def nodes_off_problem(mat, what):
+    """A material that does not render through nodes (Use Nodes off, 4.2 and 4.5; never turned
+    on there: no tree): an edit of its nodes (`what`, e.g. "a layer stack") would not render,
+    and turning Use Nodes on for the artist would change its look unasked."""
+    if renders_nodes(mat):
+        return None
+    return (f"material {mat.name!r} does not use nodes (Use Nodes is off), so {what} would "
+            f"not render: turn on Use Nodes (Material Properties > Surface, or the Shader "
+            f"Editor's header), then try again")
 
 
 def uv_name_problem(mat, path, node, mesh_name, uv_maps, attributes, as_rendered=""):

@@ -18,6 +18,7 @@ socket still exists, or was renamed: SocketSpec.renamed_from), so links and valu
 materials survive an add-on update. Enumerations: addon/enum_input.py.
 """
 
+import hashlib
 import math
 import re
 from contextlib import contextmanager
@@ -28,8 +29,8 @@ import bpy
 from ..reference.group_interfaces import plain_value
 from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
 from .compat import animated_fcurves
-from .group_names import (LINE_KEY, VERSION_KEY, fitting_name, newer_group_problem,
-                          stale_copies)
+from .group_names import (INSIDE_KEY, LINE_KEY, VERSION_KEY, fitting_name,
+                          newer_group_problem, stale_copies)
 from .node_vocabulary import VALUE_OPS, Math, VMath
 
 
@@ -154,6 +155,17 @@ def _ensure(name, version, build, description, stale, tree_type, interface, held
     copies = stale_copies(name, version, line, tree_type) if stale is None else []
     current = (tree is not None and tree.get(VERSION_KEY) == version
                and tree.get(LINE_KEY) == line and not (stale and stale(tree)))
+    edited = current and (
+        interface is not None and edited_sockets(
+            tree, interface.for_line(running_line().menu_sockets))
+        or edited_inside(tree) and "inside: a node or link added, removed, muted or set "
+                                   "otherwise")
+    if edited:
+        # Reused, a new node would not do what surfgrad's does (a compare called the method
+        # wrong; an operator linking a renamed socket raised KeyError); rebuilt, the artist's
+        # edit would be lost: the artist's group now, as one of the user's is.
+        raise ValueError(f"node group {name!r} was edited after surfgrad made it ({edited}): "
+                         f"rename it to keep your version, so surfgrad can add its own")
     if _CHECK.scratch is not None and (copies or not current):
         # The check pass: what the request would build is built on a scratch group, once.
         if name not in _CHECK.scratch:
@@ -180,9 +192,25 @@ def _ensure(name, version, build, description, stale, tree_type, interface, held
     return tree
 
 
+def edited_sockets(tree, interface):
+    """'' when group `tree` has the sockets of `interface` (names, directions, types), else
+    what differs, e.g. "no input 'A'; an input 'Base' of its own"."""
+    have = {(it.in_out, it.name, it.socket_type) for it in tree.interface.items_tree
+            if it.item_type == "SOCKET"}
+    want = {("OUTPUT", s.name, SOCKET_TYPES[s.type]) for s in interface.outputs} | \
+        {("INPUT", s.name, SOCKET_TYPES[s.type]) for s in interface.inputs}
+    return "; ".join([f"no {d.lower()} {n!r}" for d, n, _ in sorted(want - have)] +
+                     [f"an {d.lower()} {n!r} of its own" for d, n, _ in sorted(have - want)])
+
+
 def _rebuild(tree, description, build, interface, version, line):
     """Build `tree` in place: its interface sockets keep their identifiers, so the links and
     values of the group nodes that use it survive."""
+    if edited_inside(tree):
+        _NOTES.append(f"node group {tree.name!r} was edited inside after surfgrad made it (a "
+                      f"node or link added, removed, muted or set otherwise), and its rebuild "
+                      f"for this version replaced that edit: to keep it, undo (Ctrl+Z) and "
+                      f"rename the group")
     driven = _driven_inputs(tree)
     tree.nodes.clear()
     tree.description = description
@@ -196,6 +224,51 @@ def _rebuild(tree, description, build, interface, version, line):
     _follow_drivers(driven)
     tree[VERSION_KEY] = version
     tree[LINE_KEY] = line
+    tree[INSIDE_KEY] = inside_digest(tree)
+
+
+_NODE_BASE = set(bpy.types.Node.bl_rna.properties.keys())
+_SETTINGS = {}
+
+
+def _settings(node):
+    """The names of a node type's own settings (an operation, a data type, a space)."""
+    if node.bl_idname not in _SETTINGS:
+        _SETTINGS[node.bl_idname] = [
+            p.identifier for p in node.bl_rna.properties
+            if p.identifier not in _NODE_BASE and not p.is_readonly
+            and p.type in {"BOOLEAN", "INT", "FLOAT", "STRING", "ENUM"}
+            and getattr(p, "array_length", 0) == 0]
+    return _SETTINGS[node.bl_idname]
+
+
+def edited_inside(tree):
+    """True when group `tree` was changed inside since it was built, as far as can be told: its
+    digest was taken by this Blender version (another reads some nodes otherwise: a correct
+    group is never called edited)."""
+    stored, now = tree.get(INSIDE_KEY), inside_digest(tree)
+    return isinstance(stored, str) and stored.split(":")[0] == now.split(":")[0] \
+        and stored != now
+
+
+def _settled(value):
+    return sorted(value) if isinstance(value, set) else value     # (an enum flag: one order)
+
+
+def inside_digest(tree):
+    """"<Blender version>:<digest>" of what group `tree` computes: its nodes (type, mute,
+    settings, unlinked input values) and links; not where they are drawn, nor the names of the
+    groups and images they use (renamed by merges and by the artist)."""
+    rows = []
+    for node in sorted(tree.nodes, key=lambda n: n.name):
+        settings = [(key, _settled(getattr(node, key))) for key in _settings(node)]
+        values = [(i, _plain(s.default_value)) for i, s in enumerate(node.inputs)
+                  if not s.is_linked and hasattr(s, "default_value")]
+        rows.append(repr((node.name, node.bl_idname, node.mute, settings, values)))
+    rows += sorted(repr((lk.from_node.name, lk.from_socket.identifier, lk.to_node.name,
+                         lk.to_socket.identifier, lk.is_muted)) for lk in tree.links)
+    digest = hashlib.sha1("\n".join(rows).encode()).hexdigest()[:16]
+    return f"{'.'.join(map(str, bpy.app.version))}:{digest}"
 
 
 def check_value(got, want, what):
@@ -521,6 +594,7 @@ class GroupBuilder(NodeOps):
         iface = self.tree.interface
         for it in list(iface.items_tree):
             if it.item_type == "SOCKET" and it.identifier not in self._wanted:
+                _note_dropped_uses(self.tree, it)
                 iface.remove(it)
         # Interface order: outputs first, then inputs, in the order they were declared.
         wanted = [self._item(i) for i in self._wanted]
@@ -590,13 +664,17 @@ class GroupNodeInput(NamedTuple):
     source: object
 
 
+def _group_owners():
+    """[(what it is, node tree)] of every material's tree and every node group."""
+    return [(f"material {m.name!r}", m.node_tree) for m in bpy.data.materials
+            if m.node_tree] + [(f"node group {g.name!r}", g) for g in bpy.data.node_groups]
+
+
 def group_node_inputs(tree, identifier):
     """[GroupNodeInput] of input `identifier` on every group node of `tree` (in materials and
     node groups)."""
     found = []
-    owners = [(f"material {m.name!r}", m.node_tree) for m in bpy.data.materials
-              if m.node_tree] + [(f"node group {g.name!r}", g) for g in bpy.data.node_groups]
-    for owner, owner_tree in owners:
+    for owner, owner_tree in _group_owners():
         for node in owner_tree.nodes:
             if getattr(node, "node_tree", None) == tree:
                 for s in node.inputs:
@@ -654,6 +732,38 @@ def _follow_drivers(driven):
         elif int(match[2]) != index:
             fcurve.data_path = (fcurve.data_path[:match.start(2)] + str(index)
                                 + fcurve.data_path[match.end(2):])
+
+
+def _note_dropped_uses(tree, item):
+    """A note for each group node of `tree` whose link or value on socket `item` the rebuild
+    drops with it (a socket the artist renamed in an older group, or one a newer version
+    removed): never a silently different look."""
+    for owner, owner_tree in _group_owners():
+        for node in owner_tree.nodes:
+            if getattr(node, "node_tree", None) != tree:
+                continue
+            sockets = node.inputs if item.in_out == "INPUT" else node.outputs
+            socket = next((s for s in sockets if s.identifier == item.identifier), None)
+            if socket is None:
+                continue
+            ends = [lk.from_node if item.in_out == "INPUT" else lk.to_node
+                    for lk in socket.links]
+            lost = [f"its link {'from' if item.in_out == 'INPUT' else 'to'} "
+                    f"{', '.join(repr(n.name) for n in ends)}"] if ends else []
+            default = getattr(item, "default_value", None)
+            if not ends and default is not None and hasattr(socket, "default_value") \
+                    and _plain(socket.default_value) != _plain(default):
+                lost.append(f"its value {_plain(socket.default_value)}")
+            if lost:
+                _NOTES.append(f"{node.name!r} ({tree.name}) in {owner}: its "
+                              f"{item.in_out.lower()} {item.name!r} is not one of the "
+                              f"group's sockets now (renamed or added in the group?), so "
+                              f"{' and '.join(lost)} went with it: check it")
+
+
+def _plain(value):
+    return value if isinstance(value, (str, int, float, bool)) else \
+        tuple(round(v, 6) for v in value)
 
 
 def _constant_behind(socket):

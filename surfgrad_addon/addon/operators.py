@@ -13,7 +13,7 @@ from bpy.props import EnumProperty, StringProperty
 from ..reference.decals import CAPSULE_HALF_LENGTH, DECAL_SHAPES
 from . import groups as G
 from .enum_input import set_choice
-from .material_inputs import edits_lost, linked_text, render_output
+from .material_inputs import edits_lost, linked_text, nodes_off_problem, render_output
 from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .group_updates import draw_stale_warning, report_notes, take_notes
@@ -37,8 +37,9 @@ def _active_tree(context):
                             f"Properties first")
     if edits_lost(mat):
         raise SurfgradError(linked_text(repr(mat.name)))
-    if mat.node_tree is None:
-        mat.use_nodes = True
+    problem = nodes_off_problem(mat, "this edit")
+    if problem:
+        raise SurfgradError(problem)
     return mat, mat.node_tree
 
 
@@ -55,6 +56,9 @@ def require_editable(tree):
     if edits_lost(tree, owner):
         raise SurfgradError(linked_text(f"material {owner.name!r}" if owner is not None
                                          else f"node tree {tree.name!r}"))
+    problem = owner is not None and nodes_off_problem(owner, "this edit")
+    if problem:
+        raise SurfgradError(problem)
 
 
 def _is_world_tree(tree):
@@ -129,6 +133,10 @@ def _surface_shader(tree):
         raise SurfgradError(f"Every Material Output of the material is targeted at another "
                             f"engine than the scene's ({TARGET_NAMES[target]}): set one's "
                             f"target to All or {TARGET_NAMES[target]} (the menu on the node)")
+    if output is None and tree_owner(tree) is None:     # a node group: no output of its own
+        raise SurfgradError(f"The editor shows the inside of node group {tree.name!r}, which "
+                            f"has no Material Output: the layer stack goes into a material's "
+                            f"BSDF; leave the group (Tab) and add it to the material")
     if output is None or not output.inputs["Surface"].is_linked:
         raise SurfgradError("The material has no shader linked to its Material Output's "
                             "Surface: link a BSDF first")

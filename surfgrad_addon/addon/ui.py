@@ -11,8 +11,10 @@ from bpy.props import BoolProperty, StringProperty
 
 from . import freeze_operators, group_updates, groups, operators
 from ..reference import socket_specs as S
+from ..reference.group_interfaces import INTERFACES
 from .all_or_nothing import all_or_nothing
 from .far_precision import needs_precise_far, set_precise_far_on_node
+from .group_names import VERSION_KEY
 from .material_inputs import edits_lost
 
 MENU_IDNAME = "NODE_MT_surfgrad_add"
@@ -131,14 +133,22 @@ def _add_sampler_group(tree, name, group, location):
     tree.links.new(zone.outputs[0], node.inputs["Sampler"])
     if vector is not None and "UV" in node.inputs:
         tree.links.new(vector, node.inputs["UV"])
-    if tex is not None and tex.image is not None and S.IMAGE_WIDTH.name in node.inputs:
-        node.inputs[S.IMAGE_WIDTH.name].default_value = tex.image.size[0] or 1
-        node.inputs[S.IMAGE_HEIGHT.name].default_value = tex.image.size[1] or 1
+    if tex is not None and unread_image(tex) is None and tex.image is not None \
+            and S.IMAGE_WIDTH.name in node.inputs:
+        node.inputs[S.IMAGE_WIDTH.name].default_value = tex.image.size[0]
+        node.inputs[S.IMAGE_HEIGHT.name].default_value = tex.image.size[1]
     for other in tree.nodes:
         other.select = False                 # the new group alone is selected, as Add does
     node.select = True
     tree.nodes.active = node
     return node
+
+
+def unread_image(tex):
+    """The image of Image Texture node `tex` when Blender holds no pixels of it (a missing or
+    unreadable file: 0 x 0), else None."""
+    image = tex.image if tex is not None else None
+    return image if image is not None and not (image.size[0] and image.size[1]) else None
 
 
 class SURFGRAD_OT_add_group(bpy.types.Operator):
@@ -163,11 +173,17 @@ in this file first if needed"""
 
     @classmethod
     def description(cls, _context, properties):
+        # What the group does: our group's description, else its interface's (a new file
+        # lacks the group, and the tooltip said only "Add ... group node"; a group of the
+        # user's under its name says nothing of ours).
         name = properties.group
-        tree = bpy.data.node_groups.get(name)
-        text = tree.description.rstrip(". ") if tree is not None else ""
+        tree = bpy.data.node_groups.get((name, None))
+        iface = INTERFACES.get(name)
+        text = tree.description if tree is not None and VERSION_KEY in tree else \
+            iface.describe() if iface is not None else ""
         how = (f"Add an \u201c{name}\u201d group node" if tree is not None else
                f"Add an \u201c{name}\u201d group node (the group is created in this file)")
+        text = text.rstrip(". ")
         return f"{text}.\n{how}" if text else how
 
     @classmethod
@@ -207,6 +223,8 @@ in this file first if needed"""
             and active_image(tree) is None
         empty_zone = self.group in groups.SAMPLER_GROUPS and (
             tree.nodes.active is None or tree.nodes.active.bl_idname != "ShaderNodeTexImage")
+        unread = None if empty_zone or self.group not in groups.SAMPLER_GROUPS else \
+            unread_image(tree.nodes.active)
         group_updates.take_notes()
         try:
             with all_or_nothing(tree):       # a half-built group is taken away again
@@ -222,6 +240,12 @@ in this file first if needed"""
             self.report({'INFO'}, f"{self.group} added with an empty Sampler zone: put an "
                         f"Image Texture in it (Vector from the zone, Color to its output) and "
                         f"set Width and Height to the image's size")
+        if unread is not None and S.IMAGE_WIDTH.name in node.inputs:
+            # (They were set to 1, without a word: once the file loads the group steps a
+            # whole image per texel.)
+            self.report({'WARNING'}, f"Image {unread.name!r} could not be read (its file "
+                        f"{unread.filepath!r} is missing or unreadable), so {self.group}'s "
+                        f"Image Width and Height are not its size: set them once it loads")
         if unbound:
             self.report({'WARNING'}, f"{self.group} samples its height image itself: make an "
                         f"Image Texture node holding the image active, then add it again")

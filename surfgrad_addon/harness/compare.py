@@ -23,7 +23,7 @@ import json
 import os
 import sys
 import time
-from contextlib import nullcontext
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -473,16 +473,35 @@ def compare(obj, method, resolution=64, variant=None, uv_map=None, image=None,
     the node groups the bake added removed again (the file is the user's)."""
     import bpy
     before = set(bpy.data.node_groups)
-    try:
-        report, heat = compare_object(obj, method, R.input_checks.plain_number(resolution),
-                                      uv_map=uv_map, image=image,
-                                      variant=variant, log=lambda *_: None, tiles=tiles,
-                                      device=device)
-    finally:
-        # The groups the bake needed go again (users first).
-        for tree in [t for t in bpy.data.node_groups if t not in before][::-1]:
-            bpy.data.node_groups.remove(tree)
+    with _file_groups_aside():
+        try:
+            report, heat = compare_object(obj, method, R.input_checks.plain_number(resolution),
+                                          uv_map=uv_map, image=image, variant=variant,
+                                          log=lambda *_: None, tiles=tiles, device=device)
+        finally:
+            # The groups the bake needed go again (users first).
+            for tree in [t for t in bpy.data.node_groups if t not in before][::-1]:
+                bpy.data.node_groups.remove(tree)
     return (report, heat) if with_heat_map else report
+
+
+@contextmanager
+def _file_groups_aside():
+    """The file's own groups under surfgrad's names renamed aside for the duration, so the
+    comparison builds and judges surfgrad's groups: reused, an older surfgrad's was rebuilt in
+    place (the user's file changed, an edit inside it lost) and one the artist edited was
+    judged (a muted node inside SG Normal Map: the method 90 degrees off). Their nodes keep
+    using them; the names come back after."""
+    import bpy
+    aside = [(g, g.name) for g in bpy.data.node_groups
+             if g.library is None and g.name.startswith(("SG ", ".SG "))]
+    for i, (group, _) in enumerate(aside):
+        group.name = f".surfgrad compare aside {i}"
+    try:
+        yield
+    finally:
+        for group, name in aside:
+            group.name = name
 
 
 def check_output_path(path, overwrite, what="output"):

@@ -97,12 +97,26 @@ def _check_variant(variant):
 HEIGHT_LABELS = {"hq": "HQ", "one-texel": "One-Texel"}
 
 
+def _texel_size(image):
+    """(width, height) of a height image, its texel step built in (no image: 1024^2). Refused
+    where Blender holds no pixels of it (a missing or unreadable file reads 0 x 0): the step
+    divided by zero, a raw ZeroDivisionError from the Add menu."""
+    if image is None:
+        return 1024, 1024
+    if not image.size[0] or not image.size[1]:
+        raise ValueError(f"image {image.name!r} has no pixels here (its file "
+                         f"{image.filepath!r} is missing or unreadable), and the group steps "
+                         f"by its texels: fix the image (Image > Replace), then add the group "
+                         f"again")
+    return image.size[0], image.size[1]
+
+
 def height_map_group(image=None, variant="hq", extension="REPEAT"):
     """SG Height Map for one height image: Listing 16 at level 0 ('one-texel': three Linear
     taps one texel apart; 'hq': the 4x4 Closest block of Eq. 20/21), through Listing 6 in
     surface gradients: grad_S H = W dH/du grad s + H dH/dv grad t."""
     _check_variant(variant)
-    w, h = (image.size[0], image.size[1]) if image is not None else (1024, 1024)
+    w, h = _texel_size(image)
 
     def build(b):
         _height_map_body(b, lambda b: ImageTaps(b, image, extension), variant,
@@ -194,8 +208,7 @@ def triplanar_height_group(image=None, extension="REPEAT", images=None):
     if len(plane_images) != 3 or images is not None and None in plane_images:
         raise ValueError("triplanar height needs one image or three (for X, Y and Z), "
                          "each an image: give `image` for every plane, or three `images`")
-    sizes = [(float(im.size[0]), float(im.size[1])) if im is not None else (1024.0, 1024.0)
-             for im in plane_images]
+    sizes = [tuple(map(float, _texel_size(im))) for im in plane_images]
 
     def build(b):
         _triplanar_height_body(
