@@ -136,3 +136,46 @@ def test_a_udim_bake_that_fails_at_its_publish_leaves_the_old_tiles(tmp_path, mo
     assert "could not put" in err and "n.1003.png' in place" in err, err
     assert sorted(p.name for p in out.iterdir()) == names             # no temporary file
     assert [(out / n).read_bytes() for n in names] == [b"old " + n.encode() for n in names]
+
+
+# Part 2: the reach limits of the other noise methods (harness/scale_limits.NOISE_REACH_LIMITS;
+# 0.99 x each limit is compared and agrees: test_faults_leftovers45, parametrized over them).
+#
+# 3. SG Displace's finer bump (compare --method displace-bump) and height-blend's sand noise
+#    read SG Noise at object coordinates unfiltered, as volume-noise does: on a mesh reaching
+#    1 km, compare baked and called the correct groups wrong with exit 0 (p99 0.22 / 0.40 deg,
+#    10 km 1.8 / 4.9, against the bar 0.1; 5.2, and 4.5 / 4.2 within 0.06). Now compare refuses
+#    beyond 300 m and 200 m, as round 45 did for volume-noise (scale_limits.noise_reach_problem).
+
+REACH_FIX = ("so it is not compared; scale its mesh down by 10 or more about its origin (Edit "
+             "Mode)")
+
+
+def _sphere_reaching(reach):
+    import bpy
+    import mathutils
+    from support.small_objects import scaled_test_object
+    from surfgrad_addon.harness import scale_limits
+    obj = scaled_test_object("Sphere", 1.0)
+    obj.data.transform(mathutils.Matrix.Scale(reach / scale_limits.object_reach(obj), 4))
+    bpy.context.view_layer.update()
+    return obj
+
+
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("method, limit", [("displace-bump", 300), ("height-blend", 200)])
+def test_noise_methods_beyond_their_reach_are_refused(method, limit):
+    bpy = pytest.importorskip("bpy")
+    from surfgrad_addon.harness import compare
+    from surfgrad_addon.harness.methods import unavailable_reason
+    if unavailable_reason(method):                    # SG Displace before 4.5
+        pytest.skip(unavailable_reason(method))
+    obj = _sphere_reaching(1e3)
+    images = len(bpy.data.images)
+    with pytest.raises(compare.CompareError) as err:
+        compare.compare_object(obj, method, 16, log=None)
+    assert len(bpy.data.images) == images                     # refused before baking
+    assert str(err.value).startswith(
+        f"object 'Sphere' reaches 1000 m from its origin in object space: beyond {limit} m, "
+        f"the unfiltered noise coordinates that {method} reads"), err.value
+    assert str(err.value).endswith(REACH_FIX), err.value
