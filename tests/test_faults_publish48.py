@@ -19,6 +19,8 @@ from surfgrad_addon.addon import exit_codes
 from surfgrad_addon.addon import publish_files as PF
 from surfgrad_addon.harness import staged_folder as SF
 
+pytestmark = pytest.mark.tier("bake")
+
 
 def _fail_on(monkeypatch, name):
     """A disk that stops taking files when `name` is moved in (ENOSPC)."""
@@ -95,7 +97,6 @@ def test_a_staged_folder_that_fails_at_its_move_keeps_the_last_run(tmp_path, mon
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]      # no working folder
 
 
-@pytest.mark.tier("bake")
 def test_a_udim_bake_that_fails_at_its_publish_leaves_the_old_tiles(tmp_path, monkeypatch,
                                                                      capsys):
     pytest.importorskip("bpy")
@@ -162,7 +163,6 @@ def _sphere_reaching(reach):
     return obj
 
 
-@pytest.mark.tier("bake")
 @pytest.mark.parametrize("method, limit", [("displace-bump", 300), ("height-blend", 200)])
 def test_noise_methods_beyond_their_reach_are_refused(method, limit):
     bpy = pytest.importorskip("bpy")
