@@ -52,8 +52,10 @@ def publish(pairs, overwrite, exists_error, folders=False):
                 f"could not put {failed!r} in place ({err.strerror or err}): check that "
                 f"{str(Path(failed).parent)!r} still takes files (its permissions, free space) "
                 f"and that nothing else is in that file's place, and run again; "
-                + (f"every output is as it was" if not stuck else
+                + ("every output is as it was" if not stuck else
                    f"these could not be put back: {'; '.join(stuck)}")) from None
+        if stuck:
+            err.add_note(f"surfgrad: these could not be put back: {'; '.join(stuck)}")
         raise
     for _, backup, _ in done:
         if backup is not None:
@@ -84,7 +86,7 @@ def _move_in(temp, final, replace):
         return
     try:
         os.link(temp, final)                   # fails if final appeared: nothing replaced
-    except FileExistsError:
+    except FileExistsError:                    # (not the fallback below)
         raise
     except OSError:                            # a folder, or no hard links (network shares)
         if os.path.lexists(final):
