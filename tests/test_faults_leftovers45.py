@@ -67,6 +67,9 @@ def _refusal(obj, method):
 @pytest.mark.parametrize("method", sorted(scale_limits.NOISE_REACH_LIMITS))
 def test_unfiltered_noise_holds_at_its_reach_limit(method):
     """On every line: the sphere reaching just inside the limit is compared and agrees."""
+    from surfgrad_addon.harness.methods import unavailable_reason
+    if unavailable_reason(method):                    # SG Displace before 4.5
+        pytest.skip(unavailable_reason(method))
     obj = _big_mesh("Sphere", scale_limits.NOISE_REACH_LIMITS[method] * 0.99)
     report = _compare(obj, method)
     assert report["texels_compared"] > 150

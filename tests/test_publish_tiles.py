@@ -7,7 +7,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
-from surfgrad_addon.addon import normal_bake as NB  # noqa: E402
+from surfgrad_addon.addon import publish_files as PF  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -18,13 +18,13 @@ def test_a_tile_made_by_another_process_mid_bake_leaves_no_tile(tmp_path, monkey
                            image_size=16)
     out = tmp_path / "maps"
     out.mkdir()
-    real = NB._publish
+    real = PF._move_in
 
-    def other_process_writes_1002(temp, final, overwrite):
+    def other_process_writes_1002(temp, final, replace):
         if final.name == "n.1002.png":
             final.write_bytes(b"another bake's tile")
-        return real(temp, final, overwrite)
-    monkeypatch.setattr(NB, "_publish", other_process_writes_1002)
+        return real(temp, final, replace)
+    monkeypatch.setattr(PF, "_move_in", other_process_writes_1002)
     capsys.readouterr()
     rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
                            "--output", str(out / "n.<UDIM>.png"), "--resolution", "16"])
@@ -36,7 +36,7 @@ def test_a_tile_made_by_another_process_mid_bake_leaves_no_tile(tmp_path, monkey
     assert (out / "n.1002.png").read_bytes() == b"another bake's tile"
 
     # Without the interference the same bake writes every tile.
-    monkeypatch.setattr(NB, "_publish", real)
+    monkeypatch.setattr(PF, "_move_in", real)
     (out / "n.1002.png").unlink()
     rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
                            "--output", str(out / "n.<UDIM>.png"), "--resolution", "16"])

@@ -43,6 +43,7 @@ from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import is_linked, linked_user_problem, local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
+from .publish_files import publish
 from .tangent_uv import tangents_of
 from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_render_effects
 
@@ -660,40 +661,21 @@ def _check_written(bpy, temp, final, resolution):
 
 
 def _publish_all(temps, finals, tiles, overwrite, paths):
-    """Put every tile's file in place, or none: without overwrite a tile file that appeared
-    since the checks (another bake of the same names) stops the publish, and the tiles this
-    bake already put in place, new files, are removed again (before, they stayed: a partial
-    set of tiles with a non-zero exit)."""
-    done = []
-    try:
-        for t in tiles:
-            _publish(temps[t], finals[t], overwrite)
-            done.append(t)
-            interrupts.placed(finals[t])
-            paths[t] = finals[t]
-    except NormalBakeError:
-        if not overwrite:
-            for t in done:
-                finals[t].unlink(missing_ok=True)
-                paths.pop(t, None)
-        raise
+    """Put every tile's file in place, or none (publish_files.py): without overwrite a tile
+    file that appeared since the checks (another bake of the same names) stops the publish."""
+    publish([(temps[t], finals[t]) for t in tiles], overwrite, _exists)
+    for t in tiles:
+        interrupts.placed(finals[t])
+        paths[t] = finals[t]
+
+
+def _exists(final):
+    return NormalBakeError(f"{final} exists; pass --overwrite to replace it")
 
 
 def _publish(temp, final, overwrite):
     """Move a complete file to its name; without overwrite never replace one that appeared."""
-    if overwrite:
-        os.replace(temp, final)
-        return
-    try:
-        os.link(temp, final)                  # fails if final exists: nothing replaced
-    except FileExistsError:
-        raise NormalBakeError(f"{final} exists; pass --overwrite to replace it") from None
-    except OSError:                           # no hard links here (some network shares)
-        if final.exists():
-            raise NormalBakeError(f"{final} exists; pass --overwrite to replace it") from None
-        os.replace(temp, final)
-        return
-    temp.unlink()
+    publish([(temp, final)], overwrite, _exists)
 
 
 def bake_normal_map(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,

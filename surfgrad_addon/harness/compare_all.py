@@ -26,6 +26,7 @@ from ..addon.batch.manifest import hold, release
 from ..addon.batch.plan import BatchError
 from ..addon.exit_codes import BakeFailed
 from ..addon.process_ends import how_it_ended
+from ..addon.publish_files import publish
 from . import cycles_device as D
 from . import run_owner
 from .compare import CompareError, compare_object
@@ -197,10 +198,14 @@ def run_all(out_dir, resolution=64, overwrite=False, log=print, workers=None, me
             raise _not_written(out, err) from None
         with interrupts.committing():             # every file or, on a stop before, none
             committed.append(True)
-            for f in sorted((stage / "heat").iterdir()):
-                os.replace(f, out / "heat" / f.name)
-            for p in (table_json, table_md):
-                os.replace(stage / p.name, p)
+            try:
+                publish([(f, out / "heat" / f.name) for f in sorted((stage / "heat").iterdir())]
+                        + [(stage / p.name, p) for p in (table_json, table_md)], True,
+                        FileExistsError)
+            except BaseException:
+                committed.clear()             # every file as it was: this run made nothing
+                forget()
+                raise
             shutil.rmtree(stage, ignore_errors=True)
     release(table_json)
     log(f"wrote {table_md}, {table_json} and {len(reports)} heat maps in {out / 'heat'}")

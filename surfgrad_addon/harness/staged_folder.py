@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..addon import interrupts
 from ..addon.exit_codes import BakeFailed
+from ..addon.publish_files import publish
 from . import run_owner
 
 
@@ -112,18 +113,8 @@ def _publish(work, final):
     if not final.exists():
         os.rename(work, final)
         return
-    for entry in sorted(work.iterdir()):
-        dest = final / entry.name
-        if dest.exists() or dest.is_symlink():
-            old = final / f".{entry.name}.old-{os.getpid()}-{interrupts.PART_TOKEN}"
-            os.rename(dest, old)                   # never a moment with neither
-            os.rename(entry, dest)
-            if old.is_dir() and not old.is_symlink():
-                shutil.rmtree(old)
-            else:
-                old.unlink()
-        else:
-            os.rename(entry, dest)
+    publish([(entry, final / entry.name) for entry in sorted(work.iterdir())], True,
+            FileExistsError, folders=True)
     work.rmdir()
 
 
