@@ -117,7 +117,8 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
         arrays, flat = _evaluated_arrays(obj, depsgraph, facts)
     if need_tangents:
         arrays.tangents, arrays.tangent_signs = triangle_mikktspace(
-            arrays, flat, packed_normals=facts.packed_normals)
+            arrays, flat, packed_normals=facts.packed_normals,
+            normal_divides=facts.triangle_normal_divides)
     return arrays
 
 
@@ -169,7 +170,7 @@ def _evaluated_arrays(obj, depsgraph, facts):
     return arrays, flat
 
 
-def triangle_mikktspace(arrays, flat=None, packed_normals=True):
+def triangle_mikktspace(arrays, flat=None, packed_normals=True, normal_divides=True):
     """MikkTSpace tangents and signs per triangle corner for every UV map, computed as Cycles
     does: on the triangulated mesh (Cycles' own triangles) with the corner normals: with
     `packed_normals` (5.2) as Cycles stores them, octahedral-packed and decoded (unit), up to
@@ -177,7 +178,7 @@ def triangle_mikktspace(arrays, flat=None, packed_normals=True):
     calc_tangents on the original quads splits some quads differently (their UV diagonals tie)
     and can differ by degrees. Triangles in `flat` (T,) are flat faces of the temporary mesh
     without custom normals, so MikkTSpace sees each one's own float32 triangle normal as
-    Cycles' does (as custom normals they would be quantised, nearly coplanar neighbours would
+    Cycles' does (`normal_divides`: cycles_triangle_normals) (as custom normals they would be quantised, nearly coplanar neighbours would
     weld: up to 1.1 degrees; as the face's corner normals, a flat quad's normal, they were up
     to 33 degrees off on flat faces mixed with smooth ones). Works on a temporary mesh that is
     removed afterwards.
@@ -197,13 +198,17 @@ def triangle_mikktspace(arrays, flat=None, packed_normals=True):
         flat = None if flat is None or not np.any(flat) else np.asarray(flat, dtype=bool)
         smooth = np.ones(len(tmp.polygons), dtype=bool) if flat is None else ~flat
         tmp.polygons.foreach_set("use_smooth", smooth)
-        values = _intended_normals(tmp, _mikktspace_normals(arrays.corner_normals,
-                                                            packed_normals), flat,
-                                   arrays.positions, arrays.triangles, packed_normals)
+        given = _mikktspace_normals(arrays.corner_normals, packed_normals)
+        values = _intended_normals(given, flat, cycles_triangle_normals(
+            arrays.positions, arrays.triangles, divides=normal_divides))
+        # Read before any attribute is added: Blender then leaves polygon_normals zero.
+        blender_values = _intended_normals(given, flat, _face_normals(tmp))
         extra = 0
         if not _free_normals(tmp, values.reshape(-1)):
             # No float normals (4.2): encoded ones, on a mesh whose fans are the groups Cycles
-            # welds where that decodes as well (weld_fans.py).
+            # welds where that decodes as well (weld_fans.py). A flat triangle keeps its own
+            # face normal there, Blender's: no custom normal can carry Cycles' bits.
+            values = blender_values
             _encode_normals(tmp, values, ~smooth)
             tmp, extra = _with_welded_fans(bpy, tmp, arrays, values, smooth)
         # The extra triangles' UVs lie beyond every real one: MikkTSpace welds none of theirs.
@@ -261,32 +266,32 @@ def _with_welded_fans(bpy, tmp, arrays, values, smooth):
     return tmp, 0
 
 
-def _intended_normals(tmp, corner_normals, flat, positions, triangles, packed_normals):
+def _intended_normals(corner_normals, flat, face_normals):
     """(T, 3, 3) float32: the corner normals MikkTSpace is to see on the temporary triangle
-    mesh `tmp`: the given ones, and on a flat triangle (`flat`, or None) what Cycles feeds
-    MikkTSpace there: on 5.2 (`packed_normals`) its own float32 triangle normal
-    (cycles_triangle_normals); up to 5.0 Blender's face normal of it, what a flat face without
-    custom normals gives (read before any attribute is added: Blender then leaves
-    polygon_normals zero)."""
+    mesh: the given ones, and on a flat triangle (`flat`, or None) `face_normals` (T, 3)."""
     values = np.asarray(corner_normals, dtype=np.float32)
     if flat is None:
         return values
-    if packed_normals:
-        face_normals = cycles_triangle_normals(positions, triangles)
-    else:
-        face_normals = np.empty(len(tmp.polygons) * 3, dtype=np.float32)
-        tmp.polygon_normals.foreach_get("vector", face_normals)
-    return np.where(flat[:, None, None], face_normals.reshape(-1, 1, 3), values)
+    return np.where(flat[:, None, None], np.asarray(face_normals, dtype=np.float32)
+                    .reshape(-1, 1, 3), values)
 
 
-def cycles_triangle_normals(positions, triangles):
+def _face_normals(tmp):
+    """(T, 3) float32: Blender's face normal of each triangle of the temporary mesh `tmp`."""
+    out = np.empty(len(tmp.polygons) * 3, dtype=np.float32)
+    tmp.polygon_normals.foreach_get("vector", out)
+    return out.reshape(-1, 3)
+
+
+def cycles_triangle_normals(positions, triangles, divides=True):
     """(T, 3) float32: Cycles' Mesh::Triangle::compute_normal in its float32 operations,
-    cross(v1 - v0, v2 - v0) over its length, (1, 0, 0) where that is 0. MikkTSpace welds
-    corners whose normals are bitwise equal, and Blender's face normal of a triangle (another
-    formula) differs from it in the last bit on some: on 5.2 the two triangles of a flat quad
-    then welded in one and not the other, and compare called a correct SG Normal Map up to 30
-    degrees wrong on a quad of castle-engine's chopper (red team 47c). Up to 5.0 Blender's face
-    normal is the one that agrees (measured on the same quad)."""
+    cross(v1 - v0, v2 - v0) scaled to unit length, (1, 0, 0) where that is 0: `divides` (5.2)
+    divides by the length, up to 5.0 it multiplies by the length's reciprocal (Cycles' float3
+    division there, one rounding more). MikkTSpace welds corners whose normals are bitwise
+    equal, and Blender's face normal of a triangle (another formula) differs from either in
+    the last bit on some: the two triangles of a flat quad then welded in one and not the
+    other, and compare called a correct SG Normal Map up to 30 degrees wrong on a quad of
+    castle-engine's chopper (red team 47c on 5.2, 48c on 5.0 and 4.5)."""
     p = np.asarray(positions, dtype=np.float32)[np.asarray(triangles, dtype=np.int64)]
     a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
     n = np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
@@ -294,7 +299,7 @@ def cycles_triangle_normals(positions, triangles):
                   a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
     length = np.sqrt(n[:, 0] * n[:, 0] + n[:, 1] * n[:, 1] + n[:, 2] * n[:, 2])
     with np.errstate(invalid="ignore", divide="ignore"):
-        out = n / length[:, None]
+        out = n / length[:, None] if divides else n * (np.float32(1.0) / length)[:, None]
     out[length == 0] = (1.0, 0.0, 0.0)
     return out.astype(np.float32)
 

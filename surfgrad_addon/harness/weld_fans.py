@@ -252,6 +252,8 @@ def _bridges(sides, prv, values, flat, edges, corner_edge):
     # fan: a group holds more than one fan where its first and last fans differ).
     vertex = sides.start
     smooth = np.flatnonzero(~np.repeat(flat, 3))          # flat corners keep their own normal
+    if len(smooth) == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3), dtype=np.float32), corner_edge, edges
     group = vertex[smooth] * (int(normal.max()) + 1) + normal[smooth]
     order = np.lexsort((parent[smooth], group))
     corners, group = smooth[order], group[order]

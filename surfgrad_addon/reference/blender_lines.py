@@ -83,6 +83,10 @@ class LineFacts:
     # MikkTSpace tangents come from Cycles' own triangles (not the quads Blender's
     # calc_tangents sees). Same on every line.
     tangents_on_triangles: bool = True
+    # How Cycles scales a flat triangle's normal (its cross product) to unit length for
+    # MikkTSpace: 5.2 divides by the length; up to 5.0 it multiplies by the reciprocal, which
+    # differs in the last bit on some triangles (MikkTSpace welds only bitwise equal normals).
+    triangle_normal_divides: bool = True
 
     def bump_step_scale(self, filter_width):
         """How many differentials a Bump node with this Filter Width shifts its copies."""
@@ -94,7 +98,8 @@ _UP_TO_5_0 = dict(bake_differential_scale=0.25, bump_filter_width=True, packed_n
                  normal_map_convention=False,
                  modifier_properties=False, bake_applies_target_colorspace=False,
                  sharp_faces_give_corner_normals=False, corner_normals_keep_flat_faces=False,
-                 free_corner_normals_split=False)
+                 free_corner_normals_split=False,
+                 triangle_normal_divides=False)
 LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,
