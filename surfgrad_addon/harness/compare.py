@@ -54,6 +54,7 @@ from .no_area import (all_degenerate_problem, collapsed_problem, degenerate_tria
 from . import scale_limits
 from .methods import (HEIGHT_IMAGE_SIZE, METHODS, NORMAL_IMAGE_SIZE, PARALLAX_SCALE, resolve_sg,
                       unavailable_reason)
+from .flat_welds import unsure_problem, unsure_warning
 from .facing_exclusions import backfacing_warning, grazing_warning
 from .heat_map import write_heat_map
 from .kernel_warm_up import load_kernels
@@ -357,6 +358,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
     if problem:
         raise CompareError(problem)
     degenerate_texels = 0
+    unsure = mesh.unsure_welds.get(inp.uv_map, np.zeros(len(mesh.triangles), dtype=bool))
+    unsure_texels = unsure_covered = 0
 
     def rasterized(number):
         """(TexelData, seconds) of one tile: reference time. After the bake, not before it:
@@ -404,6 +407,11 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         if kept is not covered:
             degenerate_texels += int(np.count_nonzero(covered & ~kept))
             covered = kept
+        kept = without_degenerate(td, covered, unsure)      # flat_welds.py
+        if kept is not covered:
+            unsure_texels += int(np.count_nonzero(covered & ~kept))
+            covered = kept
+        unsure_covered += int(np.count_nonzero(covered))
         r, heat, seconds = compare_tile(td, lambda block: M.resolve(reference(inp, block)),
                                         pixels, covered, spread and (lambda b: spread(inp, b)))
         reference_seconds += seconds
@@ -414,6 +422,9 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
         raise CompareError(f"UV map {inp.uv_map!r} of {obj.name!r} covers no texel centre at "
                            f"{resolution}^2 (its islands are thinner than a texel or outside "
                            f"the UV square); raise --resolution or unwrap again")
+    problem = unsure_problem(obj.name, inp.uv_map, unsure_texels, unsure_covered, facts.line)
+    if problem:
+        raise CompareError(problem)
     report = merge(tile_reports)
     if not baked_any and report["excluded"]["outside"]:
         # Not "raise --resolution": Cycles left the object out (a setting unknown to
@@ -428,7 +439,8 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
     warnings = [w for w in [tile_note, overlap_warning(mesh, inp.uv_map, tds),
                             backfacing_warning(mesh, report),
                             grazing_warning(mesh, report),
-                            degenerate_warning(mesh, degenerate, degenerate_texels)] if w]
+                            degenerate_warning(mesh, degenerate, degenerate_texels),
+                            unsure_warning(mesh, unsure, unsure_texels, facts.line)] if w]
     for w in warnings:
         if log:
             log(f"warning: {w}")

@@ -16,6 +16,7 @@ from ..addon.node_builder import running_line
 from ..reference.blender_lines import octahedral_unit_vectors
 from ..reference.raster import MeshArrays
 from ..reference.vecmath import cross, normalize
+from .flat_welds import unsure_welds
 from .free_normal_fans import has_free_corner_normals, last_written_normals
 from .weld_fans import fan_mesh, normal_classes
 
@@ -116,7 +117,7 @@ def mesh_arrays_from_object(obj, depsgraph=None, need_tangents=True, facts=None)
     else:
         arrays, flat = _evaluated_arrays(obj, depsgraph, facts)
     if need_tangents:
-        arrays.tangents, arrays.tangent_signs = triangle_mikktspace(
+        arrays.tangents, arrays.tangent_signs, arrays.unsure_welds = triangle_mikktspace(
             arrays, flat, packed_normals=facts.packed_normals,
             normal_divides=facts.triangle_normal_divides)
     return arrays
@@ -189,7 +190,9 @@ def triangle_mikktspace(arrays, flat=None, packed_normals=True, normal_divides=T
     Without (4.2) custom normals are re-encoded in the temporary mesh's own normal spaces, one
     per smooth fan, so corners Cycles welds did not weld where its fans split them (measured:
     0.8 degrees of tangent on custom normals, 1.2 on a Mirror crossing its plane): there the
-    mesh is weld_fans.fan_mesh, whose fans are the groups Cycles welds."""
+    mesh is weld_fans.fan_mesh, whose fans are the groups Cycles welds. There flat triangles
+    carry Blender's face normal: the third value, {uv map: (T,) bool}, marks those whose welds
+    may differ from Cycles' (flat_welds.unsure_welds; empty where the line has float normals)."""
     import bpy
 
     tmp = bpy.data.meshes.new(".surfgrad_tangents")
@@ -203,12 +206,17 @@ def triangle_mikktspace(arrays, flat=None, packed_normals=True, normal_divides=T
             arrays.positions, arrays.triangles, divides=normal_divides))
         # Read before any attribute is added: Blender then leaves polygon_normals zero.
         blender_values = _intended_normals(given, flat, _face_normals(tmp))
-        extra = 0
+        extra, unsure = 0, {}
         if not _free_normals(tmp, values.reshape(-1)):
             # No float normals (4.2): encoded ones, on a mesh whose fans are the groups Cycles
             # welds where that decodes as well (weld_fans.py). A flat triangle keeps its own
             # face normal there, Blender's: no custom normal can carry Cycles' bits.
             values = blender_values
+            if flat is not None:        # flat triangles weld by their own normals' bits
+                cycles = cycles_triangle_normals(arrays.positions, arrays.triangles,
+                                                 divides=normal_divides)
+                unsure = {name: unsure_welds(arrays.triangles, uv, flat, blender_values[:, 0],
+                                             cycles) for name, uv in arrays.uv_maps.items()}
             _encode_normals(tmp, values, ~smooth)
             tmp, extra = _with_welded_fans(bpy, tmp, arrays, values, smooth)
         # The extra triangles' UVs lie beyond every real one: MikkTSpace welds none of theirs.
@@ -231,7 +239,7 @@ def triangle_mikktspace(arrays, flat=None, packed_normals=True, normal_divides=T
                                     f"{name!r} failed ({err})") from err
             tangents[name] = _get(tmp.loops, "tangent", n + 3 * extra, 3)[:n].reshape(-1, 3, 3)
             signs[name] = _get(tmp.loops, "bitangent_sign", n + 3 * extra, 1)[:n].reshape(-1, 3)
-        return tangents, signs
+        return tangents, signs, unsure
     finally:
         if tmp is not None:
             bpy.data.meshes.remove(tmp)

@@ -34,6 +34,9 @@ class MeshArrays:
     point_attributes: dict = field(default_factory=dict)   # {name: (V, C)} per vertex
     # (T,) the mesh face (polygon) each triangle comes from, when known: for messages.
     triangle_faces: np.ndarray = None
+    # {uv map: (T,) bool}: flat triangles whose MikkTSpace welds the tangents above may not
+    # match (lines without float corner normals: harness/flat_welds.py).
+    unsure_welds: dict = field(default_factory=dict)
 
     def validate(self):
         """Raise ValueError naming the problem and the fix; return self when usable."""
