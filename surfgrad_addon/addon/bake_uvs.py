@@ -160,16 +160,19 @@ def baked_mesh(obj):
 @contextmanager
 def uv_active(mesh, uv_map):
     """For the block, UV map `uv_map` of mesh (the data, not the rendered mesh) is its active
-    one, as for the bake; the active one before is put back."""
+    one, as for the bake; the active one before is put back, none where none was. A mesh
+    with UV maps but none active (5.2 loads 2.4x files so: castle-engine's demo-models) was
+    refused by Blender's bake, "No active UV layer found in the object", whatever UV map was
+    asked for."""
     before = mesh.uv_layers.active.name if mesh.uv_layers.active else None
-    if uv_map is None or before in (None, uv_map) or uv_map not in mesh.uv_layers:
+    if uv_map is None or before == uv_map or uv_map not in mesh.uv_layers:
         yield
         return
     mesh.uv_layers.active = mesh.uv_layers[uv_map]
     try:
         yield
     finally:
-        mesh.uv_layers.active = mesh.uv_layers[before]
+        mesh.uv_layers.active = mesh.uv_layers[before] if before is not None else None
 
 
 def rendered_materials(obj, viewport=False):

@@ -475,7 +475,6 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
             node.image = image if only in (None, mat) else others
             added.append((tree, node, tree.nodes.active))
             tree.nodes.active = node
-        active_uv = mesh.uv_layers.active.name
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
                 own_materials(bpy.context.view_layer), \
                 _stand_ins(obj, materials, copies or {}), \
@@ -493,30 +492,29 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
                 scene.render.threads = threads
             scene.render.bake.target = "IMAGE_TEXTURES"
             scene.render.bake.use_selected_to_active = False
-            mesh.uv_layers.active = mesh.uv_layers[uv_map]
-            selection = [o for o in bpy.context.view_layer.objects if o.select_get()]
-            active_obj = bpy.context.view_layer.objects.active
-            try:
-                for o in bpy.context.view_layer.objects:
-                    o.select_set(o == obj)
-                bpy.context.view_layer.objects.active = obj
-                log("[2/3] baking with Cycles (CPU) ...")
-                t0 = time.perf_counter()
-                with quiet_bake() as say, heartbeat(say, "      still baking"), \
-                        interrupts.native_call():
-                    # The swizzle given: unset, the operator takes the file's own bake
-                    # settings (a DirectX -Y left from a game export flips green).
-                    outcome = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
-                                                  normal_r="POS_X", normal_g="POS_Y",
-                                                  normal_b="POS_Z", uv_layer=uv_map,
-                                                  margin=margin, use_clear=True)
-                result["bake_s"] = time.perf_counter() - t0
-                log(f"      baked in {result['bake_s']:.2f} s")
-            finally:
-                mesh.uv_layers.active = mesh.uv_layers[active_uv]
-                for o in bpy.context.view_layer.objects:
-                    o.select_set(o in selection)
-                bpy.context.view_layer.objects.active = active_obj
+            with uv_active(mesh, uv_map):     # none active: the bake refuses the mesh
+                selection = [o for o in bpy.context.view_layer.objects if o.select_get()]
+                active_obj = bpy.context.view_layer.objects.active
+                try:
+                    for o in bpy.context.view_layer.objects:
+                        o.select_set(o == obj)
+                    bpy.context.view_layer.objects.active = obj
+                    log("[2/3] baking with Cycles (CPU) ...")
+                    t0 = time.perf_counter()
+                    with quiet_bake() as say, heartbeat(say, "      still baking"), \
+                            interrupts.native_call():
+                        # The swizzle given: unset, the operator takes the file's own bake
+                        # settings (a DirectX -Y left from a game export flips green).
+                        outcome = bpy.ops.object.bake(type="NORMAL", normal_space=SPACES[space],
+                                                      normal_r="POS_X", normal_g="POS_Y",
+                                                      normal_b="POS_Z", uv_layer=uv_map,
+                                                      margin=margin, use_clear=True)
+                    result["bake_s"] = time.perf_counter() - t0
+                    log(f"      baked in {result['bake_s']:.2f} s")
+                finally:
+                    for o in bpy.context.view_layer.objects:
+                        o.select_set(o in selection)
+                    bpy.context.view_layer.objects.active = active_obj
         if outcome != {"FINISHED"}:
             from .cancel_reason import cancelled_text
             raise BakeFailed(cancelled_text(obj, outcome))

@@ -15,6 +15,7 @@ import numpy as np
 from ..addon.compat import new_material
 from ..addon.node_builder import running_line  # noqa: F401 (the line whose bakes we model)
 from ..addon.bake_console import quiet_bake
+from ..addon.bake_uvs import uv_active
 from ..addon.scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_render_effects
 from ..addon.bake_target import bake_target_problem, own_materials, visible_for_bake
 from ..addon.exit_codes import BakeFailed
@@ -329,8 +330,8 @@ def _bake_into(obj, build, image, uv_map, displacement, log, device="CPU"):
             kwargs = {"type": "EMIT", "margin": 0, "use_clear": False}
             if uv_map is not None:
                 kwargs["uv_layer"] = uv_map
-            with quiet_bake(), native_call():       # a stop need not wait for it
-                result = bpy.ops.object.bake(**kwargs)
+            with quiet_bake(), native_call(), uv_active(obj.data, uv_map):
+                result = bpy.ops.object.bake(**kwargs)      # (a stop need not wait for it)
             seconds = time.perf_counter() - t0
             if result != {"FINISHED"}:
                 from ..addon.cancel_reason import cancelled_text
