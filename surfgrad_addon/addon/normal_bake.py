@@ -400,8 +400,11 @@ def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTIO
     before_publish({tile: (final Path, its complete temporary file)}): called after it (a batch
     records what it is about to publish). Returns a dict: paths {tile: Path}, tiles, uv_map,
     depth, warnings, bake_s, save_s."""
-    with one_read():                # (a Set Material's, before its users use the copies)
-        given = _linked_given(obj)
+    import bpy
+    given = []
+    if any(is_linked(m) for m in bpy.data.materials):   # (else no render-mode pass for it)
+        with one_read():            # (a Set Material's, before its users use the copies)
+            given = _linked_given(obj)
     # one render-mode pass: the plan, the tangents
     with local_copies(obj, given) as copies, one_read():
         return _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth,
