@@ -59,11 +59,26 @@ def publish(pairs, overwrite, exists_error, folders=False):
         raise
     for _, backup, _ in done:
         if backup is not None:
-            _remove(backup)
+            remove_path(backup)
 
 
 def _backup_name(final):
-    return final.with_name(f".{final.name}.old-{os.getpid()}-{interrupts.PART_TOKEN}")
+    return final.with_name(f".{final.name}{BACKUP_MARK}{os.getpid()}-{interrupts.PART_TOKEN}")
+
+
+BACKUP_MARK = ".old-"
+
+
+def backups_of(folder, run):
+    """The (backup, final) pairs in `folder` that the run `run` ("PID-TOKEN") kept aside: a
+    run killed while putting its files in place leaves them."""
+    end = f"{BACKUP_MARK}{run}"
+    try:
+        names = sorted(os.listdir(folder))
+    except OSError:
+        return []
+    return [(Path(folder) / n, Path(folder) / n[1:-len(end)]) for n in names
+            if n.startswith(".") and n.endswith(end) and len(n) > len(end) + 1]
 
 
 def _set_aside(final):
@@ -103,12 +118,12 @@ def _undo(done):
     for final, backup, moved in reversed(done):
         try:
             if moved and backup is None:
-                _remove(final)
+                remove_path(final)
             elif backup is not None and not moved and os.path.lexists(final):
-                _remove(backup)                # a hard link of the old file, still in place
+                remove_path(backup)                # a hard link of the old file, still in place
             elif backup is not None:
                 if moved:
-                    _remove(final)
+                    remove_path(final)
                 os.rename(backup, final)
         except OSError as err:
             stuck.append(f"{final} (the old one is {backup}: {err.strerror})" if backup else
@@ -116,7 +131,7 @@ def _undo(done):
     return stuck
 
 
-def _remove(path):
+def remove_path(path):
     try:
         if path.is_dir() and not path.is_symlink():
             shutil.rmtree(path)

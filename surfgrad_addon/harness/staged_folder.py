@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..addon import interrupts
 from ..addon.exit_codes import BakeFailed
-from ..addon.publish_files import publish
+from ..addon.publish_files import backups_of, publish, remove_path
 from . import run_owner
 
 
@@ -68,7 +68,6 @@ def staged(final, overwrite):
         try:
             yield work
             with interrupts.committing():          # a stop waits for the move, whole
-                (work / run_owner.RECORD_NAME).unlink()
                 _publish(work, final)
         except OSError as err:
             forget()
@@ -97,6 +96,7 @@ def clear_leftovers(final, work, say=interrupts.say):
     unknown = []
     for other in others:
         if run_owner.gone(other):
+            _clear_backups(final, other.name[len(prefix):], say)
             shutil.rmtree(other, ignore_errors=True)
             say(f"surfgrad: removed {other}, the working folder of a run on this machine "
                 f"that was killed (its process has ended)")
@@ -109,12 +109,33 @@ def clear_leftovers(final, work, say=interrupts.say):
             f"into {str(final)!r}, remove them (rm -r {str(final.parent / prefix)}*)")
 
 
+def _clear_backups(final, run, say):
+    """Remove the old files the ended run `run` ("PID-TOKEN") kept aside in `final` (and, for
+    compare-all's tables, beside it) while putting its files in place; one whose final name
+    is gone is the only copy of that file: named, with the fix, not removed."""
+    for folder in (final, final.parent):
+        for backup, original in backups_of(folder, run):
+            if os.path.lexists(original):
+                remove_path(backup)
+                say(f"surfgrad: removed {backup}, an old copy of {original.name} kept aside "
+                    f"by a run on this machine that was killed (its process has ended)")
+            else:
+                say(f"surfgrad: note: {backup} is the only copy of {original}, kept aside by "
+                    f"a run that was killed while putting its files in place: rename it back "
+                    f"(mv {str(backup)!r} {str(original)!r}) or remove it")
+
+
 def _publish(work, final):
+    # The owner record stays until every file is in place: a run killed while moving them
+    # in leaves old files aside (publish_files), removed later only once its run is gone.
+    record = work / run_owner.RECORD_NAME
     if not final.exists():
+        record.unlink()
         os.rename(work, final)
         return
-    publish([(entry, final / entry.name) for entry in sorted(work.iterdir())], True,
-            FileExistsError, folders=True)
+    publish([(entry, final / entry.name) for entry in sorted(work.iterdir()) if entry != record],
+            True, FileExistsError, folders=True)
+    record.unlink()
     work.rmdir()
 
 
