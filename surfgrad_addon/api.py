@@ -15,6 +15,8 @@ harness's: `surfgrad_addon.harness.api.compare`, in a checkout. Every function r
 ValueError (or a subclass) with a message that names the problem and the fix.
 """
 
+from contextlib import contextmanager as _contextmanager
+
 from .addon import groups as _groups
 from .addon.bake_request import BakeRequest as _Request
 from .reference.input_checks import plain_number as _plain
@@ -103,7 +105,21 @@ def node_group(name, **options):
     reason = _groups.unavailable_reason(name)
     if reason:
         raise _groups.FeatureUnavailable(reason)
-    return builders[name](**_checked(options))
+    with _rebuild_notes():
+        return builders[name](**_checked(options))
+
+
+@_contextmanager
+def _rebuild_notes():
+    """Warn on stderr, as the bakes do, of what the groups' rebuilds in the block could not
+    carry over (a renamed socket's link, an edit inside an older group): the operators
+    report these; a script's caller heard nothing."""
+    from .addon.bake_request import warn_stderr
+    from .addon.node_builder import take_notes
+    take_notes()                               # an earlier caller's, not this call's
+    yield
+    for text in take_notes():
+        warn_stderr(text)
 
 
 def add_layer_stack(material, uv_map=""):
@@ -113,7 +129,8 @@ def add_layer_stack(material, uv_map=""):
     if material is None or getattr(material, "node_tree", None) is None:
         raise ValueError("give a material that uses nodes")
     _check_uv_map(uv_map)
-    return operators.add_layer_stack(material.node_tree, uv_map)
+    with _rebuild_notes():
+        return operators.add_layer_stack(material.node_tree, uv_map)
 
 
 def update_precise_far(obj):
