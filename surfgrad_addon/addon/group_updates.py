@@ -14,7 +14,7 @@ from . import groups as G
 from .groups.common import held_images
 from .group_names import LINE_KEY, VERSION_KEY, fitting_name
 from .all_or_nothing import all_or_nothing
-from .node_builder import checked_first, running_line, take_notes
+from .node_builder import checked_first, edited_inside, running_line, take_notes
 
 _COPY = re.compile(r"\.\d+$")        # Blender's ".001" of an appended copy
 
@@ -68,6 +68,22 @@ def linked_stale_text():
             f"older surfgrad{where}, and may render differently here; this file cannot "
             f"change them: update them in that file with Blender {line} (Update surfgrad "
             f"Groups there, then save it), or link from a file made for Blender {line}")
+
+
+def edited_text():
+    """What the sidebar says of this file's current groups the artist edited inside (a node
+    muted, added or set otherwise): every request for one is refused (node_builder), so the
+    artist hears of it before an Add fails; None when there are none."""
+    line = running_line().line
+    edited = sorted(g.name for g in bpy.data.node_groups
+                    if g.library is None and g.get(VERSION_KEY) == G.VERSION
+                    and g.get(LINE_KEY) == line and edited_inside(g))
+    if not edited:
+        return None
+    names = ", ".join(repr(n) for n in edited[:3]) + (", ..." if len(edited) > 3 else "")
+    return (f"{len(edited)} surface-gradient group(s) were edited inside after surfgrad made "
+            f"them ({names}): surfgrad will not add or use them as its own; rename each to "
+            f"keep your version, so surfgrad can add its own")
 
 
 def _interior(tree, bl_idname, prop):
@@ -342,8 +358,10 @@ line built, for this one, keeping every node's values and links"""
 
 def draw_stale_warning(layout):
     """In the sidebar: the stale groups, if any, and the button that updates them; the stale
-    groups of libraries, which only their own files can update."""
-    for text, button in ((stale_text(stale_groups()), True), (linked_stale_text(), False)):
+    groups of libraries, which only their own files can update; current groups edited
+    inside."""
+    for text, button in ((stale_text(stale_groups()), True), (linked_stale_text(), False),
+                         (edited_text(), False)):
         if text:
             box = layout.box()
             for i, line in enumerate(textwrap.wrap(text, 38, break_on_hyphens=False)):
