@@ -7,6 +7,9 @@
    Now the record stays until every file is in, and the next run into that folder removes a
    provably ended run's backups whose final file exists (one line each); a backup whose final
    name is gone is the only copy of that file: named with the command that puts it back, kept.
+2. A batch's maps kept aside the same way (`.Rock.png.old-PID-TOKEN`, which carry no owner
+   record) were not named by the batch's next run into that folder, as its temporary files
+   are: now they are, in one warning, with those that are a map's only copy told apart.
 """
 
 import json
@@ -74,3 +77,21 @@ def test_the_owner_record_stays_until_every_file_is_in_place(tmp_path, monkeypat
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo"]
     assert sorted(p.name for p in final.iterdir()) == ["index.html"]
     assert (final / "index.html").read_text() == "new"
+
+
+def test_a_batch_names_old_maps_other_runs_kept_aside_and_the_sole_copies(tmp_path):
+    from surfgrad_addon.addon import interrupts
+    from surfgrad_addon.addon.batch import run
+    (tmp_path / "Rock.png").write_text("new")
+    for name in ("Rock.png", "Moss.1001.png"):
+        (tmp_path / f".{name}.old-77-0123abcd").write_text("old")
+    (tmp_path / f".Mine.png.old-{os.getpid()}-{interrupts.PART_TOKEN}").write_text("ours")
+    said = []
+    run._note_leftovers(tmp_path, said.append)
+    assert said == [
+        f"2 old file(s) kept aside by other runs in {str(tmp_path)!r} (.Moss.1001.png.old-77-"
+        f"0123abcd, .Rock.png.old-77-0123abcd): left by runs killed while putting their maps "
+        f"in place, or runs under way elsewhere; once no run writes there, remove them, "
+        f"except .Moss.1001.png.old-77-0123abcd: the only copy of a map whose name is gone, "
+        f"rename it back to that name (without the leading '.' and the '.old-...' end)"], said
+    assert len(list(tmp_path.iterdir())) == 4                      # nothing removed

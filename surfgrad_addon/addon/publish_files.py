@@ -10,6 +10,7 @@ ones are taken out again and the old ones put back, and the failure names the fi
 """
 
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -67,6 +68,22 @@ def _backup_name(final):
 
 
 BACKUP_MARK = ".old-"
+
+
+# Any run's backup (_backup_name): `.{name}.old-{pid}-{token}`
+_ANY_BACKUP = re.compile(rf"\.(.+){re.escape(BACKUP_MARK)}\d+-[0-9a-f]{{{interrupts.PART_TOKEN_LENGTH}}}")
+
+
+def others_backups(folder):
+    """The (backup, final) pairs in `folder` kept aside by runs other than this process: left
+    by runs killed while putting their files in place, or another run's under way."""
+    own = f"{BACKUP_MARK}{os.getpid()}-{interrupts.PART_TOKEN}"
+    try:
+        names = sorted(os.listdir(folder))
+    except OSError:
+        return []
+    return [(Path(folder) / n, Path(folder) / m[1]) for n in names
+            if (m := _ANY_BACKUP.fullmatch(n)) and not n.endswith(own)]
 
 
 def backups_of(folder, run):

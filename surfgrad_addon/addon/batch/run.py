@@ -9,6 +9,7 @@ from .. import bake_request as BR
 from .. import interrupts
 from .. import normal_bake as NB
 from ..exit_codes import MapNotWritten
+from ..publish_files import others_backups
 from . import manifest as M
 from . import plan as P
 from .output_names import one_file_because, output_key
@@ -336,12 +337,23 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
 
 
 def _note_leftovers(folder, warn):
-    """Name the temporary files of other runs in an output folder: a run killed with SIGKILL
-    leaves its own (a map being checked, a manifest being written), and one of them may be a
-    run under way on another machine, so they are named for the TD, not removed."""
+    """Name the temporary files of other runs in an output folder, and the old maps they kept
+    aside while putting theirs in place: a run killed with SIGKILL leaves its own (a map being
+    checked, a manifest being written, an old map), and one of them may be a run under way on
+    another machine, so they are named for the TD, not removed."""
     found = interrupts.others_partials(folder)
     if found:
         warn(f"{len(found)} temporary file(s) of other runs in {str(folder)!r} "
             f"({', '.join(found[:3])}{', ...' if len(found) > 3 else ''}): left by killed "
             f"runs, or runs under way elsewhere; once no run writes there, remove them "
             f"(rm {str(folder / '.*.part*-*')})")
+    backups = others_backups(folder)
+    sole = [b.name for b, final in backups if not os.path.lexists(final)]
+    if backups:
+        warn(f"{len(backups)} old file(s) kept aside by other runs in {str(folder)!r} "
+             f"({', '.join(b.name for b, _ in backups[:3])}{', ...' if len(backups) > 3 else ''}"
+             f"): left by runs killed while putting their maps in place, or runs under way "
+             f"elsewhere; once no run writes there, remove them"
+             + (f", except {', '.join(sole[:3])}{', ...' if len(sole) > 3 else ''}: the only "
+                f"copy of a map whose name is gone, rename it back to that name (without the "
+                f"leading '.' and the '.old-...' end)" if sole else ""))
