@@ -59,7 +59,8 @@ def cycles_normals(mesh, positions, tri_loops, tri_verts, facts):
                 or has_sharp_edges):
             flat = flat_triangles(mesh, nt) if facts.corner_normals_keep_flat_faces else \
                 np.zeros(nt, dtype=bool)
-            if not facts.free_corner_normals_split and has_free_corner_normals(mesh):
+            if not facts.free_corner_normals_split and (has_free_corner_normals(mesh)
+                                                        or mesh.has_custom_normals):
                 corner = last_written_normals(mesh, tri_loops)
             return corner, flat
     flat = flat_triangles(mesh, nt)

@@ -59,9 +59,10 @@ class LineFacts:
     # every triangle as smooth there, and MikkTSpace gets the corner normals (measured: custom
     # split normals on flat faces, a correct SG Normal Map p99 7.7 / max 17.9 deg before).
     corner_normals_keep_flat_faces: bool = True
-    # Free corner normals (a float 'custom_normal' corner attribute, 4.5 and later): 5.2 splits
-    # the vertices where they differ; 5.0 and 4.5 only at sharp edges and flat faces, and each
-    # vertex then shades with the normal of its corner written last (harness/free_normal_fans.py).
+    # Custom corner normals that differ at one vertex (free ones, or encoded ones in fans that
+    # Blender splits across no sharp edge): 5.2 splits the vertices where they differ; 5.0 to
+    # 4.2 only at sharp edges and flat faces, and each vertex then shades with the normal of
+    # its corner written last (harness/free_normal_fans.py).
     free_corner_normals_split: bool = True
     # Custom normals can be free floats (a float 'custom_normal' corner attribute, 4.5 and
     # later); 4.2 encodes them in each smooth fan's normal space, so the reference's MikkTSpace
