@@ -166,6 +166,13 @@ def test_a_line_asked_twice_runs_once_and_the_summary_needs_no_main_venv(sandbox
     assert not (sandbox / ".venv").exists()
 
 
+def _as_in_a_terminal():
+    """A terminal's Ctrl-C reaches a command whose SIGINT is not ignored; a suite started in
+    the background of a non-interactive shell inherits it ignored, which bash cannot undo."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGQUIT, signal.SIG_DFL)
+
+
 def _interrupt_when_started(proc, started):
     """Ctrl-C in a terminal: SIGINT to the command's process group once `started` exists."""
     try:
@@ -194,7 +201,8 @@ def test_ctrl_c_during_an_install_stops_it(sandbox):
     second = _venv(sandbox, "5.0")
     started = sandbox / "started"
     (first / "pip.py").write_text(_SLEEPER.format(started=str(started), rc=1))
-    proc = _run(sandbox, "test", lines="5.2 5.0", start_new_session=True)
+    proc = _run(sandbox, "test", lines="5.2 5.0", start_new_session=True,
+                preexec_fn=_as_in_a_terminal)
     out = _interrupt_when_started(proc, started)
     assert proc.returncode == 130, out
     assert "interrupted" in out, out
@@ -213,7 +221,8 @@ def test_ctrl_c_stops_the_lines_that_follow(sandbox):
     (sandbox / "out" / "lines").mkdir(parents=True)
     (sandbox / "out" / "lines" / "summary.md").write_text("| 5.2 | 5.2.3 | passed | 600 |\n")
     (first / "pytest.py").write_text(_SLEEPER.format(started=str(started), rc=2))
-    proc = _run(sandbox, "test", lines="5.2 5.0", start_new_session=True)
+    proc = _run(sandbox, "test", lines="5.2 5.0", start_new_session=True,
+                preexec_fn=_as_in_a_terminal)
     out = _interrupt_when_started(proc, started)
     assert proc.returncode == 130, out
     assert "interrupted" in out, out
@@ -311,7 +320,8 @@ def test_sigterm_to_bash_alone_stops_the_running_pytest(sandbox):
         "import os, pathlib, time\n"
         f"pathlib.Path({str(started)!r}).write_text(str(os.getpid()))\n"
         "time.sleep(60)\n")
-    proc = _run(sandbox, "test", lines="5.2 5.0", start_new_session=True)
+    proc = _run(sandbox, "test", lines="5.2 5.0", start_new_session=True,
+                preexec_fn=_as_in_a_terminal)
     pid = None
     try:
         for _ in range(400):
