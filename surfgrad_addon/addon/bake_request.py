@@ -49,7 +49,8 @@ from .image_checks import (checked_materials, image_problems, muted_output_warni
 from .image_memory import images_memory
 from .material_uv_maps import read_uv_map_problems
 from .memory_limit import bake_memory_problem
-from .normal_map_checks import colour_space_warnings, normal_map_warnings
+from .normal_map_checks import (colour_space_warnings, normal_map_warnings,
+                                raw_image_normal_warnings)
 from .object_names import missing_object_problem
 from .object_space_scale import object_space_scale_problem
 from .parallax_heights import parallax_height_warnings
@@ -270,6 +271,7 @@ def _check(request, obj, warn):
     problem = bake_memory_problem(request.resolution, len(tiles), images_memory(obj, tiles))
     problems += [problem] if problem else image_problems(obj, tiles)   # (its tiles)
     warnings += colour_space_warnings(obj) + muted_output_warnings(obj)
+    warnings += raw_image_normal_warnings(obj)      # an image in a Normal input, undecoded
     warnings += stand_in_warnings(checked_materials(obj))   # maps Cycles renders otherwise
     if not problem:
         warnings += normal_map_warnings(obj, covered=tiles)     # grey files, -1..1 floats

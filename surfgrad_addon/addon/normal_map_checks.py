@@ -15,6 +15,11 @@ bends them, naming the image, the node and the fix.
 - A float image whose normals are stored in -1..1, not 0..1 (more than NEGATIVE_SHARE of its
   texels below 0 in R or in G; a 0..1 map has none): the Normal Map node takes 0.5 as no
   tilt, so every normal is pulled toward (-1, -1).
+- An image wired straight into a normal input (a BSDF's Normal or Coat Normal, a Bump node's
+  Normal, an SG group's base Normal) with no Normal Map node between: Blender takes its colour,
+  0..1 in each axis, as a world-space direction, so every normal leans toward (1, 1, 1) in
+  world space. A decode in between (Vector Math, as an object-space workflow does) is taken as
+  meant and not warned about.
 - A float image with texels above 1 in R, G or B (1e30 from a broken export, values of a
   height or world-space map): they hold no normal a 0..1 map can, and tilt as their values
   happen to point; the warning counts them and says the largest.
@@ -124,6 +129,37 @@ def colour_space_warnings(obj, only=None):
                 f"node, or the Image Editor's sidebar)")
         if text not in out:
             out.append(text)
+    return out
+
+
+# The inputs that take a world-space normal, on shading nodes and on the SG groups (their base
+# normal); an image read there undecoded is no normal map (raw_image_normal_warnings).
+WORLD_NORMAL_INPUTS = ("Normal", "Coat Normal", "Clearcoat Normal")
+
+
+def raw_image_normal_warnings(obj, only=None):
+    """A warning per image whose output reaches a world-space normal input (WORLD_NORMAL_INPUTS)
+    through nothing but reroutes and group sockets: Blender reads the colour, 0..1 per axis, as
+    a direction, where a normal map needs the Normal Map node's decode and frame."""
+    out = []
+    for mat, node, path, outer in objects_nodes(obj, only):
+        if node.bl_idname == "ShaderNodeGroup" and _normal_map_kind(node) is None and not (
+                node.node_tree is not None and node.node_tree.name.startswith("SG ")):
+            continue                  # a user's group: its inside is walked on its own
+        for socket in node.inputs:
+            if socket.name not in WORLD_NORMAL_INPUTS or socket.type != "VECTOR" or \
+                    not socket.enabled:
+                continue
+            for tex in textures_feeding(socket, outer):
+                if tex.image is None:
+                    continue
+                text = (f"image {tex.image.name!r} is wired straight into the {socket.name} "
+                        f"input of node {path!r} (material {mat.name!r}): Blender takes its "
+                        f"colour, 0..1 per axis, as a world-space direction, so every normal "
+                        f"leans toward (1, 1, 1) and the bake takes them so; put a Normal Map "
+                        f"node between them (Tangent Space for a tangent-space map)")
+                if text not in out:
+                    out.append(text)
     return out
 
 
@@ -245,4 +281,5 @@ def input_warnings(obj, only=None):
     """Every warning about the normal maps the object's materials (or `only`) read: colour
     space, channels, range. The Freeze operator reports them (bake_request.check warns the
     same for the commands)."""
-    return colour_space_warnings(obj, only) + normal_map_warnings(obj, only)
+    return colour_space_warnings(obj, only) + raw_image_normal_warnings(obj, only) + \
+        normal_map_warnings(obj, only)
