@@ -266,13 +266,14 @@ def test_far_from_the_origin_is_a_printed_warning(tmp_path):
 
 
 def test_overlapping_uv_islands_are_a_printed_warning(tmp_path):
-    """Two quads stacked on the same 0-1 square: every texel centre is under both, except
-    the 32 on each quad's diagonal (a shared edge belongs to neither triangle), so
-    1024 - 32 = 992 of 1024 texels (97%) are contested at 32 x 32."""
+    """Two quads stacked on the same 0-1 square: every texel centre is under both, the 32 on
+    each quad's diagonal too (a centre on a shared edge belongs to one of its triangles; before
+    red team 50a to neither, and the warning said 97%), so all 1024 texels are contested at
+    32 x 32: "100%" (not "1e+02%", as the 2g format wrote it)."""
     blend = _scene(tmp_path, "overlap")
     res = _bake_cli(blend, tmp_path / "overlap.png")
     assert res.returncode == exit_codes.OK, res.stderr[-2000:]
-    assert "surfgrad: warning: UV map 'UVMap' of object 'Plane': 97% of tile 1001's texels " \
+    assert "surfgrad: warning: UV map 'UVMap' of object 'Plane': 100% of tile 1001's texels " \
         "lie under more than one face" in res.stderr, res.stderr[-2000:]
     good = _scene(tmp_path / "g", "good")
     res = _bake_cli(good, tmp_path / "good.png")

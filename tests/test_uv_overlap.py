@@ -24,12 +24,13 @@ def _brute(uv, size, offset=(0.0, 0.0)):
     return int((claims >= 2).sum())
 
 
-def test_stacked_squares_contest_all_but_the_diagonal():
+def test_stacked_squares_contest_every_texel():
     quad = np.array([[[0, 0], [0.5, 0], [0.5, 0.5]], [[0, 0], [0.5, 0.5], [0, 0.5]]])
     # one island: neighbours share the diagonal edge and contest nothing
     assert contested_texels(quad, 16) == 0
-    # the same island twice (mirrored halves stacked): 8 x 8 texels, minus the 8 on the edge
-    assert contested_texels(np.concatenate([quad, quad[:, ::-1]]), 16) == 64 - 8
+    # the same island twice (mirrored halves stacked): all 8 x 8 texels, the 8 on the shared
+    # diagonal too (each island's one face takes them; before red team 50a, neither did)
+    assert contested_texels(np.concatenate([quad, quad[:, ::-1]]), 16) == 64
 
 
 def test_random_layouts_match_an_independent_count():

@@ -432,11 +432,20 @@ def overlap_warnings(uv, tiles, resolution, what):
     for tile in tiles:
         n = UV.contested_texels(uv, size, T.tile_uv_offset(tile))
         if n:
-            out.append(f"{what}: {100.0 * n / size ** 2:.2g}% of tile {tile}'s texels lie "
+            out.append(f"{what}: {_percent(n, size ** 2)}% of tile {tile}'s texels lie "
                        f"under more than one face (overlapping UV islands, e.g. mirrored "
                        f"halves stacked); the map keeps only the face last in mesh order "
                        f"there: give each island its own UV space if both sides differ")
     return out
+
+
+def _percent(n, total):
+    """n of total as a percentage of at most two significant digits, never in exponent form
+    (Python's 2g wrote 100% as "1e+02%") and 100 only when all of them are."""
+    share = 100.0 * n / total
+    if share < 10:
+        return f"{share:.2g}"
+    return "100" if n == total else f"{min(round(share), 99)}"
 
 
 def output_problems(output, finals, overwrite):

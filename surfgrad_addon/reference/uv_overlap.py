@@ -3,9 +3,13 @@ stacked on each other): a bake writes only one face's normal there (the last in 
 reference/raster.py), so a bake warns with their count before it starts.
 
 Only the UV layout is needed (no positions or normals), so the check runs before any bake at
-a bounded size: a texel is sampled at its centre, and a centre on a shared edge (within
-EDGE_EPS of the triangle's area) belongs to neither side, so neighbouring faces of one island
-never count as overlapping.
+a bounded size: a texel is sampled at its centre, and a centre on an edge (within EDGE_EPS
+texels, scaled by the edge's farthest corner) belongs to exactly one of the two faces sharing
+it (the rasterizers' top-left rule: Cycles fills such a texel from one of them), so
+neighbouring faces of one island never count as overlapping, and stacked islands do along
+their inner edges too. (Before red team 50a such a centre belonged to neither side: a mirrored
+grid stacked on itself, whose quad diagonals run through texel centres, was warned as 50%
+overlapping at 32^2 where all of it is.)
 """
 
 import numpy as np
@@ -17,13 +21,15 @@ _CHUNK = 1 << 20         # candidate texels per pass: bounded memory at any size
 def contested_texels(uv_triangles, size, uv_offset=(0.0, 0.0)):
     """How many texel centres of a size x size image of the unit square at uv_offset (a UDIM
     tile's corner) lie strictly inside two or more UV triangles (T, 3, 2) with area."""
-    return int(np.count_nonzero(claimed_texels(uv_triangles, size, uv_offset) >= 2))
+    return int(np.count_nonzero(claimed_texels(uv_triangles, size, uv_offset,
+                                                one_side=True) >= 2))
 
 
-def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False):
+def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False, one_side=False):
     """Per texel (size * size, row-major) of the unit square at uv_offset, how many UV
     triangles (T, 3, 2) with area hold its centre strictly inside (edges=True: or on an
-    edge, within EDGE_EPS, so an island's texels on its inner edges count as covered)."""
+    edge, within EDGE_EPS, so an island's texels on its inner edges count as covered;
+    one_side=True: a centre on an edge counts for one of the two faces sharing it)."""
     uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
     q = (uv - np.asarray(uv_offset, dtype=np.float64)) * size - 0.5   # centre of texel i is i
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
@@ -55,6 +61,20 @@ def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False):
         for p0, p1 in ((a, b), (b, c), (c, a)):        # each edge's half-plane, inward side
             e = (p1[tri, 0] - p0[tri, 0]) * (y - p0[tri, 1]) - \
                 (p1[tri, 1] - p0[tri, 1]) * (x - p0[tri, 0])
-            inside &= s * e > (-1 if edges else 1) * EDGE_EPS * np.abs(area[tri])
+            if one_side:
+                inside &= _one_side(s * e, s[:, None] * (p1[tri] - p0[tri]), p0[tri], p1[tri])
+            else:
+                inside &= s * e > (-1 if edges else 1) * EDGE_EPS * np.abs(area[tri])
         np.add.at(claims, y[inside] * size + x[inside], 1)
     return claims
+
+
+def _one_side(e, d, p0, p1):
+    """Inside this edge's half-plane (e > 0 inward, d the edge's direction counter-clockwise):
+    off the edge by more than the band, or on it where the edge runs up (or level, leftward).
+    The face across a shared edge sees -d exactly and the same band, so it takes the centres
+    this one leaves: each centre on an inner edge counts once."""
+    band = EDGE_EPS * np.maximum(1.0, np.maximum(np.abs(p0).max(axis=1), np.abs(p1).max(axis=1)))
+    band = band * np.hypot(d[:, 0], d[:, 1])          # e is the distance times the edge length
+    up_or_left = (d[:, 1] > 0) | ((d[:, 1] == 0) & (d[:, 0] < 0))
+    return (e > band) | ((np.abs(e) <= band) & up_or_left)
