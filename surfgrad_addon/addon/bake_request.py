@@ -53,6 +53,7 @@ from .normal_map_checks import (colour_space_warnings, normal_map_warnings,
                                 raw_image_normal_warnings)
 from .object_names import missing_object_problem
 from .object_space_scale import object_space_scale_problem
+from .posed_armature import posed_armature_warning
 from .parallax_heights import parallax_height_warnings
 from .small_objects import small_object_messages
 
@@ -242,6 +243,8 @@ def _check(request, obj, warn):
     if request.space == "object":        # Blender writes it bent under an uneven scale
         problem = object_space_scale_problem(obj, baked.matrix)
         problems += [problem] if problem else []
+        posed = posed_armature_warning(obj, bpy.context.evaluated_depsgraph_get())
+        warnings += [posed] if posed else []
     more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
                                        uv_map, tiles, request.resolution, request.allow_partial)
     problems += more
