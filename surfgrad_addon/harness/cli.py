@@ -84,12 +84,18 @@ def _overwrite(p, what="replace existing outputs"):
 
 def demo_arguments(p):
     _out(p, "out/demo", "output folder (default out/demo)")
-    p.add_argument("--resolution", type=int, default=256, help="bake size in texels")
+    # --resolution is stage 1's reference maps (numpy, no bake); the bakes are stage 2's
+    # --compare-resolution. The help said "bake size" for both.
+    p.add_argument("--resolution", type=int, default=256,
+                   help="texels per side of stage 1's reference maps, numpy only (default 256; "
+                        "the bakes' size is --compare-resolution)")
     _overwrite(p)
     p.add_argument("--compare-resolution", type=int, default=64,
-                   help="bake size of the bake-vs-reference stage")
+                   help="bake size in texels of the bake-vs-reference stage (compare-all; "
+                        "default 64)")
     p.add_argument("--no-bake", action="store_true",
-                   help="skip the Cycles bake stage (reference only)")
+                   help="skip every Cycles stage: the reference maps (numpy only) and the "
+                        "report page")
     p.add_argument("--pictures", action="store_true",
                    help="also render the exhibits (minutes; the page otherwise shows the "
                         "committed ones in docs/exhibits)")
@@ -226,9 +232,10 @@ def compare_arguments(p):
                    choices=("forward", "one-texel", "hq", *DECAL_SHAPES),
                    help="height-map derivative variant (default hq) or decal shape (default "
                         "box)")
-    p.add_argument("--tiles", type=int, nargs="+", default=None,
-                   help="UDIM tiles to bake and compare (default: the 0-1 square, or every "
-                        "tile with faces when all faces lie on UDIM tiles)")
+    p.add_argument("--tiles", nargs="+", default=None,
+                   help="UDIM tiles to bake and compare, e.g. 1001 1002, 1001,1002 or "
+                        "1001-1010 (default: the 0-1 square, or every tile with faces when "
+                        "all faces lie on UDIM tiles)")
     _cycles_device(p)
     _overwrite(p)
 

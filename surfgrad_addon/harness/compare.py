@@ -257,6 +257,19 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
             bpy.data.images.remove(img)
 
 
+def asked_tiles(tiles):
+    """`--tiles` / `tiles=` as bake-normal-map takes them: numbers, or text such as
+    "1001-1004" or "1001,1003" (each word of the command line), into sorted tile numbers or
+    None. Before, `--tiles 1001-1002` was argparse's "invalid int value" and the API's
+    tiles="1001-1002" read each character as a tile ("tile 1")."""
+    if isinstance(tiles, (list, tuple)) and any(isinstance(t, str) for t in tiles):
+        tiles = ",".join(str(t) for t in tiles)
+    try:
+        return R.tiles.parse_tiles(tiles)
+    except ValueError as ex:
+        raise CompareError(str(ex)) from None
+
+
 def target_tiles(mesh, uv_map, name, tiles=None):
     """What a bake of `uv_map` fills, as Blender's bake does it: (tiles, faces outside, note).
     [1001] is the
@@ -273,8 +286,8 @@ def target_tiles(mesh, uv_map, name, tiles=None):
     lo, hi = uv.reshape(-1, 2).min(0), uv.reshape(-1, 2).max(0)
     span = f"u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}"
     with_uvs = R.tiles.tiles_with_uvs(uv)
+    tiles = asked_tiles(tiles)
     if tiles:
-        tiles = sorted({int(t) for t in tiles})
         bad = [t for t in tiles if not R.tiles.UDIM_FIRST <= t <= R.tiles.UDIM_LAST]
         if bad:
             raise CompareError(f"tile {bad[0]}: UDIM tiles are numbered {R.tiles.UDIM_FIRST} "
@@ -600,6 +613,7 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     from . import cycles_device as D
     json_out = Path(json_out)
     heat_path = json_out.with_name(json_out.stem + "_error.png")
+    tiles = asked_tiles(tiles)              # refused before the file is opened
     for p in (json_out, heat_path):
         check_output_path(p, overwrite)
         _not_an_input(p, blend, image)
