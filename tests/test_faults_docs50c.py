@@ -1,0 +1,157 @@
+"""Red team 50c: the README and docs/ (pipelines, farm, artists, versions) followed literally,
+every command line, flag, exit code and api call they give, against what the product does.
+
+1. `compare --tiles` took only numbers one by one (`type=int, nargs="+"`), while the bakes'
+   `--tiles` (bake-normal-map's help: "e.g. 1001,1002 or 1001-1010") and the docs' "`--tiles`
+   ranges low to high" take ranges: `compare --tiles 1001-1002` and `--tiles 1001,1002` ended in
+   argparse's "argument --tiles: invalid int value: '1001-1002'", exit 2, a TD's copy of the
+   bake's tiles refused. `harness_api.compare(obj, m, tiles="1001-1002")` (the bake functions
+   take tiles "as text such as 1001-1005") raised a raw ValueError ("invalid literal for int()
+   with base 10: '-'"), and tiles="1001" read each character as a tile: "tile 0: UDIM tiles
+   are numbered 1001 to 2000". Now both take what the bakes take (reference/tiles.parse_tiles):
+   "1001-1002", "1001,1002", 1001 1002, each giving tiles [1001, 1002]; a malformed or
+   backwards range is refused before the file is opened, exit 2, naming the form.
+2. `demo --help` said "bake size in texels" for `--resolution`, which sizes stage 1's numpy
+   reference maps (README: "at 256 x 256 texels"), while the bakes are stage 2's
+   `--compare-resolution` ("CPU, 1 sample, 64 x 64"): `bash run.sh main --resolution 512`, the
+   README's example, left the bakes at 64. The help now says which is which with the
+   defaults the README quotes, and the README says `--no-bake` writes the report page too
+   (it said "stops after stage 1"; the run printed "[2/2] report page" and wrote index.html).
+3. The Flamenco job type's Python expression, on a worker whose Blender lacks the enabled
+   extension, printed its line on stdout and exited 3, a code docs/pipelines.md does not list
+   (0, 1, 2, 130, 143, ...): a farm's log filter on stderr saw nothing. Now exit 2 (refused,
+   nothing baked) with the line on stderr naming the fix.
+4. Every `--flag` the docs give a command (`python -m surfgrad_addon CMD`, `blender -c surfgrad
+   CMD`, `bash run.sh CMD`) is one that command's parser takes: checked here, so a renamed or
+   removed flag fails the suite rather than a reader (all held at round 50).
+"""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = [ROOT / "README.md"] + [ROOT / "docs" / f"{n}.md" for n in
+                                ("pipelines", "farm", "artists", "versions", "performance",
+                                 "proof")]
+
+pytestmark = pytest.mark.tier("numpy")
+
+
+def _subparsers(module):
+    from surfgrad_addon.addon import command_line as CL
+    p = CL.parser(getattr(module, "SUBCOMMANDS", None) or module.SHIPPED, "x", "x")
+    return next(a for a in p._actions if a.__class__.__name__ == "_SubParsersAction").choices
+
+
+def _doc_command_lines():
+    """(file, command runner, subcommand, rest of the command) for every command the docs
+    show: fenced blocks with their `\\` continuations joined, and prose code spans."""
+    pattern = re.compile(r"(python -m surfgrad_addon|blender -c surfgrad|run\.sh) "
+                         r"([a-z][a-z-]*)([^`#\n]*)")
+    found = []
+    for path in DOCS:
+        text = path.read_text(encoding="utf-8").replace("\\\n", " ")
+        for m in pattern.finditer(text):
+            found.append((path.name, m.group(1), m.group(2), m.group(3)))
+    return found
+
+
+RUN_SH = {"main": "demo", "bench": "bench", "bench-render": "bench-render",
+          "bench-reference": "bench-reference"}
+
+
+def test_every_flag_the_docs_give_a_command_is_one_it_takes():
+    from surfgrad_addon.addon import commands
+    from surfgrad_addon.harness import cli
+    harness, addon = _subparsers(cli), _subparsers(commands)
+    lines = _doc_command_lines()
+    assert len(lines) > 20, lines          # the docs do show commands (the pattern still finds)
+    checked, wrong = 0, []
+    for name, runner, command, rest in lines:
+        parsers = addon if runner == "blender -c surfgrad" else harness
+        if runner == "run.sh":
+            if command not in RUN_SH:
+                continue                   # test: pytest's arguments
+            command = RUN_SH[command]
+        if command not in parsers:
+            wrong.append(f"{name}: {runner} {command}: no such command")
+            continue
+        takes = {s for a in parsers[command]._actions for s in a.option_strings}
+        for flag in re.findall(r"(?<![\w-])--[a-z][a-z0-9-]*", rest):
+            checked += 1
+            if flag not in takes:
+                wrong.append(f"{name}: {runner} {command} {flag}: not an option of it")
+    assert checked > 30 and not wrong, wrong
+
+
+def test_demo_help_says_which_resolution_is_the_bakes_as_the_readme_does():
+    from surfgrad_addon.harness import cli
+    demo = {a.dest: a for a in _subparsers(cli)["demo"]._actions}
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    reference = int(re.search(r"at (\d+) x \1 texels", readme).group(1))
+    bakes = int(re.search(r"CPU, 1 sample, (\d+) x \1\)", readme).group(1))
+    assert (reference, bakes) == (256, 64)            # the README's own numbers
+    assert demo["resolution"].default == reference
+    assert demo["compare_resolution"].default == bakes
+    # The help tells the two apart (it said "bake size in texels" for the reference maps).
+    assert "bake" not in demo["resolution"].help.split("(")[0], demo["resolution"].help
+    assert "reference" in demo["resolution"].help and f"default {reference}" in \
+        demo["resolution"].help
+    assert "bake" in demo["compare_resolution"].help and f"default {bakes}" in \
+        demo["compare_resolution"].help
+    assert "report page" in demo["no_bake"].help
+    assert "`--no-bake` runs stage 1 (numpy only) and the report page" in readme
+
+
+@pytest.mark.tier("blender")         # harness.compare imports bpy
+@pytest.mark.parametrize("given", [["1001-1002"], ["1001,1002"], ["1001", "1002"],
+                                   "1001-1002", [1001, 1002]])
+def test_compare_takes_tiles_in_the_forms_the_bakes_take(given):
+    from surfgrad_addon.harness.compare import asked_tiles
+    assert asked_tiles(given) == [1001, 1002]
+
+
+@pytest.mark.tier("blender")         # harness.compare imports bpy
+def test_compare_tiles_one_tile_as_text_is_that_tile():
+    from surfgrad_addon.harness.compare import asked_tiles
+    assert asked_tiles("1001") == [1001]           # before: tiles 0 and 1, "tile 0" refused
+    assert asked_tiles(["1005"]) == [1005]
+    assert asked_tiles(None) is None
+
+
+@pytest.mark.tier("blender")         # harness.compare imports bpy
+@pytest.mark.parametrize("given, words", [(["10x1"], "give UDIM numbers like 1001,1002"),
+                                          (["1002-1001"], "write it low to high, like 1001-1002"),
+                                          (",", "no tile given")])
+def test_compare_refuses_a_malformed_tile_list_naming_the_form(given, words):
+    from surfgrad_addon.harness.compare import CompareError, asked_tiles
+    with pytest.raises(CompareError, match=re.escape(words)):
+        asked_tiles(given)
+
+
+def test_compare_command_line_parses_a_tile_range():
+    from surfgrad_addon.harness import cli
+    compare = _subparsers(cli)["compare"]
+    args = compare.parse_args(["--object", "Plane", "--method", "normal-map", "--json", "x.json",
+                               "--tiles", "1001-1002"])      # before: SystemExit(2)
+    assert args.tiles == ["1001-1002"]
+
+
+@pytest.mark.tier("child")
+def test_flamenco_task_without_the_extension_is_refused_exit_2_on_stderr():
+    from support.flamenco import compile_job
+    job = compile_job({"objects": "Rock", "blendfile": "/p/a.blend",
+                       "output_pattern": "/p/{object}.png", "manifest_dir": "/p/m"})
+    args = job["tasks"][0]["commands"][0]["parameters"]["args"]
+    expr = args[args.index("--python-expr") + 1]
+    # A worker's Python with no surfgrad module loaded (the extension not enabled).
+    res = subprocess.run([sys.executable, "-c", expr, "--", *args[args.index("--") + 1:]],
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2, (res.returncode, res.stdout, res.stderr)    # before: 3
+    assert res.stdout == ""                                                 # before: the line
+    assert res.stderr.startswith("surfgrad: error: the surfgrad extension is not enabled")
+    assert "enable it in Preferences" in res.stderr and "Traceback" not in res.stderr
