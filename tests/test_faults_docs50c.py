@@ -155,3 +155,20 @@ def test_flamenco_task_without_the_extension_is_refused_exit_2_on_stderr():
     assert res.stdout == ""                                                 # before: the line
     assert res.stderr.startswith("surfgrad: error: the surfgrad extension is not enabled")
     assert "enable it in Preferences" in res.stderr and "Traceback" not in res.stderr
+
+
+@pytest.mark.tier("bake")
+def test_harness_compare_takes_tiles_as_text():
+    """The API as a script calls it: tiles="1001" (before: "tile 0: UDIM tiles are numbered
+    1001 to 2000", each character read as a tile), "1001-1001" (before: a raw ValueError)."""
+    pytest.importorskip("bpy")
+    from surfgrad_addon.harness import api as harness_api
+    from surfgrad_addon.harness import scenes
+    scenes.new_scene()
+    import bpy
+    plane = bpy.data.objects["Plane"]
+    for tiles in ("1001", "1001-1001"):
+        report = harness_api.compare(plane, "normal-map", resolution=8, tiles=tiles)
+        # One tile: the plain image's report (no per-tile rows), every texel compared.
+        assert report["tiles"] is None and report["texels_compared"] == 64
+        assert report["max_deg"] < 0.5
