@@ -24,6 +24,9 @@ every command line, flag, exit code and api call they give, against what the pro
 4. Every `--flag` the docs give a command (`python -m surfgrad_addon CMD`, `blender -c surfgrad
    CMD`, `bash run.sh CMD`) is one that command's parser takes: checked here, so a renamed or
    removed flag fails the suite rather than a reader (all held at round 50).
+5. `bake-normal-map --help` said `--output` is ".png (8-bit) or .exr (float)", where the docs
+   give PNG at `--depth 8` or `16` and EXR at `half` or `float`, and `<UDIM>` for one file per
+   tile, which the help did not name. It now says both.
 """
 
 import re
@@ -172,3 +175,18 @@ def test_harness_compare_takes_tiles_as_text():
         # One tile: the plain image's report (no per-tile rows), every texel compared.
         assert report["tiles"] is None and report["texels_compared"] == 64
         assert report["max_deg"] < 0.5
+
+
+def test_bake_normal_map_output_help_gives_the_depths_and_tiles_the_docs_give():
+    """docs/pipelines.md: `.png` (`--depth 8` or `16`) or `.exr` (`half` or `float`), and an
+    output with `<UDIM>` writes one file per tile; the help said ".png (8-bit) or .exr
+    (float)" and nothing of <UDIM>."""
+    from surfgrad_addon.addon import commands
+    parser = _subparsers(commands)["bake-normal-map"]
+    actions = {a.dest: a for a in parser._actions}
+    help_text = actions["output"].help
+    assert "8-bit" not in help_text and "--depth" in help_text and "<UDIM>" in help_text
+    assert set(actions["depth"].choices) >= {"8", "16", "half", "float"}
+    pipelines = (ROOT / "docs" / "pipelines.md").read_text(encoding="utf-8")
+    assert re.search(r"`\.png` \(`--depth 8` or `16`\s+bits\) or `\.exr` \(`half` or\s+`float`",
+                     pipelines)

@@ -35,8 +35,10 @@ def bake_normal_map_arguments(p):
     p.add_argument("--blend", default=None, help=".blend file to open (default: the file "
                                                  "Blender opened)")
     p.add_argument("--object", required=True, help="mesh object to bake")
-    p.add_argument("--output", required=True, help="file to write: .png (8-bit) or .exr "
-                                                   "(float)")
+    # The depth is --depth's (PNG 8 or 16, EXR half or float): this said ".png (8-bit)".
+    p.add_argument("--output", required=True,
+                   help="file to write: .png or .exr (bit depth: --depth); with <UDIM> in the "
+                        "name, one file per UDIM tile (rock_nrm.<UDIM>.png)")
     BO.add(p, NORMAL_MAP_OPTIONS)
 
 
