@@ -27,6 +27,11 @@ every command line, flag, exit code and api call they give, against what the pro
 5. `bake-normal-map --help` said `--output` is ".png (8-bit) or .exr (float)", where the docs
    give PNG at `--depth 8` or `16` and EXR at `half` or `float`, and `<UDIM>` for one file per
    tile, which the help did not name. It now says both.
+6. `compare --variant` ("height-map derivative variant or decal shape") was ignored by every
+   method of one variant: `compare --method decal-overwrite --variant sphere` compared the box
+   decal and `--method triplanar-height --variant forward` the HQ one, exit 0, a JSON whose
+   "variant" was null (a flag taken and dropped). Now refused, exit 2, nothing written, naming
+   the methods that have variants; `--variant hq` (their one) is still taken.
 """
 
 import re
@@ -190,3 +195,22 @@ def test_bake_normal_map_output_help_gives_the_depths_and_tiles_the_docs_give():
     pipelines = (ROOT / "docs" / "pipelines.md").read_text(encoding="utf-8")
     assert re.search(r"`\.png` \(`--depth 8` or `16`\s+bits\) or `\.exr` \(`half` or\s+`float`",
                      pipelines)
+
+
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("method, variant", [("decal-overwrite", "sphere"),
+                                             ("triplanar-height", "forward"),
+                                             ("normal-map", "box")])
+def test_compare_refuses_a_variant_a_method_does_not_have(method, variant):
+    pytest.importorskip("bpy")
+    import bpy
+    from surfgrad_addon.harness import compare, scenes
+    scenes.new_scene()
+    sphere = bpy.data.objects["Sphere"]
+    with pytest.raises(compare.CompareError, match=rf"method '{method}' has no variants, so "
+                       rf"--variant '{variant}' would change nothing: leave --variant out "
+                       r"\(it is for decal, height-map, height-map-sampler\)"):
+        compare.compare_object(sphere, method, 16, variant=variant, log=lambda *_: None)
+    # Its one variant, named, is still taken (scripts that pass what compare-all passes).
+    report, _ = compare.compare_object(sphere, method, 16, variant="hq", log=lambda *_: None)
+    assert report["texels_compared"] > 0 and report["max_deg"] < 0.5

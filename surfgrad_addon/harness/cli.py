@@ -230,8 +230,8 @@ def compare_arguments(p):
                                                  "procedural test image")
     p.add_argument("--variant", default=None,
                    choices=("forward", "one-texel", "hq", *DECAL_SHAPES),
-                   help="height-map derivative variant (default hq) or decal shape (default "
-                        "box)")
+                   help="height-map / height-map-sampler derivative variant (default hq) or "
+                        "decal shape (default box); the other methods have none")
     p.add_argument("--tiles", nargs="+", default=None,
                    help="UDIM tiles to bake and compare, e.g. 1001 1002, 1001,1002 or "
                         "1001-1010 (default: the 0-1 square, or every tile with faces when "

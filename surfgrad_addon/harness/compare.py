@@ -211,6 +211,13 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     if variant not in m.variants and len(m.variants) > 1:
         raise CompareError(f"method {method!r} has no variant {variant!r}; use one of "
                            f"{list(m.variants)}")
+    if variant not in m.variants:
+        # A method of one variant took any --variant and compared its own, exit 0 (a
+        # `decal-overwrite --variant sphere` compared the box decal).
+        takes = sorted(k for k, other in METHODS.items() if len(other.variants) > 1)
+        raise CompareError(f"method {method!r} has no variants, so --variant {variant!r} would "
+                           f"change nothing: leave --variant out (it is for "
+                           f"{', '.join(takes)})")
     problem = (scale_limits.small_object_problem(obj, method)   # before any image is made
                or scale_limits.noise_reach_problem(obj, method))
     if problem:
