@@ -32,6 +32,11 @@ every command line, flag, exit code and api call they give, against what the pro
    decal and `--method triplanar-height --variant forward` the HQ one, exit 0, a JSON whose
    "variant" was null (a flag taken and dropped). Now refused, exit 2, nothing written, naming
    the methods that have variants; `--variant hq` (their one) is still taken.
+7. `compare --image` ("normal map image to use instead of the procedural test image") was
+   dropped by every method that reads no normal map (height-map, triplanar-height,
+   height-blend, volume-noise, procedural-basis, displace-bump): `compare --method height-map
+   --image rock_nrm.png` compared the procedural height image, exit 0, and said nothing of the
+   map given. Now refused, exit 2, no report written, naming the fix.
 """
 
 import re
@@ -214,3 +219,26 @@ def test_compare_refuses_a_variant_a_method_does_not_have(method, variant):
     # Its one variant, named, is still taken (scripts that pass what compare-all passes).
     report, _ = compare.compare_object(sphere, method, 16, variant="hq", log=lambda *_: None)
     assert report["texels_compared"] > 0 and report["max_deg"] < 0.5
+
+
+@pytest.mark.tier("bake")
+def test_compare_refuses_an_image_its_method_does_not_read(tmp_path):
+    pytest.importorskip("bpy")
+    import bpy
+    from surfgrad_addon.harness import compare, scenes
+    scenes.new_scene()
+    made = bpy.data.images.new("flat_nrm", 8, 8)
+    made.pixels.foreach_set([0.5, 0.5, 1.0, 1.0] * 64)          # a flat tangent normal map
+    made.filepath_raw, made.file_format = str(tmp_path / "flat_nrm.png"), "PNG"
+    made.save()
+    bpy.data.images.remove(made)
+    sphere = bpy.data.objects["Sphere"]
+    for method in ("height-map", "triplanar-height", "volume-noise"):
+        with pytest.raises(compare.CompareError, match=rf"method '{method}' reads no normal "
+                           r"map, so --image would change nothing: leave --image out"):
+            compare.compare_object(sphere, method, 16, image=str(tmp_path / "flat_nrm.png"),
+                                   log=lambda *_: None)
+    # A method that reads it takes it: a flat map bakes the surface's own normal, no tilt.
+    report, _ = compare.compare_object(sphere, "normal-map", 16,
+                                       image=str(tmp_path / "flat_nrm.png"), log=lambda *_: None)
+    assert report["max_deg"] < 0.5 and report["tilt_mean_deg"] < 0.5

@@ -227,7 +227,8 @@ def compare_arguments(p):
     p.add_argument("--uv-map", default=None, help="UV map to bake into (default: the active "
                                                   "render UV map)")
     p.add_argument("--image", default=None, help="normal map image to use instead of the "
-                                                 "procedural test image")
+                                                 "procedural test image (methods that read "
+                                                 "a normal map)")
     p.add_argument("--variant", default=None,
                    choices=("forward", "one-texel", "hq", *DECAL_SHAPES),
                    help="height-map / height-map-sampler derivative variant (default hq) or "

@@ -85,8 +85,10 @@ class Inputs:
     modifier: object = None                          # a temporary SG Displace modifier
     parallax_scale: float = None                     # None: methods.PARALLAX_SCALE
     relief_scale: float = None                       # None: 1 (method_registry.relief)
+    read: set = field(default_factory=set)           # the images the reference read
 
     def pixels(self, name):
+        self.read.add(name)
         return self.images[name][0]
 
     def bpy_image(self, name):
@@ -242,6 +244,12 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
                 (IS.gpu_texture_filter() if gpu else nullcontext()):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
                                          tiles=tiles, device=device, spread=m.spread)
+        if image is not None and "normal" not in inp.read:
+            # The method reads no normal map (a height map, noise, the object normal): the
+            # image was taken, dropped, and the procedural comparison passed, exit 0.
+            raise CompareError(f"method {method!r} reads no normal map, so --image would change "
+                               f"nothing: leave --image out, or pick a method that reads one "
+                               f"(normal-map, triplanar, decal, parallax, layered, ...)")
         report["reference_texture_filter"] = (
             f"GPU texture unit ({IS.GPU_FILTER_WEIGHT_BITS}-bit weights)" if gpu else "exact")
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
