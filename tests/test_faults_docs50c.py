@@ -37,6 +37,10 @@ every command line, flag, exit code and api call they give, against what the pro
    height-blend, volume-noise, procedural-basis, displace-bump): `compare --method height-map
    --image rock_nrm.png` compared the procedural height image, exit 0, and said nothing of the
    map given. Now refused, exit 2, no report written, naming the fix.
+8. `python -m surfgrad_addon bake-normal-map --object Cube --output rock.png` with `--blend`
+   left out (the help: "default: the file Blender opened", and none is) baked the startup
+   scene's Cube, exit 0: a TD's asset object named Cube got the default cube's map. Now
+   refused, exit 2, nothing written, naming --blend (a bad setting is still named first).
 """
 
 import re
@@ -242,3 +246,24 @@ def test_compare_refuses_an_image_its_method_does_not_read(tmp_path):
     report, _ = compare.compare_object(sphere, "normal-map", 16,
                                        image=str(tmp_path / "flat_nrm.png"), log=lambda *_: None)
     assert report["max_deg"] < 0.5 and report["tilt_mean_deg"] < 0.5
+
+
+@pytest.mark.tier("bake")
+def test_bake_normal_map_without_blend_and_no_file_open_is_refused(tmp_path, capsys):
+    pytest.importorskip("bpy")
+    import bpy
+    from surfgrad_addon.addon import commands
+    bpy.ops.wm.read_factory_settings(use_empty=False)      # what python -m starts with
+    assert bpy.data.filepath == "" and bpy.data.objects.get("Cube") is not None
+    out = tmp_path / "rock.png"
+    rc = commands.execute(["bake-normal-map", "--object", "Cube", "--output", str(out),
+                           "--resolution", "8"])
+    err = capsys.readouterr().err
+    assert rc == 2, err                                       # before: 0, the cube's map
+    assert "no --blend given and no saved .blend is open" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+    # A setting's problem is still the one named (the help's ranges first).
+    assert commands.execute(["bake-normal-map", "--object", "Cube", "--output", str(out),
+                             "--resolution", "3"]) == 2
+    assert "resolution 3: use a whole number of texels from 4 to 16384" in \
+        capsys.readouterr().err
