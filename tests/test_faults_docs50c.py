@@ -41,6 +41,9 @@ every command line, flag, exit code and api call they give, against what the pro
    left out (the help: "default: the file Blender opened", and none is) baked the startup
    scene's Cube, exit 0: a TD's asset object named Cube got the default cube's map. Now
    refused, exit 2, nothing written, naming --blend (a bad setting is still named first).
+9. `demo --no-bake --pictures` (README: `--pictures` also renders the exhibits; `--no-bake`
+   runs no Cycles stage) ran the reference stage and the page, exit 0, and rendered no
+   picture: the flag dropped. Now refused before anything runs, exit 2, no --out made.
 """
 
 import re
@@ -267,3 +270,14 @@ def test_bake_normal_map_without_blend_and_no_file_open_is_refused(tmp_path, cap
                              "--resolution", "3"]) == 2
     assert "resolution 3: use a whole number of texels from 4 to 16384" in \
         capsys.readouterr().err
+
+
+@pytest.mark.tier("blender")
+def test_demo_no_bake_with_pictures_is_refused_before_anything_runs(tmp_path, capsys):
+    from surfgrad_addon.harness import cli
+    out = tmp_path / "demo"
+    rc = cli.main(["demo", "--no-bake", "--pictures", "--resolution", "8", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2, err                      # before: 0, index.html and no picture
+    assert "--pictures renders the exhibits with Cycles, and --no-bake skips" in err
+    assert not out.exists() and list(tmp_path.iterdir()) == []

@@ -110,6 +110,10 @@ def demo_run(args):
     from . import main_job
     from .compare import RESOLUTION_RANGE
     from .report_page import write_report_page
+    if args.no_bake and args.pictures:
+        # The pictures are Cycles renders, a stage --no-bake skips: both ran no picture, exit 0.
+        raise ValueError("--pictures renders the exhibits with Cycles, and --no-bake skips "
+                         "every Cycles stage: give one of them")
     sizes = [("--resolution", args.resolution)] + \
         ([] if args.no_bake else [("--compare-resolution", args.compare_resolution)])
     for option, value in sizes:                # before any stage runs
