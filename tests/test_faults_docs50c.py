@@ -44,6 +44,11 @@ every command line, flag, exit code and api call they give, against what the pro
 9. `demo --no-bake --pictures` (README: `--pictures` also renders the exhibits; `--no-bake`
    runs no Cycles stage) ran the reference stage and the page, exit 0, and rendered no
    picture: the flag dropped. Now refused before anything runs, exit 2, no --out made.
+10. docs/pipelines.md: "a name ending in `/` is a folder, not a file; ... and `compare --json`,
+   alike". `compare --json reports/` wrote a JSON file named `reports` (1037 bytes) and
+   `reports_error.png`, exit 0 (Path() drops the slash), and `bench-reference` / `bench-compare
+   --out reports/` a JSON file `reports` (577 bytes, exit 0). Now refused before any work,
+   exit 2, nothing written, naming a file in that folder as the fix.
 """
 
 import re
@@ -281,3 +286,19 @@ def test_demo_no_bake_with_pictures_is_refused_before_anything_runs(tmp_path, ca
     assert rc == 2, err                      # before: 0, index.html and no picture
     assert "--pictures renders the exhibits with Cycles, and --no-bake skips" in err
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("command", [
+    ["compare", "--object", "Torus", "--method", "normal-map", "--resolution", "16", "--json"],
+    ["bench-reference", "--sizes", "--method-sizes", "--compare-sizes", "--memory-sizes",
+     "--repeats", "1", "--out"],
+    ["bench-compare", "--sizes", "8", "--repeats", "1", "--out"]])
+def test_a_json_output_ending_in_a_slash_is_a_folder_and_refused(command, tmp_path, capsys):
+    from surfgrad_addon.harness import cli
+    given = str(tmp_path / "reports") + "/"
+    rc = cli.main([*command, given])
+    err = capsys.readouterr().err
+    assert rc == 2, err                      # before: 0, a file named 'reports'
+    assert f"{given!r} ends in '/', a folder" in err and "report.json" in err
+    assert list(tmp_path.iterdir()) == []

@@ -70,6 +70,10 @@ def _out_problem(args):
     out = getattr(args, "out", None)
     if out is None:
         return None
+    if args.out_is_file and str(out).endswith(("/", os.sep)):
+        # Path() drops the slash: `--out reports/` wrote a JSON file named `reports`.
+        return (f"{str(out)!r} ends in '/', a folder, and this command writes one JSON "
+                f"file: give a file name in it (e.g. {os.path.join(out, 'report.json')!r})")
     out = Path(os.path.abspath(out))
     folders = [out.parent] if args.out_is_file else [out.parent, out]
     return next((p for p in map(folder_problem, folders) if p), None) or \

@@ -626,6 +626,10 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     cycles_device: CPU, CUDA or OPTIX (cycles_device.py; refused before the load without one)."""
     import bpy
     from . import cycles_device as D
+    if str(json_out).endswith(("/", os.sep)):
+        # Path() drops the slash: `--json reports/` wrote a file `reports` and `reports_error.png`.
+        raise CompareError(f"--json {str(json_out)!r} ends in '/', a folder: give a file name "
+                           f"in it (e.g. {os.path.join(json_out, 'report.json')!r})")
     json_out = Path(json_out)
     heat_path = json_out.with_name(json_out.stem + "_error.png")
     tiles = asked_tiles(tiles)              # refused before the file is opened
