@@ -48,7 +48,9 @@ every command line, flag, exit code and api call they give, against what the pro
    alike". `compare --json reports/` wrote a JSON file named `reports` (1037 bytes) and
    `reports_error.png`, exit 0 (Path() drops the slash), and `bench-reference` / `bench-compare
    --out reports/` a JSON file `reports` (577 bytes, exit 0). Now refused before any work,
-   exit 2, nothing written, naming a file in that folder as the fix.
+   exit 2, nothing written, naming a file in that folder as the fix. So is `bake-batch
+   --manifest maps/manifests/` (the same line of the docs; it wrote a manifest file named
+   `manifests`, exit 0) and `demo-blend --out demo/` (a .blend named `demo`).
 """
 
 import re
@@ -300,5 +302,22 @@ def test_a_json_output_ending_in_a_slash_is_a_folder_and_refused(command, tmp_pa
     rc = cli.main([*command, given])
     err = capsys.readouterr().err
     assert rc == 2, err                      # before: 0, a file named 'reports'
-    assert f"{given!r} ends in '/', a folder" in err and "report.json" in err
+    assert f"{given!r} ends in '/', a folder" in err and f"(e.g. '{given}" in err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.tier("bake")
+def test_a_manifest_ending_in_a_slash_is_a_folder_and_refused(tmp_path, capsys):
+    pytest.importorskip("bpy")
+    from surfgrad_addon.harness import batch_assets as BA
+    from surfgrad_addon.addon import commands
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=16)
+    given = str(tmp_path / "maps" / "manifests") + "/"
+    rc = commands.execute(["bake-batch", str(blend), "--workers", "0", "--resolution", "8",
+                           "--output", str(tmp_path / "maps" / "{object}.png"),
+                           "--manifest", given])
+    err = capsys.readouterr().err
+    assert rc == 2, err            # before: 0, the manifest written as a file 'manifests'
+    assert f"manifest {given!r} ends in '/', a folder" in err
+    assert "surfgrad-bake-manifest.json" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend"]

@@ -57,7 +57,7 @@ def _sizes(given, default):
 
 def _out(p, default, what="output folder", is_file=False):
     p.add_argument("--out", default=default, help=what)
-    p.set_defaults(out_is_file=is_file)
+    p.set_defaults(out_is_file=is_file, out_example=Path(default).name)
 
 
 def _out_problem(args):
@@ -72,8 +72,8 @@ def _out_problem(args):
         return None
     if args.out_is_file and str(out).endswith(("/", os.sep)):
         # Path() drops the slash: `--out reports/` wrote a JSON file named `reports`.
-        return (f"{str(out)!r} ends in '/', a folder, and this command writes one JSON "
-                f"file: give a file name in it (e.g. {os.path.join(out, 'report.json')!r})")
+        return (f"{str(out)!r} ends in '/', a folder, and this command writes one file: give "
+                f"a file name in it (e.g. {os.path.join(out, args.out_example)!r})")
     out = Path(os.path.abspath(out))
     folders = [out.parent] if args.out_is_file else [out.parent, out]
     return next((p for p in map(folder_problem, folders) if p), None) or \
