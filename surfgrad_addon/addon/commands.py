@@ -33,10 +33,13 @@ BATCH_SETTINGS = ("space", "resolution", "uv_map", "margin", "samples", "depth",
 
 def bake_normal_map_arguments(p):
     p.add_argument("--blend", default=None, help=".blend file to open (default: the file "
-                                                 "Blender opened)")
+                                                 "Blender opened; needed where none is, as "
+                                                 "with python -m or blender -c)")
     p.add_argument("--object", required=True, help="mesh object to bake")
-    p.add_argument("--output", required=True, help="file to write: .png (8-bit) or .exr "
-                                                   "(float)")
+    # The depth is --depth's (PNG 8 or 16, EXR half or float): this said ".png (8-bit)".
+    p.add_argument("--output", required=True,
+                   help="file to write: .png or .exr (bit depth: --depth); with <UDIM> in the "
+                        "name, one file per UDIM tile (rock_nrm.<UDIM>.png)")
     BO.add(p, NORMAL_MAP_OPTIONS)
 
 
@@ -147,8 +150,16 @@ def _bake_normal_map(args):
             raise ValueError(f".blend file {args.blend!r} does not exist")
         from .open_blend import open_mainfile
         open_mainfile(args.blend)          # scripts off, whatever the Preferences say
-    bake(BakeRequest(args.object, args.output,
-                     **{name: getattr(args, name) for name in NORMAL_MAP_OPTIONS}))
+    request = BakeRequest(args.object, args.output,
+                          **{name: getattr(args, name) for name in NORMAL_MAP_OPTIONS})
+    import bpy
+    if not args.blend and not bpy.data.filepath and not request.own_problems():
+        # No file opened: Blender's startup scene is open (`python -m surfgrad_addon`, or
+        # `blender -c`), whose 'Cube' baked with exit 0 for a --blend left out.
+        raise ValueError(f"no --blend given and no saved .blend is open (Blender's startup "
+                         f"scene is, so its {args.object!r} would be baked): give the file "
+                         f"with --blend FILE.blend")
+    bake(request)
 
 
 SHIPPED = (

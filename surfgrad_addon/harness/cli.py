@@ -57,7 +57,7 @@ def _sizes(given, default):
 
 def _out(p, default, what="output folder", is_file=False):
     p.add_argument("--out", default=default, help=what)
-    p.set_defaults(out_is_file=is_file)
+    p.set_defaults(out_is_file=is_file, out_example=Path(default).name)
 
 
 def _out_problem(args):
@@ -70,6 +70,10 @@ def _out_problem(args):
     out = getattr(args, "out", None)
     if out is None:
         return None
+    if args.out_is_file and str(out).endswith(("/", os.sep)):
+        # Path() drops the slash: `--out reports/` wrote a JSON file named `reports`.
+        return (f"{str(out)!r} ends in '/', a folder, and this command writes one file: give "
+                f"a file name in it (e.g. {os.path.join(out, args.out_example)!r})")
     out = Path(os.path.abspath(out))
     folders = [out.parent] if args.out_is_file else [out.parent, out]
     return next((p for p in map(folder_problem, folders) if p), None) or \
@@ -84,12 +88,18 @@ def _overwrite(p, what="replace existing outputs"):
 
 def demo_arguments(p):
     _out(p, "out/demo", "output folder (default out/demo)")
-    p.add_argument("--resolution", type=int, default=256, help="bake size in texels")
+    # --resolution is stage 1's reference maps (numpy, no bake); the bakes are stage 2's
+    # --compare-resolution. The help said "bake size" for both.
+    p.add_argument("--resolution", type=int, default=256,
+                   help="texels per side of stage 1's reference maps, numpy only (default 256; "
+                        "the bakes' size is --compare-resolution)")
     _overwrite(p)
     p.add_argument("--compare-resolution", type=int, default=64,
-                   help="bake size of the bake-vs-reference stage")
+                   help="bake size in texels of the bake-vs-reference stage (compare-all; "
+                        "default 64)")
     p.add_argument("--no-bake", action="store_true",
-                   help="skip the Cycles bake stage (reference only)")
+                   help="skip every Cycles stage: the reference maps (numpy only) and the "
+                        "report page")
     p.add_argument("--pictures", action="store_true",
                    help="also render the exhibits (minutes; the page otherwise shows the "
                         "committed ones in docs/exhibits)")
@@ -104,6 +114,10 @@ def demo_run(args):
     from . import main_job
     from .compare import RESOLUTION_RANGE
     from .report_page import write_report_page
+    if args.no_bake and args.pictures:
+        # The pictures are Cycles renders, a stage --no-bake skips: both ran no picture, exit 0.
+        raise ValueError("--pictures renders the exhibits with Cycles, and --no-bake skips "
+                         "every Cycles stage: give one of them")
     sizes = [("--resolution", args.resolution)] + \
         ([] if args.no_bake else [("--compare-resolution", args.compare_resolution)])
     for option, value in sizes:                # before any stage runs
@@ -221,14 +235,16 @@ def compare_arguments(p):
     p.add_argument("--uv-map", default=None, help="UV map to bake into (default: the active "
                                                   "render UV map)")
     p.add_argument("--image", default=None, help="normal map image to use instead of the "
-                                                 "procedural test image")
+                                                 "procedural test image (methods that read "
+                                                 "a normal map)")
     p.add_argument("--variant", default=None,
                    choices=("forward", "one-texel", "hq", *DECAL_SHAPES),
-                   help="height-map derivative variant (default hq) or decal shape (default "
-                        "box)")
-    p.add_argument("--tiles", type=int, nargs="+", default=None,
-                   help="UDIM tiles to bake and compare (default: the 0-1 square, or every "
-                        "tile with faces when all faces lie on UDIM tiles)")
+                   help="height-map / height-map-sampler derivative variant (default hq) or "
+                        "decal shape (default box); the other methods have none")
+    p.add_argument("--tiles", nargs="+", default=None,
+                   help="UDIM tiles to bake and compare, e.g. 1001 1002, 1001,1002 or "
+                        "1001-1010 (default: the 0-1 square, or every tile with faces when "
+                        "all faces lie on UDIM tiles)")
     _cycles_device(p)
     _overwrite(p)
 

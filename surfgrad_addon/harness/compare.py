@@ -85,8 +85,10 @@ class Inputs:
     modifier: object = None                          # a temporary SG Displace modifier
     parallax_scale: float = None                     # None: methods.PARALLAX_SCALE
     relief_scale: float = None                       # None: 1 (method_registry.relief)
+    read: set = field(default_factory=set)           # the images the reference read
 
     def pixels(self, name):
+        self.read.add(name)
         return self.images[name][0]
 
     def bpy_image(self, name):
@@ -211,6 +213,13 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     if variant not in m.variants and len(m.variants) > 1:
         raise CompareError(f"method {method!r} has no variant {variant!r}; use one of "
                            f"{list(m.variants)}")
+    if variant not in m.variants:
+        # A method of one variant took any --variant and compared its own, exit 0 (a
+        # `decal-overwrite --variant sphere` compared the box decal).
+        takes = sorted(k for k, other in METHODS.items() if len(other.variants) > 1)
+        raise CompareError(f"method {method!r} has no variants, so --variant {variant!r} would "
+                           f"change nothing: leave --variant out (it is for "
+                           f"{', '.join(takes)})")
     problem = (scale_limits.small_object_problem(obj, method)   # before any image is made
                or scale_limits.noise_reach_problem(obj, method))
     if problem:
@@ -235,6 +244,12 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
                 (IS.gpu_texture_filter() if gpu else nullcontext()):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
                                          tiles=tiles, device=device, spread=m.spread)
+        if image is not None and "normal" not in inp.read:
+            # The method reads no normal map (a height map, noise, the object normal): the
+            # image was taken, dropped, and the procedural comparison passed, exit 0.
+            raise CompareError(f"method {method!r} reads no normal map, so --image would change "
+                               f"nothing: leave --image out, or pick a method that reads one "
+                               f"(normal-map, triplanar, decal, parallax, layered, ...)")
         report["reference_texture_filter"] = (
             f"GPU texture unit ({IS.GPU_FILTER_WEIGHT_BITS}-bit weights)" if gpu else "exact")
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
@@ -257,6 +272,19 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
             bpy.data.images.remove(img)
 
 
+def asked_tiles(tiles):
+    """`--tiles` / `tiles=` as bake-normal-map takes them: numbers, or text such as
+    "1001-1004" or "1001,1003" (each word of the command line), into sorted tile numbers or
+    None. Before, `--tiles 1001-1002` was argparse's "invalid int value" and the API's
+    tiles="1001-1002" read each character as a tile ("tile 1")."""
+    if isinstance(tiles, (list, tuple)) and any(isinstance(t, str) for t in tiles):
+        tiles = ",".join(str(t) for t in tiles)
+    try:
+        return R.tiles.parse_tiles(tiles)
+    except ValueError as ex:
+        raise CompareError(str(ex)) from None
+
+
 def target_tiles(mesh, uv_map, name, tiles=None):
     """What a bake of `uv_map` fills, as Blender's bake does it: (tiles, faces outside, note).
     [1001] is the
@@ -273,8 +301,8 @@ def target_tiles(mesh, uv_map, name, tiles=None):
     lo, hi = uv.reshape(-1, 2).min(0), uv.reshape(-1, 2).max(0)
     span = f"u {lo[0]:.3g}..{hi[0]:.3g}, v {lo[1]:.3g}..{hi[1]:.3g}"
     with_uvs = R.tiles.tiles_with_uvs(uv)
+    tiles = asked_tiles(tiles)
     if tiles:
-        tiles = sorted({int(t) for t in tiles})
         bad = [t for t in tiles if not R.tiles.UDIM_FIRST <= t <= R.tiles.UDIM_LAST]
         if bad:
             raise CompareError(f"tile {bad[0]}: UDIM tiles are numbered {R.tiles.UDIM_FIRST} "
@@ -598,8 +626,13 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     cycles_device: CPU, CUDA or OPTIX (cycles_device.py; refused before the load without one)."""
     import bpy
     from . import cycles_device as D
+    if str(json_out).endswith(("/", os.sep)):
+        # Path() drops the slash: `--json reports/` wrote a file `reports` and `reports_error.png`.
+        raise CompareError(f"--json {str(json_out)!r} ends in '/', a folder: give a file name "
+                           f"in it (e.g. {os.path.join(json_out, 'report.json')!r})")
     json_out = Path(json_out)
     heat_path = json_out.with_name(json_out.stem + "_error.png")
+    tiles = asked_tiles(tiles)              # refused before the file is opened
     for p in (json_out, heat_path):
         check_output_path(p, overwrite)
         _not_an_input(p, blend, image)

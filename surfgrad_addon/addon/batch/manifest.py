@@ -34,6 +34,10 @@ def checked_path(manifest, pattern):
     problem = manifest and NB.blend_relative_problem(manifest, "manifest")
     if problem:
         raise BatchError(problem)
+    if manifest and str(manifest).endswith(("/", os.sep)):
+        # Path() drops the slash: `--manifest maps/manifests/` wrote a file `manifests`.
+        raise BatchError(f"manifest {str(manifest)!r} ends in '/', a folder: give a file name "
+                         f"in it (e.g. {os.path.join(str(manifest), MANIFEST_NAME)!r})")
     path = Path(manifest) if manifest else default_manifest(pattern)
     problem = BR.folder_problem(path.parent) or _manifest_problem(path)
     if problem:

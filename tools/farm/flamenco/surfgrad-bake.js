@@ -47,13 +47,17 @@ const JOB_TYPE = {
 };
 
 // Runs the installed extension's command handler (`blender -c surfgrad ...` without -c, which
-// would not load the file) on the arguments after `--`, and exits with its code.
+// would not load the file) on the arguments after `--`, and exits with its code. Without the
+// extension: exit 2 (refused, nothing baked, as docs/pipelines.md's codes say), the line on
+// stderr with the fix (it was exit 3 on stdout).
 const PYTHON_EXPR =
   "import sys; " +
   "m = next((v for k, v in list(sys.modules.items()) " +
   "if k.endswith('.addon.commands') and hasattr(v, 'run_bake_batch')), None); " +
   "sys.exit(m.execute(sys.argv[sys.argv.index('--') + 1:]) if m else " +
-  "(print('surfgrad: error: enable the surfgrad extension on this worker') or 3))";
+  "(print('surfgrad: error: the surfgrad extension is not enabled in this worker\\'s " +
+  "Blender: install it and enable it in Preferences > Get Extensions (Blender 4.2 or later), " +
+  "then requeue the task', file=sys.stderr) or 2))";
 
 function parseTiles(text) {
   const tiles = [];
