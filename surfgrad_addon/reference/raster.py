@@ -27,7 +27,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import compiled, raster_kernels
+from . import compiled, raster_kernels, scan_weights
 # The kernel modules, imported for their compiled.LOADERS (load_compiled runs them).
 from . import (height_map_kernels, listing_kernels, normal_map_kernels,  # noqa: F401
                parallax_kernels, sampling_kernels)
@@ -97,9 +97,12 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
     # the per-texel test below, not the span's rounding, decides every texel. Spans are taken
     # in row order (triangle order within a row) and expanded band by band of rows, so the
     # working memory is a band's, not the image's.
+    # A bake's texels get the weights Blender's float32 scan gives Cycles (scan_weights.py).
+    scan = ((uv, width, height, uv_offset, sample_offset)
+            if tuple(sample_offset) == tuple(facts.bake_texel_offset) else None)
     if compiled.enabled():
         return _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol,
-                                   lo, hi, counts)
+                                   lo, hi, counts, scan)
     span_t, span_y, span_x0, span_x1 = _row_spans(coef, lo, hi, counts, np.maximum(tol, 1e-12))
     npx = width * height
     triangle = np.full(npx, -1, dtype=np.int32)
@@ -190,9 +193,12 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
         edge = (near_claims >= 2) & (strict_claims < 2) & (best >= 0)
         edge[cov] |= lowest <= tol[tc]
         on_edge[sl] = edge
+    tri_out = triangle[pixel[:n_out, 1] * width + pixel[:n_out, 0]]
+    bary = bary_out[:n_out] if scan is None else scan_weights.blender_weights(
+        scan[0], tri_out, pixel[:n_out], *scan[1:], bary_out[:n_out])
     return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
                      triangle=triangle.reshape(height, width), pixel=pixel[:n_out],
-                     barycentric=bary_out[:n_out],
+                     barycentric=bary,
                      facts=facts, uv_offset=tuple(float(o) for o in uv_offset),
                      contested=contested.reshape(height, width),
                      other_triangle=other_tri.reshape(height, width),
@@ -226,7 +232,7 @@ def load_compiled():
 
 
 def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol, lo, hi,
-                        counts):
+                        counts, scan=None):
     """rasterize's spans and band loop as two compiled passes (raster_kernels): the scan of
     every triangle's rows, then the flags and the covered texels per row. The texels' (x, y)
     and barycentrics are left to the blocks (TexelData.row_start): identical values, and
@@ -266,7 +272,7 @@ def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol
                      contested=contested.reshape(height, width),
                      other_triangle=other_tri.reshape(height, width),
                      on_edge=on_edge.reshape(height, width), row_start=row_start,
-                     _shared={"raster_coefficients": (cx, cy, cc)})
+                     _shared={"raster_coefficients": (cx, cy, cc), "scan": scan})
 
 
 def _row_bands(height, texels):
