@@ -54,11 +54,13 @@ _BOUND_TEXELS = float(1 << 40)
 
 
 def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
-              uv_offset=(0.0, 0.0)):
+              uv_offset=(0.0, 0.0), as_baked=False):
     """Rasterise `mesh` into a width x height texture of UV map `uv_map` (see module doc).
     sample_offset: where in its texel each texel is sampled (default: where the bake of
     `facts`' line shades; (0.5, 0.5) for exact centres). facts: the Blender line modelled.
-    uv_offset: the UV corner of the image (a UDIM tile's, tiles.tile_uv_offset)."""
+    uv_offset: the UV corner of the image (a UDIM tile's, tiles.tile_uv_offset).
+    as_baked: each texel's barycentrics as Blender's bake computes them in float32
+    (scan_weights.py), for a comparison with a bake; else exact (clamped at an edge)."""
     if sample_offset is None:
         sample_offset = facts.bake_texel_offset
     mesh.validate()
@@ -97,9 +99,8 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
     # the per-texel test below, not the span's rounding, decides every texel. Spans are taken
     # in row order (triangle order within a row) and expanded band by band of rows, so the
     # working memory is a band's, not the image's.
-    # A bake's texels get the weights Blender's float32 scan gives Cycles (scan_weights.py).
-    scan = ((uv, width, height, uv_offset, sample_offset)
-            if tuple(sample_offset) == tuple(facts.bake_texel_offset) else None)
+    # as_baked: the weights Blender's float32 scan gives Cycles (scan_weights.py).
+    scan = (uv, width, height, uv_offset, sample_offset) if as_baked else None
     if compiled.enabled():
         return _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol,
                                    lo, hi, counts, scan)
