@@ -100,7 +100,8 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
     # in row order (triangle order within a row) and expanded band by band of rows, so the
     # working memory is a band's, not the image's.
     # as_baked: the weights Blender's float32 scan gives Cycles (scan_weights.py).
-    scan = (uv, width, height, uv_offset, sample_offset) if as_baked else None
+    scan = scan_weights.triangle_planes(uv, width, height, uv_offset, sample_offset) \
+        if as_baked else None
     if compiled.enabled():
         return _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol,
                                    lo, hi, counts, scan)
@@ -195,8 +196,8 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
         edge[cov] |= lowest <= tol[tc]
         on_edge[sl] = edge
     tri_out = triangle[pixel[:n_out, 1] * width + pixel[:n_out, 0]]
-    bary = bary_out[:n_out] if scan is None else scan_weights.blender_weights(
-        scan[0], tri_out, pixel[:n_out], *scan[1:], bary_out[:n_out])
+    bary = bary_out[:n_out] if scan is None else scan_weights.weights_from_planes(
+        scan, tri_out, pixel[:n_out], bary_out[:n_out])
     return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
                      triangle=triangle.reshape(height, width), pixel=pixel[:n_out],
                      barycentric=bary,
@@ -220,7 +221,7 @@ def load_compiled():
     tri = MeshArrays(positions=np.eye(3), triangles=np.array([[0, 1, 2]]),
                      corner_normals=np.tile([0.0, 0.0, 1.0], (1, 3, 1)),
                      uv_maps={"UV": np.array([[[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]]])})
-    td = rasterize(tri, "UV", 4, 4)
+    td = rasterize(tri, "UV", 4, 4, as_baked=True)
     block = td.block(0, td.texel_count)
     block.position
     block.shading_normal

@@ -18,6 +18,8 @@ variables are float, in float64 where it converts to double).
 
 import numpy as np
 
+from . import compiled, raster_kernels
+
 F32 = np.float32
 F64 = np.float64
 
@@ -34,20 +36,15 @@ def _plane(x0, y0, z0, v1x, v1y, my2, plus_one):
     return xd, yd, row0
 
 
-def blender_weights(uv, tri, pixel, width, height, uv_offset, sample_offset, exact):
-    """(N, 3) weights of corners 0, 1, 2 of triangle tri[i] at texel pixel[i] as Blender's
-    bake computes them; `exact` (N, 3), the exact clamped weights, where those fall outside
-    the triangle. uv: (T, 3, 2) the UV map per loop triangle; sample_offset: the bake's
-    nudge of each texel's sample ((0.501, 0.502) on every line)."""
-    out = np.array(exact, dtype=F64, copy=True)
-    if len(tri) == 0:
-        return out
-    t = np.asarray(tri, dtype=np.int64)
+def triangle_planes(uv, width, height, uv_offset, sample_offset):
+    """Per triangle of uv (T, 3, 2), Blender's float32 plane terms of the weights of corners
+    0 and 1: (uxd, uyd, uy0, vxd, vyd, vy0) float32 (T,) each, my2 (T,) its top row, and ok
+    (T,) False where Blender's z0 is 0 (it scans nothing there). Computed once per bake."""
     # vec[a] = (uv - tile corner) * size - (0.5 + nudge), each step in float32
     size = np.array([width, height], dtype=F32)
     off = np.asarray(uv_offset, dtype=F64).astype(F32)
     nudge = np.asarray(sample_offset, dtype=F64).astype(F32)
-    v = (((uv[t].astype(F32) - off) * size) - nudge).astype(F32)      # (N, 3, 2)
+    v = (((np.asarray(uv).astype(F32) - off) * size) - nudge).astype(F32)     # (T, 3, 2)
     v1x, v1y = v[:, 0, 0], v[:, 0, 1]
     x1 = v[:, 0, 0] - v[:, 1, 0]
     x2 = v[:, 1, 0] - v[:, 2, 0]
@@ -56,10 +53,28 @@ def blender_weights(uv, tri, pixel, width, height, uv_offset, sample_offset, exa
     z0 = F32(x1 * y2) - F32(y1 * x2)
     ok = z0 != 0
     z0 = np.where(ok, z0, F32(1.0))
-    my2 = np.minimum(np.floor(v[:, :, 1].max(axis=1)), height - 1).astype(np.int64)
-    # u (corner 0): z1 = 1, z2 = 0; v (corner 1): z1 = -1, z2 = 1.
-    uxd, uyd, uy0 = _plane(-y2, x2, z0, v1x, v1y, my2, True)
-    vxd, vyd, vy0 = _plane(F32(y1 + y2), F32(-x2 - x1), z0, v1x, v1y, my2, False)
+    with np.errstate(invalid="ignore", over="ignore"):
+        my2 = np.minimum(np.floor(v[:, :, 1].max(axis=1)), height - 1)
+        my2 = np.nan_to_num(my2, nan=0.0, posinf=height - 1, neginf=0.0).astype(np.int64)
+        # u (corner 0): z1 = 1, z2 = 0; v (corner 1): z1 = -1, z2 = 1.
+        u = _plane(-y2, x2, z0, v1x, v1y, my2, True)
+        w = _plane(F32(y1 + y2), F32(-x2 - x1), z0, v1x, v1y, my2, False)
+    return (*u, *w, my2, ok)
+
+
+def weights_from_planes(planes, tri, pixel, exact):
+    """(N, 3) weights of texels pixel (N, 2) in triangles tri (N,) from triangle_planes;
+    `exact` (N, 3) where Blender's fall outside the triangle."""
+    out = np.array(exact, dtype=F64, copy=True)
+    if len(tri) == 0:
+        return out
+    if compiled.enabled():
+        raster_kernels.scan_weights_in(np.ascontiguousarray(tri, dtype=np.int64),
+                                       np.ascontiguousarray(pixel, dtype=np.int64),
+                                       *planes, out)
+        return out
+    t = np.asarray(tri, dtype=np.int64)
+    uxd, uyd, uy0, vxd, vyd, vy0, my2, ok = (a[t] for a in planes)
     x = pixel[:, 0].astype(F64)
     i = (my2 - pixel[:, 1]).astype(F32)
 
@@ -68,10 +83,20 @@ def blender_weights(uv, tri, pixel, width, height, uv_offset, sample_offset, exa
         # by float32's last bit of the weight only.
         return ((x * xd.astype(F64) + row0.astype(F64)) - (i * yd).astype(F64)).astype(F32)
 
-    u = weight(uxd, uyd, uy0)
-    w = weight(vxd, vyd, vy0)
-    rest = F32(F32(1.0) - u) - w
+    with np.errstate(invalid="ignore", over="ignore"):
+        u = weight(uxd, uyd, uy0)
+        w = weight(vxd, vyd, vy0)
+        rest = F32(F32(1.0) - u) - w
     scan = np.stack([u, w, rest], axis=1).astype(F64)
     use = ok & (scan >= 0).all(axis=1)
     out[use] = scan[use]
     return out
+
+
+def blender_weights(uv, tri, pixel, width, height, uv_offset, sample_offset, exact):
+    """(N, 3) weights of corners 0, 1, 2 of triangle tri[i] at texel pixel[i] as Blender's
+    bake computes them; `exact` (N, 3), the exact clamped weights, where those fall outside
+    the triangle. uv: (T, 3, 2) the UV map per loop triangle; sample_offset: the bake's
+    nudge of each texel's sample ((0.501, 0.502) on every line)."""
+    planes = triangle_planes(uv, width, height, uv_offset, sample_offset)
+    return weights_from_planes(planes, tri, pixel, exact)

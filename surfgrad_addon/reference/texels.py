@@ -89,7 +89,7 @@ class TexelData:
                                        start, stop, cx, cy, cc, pixel, tri, bary)
         scan = self._shared.get("scan")
         if scan is not None:            # a bake's: Blender's float32 weights (scan_weights)
-            bary = scan_weights.blender_weights(scan[0], tri, pixel, *scan[1:], bary)
+            bary = scan_weights.weights_from_planes(scan, tri, pixel, bary)
         return pixel, tri, bary
 
     @property
