@@ -2,7 +2,9 @@
 
 Conventions follow Blender's bake: texel (i, j) is shaded at its centre nudged by Blender's
 bake offset, ((i + 0.501) / W, (j + 0.502) / H) (image_sampling.BAKE_TEXEL_OFFSET), row j = 0
-at v = 0 (bottom, as in Image.pixels). Texels no triangle covers are marked (triangle index
+at v = 0 (bottom, as in Image.pixels). With as_baked, a texel's barycentrics are the ones
+Blender's float32 scan conversion hands Cycles (scan_weights.py; on a UV sliver they move the
+shaded point along the face), else exact. Texels no triangle covers are marked (triangle index
 -1), never filled in.
 
 Contested texels follow Blender's bake (render/intern/bake.cc, RE_bake_pixels_populate):
