@@ -184,6 +184,8 @@ def scan_weights_in(tri, pixel, uxd, uyd, uy0, vxd, vyd, vy0, my2, ok, out):
                        - np.float64(i * vyd[t]))
         rest = (one - u) - w
         if u >= 0 and w >= 0 and rest >= 0:
-            out[k, 0] = u
-            out[k, 1] = w
-            out[k, 2] = rest
+            b0, b1, b2 = np.float64(u), np.float64(w), np.float64(rest)
+            total = (b0 + b1) + b2
+            out[k, 0] = b0 / total
+            out[k, 1] = b1 / total
+            out[k, 2] = b2 / total

@@ -89,7 +89,11 @@ def weights_from_planes(planes, tri, pixel, exact):
         rest = F32(F32(1.0) - u) - w
     scan = np.stack([u, w, rest], axis=1).astype(F64)
     use = ok & (scan >= 0).all(axis=1)
-    out[use] = scan[use]
+    # Summed to 1 in float64, as the exact ones: float32's u + v + (1 - u - v) is 1 only to
+    # ~6e-8, which Cycles applies to object-space corners, the reference to world-space ones
+    # (10 km out: 0.6 mm, degrees of a triplanar texture).
+    scan = scan[use]
+    out[use] = scan / ((scan[:, 0] + scan[:, 1]) + scan[:, 2])[:, None]
     return out
 
 
