@@ -79,7 +79,9 @@ def test_unfiltered_noise_holds_at_its_reach_limit(method):
 def test_beyond_the_limit_the_bake_leaves_the_bar(monkeypatch):
     """Why the limit is needed: with the check off, a correct group is called wrong."""
     monkeypatch.setattr(scale_limits, "NOISE_REACH_LIMITS", {})
-    report = _compare(_big_mesh("Sphere", 1e3), "volume-noise")       # measured p99 0.60
+    # Measured p99 0.60 at 1e3 m before red team 50b modelled Blender's float32 bake weights
+    # (reference/scan_weights.py), which were most of it: now 0.089 there, 0.245 at 3e3 m.
+    report = _compare(_big_mesh("Sphere", 3e3), "volume-noise")
     assert report["p99_deg"] > P99, report
 
 

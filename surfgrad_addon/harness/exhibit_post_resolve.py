@@ -157,7 +157,7 @@ def lean_image(obj, pixels, resolution):
     from ..reference.agreement import angle_deg
     bpy.context.view_layer.update()
     td = raster.rasterize(mesh_arrays_from_object(obj), UV_MAP, resolution, resolution,
-                          facts=B.running_line())
+                          facts=B.running_line(), as_baked=True)
     n, _, n1 = resolved_base(td, pixels)
     return td.to_image(angle_deg(n, n1))
 

@@ -20,11 +20,17 @@ from .no_area import faces_text
 MOST_LEFT_OUT = 0.75
 
 
-def unsure_welds(triangles, uv, flat, blender_normals, cycles_normals):
+def unsure_welds(triangles, uv, flat, blender_normals, cycles_normals, positions=None):
     """(T,) True on the flat triangles (`flat` (T,)) of a pair sharing an edge with the same
     UV bits at both ends (`uv` (T, 3, 2)) whose normals are bitwise equal under one form
-    ((T, 3) float32: Blender's face normals, Cycles') and not under the other."""
+    ((T, 3) float32: Blender's face normals, Cycles') and not under the other. `positions`
+    (V, 3): vertices of the same float32 bits are one (MikkTSpace welds by value, not by
+    index: the split vertices of a flat-shaded glTF or STL import)."""
     tris = np.asarray(triangles, dtype=np.int64)
+    if positions is not None and len(tris):
+        bits = np.ascontiguousarray(positions, dtype=np.float32).view(np.uint32)
+        _, same = np.unique(bits.reshape(len(bits), -1), axis=0, return_inverse=True)
+        tris = np.asarray(same, dtype=np.int64).reshape(-1)[tris]
     t = len(tris)
     out = np.zeros(t, dtype=bool)
     if flat is None or not np.any(flat):

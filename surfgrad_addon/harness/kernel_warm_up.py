@@ -51,7 +51,8 @@ def load_kernels(mesh, uv_map, reference, facts):
     t0 = time.perf_counter()
     try:
         with np.errstate(all="ignore"):
-            td = R.rasterize(warm_up_mesh(mesh), uv_map, WARM_UP, WARM_UP, facts=facts)
+            td = R.rasterize(warm_up_mesh(mesh), uv_map, WARM_UP, WARM_UP, facts=facts,
+                             as_baked=True)
             blank = np.zeros((WARM_UP, WARM_UP, 4), dtype=np.float32)
             compare_tile(td, reference, blank, td.covered.copy())
     except Exception:       # noqa: BLE001 - a warm-up only: the real pass reports it

@@ -2,7 +2,9 @@
 
 Conventions follow Blender's bake: texel (i, j) is shaded at its centre nudged by Blender's
 bake offset, ((i + 0.501) / W, (j + 0.502) / H) (image_sampling.BAKE_TEXEL_OFFSET), row j = 0
-at v = 0 (bottom, as in Image.pixels). Texels no triangle covers are marked (triangle index
+at v = 0 (bottom, as in Image.pixels). With as_baked, a texel's barycentrics are the ones
+Blender's float32 scan conversion hands Cycles (scan_weights.py; on a UV sliver they move the
+shaded point along the face), else exact. Texels no triangle covers are marked (triangle index
 -1), never filled in.
 
 Contested texels follow Blender's bake (render/intern/bake.cc, RE_bake_pixels_populate):
@@ -27,7 +29,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import compiled, raster_kernels
+from . import compiled, raster_kernels, scan_weights
 # The kernel modules, imported for their compiled.LOADERS (load_compiled runs them).
 from . import (height_map_kernels, listing_kernels, normal_map_kernels,  # noqa: F401
                parallax_kernels, sampling_kernels)
@@ -54,11 +56,13 @@ _BOUND_TEXELS = float(1 << 40)
 
 
 def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
-              uv_offset=(0.0, 0.0)):
+              uv_offset=(0.0, 0.0), as_baked=False):
     """Rasterise `mesh` into a width x height texture of UV map `uv_map` (see module doc).
     sample_offset: where in its texel each texel is sampled (default: where the bake of
     `facts`' line shades; (0.5, 0.5) for exact centres). facts: the Blender line modelled.
-    uv_offset: the UV corner of the image (a UDIM tile's, tiles.tile_uv_offset)."""
+    uv_offset: the UV corner of the image (a UDIM tile's, tiles.tile_uv_offset).
+    as_baked: each texel's barycentrics as Blender's bake computes them in float32
+    (scan_weights.py), for a comparison with a bake; else exact (clamped at an edge)."""
     if sample_offset is None:
         sample_offset = facts.bake_texel_offset
     mesh.validate()
@@ -97,9 +101,12 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
     # the per-texel test below, not the span's rounding, decides every texel. Spans are taken
     # in row order (triangle order within a row) and expanded band by band of rows, so the
     # working memory is a band's, not the image's.
+    # as_baked: the weights Blender's float32 scan gives Cycles (scan_weights.py).
+    scan = scan_weights.triangle_planes(uv, width, height, uv_offset, sample_offset) \
+        if as_baked else None
     if compiled.enabled():
         return _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol,
-                                   lo, hi, counts)
+                                   lo, hi, counts, scan)
     span_t, span_y, span_x0, span_x1 = _row_spans(coef, lo, hi, counts, np.maximum(tol, 1e-12))
     npx = width * height
     triangle = np.full(npx, -1, dtype=np.int32)
@@ -190,9 +197,12 @@ def rasterize(mesh, uv_map, width, height, sample_offset=None, facts=MAIN_LINE,
         edge = (near_claims >= 2) & (strict_claims < 2) & (best >= 0)
         edge[cov] |= lowest <= tol[tc]
         on_edge[sl] = edge
+    tri_out = triangle[pixel[:n_out, 1] * width + pixel[:n_out, 0]]
+    bary = bary_out[:n_out] if scan is None else scan_weights.weights_from_planes(
+        scan, tri_out, pixel[:n_out], bary_out[:n_out])
     return TexelData(mesh=mesh, uv_map=uv_map, width=width, height=height,
                      triangle=triangle.reshape(height, width), pixel=pixel[:n_out],
-                     barycentric=bary_out[:n_out],
+                     barycentric=bary,
                      facts=facts, uv_offset=tuple(float(o) for o in uv_offset),
                      contested=contested.reshape(height, width),
                      other_triangle=other_tri.reshape(height, width),
@@ -213,7 +223,7 @@ def load_compiled():
     tri = MeshArrays(positions=np.eye(3), triangles=np.array([[0, 1, 2]]),
                      corner_normals=np.tile([0.0, 0.0, 1.0], (1, 3, 1)),
                      uv_maps={"UV": np.array([[[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]]])})
-    td = rasterize(tri, "UV", 4, 4)
+    td = rasterize(tri, "UV", 4, 4, as_baked=True)
     block = td.block(0, td.texel_count)
     block.position
     block.shading_normal
@@ -226,7 +236,7 @@ def load_compiled():
 
 
 def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol, lo, hi,
-                        counts):
+                        counts, scan=None):
     """rasterize's spans and band loop as two compiled passes (raster_kernels): the scan of
     every triangle's rows, then the flags and the covered texels per row. The texels' (x, y)
     and barycentrics are left to the blocks (TexelData.row_start): identical values, and
@@ -266,7 +276,7 @@ def _rasterize_compiled(mesh, uv_map, width, height, facts, uv_offset, coef, tol
                      contested=contested.reshape(height, width),
                      other_triangle=other_tri.reshape(height, width),
                      on_edge=on_edge.reshape(height, width), row_start=row_start,
-                     _shared={"raster_coefficients": (cx, cy, cc)})
+                     _shared={"raster_coefficients": (cx, cy, cc), "scan": scan})
 
 
 def _row_bands(height, texels):

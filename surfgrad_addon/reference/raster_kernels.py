@@ -165,3 +165,27 @@ def interpolate_corners_unit(corners, tri, bary, out):
         out[0, i] = x / length
         out[1, i] = y / length
         out[2, i] = z / length
+
+
+@kernel()
+def scan_weights_in(tri, pixel, uxd, uyd, uy0, vxd, vyd, vy0, my2, ok, out):
+    """scan_weights.weights_from_planes's loop, the same float32 and float64 steps: out[k]
+    (the exact weights on entry) becomes Blender's where those lie inside the triangle."""
+    one = np.float32(1.0)
+    for k in range(tri.shape[0]):
+        t = tri[k]
+        if not ok[t]:
+            continue
+        x = np.float64(pixel[k, 0])
+        i = np.float32(my2[t] - pixel[k, 1])
+        u = np.float32((x * np.float64(uxd[t]) + np.float64(uy0[t]))
+                       - np.float64(i * uyd[t]))
+        w = np.float32((x * np.float64(vxd[t]) + np.float64(vy0[t]))
+                       - np.float64(i * vyd[t]))
+        rest = (one - u) - w
+        if u >= 0 and w >= 0 and rest >= 0:
+            b0, b1, b2 = np.float64(u), np.float64(w), np.float64(rest)
+            total = (b0 + b1) + b2
+            out[k, 0] = b0 / total
+            out[k, 1] = b1 / total
+            out[k, 2] = b2 / total

@@ -12,7 +12,7 @@ from functools import cached_property
 
 import numpy as np
 
-from . import compiled, raster_kernels
+from . import compiled, raster_kernels, scan_weights
 from .blender_lines import MAIN_LINE, LineFacts, octahedral_unit_vectors
 from .mesh_arrays import MeshArrays
 from .vecmath import normalize, safe_normalize, transform
@@ -87,6 +87,9 @@ class TexelData:
         cx, cy, cc = self._shared["raster_coefficients"]
         raster_kernels.texels_in_range(self.triangle.reshape(-1), self.row_start, self.width,
                                        start, stop, cx, cy, cc, pixel, tri, bary)
+        scan = self._shared.get("scan")
+        if scan is not None:            # a bake's: Blender's float32 weights (scan_weights)
+            bary = scan_weights.weights_from_planes(scan, tri, pixel, bary)
         return pixel, tri, bary
 
     @property

@@ -30,7 +30,7 @@ def run_scenario(scenario, resolution, repeats, quick, log=print):
         objs = {}
         for name, obj in ctx.objects.items():
             td = R.rasterize(mesh_arrays_from_object(obj), ctx.uv_map, resolution, resolution,
-                             facts=B.running_line())
+                             facts=B.running_line(), as_baked=True)
             objs[name] = (obj, td, td.interior(), scenario.truth(ctx, td),
                           M.unit_base_normal(td))
         times = {m.label: [] for m in methods}
