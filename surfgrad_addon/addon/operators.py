@@ -168,11 +168,28 @@ def _into_frame(nodes, frame):
         node.location = location
 
 
+def _replaced_uv_map(shader):
+    """The UV map of the tangent-space Normal Map node (through reroutes) whose link into the
+    shader's Normal the stack replaces, or "" (none, or one on the active render UV map)."""
+    socket = shader.inputs[NORMAL_SOCKET]
+    node = socket.links[0].from_node if socket.is_linked else None
+    while node is not None and node.bl_idname == "NodeReroute":
+        node = node.inputs[0].links[0].from_node if node.inputs[0].is_linked else None
+    if node is None or node.bl_idname != "ShaderNodeNormalMap" or node.space != "TANGENT":
+        return ""
+    return node.uv_map
+
+
 def add_layer_stack(tree, uv_map=""):
     """SG Normal Map -> SG Combine -> SG Resolve -> the surface shader's Normal. Returns the
-    new nodes. An existing link into the shader's Normal is replaced (and reported)."""
+    new nodes. An existing link into the shader's Normal is replaced (and reported). With no
+    uv_map given, a replaced tangent-space Normal Map node's UV map is kept (a glTF import's
+    normal map on its second UV map): the artist's map plugged into the stack is the one that
+    node read, and on the active UV map it would turn with that map's tangents."""
     require_editable(tree)
     shader = _surface_shader(tree)
+    kept = "" if uv_map else _replaced_uv_map(shader)
+    uv_map = uv_map or kept
     _prebuild(tree, G.resolve_group, G.combine_group, lambda: G.normal_map_group(uv_map))
     x, y = shader.location
     replaced = shader.inputs[NORMAL_SOCKET].is_linked
@@ -185,7 +202,7 @@ def add_layer_stack(tree, uv_map=""):
     links.new(resolve.outputs[0], shader.inputs[NORMAL_SOCKET])
     _into_frame((resolve, combine, normal_map), shader.parent)
     return {"resolve": resolve, "combine": combine, "normal_map": normal_map,
-            "replaced": replaced}
+            "replaced": replaced, "uv_map": kept}
 
 
 def convert_node(tree, node):
@@ -417,6 +434,9 @@ into SG Resolve, wired into the BSDF's Normal"""
             report_notes(self)
             return {'CANCELLED'}
         note = " (replaced the previous link into Normal)" if made["replaced"] else ""
+        if made["uv_map"]:
+            note += (f"; SG Normal Map reads UV map {made['uv_map']!r}, as the replaced Normal "
+                     f"Map node did")
         self.report({'INFO'}, f"Added SG Normal Map, SG Combine and SG Resolve{note}; link "
                               f"your normal map image into SG Normal Map's Color")
         report_notes(self)

@@ -1,0 +1,120 @@
+"""Round 51 (helper rt51a): what an artist's layer stack and an object-space bake take from
+the mesh and the node they replace.
+
+1. Add Layer Stack (addon/operators.py add_layer_stack, api.add_layer_stack) replaced the link
+   into the shader's Normal with a new stack whose SG Normal Map read the active render UV
+   map, also where the replaced link came from a tangent-space Normal Map node on another UV
+   map (a glTF import with its normal map on TEXCOORD_1: uv_map 'UVMap.001'). The artist's
+   map plugged into the stack then turned with the wrong UV map's tangents: here a plane
+   whose second UV map is the first turned 90 degrees, a constant map tilted 30 degrees: the
+   object-space bake of the stack lay 41.4 degrees (every texel) from the replaced node's, the
+   tilt turned 90 degrees about the normal. Now the new SG Normal Map is the per-map group of
+   the replaced node's UV map ("SG Normal Map [UVMap.001]"), the bake matches (0.0 degrees),
+   and the operator's report says which UV map it reads; a UV map the artist gives wins.
+
+2. An object-space bake of a mesh whose shape keys are mixed in (a key's value not 0 and not
+   muted, or a pinned shape key (Shape Key Lock)) holds the mixed shape's normals, as a posed
+   armature's does (red team 50d, addon/posed_armature.py), and reads back right on that mix
+   alone, not on the basis an engine's morph targets start from. Here a two-quad strip with a
+   key folding the second quad 60 degrees, value 1: its texels 60.0 degrees (median) from the
+   basis map, exit 0 and no word. Now bake-normal-map (the API, bake_request) warns, naming
+   the object, the keys, and the fixes (set the values to 0 / unpin, or bake in tangent
+   space); a muted key, a key at 0 or a key that moves nothing gives no warning.
+   Freeze (addon/freeze.py) bakes in tangent space only (bake_normal_tiles, tangent), which
+   follows the deformation and holds in every pose and mix: it gets no such warning.
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import operators as O  # noqa: E402
+from support.materials import diffuse_material  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+RES = 16
+TILT_DEG = 30.0
+FOLD_DEG = 60.0
+
+
+def _bake(obj, path, space="object"):
+    api.bake_normal_map(obj, str(path), space=space, resolution=RES, margin=0, log=None)
+    img = bpy.data.images.load(str(path))
+    try:
+        px = np.array(img.pixels[:]).reshape(RES, RES, 4)[..., :3] * 2.0 - 1.0
+    finally:
+        bpy.data.images.remove(img)
+    return px / np.linalg.norm(px, axis=-1, keepdims=True)
+
+
+def _deg(a, b):
+    return np.degrees(np.arccos(np.clip((a * b).sum(-1), -1.0, 1.0)))
+
+
+# 1 --------------------------------------------------------------------------------------------
+
+def _two_uv_plane():
+    """A 2 x 2 plane (normal +Z); 'UVMap' the unit square along x, y (active, render);
+    'UVMap.001' the same square turned 90 degrees (its u runs along +y)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mesh = bpy.data.meshes.new("Plane")
+    verts = [(-1.0, -1.0, 0.0), (1.0, -1.0, 0.0), (1.0, 1.0, 0.0), (-1.0, 1.0, 0.0)]
+    mesh.from_pydata(verts, [], [(0, 1, 2, 3)])
+    first, second = mesh.uv_layers.new(name="UVMap"), mesh.uv_layers.new(name="UVMap.001")
+    for loop in mesh.loops:
+        x, y, _z = verts[loop.vertex_index]
+        u, v = (x + 1) / 2 * 0.98 + 0.01, (y + 1) / 2 * 0.98 + 0.01
+        first.data[loop.index].uv = (u, v)
+        second.data[loop.index].uv = (v, 1.0 - u)
+    mesh.uv_layers.active = first
+    first.active_render = True
+    obj = bpy.data.objects.new("Plane", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    mat, tree, bsdf = diffuse_material("Imported")
+    obj.data.materials.append(mat)
+    color = tree.nodes.new("ShaderNodeRGB")            # the artist's map: tilted along +u
+    t = np.radians(TILT_DEG)
+    color.outputs[0].default_value = (np.sin(t) / 2 + 0.5, 0.5, np.cos(t) / 2 + 0.5, 1.0)
+    nmap = tree.nodes.new("ShaderNodeNormalMap")
+    nmap.uv_map = "UVMap.001"
+    tree.links.new(color.outputs[0], nmap.inputs["Color"])
+    tree.links.new(nmap.outputs[0], bsdf.inputs["Normal"])
+    return obj, mat, color
+
+
+def test_the_stack_keeps_the_replaced_normal_maps_uv_map(tmp_path):
+    obj, mat, color = _two_uv_plane()
+    before = _bake(obj, tmp_path / "node.exr")
+    # Independent expectation: the tilt lies along UVMap.001's u, object +y.
+    t = np.radians(TILT_DEG)
+    assert _deg(before, np.array([0.0, np.sin(t), np.cos(t)])).max() < 0.5
+    made = api.add_layer_stack(mat)
+    group = made["normal_map"].node_tree
+    assert made["replaced"] and made["uv_map"] == "UVMap.001"
+    assert group.name == "SG Normal Map [UVMap.001]"
+    assert [n.uv_map for n in group.nodes if n.bl_idname == "ShaderNodeNormalMap"] == ["UVMap.001"]
+    mat.node_tree.links.new(color.outputs[0], made["normal_map"].inputs[0])
+    after = _bake(obj, tmp_path / "stack.exr")
+    assert _deg(after, before).max() < 0.5, _deg(after, before).max()
+
+
+def test_a_uv_map_the_artist_gives_wins_and_the_report_names_the_kept_one(tmp_path):
+    obj, mat, color = _two_uv_plane()
+    made = api.add_layer_stack(mat, uv_map="UVMap")
+    assert made["uv_map"] == "" and made["normal_map"].node_tree.name == "SG Normal Map [UVMap]"
+    obj, mat, color = _two_uv_plane()
+    reports = []
+    op = type("Op", (), {"uv_map": "", "report": lambda self, kind, text: reports.append(text)})()
+    assert O.SURFGRAD_OT_add_layer_stack.execute(op, _Context(obj)) == {"FINISHED"}
+    assert any("reads UV map 'UVMap.001', as the replaced Normal Map node did" in r
+               for r in reports), reports
+
+
+class _Context:
+    """What the operator reads of a context with no Shader Editor: the active object."""
+    def __init__(self, obj):
+        self.space_data = None
+        self.object = obj
