@@ -118,3 +118,78 @@ class _Context:
     def __init__(self, obj):
         self.space_data = None
         self.object = obj
+
+
+# 2 --------------------------------------------------------------------------------------------
+
+def _keyed_strip():
+    """Two flat quads along x (UVs: left half, right half) with a basis and a key 'Fold' that
+    turns the second quad 60 degrees about the joint (x = 1), out of the plane."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    verts = [(x, y, 0.0) for x in (0.0, 1.0, 2.0) for y in (-0.5, 0.5)]
+    mesh = bpy.data.meshes.new("Strip")
+    mesh.from_pydata(verts, [], [(0, 2, 3, 1), (2, 4, 5, 3)])
+    uv = mesh.uv_layers.new(name="UVMap")
+    for poly in mesh.polygons:
+        for li in poly.loop_indices:
+            x, y, _z = verts[mesh.loops[li].vertex_index]
+            uv.data[li].uv = (x / 2.0 * 0.98 + 0.01, (y + 0.5) * 0.98 + 0.01)
+    obj = bpy.data.objects.new("Face", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.data.materials.append(diffuse_material("Skin")[0])
+    obj.shape_key_add(name="Basis")
+    fold = obj.shape_key_add(name="Fold", from_mix=False)
+    t = np.radians(FOLD_DEG)
+    for i in (4, 5):
+        x, y, _z = verts[i]
+        fold.data[i].co = (1.0 + np.cos(t), y, np.sin(t))
+    fold.value = 0.0
+    return obj, fold
+
+
+def test_an_object_space_bake_with_a_shape_key_mixed_in_warns(tmp_path, capfd):
+    obj, fold = _keyed_strip()
+    up = np.array([0.0, 0.0, 1.0])
+    basis = _bake(obj, tmp_path / "basis.exr")
+    assert _deg(basis, up).max() < 0.5
+    assert "shape key" not in capfd.readouterr().err
+    fold.value = 1.0
+    mixed = _bake(obj, tmp_path / "mixed.exr")
+    err = capfd.readouterr().err
+    off = _deg(mixed, basis)
+    assert off[:, : RES // 2 - 1].max() < 0.5                       # the first quad stays
+    assert abs(np.median(off[:, RES // 2 + 1:]) - FOLD_DEG) < 1.0    # the second folded
+    assert "object 'Face'" in err and "'Fold' at 1" in err and "60.0 degrees" in err, err
+    assert "values to 0" in err and "tangent space" in err, err
+    fold.value = 0.5                                                 # half: 30 degrees
+    _bake(obj, tmp_path / "half.exr")
+    assert "30.0 degrees" in capfd.readouterr().err
+
+
+def test_a_pinned_shape_key_warns_even_at_value_0(tmp_path, capfd):
+    obj, fold = _keyed_strip()
+    obj.show_only_shape_key = True
+    obj.active_shape_key_index = 1
+    bpy.context.view_layer.update()
+    pinned = _bake(obj, tmp_path / "pinned.exr")
+    err = capfd.readouterr().err
+    assert abs(np.median(_deg(pinned, np.array([0.0, 0.0, 1.0]))[:, RES // 2 + 1:])
+               - FOLD_DEG) < 1.0                                     # the bake holds the key
+    assert "Shape Key Lock" in err and "60.0 degrees" in err, err
+
+
+def test_no_warning_muted_at_0_unmoved_or_in_tangent_space(tmp_path, capfd):
+    obj, fold = _keyed_strip()
+    fold.value = 1.0
+    tangent = _bake(obj, tmp_path / "t.exr", "tangent")
+    assert _deg(tangent, np.array([0.0, 0.0, 1.0])).max() < 0.5
+    assert "shape key" not in capfd.readouterr().err
+    fold.mute = True
+    _bake(obj, tmp_path / "m.exr")
+    assert "shape key" not in capfd.readouterr().err
+    fold.mute = False
+    still = obj.shape_key_add(name="Still", from_mix=False)          # moves nothing
+    still.value = 1.0
+    fold.value = 0.0
+    _bake(obj, tmp_path / "s.exr")
+    assert "shape key" not in capfd.readouterr().err

@@ -53,7 +53,7 @@ from .normal_map_checks import (colour_space_warnings, normal_map_warnings,
                                 raw_image_normal_warnings)
 from .object_names import missing_object_problem
 from .object_space_scale import object_space_scale_problem
-from .posed_armature import posed_armature_warning
+from .posed_armature import posed_armature_warning, shape_key_warning
 from .parallax_heights import parallax_height_warnings
 from .small_objects import small_object_messages
 
@@ -245,6 +245,8 @@ def _check(request, obj, warn):
         problems += [problem] if problem else []
         posed = posed_armature_warning(obj, bpy.context.evaluated_depsgraph_get())
         warnings += [posed] if posed else []
+        keys = shape_key_warning(obj)
+        warnings += [keys] if keys else []
     more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
                                        uv_map, tiles, request.resolution, request.allow_partial)
     problems += more

@@ -5,7 +5,8 @@ reads back right in that pose alone; in the rest pose (the bind pose an engine s
 every other pose it is off by the bones' turns. Measured (red team 50d,
 tests/test_faults_assets50d.py): godot-demo-projects' mannequiny.glb saved on frame 10 of its
 idle action baked an object-space map 87 degrees (median texel) from the rest pose's, exit 0
-and no word. A tangent-space map follows the deformation and holds in every pose."""
+and no word. A tangent-space map follows the deformation and holds in every pose. Shape keys mixed into the
+mesh (shape_key_warning, below) bend an object-space map the same way."""
 
 import numpy as np
 
@@ -56,3 +57,100 @@ def posed_armature_warning(obj, depsgraph):
                 f"rest pose, set the armature's Pose Position to Rest Position (Object Data > "
                 f"Skeleton) before baking; or bake in tangent space, which holds in every pose")
     return None
+
+
+# Shape keys mixed in turn the faces the same way: the bake holds the mix's normals, while an
+# engine's morph targets start from the basis. Measured (rt51a, tests/test_faults_deform51a.py):
+# a key folding a quad 60 degrees at value 1 baked that quad 60.0 degrees from the basis map.
+
+def _key_weights(obj, key_block, count):
+    """Per-vertex weights of the key's vertex group (1 without one; 0 where a vertex is not in
+    a named group that exists)."""
+    if not key_block.vertex_group:
+        return np.ones(count)
+    group = obj.vertex_groups.get(key_block.vertex_group)
+    weights = np.zeros(count)
+    if group is None:
+        return np.ones(count)          # Blender ignores a group name that is not there
+    for v in obj.data.vertices:
+        for g in v.groups:
+            if g.group == group.index:
+                weights[v.index] = g.weight
+    return weights
+
+
+def _coordinates(key_block, count):
+    co = np.empty(count * 3, dtype=np.float64)
+    key_block.data.foreach_get("co", co)
+    return co.reshape(count, 3)
+
+
+def _face_normals(mesh, co):
+    """Newell normals (unnormalised) of the mesh's faces at vertex positions co."""
+    loops = np.empty(len(mesh.loops), dtype=np.int64)
+    mesh.loops.foreach_get("vertex_index", loops)
+    starts = np.empty(len(mesh.polygons), dtype=np.int64)
+    mesh.polygons.foreach_get("loop_start", starts)
+    totals = np.empty(len(mesh.polygons), dtype=np.int64)
+    mesh.polygons.foreach_get("loop_total", totals)
+    face = np.repeat(np.arange(len(starts)), totals)
+    nxt = np.arange(len(loops)) + 1
+    ends = starts + totals
+    nxt[ends - 1] = starts                              # each face's last corner wraps around
+    a, b = co[loops], co[loops[nxt]]
+    cross = np.cross(a, b)
+    out = np.zeros((len(starts), 3))
+    np.add.at(out, face, cross)
+    return out
+
+
+def mixed_shape_keys(obj):
+    """[(key name, value)] of the relative shape keys the render mixes into obj's mesh: the
+    pinned one (Shape Key Lock) at 1, else the unmuted ones whose value is not 0."""
+    key = getattr(obj.data, "shape_keys", None)
+    if key is None or not key.use_relative or len(key.key_blocks) < 2:
+        return []
+    if obj.show_only_shape_key:
+        index = obj.active_shape_key_index
+        block = key.key_blocks[index] if 0 < index < len(key.key_blocks) else None
+        return [(block, 1.0)] if block is not None and block != key.reference_key else []
+    return [(k, k.value) for k in key.key_blocks
+            if k != key.reference_key and not k.mute and k.value != 0.0]
+
+
+def shape_key_warning(obj):
+    """None, or the warning for an object-space bake of obj while shape keys are mixed into its
+    mesh and turn its faces from the basis, naming the keys, the largest turn and the fixes."""
+    if obj.type != "MESH":
+        return None
+    mixed = mixed_shape_keys(obj)
+    if not mixed:
+        return None
+    mesh = obj.data
+    count = len(mesh.vertices)
+    basis = _coordinates(mesh.shape_keys.reference_key, count)
+    co = basis.copy()
+    for block, value in mixed:
+        relative = block.relative_key if block.relative_key is not None else \
+            mesh.shape_keys.reference_key
+        delta = _coordinates(block, count) - _coordinates(relative, count)
+        co += value * _key_weights(obj, block, count)[:, None] * delta
+    a, b = _face_normals(mesh, basis), _face_normals(mesh, co)
+    la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+    ok = (la > 0) & (lb > 0)
+    if not ok.any():
+        return None
+    c = (a[ok] * b[ok]).sum(1) / (la[ok] * lb[ok])
+    worst = float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))).max())
+    if worst <= MAX_TURN_DEG:
+        return None
+    names = ", ".join(f"{block.name!r} at {value:g}" for block, value in mixed[:4]) + \
+        (f" and {len(mixed) - 4} more" if len(mixed) > 4 else "")
+    pinned = " (pinned: Shape Key Lock)" if obj.show_only_shape_key else ""
+    fix = ("untick Shape Key Lock (Object Data > Shape Keys)" if pinned else
+           "set those keys' values to 0 (Object Data > Shape Keys)")
+    return (f"object {obj.name!r} has shape keys mixed in{pinned} ({names}) that turn its "
+            f"faces up to {worst:.1f} degrees from the basis: the object-space map holds the "
+            f"mixed shape's normals and reads back right with this mix alone. For a map that "
+            f"fits the basis, {fix} before baking; or bake in tangent space, which holds in "
+            f"every mix")
