@@ -20,8 +20,19 @@ the mesh and the node they replace.
    basis map, exit 0 and no word. Now bake-normal-map (the API, bake_request) warns, naming
    the object, the keys, and the fixes (set the values to 0 / unpin, or bake in tangent
    space); a muted key, a key at 0 or a key that moves nothing gives no warning.
-   Freeze (addon/freeze.py) bakes in tangent space only (bake_normal_tiles, tangent), which
-   follows the deformation and holds in every pose and mix: it gets no such warning.
+
+3. Freeze (addon/freeze.py) bakes in tangent space only (bake_normal_tiles, tangent), which
+   follows a pose or a mix: a stack of tangent-space layers frozen posed is the one frozen at
+   rest. But a stack that reads object-space positions or normals (SG Noise with its Vector
+   unlinked, triplanar, projector and decal coordinates, SG Object Normal, a Texture
+   Coordinate Object / Geometry Position) looks them up where the pose or mix puts the
+   surface: the freeze tests' layered stack (SG Normal Map + SG Noise) on the 50d skinned
+   strip, its second bone turned 60 degrees, froze a map whose second quad lay 30.4 degrees
+   (median; p90 59.2) from the map frozen at rest, exit 0 and no word; in the rest pose the
+   frozen map no longer matched the live stack by that much. Now Freeze warns (check's warn,
+   the operator's report), naming the object, the armature or the keys, the nodes that read
+   object space and the fix (Rest Position / keys to 0 before freezing); a stack of
+   tangent-space layers alone, or one at rest, gets no warning.
 """
 
 import numpy as np
@@ -30,12 +41,16 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
+from support.freeze_scene import layered_material  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
+from test_faults_assets50d import _pose, _skinned_strip  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
 RES = 16
+TURN_DEG = 60.0
 TILT_DEG = 30.0
 FOLD_DEG = 60.0
 
@@ -193,3 +208,59 @@ def test_no_warning_muted_at_0_unmoved_or_in_tangent_space(tmp_path, capfd):
     fold.value = 0.0
     _bake(obj, tmp_path / "s.exr")
     assert "shape key" not in capfd.readouterr().err
+
+
+# 3 --------------------------------------------------------------------------------------------
+
+def _frozen(obj, tree_edit=None):
+    """Freeze obj's layered stack at 32^2: (the frozen map's unit normals, the warnings)."""
+    mat, _bsdf = layered_material(obj)
+    if tree_edit:
+        tree_edit(mat.node_tree)
+    warnings = []
+    F.freeze(obj, 32, log=lambda *_: None, warn=warnings.append)
+    image = next(i for i in bpy.data.images if "frozen" in i.name)
+    px = np.array(image.pixels[:]).reshape(32, 32, 4)[..., :3] * 2.0 - 1.0
+    return px / np.linalg.norm(px, axis=-1, keepdims=True), warnings
+
+
+def _without_noise(tree):
+    """The stack's SG Noise layer taken out: tangent-space layers alone."""
+    combine = next(n for n in tree.nodes if n.type == "GROUP" and
+                   n.node_tree.name.startswith("SG Combine"))
+    for link in list(combine.inputs["B"].links):
+        tree.links.remove(link)
+
+
+def test_freezing_an_object_space_stack_posed_warns():
+    obj, _arm = _skinned_strip()
+    rest, quiet = _frozen(obj)
+    assert quiet == []
+    obj, arm = _skinned_strip()
+    _pose(arm, TURN_DEG)
+    bpy.context.scene.frame_set(4)
+    posed, said = _frozen(obj)
+    off = _deg(posed, rest)
+    assert off[:, :15].max() < 0.01                                  # the first quad stays
+    assert np.median(off[:, 17:]) > 10.0, np.median(off[:, 17:])      # the noise moved
+    (text,) = [w for w in said if "armature" in w]
+    assert "armature 'Rig'" in text and "frame 4" in text and "60.0 degrees" in text, text
+    assert "(SG Noise)" in text and "Rest Position" in text and "freezing" in text, text
+
+
+def test_freezing_tangent_layers_posed_or_at_rest_says_nothing():
+    obj, _arm = _skinned_strip()
+    rest, quiet = _frozen(obj, _without_noise)
+    obj, arm = _skinned_strip()
+    _pose(arm, TURN_DEG)
+    posed, said = _frozen(obj, _without_noise)
+    assert _deg(posed, rest).max() < 0.5                              # tangent space holds
+    assert quiet == [] and not [w for w in said if "armature" in w], said
+
+
+def test_freezing_an_object_space_stack_with_a_shape_key_mixed_in_warns():
+    obj, fold = _keyed_strip()
+    fold.value = 1.0
+    _map, said = _frozen(obj)
+    (text,) = [w for w in said if "shape keys" in w]
+    assert "'Fold' at 1" in text and "(SG Noise)" in text and "values to 0" in text, text

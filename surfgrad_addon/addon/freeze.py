@@ -33,6 +33,7 @@ from .input_stamps import changed_problem, stamps
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import input_warnings
 from .parallax_heights import parallax_height_warnings
+from .posed_armature import frozen_deform_warnings
 from .small_objects import small_object_messages
 from .material_inputs import (cycles_output, edits_lost, linked_text, live_links,
                               muted_output_text, no_tree_problem, nodes_off_problem,
@@ -158,6 +159,36 @@ def _source(socket):
     while source.node.bl_idname == "NodeReroute" and live_links(source.node.inputs[0]):
         source = live_links(source.node.inputs[0])[0].from_socket
     return source
+
+
+# SG groups that look up the surface's position or normal in object (or world) space where
+# their coordinate input (if any) is left unlinked: a pose or shape-key mix moves that lookup.
+OBJECT_SPACE_GROUPS = ("SG Noise", "SG Triplanar", "SG Object Normal",
+                       "SG Projector Coordinates", "SG Decal Coordinates")
+COORDINATE_INPUTS = ("Vector", "Position")
+# Built-in nodes' outputs that are positions or normals in object or world space.
+OBJECT_SPACE_OUTPUTS = {"ShaderNodeTexCoord": ("Object", "Normal"),
+                        "ShaderNodeNewGeometry": ("Position",)}
+
+
+def _reads_object_space(node):
+    if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:
+        if not node.node_tree.name.startswith(OBJECT_SPACE_GROUPS):
+            return False
+        return not any(s.name in COORDINATE_INPUTS and live_links(s) for s in node.inputs)
+    outputs = OBJECT_SPACE_OUTPUTS.get(node.bl_idname, ())
+    return any(node.outputs[name].is_linked for name in outputs if name in node.outputs)
+
+
+def object_space_readers(tree, fed):
+    """The nodes in the stack feeding `fed` that read object-space positions or normals, named
+    for a message (what a pose or a shape-key mix moves, even through a tangent-space bake)."""
+    names = set()
+    for _, socket in fed:
+        names |= _upstream(socket, rendered=True)
+    nodes = [tree.nodes[n] for n in sorted(names) if _reads_object_space(tree.nodes[n])]
+    return [f"{n.name!r} ({n.node_tree.name})" if n.bl_idname == "ShaderNodeGroup" else
+            repr(n.name) for n in nodes]
 
 
 def _stack_nodes(tree, fed):
@@ -296,6 +327,11 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
                                            uv_map, [NB.UDIM_FIRST], resolution, None, only=mat)
         problems += more
         warnings += notes
+        # Tangent space follows a pose or a shape-key mix, but what the stack reads in object
+        # space is looked up where they put the surface.
+        import bpy
+        warnings += frozen_deform_warnings(obj, bpy.context.evaluated_depsgraph_get(),
+                                           object_space_readers(tree, fed))
         # A Save As path that is the file of an image the object's materials read.
         problems += output_input_problems(obj, {NB.UDIM_FIRST: path}) if path else []
         for warning in warnings:

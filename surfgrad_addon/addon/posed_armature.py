@@ -32,12 +32,9 @@ def _moved(posed, rest):
     return bool(np.abs(a - b).max() > 1e-5 * scale)
 
 
-def posed_armature_warning(obj, depsgraph):
-    """None, or the warning for an object-space bake of obj while an Armature modifier it
-    renders with deforms it by a pose other than the rest pose, naming the armature, the
-    frame, the largest bone turn and the fixes."""
-    import bpy
-    frame = bpy.context.scene.frame_current
+def _posed(obj, depsgraph):
+    """None, or (armature, modifier, largest bone turn in degrees) for the first Armature
+    modifier obj renders with that deforms it by a pose other than the rest pose."""
     for md in obj.modifiers:
         arm = getattr(md, "object", None) if md.type == "ARMATURE" else None
         if not md.show_render or arm is None or arm.type != "ARMATURE" \
@@ -50,13 +47,32 @@ def posed_armature_warning(obj, depsgraph):
         worst = max((t for t, _m in turns), default=0.0)
         if worst <= MAX_TURN_DEG and not any(m for _t, m in turns):
             continue
-        return (f"object {obj.name!r} is deformed by armature {arm.name!r} (modifier "
-                f"{md.name!r}) in a pose other than its rest pose on frame {frame} (a bone "
-                f"turned up to {worst:.1f} degrees): the object-space map holds this pose's "
-                f"normals and reads back right in this pose alone. For a map that fits the "
-                f"rest pose, set the armature's Pose Position to Rest Position (Object Data > "
-                f"Skeleton) before baking; or bake in tangent space, which holds in every pose")
+        return arm, md, worst
     return None
+
+
+def _pose_text(obj, posed):
+    import bpy
+    arm, md, worst = posed
+    return (f"object {obj.name!r} is deformed by armature {arm.name!r} (modifier {md.name!r}) "
+            f"in a pose other than its rest pose on frame {bpy.context.scene.frame_current} (a "
+            f"bone turned up to {worst:.1f} degrees)")
+
+
+REST_FIX = ("set the armature's Pose Position to Rest Position (Object Data > Skeleton) before "
+            "baking")
+
+
+def posed_armature_warning(obj, depsgraph):
+    """None, or the warning for an object-space bake of obj while an Armature modifier it
+    renders with deforms it by a pose other than the rest pose, naming the armature, the
+    frame, the largest bone turn and the fixes."""
+    posed = _posed(obj, depsgraph)
+    if posed is None:
+        return None
+    return (f"{_pose_text(obj, posed)}: the object-space map holds this pose's normals and "
+            f"reads back right in this pose alone. For a map that fits the rest pose, "
+            f"{REST_FIX}; or bake in tangent space, which holds in every pose")
 
 
 # Shape keys mixed in turn the faces the same way: the bake holds the mix's normals, while an
@@ -118,9 +134,8 @@ def mixed_shape_keys(obj):
             if k != key.reference_key and not k.mute and k.value != 0.0]
 
 
-def shape_key_warning(obj):
-    """None, or the warning for an object-space bake of obj while shape keys are mixed into its
-    mesh and turn its faces from the basis, naming the keys, the largest turn and the fixes."""
+def _shape_turn(obj):
+    """None, or ([(key, value)] mixed in, the largest face turn in degrees from the basis)."""
     if obj.type != "MESH":
         return None
     mixed = mixed_shape_keys(obj)
@@ -142,15 +157,55 @@ def shape_key_warning(obj):
         return None
     c = (a[ok] * b[ok]).sum(1) / (la[ok] * lb[ok])
     worst = float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))).max())
-    if worst <= MAX_TURN_DEG:
-        return None
+    return None if worst <= MAX_TURN_DEG else (mixed, worst)
+
+
+def _keys_text(obj, turned):
+    mixed, worst = turned
     names = ", ".join(f"{block.name!r} at {value:g}" for block, value in mixed[:4]) + \
         (f" and {len(mixed) - 4} more" if len(mixed) > 4 else "")
     pinned = " (pinned: Shape Key Lock)" if obj.show_only_shape_key else ""
-    fix = ("untick Shape Key Lock (Object Data > Shape Keys)" if pinned else
-           "set those keys' values to 0 (Object Data > Shape Keys)")
     return (f"object {obj.name!r} has shape keys mixed in{pinned} ({names}) that turn its "
-            f"faces up to {worst:.1f} degrees from the basis: the object-space map holds the "
-            f"mixed shape's normals and reads back right with this mix alone. For a map that "
-            f"fits the basis, {fix} before baking; or bake in tangent space, which holds in "
-            f"every mix")
+            f"faces up to {worst:.1f} degrees from the basis")
+
+
+def _keys_fix(obj):
+    return ("untick Shape Key Lock (Object Data > Shape Keys)" if obj.show_only_shape_key else
+            "set those keys' values to 0 (Object Data > Shape Keys)")
+
+
+def shape_key_warning(obj):
+    """None, or the warning for an object-space bake of obj while shape keys are mixed into its
+    mesh and turn its faces from the basis, naming the keys, the largest turn and the fixes."""
+    turned = _shape_turn(obj)
+    if turned is None:
+        return None
+    return (f"{_keys_text(obj, turned)}: the object-space map holds the mixed shape's normals "
+            f"and reads back right with this mix alone. For a map that fits the basis, "
+            f"{_keys_fix(obj)} before baking; or bake in tangent space, which holds in every "
+            f"mix")
+
+
+def frozen_deform_warnings(obj, depsgraph, readers):
+    """Freeze bakes in tangent space, which follows the deformation; but a stack that reads
+    positions or normals in object space (`readers`: those nodes, named) looks them up where
+    the pose or shape-key mix puts the surface, so the frozen map holds this pose's lookup and
+    fits no other pose (the rest pose included): the warnings, each naming the fix."""
+    if not readers:
+        return []
+    names = ", ".join(readers[:4]) + \
+        (f" and {len(readers) - 4} more" if len(readers) > 4 else "")
+    what = (f": the stack reads object-space positions or normals ({names}) where this "
+            f"{{}} puts the surface, so the frozen map holds this {{}}'s look and fits no other "
+            f"(the {{}} included). To freeze the {{}}'s look, {{}} before freezing")
+    out = []
+    posed = _posed(obj, depsgraph)
+    if posed is not None:
+        out.append(_pose_text(obj, posed) + what.format(
+            "pose", "pose", "rest pose", "rest pose",
+            REST_FIX.replace(" before baking", "")))
+    turned = _shape_turn(obj)
+    if turned is not None:
+        out.append(_keys_text(obj, turned) + what.format(
+            "mix", "mix", "basis", "basis", _keys_fix(obj)))
+    return out
