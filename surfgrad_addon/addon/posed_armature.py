@@ -5,10 +5,10 @@ reads back right in that pose alone; in the rest pose (the bind pose an engine s
 every other pose it is off by the bones' turns. Measured (red team 50d,
 tests/test_faults_assets50d.py): godot-demo-projects' mannequiny.glb saved on frame 10 of its
 idle action baked an object-space map 87 degrees (median texel) from the rest pose's, exit 0
-and no word. A tangent-space map follows the deformation and holds in every pose. Shape keys mixed into
-the mesh (shape_key_warning, below) bend an object-space map the same way; Freeze's tangent
-map still holds what its stack reads in object space where the deformation put the surface
-(frozen_deform_warnings)."""
+and no word. A tangent-space map follows the deformation and holds in every pose.
+Shape keys mixed into the mesh (shape_key_warning, below) bend an object-space map the same
+way; Freeze's tangent map still holds what its stack reads in object space where the
+deformation put the surface (frozen_deform_warnings)."""
 
 import numpy as np
 
