@@ -124,7 +124,9 @@ def _rebuild_notes():
 
 def add_layer_stack(material, uv_map=""):
     """SG Normal Map -> SG Combine -> SG Resolve wired into the material's BSDF Normal (as the
-    Add Surface-Gradient Layer Stack operator does). Returns the new nodes by role."""
+    Add Surface-Gradient Layer Stack operator does). Returns the new nodes by role, "replaced"
+    and "uv_map": with no uv_map given, the UV map kept from a replaced tangent-space Normal
+    Map node ("" if none)."""
     from .addon import operators
     if material is None or getattr(material, "node_tree", None) is None:
         raise ValueError("give a material that uses nodes")

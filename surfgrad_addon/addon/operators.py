@@ -420,8 +420,9 @@ into SG Resolve, wired into the BSDF's Normal"""
     bl_label = "Add Surface-Gradient Layer Stack"
     bl_options = {'REGISTER', 'UNDO'}
 
-    uv_map: StringProperty(name="UV Map", description="UV map of the normal map (empty: the "
-                           "active render UV map)", default="")
+    uv_map: StringProperty(name="UV Map", description="UV map of the normal map (empty: that of "
+                           "the Normal Map node whose link it replaces, else the active render "
+                           "UV map)", default="")
 
     def execute(self, context):
         take_notes()
