@@ -109,6 +109,12 @@ def test_a_mesh_beyond_the_noise_limit_is_refused_before_anything_is_made(tmp_pa
         "its mesh down by 10 or more about its origin (Edit Mode), or compare --method "
         "volume-noise-filtered (its Filter Footprint fades those octaves out and holds)")
     assert len(bpy.data.images) == images
+    # Red team 51b: the limits now at 1-2 km, a refused mesh is often 10 km and more, whose
+    # reach was written in powers of ten ("2.5e+04 m").
+    far = scale_limits.noise_reach_problem(_big_mesh("Sphere", 2.5e4), "volume-noise")
+    assert far.startswith("object 'Sphere' reaches 25000 m from its origin in object space: "
+                          "beyond 1000 m"), far
+    obj = _big_mesh("Sphere", 3e3)
     # the filtered noise and the methods without noise are compared as before
     assert scale_limits.noise_reach_problem(obj, "volume-noise-filtered") is None
     assert _compare(obj, "normal-map")["p99_deg"] <= P99
