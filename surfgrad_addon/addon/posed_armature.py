@@ -44,8 +44,8 @@ def _posed(obj, depsgraph):
             continue
         evaluated = arm.evaluated_get(depsgraph)
         bones = evaluated.pose.bones if evaluated.pose else ()
-        turns = [(_turn_deg(pb.matrix, pb.bone.matrix_local), _moved(pb.matrix, pb.bone.matrix_local))
-                 for pb in bones]
+        turns = [(_turn_deg(pb.matrix, pb.bone.matrix_local),
+                  _moved(pb.matrix, pb.bone.matrix_local)) for pb in bones]
         worst = max((t for t, _m in turns), default=0.0)
         if worst <= MAX_TURN_DEG and not any(m for _t, m in turns):
             continue
