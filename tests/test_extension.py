@@ -465,6 +465,27 @@ def test_validator_and_builder_make_the_expected_zip(built):
     assert manifest_bytes == (ROOT / "blender_manifest.toml").read_bytes()
 
 
+def test_an_existing_zip_is_replaced_only_when_asked(built, tmp_path):
+    """A second build into a folder holding the zip is refused (exit 2, the zip as it was);
+    with --overwrite the new zip replaces it, built beside it first, nothing else left."""
+    import shutil
+    from support.child import run_python
+    old = tmp_path / built.zip.name
+    shutil.copy2(built.zip, old)
+    old.write_bytes(old.read_bytes() + b"an older build")     # told apart from a new one
+    before = old.read_bytes()
+    out = run_python(["-m", "surfgrad_addon.harness.package", "--out", tmp_path], timeout=120)
+    assert out.returncode == 2, out.stderr
+    assert f"{old} exists: pass --overwrite to replace it" in out.stderr, out.stderr
+    assert old.read_bytes() == before and sorted(tmp_path.iterdir()) == [old]
+    out = run_python(["-m", "surfgrad_addon.harness.package", "--out", tmp_path,
+                      "--overwrite"], timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert sorted(tmp_path.iterdir()) == [old]
+    with zipfile.ZipFile(old) as new, zipfile.ZipFile(built.zip) as first:
+        assert sorted(new.namelist()) == sorted(first.namelist())
+
+
 def test_the_zip_imports_nothing_it_does_not_hold(built, tmp_path):
     """Every module in the built zip, read with ast (lazy imports too), imports only modules
     the zip holds: nothing of the harness, no cycle (tests/test_imports.py does the checkout)."""

@@ -1,6 +1,6 @@
 """Build and validate the extension zip with Blender's own extension builder.
 
-    python -m surfgrad_addon.harness.package --out DIR      # prints the zip's path
+    python -m surfgrad_addon.harness.package --out DIR [--overwrite]   # prints the zip's path
 
 No `blender` binary is needed: the bpy wheel ships the `bl_pkg` add-on, whose
 `bl_extension_cli.cli_extension_handler(args)` is what `blender --command extension ARGS` runs.
@@ -104,17 +104,31 @@ def validate(path):
     return run_extension_command(["validate", str(path)])
 
 
-def build(out_dir, log=None):
-    """Stage, validate, build and validate the zip; returns the zip's path in `out_dir`."""
+class ZipExists(ExtensionToolError):
+    """The zip is there already and replacing it was not asked for."""
+
+
+def build(out_dir, log=None, overwrite=False):
+    """Stage, validate, build and validate the zip; returns the zip's path in `out_dir`. An
+    existing zip of that name is replaced only with `overwrite`, and only once the new one is
+    built and validated (it is built beside it under another name): a failed build leaves it."""
     out_dir = Path(out_dir).resolve()
-    out_dir.mkdir(parents=True, exist_ok=True)
     target = out_dir / zip_name()
+    if target.exists() and not overwrite:
+        raise ZipExists(f"{target} exists: pass --overwrite to replace it, or give another "
+                        f"--out folder")
+    out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="surfgrad-stage-") as tmp:
         source = stage(Path(tmp) / "surfgrad")
-        messages = [validate(source),
-                    run_extension_command(["build", "--source-dir", str(source),
-                                           "--output-filepath", str(target)]),
-                    validate(target)]
+        built = Path(tempfile.mkdtemp(prefix=".surfgrad-zip-", dir=out_dir)) / target.name
+        try:
+            messages = [validate(source),
+                        run_extension_command(["build", "--source-dir", str(source),
+                                               "--output-filepath", str(built)]),
+                        validate(built)]
+            os.replace(built, target)
+        finally:
+            shutil.rmtree(built.parent, ignore_errors=True)
     if log is not None:
         log.write("".join(messages))
     return target
@@ -124,9 +138,14 @@ def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m surfgrad_addon.harness.package",
                                      description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", required=True, help="folder for the zip")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace a zip of the same name in that folder (else refused)")
     args = parser.parse_args(argv)
     try:
-        path = build(args.out, log=sys.stderr)
+        path = build(args.out, log=sys.stderr, overwrite=args.overwrite)
+    except ZipExists as ex:
+        print(f"surfgrad: {ex}", file=sys.stderr)
+        return 2
     except ExtensionToolError as ex:
         print(ex, file=sys.stderr)
         return 1
