@@ -582,12 +582,18 @@ def test_the_main_job_on_a_full_disk_is_one_line_and_leaves_its_folder(tmp_path)
 @pytest.mark.tier("child")
 def test_compare_on_a_full_disk_leaves_no_cut_off_report(tmp_path):
     """Before: a PIL traceback, exit 1, and a cut-off heat map (and the JSON) left where
-    the report goes. A 2 kB file-size limit: the JSON (~1 kB) fits, the heat map does not."""
+    the report goes. A file-size limit between the two files' sizes (the warm-up run's): the
+    JSON (~1 kB) fits, the heat map does not. (A fixed 2 kB stopped holding once the reference
+    took Blender's scan weights: the heat map of a near-zero error compresses to 2035 bytes.)"""
     args = ["compare", "--object", "Torus", "--method", "normal-map", "--resolution", "64"]
     _warm_kernel_cache(args + ["--json", tmp_path / "warm" / "torus.json"])
+    json_size = (tmp_path / "warm" / "torus.json").stat().st_size
+    heat_size = (tmp_path / "warm" / "torus_error.png").stat().st_size
+    assert json_size + 256 < heat_size, (json_size, heat_size)     # the premise
     out = tmp_path / "report" / "torus.json"
-    run = _run_with_file_limit(2048, ["compare", "--object", "Torus", "--method",
-                                      "normal-map", "--resolution", "64", "--json", out])
+    run = _run_with_file_limit((json_size + heat_size) // 2, [
+        "compare", "--object", "Torus", "--method", "normal-map", "--resolution", "64",
+        "--json", out])
     assert run.returncode == exit_codes.BAKE_FAILED, run.stderr[-2000:]
     assert "Traceback" not in run.stderr, run.stderr[-2000:]
     last = run.stderr.strip().splitlines()[-1]
