@@ -131,7 +131,9 @@ def mixed_shape_keys(obj):
     if obj.show_only_shape_key:
         index = obj.active_shape_key_index
         block = key.key_blocks[index] if 0 < index < len(key.key_blocks) else None
-        return [(block, 1.0)] if block is not None and block != key.reference_key else []
+        # Blender shows the basis for a pinned key that is muted.
+        return [(block, 1.0)] if block is not None and block != key.reference_key and \
+            not block.mute else []
     return [(k, k.value) for k in key.key_blocks
             if k != key.reference_key and not k.mute and k.value != 0.0]
 
@@ -148,8 +150,9 @@ def _shape_turn(obj):
     basis = _coordinates(mesh.shape_keys.reference_key, count)
     co = basis.copy()
     for block, value in mixed:
-        relative = block.relative_key if block.relative_key is not None else \
-            mesh.shape_keys.reference_key
+        # A pinned key is shown as it is stored (its own Relative To is not used).
+        relative = block.relative_key if block.relative_key is not None and \
+            not obj.show_only_shape_key else mesh.shape_keys.reference_key
         delta = _coordinates(block, count) - _coordinates(relative, count)
         co += value * _key_weights(obj, block, count)[:, None] * delta
     a, b = _face_normals(mesh, basis), _face_normals(mesh, co)

@@ -1,0 +1,69 @@
+"""Review rt52b, round 52: the shape-key warning (posed_armature.shape_key_warning) under Shape
+Key Lock (the pin that shows the active key alone), against what Blender evaluates.
+
+1. A pinned key that is muted: Blender shows the basis (the evaluated plane stays flat, 0.0
+   degrees), yet bake-normal-map --space object warned "shape keys mixed in (pinned: Shape Key
+   Lock) ('Fold' at 1) that turn its faces up to 19.5 degrees": a false warning on every line.
+   Now: no warning (mixed_shape_keys skips a muted pin).
+2. A pinned key whose Relative To is not the basis (here itself): Blender shows the key as it
+   is stored, so the evaluated quad turned 19.5 degrees, but the check took the key's delta
+   from its Relative To (0) and warned of nothing: an object-space map of the pinned shape
+   with no word. Now the pin is measured from the basis: 19.5 degrees, as evaluated.
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon.posed_armature import shape_key_warning  # noqa: E402
+
+pytestmark = pytest.mark.tier("blender")
+
+
+def _plane_with_key():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mesh = bpy.data.meshes.new("Quad")
+    mesh.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    obj = bpy.data.objects.new("Quad", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    basis = obj.shape_key_add(name="Basis")
+    key = obj.shape_key_add(name="Fold", from_mix=False)
+    key.data[0].co.z += 1.0
+    key.value = 0.0
+    return obj, basis, key
+
+
+def _evaluated_turn(obj):
+    """Degrees between the quad's Newell normal as Blender evaluates it and the basis's (z)."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    dg.update()
+    co = np.array([v.co[:] for v in obj.evaluated_get(dg).data.vertices])
+    n = np.cross(co, np.roll(co, -1, axis=0)).sum(0)
+    return float(np.degrees(np.arccos(n[2] / np.linalg.norm(n))))
+
+
+def test_a_muted_pinned_key_shows_the_basis_and_is_not_warned_about():
+    obj, _, key = _plane_with_key()
+    key.mute = True
+    obj.show_only_shape_key = True
+    obj.active_shape_key_index = 1
+    assert _evaluated_turn(obj) == pytest.approx(0.0, abs=1e-6)
+    assert shape_key_warning(obj) is None
+    key.mute = False                   # the same pin unmuted: shown, and warned of
+    assert _evaluated_turn(obj) == pytest.approx(19.47, abs=0.01)
+    assert "up to 19.5 degrees" in shape_key_warning(obj)
+
+
+def test_a_pinned_key_is_measured_as_shown_not_from_its_relative_to():
+    obj, _, key = _plane_with_key()
+    key.relative_key = key
+    obj.show_only_shape_key = True
+    obj.active_shape_key_index = 1
+    turn = _evaluated_turn(obj)
+    assert turn == pytest.approx(19.47, abs=0.01)
+    warning = shape_key_warning(obj)
+    assert warning is not None and f"up to {turn:.1f} degrees" in warning, warning
+    obj.show_only_shape_key = False   # unpinned at value 0: nothing mixed, nothing said
+    assert _evaluated_turn(obj) == pytest.approx(0.0, abs=1e-6)
+    assert shape_key_warning(obj) is None
