@@ -9,6 +9,13 @@ Key Lock (the pin that shows the active key alone), against what Blender evaluat
    is stored, so the evaluated quad turned 19.5 degrees, but the check took the key's delta
    from its Relative To (0) and warned of nothing: an object-space map of the pinned shape
    with no word. Now the pin is measured from the basis: 19.5 degrees, as evaluated.
+3. Keys mixed through one vertex group: the Python walk of every vertex's groups ran once per
+   key (0.7 s a key at 500k vertices, before every object-space bake; six keys took 3.3x one
+   key's time at 250k); now once per group (1.5x).
+4. posed_armature_warning on a pose that only shifts the whole rig (root motion, no bone
+   turned): every face keeps its normal (0.0 degrees evaluated), yet it warned "a bone turned
+   up to 0.0 degrees ... reads back right in this pose alone". Now no warning; a bone moved
+   against another (faces turned > 10 degrees) is still warned of.
 """
 
 import numpy as np
@@ -105,3 +112,51 @@ def test_keys_sharing_a_vertex_group_walk_the_mesh_once():
         key.value = 1.0
     six = min(seconds() for _ in range(2))
     assert six < 2.0 * one, (six, one)
+
+
+def _rigged_strip():
+    """A strip of two quads along x, its left half weighted to bone 'root', its right half to
+    'tip' (root's child); returns (mesh object, armature object)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mesh = bpy.data.meshes.new("Strip")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0)], [],
+                     [(0, 1, 4, 3), (1, 2, 5, 4)])
+    obj = bpy.data.objects.new("Strip", mesh)
+    rig = bpy.data.armatures.new("Rig")
+    arm = bpy.data.objects.new("Rig", rig)
+    for o in (obj, arm):
+        bpy.context.scene.collection.objects.link(o)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode="EDIT")
+    root = rig.edit_bones.new("root")
+    root.head, root.tail = (0, 0.5, 0), (1, 0.5, 0)
+    tip = rig.edit_bones.new("tip")
+    tip.head, tip.tail, tip.parent = (1, 0.5, 0), (2, 0.5, 0), root
+    bpy.ops.object.mode_set(mode="OBJECT")
+    obj.modifiers.new("Armature", "ARMATURE").object = arm
+    obj.vertex_groups.new(name="root").add([0, 3], 1.0, "REPLACE")
+    obj.vertex_groups.new(name="tip").add([1, 2, 4, 5], 1.0, "REPLACE")
+    return obj, arm
+
+
+def _largest_face_turn(obj, dg):
+    dg.update()
+    normals = [p.normal.z for p in obj.evaluated_get(dg).data.polygons]
+    return max(float(np.degrees(np.arccos(np.clip(z, -1, 1)))) for z in normals)
+
+
+def test_a_pose_that_only_shifts_the_whole_rig_is_not_warned_about():
+    """4. The root bone moved 0.3 m (root motion), nothing turned: the skin moves rigidly and
+    every face keeps its normal (0.0 degrees, as Blender evaluates it), so the object-space
+    map is the rest pose's; the bake warned "a pose other than its rest pose (a bone turned
+    up to 0.0 degrees) ... reads back right in this pose alone". Now: no warning; a pose
+    that moves one bone against another (faces turn) is still warned of."""
+    from surfgrad_addon.addon.posed_armature import posed_armature_warning
+    obj, arm = _rigged_strip()
+    dg = bpy.context.evaluated_depsgraph_get()
+    arm.pose.bones["root"].location = (0.0, 0.3, 0.0)
+    assert _largest_face_turn(obj, dg) == pytest.approx(0.0, abs=1e-4)
+    assert posed_armature_warning(obj, dg) is None
+    arm.pose.bones["tip"].location = (0.0, 0.0, 0.5)       # the tip lifted: faces turn
+    assert _largest_face_turn(obj, dg) > 10.0
+    assert "in a pose other than its rest pose" in (posed_armature_warning(obj, dg) or "")

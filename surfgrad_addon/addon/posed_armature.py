@@ -49,8 +49,25 @@ def _posed(obj, depsgraph):
         worst = max((t for t, _m in turns), default=0.0)
         if worst <= MAX_TURN_DEG and not any(m for _t, m in turns):
             continue
+        if worst <= MAX_TURN_DEG and _one_shift(bones):
+            continue                  # the whole mesh moved as one: no normal turns
         return arm, md, worst
     return None
+
+
+def _one_shift(bones):
+    """Every bone's pose is its rest moved by one and the same translation (a root bone's
+    root motion): the skin moves rigidly, and its object-space normals stay the rest pose's."""
+    shifts = []
+    for pb in bones:
+        a = np.asarray(pb.matrix, dtype=np.float64)
+        b = np.asarray(pb.bone.matrix_local, dtype=np.float64)
+        scale = max(1.0, float(np.abs(b).max()))
+        if np.abs(a[:3, :3] - b[:3, :3]).max() > 1e-5:
+            return False              # scaled or sheared
+        shifts.append((a[:3, 3] - b[:3, 3]) / scale)
+    shifts = np.array(shifts)
+    return bool(len(shifts)) and bool(np.abs(shifts - shifts[0]).max() <= 1e-5)
 
 
 def _pose_text(obj, posed):
