@@ -16,6 +16,11 @@ Key Lock (the pin that shows the active key alone), against what Blender evaluat
    turned): every face keeps its normal (0.0 degrees evaluated), yet it warned "a bone turned
    up to 0.0 degrees ... reads back right in this pose alone". Now no warning; a bone moved
    against another (faces turned > 10 degrees) is still warned of.
+5. Freeze's object-space readers (freeze.object_space_readers) took a Texture Coordinate node
+   whose UV feeds the stack as one because its Object output was linked at all, here to the
+   Base Color's noise: Freeze on a shape-keyed plane warned "the stack reads object-space
+   positions or normals ('Texture Coordinate')", which it does not. Now only an output that
+   leads into the stack counts; linking Object into the stack's image still warns.
 """
 
 import numpy as np
@@ -160,3 +165,28 @@ def test_a_pose_that_only_shifts_the_whole_rig_is_not_warned_about():
     arm.pose.bones["tip"].location = (0.0, 0.0, 0.5)       # the tip lifted: faces turn
     assert _largest_face_turn(obj, dg) > 10.0
     assert "in a pose other than its rest pose" in (posed_armature_warning(obj, dg) or "")
+
+
+def test_a_texture_coordinate_node_shared_with_the_base_colour_is_no_stack_reader():
+    from surfgrad_addon import api
+    from surfgrad_addon.addon import freeze as F
+    obj, _, key = _plane_with_key()
+    key.value = 1.0
+    mat = bpy.data.materials.new("Shared Coordinates")
+    mat.use_nodes = True
+    obj.data.materials.append(mat)
+    tree = mat.node_tree
+    made = api.add_layer_stack(mat)
+    coords = tree.nodes.new("ShaderNodeTexCoord")
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.new("Detail Normals", 4, 4)
+    tex.image.colorspace_settings.is_data = True
+    tree.links.new(coords.outputs["UV"], tex.inputs["Vector"])
+    tree.links.new(tex.outputs["Color"], made["normal_map"].inputs["Color"])
+    noise = tree.nodes.new("ShaderNodeTexNoise")
+    tree.links.new(coords.outputs["Object"], noise.inputs["Vector"])
+    tree.links.new(noise.outputs["Color"], tree.nodes["Principled BSDF"].inputs["Base Color"])
+    _, fed = F._fed(tree, tree.nodes["Material Output"], rendered=True)
+    assert F.object_space_readers(tree, fed) == []
+    tree.links.new(coords.outputs["Object"], tex.inputs["Vector"])    # now the stack reads it
+    assert F.object_space_readers(tree, fed) == [repr(coords.name)]
