@@ -58,16 +58,16 @@ def _posed(obj, depsgraph):
 def _one_shift(bones):
     """Every bone's pose is its rest moved by one and the same translation (a root bone's
     root motion): the skin moves rigidly, and its object-space normals stay the rest pose's."""
-    shifts = []
+    shifts, scale = [], 1.0
     for pb in bones:
         a = np.asarray(pb.matrix, dtype=np.float64)
         b = np.asarray(pb.bone.matrix_local, dtype=np.float64)
-        scale = max(1.0, float(np.abs(b).max()))
+        scale = max(scale, float(np.abs(b).max()))
         if np.abs(a[:3, :3] - b[:3, :3]).max() > 1e-5:
             return False              # scaled or sheared
-        shifts.append((a[:3, 3] - b[:3, 3]) / scale)
+        shifts.append(a[:3, 3] - b[:3, 3])
     shifts = np.array(shifts)
-    return bool(len(shifts)) and bool(np.abs(shifts - shifts[0]).max() <= 1e-5)
+    return bool(len(shifts)) and bool(np.abs(shifts - shifts[0]).max() <= 1e-5 * scale)
 
 
 def _pose_text(obj, posed):
