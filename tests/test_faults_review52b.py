@@ -21,6 +21,10 @@ Key Lock (the pin that shows the active key alone), against what Blender evaluat
    Base Color's noise: Freeze on a shape-keyed plane warned "the stack reads object-space
    positions or normals ('Texture Coordinate')", which it does not. Now only an output that
    leads into the stack counts; linking Object into the stack's image still warns.
+6. The raw-image-in-normal-input warning on the Normal node (ShaderNodeNormal), whose input is
+   a vector it dots with: an image there (Dot into Roughness) was warned "every normal leans
+   toward (1, 1, 1) and the bake takes them so", where the bake came out flat (< 0.05 deg).
+   Now the Normal node is not taken for a normal input.
 """
 
 import numpy as np
@@ -191,3 +195,24 @@ def test_a_texture_coordinate_node_shared_with_the_base_colour_is_no_stack_reade
     assert F.object_space_readers(tree, fed) == []
     tree.links.new(coords.outputs["Object"], tex.inputs["Vector"])    # now the stack reads it
     assert F.object_space_readers(tree, fed) == [repr(coords.name)]
+
+
+@pytest.mark.tier("bake")
+def test_an_image_dotted_by_a_normal_node_is_not_a_raw_normal(tmp_path, capfd):
+    """6. An image's colour into the Normal node's input (a vector it dots with: Dot feeds the
+    Roughness here) was warned "wired straight into the Normal input of node 'Normal' ... every
+    normal leans toward (1, 1, 1) and the bake takes them so"; the bake is flat (under 0.05
+    degrees from (0, 0, 1)), the BSDF's Normal unlinked. Now no warning there."""
+    from surfgrad_addon import api
+    from test_faults_raw_normal50 import _plane_reading
+    obj, mat, tree, bsdf, tex = _plane_reading()
+    dot = tree.nodes.new("ShaderNodeNormal")
+    tree.links.new(tex.outputs["Color"], dot.inputs["Normal"])
+    tree.links.new(dot.outputs["Dot"], bsdf.inputs["Roughness"])
+    res, out = 8, tmp_path / "n.exr"
+    api.bake_normal_map(obj, str(out), resolution=res, margin=0, log=None)
+    assert "wired straight into" not in capfd.readouterr().err
+    img = bpy.data.images.load(str(out))
+    px = np.array(img.pixels[:]).reshape(res, res, 4)[..., :3] * 2.0 - 1.0
+    px /= np.linalg.norm(px, axis=-1, keepdims=True)
+    assert np.degrees(np.arccos(np.clip(px[..., 2], -1, 1))).max() < 0.05
