@@ -171,13 +171,18 @@ OBJECT_SPACE_OUTPUTS = {"ShaderNodeTexCoord": ("Object", "Normal"),
                         "ShaderNodeNewGeometry": ("Position",)}
 
 
-def _reads_object_space(node):
+def _reads_object_space(node, stack=None):
     if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:
         if not node.node_tree.name.startswith(OBJECT_SPACE_GROUPS):
             return False
         return not any(s.name in COORDINATE_INPUTS and live_links(s) for s in node.inputs)
     outputs = OBJECT_SPACE_OUTPUTS.get(node.bl_idname, ())
-    return any(node.outputs[name].is_linked for name in outputs if name in node.outputs)
+    # Only where such an output leads into the stack (`stack`: its nodes' names; a muted node
+    # may pass it on): a Texture Coordinate node whose UV feeds the stack and whose Object
+    # feeds the Base Color's noise is no object-space reader of the stack.
+    return any(stack is None or lk.to_node.name in stack or lk.to_node.mute
+               for name in outputs if name in node.outputs
+               for lk in live_links(node.outputs[name]))
 
 
 def object_space_readers(tree, fed):
@@ -186,7 +191,7 @@ def object_space_readers(tree, fed):
     names = set()
     for _, socket in fed:
         names |= _upstream(socket, rendered=True)
-    nodes = [tree.nodes[n] for n in sorted(names) if _reads_object_space(tree.nodes[n])]
+    nodes = [tree.nodes[n] for n in sorted(names) if _reads_object_space(tree.nodes[n], names)]
     return [f"{n.name!r} ({n.node_tree.name})" if n.bl_idname == "ShaderNodeGroup" else
             repr(n.name) for n in nodes]
 

@@ -146,6 +146,8 @@ def raw_image_normal_warnings(obj, only=None):
         if node.bl_idname == "ShaderNodeGroup" and _normal_map_kind(node) is None and not (
                 node.node_tree is not None and node.node_tree.name.startswith("SG ")):
             continue                  # a user's group: its inside is walked on its own
+        if node.bl_idname == "ShaderNodeNormal":
+            continue                  # its Normal is a vector it dots with, no surface normal
         for socket in node.inputs:
             if socket.name not in WORLD_NORMAL_INPUTS or socket.type != "VECTOR" or \
                     not socket.enabled:

@@ -49,8 +49,25 @@ def _posed(obj, depsgraph):
         worst = max((t for t, _m in turns), default=0.0)
         if worst <= MAX_TURN_DEG and not any(m for _t, m in turns):
             continue
+        if worst <= MAX_TURN_DEG and _one_shift(bones):
+            continue                  # the whole mesh moved as one: no normal turns
         return arm, md, worst
     return None
+
+
+def _one_shift(bones):
+    """Every bone's pose is its rest moved by one and the same translation (a root bone's
+    root motion): the skin moves rigidly, and its object-space normals stay the rest pose's."""
+    shifts, scale = [], 1.0
+    for pb in bones:
+        a = np.asarray(pb.matrix, dtype=np.float64)
+        b = np.asarray(pb.bone.matrix_local, dtype=np.float64)
+        scale = max(scale, float(np.abs(b).max()))
+        if np.abs(a[:3, :3] - b[:3, :3]).max() > 1e-5:
+            return False              # scaled or sheared
+        shifts.append(a[:3, 3] - b[:3, 3])
+    shifts = np.array(shifts)
+    return bool(len(shifts)) and bool(np.abs(shifts - shifts[0]).max() <= 1e-5 * scale)
 
 
 def _pose_text(obj, posed):
@@ -81,15 +98,20 @@ def posed_armature_warning(obj, depsgraph):
 # engine's morph targets start from the basis. Measured (rt51a, tests/test_faults_deform51a.py):
 # a key folding a quad 60 degrees at value 1 baked that quad 60.0 degrees from the basis map.
 
-def _key_weights(obj, key_block, count):
+def _key_weights(obj, key_block, count, memo=None):
     """Per-vertex weights of the key's vertex group (1 without one; 0 where a vertex is not in
-    a named group that exists)."""
+    a named group that exists). memo: {group name: weights} shared by one mix's keys (the
+    per-vertex walk costs ~0.7 s a key on a 500k-vertex mesh; L/R groups serve many keys)."""
     if not key_block.vertex_group:
         return np.ones(count)
     group = obj.vertex_groups.get(key_block.vertex_group)
-    weights = np.zeros(count)
     if group is None:
         return np.ones(count)          # Blender ignores a group name that is not there
+    if memo is not None and group.name in memo:
+        return memo[group.name]
+    weights = np.zeros(count)
+    if memo is not None:
+        memo[group.name] = weights
     for v in obj.data.vertices:
         for g in v.groups:
             if g.group == group.index:
@@ -131,7 +153,9 @@ def mixed_shape_keys(obj):
     if obj.show_only_shape_key:
         index = obj.active_shape_key_index
         block = key.key_blocks[index] if 0 < index < len(key.key_blocks) else None
-        return [(block, 1.0)] if block is not None and block != key.reference_key else []
+        # Blender shows the basis for a pinned key that is muted.
+        return [(block, 1.0)] if block is not None and block != key.reference_key and \
+            not block.mute else []
     return [(k, k.value) for k in key.key_blocks
             if k != key.reference_key and not k.mute and k.value != 0.0]
 
@@ -147,11 +171,13 @@ def _shape_turn(obj):
     count = len(mesh.vertices)
     basis = _coordinates(mesh.shape_keys.reference_key, count)
     co = basis.copy()
+    memo = {}
     for block, value in mixed:
-        relative = block.relative_key if block.relative_key is not None else \
-            mesh.shape_keys.reference_key
+        # A pinned key is shown as it is stored (its own Relative To is not used).
+        relative = block.relative_key if block.relative_key is not None and \
+            not obj.show_only_shape_key else mesh.shape_keys.reference_key
         delta = _coordinates(block, count) - _coordinates(relative, count)
-        co += value * _key_weights(obj, block, count)[:, None] * delta
+        co += value * _key_weights(obj, block, count, memo)[:, None] * delta
     a, b = _face_normals(mesh, basis), _face_normals(mesh, co)
     la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
     ok = (la > 0) & (lb > 0)
