@@ -75,6 +75,14 @@ def test_each_normal_input_and_path_is_followed():
     node's Normal; an SG group's base Normal. Not through a decode (Vector Math)."""
     obj, mat, tree, bsdf, tex = _plane_reading()
     assert raw_image_normal_warnings(obj) == []
+    # Nodes that read a normal for a value (Fresnel, Layer Weight into Roughness) bend no
+    # normal the bake takes: not warned (red team 52b).
+    for kind in ("ShaderNodeFresnel", "ShaderNodeLayerWeight"):
+        reader = tree.nodes.new(kind)
+        tree.links.new(tex.outputs["Color"], reader.inputs["Normal"])
+        tree.links.new(reader.outputs[0], bsdf.inputs["Roughness"])
+        assert raw_image_normal_warnings(obj) == [], kind
+        tree.nodes.remove(reader)
     reroute = tree.nodes.new("NodeReroute")
     tree.links.new(tex.outputs["Color"], reroute.inputs[0])
     group = bpy.data.node_groups.new("Artist Coat", "ShaderNodeTree")

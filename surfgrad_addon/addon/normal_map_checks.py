@@ -137,17 +137,27 @@ def colour_space_warnings(obj, only=None):
 WORLD_NORMAL_INPUTS = ("Normal", "Coat Normal", "Clearcoat Normal")
 
 
+def _shades_with_normal(node):
+    """The node bends what the bake takes by its normal input: a closure (its Normal is the
+    shading normal), a Bump or Displacement node, an SG group (its base normal). Not a user's
+    group (its inside is walked on its own), nor nodes that only read a normal for a value
+    (Normal's dot product, Fresnel, Layer Weight, Ambient Occlusion: the map is not bent)."""
+    if node.bl_idname == "ShaderNodeGroup":
+        tree = node.node_tree
+        return tree is not None and (_normal_map_kind(node) is not None
+                                     or tree.name.startswith("SG "))
+    return node.bl_idname in ("ShaderNodeBump", "ShaderNodeDisplacement") or \
+        any(o.type == "SHADER" for o in node.outputs)
+
+
 def raw_image_normal_warnings(obj, only=None):
     """A warning per image whose output reaches a world-space normal input (WORLD_NORMAL_INPUTS)
     through nothing but reroutes and group sockets: Blender reads the colour, 0..1 per axis, as
     a direction, where a normal map needs the Normal Map node's decode and frame."""
     out = []
     for mat, node, path, outer in objects_nodes(obj, only):
-        if node.bl_idname == "ShaderNodeGroup" and _normal_map_kind(node) is None and not (
-                node.node_tree is not None and node.node_tree.name.startswith("SG ")):
-            continue                  # a user's group: its inside is walked on its own
-        if node.bl_idname == "ShaderNodeNormal":
-            continue                  # its Normal is a vector it dots with, no surface normal
+        if not _shades_with_normal(node):
+            continue
         for socket in node.inputs:
             if socket.name not in WORLD_NORMAL_INPUTS or socket.type != "VECTOR" or \
                     not socket.enabled:
