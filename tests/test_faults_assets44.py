@@ -40,6 +40,8 @@ from surfgrad_addon.addon.batch import plan, session  # noqa: E402
 from support.blender import new_material  # noqa: E402
 from support.material_dump import material_dump  # noqa: E402
 
+from support.baked_normals import baked_normals  # noqa: E402
+
 pytestmark = pytest.mark.tier("bake")
 
 RES = 16
@@ -71,13 +73,7 @@ def _tilted_plane(shader):
 
 
 def _baked_normals(obj, path):
-    api.bake_normal_map(obj, str(path), space="tangent", resolution=RES, margin=0, log=None)
-    img = bpy.data.images.load(str(path))
-    try:
-        px = np.array(img.pixels[:]).reshape(RES, RES, 4)[..., :3] * 2.0 - 1.0
-    finally:
-        bpy.data.images.remove(img)
-    return px / np.linalg.norm(px, axis=-1, keepdims=True)
+    return baked_normals(obj, path, "tangent", RES)
 
 
 def group_only(mat, group):

@@ -30,8 +30,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon import api  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
+
+from support.baked_normals import baked_normals, degrees_between  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -39,23 +40,29 @@ RES = 16
 TURN_DEG = 60.0
 
 
-def _skinned_strip():
-    """Two quads along x (UVs: left half, right half), bone 'A' over the first and 'B' over
-    the second; B's vertices (x >= 1) follow B alone, so turning B turns the second quad
-    rigidly about the joint and leaves the first in place."""
+def strip(name):
+    """A fresh file holding two unit quads along x (vertices at x = 0, 1, 2; y = -0.5, 0.5),
+    UVs: left half, right half; a diffuse material."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     verts = [(x, y, 0.0) for x in (0.0, 1.0, 2.0) for y in (-0.5, 0.5)]
-    faces = [(0, 2, 3, 1), (2, 4, 5, 3)]
     mesh = bpy.data.meshes.new("Strip")
-    mesh.from_pydata(verts, [], faces)
+    mesh.from_pydata(verts, [], [(0, 2, 3, 1), (2, 4, 5, 3)])
     uv = mesh.uv_layers.new(name="UVMap")
     for poly in mesh.polygons:
         for li in poly.loop_indices:
             x, y, _z = verts[mesh.loops[li].vertex_index]
             uv.data[li].uv = (x / 2.0 * 0.98 + 0.01, (y + 0.5) * 0.98 + 0.01)
-    obj = bpy.data.objects.new("Body", mesh)
+    obj = bpy.data.objects.new(name, mesh)
     bpy.context.scene.collection.objects.link(obj)
     obj.data.materials.append(diffuse_material("Skin")[0])
+    return obj
+
+
+def _skinned_strip():
+    """Two quads along x (UVs: left half, right half), bone 'A' over the first and 'B' over
+    the second; B's vertices (x >= 1) follow B alone, so turning B turns the second quad
+    rigidly about the joint and leaves the first in place."""
+    obj = strip("Body")
     arm_data = bpy.data.armatures.new("Rig")
     arm = bpy.data.objects.new("Rig", arm_data)
     bpy.context.scene.collection.objects.link(arm)
@@ -81,17 +88,11 @@ def _pose(arm, deg):
 
 
 def _bake(obj, path, space):
-    api.bake_normal_map(obj, str(path), space=space, resolution=RES, margin=0, log=None)
-    img = bpy.data.images.load(str(path))
-    try:
-        px = np.array(img.pixels[:]).reshape(RES, RES, 4)[..., :3] * 2.0 - 1.0
-    finally:
-        bpy.data.images.remove(img)
-    return px / np.linalg.norm(px, axis=-1, keepdims=True)
+    return baked_normals(obj, path, space, RES)
 
 
 def _deg(a, b):
-    return np.degrees(np.arccos(np.clip((a * b).sum(-1), -1.0, 1.0)))
+    return degrees_between(a, b)
 
 
 def test_an_object_space_bake_of_a_posed_skinned_mesh_warns(tmp_path, capfd):

@@ -45,7 +45,9 @@ from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
 from support.freeze_scene import layered_material  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
-from test_faults_assets50d import _pose, _skinned_strip  # noqa: E402
+from test_faults_assets50d import _pose, _skinned_strip, strip  # noqa: E402
+
+from support.baked_normals import baked_normals, degrees_between  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -56,17 +58,11 @@ FOLD_DEG = 60.0
 
 
 def _bake(obj, path, space="object"):
-    api.bake_normal_map(obj, str(path), space=space, resolution=RES, margin=0, log=None)
-    img = bpy.data.images.load(str(path))
-    try:
-        px = np.array(img.pixels[:]).reshape(RES, RES, 4)[..., :3] * 2.0 - 1.0
-    finally:
-        bpy.data.images.remove(img)
-    return px / np.linalg.norm(px, axis=-1, keepdims=True)
+    return baked_normals(obj, path, space, RES)
 
 
 def _deg(a, b):
-    return np.degrees(np.arccos(np.clip((a * b).sum(-1), -1.0, 1.0)))
+    return degrees_between(a, b)
 
 
 # 1 --------------------------------------------------------------------------------------------
@@ -140,23 +136,12 @@ class _Context:
 def _keyed_strip():
     """Two flat quads along x (UVs: left half, right half) with a basis and a key 'Fold' that
     turns the second quad 60 degrees about the joint (x = 1), out of the plane."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    verts = [(x, y, 0.0) for x in (0.0, 1.0, 2.0) for y in (-0.5, 0.5)]
-    mesh = bpy.data.meshes.new("Strip")
-    mesh.from_pydata(verts, [], [(0, 2, 3, 1), (2, 4, 5, 3)])
-    uv = mesh.uv_layers.new(name="UVMap")
-    for poly in mesh.polygons:
-        for li in poly.loop_indices:
-            x, y, _z = verts[mesh.loops[li].vertex_index]
-            uv.data[li].uv = (x / 2.0 * 0.98 + 0.01, (y + 0.5) * 0.98 + 0.01)
-    obj = bpy.data.objects.new("Face", mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    obj.data.materials.append(diffuse_material("Skin")[0])
+    obj = strip("Face")
     obj.shape_key_add(name="Basis")
     fold = obj.shape_key_add(name="Fold", from_mix=False)
     t = np.radians(FOLD_DEG)
     for i in (4, 5):
-        x, y, _z = verts[i]
+        y = obj.data.vertices[i].co.y
         fold.data[i].co = (1.0 + np.cos(t), y, np.sin(t))
     fold.value = 0.0
     return obj, fold
