@@ -13,7 +13,7 @@ finding is built here by code, a few faces, so no test reads a fetched or import
    and 4.2. Here a two-quad strip whose second bone is turned 60 degrees: that quad's texels
    60 degrees from the rest map's. Now a warning names the object, the armature, the
    modifier, the frame and the largest bone turn, and the fixes (Pose Position: Rest
-   Position, or tangent space) (addon/posed_armature.py); with Rest Position, at rest, or in
+   Position, or tangent space) (addon/deformed_mesh.py); with Rest Position, at rest, or in
    tangent space, no warning, and the rest-pose map is baked as before.
 
 Probed and right on 5.2 and 4.2: tangent-space bakes of the posed mannequin (its constant

@@ -14,7 +14,7 @@ the mesh and the node they replace.
 
 2. An object-space bake of a mesh whose shape keys are mixed in (a key's value not 0 and not
    muted, or a pinned shape key (Shape Key Lock)) holds the mixed shape's normals, as a posed
-   armature's does (red team 50d, addon/posed_armature.py), and reads back right on that mix
+   armature's does (red team 50d, addon/deformed_mesh.py), and reads back right on that mix
    alone, not on the basis an engine's morph targets start from. Here a two-quad strip with a
    key folding the second quad 60 degrees, value 1: its texels 60.0 degrees (median) from the
    basis map, exit 0 and no word. Now bake-normal-map (the API, bake_request) warns, naming

@@ -1,4 +1,4 @@
-"""Review rt52b, round 52: the shape-key warning (posed_armature.shape_key_warning) under Shape
+"""Review rt52b, round 52: the shape-key warning (deformed_mesh.shape_key_warning) under Shape
 Key Lock (the pin that shows the active key alone), against what Blender evaluates.
 
 1. A pinned key that is muted: Blender shows the basis (the evaluated plane stays flat, 0.0
@@ -32,7 +32,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.addon.posed_armature import shape_key_warning  # noqa: E402
+from surfgrad_addon.addon.deformed_mesh import shape_key_warning  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
 
@@ -161,7 +161,7 @@ def test_a_pose_that_only_shifts_the_whole_rig_is_not_warned_about():
     map is the rest pose's; the bake warned "a pose other than its rest pose (a bone turned
     up to 0.0 degrees) ... reads back right in this pose alone". Now: no warning; a pose
     that moves one bone against another (faces turn) is still warned of."""
-    from surfgrad_addon.addon.posed_armature import posed_armature_warning
+    from surfgrad_addon.addon.deformed_mesh import posed_armature_warning
     obj, arm = _rigged_strip()
     dg = bpy.context.evaluated_depsgraph_get()
     arm.pose.bones["root"].location = (0.0, 0.3, 0.0)

@@ -53,7 +53,7 @@ from .normal_map_checks import (colour_space_warnings, normal_map_warnings,
                                 raw_image_normal_warnings)
 from .object_names import missing_object_problem
 from .object_space_scale import object_space_scale_problem
-from .posed_armature import posed_armature_warning, shape_key_warning
+from .deformed_mesh import posed_armature_warning, shape_key_warning
 from .parallax_heights import parallax_height_warnings
 from .small_objects import small_object_messages
 

@@ -33,7 +33,7 @@ from .input_stamps import changed_problem, stamps
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import input_warnings
 from .parallax_heights import parallax_height_warnings
-from .posed_armature import frozen_deform_warnings
+from .deformed_mesh import frozen_deform_warnings
 from .small_objects import small_object_messages
 from .material_inputs import (cycles_output, edits_lost, linked_text, live_links,
                               muted_output_text, no_tree_problem, nodes_off_problem,
