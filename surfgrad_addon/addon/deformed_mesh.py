@@ -1,14 +1,15 @@
 """Meshes a pose or shape keys deform on the frame baked. An object-space bake of a mesh an
-Armature modifier deforms while its armature is posed away from its rest pose (a character
-file saved on a frame of an animation): Blender bakes the mesh as it renders on the current frame, so the object-space map holds that pose's normals and
-reads back right in that pose alone; in the rest pose (the bind pose an engine skins from) and
-every other pose it is off by the bones' turns. Measured (red team 50d,
-tests/test_faults_assets50d.py): godot-demo-projects' mannequiny.glb saved on frame 10 of its
-idle action baked an object-space map 87 degrees (median texel) from the rest pose's, exit 0
-and no word. A tangent-space map follows the deformation and holds in every pose.
-Shape keys mixed into the mesh (shape_key_warning, below) bend an object-space map the same
-way; Freeze's tangent map still holds what its stack reads in object space where the
-deformation put the surface (frozen_deform_warnings)."""
+Armature modifier deforms while its armature is posed away from its rest pose (a character file
+saved on a frame of an animation): Blender bakes the mesh as it renders on the current frame, so
+the object-space map holds that pose's normals and reads back right in that pose alone; in the
+rest pose (the bind pose an engine skins from) and every other pose it is off by the bones'
+turns. Measured (red team 50d, tests/test_faults_assets50d.py): godot-demo-projects'
+mannequiny.glb saved on frame 10 of its idle action baked an object-space map 87 degrees (median
+texel) from the rest pose's, exit 0 and no word. A tangent-space map follows the deformation and
+holds in every pose.
+Shape keys mixed into the mesh (shape_key_warning, below) bend an object-space map the same way;
+Freeze's tangent map still holds what its stack reads in object space where the deformation put
+the surface (frozen_deform_warnings)."""
 
 import numpy as np
 
