@@ -374,15 +374,17 @@ def _worst_by_method(reports):
 
 def gpu_compare_table(docs):
     """`compare-all` on a GPU (OptiX): every method on every test object, against the reference
-    with exact bilinear weights (what the CPU does) and with the texture unit's 1/256 weights
-    (image_sampling.gpu_texture_filter, what a GPU compare uses now). Worst case per method."""
+    with exact bilinear weights (what the CPU does) and with the reference's earlier GPU model
+    (each axis' weight on 1/256; gpu_texture_unit_table for the model now). Worst case per
+    method."""
     exact = load(docs, "gpu_compare_exact_weights.json")
     model = load(docs, "gpu_compare.json")
     a, b = _worst_by_method(exact), _worst_by_method(model)
 
     def over(pm):
         return pm[0] > 0.1 or pm[1] > 0.5
-    rows = ["| method | exact weights: p99 / max deg | texture unit's weights: p99 / max deg |",
+    rows = ["| method | exact weights: p99 / max deg | earlier GPU model (1/256 per axis): p99 / "
+            "max deg |",
             "|---|---|---|"]
     for key in sorted(a):
         name = key[0] + (f" ({key[1]})" if key[1] else "")
@@ -392,7 +394,7 @@ def gpu_compare_table(docs):
     n_over = [sum(r["p99_deg"] > 0.1 or r["max_deg"] > 0.5 for r in x) for x in (exact, model)]
     rows.append(f"\n{model[0]['cycles_device']}, Blender 5.2.3, {model[0]['resolution']}² "
                 f"texels, {len(model)} cases; over the CPU's bars (p99 0.1, max 0.5 deg): "
-                f"{n_over[0]} with exact weights, {n_over[1]} with the texture unit's.")
+                f"{n_over[0]} with exact weights, {n_over[1]} with the earlier GPU model.")
     return rows
 
 
@@ -410,6 +412,56 @@ def gpu_filter_probe_table(docs):
     return rows
 
 
+def gpu_texture_unit_table(docs):
+    """The H100's texture unit, lookup by lookup (tools/texture_unit_probe), against exact
+    weights, the reference's earlier GPU model and its model now: the share each gets to float32
+    rounding, per texture and coordinate set."""
+    d = load(docs, "gpu_texture_unit.json")
+    sets = {"one": "anywhere in the image", "tiled": "tiled, -8 to 8",
+            "sweep": "one texel swept", "centres": "a 64² bake's texel centres, +-2 ulp"}
+    rows = ["| texture | coordinates | exact weights | earlier model | model now |",
+            "|---|---|---|---|---|"]
+    for run in d["runs"]:
+        texture = (f"{run['size']}² {run['texels']} texels, {run['address']}, "
+                   f"{run['memory']}")
+        for name, label in sets.items():
+            got = run["sets"][name]
+            rows.append(f"| {texture} | {label} | " + " | ".join(
+                f"{100 * got[m]:.2f}%" for m in ("exact", "earlier", "now")) + " |")
+    rows.append(f"\nShare of {d['lookups_per_set']} lookups per row within {d['tolerance']:g} of "
+                f"the card's value; {d['gpu'].split(',')[0]}.")
+    return rows
+
+
+def gpu_model_shift_table(docs):
+    """Per method and object: the GPU bake against the earlier model (measured,
+    gpu_compare.json) beside how far the model now moves the reference from the earlier one
+    (computed, gpu_model_shift.json). Where they match, the texture unit was the difference."""
+    bakes = {(r["method"], r.get("variant"), r["object"]): (r["p99_deg"], r["max_deg"])
+             for r in load(docs, "gpu_compare.json")}
+    shift = load(docs, "gpu_model_shift.json")
+    objects = sorted({k.rsplit(" ", 1)[1] for k in shift["shift"]})
+    rows = ["| method | " + " | ".join(f"{o}: GPU bake vs earlier model | {o}: model now vs "
+                                       f"earlier" for o in objects) + " |",
+            "|---|" + "---|---|" * len(objects)]
+    methods = sorted({k.rsplit(" ", 1)[0] for k in shift["shift"]})
+    for m in methods:
+        name, _, variant = m.partition(" ")
+        cells = []
+        for o in objects:
+            bake = bakes.get((name, variant or None, o))
+            moved = shift["shift"][f"{m} {o}"]
+            cells.append("-" if bake is None else f"{bake[0]:.3f} / {bake[1]:.3f}")
+            cells.append(f"{moved[0]:.3f} / {moved[1]:.3f}")
+        if all(c in ("-", "0.000 / 0.000") for c in cells):
+            continue
+        rows.append(f"| {name}" + (f" ({variant})" if variant else "") + " | "
+                    + " | ".join(cells) + " |")
+    rows.append(f"\np99 / max degrees, {shift['resolution']}² texels; methods where both are "
+                f"0.000 everywhere left out.")
+    return rows
+
+
 TABLES = {"bench-compare": bench_compare_table,
           "bench-compare-before": bench_compare_before_table,
           "bench-batch": bench_batch_table,
@@ -423,7 +475,9 @@ TABLES = {"bench-compare": bench_compare_table,
           "post-resolve": post_resolve_table,
           "gpu-render-cost": gpu_render_cost_table,
           "gpu-compare": gpu_compare_table,
-          "gpu-filter-probe": gpu_filter_probe_table}
+          "gpu-filter-probe": gpu_filter_probe_table,
+          "gpu-texture-unit": gpu_texture_unit_table,
+          "gpu-model-shift": gpu_model_shift_table}
 # The committed JSON each table reads (every docs/*.json must be read by one: a test checks).
 SOURCES = {"bench-compare": ("bench_compare.json",),
            "bench-compare-before": ("bench_compare_before.json",),
@@ -439,7 +493,9 @@ SOURCES = {"bench-compare": ("bench_compare.json",),
            "post-resolve": ("exhibits/post-resolve.json",),
            "gpu-render-cost": ("gpu_render_cost_optix.json", "gpu_render_cost_cuda.json"),
            "gpu-compare": ("gpu_compare_exact_weights.json", "gpu_compare.json"),
-           "gpu-filter-probe": ("gpu_filter_probe.json",)}
+           "gpu-filter-probe": ("gpu_filter_probe.json",),
+           "gpu-texture-unit": ("gpu_texture_unit.json",),
+           "gpu-model-shift": ("gpu_compare.json", "gpu_model_shift.json")}
 
 
 def pages(root=ROOT):

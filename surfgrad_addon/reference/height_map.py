@@ -8,7 +8,8 @@ and the HQ fade of Listing 16, as CalculateLevelOfDetail() would.
 import numpy as np
 
 from . import compiled, height_map_kernels
-from .image_sampling import height_image, image_values, sample_image, wrap_texel_index
+from .image_sampling import (exact_weights, height_image, image_values, sample_image,
+                             wrap_texel_index)
 from .vecmath import as_float, saturate, stack_last
 
 
@@ -86,8 +87,8 @@ def deriv_from_height_map(height, st, hq=False, lod=0.0, interpolation="Linear",
         height = _converted(height, st.dtype)
     h, w = height.shape
     mix = min(max((lod - 0.5) / (0.05 - 0.5), 0.0), 1.0)
-    if compiled.enabled() and height.dtype == st.dtype == np.float64 and st.ndim == 2 and \
-            interpolation == "Linear" and extension in ("REPEAT", "EXTEND") and \
+    if compiled.enabled() and exact_weights() and height.dtype == st.dtype == np.float64 and \
+            st.ndim == 2 and interpolation == "Linear" and extension in ("REPEAT", "EXTEND") and \
             not (hq and mix > 0.0):
         return height_map_kernels.derivative(height, st, lod, extension)
     eoffs = 2.0 ** lod

@@ -18,7 +18,8 @@ from . import decals as D
 from .cycles_bake import bump_differentials, uv_step
 from .baselines import bump_screen_derivative_lxengine, perturb_normal_perlin1985, triplanar_geiss
 from .height_map import deriv_from_height_map, deriv_three_tap
-from .image_sampling import height_image, images_unchanged, sample_colour, sample_image
+from .image_sampling import (exact_weights, height_image, images_unchanged, sample_colour,
+                             sample_image)
 from .parallax import parallax_occlusion_march, project_vec_to_texture_space
 from .threads import reference_threads  # noqa: F401 (methods.reference_threads for callers)
 from .noise import fractal_sum
@@ -215,8 +216,8 @@ def parallax_offset(td, height, view, bump_scale, steps=8, uv_map=None):
     v = project_vec_to_texture_space(n, dpdx, dpdy, dst_dx, dst_dy, view, bump_scale)
     st = td.uv(uv_map)
     height = height_image(height)
-    if compiled.enabled() and height.dtype == np.float64 and height.ndim == 2 and \
-            st.dtype == v.dtype == np.float64:
+    if compiled.enabled() and exact_weights() and height.dtype == np.float64 and \
+            height.ndim == 2 and st.dtype == v.dtype == np.float64:
         return parallax_kernels.march(height, st, v, steps)
     return parallax_occlusion_march(lambda q: sample_image(height, q), st, v, steps)
 
