@@ -225,7 +225,10 @@ def _absolute_blocks(key):
     w = _curve_weights(d, around[1].interpolation)
     if around[2].interpolation != around[1].interpolation:
         w = w + d * (_curve_weights(d, around[2].interpolation) - w)
-    return [(b, float(x)) for b, x in zip(around, w) if x != 0.0]
+    taken = {}
+    for b, x in zip(around, w):              # the ends repeat the first or last key
+        taken[b.name] = (b, taken.get(b.name, (b, 0.0))[1] + float(x))
+    return [(b, x) for b, x in taken.values() if x != 0.0]
 
 
 def _pinned_key(obj, key):
@@ -309,9 +312,14 @@ def _keys_fix(obj, turned):
     if obj.show_only_shape_key:
         return "untick Shape Key Lock (Object Data > Shape Keys)"
     if turned[2] is not None:
-        basis = obj.data.shape_keys.reference_key
-        return (f"set Evaluation Time to {basis.name!r}'s frame ({basis.frame:g}) (Object Data "
-                f"> Shape Keys)")
+        keys = obj.data.shape_keys
+        basis = keys.reference_key
+        # A B-spline key blends its neighbours even on its own frame.
+        spline = [b.name for b in keys.key_blocks if b.interpolation == "KEY_BSPLINE"]
+        linear = f" and {', '.join(map(repr, spline[:4]))}'s Interpolation to Linear" \
+            if spline else ""
+        return (f"set Evaluation Time to {basis.name!r}'s frame ({basis.frame:g}){linear} "
+                f"(Object Data > Shape Keys)")
     return "set those keys' values to 0 (Object Data > Shape Keys)"
 
 
