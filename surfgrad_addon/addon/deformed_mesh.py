@@ -331,8 +331,8 @@ def shape_key_warning(obj):
         return None
     return (f"{_keys_text(obj, turned)}: the object-space map holds the mixed shape's normals "
             f"and reads back right with this mix alone. For a map that fits the basis, "
-            f"{_keys_fix(obj, turned)} before baking; or bake in tangent space, which holds in every "
-            f"mix")
+            f"{_keys_fix(obj, turned)} before baking; or bake in tangent space, which holds "
+            f"in every mix")
 
 
 def frozen_deform_warnings(obj, depsgraph, readers):
