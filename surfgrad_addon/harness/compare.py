@@ -195,7 +195,8 @@ def unread_image_problem(method, image):
     """None, or why --image is refused for `method`: it reads no normal map (a height map,
     noise), so the image would be taken, dropped, and the procedural comparison pass, exit 0.
     Said before the bake (and before the file opens), from what the registry says the method
-    reads; tests/test_faults_trust53a.py pins that to what its run reads."""
+    reads (tests/test_faults_reads53a.py and _trust53a.py hold that to what its reference and
+    graph read)."""
     if image is None or method not in METHODS or "normal" in METHODS[method].reads:
         return None
     takes = ", ".join(sorted(k for k, m in METHODS.items() if "normal" in m.reads
