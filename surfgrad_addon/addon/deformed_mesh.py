@@ -45,15 +45,47 @@ def _posed(obj, depsgraph):
             continue
         evaluated = arm.evaluated_get(depsgraph)
         bones = evaluated.pose.bones if evaluated.pose else ()
-        turns = [(_turn_deg(pb.matrix, pb.bone.matrix_local),
-                  _moved(pb.matrix, pb.bone.matrix_local)) for pb in bones]
-        worst = max((t for t, _m in turns), default=0.0)
-        if worst <= MAX_TURN_DEG and not any(m for _t, m in turns):
+        if _at_rest(bones):
             continue
-        if worst <= MAX_TURN_DEG and _one_shift(bones):
+        bones, whole = _followed(obj, md, bones)   # (the vertex walk only for a posed rig)
+        if _at_rest(bones):
+            continue
+        worst = max(_turn_deg(pb.matrix, pb.bone.matrix_local) for pb in bones)
+        if worst <= MAX_TURN_DEG and whole and _one_shift(bones):
             continue                  # the whole mesh moved as one: no normal turns
         return arm, md, worst
     return None
+
+
+def _at_rest(bones):
+    return all(_turn_deg(pb.matrix, pb.bone.matrix_local) <= MAX_TURN_DEG and
+               not _moved(pb.matrix, pb.bone.matrix_local) for pb in bones)
+
+
+# Only the bones a vertex follows move the mesh. Measured (rt53a, tests/test_faults_trust53a.py):
+# a bone no vertex is weighted to, turned 57.3 degrees, was warned of while every face stayed
+# (0.0 degrees); and a root shift with one vertex weighted to no bone (it stays at rest while
+# the rest move) turned a face 19.5 degrees with no word, as if the mesh moved as one.
+
+def _followed(obj, md, bones):
+    """(the deforming bones some vertex of obj follows through the Armature modifier md,
+    whether every vertex follows one: else the ones left at rest break a rigid shift)."""
+    deform = [pb for pb in bones if pb.bone.use_deform]
+    if md.use_bone_envelopes:          # envelopes reach by distance: every bone may move some
+        return deform, False
+    if not md.use_vertex_groups:
+        return [], False
+    # One walk of the vertices' groups, only for a rig posed off its rest (0.55 s at 250k
+    # vertices on 5.2).
+    names = {pb.name for pb in deform}
+    groups = {g.index: g.name for g in obj.vertex_groups if g.name in names}
+    weighted, loose = set(), False
+    for v in obj.data.vertices:
+        here = {groups[g.group] for g in v.groups if g.group in groups and g.weight > 0.0}
+        weighted |= here
+        loose = loose or not here
+    # A vertex group masking the modifier leaves the vertices outside it at rest.
+    return [pb for pb in deform if pb.name in weighted], not loose and not md.vertex_group
 
 
 def _one_shift(bones):
@@ -74,9 +106,11 @@ def _one_shift(bones):
 def _pose_text(obj, posed):
     import bpy
     arm, md, worst = posed
+    turned = f"a bone turned up to {worst:.1f} degrees" if worst > MAX_TURN_DEG else \
+        "bones moved from their rest, none turned"
     return (f"object {obj.name!r} is deformed by armature {arm.name!r} (modifier {md.name!r}) "
-            f"in a pose other than its rest pose on frame {bpy.context.scene.frame_current} (a "
-            f"bone turned up to {worst:.1f} degrees)")
+            f"in a pose other than its rest pose on frame {bpy.context.scene.frame_current} "
+            f"({turned})")
 
 
 REST_FIX = ("set the armature's Pose Position to Rest Position (Object Data > Skeleton) before "
@@ -152,33 +186,108 @@ def mixed_shape_keys(obj):
     if key is None or not key.use_relative or len(key.key_blocks) < 2:
         return []
     if obj.show_only_shape_key:
-        index = obj.active_shape_key_index
-        block = key.key_blocks[index] if 0 < index < len(key.key_blocks) else None
-        # Blender shows the basis for a pinned key that is muted.
-        return [(block, 1.0)] if block is not None and block != key.reference_key and \
-            not block.mute else []
+        block = _pinned_key(obj, key)
+        return [(block, 1.0)] if block is not None else []
     return [(k, k.value) for k in key.key_blocks
             if k != key.reference_key and not k.mute and k.value != 0.0]
 
 
+# Absolute keys (Relative unticked): the mesh is the keys interpolated at the Evaluation Time
+# along their frames, not a mix of values. Measured (rt53a, tests/test_faults_trust53a.py): a key
+# folding a quad 60 degrees, Evaluation Time on its frame, baked that quad 60.0 degrees from the
+# basis map, exit 0 and no word (mixed_shape_keys saw no relative keys).
+
+def _curve_weights(t, kind):
+    """The weights Blender's absolute keys give the keys around t (0..1 between the middle two):
+    linear, cardinal (tension 0.71), Catmull-Rom (0.5) or uniform B-spline."""
+    if kind == "KEY_LINEAR":
+        return np.array([0.0, 1.0 - t, t, 0.0])
+    if kind == "KEY_BSPLINE":
+        return np.array([(1 - t) ** 3, 3 * t ** 3 - 6 * t ** 2 + 4, -3 * t ** 3 + 3 * t ** 2 +
+                         3 * t + 1, t ** 3]) / 6.0
+    c = 0.71 if kind == "KEY_CARDINAL" else 0.5          # KEY_CATMULL_ROM
+    return np.array([-c * t ** 3 + 2 * c * t ** 2 - c * t,
+                     (2 - c) * t ** 3 + (c - 3) * t ** 2 + 1,
+                     (c - 2) * t ** 3 + (3 - 2 * c) * t ** 2 + c * t,
+                     c * t ** 3 - c * t ** 2])
+
+
+def _absolute_blocks(key):
+    """[(key block, weight)] Blender's absolute keys take at the key's Evaluation Time."""
+    blocks = list(key.key_blocks)
+    frames = [b.frame for b in blocks]
+    t = min(max(key.eval_time, frames[0]), frames[-1])
+    i = next((j for j in range(len(blocks) - 1) if frames[j + 1] >= t), len(blocks) - 2)
+    around = [blocks[max(i - 1, 0)], blocks[i], blocks[i + 1], blocks[min(i + 2, len(blocks) - 1)]]
+    spline = "KEY_BSPLINE" in (around[1].interpolation, around[2].interpolation)
+    span = frames[i + 1] - frames[i]
+    if not spline and (t <= frames[i] or t >= frames[i + 1] or span == 0.0):
+        return [(around[1] if t <= frames[i] else around[2], 1.0)]
+    d = (t - frames[i]) / span if span else 0.0
+    w = _curve_weights(d, around[1].interpolation)
+    if around[2].interpolation != around[1].interpolation:
+        w = w + d * (_curve_weights(d, around[2].interpolation) - w)
+    taken = {}
+    for b, x in zip(around, w):              # the ends repeat the first or last key
+        taken[b.name] = (b, taken.get(b.name, (b, 0.0))[1] + float(x))
+    return [(b, x) for b, x in taken.values() if x != 0.0]
+
+
+def _pinned_key(obj, key):
+    """The key block Shape Key Lock shows (None: the basis, also for a muted pin)."""
+    index = obj.active_shape_key_index
+    block = key.key_blocks[index] if 0 < index < len(key.key_blocks) else None
+    # Blender shows the basis for a pinned key that is muted.
+    return block if block is not None and block != key.reference_key and not block.mute \
+        else None
+
+
+def _absolute_shape(obj):
+    """None, or ([(key, weight)], vertex positions) of the absolute keys at the Evaluation
+    Time where they move the mesh off the basis."""
+    key = obj.data.shape_keys
+    count = len(obj.data.vertices)
+    taken = _absolute_blocks(key)
+    if taken == [(key.reference_key, 1.0)]:
+        return None
+    co = sum(w * _coordinates(b, count) for b, w in taken)
+    return taken, co
+
+
 def _shape_turn(obj):
-    """None, or ([(key, value)] mixed in, the largest face turn in degrees from the basis)."""
+    """None, or ([(key, value)] mixed in, the largest face turn in degrees from the basis,
+    the key's Evaluation Time where its keys are absolute, else None)."""
     if obj.type != "MESH":
         return None
-    mixed = mixed_shape_keys(obj)
-    if not mixed:
-        return None
+    key = getattr(obj.data, "shape_keys", None)
+    absolute = key is not None and not key.use_relative and len(key.key_blocks) >= 2
     mesh = obj.data
     count = len(mesh.vertices)
-    basis = _coordinates(mesh.shape_keys.reference_key, count)
-    co = basis.copy()
-    memo = {}
-    for block, value in mixed:
-        # A pinned key is shown as it is stored (its own Relative To is not used).
-        relative = block.relative_key if block.relative_key is not None and \
-            not obj.show_only_shape_key else mesh.shape_keys.reference_key
-        delta = _coordinates(block, count) - _coordinates(relative, count)
-        co += value * _key_weights(obj, block, count, memo)[:, None] * delta
+    if absolute:
+        if obj.show_only_shape_key:                # the pin shows its key as stored
+            block = _pinned_key(obj, key)
+            if block is None:
+                return None
+            mixed, co = [(block, 1.0)], _coordinates(block, count)
+        else:
+            found = _absolute_shape(obj)
+            if found is None:
+                return None
+            mixed, co = found
+        basis = _coordinates(key.reference_key, count)
+    else:
+        mixed = mixed_shape_keys(obj)
+        if not mixed:
+            return None
+        basis = _coordinates(mesh.shape_keys.reference_key, count)
+        co = basis.copy()
+        memo = {}
+        for block, value in mixed:
+            # A pinned key is shown as it is stored (its own Relative To is not used).
+            relative = block.relative_key if block.relative_key is not None and \
+                not obj.show_only_shape_key else mesh.shape_keys.reference_key
+            delta = _coordinates(block, count) - _coordinates(relative, count)
+            co += value * _key_weights(obj, block, count, memo)[:, None] * delta
     a, b = _face_normals(mesh, basis), _face_normals(mesh, co)
     la, lb = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
     ok = (la > 0) & (lb > 0)
@@ -186,21 +295,34 @@ def _shape_turn(obj):
         return None
     c = (a[ok] * b[ok]).sum(1) / (la[ok] * lb[ok])
     worst = float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))).max())
-    return None if worst <= MAX_TURN_DEG else (mixed, worst)
+    eval_time = key.eval_time if absolute and not obj.show_only_shape_key else None
+    return None if worst <= MAX_TURN_DEG else (mixed, worst, eval_time)
 
 
 def _keys_text(obj, turned):
-    mixed, worst = turned
+    mixed, worst, eval_time = turned
     names = ", ".join(f"{block.name!r} at {value:g}" for block, value in mixed[:4]) + \
         (f" and {len(mixed) - 4} more" if len(mixed) > 4 else "")
     pinned = " (pinned: Shape Key Lock)" if obj.show_only_shape_key else ""
-    return (f"object {obj.name!r} has shape keys mixed in{pinned} ({names}) that turn its "
-            f"faces up to {worst:.1f} degrees from the basis")
+    absolute = "" if eval_time is None else \
+        f" (absolute keys, Relative unticked: Evaluation Time {eval_time:g})"
+    return (f"object {obj.name!r} has shape keys mixed in{pinned}{absolute} ({names}) that "
+            f"turn its faces up to {worst:.1f} degrees from the basis")
 
 
-def _keys_fix(obj):
-    return ("untick Shape Key Lock (Object Data > Shape Keys)" if obj.show_only_shape_key else
-            "set those keys' values to 0 (Object Data > Shape Keys)")
+def _keys_fix(obj, turned):
+    if obj.show_only_shape_key:
+        return "untick Shape Key Lock (Object Data > Shape Keys)"
+    if turned[2] is not None:
+        keys = obj.data.shape_keys
+        basis = keys.reference_key
+        # A B-spline key blends its neighbours even on its own frame.
+        spline = [b.name for b in keys.key_blocks if b.interpolation == "KEY_BSPLINE"]
+        linear = f" and {', '.join(map(repr, spline[:4]))}'s Interpolation to Linear" \
+            if spline else ""
+        return (f"set Evaluation Time to {basis.name!r}'s frame ({basis.frame:g}){linear} "
+                f"(Object Data > Shape Keys)")
+    return "set those keys' values to 0 (Object Data > Shape Keys)"
 
 
 def shape_key_warning(obj):
@@ -211,8 +333,8 @@ def shape_key_warning(obj):
         return None
     return (f"{_keys_text(obj, turned)}: the object-space map holds the mixed shape's normals "
             f"and reads back right with this mix alone. For a map that fits the basis, "
-            f"{_keys_fix(obj)} before baking; or bake in tangent space, which holds in every "
-            f"mix")
+            f"{_keys_fix(obj, turned)} before baking; or bake in tangent space, which holds "
+            f"in every mix")
 
 
 def frozen_deform_warnings(obj, depsgraph, readers):
@@ -236,5 +358,5 @@ def frozen_deform_warnings(obj, depsgraph, readers):
     turned = _shape_turn(obj)
     if turned is not None:
         out.append(_keys_text(obj, turned) + what.format(
-            "mix", "mix", "basis", "basis", _keys_fix(obj)))
+            "mix", "mix", "basis", "basis", _keys_fix(obj, turned)))
     return out

@@ -171,11 +171,15 @@ OBJECT_SPACE_OUTPUTS = {"ShaderNodeTexCoord": ("Object", "Normal"),
                         "ShaderNodeNewGeometry": ("Position",)}
 
 
-def _reads_object_space(node, stack=None):
+def _reads_object_space(node, stack=None, seen=()):
     if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:
-        if not node.node_tree.name.startswith(OBJECT_SPACE_GROUPS):
-            return False
-        return not any(s.name in COORDINATE_INPUTS and live_links(s) for s in node.inputs)
+        tree = node.node_tree
+        if tree.name.startswith(OBJECT_SPACE_GROUPS):
+            return not any(s.name in COORDINATE_INPUTS and live_links(s) for s in node.inputs)
+        # The artist's own group that wraps one (or a Texture Coordinate node): what leads to
+        # its output inside. Measured (rt53a, tests/test_faults_trust53a.py): the layered
+        # stack's SG Noise wrapped in a group froze posed with no warning.
+        return tree not in seen and _tree_reads_object_space(tree, (*seen, tree))
     outputs = OBJECT_SPACE_OUTPUTS.get(node.bl_idname, ())
     # Only where such an output leads into the stack (`stack`: its nodes' names; a muted node
     # may pass it on): a Texture Coordinate node whose UV feeds the stack and whose Object
@@ -183,6 +187,17 @@ def _reads_object_space(node, stack=None):
     return any(stack is None or lk.to_node.name in stack or lk.to_node.mute
                for name in outputs if name in node.outputs
                for lk in live_links(node.outputs[name]))
+
+
+def _tree_reads_object_space(tree, seen):
+    """A group's tree reads object space where such a node leads to its Group Output."""
+    outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
+    outputs = [n for n in outputs if n.is_active_output] or outputs   # the one Blender uses
+    names = set()
+    for out in outputs:
+        for socket in out.inputs:
+            names |= _upstream(socket, rendered=True)
+    return any(_reads_object_space(tree.nodes[n], names, seen) for n in names)
 
 
 def object_space_readers(tree, fed):

@@ -191,6 +191,20 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
 
 # The comparison -----------------------------------------------------------------------------------
 
+def unread_image_problem(method, image):
+    """None, or why --image is refused for `method`: it reads no normal map (a height map,
+    noise), so the image would be taken, dropped, and the procedural comparison pass, exit 0.
+    Said before the bake (and before the file opens), from what the registry says the method
+    reads (tests/test_faults_reads53a.py and _trust53a.py hold that to what its reference and
+    graph read)."""
+    if image is None or method not in METHODS or "normal" in METHODS[method].reads:
+        return None
+    takes = ", ".join(sorted(k for k, m in METHODS.items() if "normal" in m.reads
+                             and m.unavailable_reason() is None))
+    return (f"method {method!r} reads no normal map, so --image would change nothing: leave "
+            f"--image out, or pick a method that reads one ({takes})")
+
+
 def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print,
                    tiles=None, device="CPU"):
     """Bake `method` on obj and compare with the reference (variant None: "hq" for the
@@ -220,6 +234,9 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         raise CompareError(f"method {method!r} has no variants, so --variant {variant!r} would "
                            f"change nothing: leave --variant out (it is for "
                            f"{', '.join(takes)})")
+    problem = unread_image_problem(method, image)
+    if problem:
+        raise CompareError(problem)
     problem = (scale_limits.small_object_problem(obj, method)   # before any image is made
                or scale_limits.noise_reach_problem(obj, method))
     if problem:
@@ -244,12 +261,6 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
                 (IS.gpu_texture_filter() if gpu else nullcontext()):
             report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
                                          tiles=tiles, device=device, spread=m.spread)
-        if image is not None and "normal" not in inp.read:
-            # The method reads no normal map (a height map, noise, the object normal): the
-            # image was taken, dropped, and the procedural comparison passed, exit 0.
-            raise CompareError(f"method {method!r} reads no normal map, so --image would change "
-                               f"nothing: leave --image out, or pick a method that reads one "
-                               f"(normal-map, triplanar, decal, parallax, layered, ...)")
         report["reference_texture_filter"] = (
             f"GPU texture unit ({IS.GPU_FILTER_WEIGHT_BITS}-bit weights)" if gpu else "exact")
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
@@ -633,6 +644,9 @@ def run(blend, object_name, method, resolution, json_out, uv_map=None, image=Non
     json_out = Path(json_out)
     heat_path = json_out.with_name(json_out.stem + "_error.png")
     tiles = asked_tiles(tiles)              # refused before the file is opened
+    problem = unread_image_problem(method, image)
+    if problem:
+        raise CompareError(problem)
     for p in (json_out, heat_path):
         check_output_path(p, overwrite)
         _not_an_input(p, blend, image)

@@ -74,6 +74,7 @@ class Method:
     mikktspace = property(lambda self: self.spec.mikktspace)
     same_reference_as = property(lambda self: self.spec.same_reference_as)
     spread = property(lambda self: self.spec.spread)
+    reads = property(lambda self: self.spec.reads)
 
     def at(self, **given):
         """This method with the named parameters set (the others kept); an unknown name is a

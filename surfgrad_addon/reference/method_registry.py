@@ -79,6 +79,9 @@ class MethodSpec:
     # spread(inputs, td) -> (N,) float32 spread of a view-dependent reference in texels of its
     # images (compare leaves out the texels where it is too large: "grazing").
     spread: Optional[Callable] = None
+    # The test images its reference and graph read ("normal", "detail", "height"): compare
+    # refuses an --image the method would drop before any bake (tests pin it to the run).
+    reads: tuple = ()
 
     def values(self, **given):
         """Every parameter's value, as (name, value) pairs in declaration order: the defaults
@@ -274,61 +277,69 @@ _TRIPLANAR_HEIGHT = _bump_scale(("SG Triplanar Height",), M.triplanar_height_sur
 
 
 _SPECS = (
-    MethodSpec("normal-map", _normal_map, parameters=(_NORMAL_MAP,), mikktspace=True),
-    MethodSpec("procedural-basis", _procedural_basis,
+    MethodSpec("normal-map", _normal_map, reads=("normal",), parameters=(_NORMAL_MAP,),
+               mikktspace=True),
+    MethodSpec("procedural-basis", _procedural_basis, reads=("detail",),
                parameters=(_strength(("SG Tangent Normal",), M.procedural_basis_surfgrad),)),
-    MethodSpec("object-normal", _object_normal),
+    MethodSpec("object-normal", _object_normal, reads=("normal",)),
     MethodSpec("volume-noise", _volume_noise,
                parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
     # SG Noise's Filter Footprint on: the octaves finer than the bake's footprint fade out (at
     # the comparison's 48 texels the third and fourth octaves are in or past the fade).
     MethodSpec("volume-noise-filtered", _volume_noise_filtered, stability=False,
                parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
-    MethodSpec("height-map", _height_map, variants=M.HEIGHT_VARIANTS, parameters=(_HEIGHT,)),
-    MethodSpec("triplanar", _triplanar, parameters=(_TRIPLANAR,)),
-    MethodSpec("triplanar-height", _triplanar_height, parameters=(_TRIPLANAR_HEIGHT,),
-               stability=False),          # the triplanar Listings, covered by "triplanar"
-    MethodSpec("decal", _decal, variants=DECAL_SHAPES, adds="projector",
+    MethodSpec("height-map", _height_map, reads=("height",), variants=M.HEIGHT_VARIANTS,
+               parameters=(_HEIGHT,)),
+    MethodSpec("triplanar", _triplanar, reads=("normal",), parameters=(_TRIPLANAR,)),
+    MethodSpec("triplanar-height", _triplanar_height, reads=("height",),
+               # the triplanar Listings, covered by "triplanar"
+               parameters=(_TRIPLANAR_HEIGHT,), stability=False),
+    MethodSpec("decal", _decal, reads=("normal",), variants=DECAL_SHAPES, adds="projector",
                parameters=(_strength(("SG Decal",), M.decal_surfgrad), *_decal_settings(1.0))),
-    MethodSpec("decal-overwrite", _decal_overwrite, adds="projector", stability=False,
-               parameters=_decal_settings(OVERWRITE_OPACITY)),
-    MethodSpec("parallax", _parallax, mikktspace=True, spread=_parallax_spread),
+    MethodSpec("decal-overwrite", _decal_overwrite, reads=("normal", "detail"), adds="projector",
+               stability=False, parameters=_decal_settings(OVERWRITE_OPACITY)),
+    MethodSpec("parallax", _parallax, reads=("height", "normal"), mikktspace=True,
+               spread=_parallax_spread),
     # Two resolves of the methods the suite already runs.
-    MethodSpec("post-resolve", _post_resolve, stability=False, mikktspace=True,
+    MethodSpec("post-resolve", _post_resolve, reads=("normal", "detail"), stability=False,
+               mikktspace=True,
                parameters=(_strength(("SG Triplanar",), M.triplanar_surfgrad,
                                      POST_RESOLVE_STRENGTH),)),
     # Its hostile cases are the mesh's, not a texture's; its reference reads the displaced
     # mesh's rest positions.
     MethodSpec("displace-bump", _displace_bump, group="SG Displace", adds="modifier",
                stability=False, scene_only=True, parameters=_noise(*BUMP_ON_TOP)),
-    MethodSpec("layered", _layered, mikktspace=True, parameters=(
+    MethodSpec("layered", _layered, reads=("normal", "detail"), mikktspace=True, parameters=(
         _strength(("SG Tangent Normal",), M.procedural_basis_surfgrad, LAYER_DETAIL,
                   name="detail_strength"),
         Parameter("noise_amount", LAYER_NOISE, "Bump Scale", ("SG Volume Gradient",),
                   M.volume_noise_surfgrad, "amount"))),
     # The Sampler groups (5.0+): the per-image methods' references, the image as a closure.
-    MethodSpec("height-map-sampler", _height_map, variants=("one-texel", "hq"),
+    MethodSpec("height-map-sampler", _height_map, reads=("height",),
+               variants=("one-texel", "hq"),
                group="SG Height Map HQ (Sampler)", stability=False,
                same_reference_as="height-map",
                parameters=(_bump_scale(("SG Height Map HQ (Sampler)",
                                         "SG Height Map One-Texel (Sampler)"),
                                        M.height_map_surfgrad),)),
-    MethodSpec("triplanar-sampler", _triplanar, group="SG Triplanar (Sampler)",
+    MethodSpec("triplanar-sampler", _triplanar, reads=("normal",),
+               group="SG Triplanar (Sampler)",
                stability=False, same_reference_as="triplanar",
                parameters=(_strength(("SG Triplanar (Sampler)",), M.triplanar_surfgrad),)),
-    MethodSpec("triplanar-height-sampler", _triplanar_height,
+    MethodSpec("triplanar-height-sampler", _triplanar_height, reads=("height",),
                group="SG Triplanar Height (Sampler)", stability=False,
                same_reference_as="triplanar-height",
                parameters=(_bump_scale(("SG Triplanar Height (Sampler)",),
                                        M.triplanar_height_surfgrad),)),
-    MethodSpec("parallax-sampler", _parallax, group="SG Parallax (Sampler)", stability=False,
-               mikktspace=True, same_reference_as="parallax", spread=_parallax_spread),
+    MethodSpec("parallax-sampler", _parallax, reads=("height", "normal"),
+               group="SG Parallax (Sampler)", stability=False, mikktspace=True,
+               same_reference_as="parallax", spread=_parallax_spread),
     # Layers blended by height (reference/height_blend.py), over methods the suite runs.
-    MethodSpec("height-blend", _height_blend, stability=False, parameters=(
+    MethodSpec("height-blend", _height_blend, reads=("height",), stability=False, parameters=(
         Parameter("contrast", HEIGHT_BLEND_CONTRAST, "Contrast", ("SG Height Blend",),
                   surfgrad_height_blend),)),
     # RNM stands for the four blends in the stability suite (same decode, same SG Normal Map).
-    *(MethodSpec(mode, _blend(mode), stability=mode == "blend-rnm", mikktspace=True)
-      for mode in BLEND_MODES),
+    *(MethodSpec(mode, _blend(mode), reads=("normal", "detail"), stability=mode == "blend-rnm",
+                 mikktspace=True) for mode in BLEND_MODES),
 )
 SPECS = {s.name: s for s in _SPECS}
