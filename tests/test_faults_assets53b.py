@@ -23,6 +23,17 @@ modifiers, a (-1, -1, -1) scale, two UV maps named 'UVMap' and 'uvmap'), importe
    degrees; a pose that turns a panel 30 degrees is warned of as before, now with "its faces
    turned up to 30.0 degrees" (red_robot.blend on frame 0: 39.3 degrees, warned).
 
+2. An object with a modifier in a scene whose render output is a movie (Output Properties >
+   File Format: FFmpeg Video): the render-mode pass that reads such an object as Cycles
+   renders it (addon/render_mesh.py) rendered 4 x 4, which Blender refuses for a movie format
+   ("Image too small", under 16 pixels a side), so bake-normal-map, bake-batch, Freeze and
+   compare refused every such object, exit 2, "could not evaluate 'EvilRoboBody' as Cycles
+   renders it (a 4 x 4 render-mode pass failed: Error: Image too small)", naming no fix:
+   tps-demo's red_robot.blend (its output FFmpeg, the robot skinned) on 5.2 and 4.2. Built
+   here: a subdivided flat quad in such a scene (before: refused; now its map is (0, 0, 1)
+   within 0.01 degrees, compare normal-map within the bar, the output format and size as
+   they were). Now the pass renders 16 x 16, the least Blender renders for a movie.
+
 Probed and right on 5.2 and 4.2: bake-normal-map of the helmet's parts (a missing normal or
 base-colour image refused naming the file and Find Missing Files, exit 2; MetalParts at 128^2
 matched its 2k normal map bilinearly sampled: median 0.22 degrees over texels under one face,
@@ -169,3 +180,55 @@ def test_a_bone_that_turns_a_panel_is_still_warned_of_with_the_faces_turn(tmp_pa
     assert "Rest Position" in err and "tangent space" in err, err
     assert arm.data.pose_position == "POSE"
     assert np.array_equal(_positions(obj), before)
+
+
+def _movie_output(scene):
+    """Output Properties > File Format: FFmpeg Video (5.0 on: Media Type Video first)."""
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):
+        settings.media_type = "VIDEO"
+    settings.file_format = "FFMPEG"
+
+
+def _subdivided_quad():
+    """A fresh file: a flat unit quad (UVs: the square, inset) under a Subdivision modifier,
+    a diffuse material, the scene's output an FFmpeg movie."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mesh = bpy.data.meshes.new("Quad")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [], [(0, 1, 2, 3)])
+    uv = mesh.uv_layers.new(name="UVMap")
+    for li, corner in enumerate(mesh.loops):
+        x, y, _z = mesh.vertices[corner.vertex_index].co
+        uv.data[li].uv = (0.02 + 0.96 * x, 0.02 + 0.96 * y)
+    obj = bpy.data.objects.new("Quad", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.data.materials.append(diffuse_material("Flat")[0])
+    obj.modifiers.new("Subdivision", "SUBSURF").render_levels = 1
+    _movie_output(bpy.context.scene)
+    return obj
+
+
+def test_an_object_with_a_modifier_bakes_in_a_scene_that_renders_a_movie(tmp_path, capfd):
+    """Finding 2: before, refused ("a 4 x 4 render-mode pass failed: Error: Image too small");
+    now the flat quad's map faces +z, and the scene's output is as it was."""
+    obj = _subdivided_quad()
+    r = bpy.context.scene.render
+    size = (r.resolution_x, r.resolution_y, r.resolution_percentage)
+    for space in ("object", "tangent"):
+        got = baked_normals(obj, tmp_path / f"{space}.exr", space, RES)
+        assert degrees_between(got[1:-1, 1:-1], np.array([0.0, 0.0, 1.0])).max() < 0.01
+    assert "Image too small" not in capfd.readouterr().err
+    assert r.image_settings.file_format == "FFMPEG"
+    assert (r.resolution_x, r.resolution_y, r.resolution_percentage) == size
+
+
+def test_compare_on_such_an_object_in_such_a_scene_runs(capfd):
+    """Finding 2: compare reads the object in render mode too; a correct SG Normal Map is
+    within the bar (before: CompareError, "Image too small")."""
+    from surfgrad_addon.harness import compare
+    obj = _subdivided_quad()
+    report, _heat = compare.compare_object(obj, "normal-map", RES, log=lambda *_: None)
+    assert report["texels_compared"] > 0.5 * RES * RES, report
+    assert report["max_deg"] < 0.05, report
+    assert report["tilt_mean_deg"] > 1.0, report          # the test image bends the normals
+    assert bpy.context.scene.render.image_settings.file_format == "FFMPEG"
