@@ -102,8 +102,11 @@ def test_flat_polygons_weld_as_this_lines_cycles_does(fresh):
     reciprocal = equal(cycles_triangle_normals(positions, tris, divides=False))
     assert (equal(cycles_triangle_normals(positions, tris, divides=True)) != reciprocal).any()
     report = compare.compare(obj, "normal-map", 48)
-    unsure = sorted({t for p, b, c in zip(pairs, equal(blender), reciprocal) if b != c
-                     for t in p})
+    # The triangles at either end of an edge whose weld differs (red team 53b: MikkTSpace
+    # sums a corner's tangent over the triangles welded around its vertex).
+    ends = {v for p, b, c in zip(pairs, equal(blender), reciprocal) if b != c
+            for v in set(tris[p[0]]) & set(tris[p[1]])}
+    unsure = sorted(t for t in range(len(tris)) if set(tris[t]) & ends)
     if bpy.app.version >= (4, 5, 0):
         assert report["excluded"]["outside"] == 0, report
         assert not [w for w in report["warnings"] if "weld" in w]

@@ -7,6 +7,12 @@ turns. Measured (red team 50d, tests/test_faults_assets50d.py): godot-demo-proje
 mannequiny.glb saved on frame 10 of its idle action baked an object-space map 87 degrees (median
 texel) from the rest pose's, exit 0 and no word. A tangent-space map follows the deformation and
 holds in every pose.
+A pose that turns no face of the mesh (bones that only slide, as a door's panels; bones turned
+that deform other parts, or control bones) leaves the object-space map the rest pose's: the
+bake's check measures the faces' turn on the rendered mesh against the rest pose (red team 53b,
+tests/test_faults_assets53b.py: godotengine/tps-demo's door.blend, saved on frame 107 with its
+floor panels slid 0.42 m and other bones turned up to 90 degrees, was warned of on every door
+part; their maps lay within 0.002 degrees of the rest pose's).
 Shape keys mixed into the mesh (shape_key_warning, below) bend an object-space map the same way;
 Freeze's tangent map still holds what its stack reads in object space where the deformation put
 the surface (frozen_deform_warnings)."""
@@ -35,9 +41,12 @@ def _moved(posed, rest):
     return bool(np.abs(a - b).max() > 1e-5 * scale)
 
 
-def _posed(obj, depsgraph):
-    """None, or (armature, modifier, largest bone turn in degrees) for the first Armature
-    modifier obj renders with that deforms it by a pose other than the rest pose."""
+def _posed(obj, depsgraph, normals=False):
+    """None, or (armature, modifier, largest bone turn in degrees, largest face turn in degrees
+    or None) for the first Armature modifier obj renders with that deforms it by a pose other
+    than the rest pose. With `normals` (an object-space bake: only its face normals matter), a
+    pose counts only where it turns a face of obj: bones that slide (a door's panels) or turn
+    without deforming it (another part's bones, control bones) leave the rest pose's normals."""
     for md in obj.modifiers:
         arm = getattr(md, "object", None) if md.type == "ARMATURE" else None
         if not md.show_render or arm is None or arm.type != "ARMATURE" \
@@ -53,7 +62,10 @@ def _posed(obj, depsgraph):
         worst = max(_turn_deg(pb.matrix, pb.bone.matrix_local) for pb in bones)
         if worst <= MAX_TURN_DEG and whole and _one_shift(bones):
             continue                  # the whole mesh moved as one: no normal turns
-        return arm, md, worst
+        faces = _face_turn(obj, arm) if normals else None
+        if faces is not None and faces <= MAX_TURN_DEG:
+            continue                  # no face of this mesh turned: the rest pose's normals
+        return arm, md, worst, faces
     return None
 
 
@@ -88,6 +100,69 @@ def _followed(obj, md, bones):
     return [pb for pb in deform if pb.name in weighted], not loose and not md.vertex_group
 
 
+def _surface(obj):
+    """obj's rendered mesh now: float64 vertex positions (V, 3), each corner's vertex (L,) and
+    each face's first corner (F,) (Blender stores a face's corners in a row)."""
+    import bpy
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = evaluated.to_mesh()
+    try:
+        co = np.empty(len(mesh.vertices) * 3, np.float32)
+        mesh.vertices.foreach_get("co", co)
+        corners = np.empty(len(mesh.loops), np.int64)
+        mesh.loops.foreach_get("vertex_index", corners)
+        starts = np.empty(len(mesh.polygons), np.int64)
+        mesh.polygons.foreach_get("loop_start", starts)
+    finally:
+        evaluated.to_mesh_clear()
+    return co.reshape(-1, 3).astype(np.float64), corners, starts
+
+
+def _face_turn(obj, arm):
+    """The largest turn in degrees of obj's faces between this pose and the rest pose (the
+    armature's Pose Position switched to Rest Position for the reading and put back), or None
+    where it cannot be measured (linked armature data, the topology changes): then the pose is
+    taken as turning them. A face whose corners all moved by one shift (within float32 noise)
+    kept its normal; the others are measured by Newell's normal in float64."""
+    import bpy
+    if arm.data.library is not None or getattr(arm.data, "override_library", None):
+        return None
+    posed, corners, starts = _surface(obj)
+    try:
+        arm.data.pose_position = "REST"
+        bpy.context.view_layer.update()
+        rest, corners_rest, starts_rest = _surface(obj)
+    finally:
+        arm.data.pose_position = "POSE"
+        bpy.context.view_layer.update()
+    if posed.shape != rest.shape or not np.array_equal(corners, corners_rest) or \
+            not np.array_equal(starts, starts_rest):
+        return None
+    if not len(starts):
+        return 0.0
+    scale = max(1.0, float(np.abs(rest).max()))
+    face = np.repeat(np.arange(len(starts)), np.diff(np.append(starts, len(corners))))
+    shift = posed - rest
+    spread = np.abs(shift[corners] - shift[corners[starts]][face]).max(1)
+    bent = np.maximum.reduceat(spread, starts) > 1e-5 * scale
+    if not bent.any():
+        return 0.0
+    nxt = np.arange(len(corners)) + 1
+    nxt[np.append(starts[1:], len(corners)) - 1] = starts
+
+    def normals(co):
+        n = np.add.reduceat(np.cross(co[corners], co[corners[nxt]]), starts)[bent]
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return n / np.where(length > 0, length, 1.0), length[:, 0] > 0
+
+    a, ok_a = normals(posed)
+    b, ok_b = normals(rest)
+    ok = ok_a & ok_b
+    if not ok.any():
+        return 0.0
+    return float(np.degrees(np.arccos(np.clip((a[ok] * b[ok]).sum(1), -1.0, 1.0))).max())
+
+
 def _one_shift(bones):
     """Every bone's pose is its rest moved by one and the same translation (a root bone's
     root motion): the skin moves rigidly, and its object-space normals stay the rest pose's."""
@@ -105,9 +180,11 @@ def _one_shift(bones):
 
 def _pose_text(obj, posed):
     import bpy
-    arm, md, worst = posed
+    arm, md, worst, faces = posed
     turned = f"a bone turned up to {worst:.1f} degrees" if worst > MAX_TURN_DEG else \
         "bones moved from their rest, none turned"
+    if faces is not None:
+        turned += f", its faces turned up to {faces:.1f} degrees"
     return (f"object {obj.name!r} is deformed by armature {arm.name!r} (modifier {md.name!r}) "
             f"in a pose other than its rest pose on frame {bpy.context.scene.frame_current} "
             f"({turned})")
@@ -121,7 +198,7 @@ def posed_armature_warning(obj, depsgraph):
     """None, or the warning for an object-space bake of obj while an Armature modifier it
     renders with deforms it by a pose other than the rest pose, naming the armature, the
     frame, the largest bone turn and the fixes."""
-    posed = _posed(obj, depsgraph)
+    posed = _posed(obj, depsgraph, normals=True)
     if posed is None:
         return None
     return (f"{_pose_text(obj, posed)}: the object-space map holds this pose's normals and "

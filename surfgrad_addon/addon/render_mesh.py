@@ -6,7 +6,7 @@ Multires' Render level, modifiers shown in renders only, a Geometry Nodes "Is Vi
 set to false. Python's evaluated_depsgraph_get() is the viewport's, and Python cannot build a
 render one; but a render engine's render(depsgraph) receives it. So `read_in_render_mode`
 registers a tiny temporary RenderEngine that does nothing but call `read(depsgraph)`, renders
-one frame of the context's view layer at 4 x 4 with it (no file written), and puts back
+one frame of the context's view layer at 16 x 16 with it (no file written), and puts back
 everything it touched: the render settings, the view layer's Use for Rendering, the scene
 camera, the "Render Result" image if there was none, and the engine class. The scene's camera
 is kept where it has one (hidden, excluded or in no collection, it still renders): a Geometry
@@ -34,6 +34,11 @@ _SETTINGS = ("render.engine", "render.resolution_x", "render.resolution_y",
              "render.use_sequencer", "render.use_freestyle", "render.use_border",
              "render.use_motion_blur")
 ENGINE_ID = "SURFGRAD_RENDER_MESH"
+# The probe's size: the smallest Blender renders where the scene's output is a movie format
+# (FFmpeg: RE_InitState refuses under 16 pixels a side, "Image too small"). At 4 x 4, every
+# object with a modifier in such a scene (tps-demo's red_robot.blend: its output is FFmpeg
+# video) was refused by bake-normal-map and compare (red team 53b). The engine draws nothing.
+PROBE_SIZE = 16
 
 
 def _engine_class():
@@ -95,7 +100,7 @@ def read_in_render_mode(obj, read, context=None):
             scene.camera = camera
         r = scene.render
         r.engine = ENGINE_ID
-        r.resolution_x = r.resolution_y = 4
+        r.resolution_x = r.resolution_y = PROBE_SIZE
         r.resolution_percentage = 100
         for name in ("use_single_layer", "use_compositing", "use_sequencer",
                      "use_freestyle", "use_border", "use_motion_blur"):
@@ -106,7 +111,7 @@ def read_in_render_mode(obj, read, context=None):
             outcome = bpy.ops.render.render(write_still=False)
         except RuntimeError as err:
             raise RenderMeshError(f"could not evaluate {obj.name!r} as Cycles renders it "
-                                  f"(a 4 x 4 render-mode pass failed: {err})") from err
+                                  f"(a {PROBE_SIZE} x {PROBE_SIZE} render-mode pass failed: {err})") from err
         finally:
             _JOB.pop("job", None)
     if "error" in job:
