@@ -8,9 +8,10 @@ Measured on 5.2 and 4.2 before the fix (main at b91a8c8):
    (the artist Tabs into the group and clicks its Normal Map node): the check pass let the
    request through, the real pass rebuilt the group in place (its nodes freed, the clicked
    node too), and the next build read the freed node's UV map: Blender crashed (SIGSEGV, exit
-   -11), the artist's unsaved work lost. Likewise inside a stale ".001" copy of it (an append),
-   which the real pass also rebuilds. Now refused in the check pass, naming the group and the
-   fix, nothing changed; the UV map is read once, before any build.
+   -11; 5.2), the artist's unsaved work lost; on 4.2 it was refused after the rebuild (stamp
+   23 -> 24). Inside a stale ".001" copy of it (an append), which the real pass also rebuilds,
+   it crashed on 5.2 and 4.2. Now refused in the check pass, naming the group and the fix,
+   nothing changed; the UV map is read once, before any build.
 2. The Add menu's "SG Decal" inside an older SG Decal, and Add Decal Projector there, were
    refused ("cannot be added inside itself") only after that group had been rebuilt in place
    (its stamp 23 -> 24, its interior replaced): a refusal that changed the file. Now the
@@ -98,6 +99,8 @@ CONVERT = textwrap.dedent('''
         except RuntimeError as err:
             print("REFUSED", str(err).splitlines()[0])
     print("STAMP", tree[VERSION_KEY], "SAME", sorted(n.name for n in tree.nodes) == names)
+    for cls in O.CLASSES:          # (4.2's bpy module crashes at exit with them registered)
+        bpy.utils.unregister_class(cls)
 ''')
 
 
