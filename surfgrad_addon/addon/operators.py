@@ -87,19 +87,6 @@ def shown_tree(context):
     return _active_tree(context)[1]
 
 
-def group_contains(group, tree, seen=None):
-    """True if node group `group` is `tree` or contains it at any depth (adding it to `tree`
-    would make a group contain itself)."""
-    if group == tree:
-        return True
-    seen = set() if seen is None else seen
-    if group.name_full in seen:
-        return False
-    seen.add(group.name_full)
-    return any(node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None
-               and group_contains(node.node_tree, tree, seen) for node in group.nodes)
-
-
 def _prebuild(tree, *builders):
     """Check first: build (or reuse) every group an edit of `tree` needs before any node is
     made, all checked before any is rebuilt; a foreign group under one of our names raises
