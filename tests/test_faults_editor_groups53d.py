@@ -1,6 +1,7 @@
 """Red team 53d: the artist's operators with the Shader Editor (or a Geometry Nodes editor)
 showing the inside of one of surfgrad's own groups (Tab), where that group is an older
-surfgrad's (a file from a previous version, not yet updated) or is the group being added.
+surfgrad's (a file from a previous version, not yet updated) or is the group being added; and
+an older group that is a library override.
 
 Measured on 5.2 and 4.2 before the fix (main at b91a8c8):
 
@@ -24,6 +25,14 @@ Measured on 5.2 and 4.2 before the fix (main at b91a8c8):
 4. SG Displace added inside SG Displace from the Geometry Nodes Add menu (4.5+): FINISHED
    with an empty group node added in the group (63 -> 64 nodes; Blender refuses the tree
    silently), its inside changed. Now refused, 63 nodes.
+
+5. A library override of an older surfgrad's group (a linked "SG Resolve", stamp 23, made an
+   override): the Add menu's SG Resolve rebuilt the override in place (stamp 24 in the
+   session, FINISHED) and gave the new node that override; saved and reopened, the override
+   was the library's stamp-23 group again (Blender saves an override's changed values, not a
+   rebuilt inside), and the sidebar said nothing of it (only linked groups were named). Now
+   the request is refused naming the library and the fix, the override as it was; a stale
+   ".001" override is no longer rebuilt as a copy; the sidebar names it with the linked ones.
 
 Adding a different group inside an older one (SG Normal Map inside an older SG Resolve) is
 still added there: the artist asked for it.
@@ -172,3 +181,27 @@ def test_sg_displace_inside_itself_is_refused(fresh, registered):
     said = _refused(override, "add_group", group="SG Displace")
     assert "node group 'SG Displace', and this edit adds 'SG Displace' nodes" in said, said
     assert len(tree.nodes) == count                     # was count + 1: an empty group node
+
+
+def test_an_older_group_overridden_from_a_library_is_refused_not_rebuilt(fresh, registered,
+                                                                         tmp_path):
+    lib = tmp_path / "library.blend"
+    bpy.data.libraries.write(str(lib), {_older(G.resolve_group())}, fake_user=True)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with bpy.data.libraries.load(str(lib), link=True) as (_, linked):
+        linked.node_groups = ["SG Resolve"]
+    override = bpy.data.node_groups["SG Resolve"].override_create(remap_local_usages=True)
+    assert override.library is None and override[VERSION_KEY] == OLDER
+    mat = bpy.data.materials.new("M")
+    mat.use_nodes = True
+    before = (_groups(), len(mat.node_tree.nodes))
+    editor, _ = _shader_editor(bpy, mat.node_tree)
+    said = _refused(editor, "add_group", group="SG Resolve")
+    # Before: FINISHED, the override rebuilt in this session (stamp 24) and the new node given
+    # it; saved and reopened, the override was the library's stamp-23 group again.
+    assert "node group 'SG Resolve' is a library override of a group from" in said, said
+    assert "library.blend" in said and "would not be saved" in said
+    assert override[VERSION_KEY] == OLDER
+    assert (_groups(), len(mat.node_tree.nodes)) == before
+    from surfgrad_addon.addon.group_updates import linked_stale_text
+    assert "library.blend" in (linked_stale_text() or ""), linked_stale_text()

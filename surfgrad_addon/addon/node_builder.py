@@ -30,7 +30,7 @@ from ..reference.group_interfaces import plain_value
 from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
 from .compat import animated_fcurves
 from .group_names import (INSIDE_KEY, LINE_KEY, VERSION_KEY, fitting_name,
-                          newer_group_problem, stale_copies)
+                          newer_group_problem, override_text, stale_copies)
 from .node_vocabulary import VALUE_OPS, Math, VMath
 
 
@@ -207,6 +207,11 @@ def _ensure(name, version, build, description, stale, tree_type, interface, held
             tree, interface.for_line(running_line().menu_sockets))
         or edited_inside(tree) and "inside: a node or link added, removed, muted or set "
                                    "otherwise")
+    if tree is not None and not current and getattr(tree, "override_library", None) is not None:
+        # A library override takes the nodes of a rebuild, but the file saves only an
+        # override's changed values: reopened, the group (and every node given it) would be
+        # the library's older one again.
+        raise ValueError(override_text(tree, name))
     if edited:
         # Reused, a new node would not do what surfgrad's does (a compare called the method
         # wrong; an operator linking a renamed socket raised KeyError); rebuilt, the artist's
