@@ -34,6 +34,13 @@ Measured on 5.2 and 4.2 before the fix (main at b91a8c8):
    the request is refused naming the library and the fix, the override as it was; a stale
    ".001" override is no longer rebuilt as a copy; the sidebar names it with the linked ones.
 
+6. SG Displace from the Geometry Nodes Add menu into a library override's Geometry Nodes
+   tree (a linked asset's, made an override; Blender calls it editable): FINISHED, 1 node in
+   it; saved and reopened, 0 nodes, with no word (the shader side refused overrides already,
+   material_inputs.edits_lost; the Geometry Nodes side checked is_editable alone). Now refused
+   as linked or override data. The operator's poll in a Geometry Nodes editor gave the
+   Shader Editor's reason ("not a Shader Editor"); now the Geometry Nodes editor's.
+
 Adding a different group inside an older one (SG Normal Map inside an older SG Resolve) is
 still added there: the artist asked for it.
 """
@@ -205,3 +212,27 @@ def test_an_older_group_overridden_from_a_library_is_refused_not_rebuilt(fresh, 
     assert (_groups(), len(mat.node_tree.nodes)) == before
     from surfgrad_addon.addon.group_updates import linked_stale_text
     assert "library.blend" in (linked_stale_text() or ""), linked_stale_text()
+
+
+def test_sg_displace_into_an_overridden_geometry_nodes_tree_is_refused(fresh, registered,
+                                                                       tmp_path):
+    if G.unavailable_reason("SG Displace"):
+        pytest.skip(G.unavailable_reason("SG Displace"))
+    lib = tmp_path / "library.blend"
+    bpy.data.libraries.write(str(lib), {bpy.data.node_groups.new("Rock GN", "GeometryNodeTree")},
+                             fake_user=True)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with bpy.data.libraries.load(str(lib), link=True) as (_, linked):
+        linked.node_groups = ["Rock GN"]
+    tree = bpy.data.node_groups["Rock GN"].override_create(remap_local_usages=True)
+    assert tree.is_editable                      # Blender calls it editable, yet ...
+    editor, _ = _shader_editor(bpy, bpy.data.materials.new("M").node_tree)
+    editor["area"].ui_type = 'GeometryNodeTree'
+    space = editor["area"].spaces.active
+    space.pin = True
+    space.node_tree = tree
+    # Before: FINISHED, one node in the override; saved and reopened, 0 nodes (an override
+    # keeps its changed values only).
+    said = _refused(editor, "add_group", group="SG Displace")
+    assert "not editable (linked or override data)" in said, said
+    assert len(tree.nodes) == 0 and "SG Displace" not in bpy.data.node_groups

@@ -72,7 +72,7 @@ def geometry_tree_problem(context):
     tree = space.edit_tree
     if tree is None:
         return "No active Geometry Nodes tree: add a Geometry Nodes modifier first"
-    if not tree.is_editable:
+    if edits_lost(tree):         # an override's too: it takes the node, the file drops it
         return "The active Geometry Nodes tree is not editable (linked or override data)"
     return None
 
@@ -201,8 +201,12 @@ in this file first if needed"""
     @classmethod
     def poll(cls, context):
         problem = shader_tree_problem(context)
-        if problem is not None and geometry_tree_problem(context) is not None:
-            cls.poll_message_set(problem)
+        geometry = geometry_tree_problem(context)
+        if problem is not None and geometry is not None:
+            # The reason for the editor it is (a Geometry Nodes editor's is not "not a Shader
+            # Editor").
+            in_geometry = getattr(context.space_data, "tree_type", None) == 'GeometryNodeTree'
+            cls.poll_message_set(geometry if in_geometry else problem)
             return False
         return True
 
