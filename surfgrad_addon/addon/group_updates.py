@@ -62,9 +62,10 @@ def _library(group):
 
 
 def linked_stale_text():
-    """What the sidebar says of our groups linked from a library (a linked material's; or a
-    library override of one) that an older surfgrad or another Blender line built: they render as built (some wrong: 4.5 drops
-    a 5.x group's Menu Switch), and Update cannot reach them; None when there are none."""
+    """What the sidebar says of our groups linked from a library (a linked material's, or a
+    library override of one) that an older surfgrad or another Blender line built: they render
+    as built (some wrong: 4.5 drops a 5.x group's Menu Switch), and Update cannot reach them;
+    None when there are none."""
     line = running_line().line
     stale = [g for g in bpy.data.node_groups
              if _library(g) is not None and isinstance(g.get(VERSION_KEY), int)

@@ -79,9 +79,9 @@ class HoldsTree(ValueError):
         self.group_name = group_name
         if rebuilt:
             super().__init__(f"The editor shows the inside of node group {tree.name!r}, an "
-                             f"older surfgrad's, which this edit would rebuild (replacing the "
-                             f"nodes shown): leave the group (Tab) and edit the material, or "
-                             f"run Update surfgrad Groups first")
+                             f"older surfgrad's (or another Blender line's), which this edit "
+                             f"would rebuild, replacing the nodes shown: leave the group (Tab) "
+                             f"and edit the material, or run Update surfgrad Groups first")
             return
         super().__init__(f"The editor shows the inside of node group {tree.name!r}, and this "
                          f"edit adds {group_name!r} nodes" +

@@ -116,7 +116,8 @@ def _checked(tree, build):
     try:
         return checked_first(build, outside=tree)[0]
     except HoldsTree as err:
-        raise ValueError(str(err).replace("edit the material", "add it there")) from None
+        raise ValueError(str(err).replace("edit the material",
+                                          "add it outside the group")) from None
 
 
 def _place_group_node(tree, kind, group, location):
