@@ -35,6 +35,7 @@ def stale_copies(name, version, line, tree_type):
     return [g for g in bpy.data.node_groups
             if g.name.startswith(prefix) and g.name[len(prefix):].isdigit()
             and g.bl_idname == tree_type and g.is_editable and VERSION_KEY in g
+            and g.override_library is None                 # (its rebuild would not be saved)
             and (g[VERSION_KEY] == version and g.get(LINE_KEY) != line
                  or isinstance(g[VERSION_KEY], int) and g[VERSION_KEY] < version)]
 
@@ -50,3 +51,16 @@ def newer_group_problem(tree, name, version):
             f"extension makes {version}), and rebuilding it here would drop what that version "
             f"added from every node using it: update the surfgrad extension, or rename that "
             f"group to add this version beside it")
+
+
+def override_text(tree, name):
+    """Why group `tree` (named `name`), a library override of an older surfgrad's (or another
+    line's) group, is not rebuilt: the file would not save the rebuild."""
+    reference = tree.override_library.reference
+    library = getattr(reference, "library", None) if reference is not None else None
+    where = f" from {library.filepath!r}" if library is not None else ""
+    return (f"node group {name!r} is a library override of a group{where} built by an older "
+            f"surfgrad (or for another Blender line): a rebuild here would not be saved "
+            f"(reopened, it and every node using it would be the library's again); update it "
+            f"in that file (Update surfgrad Groups there, then save it), or make it local "
+            f"first (Outliner: Library Override > Make Local)")

@@ -51,17 +51,28 @@ def stale_text(stale):
             f"Blender {here}")
 
 
+def _library(group):
+    """The library `group` comes from: its own, or (a library override, whose rebuild the file
+    would not save) its reference's; None for a local group."""
+    if group.library is not None:
+        return group.library
+    override = getattr(group, "override_library", None)
+    reference = override.reference if override is not None else None
+    return getattr(reference, "library", None)
+
+
 def linked_stale_text():
-    """What the sidebar says of our groups linked from a library (a linked material's) that an
-    older surfgrad or another Blender line built: they render as built (some wrong: 4.5 drops
-    a 5.x group's Menu Switch), and Update cannot reach them; None when there are none."""
+    """What the sidebar says of our groups linked from a library (a linked material's, or a
+    library override of one) that an older surfgrad or another Blender line built: they render
+    as built (some wrong: 4.5 drops a 5.x group's Menu Switch), and Update cannot reach them;
+    None when there are none."""
     line = running_line().line
     stale = [g for g in bpy.data.node_groups
-             if g.library is not None and isinstance(g.get(VERSION_KEY), int)
+             if _library(g) is not None and isinstance(g.get(VERSION_KEY), int)
              and (g[VERSION_KEY] < G.VERSION or g.get(LINE_KEY) != line)]
     if not stale:
         return None
-    libraries = ", ".join(sorted({repr(g.library.filepath) for g in stale}))
+    libraries = ", ".join(sorted({repr(_library(g).filepath) for g in stale}))
     lines = sorted({g.get(LINE_KEY) for g in stale} - {None, line})
     where = f" or for Blender {', '.join(lines)}" if lines else ""
     return (f"{len(stale)} surface-gradient group(s) linked from {libraries} were built by an "

@@ -30,7 +30,7 @@ from ..reference.group_interfaces import plain_value
 from ..reference.socket_specs import SOCKET_TYPES, SocketSpec
 from .compat import animated_fcurves
 from .group_names import (INSIDE_KEY, LINE_KEY, VERSION_KEY, fitting_name,
-                          newer_group_problem, stale_copies)
+                          newer_group_problem, override_text, stale_copies)
 from .node_vocabulary import VALUE_OPS, Math, VMath
 
 
@@ -62,10 +62,46 @@ def ensure_group(name, version, build, description=None, stale=None, tree_type="
 
 class _CheckPass:
     """The state of checked_first: during its check pass `scratch` maps each group name to what
-    was built for it (its scratch group, the file lacked it, the _ensure arguments); `done`
-    during the real pass of a request already checked."""
+    was built for it (its scratch group, the file lacked it, the _ensure arguments) and
+    `rebuilt` lists the file's groups the real pass would rebuild in place; `done` during the
+    real pass of a request already checked."""
     scratch = None
+    rebuilt = None
     done = False
+
+
+class HoldsTree(ValueError):
+    """A request would put a group into the node tree an edit adds to (`outside`) that is that
+    tree or holds it, or would rebuild that tree in place (freeing the nodes the editor shows,
+    the one being converted too): refused in the check pass, nothing changed."""
+
+    def __init__(self, tree, group_name, rebuilt=False):
+        self.group_name = group_name
+        if rebuilt:
+            super().__init__(f"The editor shows the inside of node group {tree.name!r}, an "
+                             f"older surfgrad's (or another Blender line's), which this edit "
+                             f"would rebuild, replacing the nodes shown: leave the group (Tab) "
+                             f"and edit the material, or run Update surfgrad Groups first")
+            return
+        super().__init__(f"The editor shows the inside of node group {tree.name!r}, and this "
+                         f"edit adds {group_name!r} nodes" +
+                         ("" if group_name == tree.name else f", which use {tree.name!r}") +
+                         ": a group cannot hold itself; leave the group (Tab) and edit the "
+                         "material")
+
+
+def _holds(group, tree, real_of, seen):
+    """True if `group` (a scratch group standing for the file's group `real_of` names, or a
+    real one) is `tree` or holds it at any depth."""
+    if group is None:
+        return False
+    if group == tree or real_of.get(group) == tree:
+        return True
+    if group.name_full in seen:
+        return False
+    seen.add(group.name_full)
+    return any(_holds(n.node_tree, tree, real_of, seen) for n in group.nodes
+               if n.bl_idname in ("ShaderNodeGroup", "GeometryNodeGroup"))
 
 
 _CHECK = _CheckPass()
@@ -77,24 +113,35 @@ class _Scratch(NamedTuple):
     args: tuple
 
 
-def checked_first(*builds):
+def checked_first(*builds, outside=None):
     """Call every group-building function in `builds` in two passes: a check pass, in which
     every group that would be built or rebuilt (helpers too) is built on a scratch group
     instead, then, if nothing was refused, the real pass. So a group of the user's under a
     helper's name, a newer surfgrad's helper or a node this line lacks refuses the whole request
-    before any group of the file changes. Returns the builds' results."""
+    before any group of the file changes. `outside`: the node tree the request's groups go into
+    (a group the editor shows, entered with Tab): a group that is it or holds it, or a rebuild
+    of it in place, raises HoldsTree in the check pass. Returns the builds' results."""
     if _CHECK.scratch is not None or _CHECK.done:      # within a request checked already
         return [build() for build in builds]
-    _CHECK.scratch = {}
+    _CHECK.scratch, _CHECK.rebuilt = {}, []
     try:
-        for build in builds:
-            build()
+        results = [build() for build in builds]
+        if outside is not None:
+            real_of = {b.group: bpy.data.node_groups.get((name, None))
+                       for name, b in _CHECK.scratch.items()}
+            names = {b.group: name for name, b in _CHECK.scratch.items()}
+            for group in results:
+                if _holds(group, outside, real_of, set()):
+                    raise HoldsTree(outside, names.get(group, group.name))
+            if outside in _CHECK.rebuilt:
+                # (Rebuilt, its nodes are freed: an edit holding one crashed Blender.)
+                raise HoldsTree(outside, outside.name, rebuilt=True)
     except BaseException:
         for built in _CHECK.scratch.values():
             bpy.data.node_groups.remove(built.group)
         raise
     finally:
-        scratch, _CHECK.scratch = _CHECK.scratch, None
+        scratch, _CHECK.scratch, _CHECK.rebuilt = _CHECK.scratch, None, None
     _CHECK.done = True
     try:
         _build_checked(scratch)
@@ -160,6 +207,11 @@ def _ensure(name, version, build, description, stale, tree_type, interface, held
             tree, interface.for_line(running_line().menu_sockets))
         or edited_inside(tree) and "inside: a node or link added, removed, muted or set "
                                    "otherwise")
+    if tree is not None and not current and getattr(tree, "override_library", None) is not None:
+        # A library override takes the nodes of a rebuild, but the file saves only an
+        # override's changed values: reopened, the group (and every node given it) would be
+        # the library's older one again.
+        raise ValueError(override_text(tree, name))
     if edited:
         # Reused, a new node would not do what surfgrad's does (a compare called the method
         # wrong; an operator linking a renamed socket raised KeyError); rebuilt, the artist's
@@ -168,6 +220,7 @@ def _ensure(name, version, build, description, stale, tree_type, interface, held
                          f"rename it to keep your version, so surfgrad can add its own")
     if _CHECK.scratch is not None and (copies or not current):
         # The check pass: what the request would build is built on a scratch group, once.
+        _CHECK.rebuilt += [*copies, *([tree] if tree is not None and not current else [])]
         if name not in _CHECK.scratch:
             scratch = bpy.data.node_groups.new(f"{name} (build check)", tree_type)
             _CHECK.scratch[name] = _Scratch(scratch, tree is None and not copies,

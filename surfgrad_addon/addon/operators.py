@@ -18,7 +18,7 @@ from .node_vocabulary import Math
 from .all_or_nothing import all_or_nothing
 from .group_updates import draw_stale_warning, report_notes, take_notes
 from .far_precision import needs_precise_far, set_precise_far_on_node
-from .node_builder import checked_first
+from .node_builder import HoldsTree, checked_first
 
 NORMAL_SOCKET = "Normal"
 
@@ -87,32 +87,16 @@ def shown_tree(context):
     return _active_tree(context)[1]
 
 
-def group_contains(group, tree, seen=None):
-    """True if node group `group` is `tree` or contains it at any depth (adding it to `tree`
-    would make a group contain itself)."""
-    if group == tree:
-        return True
-    seen = set() if seen is None else seen
-    if group.name_full in seen:
-        return False
-    seen.add(group.name_full)
-    return any(node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None
-               and group_contains(node.node_tree, tree, seen) for node in group.nodes)
-
-
 def _prebuild(tree, *builders):
     """Check first: build (or reuse) every group an edit of `tree` needs before any node is
     made, all checked before any is rebuilt; a foreign group under one of our names raises
-    ValueError here, with nothing added or changed, and so does `tree` being one of them (a
-    group entered in the editor: Blender keeps a group out of itself)."""
-    groups = checked_first(*builders)
-    inside = next((g for g in groups if group_contains(g, tree)), None)
-    if inside is not None:
-        uses = "" if inside == tree else f", which use {tree.name!r}"
-        raise SurfgradError(f"The editor shows the inside of node group {tree.name!r}, and this "
-                            f"edit adds {inside.name!r} nodes{uses}: a group cannot hold "
-                            f"itself; leave the group (Tab) and edit the material")
-    return groups
+    ValueError here, with nothing added or changed, and so does `tree` being one of them or
+    one they would rebuild (a group entered in the editor: Blender keeps a group out of
+    itself, and a rebuild frees the nodes shown)."""
+    try:
+        return checked_first(*builders, outside=tree)
+    except HoldsTree as err:
+        raise SurfgradError(str(err)) from None
 
 
 # The engines that render a material's nodes, as a Material Output's target names them (EEVEE
@@ -225,8 +209,10 @@ def convert_node(tree, node):
     if node.bl_idname == "ShaderNodeNormalMap" and node.space != "TANGENT":
         raise SurfgradError(f"{node.name!r} is an {node.space.lower()}-space Normal Map: "
                             f"use SG Object Normal for object or world space maps")
+    # Read now: the builders run twice (checked_first), and a node is not read after a build.
+    uv_map = node.uv_map if node.bl_idname == "ShaderNodeNormalMap" else ""
     if node.bl_idname == "ShaderNodeNormalMap":
-        _prebuild(tree, G.resolve_group, lambda: G.normal_map_group(node.uv_map))
+        _prebuild(tree, G.resolve_group, lambda: G.normal_map_group(uv_map))
     else:
         fw = node.inputs["Filter Width"].default_value if "Filter Width" in node.inputs else None
         strength = node.inputs["Strength"]
@@ -237,7 +223,7 @@ def convert_node(tree, node):
     x, y = node.location
     existing = set(tree.nodes)
     if node.bl_idname == "ShaderNodeNormalMap":
-        sg = _group_node(tree, lambda: G.normal_map_group(node.uv_map), (x, y))
+        sg = _group_node(tree, lambda: G.normal_map_group(uv_map), (x, y))
         _move_input(tree, node.inputs["Color"], sg.inputs["Color"])
         _move_input(tree, node.inputs["Strength"], sg.inputs["Strength"])
         # 5.2's Normal Map node has a convention; SG Normal Map's DirectX switch matches it.
