@@ -21,9 +21,11 @@ TOLERANCE = 1e-6        # float32 rounding of a value in 0..1 (the results are f
 SAMPLE = 2048           # lookups per coordinate set kept for the test
 
 
-def texels(w, random):
-    """probe.cu's texture, (h, w, 2): its first two channels, row 0 at v = 0."""
-    if not random:
+def texels(w, kind):
+    """probe.cu's texture, (h, w, 2): its first two channels, row 0 at v = 0, as the values
+    its texels decode to (kind: parity or random; byte and half for texels probe.cu would hold
+    as 8-bit or half, not probed yet)."""
+    if kind == "parity":
         y, x = np.mgrid[0:w, 0:w]
         return np.stack([x & 1, y & 1], axis=-1).astype(np.float64)
     s = np.uint64(12345)
@@ -31,7 +33,12 @@ def texels(w, random):
     for i in range(len(values)):                # probe.cu's generator, in its order
         s = (s * np.uint64(1664525) + np.uint64(1013904223)) & np.uint64(0xFFFFFFFF)
         values[i] = float(int(s) >> 8) / 16777216.0
-    return values.reshape(w, w, 4)[..., :2]
+    values = values.reshape(w, w, 4)[..., :2]
+    if kind == "byte":
+        return np.floor(values.astype(np.float32) * np.float32(255) + np.float32(0.5)) / 255.0
+    if kind == "half":
+        return values.astype(np.float32).astype(np.float16).astype(np.float64)
+    return values
 
 
 def earlier_model(image, st, extension):
@@ -69,16 +76,16 @@ def main(argv):
         if name.endswith("_texels"):
             continue
         _, w, address, memory, *rest = name.split("_")
-        w, random = int(w), bool(rest)
+        w, kind = int(w), (rest or ["parity"])[0]
         got = np.load(path)["a"].astype(np.float64)
         sets = probe_sets(w)
-        image = texels(w, random)
+        image = texels(w, kind)
         if address == "clamp":
             image_ext = "EXTEND"
         else:
             image_ext = "REPEAT"
         run = {"run": name, "size": w, "address": address, "memory": memory,
-               "texels": "random" if random else "parity", "sets": {}}
+               "texels": kind, "sets": {}}
         for k, (set_name, st) in enumerate(sets.items()):
             ref = got[k * N_SET:(k + 1) * N_SET]
             got_by = models(image, st, "EXTEND" if address == "clamp" else "REPEAT")
@@ -87,11 +94,11 @@ def main(argv):
             shares.update({f"{m}_max_error": float(np.abs(v - ref).max())
                            for m, v in got_by.items() if m != "exact"})
             run["sets"][set_name] = shares
-            if random:
+            if kind == "random":
                 pick = np.random.default_rng(k).choice(N_SET, SAMPLE, replace=False)
                 kept[f"st_{set_name}"] = st[pick]
                 kept[f"gpu_{set_name}"] = ref[pick].astype(np.float32)
-        if random:
+        if kind == "random":
             kept["texels"] = image.astype(np.float32)
         report["runs"].append(run)
         print(name, {s: {m: round(v, 6) for m, v in r.items()} for s, r in run["sets"].items()})

@@ -7,8 +7,9 @@ out=${1:?OUT_DIR}
 work=$(mktemp -d)
 nvidia-smi --query-gpu=name,driver_version,compute_cap --format=csv,noheader | tee "$out/gpu.txt"
 nvcc -O2 -arch=native probe.cu -o "$work/probe"
-runs=("128 128 wrap array" "128 128 wrap pitch" "128 128 clamp array" "32 32 wrap array"
-      "100 100 wrap array" "128 128 wrap array random")
+# PROBE_RUNS: the runs, ';'-separated (at most 7 come back from a lent machine with gpu.txt).
+IFS=';' read -r -a runs <<< "${PROBE_RUNS:-128 128 wrap array;128 128 wrap pitch;128 128 clamp \
+array;32 32 wrap array;100 100 wrap array;128 128 wrap array random}"
 for r in "${runs[@]}"; do
   set -- $r
   [ -f "$work/c$1.bin" ] || python3 coords.py "$1" "$work/c$1.bin"
