@@ -23,8 +23,7 @@ SAMPLE = 2048           # lookups per coordinate set kept for the test
 
 def texels(w, kind):
     """probe.cu's texture, (h, w, 2): its first two channels, row 0 at v = 0, as the values
-    its texels decode to (kind: parity or random; byte and half for texels probe.cu would hold
-    as 8-bit or half, not probed yet)."""
+    its texels decode to (kind: parity or random)."""
     if kind == "parity":
         y, x = np.mgrid[0:w, 0:w]
         return np.stack([x & 1, y & 1], axis=-1).astype(np.float64)
@@ -33,12 +32,7 @@ def texels(w, kind):
     for i in range(len(values)):                # probe.cu's generator, in its order
         s = (s * np.uint64(1664525) + np.uint64(1013904223)) & np.uint64(0xFFFFFFFF)
         values[i] = float(int(s) >> 8) / 16777216.0
-    values = values.reshape(w, w, 4)[..., :2]
-    if kind == "byte":
-        return np.floor(values.astype(np.float32) * np.float32(255) + np.float32(0.5)) / 255.0
-    if kind == "half":
-        return values.astype(np.float32).astype(np.float16).astype(np.float64)
-    return values
+    return values.reshape(w, w, 4)[..., :2]
 
 
 def earlier_model(image, st, extension):
