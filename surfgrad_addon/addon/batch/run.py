@@ -11,6 +11,7 @@ from .. import normal_bake as NB
 from ..exit_codes import MapNotWritten
 from ..publish_files import others_backups
 from . import manifest as M
+from . import list_tasks as LT
 from . import plan as P
 from .output_names import one_file_because, output_key
 from .progress import Progress
@@ -21,7 +22,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                defaults=None, settings_file=None, workers=1, force=False, overwrite=False,
                manifest=None, tiles=None, empty_tiles="error", open_file=False, worker_env=None,
                worker_command_override=None, log=print, threads=None, warn=BR.warn_stderr,
-               worker_timeout=None):
+               worker_timeout=None, list_tasks=None):
     """Bake every asset of `blends` (paths; or the open file with open_file) selected by
     `objects` / `collections` into files named by `output`. threads: Cycles threads per bake
     (default: all cores in this process or one worker, their share with several). Returns the
@@ -33,7 +34,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     be written); an asset whose own input is bad (mesh, images, UV layout) fails alone.
     worker_timeout: seconds a scan or bake may take in a worker before it is taken as hung
     (default: SCAN_TIMEOUT_S for a scan, bake_timeout() for a bake). Entries naming the same
-    file are merged: `a.blend` with `a.blend:Obj` bakes the file's assets and Obj."""
+    file are merged: `a.blend` with `a.blend:Obj` bakes the file's assets and Obj.
+    list_tasks: (asset list, [(index, entry)] of its other entries) where this run bakes one
+    entry of it (--asset-index): an output another entry writes too is refused (list_tasks.py)."""
     import bpy
     from ..groups.common import VERSION
 
@@ -193,6 +196,11 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                     collisions.append(f"{name}:{a['object']} and {other} would both write "
                                       f"{out}: make the output pattern tell them apart "
                                       f"({', '.join(P.TOKENS)})")
+                continue
+            problem = list_tasks and LT.clash(list_tasks[1], list_tasks[0], output, base,
+                                              overrides, blend, a["object"], uv, seen_as)
+            if problem:
+                collisions.append(problem)
                 continue
             outputs_seen[seen_as] = (f"{name}:{a['object']}", blend, out)
             entry["input_hash"] = f["input_hash"]
