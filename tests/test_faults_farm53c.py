@@ -1,4 +1,4 @@
-"""Red team 53c: an asset list baked one entry a task (`bake-batch --asset-list L
+"""Red team 53c: a render farm's batches. An asset list baked one entry a task (`bake-batch --asset-list L
 --asset-index N`, each task with its own manifest: the OpenJD template's tasks, run here with
 the arguments its script passes).
 
@@ -15,11 +15,24 @@ the arguments its script passes).
    their file (batch/list_tasks.py): refused, exit 2, naming the entry, the file and the fix,
    nothing written (no map, no manifest); entries that write apart still bake, each its
    own normals.
-Left (docs/pipelines.md, Known limits): an entry naming another file alone (its objects are
-known only by opening it, which a task does not do) is not checked.
+2. The manifest's lock file (`.NAME.lock` beside it) opened for writing: another user's (a TD's
+   and the farm's runs into one shared folder; 0644 as a run makes it) raised a raw
+   PermissionError traceback, exit 1 (measured with an immutable lock file, which root may
+   not write either: `Operation not permitted`), both while that user's run was under way
+   (it should say "in use by another bake-batch run") and after such a run was killed with
+   SIGKILL (the lock file stays; nothing holds it). A folder in its place: IsADirectoryError,
+   the same. Now the lock is taken through a read-only descriptor where the file may not be
+   written (flock needs no more): a live run is named as such, exit 2; a left one is taken and
+   the batch bakes; one that cannot be opened at all (or on NFS, whose locks need writing) is
+   refused naming the file and the fixes, exit 2; a folder in its place too.
+Left (docs/farm.md): an entry naming another file alone (its objects are known only by opening
+it, which a task does not do) is not checked.
 """
 
+import errno
+import fcntl
 import json
+import os
 
 import numpy as np
 import pytest
@@ -28,6 +41,7 @@ bpy = pytest.importorskip("bpy")
 
 from support.baked_normals import degrees_between  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon.batch import manifest as M  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -122,3 +136,71 @@ def test_an_asset_listed_twice_is_refused_naming_the_entry(tmp_path, capsys):
     assert "a.blend:Rock is also baked by entry 1" in err, err
     assert "a.blend:Stone is also baked by entry 2" in err, err
     assert not maps.exists() and not manifests.exists()
+
+
+@pytest.fixture
+def foreign_lock(tmp_path, monkeypatch):
+    """A lock file beside the manifest that this user may read, not write (another user's, as
+    their run leaves it): opening it for writing is refused as the system would (the tests run
+    as root, whom file modes do not stop)."""
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=SIZE)
+    maps = tmp_path / "maps"
+    maps.mkdir()
+    lock = maps / ".surfgrad-bake-manifest.json.lock"
+    lock.write_bytes(b"")
+    real_open = os.open
+
+    def as_another_user(path, flags, *args):
+        if os.path.abspath(path) == str(lock) and flags & (os.O_RDWR | os.O_WRONLY):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, flags, *args)
+    monkeypatch.setattr(M.os, "open", as_another_user)
+    command = ["bake-batch", str(blend), "--output", str(maps / "{object}.png"),
+               "--resolution", str(SIZE), "--margin", "0", "--workers", "0"]
+    return command, maps, lock
+
+
+def test_another_users_live_run_is_named_as_a_run_under_way(foreign_lock, capsys):
+    command, maps, lock = foreign_lock
+    held = os.open(lock, os.O_RDONLY)            # that user's run: it holds the lock
+    try:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        rc = commands.execute(command)           # before: PermissionError raised out
+    finally:
+        os.close(held)
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert "is in use by another bake-batch run" in err and str(lock) in err, err
+    assert sorted(p.name for p in maps.iterdir()) == [lock.name]
+
+
+def test_another_users_lock_left_by_a_killed_run_is_taken(foreign_lock, capsys):
+    command, maps, lock = foreign_lock
+    assert commands.execute(command) == 0, capsys.readouterr().err     # before: raised
+    assert (maps / "Rock.png").read_bytes().endswith(b"IEND\xaeB`\x82")
+    recorded = json.loads((maps / "surfgrad-bake-manifest.json").read_text())["assets"]
+    assert [a["status"] for a in recorded.values()] == ["baked"]
+
+
+def test_a_lock_that_cannot_be_opened_or_is_a_folder_is_named(foreign_lock, capsys,
+                                                              monkeypatch):
+    command, maps, lock = foreign_lock
+    real_open = M.os.open
+
+    def unreadable(path, flags, *args):          # (0600: not even read)
+        if os.path.abspath(path) == str(lock):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_open(path, flags, *args)
+    monkeypatch.setattr(M.os, "open", unreadable)
+    assert commands.execute(command) == exit_codes.BAD_REQUEST
+    err = capsys.readouterr().err
+    assert (f"its lock file {lock} is another user's (this user may not open it: Permission "
+            f"denied)") in err and f"rm {lock}" in err, err
+    monkeypatch.undo()
+    lock.unlink()
+    lock.mkdir()
+    assert commands.execute(command) == exit_codes.BAD_REQUEST
+    err = capsys.readouterr().err
+    assert f"{lock} is a folder, where bake-batch keeps the manifest's lock file" in err, err
+    assert "Traceback" not in err
+    assert sorted(p.name for p in maps.iterdir()) == [lock.name]
