@@ -1,8 +1,8 @@
-"""Red team 53c: a render farm's batches. An asset list baked one entry a task (`bake-batch --asset-list L
---asset-index N`, each task with its own manifest: the OpenJD template's tasks, run here with
-the arguments its script passes).
+"""Red team 53c: what a render farm's batches meet (5.2 measured; the tests run on every line).
 
-1. Two entries of the list whose maps are one file: two files' objects of one name under a
+1. An asset list baked one entry a task (`bake-batch --asset-list L --asset-index N`, each with
+   its own manifest: the OpenJD template's tasks, run here with the arguments its script
+   passes), two entries of which land on one file: two files' objects of one name under a
    pattern without a folder per file (`in/a/rock.blend:Rock`, `in/b/rock.blend:Rock` and
    `{file}_{object}.exr`; or `{object}.exr`), or one asset listed twice (`a.blend` and, on
    another line, `sub/../a.blend:Rock`). A whole run refuses them (exit 2), but a task saw its
