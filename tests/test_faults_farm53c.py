@@ -25,6 +25,13 @@
    written (flock needs no more): a live run is named as such, exit 2; a left one is taken and
    the batch bakes; one that cannot be opened at all (or on NFS, whose locks need writing) is
    refused naming the file and the fixes, exit 2; a folder in its place too.
+3. The Flamenco job type (one task per object x tile, each `--open-file --objects=NAME`) with
+   an output pattern that names one file for two of its objects: no {object} in it
+   (`maps/{file}_nrm.<UDIM>.png` for 'Rock, Stone'), or two names that become one in a file
+   name ('Wall:L' and 'Wall_L', '..' and '__'). The job compiled; the first task baked, the
+   second failed, exit 1, "b_nrm.1001.png exists; pass --overwrite (api: overwrite=True)",
+   an option the job does not have (which task won was the farm's scheduling). Now refused on
+   submission naming both objects and the fix, where the file is certain (no {uv} in it).
 Left (docs/farm.md): an entry naming another file alone (its objects are known only by opening
 it, which a task does not do) is not checked.
 """
@@ -40,8 +47,10 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from support.baked_normals import degrees_between  # noqa: E402
+from support.flamenco import compile_job  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.batch import manifest as M  # noqa: E402
+from surfgrad_addon.addon.batch import plan as P  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -204,3 +213,39 @@ def test_a_lock_that_cannot_be_opened_or_is_a_folder_is_named(foreign_lock, caps
     assert f"{lock} is a folder, where bake-batch keeps the manifest's lock file" in err, err
     assert "Traceback" not in err
     assert sorted(p.name for p in maps.iterdir()) == [lock.name]
+
+
+@pytest.mark.tier("child")
+@pytest.mark.parametrize("names, pattern, one", [
+    ("Rock, Stone", "/o/{file}_nrm.<UDIM>.png", None),
+    ("Wall:L, Wall_L", "/o/{object}.png", "Wall_L"),
+    ("a|b, a?b", "/o/{file}/{object}.<UDIM>.exr", "a_b"),
+    (r"\.\., __", "/o/{object}.png", "__"),
+])
+def test_a_flamenco_job_whose_objects_share_one_file_is_refused(names, pattern, one):
+    settings = {"objects": names, "tiles": "1001", "blendfile": "/farm/b.blend",
+                "output_pattern": pattern, "manifest_dir": "/o/manifests"}
+    objects = [n.strip().replace("\\", "") for n in names.split(", ")]
+    # bake-batch's own names for them: one file (the job type's rule agrees with the planner's)
+    assert len({P.expand(pattern, "b.blend", o, "UVMap") for o in objects}) == 1
+    error = compile_job(settings).get("error")                     # before: it compiled
+    assert error and error.startswith(f"output_pattern '{pattern}' names one file for objects "
+                                      f"'{objects[0]}' and '{objects[1]}'"), error
+    assert error.endswith("rename one of them" if one else "put {object} in the pattern")
+    if one:
+        assert f"(both become '{one}' in a file name)" in error
+
+
+@pytest.mark.tier("child")
+def test_a_flamenco_job_whose_objects_write_apart_compiles():
+    base = {"tiles": "1001-1002", "blendfile": "/farm/b.blend", "manifest_dir": "/o/m"}
+    for names, pattern in (("Rock, rock, Stone", "/o/{object}.<UDIM>.png"),
+                           ("Wall:L, Wall_L", "/o/{uv}.<UDIM>.png"),      # (UV maps unknown)
+                           ("Rock", "/o/{file}.<UDIM>.png")):
+        objects = names.split(", ")
+        if "{uv}" not in pattern:
+            assert len({P.expand(pattern, "b.blend", o, "UVMap") for o in objects}) == \
+                len(objects)
+        job = compile_job(dict(base, objects=names, output_pattern=pattern))
+        assert "error" not in job, job
+        assert len(job["tasks"]) == 2 * len(objects)
