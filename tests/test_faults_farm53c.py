@@ -32,6 +32,20 @@
    second failed, exit 1, "b_nrm.1001.png exists; pass --overwrite (api: overwrite=True)",
    an option the job does not have (which task won was the farm's scheduling). Now refused on
    submission naming both objects and the fix, where the file is certain (no {uv} in it).
+4. `api.bake_batch(None, ...)` (the open file, in this session) from a script in a background
+   session (`blender -b scene.blend --python-expr`, the bpy module): Blender's is_dirty, which
+   the batch read for unsaved changes, stays False after a script's edits there. A script that
+   baked, changed the material (another image: a normal tilted 36.9 deg) and baked again got
+   the second call skipped ("inputs, settings and outputs unchanged"): the map kept the first
+   state's normals, 54.9 deg (mean; 103.6 max) off the edited material's; and the manifest
+   recorded the edited session's maps under the file's hash, so a later `bake-batch
+   scene.blend` into that folder skipped them as the file's (a map of a state never saved,
+   exit 0). Now a run of the
+   open file in a background session started by a script (the API; not the command line's
+   --open-file, which Blender has just opened: the Flamenco task) bakes every asset and records
+   them as unsaved, which no run skips nor reuses the scan of. (The --open-file task is
+   skipped when unchanged on every line now; on 5.0 and earlier, whose is_dirty is True once a
+   file is opened in the bpy module, it had been baked again each time.)
 Left (docs/farm.md): an entry naming another file alone (its objects are known only by opening
 it, which a task does not do) is not checked.
 """
@@ -48,6 +62,7 @@ bpy = pytest.importorskip("bpy")
 
 from support.baked_normals import degrees_between  # noqa: E402
 from support.flamenco import compile_job  # noqa: E402
+from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
 from surfgrad_addon.addon.batch import manifest as M  # noqa: E402
 from surfgrad_addon.addon.batch import plan as P  # noqa: E402
@@ -249,3 +264,52 @@ def test_a_flamenco_job_whose_objects_write_apart_compiles():
         job = compile_job(dict(base, objects=names, output_pattern=pattern))
         assert "error" not in job, job
         assert len(job["tasks"]) == 2 * len(objects)
+
+
+def _tilted_image(normal):
+    img = bpy.data.images.new("Tilted", 4, 4, alpha=False, float_buffer=True)
+    img.colorspace_settings.is_data = True
+    img.pixels.foreach_set(np.tile([*(0.5 * np.asarray(normal) + 0.5), 1.0], 16)
+                           .astype(np.float32))
+    img.pack()
+    return img
+
+
+def test_a_script_edit_in_a_background_session_is_baked_not_skipped(tmp_path):
+    blend = BA.write_asset(tmp_path / "d.blend", ("Rock",), tiles=(1001,), image_size=SIZE)
+    out = tmp_path / "maps" / "{object}.exr"
+    rock = tmp_path / "maps" / "Rock.exr"
+    hemispheres = BA.source_normals(SIZE)
+    tilted = np.array([0.6, 0.0, 0.8])                    # 36.9 deg off the surface normal
+    opts = dict(objects=["Rock"], resolution=SIZE, margin=0, depth="float", log=None)
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    assert bpy.app.background
+    first = api.bake_batch(None, str(out), **opts)
+    assert [a["status"] for a in first["assets"].values()] == ["baked"]
+    assert np.median(degrees_between(_normals(rock), hemispheres)) < 0.5
+    # the script's edit: the material reads another image (not saved)
+    tree = bpy.data.objects["Rock"].active_material.node_tree
+    next(n for n in tree.nodes if n.bl_idname == "ShaderNodeTexImage").image = \
+        _tilted_image(tilted)
+    second = api.bake_batch(None, str(out), **opts)
+    assert [a["status"] for a in second["assets"].values()] == ["baked"]     # before: skipped
+    off = degrees_between(_normals(rock), tilted)
+    assert off.max() < 0.5, off.max()                    # before: 36.9 mean (the first map)
+    # The file itself, as Blender's command line opens it: its map, not the session's.
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    command = ["bake-batch", f"{blend}:Rock", "--output", str(out), "--resolution", str(SIZE),
+               "--margin", "0", "--depth", "float", "--workers", "0"]
+    assert commands.execute(command) == 0                 # (it opens the file in this session)
+    recorded = json.loads((tmp_path / "maps" / "surfgrad-bake-manifest.json").read_text())
+    assert [a["status"] for a in recorded["assets"].values()] == ["baked"]   # before: skipped
+    assert np.median(degrees_between(_normals(rock), hemispheres)) < 0.5
+    assert commands.execute(command) == 0
+    recorded = json.loads((tmp_path / "maps" / "surfgrad-bake-manifest.json").read_text())
+    assert [a["status"] for a in recorded["assets"].values()] == ["skipped"]
+    # A Flamenco task: Blender's command line opened the file, no script between: skipped.
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    assert commands.execute(["bake-batch", "--open-file", "--objects=Rock", "--output",
+                             str(out), "--resolution", str(SIZE), "--margin", "0", "--depth",
+                             "float", "--workers", "0"]) == 0
+    recorded = json.loads((tmp_path / "maps" / "surfgrad-bake-manifest.json").read_text())
+    assert [a["status"] for a in recorded["assets"].values()] == ["skipped"]

@@ -126,7 +126,9 @@ def _bake_batch(batch, args, log):
                               args.manifest, args.tiles, args.empty_tiles, args.open_file,
                               log=log, threads=args.threads,
                               worker_timeout=getattr(args, "worker_timeout", None),
-                              list_tasks=list_tasks)
+                              list_tasks=list_tasks,
+                              # (a file Blender's command line opened, no script between)
+                              session_edits=False)
     failed = [a for a in report["assets"].values() if a.get("status") == "failed"]
     for a in failed:
         print(f"surfgrad: error: {Path(a['file']).name}:{a.get('object') or '*'}: "

@@ -313,6 +313,7 @@ def merged(previous, report, files):
     out["files"] = dict(previous.get("files", {}))
     for blend, f in files.items():
         out["files"][blend] = {"input_hash": f["input_hash"],
+                               **({"unsaved": True} if f.get("unsaved") else {}),
                                "dependencies": f["dependencies"], "selection": f["selection"],
                                "load_s": f.get("scan_load_s"),
                                **({"scan": f["scan"]} if "scan" in f else {})}
