@@ -46,6 +46,17 @@
    them as unsaved, which no run skips nor reuses the scan of. (The --open-file task is
    skipped when unchanged on every line now; on 5.0 and earlier, whose is_dirty is True once a
    file is opened in the bpy module, it had been baked again each time.)
+5. An output whose path, with the temporary file the bake saves beside it first, passes the
+   1023 bytes Blender keeps of a path (FILE_MAX, every line; a studio server's deep folders
+   of long names): Blender cut the path short and saved the map there. Measured: a temporary
+   file path of 1023 bytes is saved, 1024 is not. bake-normal-map and api.bake_normal_map
+   (into a folder 1097 bytes deep): exit 1, "Blender wrote no file .../.r.part<pid>-<token>.png"
+   with a stray file `.r.part<pid>-<token>.pn` left beside it; bake-batch: exit 1 for each
+   asset, "BakeFailed: ... Blender wrote no file" (one tile) or "Blender could not write the
+   map ... the disk may be full" (<UDIM>), the 18 folders made. Now refused before anything
+   runs (the batch: exit 2, no folder made), naming the path's length, the limit and how many
+   bytes to cut (normal_bake.blender_path_problem; it counts the longest temporary name, so up
+   to 12 bytes under the limit are refused too).
 Left (docs/farm.md): an entry naming another file alone (its objects are known only by opening
 it, which a task does not do) is not checked.
 """
@@ -54,6 +65,7 @@ import errno
 import fcntl
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -64,6 +76,7 @@ from support.baked_normals import degrees_between  # noqa: E402
 from support.flamenco import compile_job  # noqa: E402
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon import normal_bake as NB  # noqa: E402
 from surfgrad_addon.addon.batch import manifest as M  # noqa: E402
 from surfgrad_addon.addon.batch import plan as P  # noqa: E402
 from surfgrad_addon.harness import batch_assets as BA  # noqa: E402
@@ -313,3 +326,50 @@ def test_a_script_edit_in_a_background_session_is_baked_not_skipped(tmp_path):
                              "float", "--workers", "0"]) == 0
     recorded = json.loads((tmp_path / "maps" / "surfgrad-bake-manifest.json").read_text())
     assert [a["status"] for a in recorded["assets"].values()] == ["skipped"]
+
+
+def _deep(root, total):
+    """A folder under `root` whose absolute path has `total` bytes (names of 200 bytes)."""
+    path, rest = str(root), total - len(str(root))
+    while rest > 0:
+        k = min(200, rest - 1) if rest > 201 else rest - 1
+        k = max(k, 1)
+        path += "/" + "e" * k
+        rest = total - len(path)
+    assert len(path) == total, (len(path), total)
+    return path
+
+
+def test_an_output_path_too_long_for_blender_is_refused_before_anything_runs(tmp_path,
+                                                                             capsys):
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=SIZE)
+    before = sorted(tmp_path.rglob("*"))
+    deep = _deep(tmp_path / "maps", 1100)
+    rc = commands.execute(["bake-batch", str(blend), "--output", f"{deep}/{{object}}.png",
+                           "--resolution", str(SIZE), "--workers", "0"])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST, err                      # before: 1, after baking
+    assert "a.blend:Rock: output '" in err and "is too long a path for Blender" in err, err
+    assert "Blender takes 1023" in err and "bytes shorter" in err and "Traceback" not in err
+    assert sorted(tmp_path.rglob("*")) == before                  # (no folder made)
+    # bake-normal-map into a folder that exists: before, a stray cut-off file was left there
+    os.makedirs(deep)
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
+                           "--output", f"{deep}/r.png", "--resolution", str(SIZE)])
+    err = capsys.readouterr().err
+    assert rc == exit_codes.BAD_REQUEST and "is too long a path for Blender" in err, err
+    assert list(Path(deep).iterdir()) == []
+    # At the limit, counted as the check counts (a 7-digit process id, a half EXR's name): it
+    # bakes, and the map is whole where it was asked.
+    name = "r.png"
+    extra = len(f"/.r.half.png") + NB.TEMP_NAME_EXTRA
+    fits = _deep(tmp_path / "fits", NB.BLENDER_PATH_MAX - extra)
+    os.makedirs(fits)
+    out = Path(fits) / name
+    assert NB.blender_path_problem(out) is None
+    assert NB.blender_path_problem(Path(fits + "e") / name) is not None
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Rock",
+                           "--output", str(out), "--resolution", str(SIZE)])
+    assert rc == 0, capsys.readouterr().err
+    assert [p.name for p in Path(fits).iterdir()] == [name]
+    assert out.read_bytes().endswith(NB.PNG_END)

@@ -105,7 +105,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     progress = Progress(log)
     progress.known = len(report["assets"])          # the files refused already
     progress.unscanned = len(to_scan)
-    outputs_seen, collisions, folders = {}, [], set()
+    outputs_seen, collisions, folders, too_long = {}, [], set(), []
     how = "this process" if workers == 0 else f"{workers} worker process(es)"
     # Cycles takes every core by default: several worker processes share them out.
     if threads is None:
@@ -180,6 +180,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry["settings"] = s
             out = P.expand(output, name, a["object"], uv)
             entry["output"] = out
+            problem = NB.blender_path_problem(out)
+            if problem:                    # (before any folder is made)
+                too_long.append(f"{name}:{a['object']}: {problem}")
             # (resolved: two names of one folder through a symbolic link or '..' are one file)
             seen_as = output_key(Path(out).resolve())
             if seen_as in outputs_seen:
@@ -330,7 +333,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                 settled += done
             for entry in settled:          # once every file is planned: the total is known
                 step_entry(entry)
-            problems = collisions + sorted({p for p in map(BR.folder_problem, folders) if p})
+            # (a path past what the file system takes is said as such, not as past Blender's)
+            problems = collisions + (sorted({p for p in map(BR.folder_problem, folders) if p})
+                                     or too_long)
             if problems:
                 raise P.BatchError(P.joined(problems) + "\n(nothing was baked)")
             for folder in sorted(folders):
