@@ -13,20 +13,31 @@ alone is not opened (a farm task reads one file): its clashes stay unseen (docs/
 Known limits)."""
 
 import os
+import unicodedata
 from pathlib import Path
 
 from . import plan as P
 from .output_names import output_key
 
 
-def clash(others, listing, output, base, overrides, blend, obj, uv, seen_as):
-    """The problem (text) when an entry of `others` ([(index, entry)] of the asset list
-    `listing`) would write the file this task writes for `obj` of `blend` (its output's
-    output_key `seen_as`), or None."""
+def entries(others):
+    """The other entries ([(index, entry)]) as clash takes them, read once a run:
+    [(index, entry, its .blend as an absolute path, its object or None, the file's identity)]."""
+    out = []
     for index, entry in others:
-        other_blend, other_obj = P.split_entry(entry)
-        other_blend = os.path.abspath(other_blend)
-        same_file = _same_file(other_blend, blend)
+        blend, obj = P.split_entry(entry)
+        blend = os.path.abspath(blend)
+        out.append((index, entry, blend, obj, _identity(blend)))
+    return out
+
+
+def clash(others, listing, output, base, overrides, blend, obj, uv, seen_as):
+    """The problem (text) when an entry of `others` (entries()) of the asset list `listing`
+    would write the file this task writes for `obj` of `blend` (its output's output_key
+    `seen_as`), or None."""
+    name_key, identity = _name_key(seen_as), _identity(blend)
+    for index, entry, other_blend, other_obj, other_identity in others:
+        same_file = other_identity == identity
         if other_obj is None:
             if not same_file:
                 continue                 # its objects are known only by opening it
@@ -39,7 +50,9 @@ def clash(others, listing, output, base, overrides, blend, obj, uv, seen_as):
             if "{uv}" in str(output) and not other_uv:
                 continue                 # its UV map is known only by opening it
         other_out = P.expand(output, Path(other_blend).name, other_obj, other_uv)
-        if output_key(Path(other_out).resolve()) != seen_as:
+        # (the file name first: resolving every entry's path costs a lookup a folder, and a
+        # farm's list may have thousands of entries)
+        if _name_key(other_out) != name_key or output_key(Path(other_out).resolve()) != seen_as:
             continue
         name = f"{Path(blend).name}:{obj}"
         task = (f"each entry of the list is its own task (--asset-index), so two tasks would "
@@ -54,8 +67,14 @@ def clash(others, listing, output, base, overrides, blend, obj, uv, seen_as):
     return None
 
 
-def _same_file(a, b):
+def _identity(path):
     try:
-        return os.path.samefile(a, b)
+        st = os.stat(path)
+        return st.st_dev, st.st_ino
     except OSError:                  # (a missing entry fails in its own task)
-        return os.path.abspath(a) == os.path.abspath(b)
+        return os.path.abspath(path)
+
+
+def _name_key(path):
+    """A file name as any file system that ignores case or Unicode's forms may take it."""
+    return unicodedata.normalize("NFC", os.path.basename(str(path))).casefold()

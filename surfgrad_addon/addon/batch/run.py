@@ -61,6 +61,8 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     if not blends:
         raise P.BatchError("give .blend files to bake (or bake the open file)")
     per_file, whole = P.grouped_entries(blends)
+    if list_tasks:
+        list_tasks = (list_tasks[0], LT.entries(list_tasks[1]))
     blends = list(per_file)
     manifest_path = M.checked_path(manifest, output)
     M.hold(manifest_path)                 # one run per manifest (released below)
