@@ -57,6 +57,13 @@
    runs (the batch: exit 2, no folder made), naming the path's length, the limit and how many
    bytes to cut (normal_bake.blender_path_problem; it counts the longest temporary name, so up
    to 12 bytes under the limit are refused too).
+6. A path option quoted with a leading '~' (`--output "~/maps/{object}.<UDIM>.png"`: patterns
+   are quoted for their <UDIM>, as the docs write them, so the shell does not expand it):
+   bake-batch made a folder named '~' in the current folder and baked there, exit 0 (and
+   bake-normal-map `--output "~/r.png"` wrote ./~/r.png where that folder was); the asset list
+   took '~' as the home folder already. Now a leading '~' of a path option of either command
+   line (--output, --manifest, --settings, --asset-list, --blend, the .blend arguments, ...) is
+   the home folder; where the process has none, refused naming the option and the fix, exit 2.
 Left (docs/farm.md): an entry naming another file alone (its objects are known only by opening
 it, which a task does not do) is not checked.
 """
@@ -65,6 +72,7 @@ import errno
 import fcntl
 import json
 import os
+import pwd
 from pathlib import Path
 
 import numpy as np
@@ -373,3 +381,34 @@ def test_an_output_path_too_long_for_blender_is_refused_before_anything_runs(tmp
     assert rc == 0, capsys.readouterr().err
     assert [p.name for p in Path(fits).iterdir()] == [name]
     assert out.read_bytes().endswith(NB.PNG_END)
+
+
+def test_a_quoted_tilde_in_a_path_option_is_the_home_folder(tmp_path, monkeypatch, capsys):
+    blend = BA.write_asset(tmp_path / "a.blend", ("Rock",), tiles=(1001,), image_size=SIZE)
+    home, cwd = tmp_path / "home", tmp_path / "cwd"
+    home.mkdir()
+    cwd.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.chdir(cwd)
+    small = ["--resolution", str(SIZE), "--workers", "0"]
+    assert commands.execute(["bake-batch", str(blend), "--output", "~/maps/{object}.<UDIM>.png",
+                             "--manifest", "~/m.json", *small]) == 0, capsys.readouterr().err
+    assert list(cwd.iterdir()) == []                          # before: a folder '~' here
+    assert sorted(p.name for p in home.rglob("*")) == ["Rock.1001.png", "m.json", "maps"]
+    assert (home / "maps" / "Rock.1001.png").read_bytes().endswith(NB.PNG_END)
+    assert commands.execute(["bake-normal-map", "--blend", "~/../a.blend", "--object", "Rock",
+                             "--output", "~/r.png", "--resolution", str(SIZE)]) == 0
+    assert (home / "r.png").read_bytes().endswith(NB.PNG_END) and list(cwd.iterdir()) == []
+
+    def no_entry(uid):
+        raise KeyError(f"getpwuid(): uid not found: {uid}")
+    monkeypatch.delenv("HOME")
+    monkeypatch.setattr(pwd, "getpwuid", no_entry)          # a container's arbitrary uid
+    capsys.readouterr()
+    assert commands.execute(["bake-batch", str(blend), "--output", "~/n/{object}.png",
+                             *small]) == exit_codes.BAD_REQUEST
+    assert capsys.readouterr().err.strip() == (
+        "surfgrad: error: --output '~/n/{object}.png' starts with '~', but this process has no "
+        "home folder (HOME is not set, and the system knows none for this user): set HOME, or "
+        "write the path in full")
+    assert list(cwd.iterdir()) == []
