@@ -9,8 +9,7 @@ recording a map that then held the other asset's normals.
 This finds the other entries whose output is known without opening their file: those naming
 their object (with {uv} in the pattern, only where the settings give its UV map), and those
 naming this entry's own file alone (they bake its objects too). An entry naming another file
-alone is not opened (a farm task reads one file): its clashes stay unseen (docs/pipelines.md,
-Known limits)."""
+alone is not opened (a farm task reads one file): its clashes stay unseen (docs/farm.md)."""
 
 import os
 import unicodedata
