@@ -36,9 +36,9 @@ def _as_addon_evaluates(names):
 NAMES = ["Rock, big", "Tree", "back\\slash", "trailing\\", "a,b,,c", ",lead"]
 
 
-def _tasks(objects, tiles="1001"):
+def _tasks(objects, tiles="1001", pattern="/p/maps/{object}.png"):
     job = compile_job({"objects": objects, "tiles": tiles, "blendfile": "/p/a.blend",
-                    "output_pattern": "/p/maps/{object}.png", "manifest_dir": "/p/m"})
+                    "output_pattern": pattern, "manifest_dir": "/p/m"})
     assert "error" not in job, job
     out = []
     for task in job["tasks"]:
@@ -58,8 +58,10 @@ def test_selected_names_with_commas_and_backslashes_each_become_one_task():
 
 def test_manifest_names_stay_in_the_folder_and_apart():
     names = ["..", ".", "a/b", "a_b", "A_B", "../../etc/x", "C:\\x", "Tree"]
+    # ({uv} in the pattern: their maps may be apart by UV map; with {object} alone 'a/b' and
+    # 'a_b' are one file, and the job is refused: tests/test_faults_farm53c.py)
     tasks = _tasks(",".join(n.replace("\\", "\\\\").replace(",", "\\,") for n in names),
-                   "1001-1002")
+                   "1001-1002", "/p/maps/{object}_{uv}.png")
     assert [obj for obj, _, _ in tasks[::2]] == names
     manifests = [Path(m) for _, _, m in tasks]
     assert all(m.parent == Path("/p/m") for m in manifests), manifests

@@ -9,6 +9,7 @@ import argparse
 import os
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 from .exit_codes import BAD_REQUEST, BAKE_FAILED, OK, code_for
@@ -43,7 +44,8 @@ def run(subcommands, args):
     command = next(c for c in subcommands if c.name == args.command)
     prepare_streams()            # `blender -c surfgrad ... >&-`; non-UTF-8 paths
     problems = [working_folder_problem()] + \
-        [_name_problem(n, getattr(args, n, None)) for n in NAME_OPTIONS]
+        [_name_problem(n, getattr(args, n, None)) for n in NAME_OPTIONS] + \
+        [_home_paths(args, n) for n in PATH_OPTIONS]
     problems = [p for p in problems if p]
     if problems:
         print(f"surfgrad: error: {'; '.join(problems)}", file=sys.stderr)
@@ -77,6 +79,35 @@ def working_folder_problem():
 
 # Options that name things in the .blend (not paths, which may be any bytes).
 NAME_OPTIONS = ("object", "objects", "collections", "uv_map")
+
+# Options that are paths (or lists of them): a leading '~' is the home folder.
+PATH_OPTIONS = ("blend", "blends", "output", "manifest", "settings", "asset_list", "json",
+                "image", "out")
+
+
+def _home_paths(args, name):
+    """Expand a leading '~' in the path option `name` of args in place (None, or the
+    problem). A quoted path keeps it from the shell (patterns are quoted for their '<UDIM>'):
+    `--output "~/maps/{object}.<UDIM>.png"` made a folder named '~' in the current folder and
+    baked there, exit 0 (the asset list took '~' as the home folder already)."""
+    value = getattr(args, name, None)
+    values = value if isinstance(value, list) else [value]
+    out = []
+    for v in values:
+        if isinstance(v, str) and v.startswith("~"):
+            try:
+                v = str(Path(v).expanduser())
+            except RuntimeError:
+                return (f"{_option(name)} {v!r} starts with '~', but this process has no "
+                        f"home folder (HOME is not set, and the system knows none for this "
+                        f"user): set HOME, or write the path in full")
+        out.append(v)
+    setattr(args, name, out if isinstance(value, list) else out[0])
+    return None
+
+
+def _option(name):
+    return "a .blend" if name == "blends" else "--" + name.replace("_", "-")
 
 
 def _name_problem(option, value):

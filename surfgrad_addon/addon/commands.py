@@ -101,7 +101,7 @@ def run_bake_batch(args, log=print):
 
 
 def _bake_batch(batch, args, log):
-    blends = list(args.blends)
+    blends, list_tasks = list(args.blends), None
     if args.asset_list:
         listed = batch.read_asset_list(args.asset_list)
         if args.asset_index is not None:
@@ -113,6 +113,9 @@ def _bake_batch(batch, args, log):
                 raise ValueError(f"asset index {args.asset_index}: the list "
                                  f"{args.asset_list} has {len(listed)} entries (0 to "
                                  f"{len(listed) - 1})")
+            # the other entries are other tasks: one output file of two is refused
+            list_tasks = (args.asset_list, [(i, e) for i, e in enumerate(listed)
+                                            if i != args.asset_index])
             listed = [listed[args.asset_index]]
         blends += listed
     elif args.asset_index is not None:
@@ -122,7 +125,10 @@ def _bake_batch(batch, args, log):
                               args.settings, args.workers, args.force, args.overwrite,
                               args.manifest, args.tiles, args.empty_tiles, args.open_file,
                               log=log, threads=args.threads,
-                              worker_timeout=getattr(args, "worker_timeout", None))
+                              worker_timeout=getattr(args, "worker_timeout", None),
+                              list_tasks=list_tasks,
+                              # (a file Blender's command line opened, no script between)
+                              session_edits=False)
     failed = [a for a in report["assets"].values() if a.get("status") == "failed"]
     for a in failed:
         print(f"surfgrad: error: {Path(a['file']).name}:{a.get('object') or '*'}: "

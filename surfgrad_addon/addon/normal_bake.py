@@ -92,6 +92,29 @@ _tiles_text = T.tiles_text
 TEMP_NAME_EXTRA = 1 + len(".part") + 7 + 1 + interrupts.PART_TOKEN_LENGTH
 
 
+# Blender keeps a file path in a buffer of 1024 bytes with its closing zero (FILE_MAX, every
+# line): a longer one is cut short, and the map was saved under the cut path (a stray file
+# named by part of a folder's name), then "Blender wrote no file", exit 1 (the batch, for
+# several tiles: "the disk may be full").
+BLENDER_PATH_MAX = 1023
+
+
+def blender_path_problem(output, what="output"):
+    """None, or why Blender cannot save the map for `output` by its full path: the temporary
+    file it saves beside it (the longest: a half EXR's copy, '%' doubled for a tiled image's
+    format) would pass BLENDER_PATH_MAX bytes."""
+    output = Path(os.path.abspath(output))
+    temp = output.parent / (f".{output.stem}.half{output.suffix}")   # (with the part name:)
+    n = len(os.fsencode(blender_tile_path(temp))) + TEMP_NAME_EXTRA
+    if n <= BLENDER_PATH_MAX:
+        return None
+    shown = str(output) if len(str(output)) <= 120 else f"{str(output)[:60]}...{output.name}"
+    return (f"{what} {shown!r} is too long a path for Blender: the file the bake saves beside "
+            f"it may have {n} bytes with its folder, and Blender takes {BLENDER_PATH_MAX} "
+            f"(it cuts a longer path short and saves elsewhere); give a folder or name "
+            f"{n - BLENDER_PATH_MAX} bytes shorter")
+
+
 def check_output(output, overwrite_check=True):
     """The output name's format and its folder: raises NormalBakeError naming the fix."""
     if str(output).endswith(("/", os.sep)):     # Path() drops the slash: `n.png/` wrote n.png
@@ -182,6 +205,9 @@ def udim_token_problem(output, what="output"):
 
 def _check_output(output):
     problem = blend_relative_problem(output)
+    if problem:
+        raise NormalBakeError(problem)
+    problem = blender_path_problem(output)
     if problem:
         raise NormalBakeError(problem)
     longest = _name_max(output.parent) - TEMP_NAME_EXTRA

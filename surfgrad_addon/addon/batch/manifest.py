@@ -216,11 +216,14 @@ def hold(path):
     lock = path.with_name(f".{path.name}.lock")
     while True:
         created = not lock.exists()
-        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = _open_lock(path, lock, made if created else [])
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as err:
             os.close(fd)
+            if err.errno == errno.EBADF:   # (read only, on NFS, whose locks need writing)
+                raise BatchError(_foreign_lock(path, lock, "this user may not write it")) \
+                    from None
             if err.errno not in (errno.EWOULDBLOCK, errno.EAGAIN):
                 # (an NFS share whose lock service does not answer: ENOLCK) not another run
                 _remove(([lock.unlink] if created else []) + [f.rmdir for f in made])
@@ -240,6 +243,36 @@ def hold(path):
             pass
         os.close(fd)
     _HELD[path] = (fd, lock, made)
+
+
+def _open_lock(path, lock, made):
+    """The lock file's descriptor. Another user's lock file (a run of theirs into a shared
+    folder, under way or killed with SIGKILL, which leaves it 0644) could not be opened for
+    writing: a raw PermissionError ended the run. flock needs only reading (NFS aside); a lock
+    that cannot be opened at all is a BatchError naming it."""
+    try:
+        return os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+    except PermissionError:
+        try:
+            return os.open(lock, os.O_RDONLY)
+        except OSError as err:
+            reason = err.strerror
+    except IsADirectoryError:
+        raise BatchError(f"manifest {path}: {lock} is a folder, where bake-batch keeps the "
+                         f"manifest's lock file: remove it (rmdir {lock})") from None
+    except OSError as err:
+        _remove([f.rmdir for f in made])
+        raise BatchError(f"manifest {path}: its lock file {lock} cannot be made "
+                         f"({err.strerror}): give a --manifest in a folder you can write "
+                         f"to") from None
+    raise BatchError(_foreign_lock(path, lock, f"this user may not open it: {reason}"))
+
+
+def _foreign_lock(path, lock, why):
+    return (f"manifest {path}: its lock file {lock} is another user's ({why}): a run of "
+            f"theirs under way holds it (wait for it to end, or give this run another "
+            f"--manifest and output folder), or one killed left it (remove it once no run "
+            f"writes there: rm {lock})")
 
 
 def release(path):
@@ -280,6 +313,7 @@ def merged(previous, report, files):
     out["files"] = dict(previous.get("files", {}))
     for blend, f in files.items():
         out["files"][blend] = {"input_hash": f["input_hash"],
+                               **({"unsaved": True} if f.get("unsaved") else {}),
                                "dependencies": f["dependencies"], "selection": f["selection"],
                                "load_s": f.get("scan_load_s"),
                                **({"scan": f["scan"]} if "scan" in f else {})}

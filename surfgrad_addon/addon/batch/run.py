@@ -11,6 +11,7 @@ from .. import normal_bake as NB
 from ..exit_codes import MapNotWritten
 from ..publish_files import others_backups
 from . import manifest as M
+from . import list_tasks as LT
 from . import plan as P
 from .output_names import one_file_because, output_key
 from .progress import Progress
@@ -21,7 +22,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                defaults=None, settings_file=None, workers=1, force=False, overwrite=False,
                manifest=None, tiles=None, empty_tiles="error", open_file=False, worker_env=None,
                worker_command_override=None, log=print, threads=None, warn=BR.warn_stderr,
-               worker_timeout=None):
+               worker_timeout=None, list_tasks=None, session_edits=True):
     """Bake every asset of `blends` (paths; or the open file with open_file) selected by
     `objects` / `collections` into files named by `output`. threads: Cycles threads per bake
     (default: all cores in this process or one worker, their share with several). Returns the
@@ -33,7 +34,11 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     be written); an asset whose own input is bad (mesh, images, UV layout) fails alone.
     worker_timeout: seconds a scan or bake may take in a worker before it is taken as hung
     (default: SCAN_TIMEOUT_S for a scan, bake_timeout() for a bake). Entries naming the same
-    file are merged: `a.blend` with `a.blend:Obj` bakes the file's assets and Obj."""
+    file are merged: `a.blend` with `a.blend:Obj` bakes the file's assets and Obj.
+    list_tasks: (asset list, [(index, entry)] of its other entries) where this run bakes one
+    entry of it (--asset-index): an output another entry writes too is refused (list_tasks.py).
+    session_edits (open_file): the session may hold edits a script made since the file was
+    opened (the API); False where Blender's command line has just opened it (--open-file)."""
     import bpy
     from ..groups.common import VERSION
 
@@ -45,10 +50,19 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                                "files")
         blends = [bpy.data.filepath]
         workers = 0                               # the open session is the one to bake
-        force = force or bpy.data.is_dirty        # unsaved changes: the file's hash says nothing
+    # Unsaved changes: the file's hash says nothing of what is baked. is_dirty misses a
+    # script's edits in a background session (the bpy module, blender -b): there, a second
+    # call after an edit skipped the asset with the first call's map, and a later run on the
+    # file skipped the maps of the edited session as the file's. Such a run bakes every asset
+    # and records them as unsaved, which no run skips or reuses. A file the command line has
+    # just opened holds none (is_dirty is True there up to 5.0: every task was baked again).
+    unsaved = open_file and session_edits and (bpy.data.is_dirty or bpy.app.background)
+    force = force or unsaved
     if not blends:
         raise P.BatchError("give .blend files to bake (or bake the open file)")
     per_file, whole = P.grouped_entries(blends)
+    if list_tasks:
+        list_tasks = (list_tasks[0], LT.entries(list_tasks[1]))
     blends = list(per_file)
     manifest_path = M.checked_path(manifest, output)
     M.hold(manifest_path)                 # one run per manifest (released below)
@@ -80,9 +94,10 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
         prev = prev_files.get(blend)
         deps = prev.get("dependencies", []) if prev else []
         ihash = P.input_hash(blend, deps)
-        files[blend] = {"input_hash": ihash, "dependencies": deps, "selection": selection}
+        files[blend] = {"input_hash": ihash, "dependencies": deps, "selection": selection,
+                        **({"unsaved": True} if unsaved else {})}
         if prev and prev.get("input_hash") == ihash and prev.get("selection") == selection \
-                and "scan" in prev:
+                and "scan" in prev and not unsaved and not prev.get("unsaved"):
             files[blend]["scan"] = prev["scan"]
             files[blend]["scan_reused"] = True
         else:
@@ -92,7 +107,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     progress = Progress(log)
     progress.known = len(report["assets"])          # the files refused already
     progress.unscanned = len(to_scan)
-    outputs_seen, collisions, folders = {}, [], set()
+    outputs_seen, collisions, folders, too_long = {}, [], set(), []
     how = "this process" if workers == 0 else f"{workers} worker process(es)"
     # Cycles takes every core by default: several worker processes share them out.
     if threads is None:
@@ -167,6 +182,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             entry["settings"] = s
             out = P.expand(output, name, a["object"], uv)
             entry["output"] = out
+            problem = NB.blender_path_problem(out)
+            if problem:                    # (before any folder is made)
+                too_long.append(f"{name}:{a['object']}: {problem}")
             # (resolved: two names of one folder through a symbolic link or '..' are one file)
             seen_as = output_key(Path(out).resolve())
             if seen_as in outputs_seen:
@@ -194,14 +212,22 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                                       f"{out}: make the output pattern tell them apart "
                                       f"({', '.join(P.TOKENS)})")
                 continue
+            problem = list_tasks and LT.clash(list_tasks[1], list_tasks[0], output, base,
+                                              overrides, blend, a["object"], uv, seen_as)
+            if problem:
+                collisions.append(problem)
+                continue
             outputs_seen[seen_as] = (f"{name}:{a['object']}", blend, out)
             entry["input_hash"] = f["input_hash"]
+            if unsaved:
+                entry["unsaved"] = True
             entry["settings_hash"] = P.settings_hash(s, out, blender_version, VERSION)
             prev = previous["assets"].get(key, {})
             ours = P.unchanged_outputs(prev)
             # the tiles this bake writes: an earlier run of some (--tiles) skips none of the rest
             written = [t for t in a["uv_maps"].get(uv) or [] if tiles is None or t in tiles]
             if not force and prev.get("status") in ("baked", "skipped") and ours and \
+                    not prev.get("unsaved") and \
                     prev.get("input_hash") == entry["input_hash"] and \
                     prev.get("settings_hash") == entry["settings_hash"] and \
                     set(map(str, written)) <= set(prev["files"]):
@@ -309,7 +335,9 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                 settled += done
             for entry in settled:          # once every file is planned: the total is known
                 step_entry(entry)
-            problems = collisions + sorted({p for p in map(BR.folder_problem, folders) if p})
+            # (a path past what the file system takes is said as such, not as past Blender's)
+            problems = collisions + (sorted({p for p in map(BR.folder_problem, folders) if p})
+                                     or too_long)
             if problems:
                 raise P.BatchError(P.joined(problems) + "\n(nothing was baked)")
             for folder in sorted(folders):

@@ -116,6 +116,35 @@ function manifestNames(objects, tiles) {
   return names;
 }
 
+// An object's name as bake-batch puts it in a file name (plan._safe: folder separators and
+// characters Windows refuses become '_', spaces at the ends go, a name of only dots becomes
+// '_'s).
+function safeName(name) {
+  const safe = name.replace(/[\\\/:*?"<>|\x00-\x1f]/g, "_").trim() || "_";
+  return /^\.+$/.test(safe) ? "_".repeat(safe.length) : safe;
+}
+
+// Each object is its own task, so bake-batch's check of two assets on one file never meets
+// two of them: an output pattern without {object} (or two names that become one, 'Wall:L' and
+// 'Wall_L') had the first task bake and the second fail as "... exists; pass --overwrite", an
+// option this job does not have. Refused on submission where the file is certain (no {uv}:
+// objects' UV maps are known only on the farm).
+function checkOutputsApart(objects, output) {
+  if (output.includes("{uv}")) return;
+  const seen = new Map();
+  for (const name of objects) {
+    const key = output.includes("{object}") ? safeName(name) : "";
+    if (seen.has(key)) {
+      const other = seen.get(key);
+      throw `output_pattern '${output}' names one file for objects '${other}' and '${name}'` +
+        (output.includes("{object}") ? ` (both become '${key}' in a file name)` : "") +
+        ": each object is its own task, so the second task would fail; " +
+        (output.includes("{object}") ? "rename one of them" : "put {object} in the pattern");
+    }
+    seen.set(key, name);
+  }
+}
+
 // A setting as submitted, else the job type's default (the Manager applies none).
 function setting(s, key) {
   const value = s[key];
@@ -155,6 +184,7 @@ function compileJob(job) {
   const tiles = parseTiles(setting(s, "tiles"));
   const output = absoluteOutput(s, "output_pattern", "output_path");
   const manifests = absoluteOutput(s, "manifest_dir", "manifest_path").replace(/[\\/]+$/, "");
+  checkOutputsApart(objects, output);
   const manifestName = manifestNames(objects, tiles);
   for (const name of objects) {
     for (const tile of tiles) {
