@@ -17,7 +17,9 @@ down (not rebuilt by code in time, so not pinned):
    differs from the image the Normal Map node reads by up to 1.3 to 1.4 degrees (mean 0.26) in
    the columns where the image's x leans least (4.2: 0.13, as without custom normals; clearing
    the custom normals gives 0.13 on 5.2). A morph target (shape key at 1.0, custom normals from
-   the import) gave 2.3 degrees on 5.2 only (0.13 on 4.2, 4.5, 5.0). The bake is Blender's
+   the import) gave 2.3 degrees on 5.2 only (0.13 on 4.2, 4.5, 5.0). On 4.2 the quantized
+   import's tangent map held (0.13) but its object-space map was 4.3 degrees off the
+   analytic surface frame (5.2: 0.38), also not narrowed. The bake is Blender's
    (object.bake, tangent space): its tangent-space encoding and the Normal Map node's
    decoding seem to disagree on which normal the frame uses when custom normals are not the
    smooth ones. Rebuilt here by code (quads, int8-rounded custom normals, float UVs), the
@@ -26,8 +28,7 @@ down (not rebuilt by code in time, so not pinned):
 
 Probed and right on 5.2 and 4.2 (32^2 bakes against the glTF image's normals computed
 independently): TANGENT attributes unnormalized (x3), w = 0, all zero and w = -1 (the importer
-ignores TANGENT; Blender's MikkTSpace frame is used: 0.13 degrees); NORMAL/TANGENT as
-normalized int8 and TEXCOORD_0 as normalized uint16 (KHR_mesh_quantization); a node scale
+ignores TANGENT; Blender's MikkTSpace frame is used: 0.13 degrees); a node scale
 uneven per axis (object-space bake refused naming the fix, tangent 0.14); TEXCOORD_2 as the
 normal texture's texCoord (baked on 'UVMap.002': 0.13); two primitives sharing one vertex
 buffer with two materials (0.13); KHR_materials_clearcoat's clearcoatNormalTexture plus
