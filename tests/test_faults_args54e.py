@@ -18,12 +18,14 @@ Each is now refused while parsing by one shared type per kind of value
    bound (a child per worker). Now 1 to 64.
 5. bench --resolution 1e9 / --repeats 1e9: only "at least 1" was checked. Now 8..8192, 1..100.
 6. batch-assets --count 1e9 / bench-batch --assets 1e9: a list of a billion paths before any
-   check. bench-batch --workers 1 1: one JSON run key written twice; --workers 0 or -1 reached
+   check (under `ulimit -v 4000000`: 58 s, then "ran out of memory ... a lower --resolution",
+   exit 1, --count unnamed; without a limit, the machine's memory). bench-batch --workers 1 1: one JSON run key written twice; --workers 0 or -1 reached
    the batch after the assets were written. Now 1 to 1000 assets, workers 1 to 256, distinct.
 7. bake-batch --workers 1e9 (and api.bake_batch(workers=10**9)): Pool([None] * workers), 8 GB,
    after every asset was scanned. --worker-timeout inf (or 1e10) passed the "> 0" check and
-   reached queue.get(timeout=inf): OverflowError ("timestamp out of range") in a pool
-   thread. Now workers 0 to 256 and 0 < timeout <= 604800 s, on the command line and the API.
+   reached queue.get(timeout=inf): bake-batch on a batch-assets file printed a raw
+   OverflowError traceback ("timestamp out of range for platform time_t", workers.py:92) and
+   "surfgrad: error: 'scan'", exit 2, after the scan had started. Now workers 0 to 256 and 0 < timeout <= 604800 s, on the command line and the API.
 8. --tiles 1001-1000000000 (bake-normal-map, bake-batch, compare): parse_tiles built the
    billion-tile set first (14 s, then MemoryError under a 3 GB limit) before the range check.
    Now "tile 1000000000: UDIM tiles are numbered 1001 to 2000" at once.
