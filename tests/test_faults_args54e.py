@@ -159,3 +159,19 @@ def test_a_tile_range_beyond_udim_is_refused_before_it_is_made():
             T.parse_tiles(text)
     assert time.perf_counter() - start < 1.0
     assert T.parse_tiles("1998-2000,1001") == [1001, 1998, 1999, 2000]
+
+
+@pytest.mark.parametrize("extra, said", [
+    (["--workers", "-1"], "argument --workers: -1: use a whole number from 0 to 256"),
+    (["--worker-timeout", "inf"], "argument --worker-timeout: 'inf': give seconds, more than 0"),
+    (["--tiles", "1001-1000000000"], "tile 1000000000: UDIM tiles are numbered 1001 to 2000")])
+def test_blender_c_surfgrad_refuses_the_same(tmp_path, capsys, extra, said):
+    """`blender -c surfgrad bake-batch` (commands.execute, what Blender's -c calls): exit 2,
+    nothing written, the same words as python -m (finding 7, and 8 through the request)."""
+    from surfgrad_addon.addon import commands
+    out = tmp_path / "maps"
+    rc = commands.execute(["bake-batch", str(tmp_path / "a.blend"), "--output",
+                           str(out / "{object}.<UDIM>.png"), "--workers", "0", *extra])
+    err = capsys.readouterr().err
+    assert rc == 2 and said in err and "Traceback" not in err, err
+    assert list(tmp_path.iterdir()) == []
