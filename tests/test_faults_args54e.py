@@ -5,7 +5,9 @@ Each is now refused while parsing by one shared type per kind of value
 (addon/number_options.py): exit 2, nothing written, the option and its range named.
 
 1. bench-reference --repeats 0 (or -2): exit 0 and a JSON with 26 NaN medians ("median of
-   nothing", numpy's empty-slice warning); bench-compare's --repeats the same code path. Now
+   nothing", numpy's empty-slice warning); bench-compare --repeats 0 (and docs/proof.md's
+   `python -m surfgrad_addon.harness.bench.compare`, its own parser) logged "compare / bake
+   alone nanx ... (median of 0)" and wrote its JSON, exit 0. Now
    "argument --repeats: 0: use a whole number from 1 to 100", exit 2, no JSON.
 2. bench-reference with every table emptied (--sizes --method-sizes --compare-sizes
    --memory-sizes, each "none: skip"): exit 0 and a JSON of four empty tables. Now refused,
@@ -175,3 +177,19 @@ def test_blender_c_surfgrad_refuses_the_same(tmp_path, capsys, extra, said):
     err = capsys.readouterr().err
     assert rc == 2 and said in err and "Traceback" not in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_bench_compare_module_run_as_docs_proof_says_refuses_repeats_zero(tmp_path, capsys,
+                                                                          monkeypatch):
+    """docs/proof.md runs `python -m surfgrad_addon.harness.bench.compare --repeats 7`: its
+    own parser took --repeats 0 (a JSON of medians of nothing, exit 0) and --sizes 64 64."""
+    from surfgrad_addon.harness.bench import compare as bc
+    out = tmp_path / "bc.json"
+    for extra, said in ((["--repeats", "0"], "argument --repeats: 0: use a whole number from "
+                                             "1 to 100"),
+                        (["--sizes", "64", "64"], "argument --sizes: 64 is given twice")):
+        monkeypatch.setattr("sys.argv", ["compare.py", "--out", str(out), *extra])
+        with pytest.raises(SystemExit) as stop:
+            bc._main()
+        assert stop.value.code == 2 and said in capsys.readouterr().err
+        assert list(tmp_path.iterdir()) == []
