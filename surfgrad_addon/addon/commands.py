@@ -20,6 +20,7 @@ from pathlib import Path
 
 from . import bake_options as BO
 from . import command_line as CL
+from . import number_options as NO
 
 COMMAND = "surfgrad"
 _handle = None
@@ -71,9 +72,10 @@ def bake_batch_arguments(p):
     BO.add(p, ("empty_tiles",), helps={
         "empty_tiles": "a tile asked for with no UVs of an asset: refuse or skip (farm tasks "
                        "over asset x tile)"})
-    p.add_argument("--workers", type=int, default=1,
+    p.add_argument("--workers", type=NO.whole(*NO.WORKERS_RANGE), default=1,
                    help="separate Blender processes baking at once (0: this process)")
-    p.add_argument("--worker-timeout", type=float, default=None, metavar="SECONDS",
+    p.add_argument("--worker-timeout", type=NO.seconds(NO.WORKER_TIMEOUT_MAX), default=None,
+                   metavar="SECONDS",
                    help="seconds one scan or bake may take in a worker before the worker is "
                         "taken as hung, killed and the asset failed (default: 5 minutes plus "
                         "10 s per million texel-samples of the bake)")

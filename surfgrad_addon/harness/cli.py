@@ -10,8 +10,13 @@ import sys
 from pathlib import Path
 
 from ..addon import command_line as CL
+from ..addon import number_options as NO
 from ..addon.commands import SHIPPED
 from ..reference.decals import DECAL_SHAPES
+
+# The shared number types (addon/number_options.py): checked while parsing, before any work.
+_SIZE = NO.whole(*NO.COMPARE_RESOLUTION_RANGE)       # a compare's or bench's bake size
+_REPEATS = NO.whole(*NO.REPEATS_RANGE)
 
 PROG = "python -m surfgrad_addon"
 DESCRIPTION = f"""Command line: {PROG} <command> ...
@@ -90,11 +95,11 @@ def demo_arguments(p):
     _out(p, "out/demo", "output folder (default out/demo)")
     # --resolution is stage 1's reference maps (numpy, no bake); the bakes are stage 2's
     # --compare-resolution. The help said "bake size" for both.
-    p.add_argument("--resolution", type=int, default=256,
+    p.add_argument("--resolution", type=_SIZE, default=256,
                    help="texels per side of stage 1's reference maps, numpy only (default 256; "
                         "the bakes' size is --compare-resolution)")
     _overwrite(p)
-    p.add_argument("--compare-resolution", type=int, default=64,
+    p.add_argument("--compare-resolution", type=_SIZE, default=64,
                    help="bake size in texels of the bake-vs-reference stage (compare-all; "
                         "default 64)")
     p.add_argument("--no-bake", action="store_true",
@@ -164,40 +169,46 @@ def demo_run(args):
 
 def bench_reference_arguments(p):
     _out(p, "out/bench_reference.json", "JSON output path", is_file=True)
-    p.add_argument("--sizes", type=int, nargs="*", default=None,
+    p.add_argument("--sizes", type=_SIZE, nargs="*", default=None, action=NO.Distinct,
                    help="sizes of the listing table (default 256 512 1024 2048; none: skip)")
-    p.add_argument("--method-sizes", type=int, nargs="*", default=None,
+    p.add_argument("--method-sizes", type=_SIZE, nargs="*", default=None, action=NO.Distinct,
                    help="sizes of the whole-method table (default 256 1024 2048 4096; none: "
                         "skip)")
-    p.add_argument("--compare-sizes", type=int, nargs="*", default=None,
+    p.add_argument("--compare-sizes", type=_SIZE, nargs="*", default=None, action=NO.Distinct,
                    help="sizes of the compare runs against Cycles (default 1024 2048; none: "
                         "skip)")
-    p.add_argument("--memory-sizes", type=int, nargs="*", default=None,
+    p.add_argument("--memory-sizes", type=_SIZE, nargs="*", default=None, action=NO.Distinct,
                    help="sizes of the peak-memory compare runs (default 1024 2048 4096; 8192 "
                         "needs about 8 GB)")
     p.add_argument("--methods", nargs="+", default=None,
                    help="compare methods to run (default: all)")
-    p.add_argument("--repeats", type=int, default=3, help="runs per figure (median)")
+    p.add_argument("--repeats", type=_REPEATS, default=3, help="runs per figure (median)")
     _overwrite(p, "replace an existing JSON")
 
 
 def bench_reference_run(args):
     from .bench import reference as br
-    br.run(args.out, _sizes(args.sizes, br.SIZES), overwrite=args.overwrite,
-           method_sizes=_sizes(args.method_sizes, br.METHOD_SIZES),
-           compare_sizes=_sizes(args.compare_sizes, br.COMPARE_SIZES),
-           memory_sizes=_sizes(args.memory_sizes, br.MEMORY_SIZES),
-           methods=args.methods, repeats=args.repeats)
+    tables = {"--sizes": _sizes(args.sizes, br.SIZES),
+              "--method-sizes": _sizes(args.method_sizes, br.METHOD_SIZES),
+              "--compare-sizes": _sizes(args.compare_sizes, br.COMPARE_SIZES),
+              "--memory-sizes": _sizes(args.memory_sizes, br.MEMORY_SIZES)}
+    if not any(tables.values()):
+        # Every table skipped wrote a JSON of empty tables, exit 0.
+        raise ValueError(f"{', '.join(tables)} are all empty: nothing to measure; give sizes "
+                         f"to at least one of them (or leave one out for its defaults)")
+    br.run(args.out, tables["--sizes"], overwrite=args.overwrite,
+           method_sizes=tables["--method-sizes"], compare_sizes=tables["--compare-sizes"],
+           memory_sizes=tables["--memory-sizes"], methods=args.methods, repeats=args.repeats)
 
 
 # bench-compare ------------------------------------------------------------------------------
 
 def bench_compare_arguments(p):
     _out(p, "out/bench_compare.json", "JSON output path", is_file=True)
-    p.add_argument("--sizes", type=int, nargs="+", default=None,
+    p.add_argument("--sizes", type=_SIZE, nargs="+", default=None, action=NO.Distinct,
                    help="bake sizes (default 2048 4096)")
     p.add_argument("--method", default=None, help="method (default normal-map)")
-    p.add_argument("--repeats", type=int, default=3, help="pairs per size (median)")
+    p.add_argument("--repeats", type=_REPEATS, default=3, help="pairs per size (median)")
     p.add_argument("--compare-root", default=None,
                    help="checkout whose compare command to time (default this one; e.g. an "
                         "earlier commit's, for before/after figures)")
@@ -229,7 +240,7 @@ def compare_arguments(p):
     p.add_argument("--object", required=True, help="name of the mesh object to bake")
     p.add_argument("--method", required=True, choices=_method_names(),
                    help="the method (harness/methods.py)")
-    p.add_argument("--resolution", type=int, default=128, help="bake size in texels")
+    p.add_argument("--resolution", type=_SIZE, default=128, help="bake size in texels")
     p.add_argument("--json", required=True, help="report path (an _error.png heat map is "
                                                  "written beside it)")
     p.add_argument("--uv-map", default=None, help="UV map to bake into (default: the active "
@@ -258,9 +269,9 @@ def compare_run(args):
 
 def compare_all_arguments(p):
     _out(p, "out/compare")
-    p.add_argument("--resolution", type=int, default=64, help="bake size in texels")
+    p.add_argument("--resolution", type=_SIZE, default=64, help="bake size in texels")
     _overwrite(p)
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=NO.whole(*NO.COMPARE_WORKERS_RANGE), default=None,
                    help="processes sharing the cases (default: one per core, at most 2)")
     _cycles_device(p)
 
@@ -277,9 +288,9 @@ def bench_arguments(p):
     _out(p, "out/bench")
     p.add_argument("--quick", action="store_true", help="small bakes, 2 repeats (minutes "
                                                         "become seconds)")
-    p.add_argument("--resolution", type=int, default=None, help="bake size (default 256, quick "
-                                                                "64)")
-    p.add_argument("--repeats", type=int, default=None, help="timed repeats (default 5)")
+    p.add_argument("--resolution", type=_SIZE, default=None, help="bake size (default 256, "
+                                                                  "quick 64)")
+    p.add_argument("--repeats", type=_REPEATS, default=None, help="timed repeats (default 5)")
     p.add_argument("--only", nargs="+", default=None, help="scenario names to run")
     _overwrite(p)
 
@@ -319,7 +330,7 @@ def bench_render_run(args):
 
 def bench_far_arguments(p):
     _out(p, "out/far", "output folder (far.json, far.md)")
-    p.add_argument("--resolution", type=int, default=64, help="bake size in texels")
+    p.add_argument("--resolution", type=_SIZE, default=64, help="bake size in texels")
     p.add_argument("--distances", type=float, nargs="+", default=None,
                    help="distances from the origin in metres (default 0 1000 10000)")
     p.add_argument("--objects", nargs="+", default=None,
@@ -338,7 +349,7 @@ def bench_far_run(args):
 
 def batch_assets_arguments(p):
     _out(p, "out/batch_assets", "folder for the .blend files")
-    p.add_argument("--count", type=int, default=4, help="number of assets (default 4)")
+    p.add_argument("--count", type=NO.whole(*NO.ASSETS_RANGE), default=4, help="number of assets (default 4)")
     _overwrite(p, "replace existing files")
 
 
@@ -350,9 +361,13 @@ def batch_assets_run(args):
 
 def bench_batch_arguments(p):
     _out(p, "out/bench_batch")
-    p.add_argument("--assets", type=int, default=50, help="number of assets (default 50)")
-    p.add_argument("--resolution", type=int, default=512, help="texels per side (512)")
-    p.add_argument("--workers", type=int, nargs="+", default=[1, 2],
+    p.add_argument("--assets", type=NO.whole(*NO.ASSETS_RANGE), default=50,
+                   help="number of assets (default 50)")
+    p.add_argument("--resolution", type=NO.whole(*NO.BAKE_RESOLUTION_RANGE), default=512,
+                   help="texels per side (512)")
+    # Worker processes (0, this process, is bake-batch's, not a scale figure).
+    p.add_argument("--workers", type=NO.whole(1, NO.WORKERS_RANGE[1]), nargs="+",
+                   default=[1, 2], action=NO.Distinct,
                    help="worker counts to measure (default 1 2)")
     _overwrite(p)
 

@@ -42,6 +42,7 @@ from ..addon.memory_limit import (BYTES_PER_FURTHER_TILE_TEXEL, BYTES_PER_TEXEL,
                                   memory_problem)
 from ..addon.normal_bake import (blend_relative_problem, cycles_problem, resolution_problem,
                                  whole_tile_move)
+from ..addon.number_options import COMPARE_RESOLUTION_RANGE
 from ..addon.object_names import missing_object_problem
 from ..addon.precise_bake import precise_far
 from ..reference import image_sampling as IS
@@ -66,7 +67,7 @@ from .texel_report import ErrorImage, compare_tile, merge
 DETAIL_UV = "Detail"
 
 
-RESOLUTION_RANGE = (8, 8192)
+RESOLUTION_RANGE = COMPARE_RESOLUTION_RANGE          # (8, 8192): addon/number_options.py
 
 
 class CompareError(ValueError):

@@ -101,6 +101,11 @@ def parse_tiles(value):
         if b < a:
             raise ValueError(f"tiles {value!r}: the range {part!r} runs backwards (no "
                              f"tiles); write it low to high, like {b}-{a}")
+        outside = next((t for t in (a, b) if not UDIM_FIRST <= t <= UDIM_LAST), None)
+        if outside is not None:
+            # before the range is made: 1001-1000000000 built a billion-tile set (14 s, GBs)
+            raise ValueError(f"tile {outside}: UDIM tiles are numbered {UDIM_FIRST} to "
+                             f"{UDIM_LAST}")
         tiles.update(range(a, b + 1))
     if not tiles:                     # ',' alone: no tile at all, not "every tile"
         raise ValueError(f"tiles {value!r}: no tile given; give UDIM numbers like 1001,1002 "

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ...reference import tiles as T
 from .. import bake_request as BR
+from .. import number_options as NO
 from .. import normal_bake as NB
 from ..bake_target import not_a_mesh
 
@@ -197,13 +198,17 @@ def checked_options(output, workers, worker_timeout, threads, empty_tiles, tiles
     """bake_batch's options checked before any file is opened (BatchError names the first
     bad one, or every bad setting); returns (tiles, base settings, per-asset overrides)."""
     check_pattern(output)
+    lo, hi = NO.WORKERS_RANGE
     if workers is None or isinstance(workers, bool) or not isinstance(workers, int) \
-            or workers < 0:
-        raise BatchError(f"workers {workers!r}: give 0 (this process) or more processes")
+            or not lo <= workers <= hi:
+        # 1e9 workers: a list of a billion process slots (8 GB) before any bake
+        raise BatchError(f"workers {workers!r}: give 0 (this process) to {hi} processes")
     if worker_timeout is not None and (isinstance(worker_timeout, bool) or
                                        not isinstance(worker_timeout, (int, float)) or
-                                       not worker_timeout > 0):
-        raise BatchError(f"worker timeout {worker_timeout!r}: give seconds, more than 0")
+                                       not 0 < worker_timeout <= NO.WORKER_TIMEOUT_MAX):
+        # inf (or 1e10): past threading's longest wait, an OverflowError in a pool thread
+        raise BatchError(f"worker timeout {worker_timeout!r}: give seconds, more than 0 and "
+                         f"at most {NO.WORKER_TIMEOUT_MAX:.0f}")
     problem = threads is not None and BR.whole_number_problem("threads", threads,
                                                               *BR.THREADS_RANGE)
     if problem:

@@ -185,8 +185,11 @@ def _main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--bake-alone", nargs=2, metavar=("METHOD", "SIZE"))
     parser.add_argument("--out", default="out/bench_compare.json")
-    parser.add_argument("--sizes", type=int, nargs="+", default=list(SIZES))
-    parser.add_argument("--repeats", type=int, default=3)
+    # The command line's types (addon/number_options.py): --repeats 0 wrote NaN medians.
+    from ...addon import number_options as NO
+    parser.add_argument("--sizes", type=NO.whole(*NO.COMPARE_RESOLUTION_RANGE), nargs="+",
+                        default=list(SIZES), action=NO.Distinct)
+    parser.add_argument("--repeats", type=NO.whole(*NO.REPEATS_RANGE), default=3)
     parser.add_argument("--before-root", default=None,
                         help="an earlier checkout whose compare runs in the same rounds")
     parser.add_argument("--overwrite", action="store_true")
