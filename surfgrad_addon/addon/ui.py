@@ -37,6 +37,11 @@ def shader_tree_problem(context):
         return "Surface-gradient groups are added in a Shader Editor"
     if space.tree_type != 'ShaderNodeTree':
         return "The active node editor is not a Shader Editor"
+    if getattr(space, "shader_type", None) == 'LINESTYLE':
+        # Freestyle's line style nodes take textures: a group there was added, doing nothing.
+        return ("The Shader Editor shows a line style's nodes (Freestyle textures): "
+                "surface-gradient groups go in a material or the World; switch the editor "
+                "to Object")
     tree = space.edit_tree
     if tree is None:
         return ("No active shader node tree: select an object with a material "
