@@ -282,7 +282,15 @@ def test_the_pinned_layer_stack_is_wired_into_the_shown_bsdf(report):
                                   "world surfgrad.add_decal_projector", "world pinned as object"])
 def test_the_world_shown_is_refused(report, case):
     c = report["cases"][case]
-    _refused(c, "Shader Editor shows the World", "switch the editor to Object")
+    if case.startswith("world surfgrad."):
+        # The editor on World: refused by the operator's poll since round 54 (greyed out in
+        # the menu, the reason in its tooltip; nothing runs).
+        assert c["returned"] is None and c["executed"] == [], c
+        assert "poll()" in c["error"] and "Traceback" not in c["error"], c["error"]
+        for w in ("Shader Editor shows the World", "switch the editor to Object"):
+            assert w in c["error"], (w, c["error"])
+    else:
+        _refused(c, "Shader Editor shows the World", "switch the editor to Object")
     assert c.get("world_unchanged", True)
 
 

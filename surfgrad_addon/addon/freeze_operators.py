@@ -12,7 +12,7 @@ import bpy
 from bpy.props import BoolProperty, IntProperty, StringProperty
 
 from . import freeze as F
-from .operators import tree_owner
+from .operators import material_poll, tree_owner
 
 STAGES = ("checked", "baked", "wired")
 
@@ -51,6 +51,8 @@ unlinked, in a frame (Thaw brings it back)"""
     # Set by invoke, cleared when the modal run ends: a redo (Adjust Last Operation) or a
     # script runs execute to the end instead of starting a modal run.
     interactive: BoolProperty(default=False, options={'HIDDEN', 'SKIP_SAVE'})
+
+    poll = classmethod(material_poll)
 
     def invoke(self, context, _event):
         self.interactive = True
@@ -149,6 +151,8 @@ remove the normal map nodes (and image, if the freeze made it and nothing else u
     bl_idname = "surfgrad.thaw_stack"
     bl_label = "Thaw Surface Gradient Stack"
     bl_options = {'REGISTER', 'UNDO'}
+
+    poll = classmethod(material_poll)
 
     def execute(self, context):
         obj = context.object

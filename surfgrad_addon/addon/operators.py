@@ -68,6 +68,32 @@ def _is_world_tree(tree):
     return any(getattr(owner, "node_tree", None) == tree for owner in owners)
 
 
+def material_editor_problem(context):
+    """None where an operator on a material (a layer stack, a decal, Freeze, Thaw) can run in
+    `context`, else why not: a node editor of another kind (a Geometry Nodes editor's F3 had
+    them edit the active object's material, unseen), or a Shader Editor showing the World's
+    or a line style's nodes (Freeze froze the active object's material from there). Elsewhere
+    (the 3D Viewport, a script) they take the active object's material."""
+    space = getattr(context, "space_data", None)
+    if getattr(space, "type", None) != 'NODE_EDITOR':
+        return None
+    if getattr(space, "tree_type", None) != "ShaderNodeTree":
+        return ("Works on a material: run it from a Shader Editor (or the 3D Viewport), not "
+                "from this node editor")
+    if space.shader_type != 'OBJECT':
+        shown = {'WORLD': "the World's"}.get(space.shader_type, "a line style's")
+        return (f"The Shader Editor shows {shown} nodes: this works on a material; switch the "
+                f"editor to Object and show a material")
+    return None
+
+
+def material_poll(cls, context):
+    problem = material_editor_problem(context)
+    if problem:
+        cls.poll_message_set(problem)
+    return problem is None
+
+
 def shown_tree(context):
     """The node tree to edit: the one the Shader Editor shows (pinned, or a group entered),
     else (no editor, or it shows nothing) the active object's active material. Raises
@@ -307,7 +333,8 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     display, outlines = DECAL_DISPLAY[shape]
     empty.empty_display_type = display
     empty.location = context.scene.cursor.location
-    context.scene.collection.objects.link(empty)
+    collection = placing_collection(context)
+    collection.objects.link(empty)
     for kind, offset, *tilt in outlines:           # tilt about X: 90 degrees unless given
         outline = bpy.data.objects.new(f"{name} ({shape} outline)", None)
         outline.empty_display_type = kind
@@ -316,7 +343,7 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
         outline.rotation_euler = (math.radians(tilt[0] if tilt else 90.0), 0.0, 0.0)
         outline.hide_select = True          # select and scale the projector, not its outline
         outline.hide_render = True
-        context.scene.collection.objects.link(outline)
+        collection.objects.link(outline)
     texco = tree.nodes.new("ShaderNodeTexCoord")
     texco.object = empty
     tc = _group_node(tree, G.projector_coordinates_group, (texco.location.x + 200,
@@ -339,6 +366,21 @@ def add_decal_projector(context, tree, image=None, name="SG Decal Projector", sh
     for axis, column in (("Axis X", 0), ("Axis Y", 1)):
         drive_axis(decal.inputs[axis], empty, column)
     return empty, decal
+
+
+def placing_collection(context):
+    """Where Add Object puts a new object: the active collection (the one highlighted in the
+    Outliner; the projector went in the Scene Collection, outside the artist's set), else the
+    scene's own where that one cannot hold it (linked or override data: not saved; excluded
+    from the view layer: the projector would be hidden and its drivers' matrix not
+    evaluated)."""
+    layer = getattr(getattr(context, "view_layer", None), "active_layer_collection", None)
+    collection = getattr(layer, "collection", None)
+    if collection is None or layer.exclude or collection.library is not None or \
+            collection.override_library is not None or \
+            collection not in context.scene.collection.children_recursive:
+        return context.scene.collection
+    return collection
 
 
 # Rows of the inverse of a 3 x 3 matrix (a b c / d e f / g h i) by cofactors over the
@@ -409,6 +451,8 @@ into SG Resolve, wired into the BSDF's Normal"""
     uv_map: StringProperty(name="UV Map", description="UV map of the normal map (empty: that of "
                            "the Normal Map node whose link it replaces, else the active render "
                            "UV map)", default="")
+
+    poll = classmethod(material_poll)
 
     def execute(self, context):
         take_notes()
@@ -489,6 +533,8 @@ material; the decal's axes follow the empty"""
                ("capsule", "Capsule", "A round decal along the projection axis with rounded "
                 "ends, fading by the distance to its axis segment")))
 
+    poll = classmethod(material_poll)
+
     def execute(self, context):
         take_notes()
         try:
@@ -529,7 +575,7 @@ class NODE_PT_surfgrad(bpy.types.Panel):
         col.operator("surfgrad.freeze_stack", icon="FREEZE")      # freeze_operators.py
         col.operator("surfgrad.thaw_stack", icon="FILE_REFRESH")
         col.operator("surfgrad.update_groups", icon="FILE_REFRESH")   # group_updates.py
-        draw_stale_warning(self.layout)
+        draw_stale_warning(self.layout, context)
         draw_far_warning(self.layout, context)
         draw_muted_layer_warning(self.layout, context)
 

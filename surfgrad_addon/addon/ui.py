@@ -14,7 +14,7 @@ from ..reference import socket_specs as S
 from ..reference.group_interfaces import INTERFACES
 from .all_or_nothing import all_or_nothing
 from .far_precision import needs_precise_far, set_precise_far_on_node
-from .group_names import VERSION_KEY
+from .group_names import INSIDE_KEY, LINE_KEY, VERSION_KEY
 from .material_inputs import edits_lost
 from .node_builder import HoldsTree, checked_first
 
@@ -37,6 +37,11 @@ def shader_tree_problem(context):
         return "Surface-gradient groups are added in a Shader Editor"
     if space.tree_type != 'ShaderNodeTree':
         return "The active node editor is not a Shader Editor"
+    if getattr(space, "shader_type", None) == 'LINESTYLE':
+        # Freestyle's line style nodes take textures: a group there was added, doing nothing.
+        return ("The Shader Editor shows a line style's nodes (Freestyle textures): "
+                "surface-gradient groups go in a material or the World; switch the editor "
+                "to Object")
     tree = space.edit_tree
     if tree is None:
         return ("No active shader node tree: select an object with a material "
@@ -164,6 +169,26 @@ def unread_image(tex):
     return image if image is not None and not (image.size[0] and image.size[1]) else None
 
 
+def group_stamps():
+    """{session_uid: (name, stamps)} of the file's node groups: what an Add's rebuild of an
+    existing group changes."""
+    return {g.session_uid: (g.name, g.get(VERSION_KEY), g.get(LINE_KEY), g.get(INSIDE_KEY))
+            for g in bpy.data.node_groups}
+
+
+def changed_groups(before):
+    """Names of the groups in `before` (group_stamps) that an Add since rebuilt, renamed or
+    removed."""
+    now = group_stamps()
+    return sorted(name for uid, (name, *stamps) in before.items()
+                  if now.get(uid) != (name, *stamps))
+
+
+def start_move():
+    """Start moving the new node, as Blender's Add does (Esc removes it)."""
+    bpy.ops.node.translate_attach_remove_on_cancel('INVOKE_DEFAULT')
+
+
 class SURFGRAD_OT_add_group(bpy.types.Operator):
     """Add a surface-gradient node group to the active shader node tree, creating the group \
 in this file first if needed"""
@@ -223,9 +248,19 @@ in this file first if needed"""
             space.cursor_location_from_region(x, y)
         elif space.edit_tree is not None:
             space.cursor_location = space.edit_tree.view_center
+        before = group_stamps()
         result = self.execute(context)
         if self.use_transform and 'FINISHED' in result:
-            bpy.ops.node.translate_attach_remove_on_cancel('INVOKE_DEFAULT')
+            changed = changed_groups(before)
+            if changed:
+                # Esc during the move removes the node alone: the groups the Add rebuilt
+                # stayed rebuilt (an older SG Resolve the file's other nodes use). Placed
+                # where it would start, it is one step, which Ctrl+Z undoes whole.
+                self.report({'INFO'}, f"{self.group} placed under the mouse (G moves it): "
+                                      f"adding it updated {', '.join(map(repr, changed))} "
+                                      f"for this surfgrad; Ctrl+Z undoes both")
+            else:
+                start_move()
         return result
 
     def execute(self, context):
