@@ -12,6 +12,11 @@
    Mix Shader's Fac, an SG group's inputs, through reroutes, muted nodes and node groups, in
    and out by socket); the others are warned of, naming the image, its node and the material
    (stderr, the api's and Freeze's warnings).
+2. The same for a file saved between the checks and the bake (input_stamps.py): a Base Color
+   texture the artist re-saved while the bake ran failed it ("image file ... changed while it
+   was baked", exit 1, no map), though the map cannot hold it. Now only the files that can
+   reach the normal are stamped: the map is written (every texel the normal fed in), and a
+   normal map's file changed is still a failure (tests/test_faults_pipeline32.py).
 """
 
 import math
@@ -224,3 +229,31 @@ def test_an_image_read_for_the_normal_and_a_colour_is_refused_as_the_normals():
     problems, warned = _checked(obj)
     assert len(problems) == 1 and "(read by 'AsNormal' in material 'Artist')" in problems[0]
     assert warned == []
+
+
+def _png(path, rgba):
+    image = bpy.data.images.new(path.stem, 4, 4)
+    image.pixels.foreach_set(np.tile(np.float32(rgba), 16))
+    image.filepath_raw, image.file_format = str(path), "PNG"
+    image.save()
+    bpy.data.images.remove(image)
+
+
+@pytest.mark.tier("bake")
+def test_a_base_color_file_saved_during_the_bake_does_not_fail_it(tmp_path, monkeypatch):
+    """Finding 2: the map is written, every texel the normal fed (before: BakeFailed)."""
+    from surfgrad_addon.addon import bake_request
+    obj, tree, bsdf = _plane()
+    colour = tmp_path / "rock_color.png"
+    _png(colour, (0.8, 0.3, 0.1, 1.0))
+    tex = _texture(tree, bpy.data.images.load(str(colour)), "Colour")
+    tree.links.new(tex.outputs[0], bsdf.inputs["Base Color"])
+    real = bake_request.NB.bake_normal_tiles
+
+    def saved_then_baked(*args, **kwargs):
+        _png(colour, (0.1, 0.3, 0.8, 1.0))          # the painter saves the colour again
+        colour.write_bytes(colour.read_bytes() + b"\0" * 64)   # (a size of its own)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(bake_request.NB, "bake_normal_tiles", saved_then_baked)
+    got = baked_normals(obj, tmp_path / "n.exr", "tangent", RES)
+    assert degrees_between(got, NORMAL).max() < 0.05

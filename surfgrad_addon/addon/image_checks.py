@@ -120,9 +120,9 @@ def image_problems(obj, covered=(), only=None, warnings=None):
     found = material_images(obj, only)
     # An image read for the normal and for a colour too is checked (and refused) as the
     # normal's: its readers that reach the normal first.
-    found.sort(key=lambda f: not _reaches(f[0], f[2], reached))
+    found.sort(key=lambda f: not feeds_normal(f[0], f[2], reached))
     for mat, path, node, image in found:
-        normal = _reaches(mat, node, reached)
+        normal = feeds_normal(mat, node, reached)
         said = out if normal else (warnings if warnings is not None else [])
         if image is None:
             said.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
@@ -148,8 +148,9 @@ NOT_NORMAL = ("it feeds no normal the bake reads, so the map is baked without it
               "material still renders it wrong")
 
 
-def _reaches(mat, node, reached):
-    """Image node `node` of `mat` can change the baked normal (normal_sources.py)."""
+def feeds_normal(mat, node, reached):
+    """Image node `node` of `mat` can change the baked normal (normal_sources.py); `reached`:
+    a dict kept between calls (each material walked once)."""
     if mat.name_full not in reached:
         reached[mat.name_full] = NS.normal_nodes(mat) if mat.node_tree is not None else set()
     return NS.reaches_normal(node, reached[mat.name_full])
