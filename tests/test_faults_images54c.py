@@ -257,3 +257,29 @@ def test_a_base_color_file_saved_during_the_bake_does_not_fail_it(tmp_path, monk
     monkeypatch.setattr(bake_request.NB, "bake_normal_tiles", saved_then_baked)
     got = baked_normals(obj, tmp_path / "n.exr", "tangent", RES)
     assert degrees_between(got, NORMAL).max() < 0.05
+
+
+@pytest.mark.tier("bake")
+def test_freeze_of_a_stack_beside_a_missing_base_color_image_freezes_and_warns():
+    """Finding 1 in Freeze (the operator's own function): a stack added with Add Layer Stack
+    (api.add_layer_stack), its Principled BSDF's Base Color a missing image. Before: refused
+    ("image 'BaseColor' reads ..., which does not exist"); now frozen and warned of, and the
+    frozen map is the stack's (a flat SG Normal Map: the surface's normal)."""
+    from surfgrad_addon import api
+    from surfgrad_addon.addon import freeze as F
+    obj, tree, bsdf = _plane()
+    for node in [n for n in tree.nodes if n.bl_idname in ("ShaderNodeRGB",
+                                                          "ShaderNodeNormalMap")]:
+        tree.nodes.remove(node)
+    api.add_layer_stack(obj.active_material)
+    tree.links.new(_texture(tree, _gone("BaseColor"), "Colour").outputs[0],
+                   bsdf.inputs["Base Color"])
+    warned = []
+    record = F.freeze(obj, RES, warn=warned.append)
+    image = bpy.data.images[record["image"]]
+    px = np.array(image.pixels[:]).reshape(RES, RES, 4)[..., :3] * 2.0 - 1.0
+    px /= np.linalg.norm(px, axis=-1, keepdims=True)
+    assert degrees_between(px, np.array([0.0, 0.0, 1.0])).max() < 1.0
+    assert any("image 'BaseColor' reads" in w and "feeds no normal the bake reads" in w
+               for w in warned), warned
+    F.thaw(obj.active_material)
