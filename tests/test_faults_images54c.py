@@ -3,15 +3,16 @@
 
 1. A missing Base Color or Roughness image (a texture folder moved, one file not copied to the
    farm) refused the normal bake (exit 2, "2 problems: image 'Base Color' reads ..., which does
-   not exist: Cycles would bake its magenta 'missing' colour"), and Freeze ("Freeze failed"),
-   and bake-batch's planner took the asset for one it cannot bake. The normal bake never reads
+   not exist: Cycles would bake its magenta 'missing' colour"), and Freeze (FreezeError), and
+   bake-batch (its planner refused the asset: exit 1, no map). The normal bake never reads
    them: each BSDF stands in as a white Diffuse BSDF fed its Normal (bake_closures.py), so the
    map of a plane fed a normal 60 degrees off the surface is that normal (measured: 0.001
    degrees off) with or without them. Now only an image that can reach the baked normal is
    refused (normal_sources.py: what feeds a BSDF's Normal, a Bump or Displacement height, a
    Mix Shader's Fac, an SG group's inputs, through reroutes, muted nodes and node groups, in
    and out by socket); the others are warned of, naming the image, its node and the material
-   (stderr, the api's and Freeze's warnings).
+   (stderr, the api's, the batch's and Freeze's warnings; bake-batch now exits 0 with the
+   map, measured by hand: the batch planner shares image_checks.image_problems).
 2. The same for a file saved between the checks and the bake (input_stamps.py): a Base Color
    texture the artist re-saved while the bake ran failed it ("image file ... changed while it
    was baked", exit 1, no map), though the map cannot hold it. Now only the files that can
