@@ -18,6 +18,12 @@
    was baked", exit 1, no map), though the map cannot hold it. Now only the files that can
    reach the normal are stamped: the map is written (every texel the normal fed in), and a
    normal map's file changed is still a failure (tests/test_faults_pipeline32.py).
+3. A Generated image (Image Texture > New, never painted) read as the normal map: the default
+   black Blank one baked every normal 125.3 degrees off the surface's (into it), a Color Grid
+   124.9 on average (up to 135), a UV Grid 54.7 (8 x 8), exit 0 and no word (the sRGB, grey
+   and range warnings judge files and float pixels). Now warned of, naming the image, the
+   node, the tilt of a Blank one and the fix (normal_map_checks.generated_problem); a flat
+   (0.5, 0.5, 1) Blank one, or one painted in the session, is not.
 """
 
 import math
@@ -284,3 +290,45 @@ def test_freeze_of_a_stack_beside_a_missing_base_color_image_freezes_and_warns()
     assert any("image 'BaseColor' reads" in w and "feeds no normal the bake reads" in w
                for w in warned), warned
     F.thaw(obj.active_material)
+
+
+def _generated(tree, kind, colour=(0.0, 0.0, 0.0), painted=False):
+    image = bpy.data.images.new(f"Untitled {kind}", 8, 8)
+    image.generated_type, image.generated_color = kind, (*colour, 1.0)
+    image.colorspace_settings.is_data = True
+    if painted:                                 # as Texture Paint leaves it: dirty
+        image.pixels.foreach_set(np.tile(np.float32([0.5, 0.5, 1.0, 1.0]), 64))
+        image.update()
+    tex = _texture(tree, image, "New")
+    tree.links.new(tex.outputs[0], tree.nodes["Normal Map"].inputs["Color"])
+    return image
+
+
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("kind, colour, painted, mean_deg, warned", [
+    ("BLANK", (0.0, 0.0, 0.0), False, 125.26, "one colour (0.00, 0.00, 0.00), not a normal "
+                                              "map: every normal tilts 125 degrees from the "
+                                              "surface's (into it)"),
+    ("COLOR_GRID", (0.0, 0.0, 0.0), False, 124.9, "is a Generated Color Grid (a test "
+                                                  "pattern), not a normal map"),
+    ("UV_GRID", (0.0, 0.0, 0.0), False, 54.74, "is a Generated UV Grid (a test pattern)"),
+    ("BLANK", (0.5, 0.5, 1.0), False, 0.0, None),
+    ("BLANK", (0.0, 0.0, 0.0), True, 0.0, None)])
+def test_a_generated_image_read_as_the_normal_map_is_warned_of(tmp_path, capsys, kind, colour,
+                                                               painted, mean_deg, warned):
+    """Finding 3: the map is what Cycles renders (the tilt measured from the surface's normal:
+    (0, 0, 0) decodes to (-1, -1, -1), acos(-1 / sqrt(3)) = 125.26 degrees), and the warning
+    names it (before: no word)."""
+    obj, tree, _ = _plane()
+    _generated(tree, kind, colour, painted)
+    capsys.readouterr()
+    got = baked_normals(obj, tmp_path / "n.exr", "tangent", RES)
+    deg = degrees_between(got, np.array([0.0, 0.0, 1.0]))
+    assert abs(deg.mean() - mean_deg) < 0.5, deg.mean()
+    err = capsys.readouterr().err
+    if warned:
+        assert f"image 'Untitled {kind}', read by Normal Map node 'Normal Map' (material " \
+               f"'Artist'), is a Generated" in err and warned in err, err
+        assert "load the normal map's file (Image > Open)" in err
+    else:
+        assert "Generated" not in err, err
