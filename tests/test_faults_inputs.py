@@ -168,7 +168,9 @@ def _fault_blend(tmp_path, fault):
         tex2.name = "CyclesBumps"
         tex2.image = bpy.data.images.load(str(gone))
         bsdf = tree.nodes.new("ShaderNodeBsdfDiffuse")
-        tree.links.new(tex2.outputs["Color"], bsdf.inputs["Color"])
+        nm2 = tree.nodes.new("ShaderNodeNormalMap")       # (a Color alone is not baked:
+        tree.links.new(tex2.outputs["Color"], nm2.inputs["Color"])      # round 54)
+        tree.links.new(nm2.outputs[0], bsdf.inputs["Normal"])
         tree.links.new(bsdf.outputs[0], cyc.inputs["Surface"])
         tree.nodes["Material Output"].is_active_output = True
     elif fault == "library":                    # the material from lib.blend, then it goes

@@ -25,7 +25,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import commands, exit_codes, interrupts  # noqa: E402
-from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
+from surfgrad_addon.addon.image_checks import image_problems as checked_images  # noqa: E402
 from surfgrad_addon.addon.normal_map_checks import colour_space_warnings  # noqa: E402
 from support.child import run_python  # noqa: E402
 from support.materials import diffuse_material  # noqa: E402
@@ -86,7 +86,12 @@ def test_what_cycles_reads_through_a_muted_node_is_what_the_checks_read():
         if node == tex:                         # no internal link: the socket's own value
             assert np.allclose(texels[True, 0], (0, 1, 0), atol=0.01), texels
 
-    # The checks: an image whose file is missing behind each muted node is not refused.
+    # The checks: an image whose file is missing behind each muted node is not refused (nor,
+    # an Emission's Color, which no baked normal reads, warned of: round 54).
+    def image_problems(obj):
+        warned = []
+        return checked_images(obj, warnings=warned) + warned
+
     gone = bpy.data.images.new("Gone", 4, 4)
     gone.source, gone.filepath = "FILE", "/nonexistent/gone.png"
     tex.image = gone

@@ -145,7 +145,7 @@ def test_an_image_on_the_cycles_output_is_checked_beside_an_active_all_output():
     tex.image = bpy.data.images.new("gone.png", 4, 4)
     tex.image.source = "FILE"
     tex.image.filepath = "/nonexistent/surfgrad/gone.png"
-    tree.links.new(tex.outputs["Color"], diffuse.inputs["Color"])
+    tree.links.new(tex.outputs["Color"], diffuse.inputs["Normal"])   # (a Color is not baked)
     obj.data.materials.append(mat)
     assert everyone.is_active_output and not cycles.is_active_output
     text = "\n".join(image_problems(obj))

@@ -90,10 +90,14 @@ def test_a_library_group_named_as_a_local_one_has_its_images_checked(local_first
     bsdf = nodes["Principled BSDF"]
     # which "G" the walk meets first follows the links' order: both orders
     groups = (linked, local) if local_first else (local, linked)
-    for group, socket in zip(groups, ("Base Color", "Emission Color")):
+    # (each into the normal: a Base Color alone is not baked, round 54)
+    normal_map, bump = nodes.new("ShaderNodeNormalMap"), nodes.new("ShaderNodeBump")
+    mat.node_tree.links.new(normal_map.outputs[0], bump.inputs["Normal"])
+    mat.node_tree.links.new(bump.outputs[0], bsdf.inputs["Normal"])
+    for group, socket in zip(groups, (normal_map.inputs["Color"], bump.inputs["Height"])):
         node = nodes.new("ShaderNodeGroup")
         node.node_tree = group
-        mat.node_tree.links.new(node.outputs["Color"], bsdf.inputs[socket])
+        mat.node_tree.links.new(node.outputs["Color"], socket)
     blend = tmp_path / "s.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
     out = tmp_path / "out"

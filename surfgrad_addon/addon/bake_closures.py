@@ -66,6 +66,24 @@ def _unlinked(node):
     return node.bl_idname in NO_NORMAL and not node.mute
 
 
+def baked_inputs(node):
+    """The inputs of shader node `node` (a shader output of it reached from the Material
+    Output) whose values the normal bake reads once the stand-ins are in: a stand-in's Normal
+    alone (its colour is white), none of a hair BSDF's or of a closure unlinked for the bake,
+    a Mix Shader's Fac (it weighs the closures' normals: Cycles averages them so) and every
+    shader input. Other closures (Emission, volumes) add no normal. A script node's outputs
+    are unknown here: all its inputs."""
+    if node.bl_idname == "ShaderNodeScript":
+        return list(node.inputs)
+    if _stands_in(node):
+        return [node.inputs[NORMAL]] if NORMAL in node.inputs else []
+    if _unlinked(node):
+        return []
+    return [s for s in node.inputs
+            if s.type == "SHADER" or (node.bl_idname == "ShaderNodeMixShader" and
+                                      s.identifier == "Fac")]
+
+
 def holds_stand_ins(tree):
     """The tree, or a group it uses, has a node that stands in or is unlinked for the bake."""
     return any(_stands_in(n) or _unlinked(n) or _group_with_bsdf(n) for n in tree.nodes)

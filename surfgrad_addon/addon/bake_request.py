@@ -274,7 +274,7 @@ def _check(request, obj, warn):
     # Before the image checks load the images: one too large for the process crashed the load,
     # so where they do not fit they are not loaded (nor checked further).
     problem = bake_memory_problem(request.resolution, len(tiles), images_memory(obj, tiles))
-    problems += [problem] if problem else image_problems(obj, tiles)   # (its tiles)
+    problems += [problem] if problem else image_problems(obj, tiles, warnings=warnings)
     warnings += colour_space_warnings(obj) + muted_output_warnings(obj)
     warnings += raw_image_normal_warnings(obj)      # an image in a Normal input, undecoded
     warnings += stand_in_warnings(checked_materials(obj))   # maps Cycles renders otherwise

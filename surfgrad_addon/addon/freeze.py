@@ -331,13 +331,13 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         # Blender loads other than its file says, would be frozen into the map.
         problem = NB.unslotted_problem(obj, mat) or \
             _memory_problem(obj, resolution)            # (its map would hold theirs too)
-        problems = [problem] if problem else image_problems(obj, only=mat)
+        warnings = []           # (an image the stack does not read: warned, not refused)
+        problems = [problem] if problem else image_problems(obj, only=mat, warnings=warnings)
         problems += _treeless_problems(obj, mat)
         # The mesh as bake-normal-map checks it (NaN in the baked UV map or one the material
         # reads, positions, faces with area), and an object too small for the float32
         # derivatives of the groups it bakes through: each baked wrong texels with no word.
         # Its warnings too: far from the origin, faces collapsed in UV, overlapping islands.
-        warnings = []
         problems += mesh_problems(obj, uv_map, warnings, [NB.UDIM_FIRST], resolution, only=mat)
         problems += small_object_messages(obj, only=mat)[0]
         problems += foreign_node_problems(obj, only=mat)      # a newer line's: baked as zero

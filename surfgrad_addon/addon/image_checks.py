@@ -11,6 +11,7 @@ from pathlib import Path
 from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import material_inputs as MI
+from . import normal_sources as NS
 from .bake_uvs import baked_mesh, modified, rendered_materials
 from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
 from .header_reads import one_header_read, path_headers
@@ -97,11 +98,15 @@ def _reached(tree, starts, memo):
     return out
 
 
-def image_problems(obj, covered=(), only=None):
-    """Every image the object's materials (or material `only`) read: set, present, loadable,
-    finite pixels; the frame file a sequence reads now, the tiles (`covered`, the UDIM tiles
-    the bake writes) of a tiled image; linked materials whose library is missing; UV map names
-    nodes refer to."""
+def image_problems(obj, covered=(), only=None, warnings=None):
+    """Every image the object's materials (or material `only`) read that can change the baked
+    normal (normal_sources.py: a Normal input's, a height's; not a Base Color's): set,
+    present, loadable, finite pixels; the frame file a sequence reads now, the tiles
+    (`covered`, the UDIM tiles the bake writes) of a tiled image; linked materials whose
+    library is missing; UV map names nodes refer to. The same problems of the other images
+    go to `warnings` (a list, when given): Cycles does not read them for the bake, and
+    refusing it for a missing Base Color (as up to round 53) stopped a map they cannot
+    change."""
     import bpy
     out, checked = [], set()
     for mat in checked_materials(obj, only):
@@ -111,32 +116,64 @@ def image_problems(obj, covered=(), only=None):
             out.append(problem)
     out += uv_reference_problems(obj, only)
     out += linked_group_problems(obj, only)
-    for mat, path, node, image in material_images(obj, only):
+    reached = {}
+    found = material_images(obj, only)
+    # An image read for the normal and for a colour too is checked (and refused) as the
+    # normal's: its readers that reach the normal first.
+    found.sort(key=lambda f: not feeds_normal(f[0], f[2], reached))
+    for mat, path, node, image in found:
+        normal = feeds_normal(mat, node, reached)
+        said = out if normal else (warnings if warnings is not None else [])
         if image is None:
-            out.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
-                       f"would bake its magenta 'missing' colour; pick an image or remove the "
-                       f"node")
+            said.append(f"image node {path!r} (material {mat.name!r}) has no image: Cycles "
+                        f"would bake its magenta 'missing' colour; pick an image or remove "
+                        f"the node" if normal else
+                        f"image node {path!r} (material {mat.name!r}) has no image: the "
+                        f"material renders magenta there; pick an image or remove the node "
+                        f"({NOT_NORMAL})")
             continue
         if data_key(image) in checked:
             continue
         checked.add(data_key(image))
-        on_disk = image.packed_file is None and image.filepath
-        if on_disk and image.source == "SEQUENCE" and hasattr(node, "image_user"):
-            # the frame the bake reads now, not the file the path names
-            file = bpy.path.abspath(image.filepath, library=image.library)
-            problem = MI.sequence_problem(image, node, file, bpy.context.scene) or \
-                file_problem(f"image sequence {image.name!r}", sequence_file(image, node))
-        else:
-            problem = MI.missing_library_problem(image, "image") or one_image_problem(image)
-        if not problem and image.source == "TILED" and covered:      # (packed ones too)
-            problem = MI.missing_tiles_problem(image, covered)
-        if not problem and on_disk and image.source == "TILED":
-            problem = _tile_files_problem(image, covered)
-        if not problem and packed_tiled(image):
-            problem = _packed_tiles_problem(image, covered)
-        if problem:
+        problem = _image_problem(image, node, covered)
+        if problem and normal:
             out.append(f"{problem} (read by {path!r} in material {mat.name!r})")
+        elif problem:
+            said.append(f"{problem.replace(MI.MAGENTA, MI.MAGENTA_RENDERED)} (read by "
+                        f"{path!r} in material {mat.name!r}; {NOT_NORMAL})")
     return out
+
+
+NOT_NORMAL = ("it feeds no normal the bake reads, so the map is baked without it: the "
+              "material still renders it wrong")
+
+
+def feeds_normal(mat, node, reached):
+    """Image node `node` of `mat` can change the baked normal (normal_sources.py); `reached`:
+    a dict kept between calls (each material walked once)."""
+    if mat.name_full not in reached:
+        reached[mat.name_full] = NS.normal_nodes(mat) if mat.node_tree is not None else set()
+    return NS.reaches_normal(node, reached[mat.name_full])
+
+
+def _image_problem(image, node, covered):
+    """What is wrong with `image`, read by Image Texture `node`, else None (image_problems)."""
+    import bpy
+    on_disk = image.packed_file is None and image.filepath
+    if on_disk and image.source == "SEQUENCE" and hasattr(node, "image_user"):
+        # the frame the bake reads now, not the file the path names
+        file = bpy.path.abspath(image.filepath, library=image.library)
+        problem = MI.sequence_problem(image, node, file, bpy.context.scene) or \
+            file_problem(f"image sequence {image.name!r}", sequence_file(image, node))
+    else:
+        problem = MI.missing_library_problem(image, "image") or one_image_problem(image)
+    if not problem and image.source == "TILED" and covered:      # (packed ones too)
+        problem = MI.missing_tiles_problem(image, covered)
+    if not problem and on_disk and image.source == "TILED":
+        problem = _tile_files_problem(image, covered)
+    if not problem and packed_tiled(image):
+        problem = _packed_tiles_problem(image, covered)
+    return problem
 
 
 def linked_group_problems(obj, only=None):

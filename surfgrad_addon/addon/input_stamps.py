@@ -12,7 +12,7 @@ of publishing a map of something no check saw.
 import os
 
 from . import material_inputs as MI
-from .image_checks import image_files, material_images
+from .image_checks import feeds_normal, image_files, material_images
 
 
 def _stat(path):
@@ -26,17 +26,21 @@ def _stat(path):
 def stamps(obj, only=None):
     """{path: (size, mtime_ns, inode) or None} of every image file on disk obj's materials
     (or material `only`: Freeze's) read (each UDIM tile; a sequence's file for the current
-    frame)."""
-    return {p: _stat(p) for p in read_files(obj, only=only)}
+    frame) that can change the baked normal: a Base Color texture saved during the bake
+    changes no texel of the map (image_checks.image_problems)."""
+    return {p: _stat(p) for p in read_files(obj, only=only, normal=True)}
 
 
-def read_files(obj, viewport=False, only=None):
+def read_files(obj, viewport=False, only=None, normal=False):
     """The image files on disk obj's materials (or material `only`) read, sorted (each UDIM
     tile; a sequence's file for the current frame). viewport: its materials as the viewport
-    evaluates it (bake_uvs.rendered_materials)."""
+    evaluates it (bake_uvs.rendered_materials). normal: only those that can change the baked
+    normal (normal_sources.py)."""
     import bpy
-    paths = set()
-    for _mat, _path, node, image in material_images(obj, only, viewport):
+    paths, reached = set(), {}
+    for mat, _path, node, image in material_images(obj, only, viewport):
+        if normal and not feeds_normal(mat, node, reached):
+            continue
         if image is None or image.packed_file is not None or not image.filepath or \
                 image.source in ("GENERATED", "VIEWER"):
             continue

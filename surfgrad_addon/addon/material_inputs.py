@@ -10,6 +10,7 @@ from .compat import renders_nodes
 from .open_blend import newer_than_running
 
 MAGENTA = "Cycles would bake its magenta 'missing' colour"
+MAGENTA_RENDERED = "Cycles renders its magenta 'missing' colour"     # (not in the bake)
 # Geometry attributes Cycles provides without a mesh layer of that name.
 BUILT_IN = {"position", "normal", "generated", "orco", "tangent", "uv"}
 

@@ -181,6 +181,12 @@ def normal_map_warnings(obj, only=None, covered=()):
     where empty). Each file is read once."""
     out, seen = [], {}
     for mat, node, image, tex in normal_map_images(obj, only):
+        problem = generated_problem(image)
+        if problem:
+            text = f"image {image.name!r}, read by {node} (material {mat.name!r}), {problem}"
+            if text not in out:
+                out.append(text)
+            continue
         files = own_files(image, tex, covered)
         key = (data_key(image), tuple(files))   # a library's image may share a name
         if key not in seen:
@@ -192,6 +198,36 @@ def normal_map_warnings(obj, only=None, covered=()):
                 if text not in out:
                     out.append(text)
     return out
+
+
+GENERATED_FLAT_DEG = 1.0      # a Blank image's colour this near (0.5, 0.5, 1): a flat map
+
+
+def generated_problem(image):
+    """What is wrong with a Generated image (Image Texture > New, never painted or saved) read
+    as a normal map, else None: a UV Grid or Color Grid is a test pattern (its normals tilt
+    up to 170 degrees, measured), and a Blank one of any colour but (0.5, 0.5, 1) tilts every
+    normal alike (the default black: straight into the surface). Painted in this session
+    (is_dirty) it holds the painting, which is not judged."""
+    import math
+    if image.source != "GENERATED" or image.is_dirty:
+        return None
+    fix = "paint it and save it, or load the normal map's file (Image > Open)"
+    if image.generated_type != "BLANK":
+        kind = {"UV_GRID": "UV Grid", "COLOR_GRID": "Color Grid"}.get(
+            image.generated_type, image.generated_type)
+        return (f"is a Generated {kind} (a test pattern), not a normal map: its normals "
+                f"point every way; {fix}")
+    x, y, z = (2.0 * c - 1.0 for c in image.generated_color[:3])
+    length = math.sqrt(x * x + y * y + z * z)
+    deg = math.degrees(math.acos(max(-1.0, min(1.0, z / length)))) if length > 1e-6 \
+        else 180.0
+    if deg <= GENERATED_FLAT_DEG:
+        return None
+    colour = ", ".join(f"{c:.2f}" for c in image.generated_color[:3])
+    return (f"is a Generated Blank image of one colour ({colour}), not a normal map: every "
+            f"normal tilts {deg:.0f} degrees from the surface's"
+            f"{' (into it)' if deg > 90 else ''}; {fix}")
 
 
 def _file_problems(image, files, covered):
