@@ -103,22 +103,31 @@ def _followed(obj, md, bones):
     return [pb for pb in deform if pb.name in weighted], not loose and not md.vertex_group
 
 
+# The mesh is read as the bake reads it (render mode), not as the viewport shows it. Measured
+# (rt54a, tests/test_faults_review54a.py): an Armature modifier shown in renders but not in the
+# viewport, or a rig's mesh hidden in viewports (Disable in Viewports), read the viewport's
+# undeformed mesh in both poses, 0.0 degrees, so a pose that turned a panel 30 degrees baked
+# an object-space map 30 degrees off the rest pose's with no word.
+
 def _surface(obj):
-    """obj's rendered mesh now: float64 vertex positions (V, 3), each corner's vertex (L,) and
-    each face's first corner (F,) (Blender stores a face's corners in a row)."""
-    import bpy
-    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = evaluated.to_mesh()
-    try:
-        co = np.empty(len(mesh.vertices) * 3, np.float32)
-        mesh.vertices.foreach_get("co", co)
-        corners = np.empty(len(mesh.loops), np.int64)
-        mesh.loops.foreach_get("vertex_index", corners)
-        starts = np.empty(len(mesh.polygons), np.int64)
-        mesh.polygons.foreach_get("loop_start", starts)
-    finally:
-        evaluated.to_mesh_clear()
-    return co.reshape(-1, 3).astype(np.float64), corners, starts
+    """obj's rendered mesh now, as the bake evaluates it: float64 vertex positions (V, 3),
+    each corner's vertex (L,) and each face's first corner (F,) (Blender stores a face's
+    corners in a row)."""
+    from .bake_uvs import read_as_baked
+
+    def read(evaluated, _depsgraph):
+        mesh = evaluated.to_mesh()
+        try:
+            co = np.empty(len(mesh.vertices) * 3, np.float32)
+            mesh.vertices.foreach_get("co", co)
+            corners = np.empty(len(mesh.loops), np.int64)
+            mesh.loops.foreach_get("vertex_index", corners)
+            starts = np.empty(len(mesh.polygons), np.int64)
+            mesh.polygons.foreach_get("loop_start", starts)
+        finally:
+            evaluated.to_mesh_clear()
+        return co.reshape(-1, 3).astype(np.float64), corners, starts
+    return read_as_baked(obj, read)
 
 
 def _face_turn(obj, arm):
