@@ -11,6 +11,15 @@
    before rt53b both were warned). Now the face turn reads the mesh as the bake does
    (bake_uvs.read_as_baked: the render-mode pass for a modified object): warned, "its faces
    turned up to 30.0 degrees", the Pose Position put back.
+
+2. Freeze's look inside the artist's wrapper groups (rt53a, freeze._tree_reads_object_space)
+   counted a Texture Coordinate's Object (or a Geometry node's Position) only where it led to
+   a node inside the group, not where it led straight to the Group Output: a coordinates group
+   (Texture Coordinate > Object into Group Output, a common utility group) feeding the layered
+   stack's SG Noise Vector was no object-space reader (object_space_readers: [] where the same
+   Texture Coordinate node unwrapped is named), so a strip posed 60 degrees froze a map whose
+   posed half lay 15+ degrees (median texel) from the rest pose's, with no warning. Now the
+   Group Output counts as part of the group's stack: named, "'Coords' (Coords)", warned.
 """
 
 import numpy as np
@@ -19,6 +28,9 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from support.baked_normals import baked_normals, degrees_between  # noqa: E402
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from support.freeze_scene import layered_material  # noqa: E402
+from test_faults_assets50d import _pose, _skinned_strip  # noqa: E402
 from test_faults_assets53b import _door, _panels, _positions  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
@@ -74,3 +86,52 @@ def test_a_pose_shown_everywhere_is_warned_of_as_before():
     obj, arm = _door()
     _turn_right_panel(arm)
     assert "its faces turned up to 30.0 degrees" in _warning(obj)
+
+
+# 2 --------------------------------------------------------------------------------------------
+
+def _coordinates_group(tree, output="Object"):
+    """The stack's SG Noise given its Vector by the artist's group 'Coords': a Texture
+    Coordinate node's `output` linked straight to the group's output."""
+    noise = next(n for n in tree.nodes if n.type == "GROUP" and
+                 n.node_tree.name.startswith("SG Noise"))
+    group = bpy.data.node_groups.new("Coords", "ShaderNodeTree")
+    group.interface.new_socket("Vector", in_out="OUTPUT", socket_type="NodeSocketVector")
+    coords = group.nodes.new("ShaderNodeTexCoord")
+    group.links.new(coords.outputs[output], group.nodes.new("NodeGroupOutput").inputs[0])
+    node = tree.nodes.new("ShaderNodeGroup")
+    node.name = "Coords"
+    node.node_tree = group
+    tree.links.new(node.outputs[0], noise.inputs["Vector"])
+
+
+def test_a_coordinates_group_is_an_object_space_reader():
+    for output, expected in (("Object", ["'Coords' (Coords)"]), ("UV", [])):
+        obj, _arm = _skinned_strip()
+        mat, _bsdf = layered_material(obj)
+        _coordinates_group(mat.node_tree, output)
+        _end, fed = F.find_stack(mat.node_tree)
+        assert F.object_space_readers(mat.node_tree, fed) == expected, output
+
+
+def _frozen(obj):
+    mat, _bsdf = layered_material(obj)
+    _coordinates_group(mat.node_tree)
+    said = []
+    F.freeze(obj, 32, log=lambda *_: None, warn=said.append)
+    image = next(i for i in bpy.data.images if "frozen" in i.name)
+    px = np.array(image.pixels[:]).reshape(32, 32, 4)[..., :3] * 2.0 - 1.0
+    return px / np.linalg.norm(px, axis=-1, keepdims=True), said
+
+
+def test_freezing_posed_through_a_coordinates_group_warns():
+    obj, _arm = _skinned_strip()
+    rest, quiet = _frozen(obj)
+    assert quiet == []
+    obj, arm = _skinned_strip()
+    _pose(arm, 60.0)
+    posed, said = _frozen(obj)
+    off = degrees_between(posed, rest)
+    assert off[:, :15].max() < 0.01 and np.median(off[:, 17:]) > 10.0, np.median(off[:, 17:])
+    (text,) = [w for w in said if "armature" in w]
+    assert "'Coords' (Coords)" in text and "Rest Position" in text, text
