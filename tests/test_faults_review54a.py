@@ -20,6 +20,15 @@
    Texture Coordinate node unwrapped is named), so a strip posed 60 degrees froze a map whose
    posed half lay 30.4 degrees (median texel, max 94) from the rest pose's, no warning. Now the
    Group Output counts as part of the group's stack: named, "'Coords' (Coords)", warned.
+
+3. The render-mode pass (addon/render_mesh.read_in_render_mode, now 16 x 16 since rt53b) that
+   every bake, Freeze and compare of an object with a modifier runs rendered into the Render
+   Result's active slot: an artist's unsaved render there (F11, here 24 x 12 Cycles, mean
+   colour (0.81, 0.50, 0.40)) was replaced by the probe's empty one, lost ("Image 'Render
+   Result' could not be saved"), exit 0, on 5.2 and 4.2. Now the pass renders into a slot of
+   its own ('surfgrad probe (empty)', made once, emptied after; Blender's Python cannot
+   remove a slot) and the artist's active slot is made active again: their render is saved
+   after the pass pixel for pixel as before it.
 """
 
 import numpy as np
@@ -135,3 +144,49 @@ def test_freezing_posed_through_a_coordinates_group_warns():
     assert off[:, :15].max() < 0.01 and np.median(off[:, 17:]) > 10.0, np.median(off[:, 17:])
     (text,) = [w for w in said if "armature" in w]
     assert "'Coords' (Coords)" in text and "Rest Position" in text, text
+
+
+# 3 --------------------------------------------------------------------------------------------
+
+def _saved_render(tmp_path, tag):
+    """The Render Result's active slot saved and read back: (H, W, 4) pixels."""
+    path = tmp_path / f"{tag}.png"
+    bpy.data.images["Render Result"].save_render(str(path))
+    image = bpy.data.images.load(str(path))
+    try:
+        return np.array(image.pixels[:]).reshape(image.size[1], image.size[0], 4)
+    finally:
+        bpy.data.images.remove(image)
+
+
+def test_the_render_mode_pass_keeps_the_artists_render(tmp_path):
+    from surfgrad_addon.addon.render_mesh import PROBE_SLOT, read_in_render_mode
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 1
+    scene.render.resolution_x, scene.render.resolution_y = 24, 12
+    scene.render.resolution_percentage = 100
+    scene.world = bpy.data.worlds.new("Orange")
+    scene.world.use_nodes = True
+    scene.world.node_tree.nodes["Background"].inputs[0].default_value = (1.0, 0.2, 0.1, 1.0)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.location = (0.0, -10.0, 0.0)
+    camera.rotation_euler = (np.pi / 2, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    bpy.ops.mesh.primitive_cube_add()
+    cube = bpy.context.object
+    cube.modifiers.new("Subdivision", "SUBSURF")
+    assert bpy.ops.render.render() == {"FINISHED"}             # the artist's render, unsaved
+    slots = bpy.data.images["Render Result"].render_slots
+    slots.active_index = 2
+    assert bpy.ops.render.render() == {"FINISHED"}
+    theirs = _saved_render(tmp_path, "theirs")
+    assert theirs.shape == (12, 24, 4) and theirs[..., 0].mean() > 0.5     # orange, not black
+    for _ in range(2):
+        read_in_render_mode(cube, lambda _depsgraph: None)
+        assert slots.active_index == 2
+        assert np.array_equal(_saved_render(tmp_path, "after"), theirs)
+    assert [s.name for s in slots].count(PROBE_SLOT) == 1
+    assert (scene.render.resolution_x, scene.render.resolution_y) == (24, 12)
