@@ -168,7 +168,8 @@ def test_the_render_mode_pass_keeps_the_artists_render(tmp_path):
     scene.render.resolution_x, scene.render.resolution_y = 24, 12
     scene.render.resolution_percentage = 100
     scene.world = bpy.data.worlds.new("Orange")
-    scene.world.use_nodes = True
+    if scene.world.node_tree is None:          # (5.x: a new world has its nodes)
+        scene.world.use_nodes = True
     scene.world.node_tree.nodes["Background"].inputs[0].default_value = (1.0, 0.2, 0.1, 1.0)
     camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     camera.location = (0.0, -10.0, 0.0)
