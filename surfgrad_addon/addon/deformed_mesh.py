@@ -57,6 +57,17 @@ def _posed(obj, depsgraph, normals=False):
         bones = evaluated.pose.bones if evaluated.pose else ()
         if _at_rest(bones):
             continue
+        faces = _face_turn(obj, arm) if normals else None
+        if faces is not None:
+            # The faces' turn answers what the vertex walk would: no walk (rt54a: 1.1 s of the
+            # check's 2.5 s at 500k vertices on 5.2). The message's bone turn: of the bones a
+            # vertex group names.
+            if faces <= MAX_TURN_DEG:
+                continue              # no face of this mesh turned: the rest pose's normals
+            named = _grouped(obj, md, bones)
+            worst = max((_turn_deg(pb.matrix, pb.bone.matrix_local) for pb in named),
+                        default=0.0)
+            return arm, md, worst, faces
         bones, whole = _followed(obj, md, bones)   # (the vertex walk only for a posed rig)
         if _at_rest(bones):
             continue
@@ -65,11 +76,18 @@ def _posed(obj, depsgraph, normals=False):
             continue                  # the whole mesh moved as one: no normal turns
         # (Without `normals` (Freeze: a stack reading object-space positions), a root shift
         # moves every lookup: a strip shifted 0.3 m froze 29.8 degrees (median) off, unsaid.)
-        faces = _face_turn(obj, arm) if normals else None
-        if faces is not None and faces <= MAX_TURN_DEG:
-            continue                  # no face of this mesh turned: the rest pose's normals
-        return arm, md, worst, faces
+        return arm, md, worst, None
     return None
+
+
+def _grouped(obj, md, bones):
+    """The deforming bones that may move a vertex of obj through md, without reading the
+    vertices: every one with envelopes, else those a vertex group of obj names."""
+    deform = [pb for pb in bones if pb.bone.use_deform]
+    if md.use_bone_envelopes:
+        return deform
+    names = {g.name for g in obj.vertex_groups} if md.use_vertex_groups else set()
+    return [pb for pb in deform if pb.name in names]
 
 
 def _at_rest(bones):
