@@ -57,6 +57,19 @@ def _posed(obj, depsgraph, normals=False):
         bones = evaluated.pose.bones if evaluated.pose else ()
         if _at_rest(bones):
             continue
+        if normals:
+            # The faces' turn answers what the vertex walk would: no walk (rt54a: 0.9 s of the
+            # check's 1.85 s at 500k vertices on 5.2). The message's bone turn: of the bones a
+            # vertex group names, read first (the reading re-evaluates the armature, which
+            # frees these evaluated bones: read after, 4.2 to 5.0 crashed).
+            worst = max((_turn_deg(pb.matrix, pb.bone.matrix_local)
+                         for pb in _grouped(obj, md, bones)), default=0.0)
+            faces = _face_turn(obj, arm)
+            if faces is not None:
+                if faces <= MAX_TURN_DEG:
+                    continue          # no face of this mesh turned: the rest pose's normals
+                return arm, md, worst, faces
+            bones = arm.evaluated_get(depsgraph).pose.bones     # (evaluated again)
         bones, whole = _followed(obj, md, bones)   # (the vertex walk only for a posed rig)
         if _at_rest(bones):
             continue
@@ -65,11 +78,18 @@ def _posed(obj, depsgraph, normals=False):
             continue                  # the whole mesh moved as one: no normal turns
         # (Without `normals` (Freeze: a stack reading object-space positions), a root shift
         # moves every lookup: a strip shifted 0.3 m froze 29.8 degrees (median) off, unsaid.)
-        faces = _face_turn(obj, arm) if normals else None
-        if faces is not None and faces <= MAX_TURN_DEG:
-            continue                  # no face of this mesh turned: the rest pose's normals
-        return arm, md, worst, faces
+        return arm, md, worst, None
     return None
+
+
+def _grouped(obj, md, bones):
+    """The deforming bones that may move a vertex of obj through md, without reading the
+    vertices: every one with envelopes, else those a vertex group of obj names."""
+    deform = [pb for pb in bones if pb.bone.use_deform]
+    if md.use_bone_envelopes:
+        return deform
+    names = {g.name for g in obj.vertex_groups} if md.use_vertex_groups else set()
+    return [pb for pb in deform if pb.name in names]
 
 
 def _at_rest(bones):
@@ -103,22 +123,31 @@ def _followed(obj, md, bones):
     return [pb for pb in deform if pb.name in weighted], not loose and not md.vertex_group
 
 
+# The mesh is read as the bake reads it (render mode), not as the viewport shows it. Measured
+# (rt54a, tests/test_faults_review54a.py): an Armature modifier shown in renders but not in the
+# viewport, or a rig's mesh hidden in viewports (Disable in Viewports), read the viewport's
+# undeformed mesh in both poses, 0.0 degrees, so a pose that turned a panel 30 degrees baked
+# an object-space map 30 degrees off the rest pose's with no word.
+
 def _surface(obj):
-    """obj's rendered mesh now: float64 vertex positions (V, 3), each corner's vertex (L,) and
-    each face's first corner (F,) (Blender stores a face's corners in a row)."""
-    import bpy
-    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = evaluated.to_mesh()
-    try:
-        co = np.empty(len(mesh.vertices) * 3, np.float32)
-        mesh.vertices.foreach_get("co", co)
-        corners = np.empty(len(mesh.loops), np.int64)
-        mesh.loops.foreach_get("vertex_index", corners)
-        starts = np.empty(len(mesh.polygons), np.int64)
-        mesh.polygons.foreach_get("loop_start", starts)
-    finally:
-        evaluated.to_mesh_clear()
-    return co.reshape(-1, 3).astype(np.float64), corners, starts
+    """obj's rendered mesh now, as the bake evaluates it: float64 vertex positions (V, 3),
+    each corner's vertex (L,) and each face's first corner (F,) (Blender stores a face's
+    corners in a row)."""
+    from .bake_uvs import read_as_baked
+
+    def read(evaluated, _depsgraph):
+        mesh = evaluated.to_mesh()
+        try:
+            co = np.empty(len(mesh.vertices) * 3, np.float32)
+            mesh.vertices.foreach_get("co", co)
+            corners = np.empty(len(mesh.loops), np.int64)
+            mesh.loops.foreach_get("vertex_index", corners)
+            starts = np.empty(len(mesh.polygons), np.int64)
+            mesh.polygons.foreach_get("loop_start", starts)
+        finally:
+            evaluated.to_mesh_clear()
+        return co.reshape(-1, 3).astype(np.float64), corners, starts
+    return read_as_baked(obj, read)
 
 
 def _face_turn(obj, arm):

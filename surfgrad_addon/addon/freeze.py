@@ -197,7 +197,11 @@ def _tree_reads_object_space(tree, seen):
     for out in outputs:
         for socket in out.inputs:
             names |= _upstream(socket, rendered=True)
-    return any(_reads_object_space(tree.nodes[n], names, seen) for n in names)
+    # The Group Output is part of the stack: a Texture Coordinate's Object linked straight to
+    # it (a coordinates group) is read outside. Measured (rt54a, tests/test_faults_review54a.py):
+    # such a group feeding SG Noise's Vector froze posed with no warning (readers []).
+    stack = names | {out.name for out in outputs}
+    return any(_reads_object_space(tree.nodes[n], stack, seen) for n in names)
 
 
 def object_space_readers(tree, fed):

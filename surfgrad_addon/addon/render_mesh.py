@@ -8,7 +8,8 @@ render one; but a render engine's render(depsgraph) receives it. So `read_in_ren
 registers a tiny temporary RenderEngine that does nothing but call `read(depsgraph)`, renders
 one frame of the context's view layer at 16 x 16 with it (no file written), and puts back
 everything it touched: the render settings, the view layer's Use for Rendering, the scene
-camera, the "Render Result" image if there was none, and the engine class. The scene's camera
+camera, the "Render Result" image if there was none (or the user's render in it: the pass
+renders into a slot of its own), and the engine class. The scene's camera
 is kept where it has one (hidden, excluded or in no collection, it still renders): a Geometry
 Nodes setup reading the Active Camera (camera culling, distance LODs) evaluates as in the bake
 (before, a stand-in camera at the origin bent such a mesh otherwise: a correct group compared
@@ -80,6 +81,7 @@ def read_in_render_mode(obj, read, context=None):
         bpy.utils.register_class(engine)
         stack.callback(bpy.utils.unregister_class, engine)
         stack.callback(_remove_new_render_result, images_before)
+        _probe_slot(stack)
         stack.enter_context(restored(scene, settings))
         stack.enter_context(visible_for_bake(obj, view_layer))
         # A view layer off for renders ("Use for Rendering") renders nothing, though a bake
@@ -137,6 +139,35 @@ def _remove_camera(camera, data, view_layer):
     bpy.data.objects.remove(camera)
     bpy.data.cameras.remove(data)
     view_layer.update()     # else its objects list the camera's stale base as None
+
+
+# A render writes into the Render Result's active slot. Measured (rt54a,
+# tests/test_faults_review54a.py): an artist's unsaved F11 render in that slot was replaced by
+# the probe's empty 16 x 16 one (Image > Save As: "could not be saved"), lost, on every bake,
+# Freeze or compare of a modified object. Blender's Python has no way to remove a slot, so the
+# probe keeps one of its own, made once, left empty.
+PROBE_SLOT = "surfgrad probe (empty)"
+
+
+def _probe_slot(stack):
+    """Where a Render Result exists, make its probe slot the active one for the pass (and
+    empty it and make the artist's slot active again after)."""
+    import bpy
+    result = next((i for i in bpy.data.images if i.type == "RENDER_RESULT"), None)
+    if result is None:
+        return
+    slots = result.render_slots
+    active = slots.active_index
+    index = next((i for i, s in enumerate(slots) if s.name == PROBE_SLOT), None)
+    if index is None:
+        slots.new(name=PROBE_SLOT)
+        index = len(slots) - 1
+
+    def back():
+        slots[index].clear(None)
+        slots.active_index = active
+    stack.callback(back)
+    slots.active_index = index
 
 
 def _remove_new_render_result(images_before):
