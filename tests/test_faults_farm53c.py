@@ -80,7 +80,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from support.baked_normals import degrees_between  # noqa: E402
+from support.baked_normals import degrees_between, read_normals  # noqa: E402
 from support.flamenco import compile_job  # noqa: E402
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
@@ -105,12 +105,7 @@ def _task(listing, index, output, manifests, overwrite=True):
 
 
 def _normals(path):
-    img = bpy.data.images.load(str(path))
-    try:
-        px = np.array(img.pixels[:]).reshape(SIZE, SIZE, 4)[..., :3] * 2.0 - 1.0
-    finally:
-        bpy.data.images.remove(img)
-    return px / np.linalg.norm(px, axis=-1, keepdims=True)
+    return read_normals(path, SIZE)
 
 
 @pytest.fixture

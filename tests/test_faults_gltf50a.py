@@ -76,7 +76,7 @@ def _mirrored_grid():
     UVs mirrored onto each other (u = |x|), the importer's material: Image Texture
     (Non-Color) -> Normal Map ('UVMap') -> Principled BSDF."""
     bpy = pytest.importorskip("bpy")
-    from surfgrad_addon.addon.compat import new_material
+    from support.materials import normal_map_material
     bpy.ops.wm.read_factory_settings(use_empty=True)
     xs = np.linspace(-1.0, 1.0, 2 * CELLS + 1)
     ys = np.linspace(-1.0, 1.0, CELLS + 1)
@@ -95,18 +95,7 @@ def _mirrored_grid():
         p.use_smooth = True
     obj = bpy.data.objects.new("Mirrored", mesh)
     bpy.context.scene.collection.objects.link(obj)
-    mat = new_material("Mat")
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
-    nm = tree.nodes.new("ShaderNodeNormalMap")
-    nm.uv_map = "UVMap"
-    tex = tree.nodes.new("ShaderNodeTexImage")
-    tex.image = _wave_image()
-    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
-    tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
-    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    mat, _ = normal_map_material("Mat", _wave_image())
     mesh.materials.append(mat)
     bpy.context.view_layer.update()
     return obj

@@ -69,7 +69,7 @@ def _grid(coordinate_scale=1.0, object_scale=1.0):
     coordinate_scale with the object scaled by object_scale (KHR_mesh_quantization's node
     scale); custom normals the surface's, as the importer sets them from NORMAL data."""
     bpy = pytest.importorskip("bpy")
-    from surfgrad_addon.addon.compat import new_material
+    from support.materials import normal_map_material
     bpy.ops.wm.read_factory_settings(use_empty=True)
     xs = np.linspace(-1.0, 1.0, CELLS + 1)
     X, Y = np.meshgrid(xs, xs, indexing="xy")
@@ -91,14 +91,6 @@ def _grid(coordinate_scale=1.0, object_scale=1.0):
     obj = bpy.data.objects.new("Grid", mesh)
     obj.scale = (object_scale,) * 3
     bpy.context.scene.collection.objects.link(obj)
-    mat = new_material("Mat")
-    tree = mat.node_tree
-    tree.nodes.clear()
-    out = tree.nodes.new("ShaderNodeOutputMaterial")
-    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
-    nm = tree.nodes.new("ShaderNodeNormalMap")
-    nm.uv_map = "UVMap"
-    tex = tree.nodes.new("ShaderNodeTexImage")
     c = (np.arange(N_IMAGE) + 0.5) / N_IMAGE
     v, u = np.meshgrid(c, c, indexing="ij")
     rgba = np.ones((N_IMAGE, N_IMAGE, 4), np.float32)
@@ -107,10 +99,7 @@ def _grid(coordinate_scale=1.0, object_scale=1.0):
     img.colorspace_settings.name = "Non-Color"
     img.pixels.foreach_set(rgba.ravel())
     img.pack()
-    tex.image = img
-    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
-    tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
-    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    mat, _ = normal_map_material("Mat", img)
     mesh.materials.append(mat)
     bpy.context.view_layer.update()
     return obj

@@ -7,9 +7,14 @@ import numpy as np
 def baked_normals(obj, path, space, resolution):
     """Bake obj's materials into `path` (space 'tangent' or 'object', no margin) and return
     its texels as (resolution, resolution, 3) unit vectors."""
-    import bpy
     from surfgrad_addon import api
     api.bake_normal_map(obj, str(path), space=space, resolution=resolution, margin=0, log=None)
+    return read_normals(path, resolution)
+
+
+def read_normals(path, resolution):
+    """A baked map's texels as (resolution, resolution, 3) unit vectors."""
+    import bpy
     img = bpy.data.images.load(str(path))
     try:
         px = np.array(img.pixels[:]).reshape(resolution, resolution, 4)[..., :3] * 2.0 - 1.0

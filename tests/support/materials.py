@@ -1,6 +1,7 @@
 """Test materials: a Diffuse BSDF into the Material Output, the skeleton the bake tests hang
 their normal inputs on (Cycles' NORMAL bake averages closure normals; a Diffuse one keeps
-glossy closures' bump correction out, shared/notes)."""
+glossy closures' bump correction out, shared/notes); and an image through a Normal Map node into
+a Principled BSDF, as Blender's glTF importer builds a normalTexture."""
 
 import bpy
 
@@ -17,3 +18,21 @@ def diffuse_material(name):
     bsdf = g.node("ShaderNodeBsdfDiffuse")
     g.link(bsdf.outputs[0], out.inputs["Surface"])
     return mat, mat.node_tree, bsdf
+
+
+def normal_map_material(name, image, uv_map="UVMap"):
+    """(material, its node tree) reading `image` through a tangent-space Normal Map node on
+    `uv_map` into a Principled BSDF's Normal."""
+    mat = new_material(name)
+    tree = mat.node_tree
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    nm = tree.nodes.new("ShaderNodeNormalMap")
+    nm.uv_map = uv_map
+    tex = tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tree.links.new(tex.outputs["Color"], nm.inputs["Color"])
+    tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
+    tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
+    return mat, tree
