@@ -33,8 +33,14 @@ has them). Rebuilt here by code (an 8 x 8 curved quad grid, two columns of faces
    word. Now the bake warns; shaded smooth, 0.22 (5.2) / 0.03 (4.2).
 
 Fine (no warning, within 0.1 degrees on every line): custom normals on smooth faces only;
-every face smooth. Left alone (not narrowed): 54b's morph target at 1.0 (2.3 degrees on 5.2
-only) and 4.2's 4.3-degree object-space map of the quantized import.
+every face smooth. Left alone: 54b's morph target at 1.0 (2.3 degrees off the image on 5.2
+only; render-vs-render 2.12) is not the shape key nor the custom normals: the mix applied to
+the mesh and the keys removed, 2.12 (5.2) / 0.03 (5.0); custom normals cleared, 2.12. No face
+is flat, so no warning; the smooth triangles' corner normals there differ by up to ~45 degrees
+(interpolated length 0.92), where 5.2's Normal Map node normalises the frame normal and up to
+5.0 not (`LineFacts.normal_map_unit_normal`): a likely cause, not confirmed (a quad grid with
+bumps rebuilt by code rendered 3.1 degrees off on 5.2 and 5.0 alike). 4.2's 4.3-degree
+object-space map of the quantized import was not looked at.
 """
 
 import numpy as np

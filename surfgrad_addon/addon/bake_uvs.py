@@ -173,8 +173,10 @@ def _frame_faces(mesh, positions, tris, faces, corners, normals):
         mesh.attributes["sharp_face"].data.foreach_get("value", flat)
     if not flat.any():
         return (), False
-    sharp_edges = "sharp_edge" in mesh.attributes and any(
-        d.value for d in mesh.attributes["sharp_edge"].data)
+    sharp = np.zeros(len(mesh.edges), bool)
+    if "sharp_edge" in mesh.attributes:
+        mesh.attributes["sharp_edge"].data.foreach_get("value", sharp)
+    sharp_edges = bool(sharp.any())
     # Up to 5.0 only custom normals or sharp edges make Cycles shade with corner normals
     # (reference/blender_lines.py, sharp_faces_give_corner_normals).
     shaded = (not facts_for(bpy.app.version).sharp_faces_give_corner_normals
