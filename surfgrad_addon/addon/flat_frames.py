@@ -20,6 +20,13 @@ the render of the source material, both through Cycles):
    normals: 0.03).
 
 Shade Smooth on every face removes both (0.03 degrees on every line).
+
+3. On 5.2, smooth triangles whose corner normals spread far apart: their interpolated normal
+   is short (length L at the centre), and 5.2's Normal Map node normalises it while Blender's
+   bake encodes on it as it is (`LineFacts.normal_map_unit_normal`): about 0.5 (1/L - 1)
+   radians off at worst (a bumpy triangle grid, L 0.950: 1.28 degrees; L 0.981: 0.49; up to
+   5.0: 0.03). Subdividing does not remove it (a Subdivision Surface, levels 1 to 3: max 2.6
+   to 2.0); an object-space map reads back within 0.08.
 """
 
 import numpy as np
@@ -60,6 +67,36 @@ def frame_mismatch_faces(positions, triangles, triangle_faces, triangle_corners,
         verts = vertex_normals[triangles[smooth]].reshape(-1, 3)
         bad[smooth] = _off(corners, verts).reshape(-1, 3).any(1)
     return tuple(np.unique(triangle_faces[bad]).tolist())
+
+
+def short_normal_faces(triangle_faces, triangle_corners, smooth_faces, corner_normals):
+    """(faces whose smooth triangles' interpolated normal is short enough that 5.2's unit
+    frame and the bake's differ by more than the limit, the largest estimated degrees)."""
+    smooth = np.asarray(smooth_faces, bool)[triangle_faces]
+    if not smooth.any():
+        return (), 0.0
+    n = corner_normals[triangle_corners[smooth]]
+    n = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+    length = np.linalg.norm(n.mean(axis=1), axis=-1)
+    degrees = np.degrees(0.5 * (1.0 / np.maximum(length, 1e-6) - 1.0))
+    bad = degrees > LIMIT_DEGREES
+    return (tuple(np.unique(triangle_faces[smooth][bad]).tolist()),
+            float(degrees.max()) if bad.any() else 0.0)
+
+
+def short_normal_warning(what, faces, degrees):
+    """A warning naming `faces` of `what` (short_normal_faces) for a tangent-space bake, or
+    None."""
+    if not len(faces):
+        return None
+    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
+                                              if len(faces) > 8 else "")
+    return (f"{len(faces)} smooth face(s) of {what} (faces {shown}) have corner normals so far "
+            f"apart that their interpolated normal is short: this Blender's Normal Map node "
+            f"decodes on it made unit length, the bake encodes on it as it is, so the "
+            f"tangent-space map read back renders up to about {degrees:.1f} degrees off the "
+            f"material there. Fix: bake in object space where the map serves this mesh alone "
+            f"(it reads back within 0.1 degrees), or accept the difference")
 
 
 def frame_mismatch_warning(what, faces, vertex_normals_shaded):
