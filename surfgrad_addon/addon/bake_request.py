@@ -39,6 +39,7 @@ from .bake_console import heartbeat
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
 from .facing_away import facing_away_warning
+from .flat_frames import frame_mismatch_warning, short_normal_warning
 from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
@@ -238,7 +239,8 @@ def _check(request, obj, warn):
             obj, request.output, request.uv_map, request.tiles, request.empty_tiles)
     except NB.NormalBakeError as err:
         raise BakeRequestError(_only_instances(obj) or [str(err)]) from None
-    problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution)
+    problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution,
+                              tangent=request.space == "tangent")
     baked = baked_mesh(obj)
     if request.space == "object":        # Blender writes it bent under an uneven scale
         problem = object_space_scale_problem(obj, baked.matrix)
@@ -348,12 +350,13 @@ def _inputs_unchanged(checked):
 
 # The checks ---------------------------------------------------------------------------------
 
-def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None, only=None):
+def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None, only=None, tangent=True):
     """The evaluated mesh as the bake sees it (bake_uvs.baked_mesh: modifiers at their
     render settings): its mesh caches read (cache_files.py), finite positions, faces with
     area, finite UVs with area in `uv_map`, finite UVs in the maps its materials (or material
     `only`) read; far from the origin, and texels of `tiles` that overlapping UV islands
-    contest at `resolution`, add warnings."""
+    contest at `resolution`, add warnings; so do faces a `tangent`-space map renders off on
+    (flat_frames.py)."""
     stale = unread_cache_problems(obj)      # (the mesh read would be the import's, not the cache's)
     if stale:
         return stale
@@ -382,6 +385,11 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None, only=None):
                    f"Split Normals Data)")
     away = facing_away_warning(what, baked.facing_away_faces)
     warnings += [away] if away else []
+    frames = tangent and frame_mismatch_warning(what, baked.frame_faces,
+                                                baked.vertex_normals_shaded)
+    warnings += [frames] if frames else []
+    short = tangent and short_normal_warning(what, *baked.short_normals)
+    warnings += [short] if short else []
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     problem = IC.collapsed_mesh_problem(what, world, tris)
     if problem:

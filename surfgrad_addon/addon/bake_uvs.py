@@ -17,6 +17,7 @@ import numpy as np
 from ..reference import tiles as T
 from .bake_target import bake_target_problem
 from .facing_away import facing_away_triangles
+from .flat_frames import frame_mismatch_faces, short_normal_faces
 from .mesh_triangles import triangle_uvs, triangles
 from .read_once import ReadOnce
 from .unrealized_instances import read_instances
@@ -105,6 +106,9 @@ class BakedMesh:
     active_uv: str = None                   # its active UV map (tangent_uv.py)
     colour_attributes: tuple = ()           # its colour attributes' names
     facing_away_faces: tuple = ()           # faces with a corner normal facing away (facing_away.py)
+    frame_faces: tuple = ()                 # faces a tangent map renders off (flat_frames.py)
+    vertex_normals_shaded: bool = False     # Cycles shades smooth faces with vertex normals
+    short_normals: tuple = ((), 0.0)        # (faces, degrees): 5.2's unit frame (flat_frames.py)
 
     @property
     def filled_slots(self):
@@ -151,10 +155,42 @@ def baked_mesh(obj):
                              tuple(a.name for a in mesh.color_attributes),
                              tuple(np.unique(faces[facing_away_triangles(
                                  positions.reshape(-1, 3), tris.reshape(-1, 3),
-                                 normals.reshape(-1, 3)[loops].reshape(-1, 3, 3))]).tolist()))
+                                 normals.reshape(-1, 3)[loops].reshape(-1, 3, 3))]).tolist()),
+                             *_frame_faces(mesh, positions.reshape(-1, 3), tris.reshape(-1, 3),
+                                           faces, loops.reshape(-1, 3),
+                                           normals.reshape(-1, 3)))
         finally:
             evaluated.to_mesh_clear()
     return _meshes.get(obj.as_pointer(), lambda: read_as_baked(obj, read))
+
+
+def _frame_faces(mesh, positions, tris, faces, corners, normals):
+    """(faces where a tangent map renders off, whether Cycles shades smooth faces with vertex
+    normals, (smooth faces whose short normal 5.2 makes unit, degrees)): flat_frames.py."""
+    import bpy
+    from ..reference.blender_lines import facts_for
+    facts = facts_for(bpy.app.version)
+    flat = np.zeros(len(mesh.polygons), bool)
+    if "sharp_face" in mesh.attributes:
+        mesh.attributes["sharp_face"].data.foreach_get("value", flat)
+    # (faces with a corner normal facing away have their own warning: facing_away.py)
+    away = facing_away_triangles(positions, tris, normals[corners])
+    short = (short_normal_faces(faces[~away], corners[~away], ~flat, normals)
+             if facts.normal_map_unit_normal else ((), 0.0))
+    if not flat.any():
+        return (), False, short
+    sharp = np.zeros(len(mesh.edges), bool)
+    if "sharp_edge" in mesh.attributes:
+        mesh.attributes["sharp_edge"].data.foreach_get("value", sharp)
+    sharp_edges = bool(sharp.any())
+    # Up to 5.0 only custom normals or sharp edges make Cycles shade with corner normals
+    # (reference/blender_lines.py, sharp_faces_give_corner_normals).
+    shaded = (not facts.sharp_faces_give_corner_normals
+              and not mesh.has_custom_normals and not sharp_edges)
+    vertex = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("normal", vertex)
+    return (frame_mismatch_faces(positions, tris, faces, corners, flat, normals,
+                                 vertex.reshape(-1, 3), shaded), shaded, short)
 
 
 @contextmanager

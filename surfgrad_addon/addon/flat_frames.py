@@ -1,0 +1,118 @@
+"""Faces where a tangent-space bake and Cycles' Normal Map node build their frames on different
+normals, so the map, read back through a Normal Map node, does not render as the material did
+(red team 54f). No bpy: the arrays come from bake_uvs.baked_mesh.
+
+Blender's bake turns Cycles' shading normal into tangent space on Blender's corner normals (and
+MikkTSpace tangents); Cycles' Normal Map node decodes on the normal Cycles shades with. They
+differ in two cases (measured on a curved 8 x 8 grid, 32^2, render of the baked map against
+the render of the source material, both through Cycles):
+
+1. A face marked flat (Shade Flat, `sharp_face`) whose corner normals are not its own normal:
+   custom normals on flat faces (glTF's importer marks a face flat where its quantized NORMALs
+   are equal and keeps them as custom normals). Cycles shades such a triangle flat (its
+   geometric normal), the bake converts on the custom ones: faces 2.0 degrees off, max 1.27
+   (5.2) / 1.38 (4.5, 5.0) degrees off; on 4.2 the import's flat corners are the face's own.
+   Non-planar quads shaded flat likewise (corner normals: the polygon's; Cycles: each
+   triangle's): a twisted all-flat grid rendered max 30.5 / mean 9.8 degrees off, every line.
+2. Up to 5.0, a mesh mixing flat and smooth faces without custom normals or sharp edges:
+   Cycles shades its smooth faces with vertex normals (the flat faces' normals averaged in),
+   Blender's corner normals leave the flat faces out: max 2.0 degrees (5.2 shades with corner
+   normals: 0.03).
+
+Shade Smooth on every face removes both (0.03 degrees on every line).
+
+3. On 5.2, smooth triangles whose corner normals spread far apart: their interpolated normal
+   is short (length L at the centre), and 5.2's Normal Map node normalises it while Blender's
+   bake encodes on it as it is (`LineFacts.normal_map_unit_normal`): about 0.5 (1/L - 1)
+   radians off at worst (a bumpy triangle grid, L 0.950: 1.28 degrees; L 0.981: 0.49; up to
+   5.0: 0.03). Subdividing does not remove it (a Subdivision Surface, levels 1 to 3: max 2.6
+   to 2.0); an object-space map reads back within 0.08.
+"""
+
+import numpy as np
+
+# Corner normals this far (degrees) from the normal Cycles decodes on: the baked map renders
+# about 0.65 x as far off (2.09 -> 1.35 / 1.46 degrees measured).
+LIMIT_DEGREES = 0.5
+
+
+def _off(a, b):
+    """Per row: whether unit-ish vectors a and b (N, 3) are more than the limit apart."""
+    a = a / np.maximum(np.linalg.norm(a, axis=-1, keepdims=True), 1e-30)
+    b = b / np.maximum(np.linalg.norm(b, axis=-1, keepdims=True), 1e-30)
+    with np.errstate(invalid="ignore"):
+        return (a * b).sum(-1) < np.cos(np.radians(LIMIT_DEGREES))
+
+
+def frame_mismatch_faces(positions, triangles, triangle_faces, triangle_corners, flat_faces,
+                         corner_normals, vertex_normals, vertex_normals_shaded):
+    """The faces (sorted, unique) where the bake's frame normal and the Normal Map node's differ:
+    flat faces whose corner normals are not their triangles' own normal, and, where
+    `vertex_normals_shaded` (up to 5.0, no custom normals nor sharp edges, flat and smooth
+    mixed), smooth faces whose corner normals are not the vertex normals.
+    triangles (T, 3) vertex indices, triangle_corners (T, 3) corner indices, flat_faces (F,)
+    bool, corner_normals (C, 3), vertex_normals (V, 3)."""
+    if not len(triangles):
+        return ()
+    flat = np.asarray(flat_faces, bool)[triangle_faces]
+    bad = np.zeros(len(triangles), bool)
+    if flat.any():
+        p = positions[triangles[flat]]
+        own = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+        corners = corner_normals[triangle_corners[flat]]               # (t, 3, 3)
+        bad[flat] = _off(np.repeat(own, 3, axis=0), corners.reshape(-1, 3)).reshape(-1, 3).any(1)
+    if vertex_normals_shaded and flat.any() and (~flat).any():
+        smooth = ~flat
+        corners = corner_normals[triangle_corners[smooth]].reshape(-1, 3)
+        verts = vertex_normals[triangles[smooth]].reshape(-1, 3)
+        bad[smooth] = _off(corners, verts).reshape(-1, 3).any(1)
+    return tuple(np.unique(triangle_faces[bad]).tolist())
+
+
+def short_normal_faces(triangle_faces, triangle_corners, smooth_faces, corner_normals):
+    """(faces whose smooth triangles' interpolated normal is short enough that 5.2's unit
+    frame and the bake's differ by more than the limit, the largest estimated degrees)."""
+    smooth = np.asarray(smooth_faces, bool)[triangle_faces]
+    if not smooth.any():
+        return (), 0.0
+    n = corner_normals[triangle_corners[smooth]]
+    n = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+    length = np.linalg.norm(n.mean(axis=1), axis=-1)
+    degrees = np.degrees(0.5 * (1.0 / np.maximum(length, 1e-6) - 1.0))
+    bad = degrees > LIMIT_DEGREES
+    return (tuple(np.unique(triangle_faces[smooth][bad]).tolist()),
+            float(degrees.max()) if bad.any() else 0.0)
+
+
+def short_normal_warning(what, faces, degrees):
+    """A warning naming `faces` of `what` (short_normal_faces) for a tangent-space bake, or
+    None."""
+    if not len(faces):
+        return None
+    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
+                                              if len(faces) > 8 else "")
+    return (f"{len(faces)} smooth face(s) of {what} (faces {shown}) have corner normals so far "
+            f"apart that their interpolated normal is short: this Blender's Normal Map node "
+            f"decodes on it made unit length, the bake encodes on it as it is, so the "
+            f"tangent-space map read back renders up to about {degrees:.1f} degrees off the "
+            f"material there. Fix: bake in object space where the map serves this mesh alone "
+            f"(it reads back within 0.1 degrees), or accept the difference")
+
+
+def frame_mismatch_warning(what, faces, vertex_normals_shaded):
+    """A warning naming `faces` of `what` for a tangent-space bake, or None."""
+    if not len(faces):
+        return None
+    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
+                                              if len(faces) > 8 else "")
+    why = ("faces marked flat carry normals other than their triangles' own: custom normals "
+           "on flat faces, as glTF imports leave them, or flat quads that are not planar")
+    if vertex_normals_shaded:
+        why += ("; or, flat and smooth faces mixed, Cycles on this Blender line shades the "
+                "smooth ones with vertex normals that average the flat faces in")
+    return (f"{len(faces)} face(s) of {what} (faces {shown}): the tangent-space map is "
+            f"encoded on Blender's corner normals there, but Cycles' Normal Map node decodes on "
+            f"other normals ({why}), so the map read back through a Normal Map node renders off "
+            f"the material there (1 to 2 degrees for 2-degree custom normals, 30 for twisted "
+            f"quads). Fix: select all faces and Shade Smooth (Face > "
+            f"Shade Smooth keeps custom normals)")
