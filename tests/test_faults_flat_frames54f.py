@@ -34,18 +34,18 @@ has them). Rebuilt here by code (an 8 x 8 curved quad grid, two columns of faces
 
 4. On 5.2, smooth triangles whose corner normals spread far apart (a triangulated grid with
    every 7th vertex lifted 0.2; interpolated normal 0.950 long at a centre): 5.2's Normal Map
-   node makes the frame normal unit length, Blender's bake encodes on it as it is: max 1.28 /
-   mean 0.13 degrees, exit 0 and no word (up to 5.0: 0.03). Now the bake warns on 5.2, naming
-   the faces, the estimate 0.5 (1/L - 1) radians (1.5) and the fix: object space (its map,
-   read back through an Object Space Normal Map node, within 0.08; subdividing does not help:
-   a Subdivision Surface at levels 1 to 3, max 2.6 to 2.0, mean 0.11 to 0.02, not warned at
-   level 3, a limit of the estimate).
+   node makes the frame normal unit length, Blender's bake encodes on it as it is (as
+   MikkTSpace's decoder does: engines read the map as baked): max 1.28 / mean 0.13 degrees in
+   5.2 (up to 5.0: 0.03). A warning for it (estimate 0.5 (1/L - 1) radians) fired on most
+   low-poly smooth meshes (demo.blend's torus, rock and displaced grids: 1 to 3 degrees
+   estimated), so the coordinator took it out: a known limit (docs/pipelines.md), pinned here
+   per line. Subdividing does not help (levels 1 to 3: max 2.6 to 2.0, mean 0.11 to 0.02).
 
 Fine (no warning, within 0.1 degrees on every line): custom normals on smooth faces only;
 every face smooth. 54b's morph target at 1.0 (2.3 degrees off the image on 5.2 only;
 render-vs-render 2.12) is finding 4, not the shape key nor the custom normals: the mix applied
 to the mesh and the keys removed, 2.12 (5.2) / 0.03 (5.0); custom normals cleared, 2.12; its
-triangles' normals are 0.92 long at the centre (now warned, estimate 2.4). Left alone: smooth
+triangles' normals are 0.92 long at the centre (estimate 2.4). Left alone: smooth
 quads that are not planar render off on every line (the same grid as quads: lift 0.2, 3.1
 degrees; 0.1, 0.87; 0.05, 0.16), cause not found, not warned; 4.2's 4.3-degree object-space
 map of the quantized import was not looked at.
@@ -176,7 +176,8 @@ def test_object_space_bakes_do_not_warn(tmp_path):
 
 
 def test_non_planar_flat_quads_warn(tmp_path):
-    """3: twisted quads, all flat: > 5 degrees off (30.5) and warned; smooth: < 0.5, no word."""
+    """3: twisted quads, all flat: > 5 degrees off (30.5) and warned; triangulated (the fix the
+    warning names for them; the flat look stays): < 0.5, no word."""
     obj = _grid()
     me = obj.data
     with bpy.context.temp_override(object=obj, active_object=obj, selected_objects=[obj]):
@@ -188,11 +189,15 @@ def test_non_planar_flat_quads_warn(tmp_path):
     me.update()
     off, err = _render_vs_render(obj, tmp_path, "flat")
     assert off.max() > 5.0, off.max()
-    assert "flat quads that are not planar" in err and "Shade Smooth" in err, err
-    for p in me.polygons:
-        p.use_smooth = True
+    assert "flat quads that are not planar" in err and "Triangulate Faces" in err, err
+    import bmesh
+    bm = bmesh.new()
+    bm.from_mesh(me)
+    bmesh.ops.triangulate(bm, faces=bm.faces[:])
+    bm.to_mesh(me)
+    bm.free()
     me.update()
-    off, err = _render_vs_render(obj, tmp_path, "smooth")
+    off, err = _render_vs_render(obj, tmp_path, "triangulated")
     assert off.max() < 0.5, off.max()
     assert "Normal Map node decodes" not in err, err
 
@@ -223,15 +228,11 @@ def _bumpy_triangles(cuts=0):
 
 
 def test_short_interpolated_normals_are_the_line_fact(tmp_path):
-    """4: 5.2 renders > 1 degree off (1.28) and warns with the estimate; up to 5.0 within 0.1
-    and no word."""
+    """4: a known limit, not warned: 5.2 renders the map read back 1 to 2 degrees off (1.28);
+    up to 5.0 within 0.1."""
     from surfgrad_addon.reference.blender_lines import facts_for
     off, err = _render_vs_render(_bumpy_triangles(), tmp_path)
     if facts_for(bpy.app.version).normal_map_unit_normal:
-        assert off.max() > 1.0, off.max()
-        assert "interpolated normal is short" in err and "object space" in err, err
-        degrees = float(err.split("up to about ")[1].split(" degrees")[0])
-        assert 1.0 <= degrees <= 2.0, degrees        # the estimate brackets the measured 1.28
+        assert 1.0 < off.max() < 2.0, off.max()
     else:
         assert off.max() < 0.1, off.max()
-        assert "interpolated normal is short" not in err, err

@@ -39,7 +39,7 @@ from .bake_console import heartbeat
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
 from .facing_away import facing_away_warning
-from .flat_frames import frame_mismatch_warning, short_normal_warning
+from .flat_frames import frame_mismatch_warning
 from .empty_slots import empty_slot_problem
 from .exit_codes import BakeFailed, MapNotWritten
 from .float_pixels import one_pixel_read
@@ -388,8 +388,6 @@ def mesh_problems(obj, uv_map, warnings, tiles=(), resolution=None, only=None, t
     frames = tangent and frame_mismatch_warning(what, baked.frame_faces,
                                                 baked.vertex_normals_shaded)
     warnings += [frames] if frames else []
-    short = tangent and short_normal_warning(what, *baked.short_normals)
-    warnings += [short] if short else []
     world = positions @ matrix[:3, :3].T + matrix[:3, 3]
     problem = IC.collapsed_mesh_problem(what, world, tris)
     if problem:

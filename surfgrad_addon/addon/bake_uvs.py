@@ -17,7 +17,7 @@ import numpy as np
 from ..reference import tiles as T
 from .bake_target import bake_target_problem
 from .facing_away import facing_away_triangles
-from .flat_frames import frame_mismatch_faces, short_normal_faces
+from .flat_frames import frame_mismatch_faces
 from .mesh_triangles import triangle_uvs, triangles
 from .read_once import ReadOnce
 from .unrealized_instances import read_instances
@@ -108,7 +108,6 @@ class BakedMesh:
     facing_away_faces: tuple = ()           # faces with a corner normal facing away (facing_away.py)
     frame_faces: tuple = ()                 # faces a tangent map renders off (flat_frames.py)
     vertex_normals_shaded: bool = False     # Cycles shades smooth faces with vertex normals
-    short_normals: tuple = ((), 0.0)        # (faces, degrees): 5.2's unit frame (flat_frames.py)
 
     @property
     def filled_slots(self):
@@ -166,19 +165,15 @@ def baked_mesh(obj):
 
 def _frame_faces(mesh, positions, tris, faces, corners, normals):
     """(faces where a tangent map renders off, whether Cycles shades smooth faces with vertex
-    normals, (smooth faces whose short normal 5.2 makes unit, degrees)): flat_frames.py."""
+    normals): flat_frames.py."""
     import bpy
     from ..reference.blender_lines import facts_for
     facts = facts_for(bpy.app.version)
     flat = np.zeros(len(mesh.polygons), bool)
     if "sharp_face" in mesh.attributes:
         mesh.attributes["sharp_face"].data.foreach_get("value", flat)
-    # (faces with a corner normal facing away have their own warning: facing_away.py)
-    away = facing_away_triangles(positions, tris, normals[corners])
-    short = (short_normal_faces(faces[~away], corners[~away], ~flat, normals)
-             if facts.normal_map_unit_normal else ((), 0.0))
     if not flat.any():
-        return (), False, short
+        return (), False
     sharp = np.zeros(len(mesh.edges), bool)
     if "sharp_edge" in mesh.attributes:
         mesh.attributes["sharp_edge"].data.foreach_get("value", sharp)
@@ -190,7 +185,7 @@ def _frame_faces(mesh, positions, tris, faces, corners, normals):
     vertex = np.empty(len(mesh.vertices) * 3, np.float32)
     mesh.vertices.foreach_get("normal", vertex)
     return (frame_mismatch_faces(positions, tris, faces, corners, flat, normals,
-                                 vertex.reshape(-1, 3), shaded), shaded, short)
+                                 vertex.reshape(-1, 3), shaded), shaded)
 
 
 @contextmanager

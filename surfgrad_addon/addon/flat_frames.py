@@ -69,36 +69,6 @@ def frame_mismatch_faces(positions, triangles, triangle_faces, triangle_corners,
     return tuple(np.unique(triangle_faces[bad]).tolist())
 
 
-def short_normal_faces(triangle_faces, triangle_corners, smooth_faces, corner_normals):
-    """(faces whose smooth triangles' interpolated normal is short enough that 5.2's unit
-    frame and the bake's differ by more than the limit, the largest estimated degrees)."""
-    smooth = np.asarray(smooth_faces, bool)[triangle_faces]
-    if not smooth.any():
-        return (), 0.0
-    n = corner_normals[triangle_corners[smooth]]
-    n = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
-    length = np.linalg.norm(n.mean(axis=1), axis=-1)
-    degrees = np.degrees(0.5 * (1.0 / np.maximum(length, 1e-6) - 1.0))
-    bad = degrees > LIMIT_DEGREES
-    return (tuple(np.unique(triangle_faces[smooth][bad]).tolist()),
-            float(degrees.max()) if bad.any() else 0.0)
-
-
-def short_normal_warning(what, faces, degrees):
-    """A warning naming `faces` of `what` (short_normal_faces) for a tangent-space bake, or
-    None."""
-    if not len(faces):
-        return None
-    shown = ", ".join(map(str, faces[:8])) + (f" and {len(faces) - 8} more"
-                                              if len(faces) > 8 else "")
-    return (f"{len(faces)} smooth face(s) of {what} (faces {shown}) have corner normals so far "
-            f"apart that their interpolated normal is short: this Blender's Normal Map node "
-            f"decodes on it made unit length, the bake encodes on it as it is, so the "
-            f"tangent-space map read back renders up to about {degrees:.1f} degrees off the "
-            f"material there. Fix: bake in object space where the map serves this mesh alone "
-            f"(it reads back within 0.1 degrees), or accept the difference")
-
-
 def frame_mismatch_warning(what, faces, vertex_normals_shaded):
     """A warning naming `faces` of `what` for a tangent-space bake, or None."""
     if not len(faces):
@@ -114,5 +84,6 @@ def frame_mismatch_warning(what, faces, vertex_normals_shaded):
             f"encoded on Blender's corner normals there, but Cycles' Normal Map node decodes on "
             f"other normals ({why}), so the map read back through a Normal Map node renders off "
             f"the material there (1 to 2 degrees for 2-degree custom normals, 30 for twisted "
-            f"quads). Fix: select all faces and Shade Smooth (Face > "
-            f"Shade Smooth keeps custom normals)")
+            f"quads). Fix: for custom normals or mixed faces, select all faces and Shade Smooth "
+            f"(it keeps custom normals); for flat quads that are not planar, Face > Triangulate "
+            f"Faces (the flat look stays)")
