@@ -14,6 +14,7 @@ from .bake_closures import baked_inputs
 from .material_inputs import cycles_output, live_links, renders_nothing
 
 REACHED = ("Surface", "Displacement")     # Material Output inputs the bake's normal reads
+CARRIERS = ("CLOSURE", "BUNDLE")          # socket types that carry a shader inside them
 
 
 def normal_nodes(mat):
@@ -58,7 +59,11 @@ def _sources(link, outer, found):
                 for s in n.inputs if s.identifier == out.identifier]
     if node.bl_idname == "ShaderNodeGroup":
         return []
-    inputs = baked_inputs(node) if out.type == "SHADER" else list(node.inputs)
+    # A shader out of an Evaluate Closure or a Separate Bundle (5.0+) is the one its Closure or
+    # Bundle input carries: baked_inputs (shader sockets only) dropped it, so a missing normal
+    # map in a Closure Zone was only warned of and baked magenta (54.7 degrees off, exit 0).
+    carried = any(s.type in CARRIERS for s in node.inputs)
+    inputs = baked_inputs(node) if out.type == "SHADER" and not carried else list(node.inputs)
     return [(s, outer) for s in inputs]
 
 

@@ -1,0 +1,137 @@
+"""Red team 55a: hostile review of the round 53-54 merges (rt53c, rt54a, rt54c, rt54d, rt54e).
+
+1. normal_sources.py (rt54c) decides which images can reach the baked normal; the others are
+   only warned of. It followed a shader output into baked_inputs(node), which keeps shader
+   sockets alone, so the shader an Evaluate Closure or a Separate Bundle (Blender 5.0+) hands
+   on was dropped with its Closure or Bundle input. An artist's Closure Zone (or a Combine /
+   Separate Bundle pair) around a Principled BSDF fed a Normal Map: its image missing (a
+   texture folder moved) was warned of as "it feeds no normal the bake reads, so the map is
+   baked without it", and the bake went on with Cycles' magenta: every texel 54.7 degrees
+   from the surface, where the material's normal is 60 degrees the other way (37.9 degrees
+   off; measured on 5.2, the same on 5.0), exit 0, map written. Before rt54c it was refused.
+   input_stamps (the file-changed-during-the-bake check) left the file out alike. Now a node
+   with a Closure or Bundle input has all its inputs followed: refused, nothing written; a
+   Base Color image inside the zone is still only warned of.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon.bake_request import BakeRequestError  # noqa: E402
+from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
+from surfgrad_addon.addon.input_stamps import stamps  # noqa: E402
+from surfgrad_addon.addon.sampler_zone import has_closures  # noqa: E402
+from support.baked_normals import baked_normals, degrees_between  # noqa: E402
+from support.blender import new_material  # noqa: E402
+
+pytestmark = pytest.mark.tier("blender")
+
+needs_closures = pytest.mark.skipif(not has_closures(), reason="Closure Zones and Bundles "
+                                    "are Blender 5.0+ shader nodes")
+
+RES = 16
+TILT = math.radians(60.0)
+NORMAL = np.array([math.sin(TILT), 0.0, math.cos(TILT)])
+
+
+def _gone(name):
+    """An image whose file is not there (a folder moved): Blender keeps it, unloaded."""
+    image = bpy.data.images.new(name, 4, 4)
+    image.source = "FILE"
+    image.filepath = f"/nonexistent/surfgrad55a/{name}.png"
+    return image
+
+
+def _carried_plane(carrier, source):
+    """A plane whose Principled BSDF (Normal from a Normal Map fed by `source`: 'rgb', a
+    constant 60 degrees off the surface, or 'missing', an Image Texture of a missing file)
+    reaches the Material Output through `carrier`: 'closure' (a Closure Zone with a Shader
+    item, evaluated by Evaluate Closure) or 'bundle' (Combine Bundle > Separate Bundle).
+    Returns (obj, tree, bsdf)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_plane_add(size=2)
+    obj = bpy.context.active_object
+    mat = new_material("Artist")
+    obj.data.materials.append(mat)
+    tree = mat.node_tree
+    nodes, link = tree.nodes, tree.links.new
+    for node in [n for n in nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        nodes.remove(node)
+    out = nodes["Material Output"]
+    bsdf, normal_map = nodes.new("ShaderNodeBsdfPrincipled"), nodes.new("ShaderNodeNormalMap")
+    if source == "rgb":
+        src = nodes.new("ShaderNodeRGB")
+        src.outputs[0].default_value = (*(NORMAL * 0.5 + 0.5), 1.0)
+    else:
+        src = nodes.new("ShaderNodeTexImage")
+        src.name, src.image = "Bumps", _gone("Bumps")
+    link(src.outputs[0], normal_map.inputs["Color"])
+    link(normal_map.outputs[0], bsdf.inputs["Normal"])
+    if carrier == "closure":
+        zin, zout = nodes.new("NodeClosureInput"), nodes.new("NodeClosureOutput")
+        assert zin.pair_with_output(zout)
+        zout.output_items.new("SHADER", "BSDF")
+        link(bsdf.outputs[0], zout.inputs["BSDF"])
+        evaluate = nodes.new("NodeEvaluateClosure")
+        evaluate.output_items.new("SHADER", "BSDF")
+        link(zout.outputs[0], evaluate.inputs[0])
+        link(evaluate.outputs["BSDF"], out.inputs["Surface"])
+    else:
+        combine, separate = nodes.new("NodeCombineBundle"), nodes.new("NodeSeparateBundle")
+        combine.bundle_items.new("SHADER", "Skin")
+        separate.bundle_items.new("SHADER", "Skin")
+        link(bsdf.outputs[0], combine.inputs["Skin"])
+        link(combine.outputs[0], separate.inputs[0])
+        link(separate.outputs["Skin"], out.inputs["Surface"])
+    return obj, tree, bsdf
+
+
+@needs_closures
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("carrier", ["closure", "bundle"])
+def test_the_normal_through_a_closure_or_bundle_is_baked(tmp_path, carrier):
+    """Finding 1's premise: Cycles bakes the normal a closure or bundle carries (the product
+    stands the BSDF in there too): every texel the 60-degree normal fed in."""
+    obj, _tree, _bsdf = _carried_plane(carrier, "rgb")
+    got = baked_normals(obj, tmp_path / "n.exr", "tangent", RES)
+    assert degrees_between(got, NORMAL).max() < 0.05
+
+
+@needs_closures
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("carrier", ["closure", "bundle"])
+def test_a_missing_normal_map_inside_a_closure_or_bundle_is_refused(tmp_path, carrier):
+    """Finding 1: refused, nothing written (before: a map 54.7 degrees off the surface,
+    exit 0, and a warning that said the image feeds no normal)."""
+    obj, _tree, _bsdf = _carried_plane(carrier, "missing")
+    with pytest.raises(BakeRequestError, match="image 'Bumps' reads .*which does not exist: "
+                                               "Cycles would bake its magenta"):
+        baked_normals(obj, tmp_path / "n.exr", "tangent", RES)
+    assert list(tmp_path.iterdir()) == []
+
+
+@needs_closures
+@pytest.mark.parametrize("carrier", ["closure", "bundle"])
+def test_only_the_normals_image_inside_a_closure_is_refused(carrier):
+    """Finding 1: the Normal Map's image is a problem, a Base Color image beside it in the
+    same zone still only a warning (the stand-in reads no colour)."""
+    obj, tree, bsdf = _carried_plane(carrier, "missing")
+    colour = tree.nodes.new("ShaderNodeTexImage")
+    colour.name, colour.image = "Albedo", _gone("Albedo")
+    tree.links.new(colour.outputs[0], bsdf.inputs["Base Color"])
+    warned = []
+    problems = image_problems(obj, warnings=warned)
+    assert len(problems) == 1 and "image 'Bumps' reads" in problems[0], (problems, warned)
+    assert len(warned) == 1 and "image 'Albedo' reads" in warned[0], (problems, warned)
+
+
+@needs_closures
+def test_the_normals_file_inside_a_closure_is_stamped():
+    """Finding 1: the file-changed-during-the-bake check stamps the normal's file (before:
+    left out, so a normal map re-saved mid-bake was never noticed)."""
+    obj, _tree, _bsdf = _carried_plane("closure", "missing")
+    assert list(stamps(obj)) == ["/nonexistent/surfgrad55a/Bumps.png"]
