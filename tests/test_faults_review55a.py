@@ -135,3 +135,48 @@ def test_the_normals_file_inside_a_closure_is_stamped():
     left out, so a normal map re-saved mid-bake was never noticed)."""
     obj, _tree, _bsdf = _carried_plane("closure", "missing")
     assert list(stamps(obj)) == ["/nonexistent/surfgrad55a/Bumps.png"]
+
+
+# 2 --------------------------------------------------------------------------------------------
+
+@pytest.mark.tier("bake")
+def test_a_bake_of_a_modified_object_runs_no_render_handler(tmp_path):
+    """Finding 2: a render counter (render_pre) and a "render done" notice (render_complete)
+    of the session are not run by the bake's render-mode pass, and stay registered, in order
+    (before: 4 handler calls a bake, the scene's counter at 1)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    calls = []
+
+    def count(scene, *_):
+        calls.append("pre")
+        scene["renders"] = scene.get("renders", 0) + 1
+
+    def notice(*_):
+        calls.append("complete")
+
+    def other(*_):
+        calls.append("other")
+    handlers = bpy.app.handlers
+    lists = (handlers.render_init, handlers.render_pre, handlers.render_post,
+             handlers.render_complete)
+    before = [list(h) for h in lists]
+    handlers.render_pre.append(count)
+    handlers.render_pre.append(other)
+    handlers.render_complete.append(notice)
+    handlers.render_init.append(other)
+    handlers.render_post.append(other)
+    try:
+        bpy.ops.mesh.primitive_plane_add(size=2)
+        obj = bpy.context.active_object
+        obj.modifiers.new("Smooth", "SUBSURF")          # a modifier: the render-mode pass runs
+        obj.data.materials.append(new_material("Artist"))
+        got = baked_normals(obj, tmp_path / "n.exr", "tangent", RES)
+        assert degrees_between(got, np.array([0.0, 0.0, 1.0])).max() < 0.05
+        assert calls == [], calls
+        assert "renders" not in bpy.context.scene
+        assert list(handlers.render_pre)[-2:] == [count, other]
+        assert list(handlers.render_complete)[-1] is notice
+        assert list(handlers.render_init)[-1] is other and list(handlers.render_post)[-1] is other
+    finally:
+        for h, was in zip(lists, before):
+            h[:] = was
