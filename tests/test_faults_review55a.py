@@ -12,6 +12,13 @@
    input_stamps (the file-changed-during-the-bake check) left the file out alike. Now a node
    with a Closure or Bundle input has all its inputs followed: refused, nothing written; a
    Base Color image inside the zone is still only warned of.
+2. render_mesh's render-mode pass (rt54a gave it a Render Result slot of its own) is a render
+   to Blender: every bake, Freeze or compare of an object with a modifier ran the session's
+   render handlers, 4 calls a pass (render_init, _pre, _post, _complete; 4.2 and 5.2 alike),
+   though the bake itself runs none (measured: only render_stats). An add-on's render
+   counter on the scene went up by one a bake (the file changed), a "render done" notice or
+   an auto-save of each render (it failed: "Render Result could not be saved") fired for a
+   render the artist never made. Now the pass takes them out and puts them back, in order.
 """
 
 import math
