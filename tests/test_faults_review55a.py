@@ -8,10 +8,19 @@
    texture folder moved) was warned of as "it feeds no normal the bake reads, so the map is
    baked without it", and the bake went on with Cycles' magenta: every texel 54.7 degrees
    from the surface, where the material's normal is 60 degrees the other way (37.9 degrees
-   off; measured on 5.2, the same on 5.0), exit 0, map written. Before rt54c it was refused.
+   off; measured on 5.2, the same on 5.0), exit 0, map written; so did a Normal Map given to
+   the zone as an Evaluate Closure argument. Before rt54c it was refused.
    input_stamps (the file-changed-during-the-bake check) left the file out alike. Now a node
    with a Closure or Bundle input has all its inputs followed: refused, nothing written; a
    Base Color image inside the zone is still only warned of.
+3. bake_closures took an Evaluate Closure (5.0+) whose closure takes an argument named
+   "Normal" (the natural name for a reusable layer's base normal) for a BSDF: a Normal input
+   and a Shader output. It stood it in as a white Diffuse fed that argument, dropping the
+   zone's own shading: a Principled BSDF in the zone fed its own Normal Map 60 degrees off the
+   surface baked flat, 60.0 degrees off what Cycles renders (5.0 and 5.2, argument linked or
+   not), exit 0, no word; an argument named otherwise baked right (0.00). Now a node with a
+   Closure or Bundle input never stands in (the BSDFs in its zone do), nor one whose Normal is
+   not a vector: 0.00 degrees.
 2. render_mesh's render-mode pass (rt54a gave it a Render Result slot of its own) is a render
    to Blender: every bake, Freeze or compare of an object with a modifier ran the session's
    render handlers, 4 calls a pass (render_init, _pre, _post, _complete; 4.2 and 5.2 alike),
@@ -41,6 +50,7 @@ needs_closures = pytest.mark.skipif(not has_closures(), reason="Closure Zones an
                                     "are Blender 5.0+ shader nodes")
 
 RES = 16
+CARRIERS = ["closure", "closure argument", "bundle"]
 TILT = math.radians(60.0)
 NORMAL = np.array([math.sin(TILT), 0.0, math.cos(TILT)])
 
@@ -57,7 +67,9 @@ def _carried_plane(carrier, source):
     """A plane whose Principled BSDF (Normal from a Normal Map fed by `source`: 'rgb', a
     constant 60 degrees off the surface, or 'missing', an Image Texture of a missing file)
     reaches the Material Output through `carrier`: 'closure' (a Closure Zone with a Shader
-    item, evaluated by Evaluate Closure) or 'bundle' (Combine Bundle > Separate Bundle).
+    item, evaluated by Evaluate Closure), 'closure argument' (the same, the Normal Map given
+    to the zone by the Evaluate Closure's input item) or 'bundle' (Combine Bundle > Separate
+    Bundle).
     Returns (obj, tree, bsdf)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.mesh.primitive_plane_add(size=2)
@@ -77,8 +89,23 @@ def _carried_plane(carrier, source):
         src = nodes.new("ShaderNodeTexImage")
         src.name, src.image = "Bumps", _gone("Bumps")
     link(src.outputs[0], normal_map.inputs["Color"])
-    link(normal_map.outputs[0], bsdf.inputs["Normal"])
-    if carrier == "closure":
+    if carrier != "closure argument":
+        link(normal_map.outputs[0], bsdf.inputs["Normal"])
+    if carrier == "closure argument":
+        # the Normal given to the closure where it is evaluated (an input item of both)
+        zin, zout = nodes.new("NodeClosureInput"), nodes.new("NodeClosureOutput")
+        assert zin.pair_with_output(zout)
+        zout.input_items.new("VECTOR", "Normal")
+        zout.output_items.new("SHADER", "BSDF")
+        link(zin.outputs["Normal"], bsdf.inputs["Normal"])
+        link(bsdf.outputs[0], zout.inputs["BSDF"])
+        evaluate = nodes.new("NodeEvaluateClosure")
+        evaluate.input_items.new("VECTOR", "Normal")
+        evaluate.output_items.new("SHADER", "BSDF")
+        link(zout.outputs[0], evaluate.inputs[0])
+        link(normal_map.outputs[0], evaluate.inputs["Normal"])
+        link(evaluate.outputs["BSDF"], out.inputs["Surface"])
+    elif carrier == "closure":
         zin, zout = nodes.new("NodeClosureInput"), nodes.new("NodeClosureOutput")
         assert zin.pair_with_output(zout)
         zout.output_items.new("SHADER", "BSDF")
@@ -99,7 +126,7 @@ def _carried_plane(carrier, source):
 
 @needs_closures
 @pytest.mark.tier("bake")
-@pytest.mark.parametrize("carrier", ["closure", "bundle"])
+@pytest.mark.parametrize("carrier", CARRIERS)
 def test_the_normal_through_a_closure_or_bundle_is_baked(tmp_path, carrier):
     """Finding 1's premise: Cycles bakes the normal a closure or bundle carries (the product
     stands the BSDF in there too): every texel the 60-degree normal fed in."""
@@ -110,7 +137,7 @@ def test_the_normal_through_a_closure_or_bundle_is_baked(tmp_path, carrier):
 
 @needs_closures
 @pytest.mark.tier("bake")
-@pytest.mark.parametrize("carrier", ["closure", "bundle"])
+@pytest.mark.parametrize("carrier", CARRIERS)
 def test_a_missing_normal_map_inside_a_closure_or_bundle_is_refused(tmp_path, carrier):
     """Finding 1: refused, nothing written (before: a map 54.7 degrees off the surface,
     exit 0, and a warning that said the image feeds no normal)."""
@@ -122,7 +149,7 @@ def test_a_missing_normal_map_inside_a_closure_or_bundle_is_refused(tmp_path, ca
 
 
 @needs_closures
-@pytest.mark.parametrize("carrier", ["closure", "bundle"])
+@pytest.mark.parametrize("carrier", CARRIERS)
 def test_only_the_normals_image_inside_a_closure_is_refused(carrier):
     """Finding 1: the Normal Map's image is a problem, a Base Color image beside it in the
     same zone still only a warning (the stand-in reads no colour)."""
@@ -187,3 +214,50 @@ def test_a_bake_of_a_modified_object_runs_no_render_handler(tmp_path):
     finally:
         for h, was in zip(lists, before):
             h[:] = was
+
+
+# 3 --------------------------------------------------------------------------------------------
+
+def _zone_with_a_normal_argument(linked):
+    """A plane whose Material Output takes an Evaluate Closure of a Closure Zone that has an
+    argument named Normal (unused inside, or fed the Geometry's Normal when `linked`) and
+    returns a Principled BSDF fed its own Normal Map, 60 degrees off the surface."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_plane_add(size=2)
+    obj = bpy.context.active_object
+    mat = new_material("Layer")
+    obj.data.materials.append(mat)
+    nodes, link = mat.node_tree.nodes, mat.node_tree.links.new
+    for node in [n for n in nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        nodes.remove(node)
+    zin, zout = nodes.new("NodeClosureInput"), nodes.new("NodeClosureOutput")
+    assert zin.pair_with_output(zout)
+    zout.input_items.new("VECTOR", "Normal")
+    zout.output_items.new("SHADER", "BSDF")
+    bsdf, normal_map = nodes.new("ShaderNodeBsdfPrincipled"), nodes.new("ShaderNodeNormalMap")
+    rgb = nodes.new("ShaderNodeRGB")
+    rgb.outputs[0].default_value = (*(NORMAL * 0.5 + 0.5), 1.0)
+    link(rgb.outputs[0], normal_map.inputs["Color"])
+    link(normal_map.outputs[0], bsdf.inputs["Normal"])
+    link(bsdf.outputs[0], zout.inputs["BSDF"])
+    evaluate = nodes.new("NodeEvaluateClosure")
+    evaluate.input_items.new("VECTOR", "Normal")
+    evaluate.output_items.new("SHADER", "BSDF")
+    link(zout.outputs[0], evaluate.inputs[0])
+    if linked:
+        link(nodes.new("ShaderNodeNewGeometry").outputs["Normal"], evaluate.inputs["Normal"])
+    link(evaluate.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
+    return obj, mat
+
+
+@needs_closures
+@pytest.mark.tier("bake")
+@pytest.mark.parametrize("linked", [False, True])
+def test_an_evaluate_closure_with_a_normal_argument_is_not_stood_in(tmp_path, linked):
+    """Finding 3: the map is the zone's BSDF normal, every texel (before: 60.0 degrees off,
+    the surface's own normal)."""
+    obj, mat = _zone_with_a_normal_argument(linked)
+    before = sorted((n.name, n.bl_idname) for n in mat.node_tree.nodes)
+    got = baked_normals(obj, tmp_path / "n.exr", "tangent", RES)
+    assert degrees_between(got, NORMAL).max() < 0.05
+    assert sorted((n.name, n.bl_idname) for n in mat.node_tree.nodes) == before

@@ -10,11 +10,10 @@ through the Group Input socket reached) and SG groups' inputs. An image that fee
 Base Color or a Roughness is left out: Cycles does not read it for the bake, so a missing one
 cannot change the map (image_checks warns of it, and refuses only those that reach)."""
 
-from .bake_closures import baked_inputs
+from .bake_closures import CARRIERS, baked_inputs
 from .material_inputs import cycles_output, live_links, renders_nothing
 
 REACHED = ("Surface", "Displacement")     # Material Output inputs the bake's normal reads
-CARRIERS = ("CLOSURE", "BUNDLE")          # socket types that carry a shader inside them
 
 
 def normal_nodes(mat):
