@@ -56,9 +56,22 @@ def _stands_in(node):
     one, whatever its sockets: its Normal input may be the base its own nodes bend (an SG
     stack inside), which a stand-in fed that input would drop; its BSDFs stand in inside a
     copy."""
-    return (node.bl_idname != GROUP and not node.mute and
-            (NORMAL in node.inputs or node.bl_idname in HAIR) and
+    return (node.bl_idname != GROUP and not node.mute and not _carries(node) and
+            ((NORMAL in node.inputs and node.inputs[NORMAL].type == "VECTOR") or
+             node.bl_idname in HAIR) and
             any(o.type == "SHADER" for o in node.outputs))
+
+
+# An Evaluate Closure (5.0+) whose closure takes an argument named Normal looks like a BSDF
+# (a Normal input, a Shader output), but its shader is the zone's: stood in, it dropped the
+# zone's own normals (a Normal Map inside: the map 60 degrees off what Cycles renders, exit 0;
+# rt55a). Like a group's, the BSDFs inside stand in themselves.
+CARRIERS = ("CLOSURE", "BUNDLE")
+
+
+def _carries(node):
+    """`node` takes a closure or a bundle: what it outputs is what that carries."""
+    return any(s.type in CARRIERS for s in node.inputs)
 
 
 def _unlinked(node):

@@ -10,7 +10,7 @@ through the Group Input socket reached) and SG groups' inputs. An image that fee
 Base Color or a Roughness is left out: Cycles does not read it for the bake, so a missing one
 cannot change the map (image_checks warns of it, and refuses only those that reach)."""
 
-from .bake_closures import baked_inputs
+from .bake_closures import CARRIERS, baked_inputs
 from .material_inputs import cycles_output, live_links, renders_nothing
 
 REACHED = ("Surface", "Displacement")     # Material Output inputs the bake's normal reads
@@ -58,7 +58,11 @@ def _sources(link, outer, found):
                 for s in n.inputs if s.identifier == out.identifier]
     if node.bl_idname == "ShaderNodeGroup":
         return []
-    inputs = baked_inputs(node) if out.type == "SHADER" else list(node.inputs)
+    # A shader out of an Evaluate Closure or a Separate Bundle (5.0+) is the one its Closure or
+    # Bundle input carries: baked_inputs (shader sockets only) dropped it, so a missing normal
+    # map in a Closure Zone was only warned of and baked magenta (54.7 degrees off, exit 0).
+    carried = any(s.type in CARRIERS for s in node.inputs)
+    inputs = baked_inputs(node) if out.type == "SHADER" and not carried else list(node.inputs)
     return [(s, outer) for s in inputs]
 
 
