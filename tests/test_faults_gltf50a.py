@@ -112,16 +112,10 @@ def _wave(u, v):
 
 
 def _wave_image():
-    import bpy
+    from support.materials import packed_normal_image
     c = (np.arange(N_IMAGE) + 0.5) / N_IMAGE
     v, u = np.meshgrid(c, c, indexing="ij")
-    rgba = np.ones((N_IMAGE, N_IMAGE, 4), np.float32)
-    rgba[..., :3] = _wave(u, v) * 0.5 + 0.5
-    img = bpy.data.images.new("wave", N_IMAGE, N_IMAGE, alpha=True, float_buffer=True)
-    img.colorspace_settings.name = "Non-Color"
-    img.pixels.foreach_set(rgba.ravel())
-    img.pack()
-    return img
+    return packed_normal_image("wave", _wave(u, v) * 0.5 + 0.5)
 
 
 @pytest.mark.tier("blender")

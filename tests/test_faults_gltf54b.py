@@ -69,7 +69,7 @@ def _grid(coordinate_scale=1.0, object_scale=1.0):
     coordinate_scale with the object scaled by object_scale (KHR_mesh_quantization's node
     scale); custom normals the surface's, as the importer sets them from NORMAL data."""
     bpy = pytest.importorskip("bpy")
-    from support.materials import normal_map_material
+    from support.materials import normal_map_material, packed_normal_image
     bpy.ops.wm.read_factory_settings(use_empty=True)
     xs = np.linspace(-1.0, 1.0, CELLS + 1)
     X, Y = np.meshgrid(xs, xs, indexing="xy")
@@ -93,13 +93,7 @@ def _grid(coordinate_scale=1.0, object_scale=1.0):
     bpy.context.scene.collection.objects.link(obj)
     c = (np.arange(N_IMAGE) + 0.5) / N_IMAGE
     v, u = np.meshgrid(c, c, indexing="ij")
-    rgba = np.ones((N_IMAGE, N_IMAGE, 4), np.float32)
-    rgba[..., :3] = _wave(u, v) * 0.5 + 0.5
-    img = bpy.data.images.new("wave", N_IMAGE, N_IMAGE, alpha=True, float_buffer=True)
-    img.colorspace_settings.name = "Non-Color"
-    img.pixels.foreach_set(rgba.ravel())
-    img.pack()
-    mat, _ = normal_map_material("Mat", img)
+    mat, _ = normal_map_material("Mat", packed_normal_image("wave", _wave(u, v) * 0.5 + 0.5))
     mesh.materials.append(mat)
     bpy.context.view_layer.update()
     return obj

@@ -37,7 +37,7 @@ from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.bake_request import BakeRequestError  # noqa: E402
 from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
 from support.baked_normals import baked_normals, degrees_between  # noqa: E402
-from support.blender import new_material  # noqa: E402
+from support.blender import missing_image, new_material  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
 
@@ -47,11 +47,7 @@ NORMAL = np.array([math.sin(TILT), 0.0, math.cos(TILT)])
 
 
 def _gone(name):
-    """An image whose file is not there (a folder moved): Blender keeps it, unloaded."""
-    image = bpy.data.images.new(name, 4, 4)
-    image.source = "FILE"
-    image.filepath = f"/nonexistent/surfgrad54c/{name}.png"
-    return image
+    return missing_image(name, "surfgrad54c")
 
 
 def _plane():

@@ -9,3 +9,12 @@ def new_material(name):
     if mat.node_tree is None:
         mat.use_nodes = True
     return mat
+
+
+def missing_image(name, folder):
+    """An image whose file is not there (a folder moved): Blender keeps it, unloaded."""
+    import bpy
+    image = bpy.data.images.new(name, 4, 4)
+    image.source = "FILE"
+    image.filepath = f"/nonexistent/{folder}/{name}.png"
+    return image

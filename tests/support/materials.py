@@ -4,6 +4,7 @@ glossy closures' bump correction out, shared/notes); and an image through a Norm
 a Principled BSDF, as Blender's glTF importer builds a normalTexture."""
 
 import bpy
+import numpy as np
 
 from surfgrad_addon.addon.compat import new_material
 from surfgrad_addon.harness.graph import Graph
@@ -36,3 +37,15 @@ def normal_map_material(name, image, uv_map="UVMap"):
     tree.links.new(nm.outputs["Normal"], bsdf.inputs["Normal"])
     tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
     return mat, tree
+
+
+def packed_normal_image(name, rgb):
+    """A packed, Non-Color float image holding `rgb` ((n, n, 3), row 0 at v = 0)."""
+    n = rgb.shape[0]
+    rgba = np.ones((n, n, 4), np.float32)
+    rgba[..., :3] = rgb
+    img = bpy.data.images.new(name, n, n, alpha=True, float_buffer=True)
+    img.colorspace_settings.name = "Non-Color"
+    img.pixels.foreach_set(rgba.ravel())
+    img.pack()
+    return img
