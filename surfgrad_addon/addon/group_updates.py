@@ -158,9 +158,10 @@ def _per_image_request(tree):
         return None
     planes = 3 if key == "SG Triplanar Height" else 1
     taps = _plane_taps(tree, planes)
+    if taps is None:
+        return None
     images = [t.image for t in taps]
-    held = None if taps is None or None in images else (images, taps[0].extension)
-    return held and (key, *held)
+    return None if None in images else (key, images, taps[0].extension)
 
 
 # The sidebar asks every redraw which per-image groups an older surfgrad named: walking their
