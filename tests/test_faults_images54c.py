@@ -37,7 +37,8 @@ from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.bake_request import BakeRequestError  # noqa: E402
 from surfgrad_addon.addon.image_checks import image_problems  # noqa: E402
 from support.baked_normals import baked_normals, degrees_between  # noqa: E402
-from support.blender import missing_image, new_material  # noqa: E402
+from support.blender import missing_image  # noqa: E402
+from support.materials import plane_with_output  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
 
@@ -53,14 +54,7 @@ def _gone(name):
 def _plane():
     """A plane whose Principled BSDF is fed a constant tangent-space normal 60 degrees from the
     surface (RGB -> Normal Map), as an importer wires one. Returns (obj, tree, bsdf)."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.mesh.primitive_plane_add(size=2)
-    obj = bpy.context.active_object
-    mat = new_material("Artist")
-    obj.data.materials.append(mat)
-    tree = mat.node_tree
-    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-        tree.nodes.remove(node)
+    obj, tree = plane_with_output("Artist")
     bsdf = tree.nodes.new("ShaderNodeBsdfPrincipled")
     tree.links.new(bsdf.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
     rgb = tree.nodes.new("ShaderNodeRGB")

@@ -43,6 +43,7 @@ from surfgrad_addon.addon.input_stamps import stamps  # noqa: E402
 from surfgrad_addon.addon.sampler_zone import has_closures  # noqa: E402
 from support.baked_normals import baked_normals, degrees_between  # noqa: E402
 from support.blender import missing_image, new_material  # noqa: E402
+from support.materials import plane_with_output  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
 
@@ -67,15 +68,8 @@ def _carried_plane(carrier, source):
     to the zone by the Evaluate Closure's input item) or 'bundle' (Combine Bundle > Separate
     Bundle).
     Returns (obj, tree, bsdf)."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.mesh.primitive_plane_add(size=2)
-    obj = bpy.context.active_object
-    mat = new_material("Artist")
-    obj.data.materials.append(mat)
-    tree = mat.node_tree
+    obj, tree = plane_with_output("Artist")
     nodes, link = tree.nodes, tree.links.new
-    for node in [n for n in nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
-        nodes.remove(node)
     out = nodes["Material Output"]
     bsdf, normal_map = nodes.new("ShaderNodeBsdfPrincipled"), nodes.new("ShaderNodeNormalMap")
     if source == "rgb":

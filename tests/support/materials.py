@@ -49,3 +49,17 @@ def packed_normal_image(name, rgb):
     img.pixels.foreach_set(rgba.ravel())
     img.pack()
     return img
+
+
+def plane_with_output(name):
+    """A fresh scene's 2 m plane and its material `name`, holding only the Material Output:
+    (object, node tree)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_plane_add(size=2)
+    obj = bpy.context.active_object
+    mat = new_material(name)
+    obj.data.materials.append(mat)
+    tree = mat.node_tree
+    for node in [n for n in tree.nodes if n.bl_idname != "ShaderNodeOutputMaterial"]:
+        tree.nodes.remove(node)
+    return obj, tree
