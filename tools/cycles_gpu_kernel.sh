@@ -15,8 +15,10 @@ PY=${1:-.venv/bin/python}
 
 cc=$(nvidia-smi --query-gpu=compute_cap --format=csv,noheader 2>/dev/null | head -1 | tr -d ' .')
 [ -n "$cc" ] || { echo "cycles_gpu_kernel: no NVIDIA card (nvidia-smi)"; exit 1; }
-lib=$("$PY" -c "import bpy, pathlib; print(next(pathlib.Path(bpy.__file__).parent.glob(
-    '*/scripts/addons_core/cycles/lib')))" 2>/dev/null | tail -1)
+# Found without importing bpy: once imported, bpy.__file__ can name the copy inside the wheel's
+# scripts/modules, and Blender's start-up lines on stdout would hide the answer.
+lib=$("$PY" -c "import importlib.util as u, pathlib; print(next(pathlib.Path(u.find_spec(
+    'bpy').origin).parent.glob('*/scripts/addons_core/cycles/lib')))" 2>/dev/null | tail -1)
 [ -d "$lib" ] || { echo "cycles_gpu_kernel: no Cycles kernel folder in $PY's bpy"; exit 1; }
 out=$lib/kernel_sm_$cc.cubin.zst
 [ -f "$out" ] && { echo "cycles_gpu_kernel: $out is there"; exit 0; }
