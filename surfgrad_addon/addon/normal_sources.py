@@ -5,8 +5,8 @@ of the shaders reaching the Material Output only their Normal inputs, a Mix Shad
 closures' weights, which Cycles' average of their normals uses) and the shaders they take
 reach the map; so does the output's Displacement (bump or true displacement bends the
 normal). Everything upstream of those sockets counts: through reroutes, muted nodes (the
-inputs they pass on), node groups (into a group through the output socket used of its active Group Output, out of it
-through the Group Input socket reached) and SG groups' inputs. An image that feeds only a
+inputs they pass on), node groups (into a group through the output socket used, of its
+active Group Output; out of it through the Group Input socket reached) and SG groups' inputs. An image that feeds only a
 Base Color or a Roughness is left out: Cycles does not read it for the bake, so a missing one
 cannot change the map (image_checks warns of it, and refuses only those that reach)."""
 
