@@ -18,6 +18,13 @@ artist or TD has.
    Triangulate Faces"). Its other triangle's normal is the corner normals' to 0.00 degrees,
    and the empty one covers no texel. Now a triangle below 1e-5 of its longest edge in
    height is not judged; a twisted flat quad is still warned of.
+3. The render-mode pass (render_mesh.py, every bake, Freeze or compare of an object with a
+   modifier) ran the session's frame_change_pre and _post handlers, twice each a pass (5.2;
+   the bake itself runs none: 0 calls without a modifier); round 55 took out only the render
+   handlers. A pipeline's handler stepping a simulation on each frame change (here a shear
+   step of the mesh, z += 0.1 x) ran twice: the artist's mesh was left sheared (z 0.2 at the
+   corners) and the object-space map of the plane was 11.31 degrees off its normal, exit 0.
+   Now they are taken out for the pass and put back: 0 calls, the mesh unchanged, 0.00 off.
 
 Probed and fine: reroutes, muted nodes, a muted BSDF (its Normal not read), groups nested and
 unused group inputs (rounds 54c, 55a pin them).
@@ -141,3 +148,34 @@ def test_a_flat_quad_with_a_triangle_of_no_area_is_not_warned_of(corners):
 def test_a_twisted_flat_quad_is_still_warned_of():
     faces, warned = _frame_warnings(_flat_quad([(0, 0, 0), (1, 0, 0.2), (1, 1, 0), (0, 1, 0.2)]))
     assert faces == (0,) and len(warned) == 1
+
+
+@pytest.mark.tier("bake")
+def test_a_frame_change_handler_is_not_run_by_the_render_mode_pass(tmp_path):
+    """Finding 3: a pipeline's frame_change_pre handler stepping a simulation (here: a shear
+    of the mesh, z += 0.1 x, a step) on a plane with a modifier. The bake runs no frame change,
+    so the map is the plane's own normal (+z) and the mesh stays; before, the render-mode pass
+    ran the handler twice: the mesh left sheared (z = 0.2 x at the corners) and the object-space
+    map 11.3 degrees off (atan 0.2), exit 0."""
+    from support.materials import diffuse_material
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_plane_add(size=2)
+    obj = bpy.context.active_object
+    obj.data.materials.append(diffuse_material("Plain")[0])
+    obj.modifiers.new("Simple", "SUBSURF").subdivision_type = "SIMPLE"
+    steps = []
+
+    def step(scene, *_):
+        steps.append(scene.frame_current)
+        for v in obj.data.vertices:
+            v.co.z += 0.1 * v.co.x
+        obj.data.update()
+
+    bpy.app.handlers.frame_change_pre.append(step)
+    try:
+        got = baked_normals(obj, tmp_path / "n.exr", "object", RES)
+    finally:
+        bpy.app.handlers.frame_change_pre.remove(step)
+    assert steps == []
+    assert max(abs(v.co.z) for v in obj.data.vertices) == 0.0
+    assert degrees_between(got, np.array([0.0, 0.0, 1.0])).max() < 0.05
