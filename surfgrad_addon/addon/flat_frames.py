@@ -44,6 +44,22 @@ def _off(a, b):
         return (a * b).sum(-1) < np.cos(np.radians(LIMIT_DEGREES))
 
 
+# A triangle whose height is below this share of its longest edge has no normal of its own
+# (three corners on a line, a doubled vertex) and covers no texel of its face: it is not
+# judged. Judged, its zero normal was "off" every corner normal: a planar quad shaded flat with
+# a vertex on a straight edge (Blender splits it 0-2, one triangle of no area), or with a
+# doubled vertex, was warned of as a frame mismatch (fix named: Triangulate Faces) where the
+# map renders as the material did (rt56a).
+DEGENERATE = 1e-5
+
+
+def _degenerate(p, own):
+    """Per triangle (corners p (t, 3, 3), cross product own (t, 3)): of no area to speak of."""
+    edges = np.stack([p[:, 1] - p[:, 0], p[:, 2] - p[:, 1], p[:, 0] - p[:, 2]], 1)
+    longest = (edges ** 2).sum(-1).max(1)
+    return np.linalg.norm(own, axis=-1) <= DEGENERATE * longest
+
+
 def frame_mismatch_faces(positions, triangles, triangle_faces, triangle_corners, flat_faces,
                          corner_normals, vertex_normals, vertex_normals_shaded):
     """The faces (sorted, unique) where the bake's frame normal and the Normal Map node's differ:
@@ -60,7 +76,8 @@ def frame_mismatch_faces(positions, triangles, triangle_faces, triangle_corners,
         p = positions[triangles[flat]]
         own = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
         corners = corner_normals[triangle_corners[flat]]               # (t, 3, 3)
-        bad[flat] = _off(np.repeat(own, 3, axis=0), corners.reshape(-1, 3)).reshape(-1, 3).any(1)
+        off = _off(np.repeat(own, 3, axis=0), corners.reshape(-1, 3)).reshape(-1, 3).any(1)
+        bad[flat] = off & ~_degenerate(p, own)
     if vertex_normals_shaded and flat.any() and (~flat).any():
         smooth = ~flat
         corners = corner_normals[triangle_corners[smooth]].reshape(-1, 3)

@@ -91,8 +91,7 @@ def _reached(tree, starts, memo):
             key = data_key(group)
             if key not in memo:
                 memo[key] = []                  # a group that holds itself stops here
-                inner = [n for n in group.nodes if n.bl_idname == "NodeGroupOutput"]
-                memo[key] = _reached(group, inner, memo)
+                memo[key] = _reached(group, MI.group_outputs(group), memo)
             out += [(n, f"{node.name} > {p}", (node, *outer))
                     for n, p, outer in memo[key]]
     return out

@@ -54,6 +54,15 @@ def render_output(tree, target):
     return None
 
 
+def group_outputs(tree):
+    """The Group Output nodes of group `tree` whose inputs its group node gives out: the active
+    one (Blender flattens a shader group through the one flagged active alone), all of them
+    where none is flagged. Walked through every Group Output, a missing image feeding only an
+    inactive one refused a bake whose map it cannot change (rt56a)."""
+    outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
+    return [n for n in outputs if n.is_active_output] or outputs
+
+
 def cycles_output(tree):
     """The Material Output node Cycles renders through (render_output)."""
     return render_output(tree, "CYCLES")

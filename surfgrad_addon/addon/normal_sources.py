@@ -5,13 +5,13 @@ of the shaders reaching the Material Output only their Normal inputs, a Mix Shad
 closures' weights, which Cycles' average of their normals uses) and the shaders they take
 reach the map; so does the output's Displacement (bump or true displacement bends the
 normal). Everything upstream of those sockets counts: through reroutes, muted nodes (the
-inputs they pass on), node groups (into a group through the output socket used, out of it
-through the Group Input socket reached) and SG groups' inputs. An image that feeds only a
+inputs they pass on), node groups (into a group through the output socket used, of its
+active Group Output; out of it through the Group Input socket reached) and SG groups' inputs. An image that feeds only a
 Base Color or a Roughness is left out: Cycles does not read it for the bake, so a missing one
 cannot change the map (image_checks warns of it, and refuses only those that reach)."""
 
 from .bake_closures import CARRIERS, baked_inputs
-from .material_inputs import cycles_output, live_links, renders_nothing
+from .material_inputs import cycles_output, group_outputs, live_links, renders_nothing
 
 REACHED = ("Surface", "Displacement")     # Material Output inputs the bake's normal reads
 
@@ -54,7 +54,7 @@ def _sources(link, outer, found):
     if inner is not None:
         if any(g.node_tree == inner for g in outer):
             return []                   # a group that holds itself: Blender renders nothing
-        return [(s, (*outer, node)) for n in inner.nodes if n.bl_idname == "NodeGroupOutput"
+        return [(s, (*outer, node)) for n in group_outputs(inner)
                 for s in n.inputs if s.identifier == out.identifier]
     if node.bl_idname == "ShaderNodeGroup":
         return []

@@ -15,8 +15,8 @@ Nodes setup reading the Active Camera (camera culling, distance LODs) evaluates 
 (before, a stand-in camera at the origin bent such a mesh otherwise: a correct group compared
 44 deg wrong). Only a scene without a camera gets a temporary one (Blender refuses to render
 without), at the origin and scaled to nothing, as Object Info reads no camera. The session's
-render handlers (add-ons', a pipeline's) are taken out for the pass and put back: the bake
-runs none of them, and the pass is no render of the artist's (RENDER_HANDLERS).
+render and frame-change handlers (add-ons', a pipeline's) are taken out for the pass and put
+back: the bake runs none of them, and the pass is no render of the artist's (RENDER_HANDLERS).
 """
 
 from contextlib import ExitStack
@@ -178,8 +178,13 @@ def _probe_slot(stack):
 # done" notice, an auto-save of each render, a render-time proxy swap) took each bake, Freeze
 # or compare of a modified object for a render of the artist's, and changed what it keeps.
 # They are taken out for the pass and put back, in their order.
+# The pass's frame set (render pipeline) runs frame_change_pre and _post too, twice a pass
+# (measured on 5.2, rt56a), which neither the bake nor the artist's scene would have run: a
+# handler that steps a simulation, counts frames or re-runs a node tree (Animation Nodes,
+# Sverchok auto-execution) on each frame change was stepped by every bake, Freeze or compare
+# of a modified object.
 RENDER_HANDLERS = ("render_init", "render_pre", "render_post", "render_complete",
-                   "render_cancel", "render_write")
+                   "render_cancel", "render_write", "frame_change_pre", "frame_change_post")
 
 
 def _quiet_render_handlers(stack):
