@@ -108,7 +108,7 @@ def test_two_mirrored_quads_are_still_one_pair(fresh):
     assert _named_pairs(text[0]) == (1, [(0, 1)]), text[0]
 
 
-@pytest.mark.tier("numpy")
+@pytest.mark.tier("blender")   # (no bpy in it, but its module imports bpy)
 def test_claimants_lists_every_triangle_on_a_texel():
     """uv_overlap.claimants: three triangles stacked on the square's lower half and one beside
     them; at a texel under the stack all three, at one under the fourth that one alone, and
