@@ -30,6 +30,33 @@ def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False, one_si
     triangles (T, 3, 2) with area hold its centre strictly inside (edges=True: or on an
     edge, within EDGE_EPS, so an island's texels on its inner edges count as covered;
     one_side=True: a centre on an edge counts for one of the two faces sharing it)."""
+    claims = np.zeros(size * size, dtype=np.int32)
+    for _tri, texel in _claims(uv_triangles, size, uv_offset, edges, one_side):
+        np.add.at(claims, texel, 1)
+    return claims
+
+
+def claimants(uv_triangles, size, texels, uv_offset=(0.0, 0.0)):
+    """Every (texel, triangle) claim, as claimed_texels(one_side=True) counts them, at the
+    texels (flat indices of the size x size square) asked for: all the triangles stacked on a
+    texel, not only the last two a rasteriser keeps (a box whose six sides share the square
+    has six faces on each texel)."""
+    wanted = np.zeros(size * size, dtype=bool)
+    wanted[np.asarray(texels, dtype=np.int64)] = True
+    found_texel, found_tri = [], []
+    for tri, texel in _claims(uv_triangles, size, uv_offset, False, True, wanted):
+        keep = wanted[texel]
+        found_texel.append(texel[keep])
+        found_tri.append(tri[keep])
+    if not found_texel:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    return np.concatenate(found_texel), np.concatenate(found_tri)
+
+
+def _claims(uv_triangles, size, uv_offset, edges, one_side, wanted=None):
+    """The claims of claimed_texels, a group of triangles at a time: (triangle, texel) arrays
+    of every texel centre a triangle holds (with `wanted`, a mask of texels: only triangles
+    whose bounds hold one of them are scanned, so a few stacked faces cost a few faces)."""
     uv = np.asarray(uv_triangles, dtype=np.float64).reshape(-1, 3, 2)
     q = (uv - np.asarray(uv_offset, dtype=np.float64)) * size - 0.5   # centre of texel i is i
     a, b, c = q[:, 0], q[:, 1], q[:, 2]
@@ -44,10 +71,17 @@ def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False, one_si
     span = np.maximum(hi - lo + 1, 0)
     count = span[:, 0] * span[:, 1]
     count[(area == 0) | ~finite] = 0
+    if wanted is not None:
+        # Wanted texels inside each triangle's bounds, by a summed-area table.
+        table = np.zeros((size + 1, size + 1), dtype=np.int64)
+        np.cumsum(np.cumsum(wanted.reshape(size, size), axis=0), axis=1, out=table[1:, 1:])
+        x0, y0 = np.minimum(lo[:, 0], size), np.minimum(lo[:, 1], size)
+        x1, y1 = np.maximum(hi[:, 0] + 1, x0), np.maximum(hi[:, 1] + 1, y0)
+        held = table[y1, x1] - table[y0, x1] - table[y1, x0] + table[y0, x0]
+        count[held == 0] = 0
     keep = np.flatnonzero(count)
-    claims = np.zeros(size * size, dtype=np.int32)
     if len(keep) == 0:
-        return claims
+        return
     # Triangles in groups whose candidate texels fit one pass.
     bounds = np.searchsorted(np.cumsum(count[keep]), np.arange(_CHUNK, count.sum(), _CHUNK))
     for group in np.split(keep, bounds):
@@ -65,8 +99,7 @@ def claimed_texels(uv_triangles, size, uv_offset=(0.0, 0.0), edges=False, one_si
                 inside &= _one_side(s * e, s[:, None] * (p1[tri] - p0[tri]), p0[tri], p1[tri])
             else:
                 inside &= s * e > (-1 if edges else 1) * EDGE_EPS * np.abs(area[tri])
-        np.add.at(claims, y[inside] * size + x[inside], 1)
-    return claims
+        yield tri[inside], y[inside] * size + x[inside]
 
 
 def _one_side(e, d, p0, p1):
