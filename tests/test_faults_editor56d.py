@@ -12,6 +12,13 @@ Groups on a group the artist renamed. Measured on 5.2 before the fix (main at 30
    error, nothing changed, no undo step), the renamed group's warning says to rename it back
    to its Add-menu name; the sidebar names the renamed group(s) apart, with that fix, and
    shows the Update button only where it can update something. Renamed back, it updates.
+2. SG Decal in the World's nodes (the Add menu offers the World) and in a light's, in a file
+   saved on 4.5 (Shape an integer, 2 = Cylinder), opened on 5.2 and updated: the material's
+   node and the artist's group's node kept Cylinder, the World's and the light's Shape became
+   '' (the group's Menu input with no item), no note: the rebuild carried the choices of
+   group nodes in materials and node groups only (node_builder._group_owners; the drivers and
+   keyframes it follows too). Now of every tree a group node can be in: Cylinder in all four.
+   (5.0+, where the enumeration is a Menu; 4.2/4.5 keep the integer: no retype there.)
 
 Probed and fine (5.2): every operator (Add menu, Add Layer Stack, Convert, Add Decal
 Projector, Update) with older groups in the file, then Ctrl+Z (ed.undo): the groups, the
@@ -30,7 +37,8 @@ bpy = pytest.importorskip("bpy")
 from surfgrad_addon.addon import group_updates as U  # noqa: E402
 from surfgrad_addon.addon import groups as G  # noqa: E402
 from surfgrad_addon.addon.compat import new_material  # noqa: E402
-from surfgrad_addon.addon.group_names import VERSION_KEY  # noqa: E402
+from surfgrad_addon.addon.group_names import INSIDE_KEY, VERSION_KEY  # noqa: E402
+from surfgrad_addon.addon.node_builder import running_line, take_notes  # noqa: E402
 from test_extension import _shader_editor  # noqa: E402
 from test_faults_artist47 import _Sidebar  # noqa: E402
 
@@ -129,3 +137,34 @@ def test_a_renamed_group_beside_one_update_can_rebuild(registered):
     assert _update(mat) == {'FINISHED'}
     assert decal[VERSION_KEY] == G.VERSION
     assert bpy.data.node_groups["Resolve (mine)"][VERSION_KEY] == OLDER
+
+
+@pytest.mark.skipif(not running_line().menu_sockets,
+                    reason="4.2 and 4.5 keep the enumeration an integer: nothing is retyped")
+def test_a_worlds_and_a_lights_decal_keep_their_shape_when_an_integer_becomes_a_menu(fresh):
+    decal = G.decal_group()
+    iface = decal.interface
+    old = next(it for it in iface.items_tree if it.item_type == "SOCKET" and it.name == "Shape")
+    position = old.position
+    iface.remove(old)                       # as 4.5 saved it: an integer Shape, same place
+    iface.move(iface.new_socket("Shape", in_out="INPUT", socket_type="NodeSocketInt"),
+               position)
+    decal[VERSION_KEY] = OLDER
+    del decal[INSIDE_KEY]
+    world = bpy.data.worlds.new("Sky")
+    light = bpy.data.lights.new("Lamp", "POINT")
+    for owner in (world, light):
+        if owner.node_tree is None:         # (5.0+ gives each its tree; use_nodes deprecated)
+            owner.use_nodes = True
+    mine = bpy.data.node_groups.new("My Layer", "ShaderNodeTree")
+    trees = {"material": new_material("Rock").node_tree, "world": world.node_tree,
+             "light": light.node_tree, "group": mine}
+    for tree in trees.values():
+        node = tree.nodes.new("ShaderNodeGroup")
+        node.name, node.node_tree = "Decal", decal
+        node.inputs["Shape"].default_value = 2            # Cylinder (Box, Sphere, Cylinder...)
+    take_notes()
+    assert U.update_stale_groups() == (["SG Decal"], [])
+    shapes = {k: t.nodes["Decal"].inputs["Shape"].default_value for k, t in trees.items()}
+    assert shapes == dict.fromkeys(trees, "Cylinder"), shapes      # world, light: ''
+    assert take_notes() == []
