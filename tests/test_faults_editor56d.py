@@ -11,7 +11,14 @@ Groups on a group the artist renamed. Measured on 5.2 before the fix (main at 30
    button, after every Update. Now an Update that updates nothing is refused (CANCELLED, an
    error, nothing changed, no undo step), the renamed group's warning says to rename it back
    to its Add-menu name; the sidebar names the renamed group(s) apart, with that fix, and
-   shows the Update button only where it can update something. Renamed back, it updates.
+   shows the Update button only where it can update something; a renamed group is left as
+   it is (the artist's own version, perhaps): renamed back, it updates.
+3. A current SG Resolve the artist edited inside (a node muted), then renamed "My Resolve"
+   as the sidebar asks ("rename each to keep your version, so surfgrad can add its own"):
+   the sidebar went on saying "1 surface-gradient group(s) were edited inside ... ('My
+   Resolve'): surfgrad will not add or use them as its own; rename each ..." for good, while
+   the Add menu and Add Layer Stack made surfgrad's own SG Resolve beside it (FINISHED). Now
+   a group renamed away from surfgrad's names is not named there; an edited "SG Resolve" is.
 2. SG Decal in the World's nodes (the Add menu offers the World) and in a light's, in a file
    saved on 4.5 (Shape an integer, 2 = Cylinder), opened on 5.2 and updated: the material's
    node and the artist's group's node kept Cylinder, the World's and the light's Shape became
@@ -108,7 +115,8 @@ def test_the_sidebar_names_a_renamed_group_without_promising_its_update(register
     _material_using(_renamed_older_resolve())
     text = U.stale_text(U.stale_groups())
     assert "'Resolve (mine)'" in text, text
-    assert "rename each back to its name in the Add menu" in text, text
+    assert "leaves them as they are" in text, text
+    assert "rename it back to its name in the Add menu" in text, text
     assert "Update surfgrad Groups rebuilds them" not in text, text
     sidebar = _Sidebar()
     U.draw_stale_warning(sidebar)
@@ -168,3 +176,16 @@ def test_a_worlds_and_a_lights_decal_keep_their_shape_when_an_integer_becomes_a_
     shapes = {k: t.nodes["Decal"].inputs["Shape"].default_value for k, t in trees.items()}
     assert shapes == dict.fromkeys(trees, "Cylinder"), shapes      # world, light: ''
     assert take_notes() == []
+
+
+def test_an_edited_group_renamed_as_asked_is_no_longer_named_edited(fresh):
+    G.resolve_group()
+    mine = bpy.data.node_groups["SG Resolve"]
+    next(n for n in mine.nodes if n.bl_idname == "ShaderNodeVectorMath").mute = True
+    _material_using(mine)
+    assert "('SG Resolve')" in (U.edited_text() or ""), U.edited_text()
+    mine.name = "My Resolve"                   # what the sidebar asked
+    assert U.edited_text() is None, U.edited_text()        # was: "... ('My Resolve') ..."
+    ours = G.resolve_group()                   # surfgrad's own beside it
+    assert ours.name == "SG Resolve" and ours != mine
+    assert U.edited_text() is None

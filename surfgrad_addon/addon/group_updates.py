@@ -46,8 +46,10 @@ def renamed_away(tree):
         not any(name.startswith(prefix) for prefix in _BY_PREFIX)
 
 
-RENAMED_FIX = ("rename it back to its name in the Add menu (Surface Gradient), then update "
-               "again")
+# A renamed group may be the artist's own version (surfgrad's advice for an edited group is
+# to rename it): left as it is unless renamed back.
+RENAMED_FIX = ("to have it updated, rename it back to its name in the Add menu (Surface "
+               "Gradient; an edit inside it is then replaced), then update again")
 
 
 def stale_text(stale):
@@ -68,8 +70,8 @@ def stale_text(stale):
     if renamed:
         names = ", ".join(repr(n) for n in renamed[:3]) + (", ..." if len(renamed) > 3 else "")
         texts.append(f"{len(renamed)} older surface-gradient group(s) were renamed ({names}), "
-                     f"and may render differently here: Update cannot tell which group each "
-                     f"is; {RENAMED_FIX.replace('it back to its', 'each back to its')}")
+                     f"and may render differently here; surfgrad leaves them as they are (yours "
+                     f"now): {RENAMED_FIX.replace('have it', 'have one')}")
     return ". ".join(texts)
 
 
@@ -122,9 +124,11 @@ def edited_groups(shown=()):
     """This file's current groups the artist edited inside (see EDITED_NODE_BUDGET); `shown`:
     the node trees the editor shows, always digested."""
     line = running_line().line
+    # (Not one renamed away from surfgrad's names: the artist's own version, as the message
+    # asks; it nagged on, though every Add made surfgrad's own beside it.)
     current = [g for g in bpy.data.node_groups
                if g.library is None and g.get(VERSION_KEY) == G.VERSION
-               and g.get(LINE_KEY) == line]
+               and g.get(LINE_KEY) == line and not renamed_away(g)]
     _REDRAWS[0] += 1
     uids = {g.session_uid for g in current}
     for uid in set(_EDITED) - uids:
@@ -395,8 +399,8 @@ def update_stale_groups():
         reason = G.unavailable_reason(_COPY.sub("", tree.name)) or _unread_image(tree)
         if call is None or reason:
             left.append((tree.name, reason or (
-                f"its name is none that surfgrad gives (renamed), so which group it is "
-                f"cannot be told: {RENAMED_FIX}" if renamed_away(tree) else
+                f"its name is none that surfgrad gives (renamed: yours now, which group it "
+                f"is cannot be told); {RENAMED_FIX}" if renamed_away(tree) else
                 "its build cannot be told from the group (add it again from the menu)")))
         else:
             calls.append((tree.name, call))
