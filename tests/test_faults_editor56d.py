@@ -1,5 +1,6 @@
 """Red team 56d: the artist in the Shader Editor on what rounds 53d and 54d left: Update surfgrad
-Groups on a group the artist renamed. Measured on 5.2 before the fix (main at 301e92c):
+Groups on groups the artist renamed, and on SG groups outside materials. Measured on 5.2
+before the fix (main at 301e92c):
 
 1. An older surfgrad's SG Resolve (stamp 23) the artist renamed "Resolve (mine)" (a file from
    a previous version, the group renamed in the Outliner): Update surfgrad Groups reported
@@ -13,12 +14,6 @@ Groups on a group the artist renamed. Measured on 5.2 before the fix (main at 30
    to its Add-menu name; the sidebar names the renamed group(s) apart, with that fix, and
    shows the Update button only where it can update something; a renamed group is left as
    it is (the artist's own version, perhaps): renamed back, it updates.
-3. A current SG Resolve the artist edited inside (a node muted), then renamed "My Resolve"
-   as the sidebar asks ("rename each to keep your version, so surfgrad can add its own"):
-   the sidebar went on saying "1 surface-gradient group(s) were edited inside ... ('My
-   Resolve'): surfgrad will not add or use them as its own; rename each ..." for good, while
-   the Add menu and Add Layer Stack made surfgrad's own SG Resolve beside it (FINISHED). Now
-   a group renamed away from surfgrad's names is not named there; an edited "SG Resolve" is.
 2. SG Decal in the World's nodes (the Add menu offers the World) and in a light's, in a file
    saved on 4.5 (Shape an integer, 2 = Cylinder), opened on 5.2 and updated: the material's
    node and the artist's group's node kept Cylinder, the World's and the light's Shape became
@@ -27,6 +22,12 @@ Groups on a group the artist renamed. Measured on 5.2 before the fix (main at 30
    keyframes it follows too). Now of every tree a group node can be in: Cylinder in all four.
    (5.0+, where the enumeration is a Menu; 4.2/4.5 keep the integer: no retype there.)
 
+3. A current SG Resolve the artist edited inside (a node muted), then renamed "My Resolve"
+   as the sidebar asks ("rename each to keep your version, so surfgrad can add its own"):
+   the sidebar went on saying "1 surface-gradient group(s) were edited inside ... ('My
+   Resolve'): surfgrad will not add or use them as its own; rename each ..." for good, while
+   the Add menu and Add Layer Stack made surfgrad's own SG Resolve beside it (FINISHED). Now
+   a group renamed away from surfgrad's names is not named there; an edited "SG Resolve" is.
 Probed and fine (5.2): every operator (Add menu, Add Layer Stack, Convert, Add Decal
 Projector, Update) with older groups in the file, then Ctrl+Z (ed.undo): the groups, the
 materials' nodes and the objects exactly as before; a material appended from an older
