@@ -21,13 +21,13 @@ before the fix (main at 301e92c):
    group nodes in materials and node groups only (node_builder._group_owners; the drivers and
    keyframes it follows too). Now of every tree a group node can be in: Cylinder in all four.
    (5.0+, where the enumeration is a Menu; 4.2/4.5 keep the integer: no retype there.)
-
 3. A current SG Resolve the artist edited inside (a node muted), then renamed "My Resolve"
    as the sidebar asks ("rename each to keep your version, so surfgrad can add its own"):
    the sidebar went on saying "1 surface-gradient group(s) were edited inside ... ('My
    Resolve'): surfgrad will not add or use them as its own; rename each ..." for good, while
    the Add menu and Add Layer Stack made surfgrad's own SG Resolve beside it (FINISHED). Now
    a group renamed away from surfgrad's names is not named there; an edited "SG Resolve" is.
+
 Probed and fine (5.2): every operator (Add menu, Add Layer Stack, Convert, Add Decal
 Projector, Update) with older groups in the file, then Ctrl+Z (ed.undo): the groups, the
 materials' nodes and the objects exactly as before; a material appended from an older
