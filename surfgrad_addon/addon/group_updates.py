@@ -38,16 +38,41 @@ def stale_groups():
                       or not _COPY.search(g.name) and renamed_target(g) is not None))]
 
 
+def renamed_away(tree):
+    """True when group `tree`'s name (less Blender's ".001") is none that surfgrad gives: the
+    artist renamed it, and which group it is (so its rebuild) cannot be told from it."""
+    name = _COPY.sub("", tree.name)
+    return name not in G.BY_NAME and name not in _HELPERS and \
+        not any(name.startswith(prefix) for prefix in _BY_PREFIX)
+
+
+# A renamed group may be the artist's own version (surfgrad's advice for an edited group is
+# to rename it): left as it is unless renamed back.
+RENAMED_FIX = ("to have it updated, rename it back to its name in the Add menu (Surface "
+               "Gradient; an edit inside it is then replaced), then update again")
+
+
 def stale_text(stale):
-    """What the sidebar says of `stale` groups (a list; empty: None)."""
+    """What the sidebar says of `stale` groups (a list; empty: None). Those the artist renamed
+    are named apart: Update cannot rebuild them (it said so and left them, while the sidebar
+    kept saying it rebuilds them)."""
     if not stale:
         return None
     here = running_line().line
     lines = sorted({g.get(LINE_KEY) for g in stale} - {None, here})
     where = f" or for Blender {', '.join(lines)}" if lines else ""
-    return (f"{len(stale)} surface-gradient group(s) were built by an older surfgrad{where}, "
-            f"and may render differently here: Update surfgrad Groups rebuilds them for "
-            f"Blender {here}")
+    renamed = sorted(g.name for g in stale if renamed_away(g))
+    texts = []
+    if len(renamed) < len(stale):
+        texts.append(f"{len(stale) - len(renamed)} surface-gradient group(s) were built by an "
+                     f"older surfgrad{where}, and may render differently here: Update "
+                     f"surfgrad Groups rebuilds them for Blender {here}")
+    if renamed:
+        names = ", ".join(repr(n) for n in renamed[:3]) + (", ..." if len(renamed) > 3 else "")
+        texts.append(f"{len(renamed)} older surface-gradient group(s) were renamed ({names}), "
+                     f"and may render differently here; surfgrad leaves them as they are (yours "
+                     f"now): {RENAMED_FIX.replace('have it', 'have one')}")
+    return ". ".join(texts)
 
 
 def _library(group):
@@ -99,9 +124,11 @@ def edited_groups(shown=()):
     """This file's current groups the artist edited inside (see EDITED_NODE_BUDGET); `shown`:
     the node trees the editor shows, always digested."""
     line = running_line().line
+    # (Not one renamed away from surfgrad's names: the artist's own version, as the message
+    # asks; it nagged on, though every Add made surfgrad's own beside it.)
     current = [g for g in bpy.data.node_groups
                if g.library is None and g.get(VERSION_KEY) == G.VERSION
-               and g.get(LINE_KEY) == line]
+               and g.get(LINE_KEY) == line and not renamed_away(g)]
     _REDRAWS[0] += 1
     uids = {g.session_uid for g in current}
     for uid in set(_EDITED) - uids:
@@ -371,8 +398,10 @@ def update_stale_groups():
         call = builder_call(tree)
         reason = G.unavailable_reason(_COPY.sub("", tree.name)) or _unread_image(tree)
         if call is None or reason:
-            left.append((tree.name, reason or "its build cannot be told from the group "
-                                              "(add it again from the menu)"))
+            left.append((tree.name, reason or (
+                f"its name is none that surfgrad gives (renamed: yours now, which group it "
+                f"is cannot be told); {RENAMED_FIX}" if renamed_away(tree) else
+                "its build cannot be told from the group (add it again from the menu)")))
         else:
             calls.append((tree.name, call))
     added = {g.name_full for g in bpy.data.node_groups}
@@ -425,6 +454,14 @@ line built, for this one, keeping every node's values and links"""
         if not updated and not left:
             self.report({'INFO'}, "The surface-gradient groups are up to date")
             return {'CANCELLED'}                 # nothing changed: no undo step
+        if not updated:
+            # (It reported "Updated 0 ... group(s): " and FINISHED: an undo step of nothing.)
+            for name, why in left:
+                self.report({'WARNING'}, f"{name!r} left as it was: {why}")
+            self.report({'ERROR'}, f"No surface-gradient group was updated ({len(left)} left "
+                                   f"as they were: see the warnings)")
+            report_notes(self)
+            return {'CANCELLED'}
         self.report({'INFO'}, f"Updated {len(updated)} surface-gradient group(s) for Blender "
                               f"{running_line().line}: {', '.join(updated)}")
         for name, why in left:
@@ -445,7 +482,9 @@ def draw_stale_warning(layout, context=None):
     """In the sidebar: the stale groups, if any, and the button that updates them; the stale
     groups of libraries, which only their own files can update; current groups edited
     inside."""
-    for text, button in ((stale_text(stale_groups()), True), (linked_stale_text(), False),
+    stale = stale_groups()
+    updatable = any(not renamed_away(g) for g in stale)      # (a renamed one: rename it back)
+    for text, button in ((stale_text(stale), updatable), (linked_stale_text(), False),
                          (edited_text(shown_trees(context)), False)):
         if text:
             box = layout.box()

@@ -718,9 +718,15 @@ class GroupNodeInput(NamedTuple):
 
 
 def _group_owners():
-    """[(what it is, node tree)] of every material's tree and every node group."""
-    return [(f"material {m.name!r}", m.node_tree) for m in bpy.data.materials
-            if m.node_tree] + [(f"node group {g.name!r}", g) for g in bpy.data.node_groups]
+    """[(what it is, node tree)] of every node tree a group node can be in: materials', the
+    World's (the Add menu puts groups there), lights' and line styles', and node groups (a
+    World's SG Decal, a 4.5 file's, lost its Shape on 5.2: Cylinder became '', no note)."""
+    owners = [(f"{kind} {o.name!r}", o.node_tree)
+              for kind, data in (("material", bpy.data.materials), ("world", bpy.data.worlds),
+                                 ("light", bpy.data.lights),
+                                 ("line style", bpy.data.linestyles))
+              for o in data if getattr(o, "node_tree", None) is not None]
+    return owners + [(f"node group {g.name!r}", g) for g in bpy.data.node_groups]
 
 
 def group_node_inputs(tree, identifier):
@@ -759,9 +765,7 @@ def _driven_inputs(tree):
     keyframes on the inputs of the group nodes using `tree`: a rebuild that adds, removes or
     moves an input changes the indices their paths hold."""
     found = []
-    owners = [m.node_tree for m in bpy.data.materials if m.node_tree] + \
-        list(bpy.data.node_groups)
-    for owner in owners:
+    for _, owner in _group_owners():
         anim = owner.animation_data
         for fcurve in animated_fcurves(anim) if anim is not None else ():
             match = _INPUT_PATH.match(fcurve.data_path)
