@@ -265,7 +265,7 @@ def _jpeg_frame(f):
 
 
 def cut_short(f):
-    """The format ("JPEG", "TIFF", "SGI image") of the binary file object `f` where its image
+    """The format ("JPEG", "TIFF", "SGI image", "OpenEXR", "WebP") of the binary file object `f` where its image
     data does not all lie within it (a copy or download cut short), else None: Blender loads such a file at
     full size, the part missing filled in, and Cycles bakes that (measured on every line)."""
     head = f.read(4)
@@ -276,7 +276,75 @@ def cut_short(f):
         return "TIFF" if _tiff_cut_short(f) else None
     if head[:2] == SGI_MAGIC:
         return "SGI image" if _sgi_cut_short(f) else None
+    if head == EXR_MAGIC:
+        return "OpenEXR" if _exr_cut_short(f) else None
+    if head == b"RIFF":
+        return "WebP" if _webp_cut_short(f) else None
     return None
+
+
+# An EXR chunk's leading fields before its data size: scanline y; tiled x, y, level x, level y.
+EXR_CHUNK_FIELDS = {False: 4, True: 16}
+EXR_TILED = 0x200
+
+
+def _exr_cut_short(f):
+    """A chunk of a single-part EXR (scanline or tiled) whose offset, or data, lies past the
+    end of the file (OpenEXR file layout: header, offset table, chunks). 5.0 and 5.2 load one
+    cut short at full size, the chunks missing black, and Cycles bakes its magenta 'missing'
+    colour; the offset table reaches up to the first chunk, so no block size is needed."""
+    data = f.read(EXR_HEADER_LIMIT)
+    if len(data) < 8:
+        return False
+    flags = struct.unpack("<i", data[4:8])[0]
+    if flags & EXR_MULTI_OR_DEEP:
+        return False                    # (layered: the load itself fails when cut)
+    at = _exr_header_end(data)
+    if at is None:
+        return False
+    f.seek(0, 2)
+    size = f.tell()
+    fields = EXR_CHUNK_FIELDS[bool(flags & EXR_TILED)]
+    first = size
+    offsets = []
+    while at + 8 <= min(first, size):
+        f.seek(at)
+        offset = struct.unpack("<Q", f.read(8))[0]
+        if not 0 < offset < size:       # (OpenEXR writes 0 for a chunk never written)
+            return True
+        offsets.append(offset)
+        first = min(first, offset)
+        at += 8
+    if at + 8 > size and at < first:    # the table itself runs past the end
+        return True
+    for offset in offsets:
+        f.seek(offset + fields)
+        length = f.read(4)
+        if len(length) < 4 or offset + fields + 4 + struct.unpack("<i", length)[0] > size:
+            return True
+    return False
+
+
+def _exr_header_end(data):
+    """Where an EXR's single header ends (after its attributes' closing empty name), or None
+    where it is not all in `data`."""
+    at = 8
+    while at < len(data) and data[at] != 0:
+        type_end = data.find(b"\0", data.find(b"\0", at) + 1)
+        if type_end < 0 or type_end + 5 > len(data):
+            return None
+        at = type_end + 5 + struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
+    return at + 1 if at < len(data) else None
+
+
+def _webp_cut_short(f):
+    """A WebP (RIFF) file shorter than its RIFF header says (4.2 loads one cut short as
+    transparent black at full size, and Cycles bakes its magenta 'missing' colour)."""
+    head = f.read(12)
+    if len(head) < 12 or head[8:12] != b"WEBP":
+        return False
+    f.seek(0, 2)
+    return f.tell() < 8 + struct.unpack("<I", head[4:8])[0]
 
 
 def _jpeg_cut_short(f):

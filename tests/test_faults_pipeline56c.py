@@ -1,0 +1,175 @@
+"""Red team 56c: faults a headless pipeline meets (interrupts, full disks, odd output paths,
+bad pixels, damaged files), probed through bake-normal-map and api.bake_normal_map.
+
+1. A normal map whose OpenEXR copy was cut short (a copy, download or sync interrupted: the
+   file's last chunk, here its last 1 %, missing). Blender's load gives a full-size image
+   (5.0 and 5.2: the chunk missing black; 4.2, 4.5 as the file's start), so no check saw
+   it, and the bake went on, exit 0. Measured with a 32^2 plane, float EXR of (0.5, 0.5, 1):
+   5.2 baked Cycles' magenta 'missing' colour in every texel (the Normal Map node's
+   (1, -1, 1): 54.7 degrees off the whole file's map, 1024 of 1024 texels); 5.0, 4.5 and
+   4.2 baked every texel wrong too, up to 174.8 degrees off. The same for a WebP cut short
+   on 4.2, 4.5 and 5.0 (Blender loads transparent black at full size; Cycles bakes magenta,
+   54.7 degrees, exit 0; 5.2 refuses the load). The header check (image_headers.cut_short)
+   knew JPEG, TIFF and SGI only. Now a single-part EXR (scanline or tiled) whose offset
+   table or chunks run past the file's end, or a WebP shorter than its RIFF header says, is
+   refused before baking, exit 2, naming the file and the fix, no map written.
+
+Probed and fine (not pinned here): a PNG, BMP, Radiance HDR, TGA or JPEG 2000 cut short
+(Blender refuses the load, and so does the bake; a PNG losing only its IEND chunk loads whole
+on 4.2 and bakes right, 0.3 degrees).
+"""
+
+import struct
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from surfgrad_addon.addon.image_headers import cut_short  # noqa: E402
+from test_faults_pipeline_leftovers import _normal_texels, _scene, _write_image  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+RES = 16
+
+
+def _bake(blend, output, capsys):
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(output), "--resolution", str(RES), "--samples", "1"])
+    return rc, capsys.readouterr().err
+
+
+def _cut(path, keep):
+    """A copy of `path` holding its first `keep` share of bytes (a copy interrupted)."""
+    data = path.read_bytes()
+    cut = path.with_name("cut" + path.suffix)
+    cut.write_bytes(data[:int(len(data) * keep)])
+    return cut
+
+
+def _cut_bytes(path, n):
+    data = path.read_bytes()
+    cut = path.with_name(f"cut{n}" + path.suffix)
+    cut.write_bytes(data[:-n])
+    return cut
+
+
+@pytest.mark.parametrize("file_format, suffix, keep, name",
+                         [("OPEN_EXR", ".exr", 0.99, "an OpenEXR"),
+                          ("WEBP", ".webp", 0.9, "a WebP")])
+def test_a_normal_map_cut_short_is_refused_before_the_bake(file_format, suffix, keep, name,
+                                                           tmp_path, capsys):
+    """The whole file bakes (exit 0, a map); its copy cut short is refused, exit 2, no map,
+    naming the file, what is wrong and the fix. Before: exit 0, a map of Cycles' magenta
+    (54.7 degrees off) or of garbage (up to 174.8 degrees off)."""
+    whole = tmp_path / f"n{suffix}"
+    _write_image(whole, _normal_texels(RES), file_format,
+                 float_buffer=file_format == "OPEN_EXR", color_mode="RGB")
+    blend = _scene(tmp_path / "whole.blend", whole)
+    out = tmp_path / "whole.png"
+    rc, err = _bake(blend, out, capsys)
+    assert rc == 0 and out.exists(), err
+
+    cut = _cut(whole, keep)
+    blend = _scene(tmp_path / "cut.blend", cut)
+    before = blend.read_bytes()
+    out = tmp_path / "cut_map.png"
+    rc, err = _bake(blend, out, capsys)
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["whole.blend", "whole.png", "cut.blend", whole.name, cut.name]), err
+    assert f"reads '{cut.name}', {name} cut short" in err, err
+    assert "copy or export the file again, whole" in err, err
+    assert "Traceback" not in err
+    assert blend.read_bytes() == before
+
+
+@pytest.mark.parametrize("codec", ["NONE", "RLE", "ZIPS", "ZIP", "PIZ", "PXR24", "B44",
+                                   "DWAA", "DWAB", "HTJ2K"])
+def test_blender_exrs_whole_and_one_byte_short(codec, tmp_path):
+    """Every EXR codec Blender writes: the whole file is not called cut short (no false
+    refusal), the file one byte short, or missing its last chunk's half, is."""
+    path = tmp_path / "n.exr"
+    img = bpy.data.images.new("tmp_img", 40, 40, float_buffer=True)
+    img.pixels.foreach_set(np.random.default_rng(0).random(40 * 40 * 4).astype(np.float32))
+    s = bpy.context.scene.render.image_settings
+    s.file_format = "OPEN_EXR"
+    try:
+        s.exr_codec = codec
+    except TypeError:
+        bpy.data.images.remove(img)
+        pytest.skip(f"this Blender line writes no {codec} float EXR")
+    img.save_render(str(path), scene=bpy.context.scene)
+    bpy.data.images.remove(img)
+    with open(path, "rb") as f:
+        assert cut_short(f) is None
+    for n in (1, 100):
+        with open(_cut_bytes(path, n), "rb") as f:
+            assert cut_short(f) == "OpenEXR", (codec, n)
+
+
+def _exr_file(tiled, order=0, size=16, tile=8):
+    """A hand-written uncompressed half RGB EXR (OpenEXR file layout): scanline with line
+    order `order` (1: decreasing y, chunks stored bottom first), or tiled (one level,
+    tile x tile). Returns its bytes, the pixels written, (size, size, 3), and where its
+    offset table starts."""
+    def attr(name, kind, data):
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
+    px = np.random.default_rng(1).random((size, size, 3)).astype(np.float16)
+    chlist = b"".join(c + b"\0" + struct.pack("<iB3xii", 1, 0, 1, 1) for c in (b"B", b"G", b"R"))
+    box = struct.pack("<4i", 0, 0, size - 1, size - 1)
+    header = (attr("channels", "chlist", chlist + b"\0")
+              + attr("compression", "compression", b"\0")
+              + attr("dataWindow", "box2i", box) + attr("displayWindow", "box2i", box)
+              + attr("lineOrder", "lineOrder", bytes([order]))
+              + attr("pixelAspectRatio", "float", struct.pack("<f", 1))
+              + attr("screenWindowCenter", "v2f", struct.pack("<2f", 0, 0))
+              + attr("screenWindowWidth", "float", struct.pack("<f", 1)))
+    if tiled:
+        header += attr("tiles", "tiledesc", struct.pack("<IIB", tile, tile, 0))
+    head = b"\x76\x2f\x31\x01" + struct.pack("<i", 2 | (0x200 if tiled else 0)) + header + b"\0"
+
+    def lines(y0, y1, x0, x1):
+        return b"".join(px[y, x0:x1, c].astype("<f2").tobytes()
+                        for y in range(y0, y1) for c in (2, 1, 0))
+    if tiled:
+        keys = [(tx, ty) for ty in range(size // tile) for tx in range(size // tile)]
+        chunks = {k: struct.pack("<4i", k[0], k[1], 0, 0) for k in keys}
+        for (tx, ty) in keys:
+            data = lines(ty * tile, ty * tile + tile, tx * tile, tx * tile + tile)
+            chunks[(tx, ty)] += struct.pack("<i", len(data)) + data
+    else:
+        keys = list(range(size))
+        chunks = {y: struct.pack("<i", y) + struct.pack("<i", 6 * size) + lines(y, y + 1, 0, size)
+                  for y in keys}
+    stored = keys[::-1] if order == 1 else keys
+    at = len(head) + 8 * len(keys)
+    where = {}
+    for k in stored:
+        where[k] = at
+        at += len(chunks[k])
+    table = struct.pack(f"<{len(keys)}Q", *(where[k] for k in keys))
+    return head + table + b"".join(chunks[k] for k in stored), px, len(head)
+
+
+@pytest.mark.parametrize("tiled, order", [(False, 1), (True, 0)])
+def test_tiled_and_bottom_first_exrs(tiled, order, tmp_path):
+    """Layouts Blender does not write: a tiled EXR, and one stored bottom line first (its
+    offset table not ascending). Whole: Blender loads the pixels written, and the check
+    passes it; cut short by one byte, or its offset table cut, it is caught."""
+    data, px, table = _exr_file(tiled, order)
+    path = tmp_path / "t.exr"
+    path.write_bytes(data)
+    img = bpy.data.images.load(str(path))
+    got = np.empty(16 * 16 * 4, np.float32)
+    img.pixels.foreach_get(got)
+    bpy.data.images.remove(img)
+    assert np.allclose(got.reshape(16, 16, 4)[::-1, :, :3], px, atol=1e-3)  # (top line first)
+    with open(path, "rb") as f:
+        assert cut_short(f) is None
+    for keep in (len(data) - 1, len(data) - 300, table + 12):
+        path.write_bytes(data[:keep])
+        with open(path, "rb") as f:
+            assert cut_short(f) == "OpenEXR", keep
