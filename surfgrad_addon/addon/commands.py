@@ -147,7 +147,8 @@ def run_bake_normal_map(args):
     if problem:                     # before --blend is opened: nothing has run
         raise ValueError(problem)
     # Ctrl-C / SIGTERM: the bake stops, its temporary files go, exit 130 / 143 (interrupts.py).
-    with interrupts.stoppable("the bake"), interrupts.partials_of(args.output):
+    with interrupts.stoppable("the bake", load_blender=True), \
+            interrupts.partials_of(args.output):
         _bake_normal_map(args)
 
 
