@@ -124,6 +124,23 @@ def test_blender_exrs_whole_and_one_byte_short(codec, tmp_path):
             assert cut_short(f) == "OpenEXR", (codec, n)
 
 
+def test_blenders_packed_exrs_whole_and_cut(tmp_path):
+    """A float image packed into the .blend: Blender writes it to memory as an EXR whose
+    offset table is left zeros (OpenEXR's reader rebuilds it by walking the chunks). Whole:
+    not called cut short (the first version of this check refused every packed float image);
+    cut to a half or nine tenths, it is."""
+    import io
+    img = bpy.data.images.new("packed_float", 40, 40, float_buffer=True)
+    img.pixels.foreach_set(np.random.default_rng(2).random(40 * 40 * 4).astype(np.float32))
+    img.pack()
+    data = bytes(img.packed_file.data)
+    bpy.data.images.remove(img)
+    assert data[:4] == b"\x76\x2f\x31\x01"
+    assert cut_short(io.BytesIO(data)) is None
+    for keep in (len(data) // 2, len(data) * 9 // 10):     # (5.0 pads the data with zeros)
+        assert cut_short(io.BytesIO(data[:keep])) == "OpenEXR", keep
+
+
 def _exr_file(tiled, order=0, size=16, tile=8):
     """A hand-written uncompressed half RGB EXR (OpenEXR file layout): scanline with line
     order `order` (1: decreasing y, chunks stored bottom first), or tiled (one level,
@@ -190,13 +207,13 @@ def test_tiled_and_bottom_first_exrs(tiled, order, tmp_path):
 
 
 # Sends this process SIGTERM from inside bpy's import, once Blender has made its session folder
-# and before bpy is in sys.modules (when Python looks up _bpy_types), then runs the command as
-# `python -m surfgrad_addon` does.
+# and before bpy is in sys.modules (when Python looks up _bpy_types; bpy_types before 5.0),
+# then runs the command as `python -m surfgrad_addon` does.
 SIGNAL_IN_IMPORT = """
 import os, runpy, signal, sys
 class Finder:
     def find_spec(self, name, path=None, target=None):
-        if name == "_bpy_types" and "bpy" not in sys.modules:
+        if name in ("_bpy_types", "bpy_types") and "bpy" not in sys.modules:
             os.kill(os.getpid(), signal.SIGTERM)
         return None
 sys.meta_path.insert(0, Finder())
