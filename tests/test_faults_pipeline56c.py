@@ -24,6 +24,13 @@ bad pixels, damaged files), probed through bake-normal-map and api.bake_normal_m
    meanwhile stops the command as soon as bpy is in, its folder removed: 12 of 12 runs left
    nothing. Pinned deterministically: the signal is sent from inside that import.
 
+3. An output that is a named pipe, or a symbolic link to a device (`maps/rock_nrm.exr ->
+   /dev/null`, an output a TD turned off), with --overwrite: bake-normal-map and bake-batch
+   renamed the finished map over it, exit 0, the pipe or link gone (a regular 439-byte PNG in
+   its place), where `compare --json` refuses such a path ("is not a regular file"). Now
+   refused before the bake (bake_request.output_problems), exit 2 (bake-batch: the asset
+   fails, exit 1), the pipe or link left as it was; a regular file is still replaced.
+
 Probed and fine (not pinned here): a PNG, BMP, Radiance HDR, TGA or JPEG 2000 cut short
 (Blender refuses the load, and so does the bake; a PNG losing only its IEND chunk loads whole
 on 4.2 and bakes right, 0.3 degrees).
@@ -244,3 +251,53 @@ def test_a_sigterm_while_blender_starts_leaves_no_session_folder(tmp_path):
     assert "Traceback" not in run.stderr + run.stdout
     assert sorted(p.name for p in temp.iterdir()) == [], run.stderr
     assert not out.exists() and blend.read_bytes() == before
+
+
+@pytest.mark.parametrize("kind", ["pipe", "link to /dev/null", "regular file"])
+def test_an_output_that_is_not_a_regular_file_is_refused_even_with_overwrite(kind, tmp_path,
+                                                                              capsys):
+    """Exit 2, the pipe or link as it was, no map; a regular file (the control) is replaced,
+    exit 0."""
+    _write_image(tmp_path / "n.png", _normal_texels(RES))
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    out = tmp_path / "out.png"
+    if kind == "pipe":
+        os.mkfifo(out)
+    elif kind == "link to /dev/null":
+        out.symlink_to(os.devnull)
+    else:
+        out.write_bytes(b"old")
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out), "--resolution", str(RES), "--samples", "1",
+                           "--overwrite"])
+    err = capsys.readouterr().err
+    if kind == "regular file":
+        assert rc == 0 and out.read_bytes()[:4] == b"\x89PNG", err
+        return
+    assert rc == exit_codes.BAD_REQUEST, err
+    assert (f"output {str(out)!r} is not a regular file (a named pipe, device or socket"
+            in err), err
+    assert "give a file path" in err and "Traceback" not in err
+    if kind == "pipe":
+        assert out.is_fifo() and not out.is_symlink()
+    else:
+        assert out.is_symlink() and os.readlink(out) == os.devnull
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend", "n.png", "out.png"]
+
+
+def test_bake_batch_fails_an_asset_whose_output_is_a_named_pipe(tmp_path, capsys):
+    """bake-batch --workers 0 --overwrite into a pattern naming a pipe: the asset fails, exit
+    1, the pipe as it was (before: exit 0, the pipe replaced by the map)."""
+    _write_image(tmp_path / "n.png", _normal_texels(RES))
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    out = tmp_path / "maps" / "a_Plane.png"
+    out.parent.mkdir()
+    os.mkfifo(out)
+    rc = commands.execute(["bake-batch", str(blend), "--output",
+                           str(tmp_path / "maps" / "{file}_{object}.png"), "--resolution",
+                           str(RES), "--samples", "1", "--workers", "0", "--overwrite",
+                           "--manifest", str(tmp_path / "m.json")])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert f"output {str(out)!r} is not a regular file" in err, err
+    assert out.is_fifo() and [p.name for p in out.parent.iterdir()] == ["a_Plane.png"]
