@@ -14,14 +14,14 @@ bad pixels, damaged files), probed through bake-normal-map and api.bake_normal_m
    table or chunks run past the file's end, or a WebP shorter than its RIFF header says, is
    refused before baking, exit 2, naming the file and the fix, no map written.
 
-2. A SIGTERM (a farm's cancel) or Ctrl-C while `python -m surfgrad_addon bake-normal-map` (or
-   compare, ...) imported bpy, Blender's start: Blender makes its session folder
+2. A SIGTERM (a farm's cancel) or Ctrl-C while `python -m surfgrad_addon bake-normal-map`
+   (bake-batch, compare, ...) imported bpy, Blender's start: Blender makes its session folder
    ($TMPDIR/blender_XXXXXX) early in that import, before bpy is in sys.modules, and the stop
    (interrupts.stop) finds the folder through bpy.app.tempdir: it was left behind, exit 143.
    Measured (5.2, SIGTERM sent 0.7 to 1.4 s after the start, 14 runs): 8 left a blender_*
    folder in $TMPDIR; a farm node's /tmp gathers one per cancelled task. Now bpy is imported
-   with the signals held (interrupts.stoppable(load_blender=True)), and one that came
-   meanwhile stops the command as soon as bpy is in, its folder removed: 12 of 12 runs left
+   with the signals held (interrupts.stoppable(load_blender=True)) by those three, and one
+   that came meanwhile stops the command as soon as bpy is in, its folder removed: 12 of 12 runs left
    nothing. Pinned deterministically: the signal is sent from inside that import.
 
 3. An output that is a named pipe, or a symbolic link to a device (`maps/rock_nrm.exr ->
@@ -230,9 +230,10 @@ runpy.run_module("surfgrad_addon", run_name="__main__", alter_sys=True)
 
 
 @pytest.mark.tier("child")
-def test_a_sigterm_while_blender_starts_leaves_no_session_folder(tmp_path):
-    """Exit 143 with one line, no map, the .blend unchanged, and nothing left in $TMPDIR
-    (before: its blender_XXXXXX session folder)."""
+@pytest.mark.parametrize("command", ["bake-normal-map", "bake-batch", "compare"])
+def test_a_sigterm_while_blender_starts_leaves_no_session_folder(command, tmp_path):
+    """Exit 143 with one line, no output, the .blend unchanged, and nothing left in $TMPDIR
+    (before: its blender_XXXXXX session folder, for each of these commands)."""
     _write_image(tmp_path / "n.png", _normal_texels(RES))
     blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
     before = blend.read_bytes()
@@ -242,15 +243,22 @@ def test_a_sigterm_while_blender_starts_leaves_no_session_folder(tmp_path):
     root = Path(__file__).resolve().parents[1]
     env = dict(os.environ, TMPDIR=str(temp),
                PYTHONPATH=os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]))
-    run = subprocess.run([sys.executable, "-c", SIGNAL_IN_IMPORT, "bake-normal-map", "--blend",
-                          str(blend), "--object", "Plane", "--output", str(out),
+    args, what = {
+        "bake-normal-map": (["--blend", str(blend), "--object", "Plane", "--output", str(out)],
+                            "the bake"),
+        "bake-batch": ([str(blend), "--output", str(out), "--workers", "0", "--manifest",
+                        str(tmp_path / "m.json")], "the batch"),
+        "compare": (["--blend", str(blend), "--object", "Plane", "--method", "normal-map",
+                     "--json", str(tmp_path / "r.json")], "compare")}[command]
+    run = subprocess.run([sys.executable, "-c", SIGNAL_IN_IMPORT, command, *args,
                           "--resolution", str(RES)], capture_output=True, text=True, env=env,
                          cwd=tmp_path, timeout=120)
     assert run.returncode == 143, run.stderr
-    assert "surfgrad: interrupted by SIGTERM: stopped the bake; exit code 143" in run.stderr
+    assert f"surfgrad: interrupted by SIGTERM: stopped {what}; exit code 143" in run.stderr
     assert "Traceback" not in run.stderr + run.stdout
     assert sorted(p.name for p in temp.iterdir()) == [], run.stderr
-    assert not out.exists() and blend.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend", "n.png", "tmp"]
+    assert blend.read_bytes() == before
 
 
 @pytest.mark.parametrize("kind", ["pipe", "link to /dev/null", "regular file"])
