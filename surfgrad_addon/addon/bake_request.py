@@ -472,10 +472,21 @@ def output_problems(output, finals, overwrite):
     # team 56c). Not a file the user asked to replace; --overwrite does not change that.
     odd = [p for p in finals.values() if p.exists() and not p.is_file() and not p.is_dir()]
     if odd:
+        link = f", through a symbolic link to {os.readlink(odd[0])!r}" \
+            if odd[0].is_symlink() else ""
         out.append(f"output {str(odd[0])!r} is not a regular file (a named pipe, device or "
-                   f"socket{', through a symbolic link' if odd[0].is_symlink() else ''}): a "
+                   f"socket{link}): a "
                    f"bake would replace it with the map, even with --overwrite; give a file "
                    f"path")
+    # A symbolic link to nothing (an unmounted share, a moved file): it "existed" only at the
+    # publish, after the bake ("exists; pass --overwrite", exit 2), and --overwrite replaced
+    # the link with the map (exit 0), the share's file never written. Named with its target.
+    dangling = [p for p in finals.values() if p.is_symlink() and not p.exists()]
+    if dangling:
+        out.append(f"output {str(dangling[0])!r} is a symbolic link to "
+                   f"{os.readlink(dangling[0])!r}, which does not exist (an unmounted share "
+                   f"or a moved file?): mount or restore it, or remove the link, and bake "
+                   f"again")
     existing = [str(p) for p in finals.values() if p.exists() and p not in odd]
     if existing and not overwrite:
         out.append(f"{existing[0]} exists; pass --overwrite (api: overwrite=True) to replace "

@@ -66,6 +66,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     blends = list(per_file)
     manifest_path = M.checked_path(manifest, output)
     M.hold(manifest_path)                 # one run per manifest (released below)
+    manifest_existed = os.path.lexists(manifest_path)
     try:
         previous = M.read(manifest_path) or {"assets": {}}
     except P.BatchError:
@@ -108,6 +109,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     progress.known = len(report["assets"])          # the files refused already
     progress.unscanned = len(to_scan)
     outputs_seen, collisions, folders, too_long = {}, [], set(), []
+    made_folders = []                     # output folders this run made (leaf first)
     how = "this process" if workers == 0 else f"{workers} worker process(es)"
     # Cycles takes every core by default: several worker processes share them out.
     if threads is None:
@@ -241,7 +243,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             jobs.append({"op": "bake", "id": key, "file": blend,
                          "timeout": worker_timeout or P.bake_timeout(s, n_tiles),
                          "blend": None if open_file else blend, "object": a["object"],
-                         "output": str(Path(out).resolve()), "settings": s, "tiles": tiles,
+                         "output": str(_resolved_folder(out)), "settings": s, "tiles": tiles,
                          "empty_tiles": empty_tiles, "threads": threads,
                          # our own earlier, unmodified outputs may be replaced
                          "overwrite": overwrite or P.replaceable(prev, out, written)})
@@ -341,6 +343,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             if problems:
                 raise P.BatchError(P.joined(problems) + "\n(nothing was baked)")
             for folder in sorted(folders):
+                made_folders[:0] = [f for f in (folder, *folder.parents) if not f.exists()]
                 folder.mkdir(parents=True, exist_ok=True)
                 _note_leftovers(folder, warn)
             M.write(manifest_path, M.merged(previous, report, files))
@@ -356,12 +359,44 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
     report["manifest"] = str(manifest_path)
     try:
         M.write_final(manifest_path, M.merged(previous, report, files))
+    except BaseException:
+        _remove_unrecorded(manifest_path, manifest_existed, report, made_folders)
+        raise
     finally:
         M.release(manifest_path)
     c = progress.counts
     log(f"[batch] {c['baked']} baked, {c['skipped']} skipped, {c['failed']} failed in "
         f"{report['total_s']:.1f} s; manifest {manifest_path}")
     return report
+
+
+def _resolved_folder(out):
+    """The output with its folder resolved (absolute, for a worker) and its file name as given:
+    resolved whole, a symbolic link as the output was followed, so the checks named its target
+    ("output '/dev/null': use a .png or .exr file name" for maps/Rock.png -> /dev/null) and the
+    map replaced the file it pointed to, where bake-normal-map checks the link itself."""
+    return Path(out).parent.resolve() / Path(out).name
+
+
+def _remove_unrecorded(manifest_path, existed, report, made_folders):
+    """The run's last manifest write failed (a full disk). Where this run made the manifest
+    and put no map in place, the one its earlier writes left holds only the scan, and the
+    folders it made are empty: both are removed, so that the failure leaves nothing behind
+    (before: a 1.2 kB manifest of the scan in an empty maps/ folder, exit 1). A manifest that
+    records a map this run put in place (or may have: a pending record) stays: a rerun must
+    know that map as its own."""
+    if existed or any(e.get("status") == "baked" or e.get("pending")
+                      for e in report["assets"].values()):
+        return
+    try:
+        Path(manifest_path).unlink(missing_ok=True)
+    except OSError:
+        return
+    for folder in made_folders:               # leaf first; one holding a file stays
+        try:
+            folder.rmdir()
+        except OSError:
+            pass
 
 
 def _note_leftovers(folder, warn):

@@ -107,10 +107,11 @@ function manifestNames(objects, tiles) {
     let safe = name.replace(/[\/\\:*?"<>|\x00-\x1f]/g, "_");
     safe = safe.replace(/^\.+/, (dots) => "_".repeat(dots.length));   // not hidden, not '..'
     let base = safe;
-    for (let k = 2; tiles.some((t) => used.has(`${base}-${t}`.toLowerCase())); k++) {
+    const key = (t) => `${base}-${t}`.normalize("NFC").toLowerCase();   // (and forms)
+    for (let k = 2; tiles.some((t) => used.has(key(t))); k++) {
       base = `${safe}_${k}`;
     }
-    for (const t of tiles) used.add(`${base}-${t}`.toLowerCase());
+    for (const t of tiles) used.add(key(t));
     names.set(name, base);
   }
   return names;
@@ -129,19 +130,27 @@ function safeName(name) {
 // 'Wall_L') had the first task bake and the second fail as "... exists; pass --overwrite", an
 // option this job does not have. Refused on submission where the file is certain (no {uv}:
 // objects' UV maps are known only on the farm).
+// Names that differ only in case ('Rock', 'rock') or in Unicode's normal form (an 'é' as one
+// character, or as 'e' and a combining accent) are one file where the maps land on a macOS or
+// Windows disk or share; the farm's storage cannot be probed from here, so they are refused
+// too (before: two tasks, the second failing with "exists").
 function checkOutputsApart(objects, output) {
   if (output.includes("{uv}")) return;
   const seen = new Map();
   for (const name of objects) {
-    const key = output.includes("{object}") ? safeName(name) : "";
+    const safe = output.includes("{object}") ? safeName(name) : "";
+    const key = safe.normalize("NFC").toLowerCase();
     if (seen.has(key)) {
-      const other = seen.get(key);
+      const [other, otherSafe] = seen.get(key);
+      const why = !output.includes("{object}") ? "" : otherSafe === safe ?
+        ` (both become '${safe}' in a file name)` :
+        ` ('${otherSafe}' and '${safe}' in file names, one file on a disk or share that ` +
+        "ignores case or Unicode's normal forms: macOS, Windows, most SMB shares)";
       throw `output_pattern '${output}' names one file for objects '${other}' and '${name}'` +
-        (output.includes("{object}") ? ` (both become '${key}' in a file name)` : "") +
-        ": each object is its own task, so the second task would fail; " +
+        why + ": each object is its own task, so the second task would fail; " +
         (output.includes("{object}") ? "rename one of them" : "put {object} in the pattern");
     }
-    seen.set(key, name);
+    seen.set(key, [name, safe]);
   }
 }
 
