@@ -270,7 +270,8 @@ def test_a_flamenco_job_whose_objects_share_one_file_is_refused(names, pattern, 
 @pytest.mark.tier("child")
 def test_a_flamenco_job_whose_objects_write_apart_compiles():
     base = {"tiles": "1001-1002", "blendfile": "/farm/b.blend", "manifest_dir": "/o/m"}
-    for names, pattern in (("Rock, rock, Stone", "/o/{object}.<UDIM>.png"),
+    # (Names that differ in case alone are refused since round 57: test_faults_leftovers57c.)
+    for names, pattern in (("Rock, Moss, Stone", "/o/{object}.<UDIM>.png"),
                            ("Wall:L, Wall_L", "/o/{uv}.<UDIM>.png"),      # (UV maps unknown)
                            ("Rock", "/o/{file}.<UDIM>.png")):
         objects = names.split(", ")
