@@ -467,7 +467,16 @@ def output_problems(output, finals, overwrite):
     problem = folder_problem(folder)
     if problem:
         out.append(problem)
-    existing = [str(p) for p in finals.values() if p.exists()]
+    # A named pipe, a device or a socket (or a link to one, such as /dev/null) where a file
+    # goes: the finished map was renamed over it, exit 0, even as compare refuses one (red
+    # team 56c). Not a file the user asked to replace; --overwrite does not change that.
+    odd = [p for p in finals.values() if p.exists() and not p.is_file() and not p.is_dir()]
+    if odd:
+        out.append(f"output {str(odd[0])!r} is not a regular file (a named pipe, device or "
+                   f"socket{', through a symbolic link' if odd[0].is_symlink() else ''}): a "
+                   f"bake would replace it with the map, even with --overwrite; give a file "
+                   f"path")
+    existing = [str(p) for p in finals.values() if p.exists() and p not in odd]
     if existing and not overwrite:
         out.append(f"{existing[0]} exists; pass --overwrite (api: overwrite=True) to replace "
                    f"it")

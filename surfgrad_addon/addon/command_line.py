@@ -61,7 +61,7 @@ def run(subcommands, args):
         return _run(command, args)
     from . import interrupts
     # Ctrl-C / SIGTERM stop the command at once, exit 130 / 143, nothing written.
-    with interrupts.stoppable(command.name):
+    with interrupts.stoppable(command.name, load_blender=command.loads_blender):
         return _run(command, args)
 
 

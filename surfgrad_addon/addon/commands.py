@@ -98,7 +98,8 @@ def run_bake_batch(args, log=print):
     if getattr(args, "in_blender", False) and not args.blends and not args.asset_list:
         args.open_file = True
     # A stop keeps the maps already baked: the manifest records them (run.py).
-    with interrupts.stoppable("the batch", keep_placed=True):
+    # (bpy loaded with the signals held: the batch itself scans the files, any --workers)
+    with interrupts.stoppable("the batch", keep_placed=True, load_blender=True):
         return _bake_batch(batch, args, log)
 
 
@@ -147,7 +148,8 @@ def run_bake_normal_map(args):
     if problem:                     # before --blend is opened: nothing has run
         raise ValueError(problem)
     # Ctrl-C / SIGTERM: the bake stops, its temporary files go, exit 130 / 143 (interrupts.py).
-    with interrupts.stoppable("the bake"), interrupts.partials_of(args.output):
+    with interrupts.stoppable("the bake", load_blender=True), \
+            interrupts.partials_of(args.output):
         _bake_normal_map(args)
 
 

@@ -106,13 +106,16 @@ def cut_short_problem(subject, what, found):
     its packed data) cannot be baked from."""
     lacks = {"JPEG": "no end-of-image marker after its image data",
              "TIFF": "its image data runs past the end of the file",
-             "SGI image": "its image data runs past the end of the file"}[found]
+             "SGI image": "its image data runs past the end of the file",
+             "OpenEXR": "its image data runs past the end of the file",
+             "WebP": "shorter than its header says"}[found]
+    found = f"{'an' if found[0] in 'AEIOU' else 'a'} {found}"     # "an OpenEXR"
     if what.startswith("packed"):   # (packed from a file cut short: no whole copy in the .blend)
         tile = f" ({what[len('packed '):]})" if what != "packed" else ""    # "(tile 1002)"
-        return (f"{subject}{tile} is packed from a {found} cut short ({lacks}: a copy or download "
+        return (f"{subject}{tile} is packed from {found} cut short ({lacks}: a copy or download "
                 f"interrupted): Blender loads it at full size with the part missing filled "
                 f"in, which Cycles would bake; replace it with the whole file (Image Editor: "
                 f"Image > Replace) and pack that")
-    return (f"{subject} reads {what}, a {found} cut short ({lacks}: a copy or download "
+    return (f"{subject} reads {what}, {found} cut short ({lacks}: a copy or download "
             f"interrupted): Blender loads it at full size with the part missing filled in, "
             f"which Cycles would bake; copy or export the file again, whole")

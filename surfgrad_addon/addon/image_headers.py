@@ -265,9 +265,10 @@ def _jpeg_frame(f):
 
 
 def cut_short(f):
-    """The format ("JPEG", "TIFF", "SGI image") of the binary file object `f` where its image
-    data does not all lie within it (a copy or download cut short), else None: Blender loads such a file at
-    full size, the part missing filled in, and Cycles bakes that (measured on every line)."""
+    """The format ("JPEG", "TIFF", "SGI image", "OpenEXR", "WebP") of the binary file object
+    `f` where its image data does not all lie within it (a copy or download cut short), else
+    None: Blender loads such a file at full size, the part missing filled in, and Cycles bakes
+    that or its magenta 'missing' colour (measured on every line)."""
     head = f.read(4)
     f.seek(0)
     if head[:2] == b"\xff\xd8":
@@ -276,7 +277,115 @@ def cut_short(f):
         return "TIFF" if _tiff_cut_short(f) else None
     if head[:2] == SGI_MAGIC:
         return "SGI image" if _sgi_cut_short(f) else None
+    if head == EXR_MAGIC:
+        return "OpenEXR" if _exr_cut_short(f) else None
+    if head == b"RIFF":
+        return "WebP" if _webp_cut_short(f) else None
     return None
+
+
+# An EXR chunk's leading fields before its data size: scanline y; tiled x, y, level x, level y.
+EXR_CHUNK_FIELDS = {False: 4, True: 16}
+EXR_TILED = 0x200
+# Scanlines a chunk holds, by compression (OpenEXR: NONE, RLE, ZIPS 1; ZIP, PXR24 16; PIZ, B44,
+# B44A, DWAA 32; DWAB 256); another: unknown, and such a file is judged by its table alone.
+EXR_CHUNK_LINES = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
+
+
+def _exr_cut_short(f):
+    """A chunk of a single-part EXR (scanline or tiled) whose data lies past the end of the
+    file (OpenEXR file layout: header, offset table, chunks). 5.0 and 5.2 load one cut short
+    at full size, the chunks missing black, and Cycles bakes its magenta 'missing' colour;
+    4.2 and 4.5 load garbage. A table holding zeros (Blender's own packed EXRs: written to
+    memory, the table never filled in) is rebuilt as OpenEXR's reader does, by walking the
+    chunks in turn from the table's end; that needs the chunk count, known for scanline files
+    of the compressions above."""
+    data = f.read(EXR_HEADER_LIMIT)
+    if len(data) < 8:
+        return False
+    flags = struct.unpack("<i", data[4:8])[0]
+    if flags & EXR_MULTI_OR_DEEP:
+        return False                    # (layered: the load itself fails when cut)
+    at = _exr_header_end(data)
+    if at is None:
+        return False
+    f.seek(0, 2)
+    size = f.tell()
+    tiled = bool(flags & EXR_TILED)
+    fields = EXR_CHUNK_FIELDS[tiled]
+    count = None if tiled else _exr_chunk_count(data)
+    if count is None:                   # tiled, or lines per chunk unknown: up to the first one
+        count, first = 0, size
+        while at + 8 * count < first:
+            f.seek(at + 8 * count)
+            entry = f.read(8)
+            if len(entry) < 8:
+                return True             # the table itself runs past the end
+            offset = struct.unpack("<Q", entry)[0]
+            if offset >= size:
+                return True
+            if offset == 0:
+                return False            # a table to rebuild: not judged
+            first = min(first, offset)
+            count += 1
+    f.seek(at)
+    table = f.read(8 * count)
+    if len(table) < 8 * count:
+        return True                     # the table itself runs past the end
+    offsets = struct.unpack(f"<{count}Q", table)
+    if any(o >= size for o in offsets):
+        return True
+    if 0 in offsets:
+        offsets, walk = [], at + 8 * count      # rebuilt: each chunk right after the last
+        for _ in range(count):
+            offsets.append(walk)
+            walk += fields + 4 + _exr_chunk_length(f, walk + fields)
+            if walk > size:
+                return True
+    return any(o + fields + 4 + _exr_chunk_length(f, o + fields) > size for o in offsets)
+
+
+def _exr_chunk_count(data):
+    """Chunks of a scanline EXR (its dataWindow's lines over its compression's lines per
+    chunk), or None where not known."""
+    box = _exr_attribute(data, b"dataWindow", b"box2i")
+    compression = _exr_attribute(data, b"compression", b"compression")
+    if box is None or len(box) != 16 or not compression or compression[0] not in EXR_CHUNK_LINES:
+        return None
+    _, y0, _, y1 = struct.unpack("<iiii", box)
+    lines = EXR_CHUNK_LINES[compression[0]]
+    return (y1 - y0 + lines) // lines if y1 >= y0 else None
+
+
+def _exr_chunk_length(f, at):
+    """The data size a chunk gives at `at`, or a size past any file's end where that is not
+    all in the file."""
+    f.seek(at)
+    length = f.read(4)
+    length = struct.unpack("<i", length)[0] if len(length) == 4 else -1
+    return length if length >= 0 else 1 << 62
+
+
+def _exr_header_end(data):
+    """Where an EXR's single header ends (after its attributes' closing empty name), or None
+    where it is not all in `data`."""
+    at = 8
+    while at < len(data) and data[at] != 0:
+        type_end = data.find(b"\0", data.find(b"\0", at) + 1)
+        if type_end < 0 or type_end + 5 > len(data):
+            return None
+        at = type_end + 5 + struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
+    return at + 1 if at < len(data) else None
+
+
+def _webp_cut_short(f):
+    """A WebP (RIFF) file shorter than its RIFF header says (4.2 loads one cut short as
+    transparent black at full size, and Cycles bakes its magenta 'missing' colour)."""
+    head = f.read(12)
+    if len(head) < 12 or head[8:12] != b"WEBP":
+        return False
+    f.seek(0, 2)
+    return f.tell() < 8 + struct.unpack("<I", head[4:8])[0]
 
 
 def _jpeg_cut_short(f):

@@ -85,10 +85,11 @@ def say(text):
 
 
 @contextmanager
-def stoppable(what="the command", keep_placed=False):
+def stoppable(what="the command", keep_placed=False, load_blender=False):
     """Within this block SIGINT and SIGTERM (and OTHER_SIGNALS) stop the process cleanly (see
     the module's docstring). Only in the main thread (elsewhere signals cannot be handled: a
-    no-op); a nested block keeps the outer one. keep_placed: a stop leaves the files placed()."""
+    no-op); a nested block keeps the outer one. keep_placed: a stop leaves the files placed().
+    load_blender: import bpy first, with those signals held (_load_blender)."""
     if _state["active"] or threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -110,10 +111,15 @@ def stoppable(what="the command", keep_placed=False):
         signal.signal(s, _note)
     _state.update(active=True, what=what, placed=[], keep_placed=keep_placed,
                   caught=frozenset(int(s) for s in caught))
+    held = load_blender and "bpy" not in sys.modules and hasattr(signal, "pthread_sigmask")
+    if held:                    # before the watcher starts: it inherits the mask (see below)
+        signal.pthread_sigmask(signal.SIG_BLOCK, caught)
     watcher = threading.Thread(target=_watch, args=(read_fd,), daemon=True,
                                name="surfgrad-interrupts")
     watcher.start()
     try:
+        if held:
+            _load_blender(caught)
         yield
     except BrokenPipeError:                      # our output's reader went (`| head`)
         output_closed()
@@ -130,6 +136,19 @@ def stoppable(what="the command", keep_placed=False):
         watcher.join(5)
         os.close(write_fd)
         os.close(read_fd)
+
+
+def _load_blender(caught):
+    """Import bpy with `caught` held (blocked in this thread, and in the watcher and Blender's
+    threads, which inherit the mask), then let them go: one that came meanwhile stops the
+    command now. Blender makes its session folder ($TMPDIR/blender_XXXXXX) early in bpy's
+    import, then runs Python start-up code, where a stop parked the main thread before bpy was
+    in sys.modules: its folder, found through bpy.app.tempdir, was left behind (red team 56c:
+    a SIGTERM 0.8 to 1.1 s into `python -m surfgrad_addon bake-normal-map`, exit 143)."""
+    try:
+        import bpy  # noqa: F401
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, caught)
 
 
 def _note(signum, frame):
