@@ -476,7 +476,10 @@ def output_problems(output, finals, overwrite):
                    f"socket{', through a symbolic link' if odd[0].is_symlink() else ''}): a "
                    f"bake would replace it with the map, even with --overwrite; give a file "
                    f"path")
-    existing = [str(p) for p in finals.values() if p.exists() and p not in odd]
+    # lexists: a symbolic link whose target is not there yet (a pipeline's link to a
+    # publish folder) is a file the bake would replace too; exists() follows it, and
+    # the bake ran in full before placing the map refused it (rt57a).
+    existing = [str(p) for p in finals.values() if os.path.lexists(p) and p not in odd]
     if existing and not overwrite:
         out.append(f"{existing[0]} exists; pass --overwrite (api: overwrite=True) to replace "
                    f"it")

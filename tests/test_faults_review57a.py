@@ -1,0 +1,80 @@
+"""Red team 57a: a skeptical review of round 56's product changes (rt56a to rt56d).
+
+1. An output path that is a symbolic link whose target is not there yet (a pipeline that
+   links `maps/rock_nrm.png -> ../publish/v004/rock_nrm.png` before the version exists),
+   without --overwrite: bake_request.output_problems asked Path.exists(), which follows the
+   link, so the check before the bake passed; the bake ran in full ("[2/3] baking with
+   Cycles"), and only placing the map refused it ("out.png exists; pass --overwrite to
+   replace it", exit 2): the whole bake's time lost (a 4k bake: minutes) before a refusal the
+   request already earned. Measured on 5.2 (16^2 plane): exit 2 after the bake. Now the
+   link counts as a file there (os.path.lexists): refused before Blender bakes, exit 2, the
+   link left as it was, the same message as a regular file gets.
+
+Probed and fine (not pinned here): image_headers.cut_short on OpenImageIO-written EXRs
+(scanline and 16^2-tiled, every compression it writes: none, rle, zips, zip, piz, pxr24, b44,
+b44a, dwaa, dwab; decreasingY; randomY tiled; a data window at (-5, -17); maketx's tiled
+mipmapped textures of 9 levels, also randomY, dwaa, piz), Blender's own EXR writer (every
+codec on 5.2, HTJ2K included, and 4.2; half and float) and WebP writer (lossy VP8, VP8X with
+alpha, lossless VP8L): each whole file read whole, each one byte short refused. Cost: an
+8192^2 tiled EXR of 16^2 tiles (262144 chunks) 0.24 s; 8192 ZIPS scanlines 0.004 s.
+material_inputs.group_outputs: Blender keeps one Group Output active always (setting the
+last one's is_active_output False flags the first again, 4.2 and 5.2), so "none flagged" does
+not arise. render_mesh's handlers come out on an ExitStack and go back on an exception.
+interrupts._load_blender unblocks the signals in a finally (an ImportError leaves none held);
+threads that inherit the held mask (the watcher, Blender's) are not the ones that start
+bake-batch's workers.
+"""
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from surfgrad_addon.addon import commands, exit_codes  # noqa: E402
+from test_faults_pipeline_leftovers import _normal_texels, _scene, _write_image  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+RES = 16
+
+
+def test_an_output_linked_to_a_file_not_there_yet_is_refused_before_the_bake(tmp_path, capsys):
+    """Exit 2 before Blender bakes, the link as it was, nothing written (before: the bake ran
+    in full, then placing the map refused it)."""
+    _write_image(tmp_path / "n.png", _normal_texels(RES))
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    (tmp_path / "publish").mkdir()
+    target = tmp_path / "publish" / "n_v004.png"
+    out = tmp_path / "out.png"
+    out.symlink_to(target)
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out), "--resolution", str(RES), "--samples", "1"])
+    captured = capsys.readouterr()
+    text = captured.out + captured.err
+    assert rc == exit_codes.BAD_REQUEST, text
+    assert "baking with Cycles" not in text, text          # refused before the bake
+    assert (f"{out} exists; pass --overwrite (api: overwrite=True) to replace it"
+            in captured.err), text
+    assert "Traceback" not in text
+    assert out.is_symlink() and os.readlink(out) == str(target) and not target.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend", "n.png", "out.png",
+                                                          "publish"]
+    assert list((tmp_path / "publish").iterdir()) == []
+
+
+def test_a_dangling_link_with_overwrite_is_baked_over(tmp_path, capsys):
+    """The control: --overwrite bakes through a dangling link's name, exit 0, a PNG there."""
+    _write_image(tmp_path / "n.png", _normal_texels(RES))
+    blend = _scene(tmp_path / "a.blend", tmp_path / "n.png")
+    out = tmp_path / "out.png"
+    out.symlink_to(tmp_path / "missing.png")
+    rc = commands.execute(["bake-normal-map", "--blend", str(blend), "--object", "Plane",
+                           "--output", str(out), "--resolution", str(RES), "--samples", "1",
+                           "--overwrite"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert out.read_bytes()[:4] == b"\x89PNG"
