@@ -10,6 +10,16 @@
    link counts as a file there (os.path.lexists): refused before Blender bakes, exit 2, the
    link left as it was, the same message as a regular file gets.
 
+2. The same for compare's --json (and its heat map, NAME_error.png): check_output_path asked
+   Path.exists(), so a report path that is a link to a file not there yet passed; the whole
+   compare ran (6.1 s for a 16^2 rock on 5.2), then the report's open(..., "x") met the link
+   and compare said "'.../c.json' appeared while this compare ran (another compare writing the
+   same report?)", exit 1: wrong (it was there from the start) and late. With --overwrite and
+   the link's folder missing: the compare ran, then "could not write ... (the disk may be
+   full)", exit 1. Now both are refused before the compare (0.07 s), exit 2: "exists; pass
+   --overwrite", and "it is a symbolic link to '...', in a folder that does not exist; make
+   that folder, or give another path"; the link left as it was.
+
 Probed and fine (not pinned here): image_headers.cut_short on OpenImageIO-written EXRs
 (scanline and 16^2-tiled, every compression it writes: none, rle, zips, zip, piz, pxr24, b44,
 b44a, dwaa, dwab; decreasingY; randomY tiled; a data window at (-5, -17); maketx's tiled
@@ -78,3 +88,74 @@ def test_a_dangling_link_with_overwrite_is_baked_over(tmp_path, capsys):
     err = capsys.readouterr().err
     assert rc == 0, err
     assert out.read_bytes()[:4] == b"\x89PNG"
+
+
+def _rock(tmp_path):
+    from surfgrad_addon.harness import batch_assets as BA
+    return BA.write_asset(tmp_path / "rock.blend", ("Rock",), tiles=(1001,), image_size=16)
+
+
+@pytest.mark.parametrize("name", ["c.json", "c_error.png"])
+def test_a_compare_report_linked_to_a_file_not_there_yet_is_refused_before_the_compare(
+        name, tmp_path, capsys):
+    """Exit 2 before the compare bakes, 'exists; pass --overwrite', the link as it was
+    (before: exit 1 after the compare, 'appeared while this compare ran')."""
+    from surfgrad_addon.harness import cli
+    rock = _rock(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    link = out / name
+    link.symlink_to(tmp_path / "publish" / name)
+    capsys.readouterr()
+    rc = cli.main(["compare", "--blend", str(rock), "--object", "Rock", "--method",
+                   "normal-map", "--resolution", "16", "--json", str(out / "c.json")])
+    captured = capsys.readouterr()
+    text = captured.out + captured.err
+    assert rc == exit_codes.BAD_REQUEST, text
+    assert f"{link} exists; pass --overwrite to replace it" in captured.err, text
+    assert "appeared while" not in text and "Traceback" not in text
+    assert "Read blend" not in text                 # refused before the file was opened
+    assert sorted(p.name for p in out.iterdir()) == [name] and link.is_symlink()
+    assert not (tmp_path / "publish").exists()
+
+
+def test_a_compare_report_linked_into_a_missing_folder_is_refused_with_overwrite(tmp_path,
+                                                                                capsys):
+    """--overwrite, the link's folder not there: exit 2 before the compare, naming the link's
+    target (before: exit 1 after it, 'the disk may be full')."""
+    from surfgrad_addon.harness import cli
+    rock = _rock(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    link = out / "c.json"
+    target = tmp_path / "publish" / "c.json"
+    link.symlink_to(target)
+    capsys.readouterr()
+    rc = cli.main(["compare", "--blend", str(rock), "--object", "Rock", "--method",
+                   "normal-map", "--resolution", "16", "--json", str(link), "--overwrite"])
+    captured = capsys.readouterr()
+    text = captured.out + captured.err
+    assert rc == exit_codes.BAD_REQUEST, text
+    assert (f"it is a symbolic link to {str(target)!r}, in a folder that does not exist; "
+            f"make that folder, or give another path") in captured.err, text
+    assert "disk may be full" not in text and "Traceback" not in text
+    assert sorted(p.name for p in out.iterdir()) == ["c.json"] and link.is_symlink()
+    assert not (tmp_path / "publish").exists()
+
+
+def test_a_compare_report_linked_into_a_folder_there_is_written_through_the_link(tmp_path,
+                                                                                capsys):
+    """The control: --overwrite, the link's folder there: exit 0, the report at the target."""
+    from surfgrad_addon.harness import cli
+    rock = _rock(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    (tmp_path / "publish").mkdir()
+    target = tmp_path / "publish" / "c.json"
+    (out / "c.json").symlink_to(target)
+    rc = cli.main(["compare", "--blend", str(rock), "--object", "Rock", "--method",
+                   "normal-map", "--resolution", "16", "--json", str(out / "c.json"),
+                   "--overwrite"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert target.read_text().lstrip().startswith("{")
