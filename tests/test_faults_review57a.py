@@ -32,7 +32,9 @@ last one's is_active_output False flags the first again, 4.2 and 5.2), so "none 
 not arise. render_mesh's handlers come out on an ExitStack and go back on an exception.
 interrupts._load_blender unblocks the signals in a finally (an ImportError leaves none held);
 threads that inherit the held mask (the watcher, Blender's) are not the ones that start
-bake-batch's workers.
+bake-batch's workers. bake-batch with such a link as an asset's output resolves it (writes
+through it) and refuses a missing target folder before baking ("output folder ... does not
+exist"), exit 1: no wasted bake (left as is; bake-normal-map replaces the link instead).
 """
 
 import os
