@@ -20,6 +20,20 @@
    --overwrite", and "it is a symbolic link to '...', in a folder that does not exist; make
    that folder, or give another path"; the link left as it was.
 
+3. Round 56d's renamed groups (group_updates.renamed_away) took any name that starts as one of
+   surfgrad's per-UV-map names do for surfgrad's: an older "SG Normal Map [UVMap]" the artist
+   renamed "SG Normal Map [UVMap] mine" (a suffix: the usual rename) was still promised by the
+   sidebar ("Update surfgrad Groups rebuilds them", with the button), and Update said "No
+   surface-gradient group was updated": "its rebuild did not reach it (add the group again
+   from the menu)", the fix that does not help. A current one edited inside and renamed so,
+   as the sidebar asks ("rename each to keep your version"), was still named edited. Measured
+   on 5.2. Now a per-UV-map or filter-width name counts as surfgrad's only when it is the name
+   surfgrad gives from the group's own UV Map / Normal Map node (or its filter width): the
+   renamed one is named apart with "rename it back", no button, left by Update with that
+   reason, and no longer named edited; "SG Normal Map [UVMap]", its ".001" copy, a UV map
+   name too long for a name (the hashed name) and "SG Height Map Forward (filter 0.5)" still
+   update.
+
 Probed and fine (not pinned here): image_headers.cut_short on OpenImageIO-written EXRs
 (scanline and 16^2-tiled, every compression it writes: none, rle, zips, zip, piz, pxr24, b44,
 b44a, dwaa, dwab; decreasingY; randomY tiled; a data window at (-5, -17); maketx's tiled
@@ -161,3 +175,87 @@ def test_a_compare_report_linked_into_a_folder_there_is_written_through_the_link
     err = capsys.readouterr().err
     assert rc == 0, err
     assert target.read_text().lstrip().startswith("{")
+
+
+# Finding 3: renamed per-UV-map groups ---------------------------------------------------------
+
+def _older(group, name=None):
+    from surfgrad_addon.addon import groups as G
+    from surfgrad_addon.addon.group_names import VERSION_KEY
+    group[VERSION_KEY] = G.VERSION - 1
+    if name is not None:
+        group.name = name
+    return group
+
+
+def _material_using(group):
+    import bpy
+    from surfgrad_addon.addon.compat import new_material
+    mat = new_material("Rock")
+    mat.node_tree.nodes.new("ShaderNodeGroup").node_tree = group
+    return mat
+
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("suffix", [" mine", " (edited)", " [v2]"])
+def test_a_per_uv_map_group_renamed_with_a_suffix_is_named_apart_and_left(suffix, fresh):
+    from surfgrad_addon.addon import group_updates as U
+    from surfgrad_addon.addon import groups as G
+    from surfgrad_addon.addon.group_names import VERSION_KEY
+    name = "SG Normal Map [UVMap]" + suffix
+    group = _older(G.normal_map_group("UVMap"), name)
+    _material_using(group)
+    nodes = len(group.nodes)
+    text = U.stale_text(U.stale_groups())
+    assert f"1 older surface-gradient group(s) were renamed ({name!r})" in text, text
+    assert "Update surfgrad Groups rebuilds them" not in text, text
+    updated, left = U.update_stale_groups()
+    assert updated == [] and [n for n, _ in left] == [name], left
+    assert "rename it back to its name in the Add menu" in left[0][1], left
+    assert "did not reach it" not in left[0][1], left
+    assert group[VERSION_KEY] == G.VERSION - 1 and len(group.nodes) == nodes
+    import bpy
+    assert sorted(g.name for g in bpy.data.node_groups) == [name]     # nothing added
+
+
+@pytest.mark.tier("blender")
+def test_an_edited_per_uv_map_group_renamed_with_a_suffix_is_no_longer_named_edited(fresh):
+    from surfgrad_addon.addon import group_updates as U
+    from surfgrad_addon.addon import groups as G
+    group = G.normal_map_group("UVMap")
+    next(n for n in group.nodes if n.bl_idname == "ShaderNodeNormalMap").mute = True
+    _material_using(group)
+    assert "('SG Normal Map [UVMap]')" in (U.edited_text() or ""), U.edited_text()
+    group.name = "SG Normal Map [UVMap] mine"      # what the sidebar asks
+    assert U.edited_text() is None, U.edited_text()
+
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("kind", ["normal map", "copy", "long uv map", "filter width"])
+def test_per_uv_map_and_filter_groups_under_surfgrads_names_still_update(kind, fresh):
+    """The controls: each is named surfgrad's, and Update rebuilds it."""
+    import bpy
+    from surfgrad_addon.addon import group_updates as U
+    from surfgrad_addon.addon import groups as G
+    from surfgrad_addon.addon.group_names import VERSION_KEY
+    if kind == "filter width":
+        group = _older(G.height_map_forward_group(0.5))
+        assert group.name == "SG Height Map Forward (filter 0.5)"
+    elif kind == "long uv map":
+        uv = "UV_" + "x" * 60                     # the longest UV map name (63 bytes)
+        group = _older(G.normal_map_group(uv))
+        # 4.2 and 4.5 name a data-block in 63 bytes: the hashed name of fitting_name
+        short = bpy.types.ID.bl_rna.properties["name"].length_max <= 64
+        assert ("~" in group.name) == short, group.name
+    else:
+        group = _older(G.normal_map_group("UVMap"))
+        if kind == "copy":
+            group.name = "SG Normal Map [UVMap].001"
+    _material_using(group)
+    assert not U.renamed_away(group)
+    text = U.stale_text(U.stale_groups())
+    assert "Update surfgrad Groups rebuilds them" in text and "renamed" not in text, text
+    updated, left = U.update_stale_groups()
+    assert left == [] and len(updated) == 1, (updated, left)
+    assert all(g.get(VERSION_KEY) == G.VERSION for g in bpy.data.node_groups
+               if g.users), [(g.name, g.get(VERSION_KEY)) for g in bpy.data.node_groups]
