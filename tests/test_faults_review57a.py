@@ -34,6 +34,13 @@
    name too long for a name (the hashed name) and "SG Height Map Forward (filter 0.5)" still
    update.
 
+4. `python -m surfgrad_addon bake-normal-map` (bake-batch, compare, ...) on a Python without
+   the bpy wheel (a TD's system Python, a venv made for another line): a raw
+   ModuleNotFoundError traceback, exit 1 (from inside interrupts._load_blender since 56c;
+   before, from open_mainfile's `import bpy`; measured on the system Python 3.11). Now
+   exit 2 before anything runs: "bake-normal-map needs Blender's Python module bpy, which
+   this Python (3.11, ...) does not have: install the bpy wheel ... or bake inside Blender".
+
 Probed and fine (not pinned here): image_headers.cut_short on OpenImageIO-written EXRs
 (scanline and 16^2-tiled, every compression it writes: none, rle, zips, zip, piz, pxr24, b44,
 b44a, dwaa, dwab; decreasingY; randomY tiled; a data window at (-5, -17); maketx's tiled
@@ -259,3 +266,40 @@ def test_per_uv_map_and_filter_groups_under_surfgrads_names_still_update(kind, f
     assert left == [] and len(updated) == 1, (updated, left)
     assert all(g.get(VERSION_KEY) == G.VERSION for g in bpy.data.node_groups
                if g.users), [(g.name, g.get(VERSION_KEY)) for g in bpy.data.node_groups]
+
+
+# Finding 4: no bpy --------------------------------------------------------------------------
+
+_NO_BPY = """
+import runpy, sys
+class NoBpy:                                  # this Python has no bpy wheel
+    def find_spec(self, name, path=None, target=None):
+        if name == "bpy" or name.startswith("bpy."):
+            raise ModuleNotFoundError("No module named 'bpy'", name="bpy")
+        return None
+sys.meta_path.insert(0, NoBpy())
+sys.argv = ["surfgrad_addon", *sys.argv[1:]]
+runpy.run_module("surfgrad_addon", run_name="__main__")
+"""
+
+
+@pytest.mark.tier("child")
+@pytest.mark.parametrize("command", ["bake-normal-map", "compare"])
+def test_a_python_without_bpy_is_told_so_not_a_traceback(command, tmp_path):
+    import subprocess
+    root = Path(__file__).resolve().parents[1]
+    args = {"bake-normal-map": ["--blend", str(tmp_path / "a.blend"), "--object", "Plane",
+                                "--output", str(tmp_path / "n.png")],
+            "compare": ["--blend", str(tmp_path / "a.blend"), "--object", "Plane", "--method",
+                        "normal-map", "--json", str(tmp_path / "r.json")]}[command]
+    (tmp_path / "a.blend").write_bytes(b"BLENDER")
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    run = subprocess.run([sys.executable, "-c", _NO_BPY, command, *args], cwd=tmp_path,
+                         env=env, capture_output=True, text=True, timeout=120)
+    assert run.returncode == exit_codes.BAD_REQUEST, run.stderr
+    assert "Traceback" not in run.stderr + run.stdout, run.stderr
+    line = run.stderr.strip().splitlines()[-1]
+    assert line.startswith(f"surfgrad: error: {command} needs Blender's Python module bpy, "
+                           f"which this Python ("), line
+    assert "pip install bpy==" in line and "blender -c surfgrad" in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.blend"]
