@@ -62,7 +62,9 @@ def _given_name(tree, name):
     surfgrad's beginnings. A per-image group's name is taken as given (renamed_target moves
     one named after an older image name)."""
     for base, node in _UV_NAMED.items():
-        if name == base or name.startswith(base + " ["):
+        if name == base:
+            return name                 # (as before: a name surfgrad gives, whatever inside)
+        if name.startswith(base + " ["):
             uv = _interior(tree, node, "uv_map")
             return fitting_name(base + (f" [{uv}]" if uv else ""))
     if name.startswith(_FILTERED + " (filter "):
