@@ -51,6 +51,10 @@ def run(subcommands, args):
         print(f"surfgrad: error: {'; '.join(problems)}", file=sys.stderr)
         return BAD_REQUEST
     if command.loads_blender and "bpy" not in sys.modules:
+        problem = _no_bpy_problem(command.name)
+        if problem:
+            print(f"surfgrad: error: {problem}", file=sys.stderr)
+            return BAD_REQUEST
         # `ulimit -v` too low: importing bpy would crash or hang with no line (memory_limit.py)
         from .memory_limit import start_problem
         problem = start_problem()
@@ -63,6 +67,24 @@ def run(subcommands, args):
     # Ctrl-C / SIGTERM stop the command at once, exit 130 / 143, nothing written.
     with interrupts.stoppable(command.name, load_blender=command.loads_blender):
         return _run(command, args)
+
+
+def _no_bpy_problem(name):
+    """Why this Python cannot run command `name`, which loads Blender (no bpy module), or
+    None: `python -m surfgrad_addon bake-normal-map` on a Python without the bpy wheel ended
+    in a raw ModuleNotFoundError traceback, exit 1 (since 56c from inside
+    interrupts._load_blender; before, from the first `import bpy`) (rt57a)."""
+    import importlib.util
+    try:
+        if importlib.util.find_spec("bpy") is not None:
+            return None
+    except (ImportError, ValueError):
+        pass
+    version = ".".join(map(str, sys.version_info[:2]))
+    return (f"{name} needs Blender's Python module bpy, which this Python ({version}, "
+            f"{sys.executable}) does not have: install the bpy wheel of your Blender line into "
+            f"it (pip install bpy==5.2.3, on Python 3.13; docs/versions.md names the others), "
+            f"or bake inside Blender (blender -c surfgrad bake-normal-map ...)")
 
 
 def working_folder_problem():

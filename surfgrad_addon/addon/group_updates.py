@@ -42,8 +42,38 @@ def renamed_away(tree):
     """True when group `tree`'s name (less Blender's ".001") is none that surfgrad gives: the
     artist renamed it, and which group it is (so its rebuild) cannot be told from it."""
     name = _COPY.sub("", tree.name)
-    return name not in G.BY_NAME and name not in _HELPERS and \
-        not any(name.startswith(prefix) for prefix in _BY_PREFIX)
+    if name in G.BY_NAME or name in _HELPERS:
+        return False
+    given = _given_name(tree, name)
+    return given is None or given != name
+
+
+# Groups named after the UV map their own node holds ("SG Normal Map [UVMap]"): a name that
+# only starts so ("SG Normal Map [UVMap] mine", the artist's rename) is not the one surfgrad
+# gives, and its rebuild (the group of the UV map's name) cannot reach it (rt57a).
+_UV_NAMED = {"SG Normal Map": "ShaderNodeNormalMap", "SG Procedural Basis": "ShaderNodeUVMap",
+             ".SG MikkTSpace Frame": "ShaderNodeNormalMap"}
+_FILTERED = "SG Height Map Forward"
+
+
+def _given_name(tree, name):
+    """The name surfgrad gives the group `tree` whose (copy-less) name is `name`, as its
+    interior says it (the UV map, the filter width), or None where its name has none of
+    surfgrad's beginnings. A per-image group's name is taken as given (renamed_target moves
+    one named after an older image name)."""
+    for base, node in _UV_NAMED.items():
+        if name == base:
+            return name                 # (as before: a name surfgrad gives, whatever inside)
+        if name.startswith(base + " ["):
+            uv = _interior(tree, node, "uv_map")
+            return fitting_name(base + (f" [{uv}]" if uv else ""))
+    if name.startswith(_FILTERED + " (filter "):
+        try:
+            width = float(name[len(_FILTERED + " (filter "):].split(")")[0])
+        except ValueError:
+            return None
+        return fitting_name(f"{_FILTERED} (filter {width:g})")
+    return name if any(name.startswith(prefix) for prefix in _BY_PREFIX) else None
 
 
 # A renamed group may be the artist's own version (surfgrad's advice for an edited group is
@@ -397,7 +427,7 @@ def update_stale_groups():
     for tree in stale:
         call = builder_call(tree)
         reason = G.unavailable_reason(_COPY.sub("", tree.name)) or _unread_image(tree)
-        if call is None or reason:
+        if call is None or reason or renamed_away(tree):
             left.append((tree.name, reason or (
                 f"its name is none that surfgrad gives (renamed: yours now, which group it "
                 f"is cannot be told); {RENAMED_FIX}" if renamed_away(tree) else

@@ -596,10 +596,19 @@ def check_output_path(path, overwrite, what="output"):
     if p.is_dir():
         raise CompareError(f"{what} {str(p)!r} is a folder; give a file path (e.g. "
                            f"{str(p / 'report.json')!r})")
-    if p.exists() and not overwrite:
+    # lexists: a symbolic link to a file not there yet is a file the report would replace
+    # too (exists() follows it: the compare ran in full, then said the report 'appeared
+    # while this compare ran', rt57a).
+    if os.path.lexists(p) and not overwrite:
         raise CompareError(f"{p} exists; pass --overwrite to replace it")
     if p.exists() and not p.is_file():
         raise CompareError(f"{what} {str(p)!r} is not a regular file; give a file path")
+    if p.is_symlink() and not p.exists() and not Path(os.path.realpath(p)).parent.is_dir():
+        # (the report is written through the link: it failed after the compare, as "the disk
+        # may be full")
+        raise CompareError(f"cannot write {what} {str(p)!r}: it is a symbolic link to "
+                           f"{os.path.realpath(p)!r}, in a folder that does not exist; make "
+                           f"that folder, or give another path")
     parent = p.parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
@@ -641,7 +650,7 @@ def _write_report(json_out, report, heat_path, heat, overwrite):
                 ours.append(json_out)
                 interrupts.placed(json_out)
                 f.write(json.dumps(report, indent=2))
-            if not overwrite and heat_path.exists():
+            if not overwrite and os.path.lexists(heat_path):
                 raise FileExistsError(errno.EEXIST, "exists", str(heat_path))
             ours.append(heat_path)
             interrupts.placed(heat_path)
