@@ -309,3 +309,19 @@ def test_bake_batch_fails_an_asset_whose_output_is_a_named_pipe(tmp_path, capsys
     assert rc == 1, err
     assert f"output {str(out)!r} is not a regular file" in err, err
     assert out.is_fifo() and [p.name for p in out.parent.iterdir()] == ["a_Plane.png"]
+
+
+@pytest.mark.tier("child")
+def test_a_header_with_a_negative_attribute_size_is_not_walked_for_ever():
+    """Noticed by rt57a: an attribute whose size field is negative (a damaged file) walked the
+    header back to where it was, for ever (a farm task hung on one bad file). Now the header
+    is not judged (None), at once; Blender's load refuses such a file."""
+    name, kind = b"comments\0", b"string\0"
+    # size -(len(name) + len(kind) + 4): the walk lands on this attribute's first byte again
+    bad = name + kind + struct.pack("<i", -(len(name) + len(kind) + 4))
+    data = b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + bad + b"\0" * 64
+    done = subprocess.run([sys.executable, "-c", "import io, sys; from surfgrad_addon.addon."
+                           "image_headers import cut_short; print(cut_short(io.BytesIO("
+                           "sys.stdin.buffer.read())))"], input=data, capture_output=True,
+                          timeout=20, cwd=Path(__file__).resolve().parents[1])
+    assert done.returncode == 0 and done.stdout.strip() == b"None", done.stderr[-400:]

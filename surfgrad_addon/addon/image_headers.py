@@ -374,7 +374,10 @@ def _exr_header_end(data):
         type_end = data.find(b"\0", data.find(b"\0", at) + 1)
         if type_end < 0 or type_end + 5 > len(data):
             return None
-        at = type_end + 5 + struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
+        size = struct.unpack("<i", data[type_end + 1:type_end + 5])[0]
+        if size < 0:            # damaged: a negative size walked back, and could loop for ever
+            return None
+        at = type_end + 5 + size
     return at + 1 if at < len(data) else None
 
 
