@@ -23,13 +23,30 @@ from .read_once import ReadOnce
 from .unrealized_instances import read_instances
 
 
-def not_rendered_problem(obj_name, uv_map, rendered):
+def not_rendered_problem(obj_name, uv_map, rendered, obj=None):
     """The refusal of UV map `uv_map` of the object, which the mesh as it renders lacks (it
-    has the UV maps `rendered`), with the fix."""
-    return (f"UV map {uv_map!r} of object {obj_name!r} is not on the mesh as it renders (a "
-            f"modifier removes it, or a Geometry Nodes Store Named Attribute writes its name on "
-            f"another domain than Face Corner or as another type than 2D Vector; the rendered "
-            f"mesh has {sorted(rendered)}): pick one of those, or fix the modifiers")
+    has the UV maps `rendered`), with the fix. Where it has none at all (a Remesh, a Geometry
+    Nodes tree making the mesh anew or storing its UVs as a 3D vector), "pick one of those"
+    offers nothing: the modifiers shown in renders of `obj` are named instead."""
+    if rendered or obj is None:
+        return (f"UV map {uv_map!r} of object {obj_name!r} is not on the mesh as it renders (a "
+                f"modifier removes it, or a Geometry Nodes Store Named Attribute writes its "
+                f"name on another domain than Face Corner or as another type than 2D Vector; "
+                f"the rendered mesh has {sorted(rendered)}): pick one of those, or fix the "
+                f"modifiers")
+    shown = [m for m in obj.modifiers if m.show_render]
+    named = ", ".join(f"{m.name!r} ({m.type.replace('_', ' ').title()})" for m in shown)
+    fixes = []
+    if any(m.type == "REMESH" for m in shown):
+        fixes.append("a Remesh makes new faces without UVs: apply it (or its result, "
+                     "Object > Convert > Mesh) and unwrap the mesh (UV > Unwrap)")
+    if any(m.type == "NODES" for m in shown):
+        fixes.append(f"in a Geometry Nodes tree, store the UVs as {uv_map!r} with a Store "
+                     f"Named Attribute of type 2D Vector on Face Corner")
+    fixes = fixes or ["apply the modifiers and unwrap the mesh (UV > Unwrap)"]
+    return (f"UV map {uv_map!r} of object {obj_name!r} is not on the mesh as it renders, which "
+            f"has no UV map at all: its modifier(s) shown in renders ({named or 'none'}) "
+            f"leave the mesh without one; {'; or '.join(fixes)}")
 
 
 def long_name_problem(obj_name, uv_map):

@@ -10,10 +10,13 @@ import numpy as np
 from ..reference.input_checks import faces_text
 
 
-def empty_slot_problem(obj_name, face_materials, filled_slots):
+def empty_slot_problem(obj_name, face_materials, filled_slots, obj=None):
     """None, or the refusal naming the faces whose slot is empty. face_materials: (F,) each
     face's material index; filled_slots: per slot of the rendered object, whether it holds a
-    material (no slots at all: the request's "no material" says it)."""
+    material (no slots at all: the request's "no material" says it). obj: the object, whose
+    own slot may hold a material that the rendered mesh's lacks: a Geometry Nodes tree that
+    makes the mesh anew (a Mesh Grid, a Mesh Line) gives its faces no material, whatever the
+    object's slots hold, and Cycles renders them with its default surface."""
     if not filled_slots or all(filled_slots):
         return None
     index = np.asarray(face_materials, dtype=np.int64)
@@ -25,7 +28,29 @@ def empty_slot_problem(obj_name, face_materials, filled_slots):
     slots = ", ".join(str(s + 1) for s in np.unique(slot[empty]))
     past = " (a material index past the last slot counts as the last)" \
         if (index[empty] != slot[empty]).any() else ""
+    made = _made_without(obj, np.unique(slot[empty]))
+    if made:
+        return (f"{len(faces)} face(s) of object {obj_name!r} (faces {faces_text(faces)}) "
+                f"render with no material in slot {slots}{past}, though the object's slot "
+                f"holds {made[0]!r}: {made[1]} makes them without a material (Cycles renders "
+                f"them with its default surface, and the bake writes nothing for them): add "
+                f"a Set Material node ({made[0]!r}) at the end of its tree")
     return (f"{len(faces)} face(s) of object {obj_name!r} (faces {faces_text(faces)}) use "
             f"empty material slot {slots}{past}, so the bake writes nothing for them, a hole "
             f"in the map: give the slot a material, or assign those faces to a slot that has "
             f"one (Material Properties > Assign)")
+
+
+def _made_without(obj, slots):
+    """(material name, modifier words) where the object's own slot among `slots` holds a
+    material the rendered mesh's lacks, and a Geometry Nodes modifier shown in renders makes
+    the mesh; else None."""
+    if obj is None:
+        return None
+    own = [s.material for s in obj.material_slots]
+    held = [own[s] for s in slots if s < len(own) and own[s] is not None]
+    nodes = [m for m in obj.modifiers if m.type == "NODES" and m.show_render]
+    if not held or not nodes:
+        return None
+    names = ", ".join(repr(m.name) for m in nodes)
+    return held[0].name, f"Geometry Nodes modifier {names}"

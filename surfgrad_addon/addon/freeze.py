@@ -26,6 +26,7 @@ from .bake_target import object_not_a_mesh
 from .bake_request import _only_instances, mesh_problems
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
+from .empty_slots import empty_slot_problem
 from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
 from .image_memory import images_memory
@@ -347,6 +348,10 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         problems += foreign_node_problems(obj, only=mat)      # a newer line's: baked as zero
         # Unrealized instances of the material: the bake leaves them out of the map they read.
         baked = baked_mesh(obj)
+        # Faces the rendered mesh holds in an empty slot: Blender's bake cancels (after the
+        # checks had passed), as bake-normal-map refuses them before baking.
+        problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots, obj)
+        problems += [problem] if problem else []
         more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
                                            uv_map, [NB.UDIM_FIRST], resolution, None, only=mat)
         problems += more

@@ -136,7 +136,8 @@ def _evaluated_arrays(obj, depsgraph, facts):
         if len(mesh.polygons) == 0:
             raise MeshDataError(f"object {obj.name!r} has no faces to bake; add geometry")
         if len(mesh.uv_layers) == 0 and len(obj.data.uv_layers):
-            raise MeshDataError(not_rendered_problem(obj.name, obj.data.uv_layers[0].name, []))
+            raise MeshDataError(not_rendered_problem(obj.name, obj.data.uv_layers[0].name, [],
+                                                     obj))
         if len(mesh.uv_layers) == 0:
             raise MeshDataError(f"object {obj.name!r} has no UV map; add one (UV > Unwrap) "
                                 f"before baking")

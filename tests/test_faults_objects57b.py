@@ -1,0 +1,195 @@
+"""Red team 57b: objects a scene holds that are not a plain mesh, through bake-normal-map (the
+API), compare and Freeze. Built here by code, a few faces.
+
+1. A Geometry Nodes modifier that makes the mesh anew (a Mesh Grid: a procedural generator)
+   and gives its faces no material: the object's slot holds the material, but Blender renders
+   and bakes those faces with no material (the evaluated slot is empty; Cycles' default
+   surface). bake-normal-map refused it, rightly, but told the artist to "give the slot a
+   material" (it holds one) and named no modifier; Freeze passed its checks and then Blender
+   cancelled its bake ("the bake of 'GNObj' did not finish ({'CANCELLED'})", BakeFailed after
+   the "checked" stage, on 5.2 and 4.2). Now both refuse before baking, naming the faces, the
+   material the slot holds, the modifier and the fix (a Set Material node)
+   (addon/empty_slots.py; freeze.check runs the same check as bake-normal-map); with that
+   Set Material the bake is done and every texel is the material's map.
+2. A mesh whose modifiers leave it no UV map at all (a Remesh, which makes new faces without
+   UVs; a Geometry Nodes Store Named Attribute of the UVs as a 3D vector): bake-normal-map,
+   compare and Freeze refused it with "the rendered mesh has []): pick one of those, or fix
+   the modifiers", naming no modifier and offering nothing to pick. Now the refusal names
+   the modifiers shown in renders and the fix for each (apply the Remesh and unwrap; store
+   the UVs as a 2D Vector on Face Corner) (addon/bake_uvs.not_rendered_problem).
+
+Probed and right on 5.2 (compare normal-map within p99 0.0005 / max 0.001 degrees at 32^2,
+bake-normal-map's tangent map of a constant normal map equal to it, the scene unchanged):
+Solidify with rim faces and rim only (overlap warned), Weld, Decimate, Boolean union and
+difference with the exact solver, Array with a UV offset into tile 1002 (refused without
+<UDIM>), Mirror with Mirror U, a Subdivision shown in the viewport only, a Wave in renders
+only, Subdivision viewport 0 / render 3, a parented object under a rotated, non-uniformly
+scaled empty with a Track To constraint, a Geometry Nodes mesh with its UVs on half its faces
+(Set Material given) or through Realize Instances. Curves (bevel, extrude), text, NURBS
+surfaces, metaballs, Grease Pencil, point clouds and collection-instancing empties are
+refused by all three naming what they are and the fix (round 34c, 37c).
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon import api  # noqa: E402
+from surfgrad_addon.addon import freeze as F  # noqa: E402
+from surfgrad_addon.addon import operators as O  # noqa: E402
+from surfgrad_addon.addon.bake_request import BakeRequestError  # noqa: E402
+from surfgrad_addon.harness import asset_scenes as A, compare  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+RES = 32
+COLOUR = (0.75, 0.5, 0.933)            # a constant tangent-space map, tilted about v
+
+
+@pytest.fixture
+def empty_file():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy
+
+
+def _normal_map_material(obj, name="M"):
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0):        # always on from 5.0 (deprecated)
+        mat.use_nodes = True
+    nt = mat.node_tree
+    nm, rgb = nt.nodes.new("ShaderNodeNormalMap"), nt.nodes.new("ShaderNodeRGB")
+    rgb.outputs[0].default_value = COLOUR + (1.0,)
+    nt.links.new(rgb.outputs[0], nm.inputs["Color"])
+    nt.links.new(nm.outputs[0], nt.nodes["Principled BSDF"].inputs["Normal"])
+    obj.data.materials.append(mat)
+    return mat
+
+
+def _stack_material(obj):
+    mat = bpy.data.materials.new("SG")
+    if bpy.app.version < (5, 0):        # always on from 5.0 (deprecated)
+        mat.use_nodes = True
+    O.add_layer_stack(mat.node_tree)
+    obj.data.materials.append(mat)
+    return mat
+
+
+def _generated(name="GNObj", data_type="FLOAT2", material=None):
+    """An object whose Geometry Nodes modifier makes a 4 x 4 grid anew, its UVs stored as
+    'UVMap' (data_type on Face Corner), smooth; a Set Material of `material` at the end."""
+    ng = bpy.data.node_groups.new("Make", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    out = ng.nodes.new("NodeGroupOutput")
+    grid = ng.nodes.new("GeometryNodeMeshGrid")
+    for key, value in (("Vertices X", 5), ("Vertices Y", 5), ("Size X", 2.0), ("Size Y", 2.0)):
+        grid.inputs[key].default_value = value
+    store = ng.nodes.new("GeometryNodeStoreNamedAttribute")
+    store.data_type, store.domain = data_type, "CORNER"
+    store.inputs["Name"].default_value = "UVMap"
+    ng.links.new(grid.outputs["Mesh"], store.inputs["Geometry"])
+    ng.links.new(grid.outputs["UV Map"], store.inputs["Value"])
+    smooth = ng.nodes.new("GeometryNodeSetShadeSmooth")
+    ng.links.new(store.outputs[0], smooth.inputs[0])
+    last = smooth.outputs[0]
+    if material is not None:
+        setter = ng.nodes.new("GeometryNodeSetMaterial")
+        setter.inputs["Material"].default_value = material
+        ng.links.new(last, setter.inputs["Geometry"])
+        last = setter.outputs[0]
+    ng.links.new(last, out.inputs[0])
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    mesh.uv_layers.new(name="UVMap")
+    obj = A._link(name, mesh)
+    obj.modifiers.new("GN", "NODES").node_group = ng
+    return obj
+
+
+def _pixels(path):
+    img = bpy.data.images.load(str(path))
+    try:
+        px = np.array(img.pixels[:], dtype=np.float64).reshape(RES, RES, -1)
+    finally:
+        bpy.data.images.remove(img)
+    return px[..., :3]
+
+
+# 1. A Geometry Nodes mesh made anew, without a material -------------------------------------
+
+def test_generated_faces_without_material_bake_refusal_names_the_modifier(empty_file,
+                                                                          tmp_path):
+    obj = _generated()
+    _normal_map_material(obj)
+    out = tmp_path / "gn.png"
+    with pytest.raises(BakeRequestError) as err:
+        api.bake_normal_map(obj, out, resolution=RES, samples=1, log=None)
+    text = str(err.value)
+    # Before: "use empty material slot 1, ...: give the slot a material" (it holds 'M').
+    assert "give the slot a material" not in text, text
+    assert "'GN'" in text and "Set Material" in text and "'M'" in text, text
+    assert "16 face(s)" in text, text
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_generated_faces_with_set_material_bake_the_map(empty_file, tmp_path):
+    """The fix the refusal names works: every covered texel is the constant map."""
+    mesh = bpy.data.meshes.new("Holder")
+    mat = _normal_map_material(bpy.data.objects.new("Holder", mesh))
+    obj = _generated(material=mat)
+    obj.data.materials.append(mat)
+    out = api.bake_normal_map(obj, tmp_path / "gn.png", resolution=RES, samples=1, log=None,
+                              margin=0)
+    px = _pixels(out)
+    # The grid's UVs cover the whole square: every texel the map.
+    assert np.abs(px - np.array(COLOUR)).max() < 0.01, np.abs(px - COLOUR).max()
+
+
+def test_generated_faces_without_material_freeze_refused_before_baking(empty_file):
+    obj = _generated()
+    mat = _stack_material(obj)
+    nodes = sorted(n.name for n in mat.node_tree.nodes)
+    images = len(bpy.data.images)
+    # Before: BakeFailed "did not finish ({'CANCELLED'})" from Blender's bake, after check.
+    with pytest.raises(F.FreezeError, match=r"'GN'.*Set Material"):
+        F.check(obj, RES)
+    with pytest.raises(F.FreezeError, match=r"'GN'.*Set Material"):
+        F.freeze(obj, RES)
+    assert sorted(n.name for n in mat.node_tree.nodes) == nodes
+    assert len(bpy.data.images) == images and F.RECORD not in mat
+
+
+# 2. Modifiers that leave the mesh no UV map -------------------------------------------------
+
+def _remeshed():
+    obj = A._link("Remeshed", A._grid("Remeshed", nx=6, ny=5))
+    mod = obj.modifiers.new("Remesh", "REMESH")
+    mod.mode, mod.octree_depth = "SMOOTH", 3
+    return obj
+
+
+@pytest.mark.parametrize("kind", ["remesh", "vector3"])
+def test_no_uv_map_left_names_the_modifier_and_fix(empty_file, tmp_path, kind):
+    if kind == "remesh":
+        obj, word, fix = _remeshed(), "'Remesh'", "unwrap"
+    else:
+        obj, word, fix = _generated(data_type="FLOAT_VECTOR"), "'GN'", "2D Vector"
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    assert len(evaluated.polygons) > 0 and len(evaluated.uv_layers) == 0
+    _normal_map_material(obj)
+    out = tmp_path / "m.png"
+    with pytest.raises(BakeRequestError) as err:
+        api.bake_normal_map(obj, out, resolution=RES, samples=1, log=None)
+    # Before: "...the rendered mesh has []): pick one of those, or fix the modifiers".
+    for text in (str(err.value),):
+        assert "pick one of those" not in text and word in text and fix in text, text
+    with pytest.raises(compare.CompareError) as err:
+        compare.compare_object(obj, "normal-map", RES, log=lambda *_: None)
+    assert "pick one of those" not in str(err.value) and word in str(err.value)
+    assert list(tmp_path.iterdir()) == []
+    obj.data.materials.clear()
+    _stack_material(obj)
+    with pytest.raises(F.FreezeError) as err:
+        F.check(obj, RES)
+    assert "pick one of those" not in str(err.value) and word in str(err.value)
