@@ -193,3 +193,77 @@ def test_no_uv_map_left_names_the_modifier_and_fix(empty_file, tmp_path, kind):
     with pytest.raises(F.FreezeError) as err:
         F.check(obj, RES)
     assert "pick one of those" not in str(err.value) and word in str(err.value)
+
+
+# 3. A mesh whose modifiers leave it no faces, or join faces of no slot ------------------------
+
+def _nodes_on(obj, kind):
+    """A Geometry Nodes modifier 'GN' on obj: 'points' (Mesh to Points), 'nothing' (Delete
+    Geometry of everything), 'tube' (the mesh joined with a tube along its edges, Curve to
+    Mesh: faces of a second material slot, which the object lacks)."""
+    ng = bpy.data.node_groups.new(kind, "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    gi, go = ng.nodes.new("NodeGroupInput"), ng.nodes.new("NodeGroupOutput")
+    link = ng.links.new
+    if kind == "tube":
+        curve = ng.nodes.new("GeometryNodeMeshToCurve")
+        tube = ng.nodes.new("GeometryNodeCurveToMesh")
+        circle = ng.nodes.new("GeometryNodeCurvePrimitiveCircle")
+        circle.inputs["Radius"].default_value = 0.02
+        join = ng.nodes.new("GeometryNodeJoinGeometry")
+        link(gi.outputs[0], curve.inputs[0])
+        link(curve.outputs[0], tube.inputs[0])
+        link(circle.outputs[0], tube.inputs["Profile Curve"])
+        link(tube.outputs[0], join.inputs[0])
+        link(gi.outputs[0], join.inputs[0])
+        link(join.outputs[0], go.inputs[0])
+    else:
+        node = ng.nodes.new("GeometryNodeMeshToPoints" if kind == "points"
+                            else "GeometryNodeDeleteGeometry")
+        link(gi.outputs[0], node.inputs[0])
+        link(node.outputs[0], go.inputs[0])
+    obj.modifiers.new("GN", "NODES").node_group = ng
+    return obj
+
+
+@pytest.mark.parametrize("kind", ["points", "nothing"])
+def test_no_faces_as_it_renders_names_the_modifier(empty_file, tmp_path, kind):
+    obj = _nodes_on(A._link("Grid", A._grid("Grid", nx=6, ny=5)), kind)
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    assert len(evaluated.polygons) == 0 and len(obj.data.polygons) == 30
+    _normal_map_material(obj)
+    # Before: bake "the rendered mesh has []): pick one of those, or fix the modifiers" (a UV
+    # map problem); compare "has no faces to bake; add geometry" (the mesh has 30).
+    with pytest.raises(BakeRequestError) as err:
+        api.bake_normal_map(obj, tmp_path / "p.png", resolution=RES, samples=1, log=None)
+    text = str(err.value)
+    assert "no faces as it renders" in text and "'GN'" in text and "has 30" in text, text
+    with pytest.raises(compare.CompareError) as err:
+        compare.compare_object(obj, "normal-map", RES, log=lambda *_: None)
+    assert "no faces as it renders" in str(err.value) and "'GN'" in str(err.value)
+    assert list(tmp_path.iterdir()) == []
+    obj.data.materials.clear()
+    _stack_material(obj)
+    with pytest.raises(F.FreezeError, match="no faces as it renders"):
+        F.check(obj, RES)
+
+
+def test_joined_faces_of_a_slot_the_object_lacks(empty_file, tmp_path):
+    obj = _nodes_on(A._link("Grid", A._grid("Grid", nx=6, ny=5)), "tube")
+    _normal_map_material(obj)
+    out = tmp_path / "t.png"
+    with pytest.raises(BakeRequestError) as err:
+        api.bake_normal_map(obj, out, resolution=RES, samples=1, log=None)
+    text = str(err.value)
+    # Before: "... use empty material slot 2 ...: give the slot a material" (it has one slot).
+    assert "give the slot a material" not in text, text
+    assert "slot 2, a slot the object itself lacks (it has 1)" in text and "'GN'" in text, text
+    assert list(tmp_path.iterdir()) == []
+    obj.data.materials.clear()
+    mat = _stack_material(obj)
+    nodes = sorted(n.name for n in mat.node_tree.nodes)
+    # Before: Freeze passed its checks and Blender cancelled its bake (BakeFailed).
+    with pytest.raises(F.FreezeError, match=r"slot 2, a slot the object itself lacks"):
+        F.freeze(obj, RES)
+    assert sorted(n.name for n in mat.node_tree.nodes) == nodes and F.RECORD not in mat

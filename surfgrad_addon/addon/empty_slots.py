@@ -30,11 +30,14 @@ def empty_slot_problem(obj_name, face_materials, filled_slots, obj=None):
         if (index[empty] != slot[empty]).any() else ""
     made = _made_without(obj, np.unique(slot[empty]))
     if made:
+        held, nodes = made
+        where = (f"though the object's slot holds {held!r}" if held else
+                 f"a slot the object itself lacks (it has {len(obj.material_slots)})")
         return (f"{len(faces)} face(s) of object {obj_name!r} (faces {faces_text(faces)}) "
-                f"render with no material in slot {slots}{past}, though the object's slot "
-                f"holds {made[0]!r}: {made[1]} makes them without a material (Cycles renders "
-                f"them with its default surface, and the bake writes nothing for them): add "
-                f"a Set Material node ({made[0]!r}) at the end of its tree")
+                f"render with no material in slot {slots}{past}, {where}: {nodes} makes them "
+                f"without a material (Cycles renders them with its default surface, and the "
+                f"bake writes nothing for them): add a Set Material node "
+                f"{'(' + repr(held) + ') ' if held else ''}for them in its tree")
     return (f"{len(faces)} face(s) of object {obj_name!r} (faces {faces_text(faces)}) use "
             f"empty material slot {slots}{past}, so the bake writes nothing for them, a hole "
             f"in the map: give the slot a material, or assign those faces to a slot that has "
@@ -42,15 +45,16 @@ def empty_slot_problem(obj_name, face_materials, filled_slots, obj=None):
 
 
 def _made_without(obj, slots):
-    """(material name, modifier words) where the object's own slot among `slots` holds a
-    material the rendered mesh's lacks, and a Geometry Nodes modifier shown in renders makes
-    the mesh; else None."""
+    """(the material the object's own slot holds or None, modifier words) where a Geometry
+    Nodes modifier shown in renders makes the mesh and the rendered mesh's empty `slots` are
+    not the object's own empty slots (one holds a material, or the object has no such slot:
+    geometry the tree made and joined, a Curve to Mesh); else None."""
     if obj is None:
         return None
     own = [s.material for s in obj.material_slots]
-    held = [own[s] for s in slots if s < len(own) and own[s] is not None]
     nodes = [m for m in obj.modifiers if m.type == "NODES" and m.show_render]
-    if not held or not nodes:
+    if not nodes or all(s < len(own) and own[s] is None for s in slots):
         return None
+    held = [own[s] for s in slots if s < len(own) and own[s] is not None]
     names = ", ".join(repr(m.name) for m in nodes)
-    return held[0].name, f"Geometry Nodes modifier {names}"
+    return (held[0].name if held else None), f"Geometry Nodes modifier {names}"
