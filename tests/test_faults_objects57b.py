@@ -17,6 +17,18 @@ API), compare and Freeze. Built here by code, a few faces.
    the modifiers", naming no modifier and offering nothing to pick. Now the refusal names
    the modifiers shown in renders and the fix for each (apply the Remesh and unwrap; store
    the UVs as a 2D Vector on Face Corner) (addon/bake_uvs.not_rendered_problem).
+3. A mesh whose Geometry Nodes output has no faces (Mesh to Points, Mesh to Curve, a Delete
+   Geometry): bake-normal-map and Freeze blamed its UV map (finding 2's words), compare said
+   "has no faces to bake; add geometry" (its mesh has 30). Now all three say it has no faces
+   as it renders, naming the mesh's face count, the modifiers and the fix
+   (bake_uvs.no_faces_problem).
+4. Geometry Nodes joining faces of no material to the mesh (a Curve to Mesh tube along its
+   edges, UV'd over the grid): the rendered object has a second slot, empty, that the object
+   lacks. bake-normal-map refused it, telling the artist to "give the slot a material" (the
+   object has one slot); Freeze froze it and reported success, its map 400 of 1024 texels
+   30.0 degrees off the stack's (the tube's faces baked flat over the grid's; 32^2, 5.2).
+   Now both refuse, naming the slot the object lacks, the modifier and the fix (a Set
+   Material node), the material unchanged.
 
 Probed and right on 5.2 (compare normal-map within p99 0.0005 / max 0.001 degrees at 32^2,
 bake-normal-map's tangent map of a constant normal map equal to it, the scene unchanged):
@@ -215,7 +227,17 @@ def _nodes_on(obj, kind):
         link(gi.outputs[0], curve.inputs[0])
         link(curve.outputs[0], tube.inputs[0])
         link(circle.outputs[0], tube.inputs["Profile Curve"])
-        link(tube.outputs[0], join.inputs[0])
+        # The tube's UVs: its position mapped over the grid's (a tube UV'd in place).
+        store = ng.nodes.new("GeometryNodeStoreNamedAttribute")
+        store.data_type, store.domain = "FLOAT2", "CORNER"
+        store.inputs["Name"].default_value = "UVMap"
+        uv = ng.nodes.new("ShaderNodeVectorMath")
+        uv.operation = "MULTIPLY_ADD"
+        uv.inputs[1].default_value, uv.inputs[2].default_value = (0.45, 0.6, 0), (0.5, 0.5, 0)
+        link(ng.nodes.new("GeometryNodeInputPosition").outputs[0], uv.inputs[0])
+        link(uv.outputs[0], store.inputs["Value"])
+        link(tube.outputs[0], store.inputs["Geometry"])
+        link(store.outputs[0], join.inputs[0])
         link(gi.outputs[0], join.inputs[0])
         link(join.outputs[0], go.inputs[0])
     else:
@@ -260,10 +282,19 @@ def test_joined_faces_of_a_slot_the_object_lacks(empty_file, tmp_path):
     assert "give the slot a material" not in text, text
     assert "slot 2, a slot the object itself lacks (it has 1)" in text and "'GN'" in text, text
     assert list(tmp_path.iterdir()) == []
-    obj.data.materials.clear()
+
+
+def test_joined_faces_of_a_slot_the_object_lacks_freeze_refused(empty_file):
+    obj = _nodes_on(A._link("Grid", A._grid("Grid", nx=6, ny=5)), "tube")
     mat = _stack_material(obj)
-    nodes = sorted(n.name for n in mat.node_tree.nodes)
-    # Before: Freeze passed its checks and Blender cancelled its bake (BakeFailed).
+    nt = mat.node_tree                  # the stack's map: the constant, tilted 30 degrees
+    layer = next(n for n in nt.nodes if n.type == "GROUP" and "Normal Map" in n.node_tree.name)
+    rgb = nt.nodes.new("ShaderNodeRGB")
+    rgb.outputs[0].default_value = COLOUR + (1.0,)
+    nt.links.new(rgb.outputs[0], next(s for s in layer.inputs if s.type == "RGBA"))
+    nodes = sorted(n.name for n in nt.nodes)
+    # Before: frozen, 400 of the 1024 texels 30.0 degrees off the stack's map (the tube's
+    # faces, of no material, baked flat over the grid's), reported as done.
     with pytest.raises(F.FreezeError, match=r"slot 2, a slot the object itself lacks"):
         F.freeze(obj, RES)
     assert sorted(n.name for n in mat.node_tree.nodes) == nodes and F.RECORD not in mat
