@@ -28,7 +28,12 @@ API), compare and Freeze. Built here by code, a few faces.
    object has one slot); Freeze froze it and reported success, its map 400 of 1024 texels
    30.0 degrees off the stack's (the tube's faces baked flat over the grid's; 32^2, 5.2).
    Now both refuse, naming the slot the object lacks, the modifier and the fix (a Set
-   Material node), the material unchanged.
+   Material node), the material unchanged. compare (which puts its material in every slot
+   the object has) called a correct SG Normal Map p99 180 / max 180 degrees wrong over 900
+   texels at 32^2 (the tube's faces baked flat with Cycles' default surface); a mesh made
+   anew (finding 1) ran the reference and was then cancelled by Blender's bake (exit 1).
+   Now compare refuses both before baking (exit 2), naming the faces' count and the
+   modifier (harness/bake._other_materials_problem).
 
 Probed and right on 5.2 (compare normal-map within p99 0.0005 / max 0.001 degrees at 32^2,
 bake-normal-map's tangent map of a constant normal map equal to it, the scene unchanged):
@@ -51,7 +56,7 @@ from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import freeze as F  # noqa: E402
 from surfgrad_addon.addon import operators as O  # noqa: E402
 from surfgrad_addon.addon.bake_request import BakeRequestError  # noqa: E402
-from surfgrad_addon.harness import asset_scenes as A, compare  # noqa: E402
+from surfgrad_addon.harness import asset_scenes as A, bake as B, compare  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -298,3 +303,24 @@ def test_joined_faces_of_a_slot_the_object_lacks_freeze_refused(empty_file):
     with pytest.raises(F.FreezeError, match=r"slot 2, a slot the object itself lacks"):
         F.freeze(obj, RES)
     assert sorted(n.name for n in mat.node_tree.nodes) == nodes and F.RECORD not in mat
+
+
+@pytest.mark.parametrize("kind", ["tube", "anew"])
+def test_compare_refuses_faces_rendered_without_a_material(empty_file, kind):
+    """Before: the tube (UV'd over the grid) made compare call a correct SG Normal Map p99
+    180 / max 180 degrees wrong over 900 texels; the mesh made anew was cancelled by
+    Blender's bake after the reference's work (exit 1)."""
+    if kind == "tube":
+        obj = _nodes_on(A._link("Grid", A._grid("Grid", nx=6, ny=5)), "tube")
+        faces = None
+    else:
+        obj, faces = _generated(), 16
+    _normal_map_material(obj)
+    slots = [s.material for s in obj.material_slots]
+    with pytest.raises(B.BakeError) as err:
+        compare.compare_object(obj, "normal-map", RES, log=lambda *_: None)
+    text = str(err.value)
+    assert "with no material whatever its material slots hold" in text and "'GN'" in text, text
+    if faces:
+        assert f"renders {faces} face(s)" in text, text
+    assert [s.material for s in obj.material_slots] == slots
