@@ -34,6 +34,10 @@ API), compare and Freeze. Built here by code, a few faces.
    anew (finding 1) ran the reference and was then cancelled by Blender's bake (exit 1).
    Now compare refuses both before baking (exit 2), naming the faces' count and the
    modifier (harness/bake._other_materials_problem).
+5. Freeze of an object whose Array modifier's UV offset moves the copy out of the 0-1 square
+   (its mesh's UVs inside it): refused, rightly, as "UV map 'the active render UV map' of
+   'Grid' has faces outside the 0-1 UV square", a placeholder quoted as a name, no modifier
+   named. Now the UV map's name and the modifiers that move the UVs (freeze._outside_square_text).
 
 Probed and right on 5.2 (compare normal-map within p99 0.0005 / max 0.001 degrees at 32^2,
 bake-normal-map's tangent map of a constant normal map equal to it, the scene unchanged):
@@ -324,3 +328,18 @@ def test_compare_refuses_faces_rendered_without_a_material(empty_file, kind):
     if faces:
         assert f"renders {faces} face(s)" in text, text
     assert [s.material for s in obj.material_slots] == slots
+
+
+def test_freeze_outside_the_square_names_the_uv_map_and_the_modifier(empty_file):
+    """Before: "UV map 'the active render UV map' of 'Grid' has faces outside the 0-1 UV
+    square: ... pick (or unwrap) a UV map inside it" (a placeholder quoted as a name; the
+    mesh's UVs lie inside the square, the Array's UV offset moves the copy out)."""
+    obj = A._link("Grid", A._grid("Grid", nx=6, ny=5, x0=0.0, x1=0.5))
+    array = obj.modifiers.new("Array", "ARRAY")
+    array.count, array.offset_u = 2, 0.45
+    _stack_material(obj)
+    with pytest.raises(F.FreezeError) as err:
+        F.check(obj, RES)
+    text = str(err.value)
+    assert "UV map 'UVMap' of 'Grid'" in text and "'Array'" in text, text
+    assert "the active render UV map" not in text, text

@@ -387,9 +387,23 @@ def _memory_problem(obj, resolution):
 
 
 def _outside_square_text(obj, uv_map):
-    return (f"UV map {uv_map or 'the active render UV map'!r} of {obj.name!r} has faces "
-            f"outside the 0-1 UV square: a frozen stack is one image of that square; pick (or "
-            f"unwrap) a UV map inside it")
+    """The refusal of faces outside the 0-1 square, naming the UV map (the active render one
+    where none was given) and, where the mesh data's UVs lie inside it, the modifiers that
+    move them there (an Array's or Mirror's UV offset, a UV Warp)."""
+    name = uv_map or next((uv.name for uv in obj.data.uv_layers if uv.active_render), "")
+    layer = obj.data.uv_layers.get(name)
+    moved = ""
+    if layer is not None and len(layer.data) and obj.modifiers:
+        uv = [0.0] * (2 * len(layer.data))
+        layer.data.foreach_get("uv", uv)
+        if 0.0 <= min(uv) and max(uv) <= 1.0:
+            shown = ", ".join(repr(m.name) for m in obj.modifiers if m.show_render)
+            moved = (f" as it renders (mesh {obj.data.name!r} has them inside it; its "
+                     f"modifier(s) {shown} move them out, e.g. an Array's or Mirror's UV "
+                     f"offset)")
+    return (f"UV map {name!r} of {obj.name!r} has faces outside the 0-1 UV square{moved}: a "
+            f"frozen stack is one image of that square; pick (or unwrap) a UV map inside it"
+            f"{', or set the offsets to 0' if moved else ''}")
 
 
 def freeze_warnings(obj, mat):
