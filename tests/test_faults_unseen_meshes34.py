@@ -468,6 +468,11 @@ def test_a_uv_map_stored_as_another_attribute_is_named(empty_file, tmp_path, dom
             f"modifier removes it, or a Geometry Nodes Store Named Attribute writes its name on "
             f"another domain than Face Corner or as another type than 2D Vector; the rendered "
             f"mesh has {left}): pick one of those, or fix the modifiers")
+    if not left:            # none to pick: the modifiers are named (round 57b)
+        said = (f"UV map {name!r} of object 'Restored' is not on the mesh as it renders, which "
+                f"has no UV map at all: its modifier(s) shown in renders ('Store UVs' (Nodes)) "
+                f"leave the mesh without one; in a Geometry Nodes tree, store the UVs as "
+                f"{name!r} with a Store Named Attribute of type 2D Vector on Face Corner")
     with pytest.raises(compare.CompareError) as err:
         compare.compare(obj, "normal-map", RES, uv_map=name)
     assert str(err.value) == said

@@ -264,7 +264,8 @@ def _check(request, obj, warn):
     if not any(s.material for s in obj.material_slots):
         problems.append(f"object {obj.name!r} has no material to bake: give it one")
     else:
-        problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots)
+        problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots,
+                                     obj)
         problems += [problem] if problem else []
     problems += foreign_node_problems(obj)          # a newer line's nodes: baked as zero
     problem = NB.linked_group_problem(obj)          # a copy cannot stand in for it

@@ -23,13 +23,54 @@ from .read_once import ReadOnce
 from .unrealized_instances import read_instances
 
 
-def not_rendered_problem(obj_name, uv_map, rendered):
+def not_rendered_problem(obj_name, uv_map, rendered, obj=None, faces=None):
     """The refusal of UV map `uv_map` of the object, which the mesh as it renders lacks (it
-    has the UV maps `rendered`), with the fix."""
-    return (f"UV map {uv_map!r} of object {obj_name!r} is not on the mesh as it renders (a "
-            f"modifier removes it, or a Geometry Nodes Store Named Attribute writes its name on "
-            f"another domain than Face Corner or as another type than 2D Vector; the rendered "
-            f"mesh has {sorted(rendered)}): pick one of those, or fix the modifiers")
+    has the UV maps `rendered`), with the fix. Where it has none at all (a Remesh, a Geometry
+    Nodes tree making the mesh anew or storing its UVs as a 3D vector), "pick one of those"
+    offers nothing: the modifiers shown in renders of `obj` are named instead. faces: how
+    many faces the mesh as it renders has, where the caller knows (none: no_faces_problem)."""
+    if not rendered and obj is not None and faces is not None:
+        problem = no_faces_problem(obj, faces)
+        if problem:                     # no faces, so no UV map: the faces are the problem
+            return problem
+    if rendered or obj is None:
+        return (f"UV map {uv_map!r} of object {obj_name!r} is not on the mesh as it renders (a "
+                f"modifier removes it, or a Geometry Nodes Store Named Attribute writes its "
+                f"name on another domain than Face Corner or as another type than 2D Vector; "
+                f"the rendered mesh has {sorted(rendered)}): pick one of those, or fix the "
+                f"modifiers")
+    named = _shown_modifiers(obj)
+    shown = [m.type for m in obj.modifiers if m.show_render]
+    fixes = []
+    if "REMESH" in shown:
+        fixes.append("a Remesh makes new faces without UVs: apply it (or its result, "
+                     "Object > Convert > Mesh) and unwrap the mesh (UV > Unwrap)")
+    if "NODES" in shown:
+        fixes.append(f"in a Geometry Nodes tree, store the UVs as {uv_map!r} with a Store "
+                     f"Named Attribute of type 2D Vector on Face Corner")
+    fixes = fixes or ["apply the modifiers and unwrap the mesh (UV > Unwrap)"]
+    return (f"UV map {uv_map!r} of object {obj_name!r} is not on the mesh as it renders, which "
+            f"has no UV map at all: its modifier(s) shown in renders ({named or 'none'}) "
+            f"leave the mesh without one; {'; or '.join(fixes)}")
+
+
+def _shown_modifiers(obj):
+    """The modifiers of obj shown in renders, as a refusal names them."""
+    return ", ".join(f"{m.name!r} ({m.type.replace('_', ' ').title()})"
+                     for m in obj.modifiers if m.show_render)
+
+
+def no_faces_problem(obj, faces):
+    """None, or the refusal of obj whose mesh data has faces but whose mesh as it renders
+    (`faces` of them) has none: its modifiers make points, curves or nothing (Geometry Nodes'
+    Mesh to Points or Mesh to Curve, a Delete Geometry), which a bake cannot take."""
+    if faces or not len(obj.data.polygons):
+        return None
+    return (f"object {obj.name!r} has no faces as it renders, though mesh {obj.data.name!r} "
+            f"has {len(obj.data.polygons)}: its modifier(s) shown in renders "
+            f"({_shown_modifiers(obj) or 'none'}) leave none (points, curves or nothing, "
+            f"which a bake cannot take): make them output faces, or turn them off for "
+            f"renders (the camera icon in the modifier's header)")
 
 
 def long_name_problem(obj_name, uv_map):

@@ -10,10 +10,13 @@ import numpy as np
 from ..reference.input_checks import faces_text
 
 
-def empty_slot_problem(obj_name, face_materials, filled_slots):
+def empty_slot_problem(obj_name, face_materials, filled_slots, obj=None):
     """None, or the refusal naming the faces whose slot is empty. face_materials: (F,) each
     face's material index; filled_slots: per slot of the rendered object, whether it holds a
-    material (no slots at all: the request's "no material" says it)."""
+    material (no slots at all: the request's "no material" says it). obj: the object, whose
+    own slot may hold a material that the rendered mesh's lacks: a Geometry Nodes tree that
+    makes the mesh anew (a Mesh Grid, a Mesh Line) gives its faces no material, whatever the
+    object's slots hold, and Cycles renders them with its default surface."""
     if not filled_slots or all(filled_slots):
         return None
     index = np.asarray(face_materials, dtype=np.int64)
@@ -25,7 +28,33 @@ def empty_slot_problem(obj_name, face_materials, filled_slots):
     slots = ", ".join(str(s + 1) for s in np.unique(slot[empty]))
     past = " (a material index past the last slot counts as the last)" \
         if (index[empty] != slot[empty]).any() else ""
+    made = _made_without(obj, np.unique(slot[empty]))
+    if made:
+        held, nodes = made
+        where = (f"though the object's slot holds {held!r}" if held else
+                 f"a slot the object itself lacks (it has {len(obj.material_slots)})")
+        return (f"{len(faces)} face(s) of object {obj_name!r} (faces {faces_text(faces)}) "
+                f"render with no material in slot {slots}{past}, {where}: {nodes} makes them "
+                f"without a material (Cycles renders them with its default surface, and the "
+                f"bake writes nothing for them): add a Set Material node "
+                f"{'(' + repr(held) + ') ' if held else ''}for them in its tree")
     return (f"{len(faces)} face(s) of object {obj_name!r} (faces {faces_text(faces)}) use "
             f"empty material slot {slots}{past}, so the bake writes nothing for them, a hole "
             f"in the map: give the slot a material, or assign those faces to a slot that has "
             f"one (Material Properties > Assign)")
+
+
+def _made_without(obj, slots):
+    """(the material the object's own slot holds or None, modifier words) where a Geometry
+    Nodes modifier shown in renders makes the mesh and the rendered mesh's empty `slots` are
+    not the object's own empty slots (one holds a material, or the object has no such slot:
+    geometry the tree made and joined, a Curve to Mesh); else None."""
+    if obj is None:
+        return None
+    own = [s.material for s in obj.material_slots]
+    nodes = [m for m in obj.modifiers if m.type == "NODES" and m.show_render]
+    if not nodes or all(s < len(own) and own[s] is None for s in slots):
+        return None
+    held = [own[s] for s in slots if s < len(own) and own[s] is not None]
+    names = ", ".join(repr(m.name) for m in nodes)
+    return (held[0].name if held else None), f"Geometry Nodes modifier {names}"

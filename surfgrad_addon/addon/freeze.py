@@ -26,6 +26,7 @@ from .bake_target import object_not_a_mesh
 from .bake_request import _only_instances, mesh_problems
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
+from .empty_slots import empty_slot_problem
 from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
 from .image_memory import images_memory
@@ -347,6 +348,10 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         problems += foreign_node_problems(obj, only=mat)      # a newer line's: baked as zero
         # Unrealized instances of the material: the bake leaves them out of the map they read.
         baked = baked_mesh(obj)
+        # Faces the rendered mesh holds in an empty slot: Blender's bake cancels (after the
+        # checks had passed), as bake-normal-map refuses them before baking.
+        problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots, obj)
+        problems += [problem] if problem else []
         more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
                                            uv_map, [NB.UDIM_FIRST], resolution, None, only=mat)
         problems += more
@@ -382,9 +387,23 @@ def _memory_problem(obj, resolution):
 
 
 def _outside_square_text(obj, uv_map):
-    return (f"UV map {uv_map or 'the active render UV map'!r} of {obj.name!r} has faces "
-            f"outside the 0-1 UV square: a frozen stack is one image of that square; pick (or "
-            f"unwrap) a UV map inside it")
+    """The refusal of faces outside the 0-1 square, naming the UV map (the active render one
+    where none was given) and, where the mesh data's UVs lie inside it, the modifiers that
+    move them there (an Array's or Mirror's UV offset, a UV Warp)."""
+    name = uv_map or next((uv.name for uv in obj.data.uv_layers if uv.active_render), "")
+    layer = obj.data.uv_layers.get(name)
+    moved = ""
+    if layer is not None and len(layer.data) and obj.modifiers:
+        uv = [0.0] * (2 * len(layer.data))
+        layer.data.foreach_get("uv", uv)
+        if 0.0 <= min(uv) and max(uv) <= 1.0:
+            shown = ", ".join(repr(m.name) for m in obj.modifiers if m.show_render)
+            moved = (f" as it renders (mesh {obj.data.name!r} has them inside it; its "
+                     f"modifier(s) {shown} move them out, e.g. an Array's or Mirror's UV "
+                     f"offset)")
+    return (f"UV map {name!r} of {obj.name!r} has faces outside the 0-1 UV square{moved}: a "
+            f"frozen stack is one image of that square; pick (or unwrap) a UV map inside it"
+            f"{', or set the offsets to 0' if moved else ''}")
 
 
 def freeze_warnings(obj, mat):

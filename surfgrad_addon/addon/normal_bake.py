@@ -369,7 +369,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
         layout = baked_uv_tiles(obj)
         uvs = baked_mesh(obj).triangle_uvs.get(uv_map)
     if uv_map not in layout:
-        raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout))
+        raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout, obj,
+                                                   len(baked_mesh(obj).face_materials)))
     with_uvs, outside = layout[uv_map]
     warnings = []
     if outside:

@@ -89,17 +89,42 @@ def _other_materials_problem(obj, material):
     """None, or the refusal of an object whose modifiers give faces another material than
     `material` in its every slot (a Geometry Nodes Set Material, a Boolean transferring its
     cutter's): those faces bake with it, not with the graph (compare called a correct group
-    180 degrees wrong there)."""
+    180 degrees wrong there); or no material at all (geometry a Geometry Nodes tree makes or
+    joins, which keeps none of the object's slots): Cycles renders those with its default
+    surface (a correct group was called p99 180 degrees wrong, or Blender cancelled the bake)."""
     from ..addon.bake_uvs import read_as_baked
-    others = read_as_baked(obj, lambda evaluated, _: sorted(
-        {s.material.original.name for s in evaluated.material_slots
-         if s.material is not None and s.material.original != material}))
-    if not others:
-        return None
-    return (f"object {obj.name!r} renders material(s) {others} on faces whatever its material "
-            f"slots hold (a Geometry Nodes Set Material, or a Boolean modifier transferring its "
-            f"cutter's materials): those faces would bake with them, not with the method's "
-            f"groups; compare a copy without that modifier, or with the Set Material node muted")
+
+    def read(evaluated, _):
+        slots = [s.material for s in evaluated.material_slots]
+        others = sorted({m.original.name for m in slots
+                         if m is not None and m.original != material})
+        if not slots or all(m is not None for m in slots):
+            return others, 0
+        mesh = evaluated.to_mesh()
+        try:
+            index = np.zeros(len(mesh.polygons), np.int32)
+            mesh.polygons.foreach_get("material_index", index)
+        finally:
+            evaluated.to_mesh_clear()
+        empty = np.array([m is None for m in slots])[np.clip(index, 0, len(slots) - 1)]
+        return others, int(np.count_nonzero(empty))
+
+    others, bare = read_as_baked(obj, read)
+    if others:
+        return (f"object {obj.name!r} renders material(s) {others} on faces whatever its "
+                f"material slots hold (a Geometry Nodes Set Material, or a Boolean modifier "
+                f"transferring its cutter's materials): those faces would bake with them, not "
+                f"with the method's groups; compare a copy without that modifier, or with the "
+                f"Set Material node muted")
+    if bare:
+        nodes = [m.name for m in obj.modifiers if m.type == "NODES" and m.show_render]
+        return (f"object {obj.name!r} renders {bare} face(s) with no material whatever its "
+                f"material slots hold (geometry its modifier(s) {nodes or '(none)'} make or "
+                f"join without one, which Cycles renders with its default surface): those "
+                f"faces would bake flat, not with the method's groups; compare a copy without "
+                f"those faces, or give them the object's material with a Set Material node "
+                f"and compare that material's groups in the file itself")
+    return None
 
 
 def _check_target(obj, uv_map):

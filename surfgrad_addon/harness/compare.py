@@ -412,7 +412,7 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
     except MeshDataError as err:
         raise CompareError(str(err)) from err
     if inp.uv_map not in mesh.uv_maps:
-        raise CompareError(not_rendered_problem(obj.name, inp.uv_map, mesh.uv_maps))
+        raise CompareError(not_rendered_problem(obj.name, inp.uv_map, mesh.uv_maps, obj))
     if inp.detail_uv not in mesh.uv_maps:
         # A modifier removes it in renders: the detail layer reads the UV map, as on a mesh
         # without one (before: a KeyError's text, exit 2).

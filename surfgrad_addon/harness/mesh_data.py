@@ -10,7 +10,7 @@ computed on the triangles with those normals as Cycles does.
 import numpy as np
 
 from ..addon.bake_target import object_not_a_mesh
-from ..addon.bake_uvs import not_rendered_problem
+from ..addon.bake_uvs import no_faces_problem, not_rendered_problem
 from ..addon.cycles_geometry import transform_applied
 from ..addon.node_builder import running_line
 from ..reference.blender_lines import octahedral_unit_vectors
@@ -134,9 +134,11 @@ def _evaluated_arrays(obj, depsgraph, facts):
     mesh = eval_obj.to_mesh()
     try:
         if len(mesh.polygons) == 0:
-            raise MeshDataError(f"object {obj.name!r} has no faces to bake; add geometry")
+            raise MeshDataError(no_faces_problem(obj, 0) or
+                                f"object {obj.name!r} has no faces to bake; add geometry")
         if len(mesh.uv_layers) == 0 and len(obj.data.uv_layers):
-            raise MeshDataError(not_rendered_problem(obj.name, obj.data.uv_layers[0].name, []))
+            raise MeshDataError(not_rendered_problem(obj.name, obj.data.uv_layers[0].name, [],
+                                                     obj))
         if len(mesh.uv_layers) == 0:
             raise MeshDataError(f"object {obj.name!r} has no UV map; add one (UV > Unwrap) "
                                 f"before baking")
