@@ -256,11 +256,14 @@ def test_the_correct_groups_pass_compare_alls_settings_cases(fresh_groups, metho
 
 def test_settings_reach_the_graph_and_unknown_ones_are_refused(fresh_groups):
     """A DirectX setting turns DirectX on in the bake (with the reference's green turned, the
-    pair agrees: above); an unknown setting is a CompareError naming what it takes."""
+    pair agrees: above); an unknown setting, or DirectX for a method without the switch
+    (object-space normals), is a CompareError naming why."""
     from surfgrad_addon.harness.compare import CompareError
     obj = fresh_groups()["Plane"]
     with pytest.raises(CompareError, match="no setting 'sharpness'.*directx, strength"):
         compare_object(obj, "normal-map", RES, log=None, settings={"sharpness": 2})
+    with pytest.raises(CompareError, match="no group with a DirectX switch"):
+        compare_object(obj, "object-normal", RES, log=None, settings={"directx": True})
     r, _ = compare_object(obj, "normal-map", RES, log=None, settings={"directx": True})
     assert r["settings"] == {"directx": True} and r["p99_deg"] < P99_BAR
     assert CA._label("normal-map", "hq", {"directx": True, "strength": 0.6}) == \

@@ -272,8 +272,11 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         gpu = device == "GPU"
         with m.scene(obj, inp), precise_far(obj, log), \
                 (IS.gpu_texture_filter() if gpu else nullcontext()):
-            report, heat = compare_graph(inp, obj, graph, m.reference, resolution, log=log,
-                                         tiles=tiles, device=device, spread=m.spread)
+            try:
+                report, heat = compare_graph(inp, obj, graph, m.reference, resolution, log=log,
+                                             tiles=tiles, device=device, spread=m.spread)
+            except CS.SettingsError as err:     # DirectX asked of a graph without the switch
+                raise CompareError(str(err)) from None
         report["reference_texture_filter"] = (
             f"GPU texture unit ({IS.GPU_FILTER_WEIGHT_BITS}-bit weights)" if gpu else "exact")
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
