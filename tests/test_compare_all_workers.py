@@ -41,7 +41,7 @@ def test_two_workers_give_the_serial_table(tmp_path):
     lines = []
     one = CA.run_all(serial, 32, workers=1, methods=METHODS, log=lambda *_: None)
     two = CA.run_all(shared, 32, workers=2, methods=METHODS, log=lines.append)
-    n = len(CA.compare_cases(METHODS)) * 4                  # four test objects
+    n = len(CA.all_cases(METHODS)) * 4                  # four test objects
     assert len(one) == len(two) == n and n >= 8
     assert [(r["method"], r["variant"], r["object"]) for r in one] == \
         [(r["method"], r["variant"], r["object"]) for r in two]

@@ -126,7 +126,7 @@ def test_compare_all_reports_name_the_cpu(tmp_path):
     """One case of compare-all's serial order (a shard as large as the order) at 8^2."""
     from surfgrad_addon.harness import compare_all as CA
     (tmp_path / "heat").mkdir()
-    shards = len(CA.compare_cases(["normal-map"])) * 4          # four test objects
+    shards = len(CA.all_cases(["normal-map"])) * 4          # four test objects
     reports = CA.run_shard(tmp_path, 8, 0, shards, log=lambda *_: None,
                            methods=["normal-map"])
     assert list(reports) == [0]

@@ -50,6 +50,7 @@ from ..reference import uv_overlap as UV
 from ..reference import methods as M
 from ..reference.agreement import angle_deg  # noqa: F401 (the bench and far import it here)
 from . import bake as B
+from . import compare_settings as CS
 from .mesh_data import MeshDataError, mesh_arrays_from_object
 from .no_area import (all_degenerate_problem, collapsed_problem, degenerate_triangles,
                       degenerate_warning, without_degenerate, world_positions)
@@ -208,11 +209,12 @@ def unread_image_problem(method, image):
 
 
 def compare_object(obj, method, resolution, uv_map=None, image=None, variant=None, log=print,
-                   tiles=None, device="CPU"):
+                   tiles=None, device="CPU", settings=None):
     """Bake `method` on obj and compare with the reference (variant None: "hq" for the
     height maps, the method's first otherwise, e.g. the box decal). `tiles`: the UDIM tiles
     to bake and compare (None: what target_tiles picks, as Blender's bake would fill).
     device: scene.cycles.device for the bake ("GPU" inside cycles_device.selected).
+    settings: {parameter: value} and "directx": True, on both sides (compare_settings.py).
     Returns (report dict, per-texel error image (H, W) with NaN where not compared)."""
     if method not in METHODS:
         raise CompareError(f"method {method!r} is not available; use one of "
@@ -239,11 +241,20 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     problem = unread_image_problem(method, image)
     if problem:
         raise CompareError(problem)
+    try:
+        values, directx = CS.split(m, settings)
+    except CS.SettingsError as err:
+        raise CompareError(str(err)) from None
+    m = m.at(**values)
     problem = (scale_limits.small_object_problem(obj, method)   # before any image is made
                or scale_limits.noise_reach_problem(obj, method))
     if problem:
         raise CompareError(problem)
     inp = prepare_inputs(obj, uv_map, image, variant)
+    graph = m.graph
+    if directx:
+        CS.turn_green(inp, m)
+        graph = CS.with_directx_on(graph)
     inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
     m, inp.relief_scale = scale_limits.scaled_relief(obj, m)
     notes = [depth_note] if depth_note and m.reference is METHODS["parallax"].reference else []
@@ -261,8 +272,11 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         gpu = device == "GPU"
         with m.scene(obj, inp), precise_far(obj, log), \
                 (IS.gpu_texture_filter() if gpu else nullcontext()):
-            report, heat = compare_graph(inp, obj, m.graph, m.reference, resolution, log=log,
-                                         tiles=tiles, device=device, spread=m.spread)
+            try:
+                report, heat = compare_graph(inp, obj, graph, m.reference, resolution, log=log,
+                                             tiles=tiles, device=device, spread=m.spread)
+            except CS.SettingsError as err:     # DirectX asked of a graph without the switch
+                raise CompareError(str(err)) from None
         report["reference_texture_filter"] = (
             f"GPU texture unit ({IS.GPU_FILTER_WEIGHT_BITS}-bit weights)" if gpu else "exact")
         limit = scale_limits.float32_coordinate_warning(obj, method, NORMAL_IMAGE_SIZE)
@@ -279,6 +293,8 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         report["notes"] = notes
         report["method"] = method
         report["variant"] = inp.variant if len(m.variants) > 1 else None
+        if settings:
+            report["settings"] = dict(settings)
         return report, heat
     finally:
         for _, img in inp.images.values():

@@ -27,6 +27,7 @@ from ..addon.batch.plan import BatchError
 from ..addon.exit_codes import BakeFailed
 from ..addon.process_ends import how_it_ended
 from ..addon.publish_files import publish
+from . import compare_settings as CS
 from . import cycles_device as D
 from . import run_owner
 from .compare import CompareError, compare_object
@@ -44,6 +45,29 @@ def compare_cases(methods=None):
     return [(m, v) for m, v in cases() if not methods or m in methods]
 
 
+# Cases at settings other than the defaults (compare_settings.py), each method's first
+# variant: Strength 1 and DirectX off were the only values compared, where a group ignoring
+# Strength, squaring it, or never flipping green equals the right one
+# (tests/test_faults_mutants57d.py).
+SETTINGS_CASES = {
+    "normal-map": {"strength": 0.6, "directx": True},
+    "triplanar": {"strength": 0.6, "directx": True},
+    "decal": {"strength": 0.6, "directx": True},
+    "procedural-basis": {"strength": 0.6, "directx": True},
+}
+
+
+def all_cases(methods=None):
+    """(method, variant, settings) of every case compare-all runs: compare_cases() at the
+    defaults (settings None), then the SETTINGS_CASES of the methods among them."""
+    plain = compare_cases(methods)
+    firsts = {}
+    for m, v in plain:
+        firsts.setdefault(m, v)
+    return ([(m, v, None) for m, v in plain]
+            + [(m, firsts[m], SETTINGS_CASES[m]) for m in SETTINGS_CASES if m in firsts])
+
+
 def default_workers():
     """One process per core (at most 2), when a child can import bpy as this process does."""
     if not _bpy_module():
@@ -59,8 +83,10 @@ def _bpy_module():
                 and Path(binary).is_file())
 
 
-def _label(method, variant):
-    return method + (f"-{variant}" if len(METHODS[method].variants) > 1 else "")
+def _label(method, variant, settings=None):
+    at = CS.label(settings)
+    return (method + (f"-{variant}" if len(METHODS[method].variants) > 1 else "")
+            + (f"-{at}" if at else ""))
 
 
 def run_shard(out, resolution, shard, shards, log=print, methods=None, cycles_device="CPU"):
@@ -69,16 +95,17 @@ def run_shard(out, resolution, shard, shards, log=print, methods=None, cycles_de
     from ..addon import interrupts
     from . import scenes
     objects = scenes.new_scene()        # factory settings: the device is chosen after it
-    jobs = [(m, v, name) for m, v in compare_cases(methods) for name in objects]
+    jobs = [(m, v, s, name) for m, v, s in all_cases(methods) for name in objects]
     reports = {}
     with D.selected(bpy.context.scene, cycles_device) as chosen:
         for index in range(shard, len(jobs), shards):
-            method, variant, name = jobs[index]
+            method, variant, settings, name = jobs[index]
             report, heat = compare_object(objects[name], method, resolution, variant=variant,
-                                          log=lambda *_: None, device=chosen.scene_device)
+                                          log=lambda *_: None, device=chosen.scene_device,
+                                          settings=settings)
             report["cycles_device"] = chosen.description
             reports[index] = report
-            label = _label(method, variant)
+            label = _label(method, variant, settings)
             with interrupts.committing():     # a stop's clean-up sees this map, whole
                 write_heat_map(Path(out) / "heat" / f"{label}_{name}.png", heat,
                                overwrite=True)
@@ -265,7 +292,8 @@ def table_markdown(reports, resolution, cycles_device="CPU", devices=()):
              "max | bake s | reference s |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in reports:
-        label = r["method"] + (f" ({r['variant']})" if r["variant"] else "")
+        at = CS.label(r.get("settings"))
+        label = r["method"] + "".join(f" ({x})" for x in (r["variant"], at) if x)
         lines.append(f"| {label} | {r['object']} | {r['texels_compared']} | "
                      f"{r['texels_contested']} | {100 * r['excluded_fraction']:.2f}% | "
                      f"{r['excluded']['edge']} | {r['excluded']['outside']} | "

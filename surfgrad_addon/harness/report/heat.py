@@ -97,5 +97,9 @@ def write_shared_heat_maps(reports, heat_dir, out_dir, bar):
 
 
 def case_label(report):
-    """compare-all's label of a case: the method, with its variant when it has one."""
-    return report["method"] + (f"-{report['variant']}" if report.get("variant") else "")
+    """compare-all's label of a case: the method, with its variant when it has one and its
+    settings when not the defaults (compare_all._label)."""
+    from ..compare_settings import label
+    at = label(report.get("settings"))
+    return (report["method"] + (f"-{report['variant']}" if report.get("variant") else "")
+            + (f"-{at}" if at else ""))
