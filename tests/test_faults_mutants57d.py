@@ -269,3 +269,15 @@ def test_settings_reach_the_graph_and_unknown_ones_are_refused(fresh_groups):
     assert CA._label("normal-map", "hq", {"directx": True, "strength": 0.6}) == \
         "normal-map-directx-strength0.6"
     assert np.isfinite(r["max_deg"]) and r["max_deg"] < MAX_BAR
+
+
+def test_a_small_object_bakes_the_relief_its_reference_scales(fresh_groups):
+    """Coordinator, on merging: compare took the graph before scaling a height map's relief to
+    a small object (scale_limits.scaled_relief), so the bake kept the unscaled relief while the
+    reference scaled it, and a correct height map on an object under UNIT_HALF was called
+    wrong. The graph is now taken from the method as scaled."""
+    obj = fresh_groups()["Sphere"]
+    obj.scale = (0.3, 0.3, 0.3)
+    bpy.context.view_layer.update()
+    r, _ = compare_object(obj, "height-map", RES, log=None)
+    assert r["p99_deg"] < P99_BAR and r["max_deg"] < MAX_BAR, (r["p99_deg"], r["max_deg"])

@@ -251,12 +251,12 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     if problem:
         raise CompareError(problem)
     inp = prepare_inputs(obj, uv_map, image, variant)
-    graph = m.graph
     if directx:
         CS.turn_green(inp, m)
-        graph = CS.with_directx_on(graph)
     inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
     m, inp.relief_scale = scale_limits.scaled_relief(obj, m)
+    # (After the relief is scaled: the graph binds the method's values as the reference does.)
+    graph = CS.with_directx_on(m.graph) if directx else m.graph
     notes = [depth_note] if depth_note and m.reference is METHODS["parallax"].reference else []
     if inp.relief_scale < 1.0:
         notes.append(f"relief for the comparison: x {inp.relief_scale:.3g}, scaled to the "
