@@ -65,8 +65,11 @@ def run(subcommands, args):
         return _run(command, args)
     from . import interrupts
     # Ctrl-C / SIGTERM stop the command at once, exit 130 / 143, nothing written.
-    with interrupts.stoppable(command.name, load_blender=command.loads_blender):
-        return _run(command, args)
+    try:
+        with interrupts.stoppable(command.name, load_blender=command.loads_blender):
+            return _run(command, args)
+    except ImportError as err:      # (bpy's import, in the block's start)
+        return _unloadable(command.name, err)
 
 
 def _no_bpy_problem(name):
@@ -85,6 +88,25 @@ def _no_bpy_problem(name):
             f"{sys.executable}) does not have: install the bpy wheel of your Blender line into "
             f"it (pip install bpy==5.2.3, on Python 3.13; docs/versions.md names the others), "
             f"or bake inside Blender (blender -c surfgrad bake-normal-map ...)")
+
+
+def _unloadable(name, err):
+    """Exit code and line for an ImportError out of command `name`: bpy is there (find_spec
+    found it) but would not load, e.g. a system library its wheel links missing on a bare farm
+    node or container ("libXi.so.6: cannot open shared object file"). Before: a raw
+    ImportError traceback, exit 1, from bake-normal-map, bake-batch, compare and compare-all
+    alike (rt58a). Another module's ImportError, with bpy loaded, goes on up as it was."""
+    if "bpy" in sys.modules:
+        raise err
+    version = ".".join(map(str, sys.version_info[:2]))
+    inside = (f", or bake inside Blender (blender -c surfgrad {name} ...)"
+              if name.startswith("bake-") else "")
+    print(f"surfgrad: error: {name} could not load Blender's Python module bpy on this Python "
+          f"({version}, {sys.executable}): {err}: install what it names (a system library "
+          f"Blender needs: your distribution's package that holds that file), or reinstall "
+          f"the bpy wheel of your Blender line for this Python (docs/versions.md){inside}",
+          file=sys.stderr)
+    return BAD_REQUEST
 
 
 def working_folder_problem():
@@ -157,6 +179,8 @@ def leave(code):
 def _run(command, args):
     try:
         code = command.run(args)
+    except ImportError as err:      # bpy's import, where the command holds the signals itself
+        return _unloadable(command.name, err)
     except (FileExistsError, ValueError, KeyError, RuntimeError) as err:
         print(f"surfgrad: error: {err}", file=sys.stderr)
         return code_for(err)
