@@ -11,6 +11,19 @@ rt57b, rt57c, rt57d and the coordinator's changes).
    ImportError: 4 of 4 commands, exit 1, "Traceback" on stderr). Now each says in one line
    that it could not load bpy, the loader's words (the library named) and the fix, exit 2
    (BAD_REQUEST, as for no bpy at all), nothing written (command_line._unloadable).
+
+2. Freeze of one material refused for other faces in an empty slot (a regression of rt57b,
+   which ran bake-normal-map's empty-slot check in freeze.check): a mesh whose material 'SG'
+   holds slot 1 and whose slot 2 is empty (an importer's leftover, a material unlinked) with
+   8 of its 30 faces in it: "8 face(s) of object 'Grid' (faces 0-7) use empty material slot 2,
+   so the bake writes nothing for them, a hole in the map", FreezeError (5.2), though those
+   faces are not the material's and Blender's bake skips them as it skips another
+   material's: with the check left out the freeze is done and its 32^2 map is texel for
+   texel (max difference 0.0) the map frozen where slot 2 holds a plain material. bake-normal-
+   map bakes the whole object, so there the hole is real and the refusal stays. Now Freeze
+   refuses only faces in a slot the object fills or lacks (rt57b's Geometry Nodes cases:
+   Blender cancels, or bakes them 30 degrees off) (empty_slots.empty_slot_problem's
+   own_empty_ok).
 """
 
 import os
@@ -67,3 +80,68 @@ def test_a_bpy_that_will_not_load_is_told_so_not_a_traceback(command, tmp_path):
     # The extension's own commands can run inside Blender; the harness's cannot.
     assert ("blender -c surfgrad" in line) == command.startswith("bake-"), line
     assert sorted(p.name for p in work.iterdir()) == ["a.blend"]
+
+
+# Finding 2: Freeze of one material, other faces in an empty slot -----------------------------
+
+FREEZE_RES = 32
+COLOUR = (0.75, 0.5, 0.933)            # a constant tangent-space map, tilted about v
+
+
+def _grid_with_stack(other):
+    """A 6 x 5 grid whose material 'SG' (a layer stack reading a constant map) holds slot 1,
+    slot 2 empty (as an importer leaves one) or, `other`, holding a plain material, the
+    first 8 faces in slot 2."""
+    import bpy
+    import numpy as np
+    from surfgrad_addon.addon import operators as O
+    from surfgrad_addon.harness import asset_scenes as A
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    obj = A._link("Grid", A._grid("Grid", nx=6, ny=5))
+    mat = bpy.data.materials.new("SG")
+    if bpy.app.version < (5, 0):        # always on from 5.0 (deprecated)
+        mat.use_nodes = True
+    O.add_layer_stack(mat.node_tree)
+    nt = mat.node_tree
+    layer = next(n for n in nt.nodes if n.type == "GROUP" and "Normal Map" in n.node_tree.name)
+    rgb = nt.nodes.new("ShaderNodeRGB")
+    rgb.outputs[0].default_value = COLOUR + (1.0,)
+    nt.links.new(rgb.outputs[0], next(s for s in layer.inputs if s.type == "RGBA"))
+    obj.data.materials.append(mat)
+    obj.data.materials.append(bpy.data.materials.new("Other") if other else None)
+    index = np.zeros(len(obj.data.polygons), np.int32)
+    index[:8] = 1
+    obj.data.polygons.foreach_set("material_index", index)
+    obj.data.update()
+    obj.active_material_index = 0
+    return obj, mat
+
+
+def _frozen_pixels(obj):
+    import bpy
+    import numpy as np
+    from surfgrad_addon.addon import freeze as F
+    result = F.freeze(obj, FREEZE_RES)
+    img = bpy.data.images[result["image"]]
+    return np.array(img.pixels[:], dtype=np.float64).reshape(FREEZE_RES, FREEZE_RES, -1)[..., :3]
+
+
+@pytest.mark.tier("bake")
+def test_freeze_of_one_material_with_other_faces_in_an_empty_slot_is_done():
+    """Before (rt57b's check): "8 face(s) of object 'Grid' (faces 0-7) use empty material slot
+    2, so the bake writes nothing for them, a hole in the map", FreezeError, though those faces
+    are not the material's: Blender's bake skips them as it skips another material's. Now the
+    map is frozen, texel for texel the map of the same grid whose slot 2 holds a material."""
+    pytest.importorskip("bpy")
+    import numpy as np
+    from surfgrad_addon.addon import freeze as F
+    obj, mat = _grid_with_stack(False)
+    F.check(obj, FREEZE_RES)                # before: FreezeError, the empty slot named
+    got = _frozen_pixels(obj)
+    assert F.RECORD in mat
+    obj, _ = _grid_with_stack(True)       # the same faces, another material's
+    want = _frozen_pixels(obj)
+    assert np.abs(got - want).max() < 1e-6, np.abs(got - want).max()
+    # (and the map is the stack's: most texels the constant colour, 8 faces of 30 elsewhere)
+    near = (np.abs(want - np.array(COLOUR)).max(axis=-1) < 0.01).mean()
+    assert near > 0.6, near

@@ -10,18 +10,26 @@ import numpy as np
 from ..reference.input_checks import faces_text
 
 
-def empty_slot_problem(obj_name, face_materials, filled_slots, obj=None):
+def empty_slot_problem(obj_name, face_materials, filled_slots, obj=None, own_empty_ok=False):
     """None, or the refusal naming the faces whose slot is empty. face_materials: (F,) each
     face's material index; filled_slots: per slot of the rendered object, whether it holds a
     material (no slots at all: the request's "no material" says it). obj: the object, whose
     own slot may hold a material that the rendered mesh's lacks: a Geometry Nodes tree that
     makes the mesh anew (a Mesh Grid, a Mesh Line) gives its faces no material, whatever the
-    object's slots hold, and Cycles renders them with its default surface."""
+    object's slots hold, and Cycles renders them with its default surface.
+    own_empty_ok (Freeze, which bakes one material's faces): faces in a slot that is empty on
+    the object itself too pass, as another material's faces do: Blender's bake skips them (no
+    material, no image), and the material's map is whole. Only faces whose slot the object
+    fills or lacks are refused there: Blender bakes those with the object's own slot (30 deg
+    off) or cancels (tests/test_faults_objects57b.py, test_faults_review58a.py)."""
     if not filled_slots or all(filled_slots):
         return None
     index = np.asarray(face_materials, dtype=np.int64)
     slot = np.clip(index, 0, len(filled_slots) - 1)
     empty = ~np.asarray(filled_slots, dtype=bool)[slot]
+    if own_empty_ok and obj is not None:
+        own_empty = np.array([s.material is None for s in obj.material_slots] + [False])
+        empty &= ~own_empty[np.minimum(slot, len(own_empty) - 1)]
     if not empty.any():
         return None
     faces = np.flatnonzero(empty)

@@ -348,9 +348,12 @@ def check(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwri
         problems += foreign_node_problems(obj, only=mat)      # a newer line's: baked as zero
         # Unrealized instances of the material: the bake leaves them out of the map they read.
         baked = baked_mesh(obj)
-        # Faces the rendered mesh holds in an empty slot: Blender's bake cancels (after the
-        # checks had passed), as bake-normal-map refuses them before baking.
-        problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots, obj)
+        # Faces the rendered mesh holds in an empty slot the object fills or lacks (Geometry
+        # Nodes): Blender's bake cancels, or bakes them with the slot's material (after the
+        # checks had passed). Faces in a slot empty on the object too are skipped by the
+        # bake like another material's, the map whole: not refused (rt58a).
+        problem = empty_slot_problem(obj.name, baked.face_materials, baked.filled_slots, obj,
+                                     own_empty_ok=True)
         problems += [problem] if problem else []
         more, notes = UI.instance_problems(baked.instances, obj, baked.triangle_uvs.get(uv_map),
                                            uv_map, [NB.UDIM_FIRST], resolution, None, only=mat)
