@@ -108,7 +108,10 @@ def _grid_with_stack(other):
     rgb.outputs[0].default_value = COLOUR + (1.0,)
     nt.links.new(rgb.outputs[0], next(s for s in layer.inputs if s.type == "RGBA"))
     obj.data.materials.append(mat)
-    obj.data.materials.append(bpy.data.materials.new("Other") if other else None)
+    plain = bpy.data.materials.new("Other") if other else None
+    if plain and bpy.app.version < (5, 0):
+        plain.use_nodes = True
+    obj.data.materials.append(plain)
     index = np.zeros(len(obj.data.polygons), np.int32)
     index[:8] = 1
     obj.data.polygons.foreach_set("material_index", index)
