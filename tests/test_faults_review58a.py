@@ -24,6 +24,18 @@ rt57b, rt57c, rt57d and the coordinator's changes).
    refuses only faces in a slot the object fills or lacks (rt57b's Geometry Nodes cases:
    Blender cancels, or bakes them 30 degrees off) (empty_slots.empty_slot_problem's
    own_empty_ok).
+
+3. A copy of a per-UV-map group with a long name on 4.2 and 4.5 (a material appended from a
+   file with the same group; a duplicated tree). Those lines name a data-block in 63 bytes and
+   name a copy with no room for ".001" by cutting it ('SG Normal Map [<44-byte UV map>]',
+   60 bytes: its copy is its first 59 bytes; 61-63 bytes and fitting_name's hashed names:
+   the first 59 plus ".001"). rt57a's exact names (group_updates.renamed_away) took those
+   for the artist's renames: the sidebar said "were renamed" and Update left the copy with
+   "rename it back to its name in the Add menu", a name its original holds (4.2: 3 of 3 UV
+   map lengths 44, 47, 63 bytes); and before rt57a too the rebuild never reached them
+   (group_names.stale_copies asked for "<name>.NNN": "its rebuild did not reach it"). Now
+   group_names.is_copy_name knows Blender's cut copies: surfgrad's, and Update rebuilds them
+   to the current version. 5.0 and 5.2 (255 bytes) add ".001" and pass before and after.
 """
 
 import os
@@ -148,3 +160,34 @@ def test_freeze_of_one_material_with_other_faces_in_an_empty_slot_is_done():
     # (and the map is the stack's: most texels the constant colour, 8 faces of 30 elsewhere)
     near = (np.abs(want - np.array(COLOUR)).max(axis=-1) < 0.01).mean()
     assert near > 0.6, near
+
+
+# Finding 3: a copy of a per-UV-map group with a long name, on 4.2 and 4.5 --------------------
+
+@pytest.mark.tier("blender")
+@pytest.mark.parametrize("uv_bytes", [44, 47, 63])
+def test_a_copy_of_a_long_per_uv_map_group_is_still_surfgrads(uv_bytes):
+    """4.2 and 4.5 name a data-block in 63 bytes and cut the name of a copy with no room for
+    ".001" (an appended material's group, a duplicated node tree). Before: renamed_away took
+    those for the artist's renames; the sidebar said "were renamed" and Update left the copy
+    with "rename it back", to the name its original holds. 5.0 and 5.2 (255 bytes) keep
+    ".001": the same expectations hold there unchanged."""
+    bpy = pytest.importorskip("bpy")
+    from surfgrad_addon.addon import group_updates as U
+    from surfgrad_addon.addon import groups as G
+    from surfgrad_addon.addon.compat import new_material
+    from surfgrad_addon.addon.group_names import VERSION_KEY
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    original = G.normal_map_group("U" * uv_bytes)
+    copy = original.copy()
+    short = bpy.types.ID.bl_rna.properties["name"].length_max <= 64
+    # The name Blender gave the copy: cut short on 4.x, not ".001"-suffixed as on 5.x.
+    assert (not copy.name.endswith("].001")) == short, (copy.name, short)
+    copy[VERSION_KEY] = G.VERSION - 1
+    new_material("Rock").node_tree.nodes.new("ShaderNodeGroup").node_tree = copy
+    assert not U.renamed_away(copy), copy.name           # before: True on 4.2 and 4.5
+    text = U.stale_text(U.stale_groups())
+    assert "Update surfgrad Groups rebuilds them" in text and "renamed" not in text, text
+    updated, left = U.update_stale_groups()
+    assert left == [] and len(updated) == 1, (updated, left)
+    assert all(g.get(VERSION_KEY) == G.VERSION for g in bpy.data.node_groups if g.users)

@@ -27,14 +27,28 @@ def fitting_name(name):
     return raw[:limit - len(tag)].decode(errors="ignore") + tag
 
 
+def is_copy_name(candidate, name):
+    """Whether `candidate` is Blender's name for a copy of a data-block named `name`:
+    "<name>.001", or, where "<name>.001" does not fit (63 bytes on 4.2 and 4.5: a per-UV-map
+    group of a UV map name of 44 bytes or more), `name` cut short, with or without ".001"
+    (the first copy of a 60-byte name is its first 59 bytes; rt58a: such copies were named
+    renamed and never rebuilt)."""
+    prefix = name + "."
+    if candidate.startswith(prefix) and candidate[len(prefix):].isdigit():
+        return True
+    limit = bpy.types.ID.bl_rna.properties["name"].length_max - 1
+    base = candidate.rsplit(".", 1)[0] if candidate.rsplit(".", 1)[-1].isdigit() else candidate
+    return (base != name and name.startswith(base) and len(name.encode()) + 4 > limit
+            and len(base.encode()) >= limit - 8)
+
+
 def stale_copies(name, version, line, tree_type):
     """Our editable groups named `name` plus Blender's ".NNN" suffix of an older version or of
     this one built on another line (a newer one is left alone; an image-bound group's copy
     names another image: never asked for)."""
-    prefix = name + "."
     return [g for g in bpy.data.node_groups
-            if g.name.startswith(prefix) and g.name[len(prefix):].isdigit()
-            and g.bl_idname == tree_type and g.is_editable and VERSION_KEY in g
+            if is_copy_name(g.name, name) and g.bl_idname == tree_type and g.is_editable
+            and VERSION_KEY in g
             and g.override_library is None                 # (its rebuild would not be saved)
             and (g[VERSION_KEY] == version and g.get(LINE_KEY) != line
                  or isinstance(g[VERSION_KEY], int) and g[VERSION_KEY] < version)]

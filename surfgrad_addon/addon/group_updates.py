@@ -11,7 +11,8 @@ import textwrap
 import bpy
 
 from . import groups as G
-from .group_names import INSIDE_KEY, LINE_KEY, VERSION_KEY, fitting_name
+from .group_names import (INSIDE_KEY, LINE_KEY, VERSION_KEY, fitting_name,
+                          is_copy_name)
 from .all_or_nothing import all_or_nothing
 from .node_builder import checked_first, edited_inside, running_line, take_notes
 
@@ -45,7 +46,14 @@ def renamed_away(tree):
     if name in G.BY_NAME or name in _HELPERS:
         return False
     given = _given_name(tree, name)
-    return given is None or given != name
+    return given is None or (given != name and not _cut_for_copy(name, given))
+
+
+def _cut_for_copy(name, given):
+    """Whether `name` (less its ".NNN") is Blender's name for a copy of the group named `given`
+    that had no room for ".001" (group_names.is_copy_name). Taken as renamed since rt57a,
+    Update left it with "rename it back", to a name the original holds (rt58a)."""
+    return is_copy_name(name, given)
 
 
 # Groups named after the UV map their own node holds ("SG Normal Map [UVMap]"): a name that
