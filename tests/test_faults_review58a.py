@@ -36,6 +36,23 @@ rt57b, rt57c, rt57d and the coordinator's changes).
    (group_names.stale_copies asked for "<name>.NNN": "its rebuild did not reach it"). Now
    group_names.is_copy_name knows Blender's cut copies: surfgrad's, and Update rebuilds them
    to the current version. 5.0 and 5.2 (255 bytes) add ".001" and pass before and after.
+
+Probed and right (5.2 unless said): compare with settings {"directx": True} on every method
+reading a normal or detail map (normal-map, procedural-basis, triplanar(-sampler), decal,
+decal-overwrite, parallax(-sampler), post-resolve, layered, blend-pd/-whiteout/-udn/-rnm, 32^2
+Sphere): p99 0.0001-0.0006, max <= 0.0016 deg, as with DirectX off; object-normal refused.
+bake-normal-map, compare and Freeze on a grid whose slot is object-linked (mesh slot empty)
+with and without a pass-through Geometry Nodes modifier, on slots [A, empty, B] with a GN
+Subdivide, and on an unused trailing empty slot: all baked, compare p99 0.0001. output_problems
+on a link to a file, a folder, a link to a folder, a chain of links, /dev/null, a dangling link
+(with and without --overwrite): as documented; a folder refused at the bake. The Flamenco job
+on 'Rock'/'rock', composed/decomposed 'Cafe', Latin/Cyrillic 'Rock', full-width 'R', 'fi'
+ligature, zero-width space: refused exactly where one file results on macOS or Windows.
+
+Noticed and left alone: the Flamenco job folds with toLowerCase, bake-batch with casefold
+('Strasse'/'Straße' apart there, together here; 'ΟΔΟΣ'/'οδοσ' not refused though NTFS takes them
+as one); a Boolean cutter's empty slot is named as Geometry Nodes' "modifier(s) (none)" by
+compare; compare_settings.split takes any truthy "directx" value (API only).
 """
 
 import os
