@@ -50,7 +50,7 @@ on 'Rock'/'rock', composed/decomposed 'Cafe', Latin/Cyrillic 'Rock', full-width 
 ligature, zero-width space: refused exactly where one file results on macOS or Windows.
 
 Noticed and left alone: the Flamenco job folds with toLowerCase, bake-batch with casefold
-('Strasse'/'Straße' apart there, together here; 'ΟΔΟΣ'/'οδοσ' not refused though NTFS takes them
+('Strasse'/'Straße' one name there, two here; 'ΟΔΟΣ'/'οδοσ' not refused though NTFS takes them
 as one); a Boolean cutter's empty slot is named as Geometry Nodes' "modifier(s) (none)" by
 compare; compare_settings.split takes any truthy "directx" value (API only).
 """
