@@ -23,6 +23,15 @@ see the report), every output finite.
    ignoring Octaves (always all four) was the right one there. compare-all now adds
    volume-noise at Octaves 2 (compare_all.SETTINGS_CASES; about 0.4 s at 32^2 for the four
    objects): the correct group 0.0003 / 0.0005 worst, Octaves ignored 22.5-27.8 deg p99.
+4. Blind spot: triplanar's blend Sharpness (Listing 14's k, socket 1..64) was no setting of
+   compare at all (the registry gave triplanar Strength only; the reference fixed k = 3, the
+   socket's default), so a group that ignored Sharpness passed every case, and an artist's
+   Sharpness could not be compared. Now "sharpness" is a parameter of triplanar,
+   triplanar-height and their Sampler twins (reference/method_registry.py), swept 1, 2, 8,
+   32, 64: worst 0.0019 / 0.0047 (triplanar, Transformed), the pair agrees. compare-all's
+   triplanar case adds Sharpness 8 (no new case, no added time): Sharpness ignored there is
+   11.2-14.0 deg p99 on Sphere, Torus and Transformed (the Plane's weights are 0 and 1 at
+   every k).
 """
 
 import math
@@ -99,3 +108,31 @@ def test_compare_all_catches_a_noise_that_ignores_octaves(objects, monkeypatch):
     for name, obj in objects.items():
         r, _ = compare_object(obj, "volume-noise", RES, log=None, settings=settings)
         assert r["p99_deg"] > 10 * P99_BAR and r["max_deg"] > MAX_BAR, (name, r)
+
+
+def test_compare_all_catches_a_triplanar_that_ignores_sharpness(objects, monkeypatch):
+    """compare-all's triplanar settings case: the correct group within the bars; a graph
+    whose Sharpness never reaches SG Triplanar (so k stays 3) wrong by degrees wherever the
+    weights blend (not on the axis-aligned Plane)."""
+    settings = CA.SETTINGS_CASES["triplanar"]
+    assert settings["sharpness"] != 3.0
+    for name, obj in objects.items():
+        r, _ = compare_object(obj, "triplanar", RES, log=None, settings=settings)
+        assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, (name, r)
+    orig = HM.set_parameter
+    monkeypatch.setattr(HM, "set_parameter", lambda g, m, p, v: None if p.name == "sharpness"
+                        else orig(g, m, p, v))
+    for name in ("Sphere", "Torus", "Transformed"):
+        r, _ = compare_object(objects[name], "triplanar", RES, log=None, settings=settings)
+        assert r["p99_deg"] > 10 * P99_BAR and r["max_deg"] > MAX_BAR, (name, r)
+
+
+@pytest.mark.parametrize("method", ["triplanar", "triplanar-height"])
+@pytest.mark.parametrize("sharpness", [1.0, 64.0])
+def test_sharpness_at_the_sockets_ends_agrees(objects, method, sharpness):
+    """Sharpness 1 (broadest blend) and 64 (nearly a hard switch), the socket's ends: the
+    group and Listing 14's weights agree within the bars."""
+    for name in ("Torus", "Transformed"):
+        r, _ = compare_object(objects[name], method, RES, log=None,
+                              settings={"sharpness": sharpness})
+        assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, (name, r)
