@@ -32,6 +32,16 @@ see the report), every output finite.
    triplanar case adds Sharpness 8 (no new case, no added time): Sharpness ignored there is
    11.2-14.0 deg p99 on Sphere, Torus and Transformed (the Plane's weights are 0 and 1 at
    every k).
+5. compare's noise reach limit (scale_limits.NOISE_REACH_LIMITS: 1 km for volume-noise) was
+   measured at the default Scale 4 and taken at every Scale: the bake's float32 position
+   error is the reach's, and the normal turns by it times the noise's curvature, the finest
+   octave's frequency squared. A sphere's mesh scaled to 100 m (a tenth of the limit) at
+   Scale 16 was compared and called wrong: p99 0.127, max 0.174 deg (Scale 40: 0.65 / 1.1;
+   400 m at Scale 16: 0.45); the group is right (the reference itself moves 0.05-0.24 deg p99
+   when its texel positions are jittered by 1-5 float32 steps). Now the limit shrinks with
+   (default finest frequency / asked)^2 (scale_limits.noise_reach_limit): 62.5 m at Scale 16,
+   10 m at Scale 40, refused before the bake naming the Scale; 60 m at Scale 16 is compared,
+   0.058 / 0.084.
 """
 
 import math
@@ -44,7 +54,9 @@ from surfgrad_addon.harness import compare_all as CA  # noqa: E402
 from surfgrad_addon.harness import methods as HM  # noqa: E402
 from surfgrad_addon.harness import scenes  # noqa: E402
 from surfgrad_addon.harness.compare import CompareError, compare_object  # noqa: E402
+from surfgrad_addon.harness import scale_limits  # noqa: E402
 from surfgrad_addon.reference.method_registry import NOISE_OCTAVES  # noqa: E402
+from support.small_objects import scaled_test_object  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -136,3 +148,30 @@ def test_sharpness_at_the_sockets_ends_agrees(objects, method, sharpness):
         r, _ = compare_object(objects[name], method, RES, log=None,
                               settings={"sharpness": sharpness})
         assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, (name, r)
+
+
+def _sphere_reaching(reach):
+    """The test sphere with its mesh scaled about its origin to reach `reach` metres."""
+    import mathutils
+    obj = scaled_test_object("Sphere", 1.0)
+    obj.data.transform(mathutils.Matrix.Scale(reach / scale_limits.object_reach(obj), 4))
+    bpy.context.view_layer.update()
+    return obj
+
+
+def test_the_noise_reach_limit_follows_the_scale(objects):
+    """At Scale 16 a 100 m sphere (a tenth of the default limit) was compared and called
+    0.127 deg p99 wrong; now refused naming the Scale's limit; 60 m is compared within the
+    bars, as is the 100 m sphere at the default Scale."""
+    obj = _sphere_reaching(100.0)
+    r, _ = compare_object(obj, "volume-noise", RES, log=None)
+    assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, r
+    with pytest.raises(CompareError, match=r"beyond 62\.5 m at Scale 16, Octaves 4"):
+        compare_object(obj, "volume-noise", RES, log=None, settings={"scale": 16.0})
+    near = _sphere_reaching(60.0)
+    r, _ = compare_object(near, "volume-noise", RES, log=None, settings={"scale": 16.0})
+    assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, r
+    # Fewer octaves, a lower finest frequency: Octaves 2 at Scale 16 is the default's.
+    assert scale_limits.noise_reach_limit("volume-noise", {"scale": 16.0, "octaves": 2}) \
+        == scale_limits.NOISE_REACH_LIMITS["volume-noise"]
+    assert scale_limits.noise_reach_limit("volume-noise", {"scale": 0.0}) is None
