@@ -18,7 +18,9 @@ see the report), every output finite.
 2. Values that are not finite numbers: {"octaves": 2.5} and {"strength": "2"} were raw bpy
    TypeErrors out of compare_object ("NodeSocketInt.default_value expected an int type");
    {"strength": nan} / inf compared as p99 0.0000 on the sphere (NaN against NaN) and 1.4-1.5
-   deg on Transformed. Now each a CompareError naming the setting.
+   deg on Transformed; {"directx": "false"} turned DirectX ON (bool("false")): the normal
+   map's reference read with green turned, the pair agreeing at 0.0003 / 0.0007 while the
+   caller asked for OpenGL. Now each a CompareError naming the setting.
 3. Blind spot: compare-all compared volume-noise at Octaves 4 only, the group's most: a group
    ignoring Octaves (always all four) was the right one there. compare-all now adds
    volume-noise at Octaves 2 (compare_all.SETTINGS_CASES; about 0.4 s at 32^2 for the four
@@ -84,7 +86,8 @@ def test_octaves_outside_the_groups_range_are_refused(objects, octaves):
 @pytest.mark.parametrize("method,settings", [
     ("volume-noise", {"octaves": 2.5}), ("normal-map", {"strength": "2"}),
     ("normal-map", {"strength": math.nan}), ("decal", {"strength": math.inf}),
-    ("height-map", {"bump_scale": True})])
+    ("height-map", {"bump_scale": True}), ("normal-map", {"directx": "false"}),
+    ("normal-map", {"directx": None})])
 def test_settings_that_are_not_finite_numbers_are_compare_errors(objects, method, settings):
     """Before: raw TypeErrors, or NaN normals compared as 0.000 deg; now a CompareError."""
     (name,) = settings

@@ -29,7 +29,12 @@ def split(method, settings):
     """(parameter values, DirectX on) from `settings` ({name: value}, "directx": bool), each
     name checked against the method's parameters."""
     settings = dict(settings or {})
-    directx = bool(settings.pop(DIRECTX, False))
+    directx = settings.pop(DIRECTX, False)
+    # Not bool(): the text "false" is true, and turned DirectX on.
+    if directx not in (True, False):
+        raise SettingsError(f"method {method.name!r}: setting {DIRECTX!r} takes True or "
+                            f"False, not {directx!r}")
+    directx = bool(directx)
     known = {p.name for p in method.parameters}
     unknown = sorted(set(settings) - known)
     if unknown:
