@@ -247,7 +247,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         raise CompareError(str(err)) from None
     m = m.at(**values)
     problem = (scale_limits.small_object_problem(obj, method)   # before any image is made
-               or scale_limits.noise_reach_problem(obj, method))
+               or scale_limits.noise_reach_problem(obj, method, dict(m.values)))
     if problem:
         raise CompareError(problem)
     inp = prepare_inputs(obj, uv_map, image, variant)

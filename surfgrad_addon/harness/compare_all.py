@@ -48,12 +48,16 @@ def compare_cases(methods=None):
 # Cases at settings other than the defaults (compare_settings.py), each method's first
 # variant: Strength 1 and DirectX off were the only values compared, where a group ignoring
 # Strength, squaring it, or never flipping green equals the right one
-# (tests/test_faults_mutants57d.py).
+# (tests/test_faults_mutants57d.py); likewise Sharpness 3 and Octaves 4
+# (tests/test_faults_settings58c.py).
 SETTINGS_CASES = {
     "normal-map": {"strength": 0.6, "directx": True},
-    "triplanar": {"strength": 0.6, "directx": True},
+    "triplanar": {"strength": 0.6, "directx": True, "sharpness": 8.0},
     "decal": {"strength": 0.6, "directx": True},
     "procedural-basis": {"strength": 0.6, "directx": True},
+    # The default Octaves (4) is SG Noise's most: a group that ignored Octaves, summing all
+    # four, passed every default case.
+    "volume-noise": {"octaves": 2},
 }
 
 

@@ -8,8 +8,13 @@ OpenGL map with its green channel turned into 1 - green, so the graph reads the 
 DirectX on and the reference reads the image with green turned."""
 
 import functools
+import math
+import numbers
 
 import numpy as np
+
+from ..reference.group_interfaces import INTERFACES
+from ..reference.socket_specs import INT
 
 DIRECTX = "directx"
 # The tangent-space images a DirectX switch decodes (object-space maps have none).
@@ -24,13 +29,51 @@ def split(method, settings):
     """(parameter values, DirectX on) from `settings` ({name: value}, "directx": bool), each
     name checked against the method's parameters."""
     settings = dict(settings or {})
-    directx = bool(settings.pop(DIRECTX, False))
+    directx = settings.pop(DIRECTX, False)
+    # Not bool(): the text "false" is true, and turned DirectX on.
+    if directx not in (True, False):
+        raise SettingsError(f"method {method.name!r}: setting {DIRECTX!r} takes True or "
+                            f"False, not {directx!r}")
+    directx = bool(directx)
     known = {p.name for p in method.parameters}
     unknown = sorted(set(settings) - known)
     if unknown:
         raise SettingsError(f"method {method.name!r} has no setting {unknown[0]!r}; it takes "
                             f"{', '.join(sorted(known | {DIRECTX}))}")
+    for p in method.parameters:
+        if p.name in settings:
+            settings[p.name] = checked_value(method, p, settings[p.name])
     return settings, directx
+
+
+def _socket_spec(parameter):
+    """The interface spec of the socket `parameter` sets (the same on each of its groups)."""
+    for group in parameter.groups:
+        for spec in getattr(INTERFACES.get(group), "inputs", ()):
+            if spec.name == parameter.socket:
+                return spec
+    return None
+
+
+def checked_value(method, parameter, value):
+    """`value` as the group takes it; a SettingsError, naming what it takes, for a value the
+    group would not honour as the reference does: not a finite number (a NaN Strength compared
+    as 0.000 deg on the sphere; "2" and 2.5 octaves were raw bpy TypeErrors), or an integer
+    socket's value outside its range (SG Noise sums at most its NOISE_OCTAVES octaves: the
+    reference summing 8 called the correct group 29-36 deg wrong). Float sockets are honoured
+    past their slider range (Strength 1e3, Bump Scale 1e4 compare within 0.03 deg), so only
+    finiteness is asked of them."""
+    spec = _socket_spec(parameter)
+    what = f"method {method.name!r}: setting {parameter.name!r} ({parameter.socket})"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) \
+            or not math.isfinite(value):
+        raise SettingsError(f"{what} must be a finite number, not {value!r}")
+    if spec is None or spec.type != INT:
+        return float(value)
+    if value != int(value) or not spec.min <= value <= spec.max:
+        raise SettingsError(f"{what} takes a whole number from {spec.min} to {spec.max} (the "
+                            f"group's range), not {value!r}")
+    return int(value)
 
 
 def turn_green(inp, method):

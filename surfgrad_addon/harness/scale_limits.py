@@ -27,6 +27,7 @@ import numpy as np
 
 from ..addon.far_limits import FAR_REPEATS
 from ..addon.small_objects import scale_up_text, world_extent
+from ..reference.method_registry import SPECS
 
 # Methods whose texture coordinate is the world position x Scale (Scale 1 in compare).
 WORLD_PROJECTED = ("triplanar", "triplanar-height", "triplanar-sampler",
@@ -170,16 +171,53 @@ FILTERED_INSTEAD = {"volume-noise": "compare --method volume-noise-filtered (its
                     "layered": "compare --method volume-noise-filtered for the noise alone"}
 
 
+def _at(method, values):
+    """" at Scale 16, Octaves 4" where the limit is the settings', else ""."""
+    if noise_reach_limit(method, values) == NOISE_REACH_LIMITS.get(method):
+        return ""
+    v = dict(values)
+    octaves = v.get("octaves", dict(SPECS[method].values())["octaves"])
+    return f" at Scale {v['scale']:g}, Octaves {octaves}"
+
+
 def object_reach(obj):
     """The farthest corner of obj's bounding box from its origin, in object space (metres)."""
     box = np.array([tuple(c) for c in obj.bound_box], dtype=np.float64)
     return float(np.abs(box).max()) if box.size else 0.0
 
 
-def noise_reach_problem(obj, method):
-    """Why method cannot be compared on obj because its unfiltered noise coordinates are too
-    large for Cycles' float32, else None."""
+# Methods whose reach limit shrinks with the asked Scale (noise_reach_limit), as measured.
+SCALED_REACH = ("volume-noise",)
+
+
+def noise_reach_limit(method, values=None):
+    """The reach limit of `method` (metres) at its parameter `values` ({name: value}), or
+    None. The limits above hold at the default Scale and Octaves; the bake's float32 position
+    error is the reach's, and the normal turns by it times the noise's curvature, which grows
+    with the square of the finest octave's frequency (Scale x 2^(Octaves - 1)). Red team 58c,
+    the sphere's mesh scaled out, 32^2, p99 on 5.2: Scale 4 (the default) 100 m 0.010, 400 m
+    0.039, 900 m 0.083; Scale 16: 100 m 0.127, 400 m 0.45, 900 m 1.1; Scale 40: 100 m 0.65
+    (the error / (reach x Scale^2) 3e-6 to 6e-6 throughout). So the limit shrinks with that
+    frequency squared (never grows past the measured one). Only for the methods in
+    SCALED_REACH: displace-bump (its finer bump's Bump Scale 0.02, a rest position) agrees
+    far past that rule (Scale 100 and 200, Octaves 4, on the unit objects: p99 0.012-0.050),
+    so its limit stays the measured one."""
     limit = NOISE_REACH_LIMITS.get(method)
+    values = dict(values or {})
+    if limit is None or method not in SCALED_REACH or "scale" not in values:
+        return limit
+    default = dict(SPECS[method].values())
+    top = values["scale"] * 2.0 ** (values.get("octaves", default["octaves"]) - 1)
+    top_default = default["scale"] * 2.0 ** (default["octaves"] - 1)
+    if not top > 0:
+        return None                   # Scale 0: a constant noise, no bump to lose
+    return limit * min(1.0, (top_default / top) ** 2)
+
+
+def noise_reach_problem(obj, method, values=None):
+    """Why method (at its parameter `values`) cannot be compared on obj because its
+    unfiltered noise coordinates are too large for Cycles' float32, else None."""
+    limit = noise_reach_limit(method, values)
     if limit is None:
         return None
     reach = object_reach(obj)
@@ -190,7 +228,7 @@ def noise_reach_problem(obj, method):
     # whole metres from 10 km on: .4g alone would write 1e+04
     where = f"{reach:.4g}" if reach < 1e4 else f"{reach:.0f}"
     return (f"object {obj.name!r} reaches {where} m from its origin in object space: "
-            f"beyond {limit:g} m, the unfiltered noise coordinates that {method} reads "
+            f"beyond {limit:.4g} m{_at(method, values)}, the unfiltered noise coordinates that {method} reads "
             f"(object position x Scale) hold in Cycles' float32 only to a fraction of a noise "
             f"cell (the bake and the float64 reference then differ by float32, not by the "
             f"group), so it is not compared; scale its mesh down by {factor:.0f} or more about "

@@ -155,12 +155,12 @@ def _height_map(inp, td, bump_scale):
     return M.height_map_surfgrad(td, inp.pixels("height"), inp.variant, bump_scale, inp.uv_map)
 
 
-def _triplanar(inp, td, strength):
-    return M.triplanar_surfgrad(td, inp.pixels("normal"), strength=strength)
+def _triplanar(inp, td, strength, sharpness):
+    return M.triplanar_surfgrad(td, inp.pixels("normal"), strength=strength, k=sharpness)
 
 
-def _triplanar_height(inp, td, bump_scale):
-    return M.triplanar_height_surfgrad(td, inp.pixels("height"), bump_scale=bump_scale)
+def _triplanar_height(inp, td, bump_scale, sharpness):
+    return M.triplanar_height_surfgrad(td, inp.pixels("height"), bump_scale=bump_scale, k=sharpness)
 
 
 def decal_shape(inp):
@@ -269,6 +269,11 @@ def _decal_settings(opacity):
             Parameter("opacity", opacity, "Opacity", ("SG Decal",), f))
 
 
+def _sharpness(groups, function):
+    """Listing 14's blend sharpness k (the Sharpness socket, 1..64)."""
+    return Parameter("sharpness", 3.0, "Sharpness", groups, function, "k")
+
+
 _NORMAL_MAP = _strength(("SG Normal Map",), M.normal_map_surfgrad)
 _TRIPLANAR = _strength(("SG Triplanar",), M.triplanar_surfgrad)
 _HEIGHT = _bump_scale(("SG Height Map Forward", "SG Height Map HQ", "SG Height Map One-Texel"),
@@ -290,10 +295,13 @@ _SPECS = (
                parameters=_noise(NOISE_SCALE, NOISE_AMOUNT, NOISE_OCTAVES)),
     MethodSpec("height-map", _height_map, reads=("height",), variants=M.HEIGHT_VARIANTS,
                parameters=(_HEIGHT,)),
-    MethodSpec("triplanar", _triplanar, reads=("normal",), parameters=(_TRIPLANAR,)),
+    MethodSpec("triplanar", _triplanar, reads=("normal",), parameters=(
+        _TRIPLANAR, _sharpness(("SG Triplanar",), M.triplanar_surfgrad))),
     MethodSpec("triplanar-height", _triplanar_height, reads=("height",),
                # the triplanar Listings, covered by "triplanar"
-               parameters=(_TRIPLANAR_HEIGHT,), stability=False),
+               parameters=(_TRIPLANAR_HEIGHT, _sharpness(("SG Triplanar Height",),
+                                                         M.triplanar_height_surfgrad)),
+               stability=False),
     MethodSpec("decal", _decal, reads=("normal",), variants=DECAL_SHAPES, adds="projector",
                parameters=(_strength(("SG Decal",), M.decal_surfgrad), *_decal_settings(1.0))),
     MethodSpec("decal-overwrite", _decal_overwrite, reads=("normal", "detail"), adds="projector",
@@ -325,12 +333,15 @@ _SPECS = (
     MethodSpec("triplanar-sampler", _triplanar, reads=("normal",),
                group="SG Triplanar (Sampler)",
                stability=False, same_reference_as="triplanar",
-               parameters=(_strength(("SG Triplanar (Sampler)",), M.triplanar_surfgrad),)),
+               parameters=(_strength(("SG Triplanar (Sampler)",), M.triplanar_surfgrad),
+                           _sharpness(("SG Triplanar (Sampler)",), M.triplanar_surfgrad))),
     MethodSpec("triplanar-height-sampler", _triplanar_height, reads=("height",),
                group="SG Triplanar Height (Sampler)", stability=False,
                same_reference_as="triplanar-height",
                parameters=(_bump_scale(("SG Triplanar Height (Sampler)",),
-                                       M.triplanar_height_surfgrad),)),
+                                       M.triplanar_height_surfgrad),
+                           _sharpness(("SG Triplanar Height (Sampler)",),
+                                      M.triplanar_height_surfgrad))),
     MethodSpec("parallax-sampler", _parallax, reads=("height", "normal"),
                group="SG Parallax (Sampler)", stability=False, mikktspace=True,
                same_reference_as="parallax", spread=_parallax_spread),
