@@ -51,10 +51,6 @@ def run(subcommands, args):
         print(f"surfgrad: error: {'; '.join(problems)}", file=sys.stderr)
         return BAD_REQUEST
     if command.loads_blender and "bpy" not in sys.modules:
-        problem = _no_bpy_problem(command.name)
-        if problem:
-            print(f"surfgrad: error: {problem}", file=sys.stderr)
-            return BAD_REQUEST
         # `ulimit -v` too low: importing bpy would crash or hang with no line (memory_limit.py)
         from .memory_limit import start_problem
         problem = start_problem()
@@ -73,16 +69,11 @@ def run(subcommands, args):
 
 
 def _no_bpy_problem(name):
-    """Why this Python cannot run command `name`, which loads Blender (no bpy module), or
-    None: `python -m surfgrad_addon bake-normal-map` on a Python without the bpy wheel ended
-    in a raw ModuleNotFoundError traceback, exit 1 (since 56c from inside
-    interrupts._load_blender; before, from the first `import bpy`) (rt57a)."""
-    import importlib.util
-    try:
-        if importlib.util.find_spec("bpy") is not None:
-            return None
-    except (ImportError, ValueError):
-        pass
+    """Why this Python cannot run command `name`, which loads Blender: no bpy module.
+    `python -m surfgrad_addon bake-normal-map` on a Python without the bpy wheel ended in a raw
+    ModuleNotFoundError traceback, exit 1 (rt57a). Told where bpy's import fails (_unloadable),
+    not before the command: a request that is wrong anyway (an empty asset list) is told so
+    first, without Blender."""
     version = ".".join(map(str, sys.version_info[:2]))
     return (f"{name} needs Blender's Python module bpy, which this Python ({version}, "
             f"{sys.executable}) does not have: install the bpy wheel of your Blender line into "
@@ -98,6 +89,9 @@ def _unloadable(name, err):
     alike (rt58a). Another module's ImportError, with bpy loaded, goes on up as it was."""
     if "bpy" in sys.modules:
         raise err
+    if isinstance(err, ModuleNotFoundError) and err.name == "bpy":
+        print(f"surfgrad: error: {_no_bpy_problem(name)}", file=sys.stderr)
+        return BAD_REQUEST
     version = ".".join(map(str, sys.version_info[:2]))
     inside = (f", or bake inside Blender (blender -c surfgrad {name} ...)"
               if name.startswith("bake-") else "")

@@ -97,13 +97,18 @@ def run_bake_batch(args, log=print):
     from . import batch, interrupts
     if getattr(args, "in_blender", False) and not args.blends and not args.asset_list:
         args.open_file = True
+    # The asset list first, without Blender: a list that is wrong anyway is told so at once
+    # (since bpy is loaded up front, below, it was told only after Blender had started).
+    blends, list_tasks = _listed_blends(batch, args)
     # A stop keeps the maps already baked: the manifest records them (run.py).
     # (bpy loaded with the signals held: the batch itself scans the files, any --workers)
     with interrupts.stoppable("the batch", keep_placed=True, load_blender=True):
-        return _bake_batch(batch, args, log)
+        return _bake_batch(batch, args, log, blends, list_tasks)
 
 
-def _bake_batch(batch, args, log):
+def _listed_blends(batch, args):
+    """(.blend paths, list_tasks) of the request: --blends and this task's --asset-list
+    entry; a list or index that names none is a ValueError."""
     blends, list_tasks = list(args.blends), None
     if args.asset_list:
         listed = batch.read_asset_list(args.asset_list)
@@ -123,6 +128,10 @@ def _bake_batch(batch, args, log):
         blends += listed
     elif args.asset_index is not None:
         raise ValueError("--asset-index needs --asset-list")
+    return blends, list_tasks
+
+
+def _bake_batch(batch, args, log, blends, list_tasks):
     defaults = {k: getattr(args, k) for k in batch.SETTING_KEYS}
     report = batch.bake_batch(blends, args.output, args.objects, args.collections, defaults,
                               args.settings, args.workers, args.force, args.overwrite,
