@@ -33,6 +33,9 @@ HEIGHT_BUMP_SCALE = 0.05
 DECAL_FALLOFF = 0.2
 OVERWRITE_OPACITY = 0.7            # decal-overwrite: a cylinder decal over the detail map
 LAYER_DETAIL, LAYER_NOISE = 0.5, 0.02
+# layered: SG Combine's Scale A, Scale B and Mask B, none 1 (at 1, 1, 1 a Combine ignoring one
+# of them passed compare: tests/test_faults_mutants58b.py); B's two multiply to 1.
+LAYER_COMBINE = (0.75, 2.0, 0.5)
 POST_RESOLVE_STRENGTH = 0.5        # the triplanar detail on top of the resolved normal map
 PARALLAX_SCALE = 0.15
 VIEW_TILT = (0.45, -0.3, 0.2)      # view = normalize(n + VIEW_TILT): oblique, front-facing
@@ -186,7 +189,8 @@ def _layered(inp, td, detail_strength, noise_amount):
     _, sg2 = M.procedural_basis_surfgrad(td, inp.pixels("detail"), inp.detail_uv,
                                          strength=detail_strength)
     _, sg3 = M.volume_noise_surfgrad(td, NOISE_SCALE, noise_amount, NOISE_OCTAVES)
-    return n, sg1 + sg2 + sg3
+    scale_a, scale_b, mask_b = LAYER_COMBINE
+    return n, scale_a * sg1 + (scale_b * mask_b) * sg2 + sg3
 
 
 def _parallax_view(td):

@@ -2,9 +2,9 @@
 SG Displace, the layered stack and post-resolve detail."""
 
 from ...addon import groups as G
-from ...reference.method_registry import (BUMP_ON_TOP, LAYER_DETAIL, LAYER_NOISE,
-                                          NOISE_AMOUNT, NOISE_OCTAVES, NOISE_SCALE,
-                                          POST_RESOLVE_STRENGTH)
+from ...reference.method_registry import (BUMP_ON_TOP, LAYER_COMBINE, LAYER_DETAIL,
+                                          LAYER_NOISE, NOISE_AMOUNT, NOISE_OCTAVES,
+                                          NOISE_SCALE, POST_RESOLVE_STRENGTH)
 from ..graph import surface_gradient
 from .images import normal_map_graph, procedural_basis_graph
 from .projection import triplanar_graph
@@ -36,7 +36,9 @@ def layered_graph(inp, g):
     """Figure 1: a normal map, detail on the second UV map (SG Combine), noise on top."""
     detail = procedural_basis_graph(inp, g)
     g.set(detail.node, Strength=LAYER_DETAIL)
-    combine = g.group(G.combine_group(), A=normal_map_graph(inp, g), B=detail)
+    scale_a, scale_b, mask_b = LAYER_COMBINE
+    combine = g.group(G.combine_group(), A=normal_map_graph(inp, g), B=detail,
+                      Scale_A=scale_a, Scale_B=scale_b, Mask_B=mask_b)
     return g.add(combine.outputs[0], volume_noise_graph(inp, g, amount=LAYER_NOISE))
 
 
