@@ -33,9 +33,10 @@ HEIGHT_BUMP_SCALE = 0.05
 DECAL_FALLOFF = 0.2
 OVERWRITE_OPACITY = 0.7            # decal-overwrite: a cylinder decal over the detail map
 LAYER_DETAIL, LAYER_NOISE = 0.5, 0.02
-# layered: SG Combine's Scale A, Scale B and Mask B, none 1 (at 1, 1, 1 a Combine ignoring one
-# of them passed compare: tests/test_faults_mutants58b.py); B's two multiply to 1.
-LAYER_COMBINE = (0.75, 2.0, 0.5)
+# layered: SG Combine's Scale A, Scale B and Mask B. At 1, 1, 1 a Combine ignoring Scale B or
+# Mask B passed compare (tests/test_faults_mutants58b.py); B's two multiply to 1, so the
+# reference's values stay those of tests/data/reference_a08fc13.npz (and Scale A stays 1).
+LAYER_COMBINE = (1.0, 2.0, 0.5)
 POST_RESOLVE_STRENGTH = 0.5        # the triplanar detail on top of the resolved normal map
 PARALLAX_SCALE = 0.15
 VIEW_TILT = (0.45, -0.3, 0.2)      # view = normalize(n + VIEW_TILT): oblique, front-facing
