@@ -38,9 +38,10 @@ sphere from rho (70.4 / 79.7), cone and wedge radius 1 - z (71.1 / 85.2); decal-
    ignored 31.3 / 41.6; the correct group 0.0007 / 0.0028. Left: Scale A is still 1 (ignoring
    it passes, 0.0007 / 0.0032); a value other than 1 changes the reference's recorded values.
 3. volume-noise ran at Octaves 4, every octave SG Noise sums: SG Noise ignoring Octaves passed
-   (0.0013 / 0.0023); only displace-bump (Octaves 2) caught it, and it needs 4.5+ (on 4.2
-   compare-all was blind to it). compare_all.SETTINGS_CASES adds volume-noise at Octaves 2:
-   27.8 / 37.4 there; the correct group 0.0003 / 0.0005.
+   (0.0013 / 0.0023); only displace-bump (Octaves 2, 4.5+) caught it. Found here and by rt58c
+   alike; main has rt58c's fix (compare_all.SETTINGS_CASES volume-noise at Octaves 2,
+   tests/test_faults_settings58c.py): the mutant 27.8 / 37.4 there, the correct group 0.0003 /
+   0.0005. Pinned here once more as a mutant.
 
 Blind by construction, left (not pinned here): SG Resolve's .SG Safe Normal as a plain
 Normalize (no texel has a vector without direction; tests/test_guard_pins.py pins the guard);
@@ -391,7 +392,7 @@ BLIND = [
     (_depth_fade_dropped, "decal", "cylinder", _old_projector, None, None),
     (_mask_b_ignored, "layered", None, _old_combine, None, None),
     (_scale_b_ignored, "layered", None, _old_combine, None, None),
-    (_noise_octaves_ignored, "volume-noise", None, None, CA.SETTINGS_CASES.get("volume-noise"),
+    (_noise_octaves_ignored, "volume-noise", None, None, CA.SETTINGS_CASES["volume-noise"],
      None),
 ]
 
