@@ -43,6 +43,7 @@ from surfgrad_addon.addon.node_vocabulary import Math, VMath  # noqa: E402
 from surfgrad_addon.harness import compare_all as CA  # noqa: E402
 from surfgrad_addon.harness import scenes  # noqa: E402
 from surfgrad_addon.harness.compare import compare_object  # noqa: E402
+from support.group_mutants import while_building  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -90,29 +91,13 @@ def _facing_away_removed(mp):
     mp.setattr(TS, "surfgrad_reaching", reaching)
 
 
-def _while_building(mp, module, builder, attr, replacement):
-    """module.builder, with GroupBuilder.attr replaced while it builds."""
-    orig = getattr(module, builder)
-
-    def build(*args, **kwargs):
-        kept = getattr(NB.GroupBuilder, attr)
-        setattr(NB.GroupBuilder, attr, replacement)
-        try:
-            return orig(*args, **kwargs)
-        finally:
-            setattr(NB.GroupBuilder, attr, kept)
-    mp.setattr(module, builder, build)
-    from surfgrad_addon.addon import groups as G
-    mp.setattr(G, builder, build)
-
-
 def _resolve_adds(mp):
     from surfgrad_addon.addon.groups import resolve
-    _while_building(mp, resolve, "resolve_group", "sub", NB.GroupBuilder.add)
+    while_building(mp, resolve, "resolve_group", "sub", NB.GroupBuilder.add)
 
 
 def _tangent_not_normalised(mp):
-    _while_building(mp, TS, "procedural_basis_group", "normalize", lambda self, v: v)
+    while_building(mp, TS, "procedural_basis_group", "normalize", lambda self, v: v)
 
 
 def _tangent_bitangent_swapped(mp):

@@ -73,6 +73,7 @@ from surfgrad_addon.harness.method_graphs import volume as VG  # noqa: E402
 from surfgrad_addon.harness.methods import unavailable_reason  # noqa: E402
 from surfgrad_addon.reference import method_registry as MR  # noqa: E402
 from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
+from support.group_mutants import while_building  # noqa: E402
 
 pytestmark = pytest.mark.tier("bake")
 
@@ -81,24 +82,6 @@ RES = 32
 
 
 # Mutants: each patches a builder (monkeypatch undoes it); the groups are built after. --------
-
-def _while_building(mp, module, builder, attr, replacement):
-    """module.builder, with GroupBuilder.attr replaced while it builds (every build: the
-    build check's and the group's)."""
-    orig = getattr(module, builder)
-
-    def build(*args, **kwargs):
-        kept = getattr(NB.GroupBuilder, attr)
-        setattr(NB.GroupBuilder, attr, replacement)
-        try:
-            return orig(*args, **kwargs)
-        finally:
-            setattr(NB.GroupBuilder, attr, kept)
-    mp.setattr(module, builder, build)
-    from surfgrad_addon.addon import groups as G
-    if hasattr(G, builder):
-        mp.setattr(G, builder, build)
-
 
 def _math(mp, module, builders, change):
     """Every b.math(op, *args) of the builders as change(self, orig, op, args) says (None:
@@ -109,7 +92,7 @@ def _math(mp, module, builders, change):
         out = change(self, orig, op, a)
         return orig(self, op, *a, **k) if out is None else out
     for builder in builders:
-        _while_building(mp, module, builder, "math", math)
+        while_building(mp, module, builder, "math", math)
 
 
 def _blend_as(slot, other):
@@ -140,7 +123,7 @@ def _hb_contrast_ignored(mp):      # c = 1 - Contrast as 1
 
 
 def _vg_not_projected(mp):         # Listing 8 skipped: grad as it is
-    _while_building(mp, V, "volume_gradient_group", "sub", lambda self, a, c: a)
+    while_building(mp, V, "volume_gradient_group", "sub", lambda self, a, c: a)
 
 
 def _noise_chain_rule_dropped(mp):  # octave i's gradient not times 2^i
@@ -161,7 +144,7 @@ def _noise_transform_turned(mp):    # (M^-T g) with the transform OBJECT -> WORL
         if kind == "ShaderNodeVectorTransform" and k.get("convert_from") == "WORLD":
             k = dict(k, convert_from="OBJECT", convert_to="WORLD")
         return orig(self, kind, *a, **k)
-    _while_building(mp, V, "noise_group", "node", node)
+    while_building(mp, V, "noise_group", "node", node)
 
 
 def _footprint_fade_off(mp):
@@ -170,7 +153,7 @@ def _footprint_fade_off(mp):
 
 def _object_normal_turned(mp):      # v - k n for k n - v
     orig = NB.GroupBuilder.sub
-    _while_building(mp, V, "object_normal_group", "sub", lambda self, a, c: orig(self, c, a))
+    while_building(mp, V, "object_normal_group", "sub", lambda self, a, c: orig(self, c, a))
 
 
 def _sobel_sign_turned(mp):         # HQ's difference weights -0.5, 0.5 turned
@@ -189,18 +172,18 @@ def _texel_centres_off(mp):         # HQ's taps at fl + j, not fl + j - 0.5
                 and a[1][2] == 0.0 and a[1][0] in (-0.5, 0.5, 1.5, 2.5):
             a = (a[0], (a[1][0] + 0.5, a[1][1] + 0.5, 0.0))
         return orig(self, op, *a, **k)
-    _while_building(mp, H, "height_map_group", "vmath", vmath)
+    while_building(mp, H, "height_map_group", "vmath", vmath)
 
 
 def _forward_width_doubled(mp):
     orig = NB.GroupBuilder.bump
-    _while_building(mp, H, "height_map_forward_group", "bump",
+    while_building(mp, H, "height_map_forward_group", "bump",
                     lambda self, h, n, fw, *a, **k: orig(self, h, n, fw * 2, *a, **k))
 
 
 def _forward_scale_ignored(mp):
     orig = NB.GroupBuilder.scale
-    _while_building(mp, H, "height_map_forward_group", "scale", lambda self, v, s: v if getattr(
+    while_building(mp, H, "height_map_forward_group", "scale", lambda self, v, s: v if getattr(
         s, "name", "") == "Bump Scale" else orig(self, v, s))
 
 
@@ -210,8 +193,8 @@ def _th_x_plane_turned(mp):         # triplanar-height's X plane (y, z) for (z, 
     def combine(self, *a):
         self._combines = getattr(self, "_combines", 0) + 1
         return orig(self, *(a[::-1] if self._combines == 1 and len(a) == 2 else a))
-    _while_building(mp, H, "triplanar_height_group", "combine", combine)
-    _while_building(mp, H, "triplanar_height_sampler_group", "combine", combine)
+    while_building(mp, H, "triplanar_height_group", "combine", combine)
+    while_building(mp, H, "triplanar_height_sampler_group", "combine", combine)
 
 
 def _view_xy_turned(mp):
@@ -284,7 +267,7 @@ def _depth_fade_dropped(mp):        # the depth ramp 1 - |z| as 1 (cylinder, box
 
 def _overwrite_as_add(mp):          # base + a (sg - base Overwrite) with Overwrite 0
     orig = NB.GroupBuilder.scale
-    _while_building(mp, P, "decal_group", "scale", lambda self, v, s: orig(
+    while_building(mp, P, "decal_group", "scale", lambda self, v, s: orig(
         self, v, 0.0 if getattr(s, "name", "") == "Overwrite" else s))
 
 
