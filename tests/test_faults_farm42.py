@@ -131,9 +131,10 @@ def test_compare_all_workers_take_a_relative_out_from_the_callers_folder(tmp_pat
     out = "rt42b-relative-compare"                   # relative to tmp_path, not the checkout
     monkeypatch.chdir(tmp_path)
     reports = CA.run_all(out, 8, workers=2, methods=["normal-map"], log=lambda *_: None)
-    assert len(reports) == 4                          # the four test objects
+    cases = 4 * len(CA.all_cases(["normal-map"]))    # the four test objects, each case
+    assert len(reports) == cases
     heat = sorted(p.name for p in (tmp_path / out / "heat").iterdir())
-    assert len(heat) == 4 and all(n.startswith("normal-map_") for n in heat), heat
+    assert len(heat) == cases and all(n.startswith("normal-map") for n in heat), heat
     assert not (ROOT / out).exists()
 
 

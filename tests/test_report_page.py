@@ -103,8 +103,8 @@ def bench_fixture(folder):
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    """A page from a real compare-all (normal-map and the three height-map variants on the
-    four test objects at 16 texels), one case pushed over the max bar and one over the p99 bar,
+    """A page from a real compare-all (normal-map, with its settings case, and the three
+    height-map variants on the four test objects at 16 texels), one case pushed over the max bar and one over the p99 bar,
     a quick-bench folder and the repository's committed docs."""
     from surfgrad_addon.harness import compare_all
     tmp = tmp_path_factory.mktemp("report_page")
@@ -121,6 +121,13 @@ def built(tmp_path_factory):
                                  check=check)
 
 
+def _cases():
+    """The fixture's cases: each case of the two methods (the settings cases too) on the four
+    test objects."""
+    from surfgrad_addon.harness import compare_all
+    return 4 * len(compare_all.all_cases(["normal-map", "height-map"]))
+
+
 def test_every_image_loads_and_no_error_is_recorded(built):
     images = built.check["images"]
     assert built.check["errors"] == []
@@ -130,7 +137,7 @@ def test_every_image_loads_and_no_error_is_recorded(built):
     # One shared-scale heat map per case, the legend, this run's and the committed chart, the
     # committed exhibits with their crops.
     heat = [s for s in srcs if s.startswith("report/heat/") and s != "report/heat/legend.png"]
-    assert len(heat) == len(built.reports) == 16
+    assert len(heat) == len(built.reports) == _cases()
     assert "report/heat/legend.png" in srcs and "bench/chart_combined.png" in srcs
     exhibits = sorted((ROOT / "docs" / "exhibits").glob("*.png"))
     assert sum("docs/exhibits/" in s for s in srcs) == len(exhibits) > 0
@@ -146,12 +153,16 @@ def test_sections_and_pass_marks_match_the_numbers(built):
     expected = {}
     for r in built.reports:
         label = r["method"] + (f"-{r['variant']}" if r["variant"] else "")
+        # (compare-all's settings cases: "-directx-strength0.6")
+        label += "".join(f"-{k}" if v is True else f"-{k}{v:g}"
+                         for k, v in sorted(r.get("settings", {}).items()))
         expected[f"{label}|{r['object']}"] = str(int(r["p99_deg"] <= P99_BAR and
                                                      r["max_deg"] <= MAX_BAR))
     assert marks == expected
     assert sorted(v for v in marks.values()).count("0") == 2
     passed = sum(v == "1" for v in expected.values())
-    assert f'data-passed="{passed}" data-cases="16">{passed} of 16 cases within the bars' in dom
+    n = _cases()
+    assert f'data-passed="{passed}" data-cases="{n}">{passed} of {n} cases within the bars' in dom
     # The JSON it read is linked; what this run did not make names its command.
     for href in ('href="compare/compare.json"', 'href="bench/bench.json"',
                  'docs/bench_batch.json"'):
