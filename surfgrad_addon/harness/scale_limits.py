@@ -207,7 +207,9 @@ def noise_reach_limit(method, values=None):
     if limit is None or method not in SCALED_REACH or "scale" not in values:
         return limit
     default = dict(SPECS[method].values())
-    top = values["scale"] * 2.0 ** (values.get("octaves", default["octaves"]) - 1)
+    # |Scale|: a negative Scale mirrors the noise, its frequency the same (a 100 m sphere at
+    # Scale -16 was compared and called the correct group 0.125 deg p99 wrong; rt59a).
+    top = abs(values["scale"]) * 2.0 ** (values.get("octaves", default["octaves"]) - 1)
     top_default = default["scale"] * 2.0 ** (default["octaves"] - 1)
     if not top > 0:
         return None                   # Scale 0: a constant noise, no bump to lose

@@ -1,0 +1,100 @@
+"""Red team 59a: a skeptical review of round 58's merges (e167291..c1fadb3: the asset list
+read before Blender, bpy that will not load, compare's settings checks, the noise reach
+limit's Scale rule, the decal PROJECTOR_OFFSET, Freeze's empty slots, 4.x's cut names).
+
+1. Triplanar Sharpness past the group's float32 range (3ebd285 made it a compare setting;
+   checked_value asked float sockets only for finiteness). Listing 14's weights are
+   (|n| - 0.2)^k; where no axis dominates (|n| components about 0.58, the base about 0.38)
+   they underflow float32 for k past about 80-90 (0.377^100 is 0 in float32, 4e-43 in
+   float64), the group's blend then 0 / 0 (its divide floor), the reference's the proper
+   normalised weights. Sweep at 32^2, p99 / max deg, the correct groups: triplanar Sharpness
+   64 and 72: 0.0018 / 0.0045 worst; 80: Transformed 0.08 / 58.9; 90: Torus 0.004 / 58.7,
+   Transformed 40.0 / 64.6; 100: Sphere 21.6, Torus 42.0, Transformed 52.0 p99;
+   triplanar-height 90-100: 9.0-19.8 p99; 1000: 72-74 p99. A negative k divides by the zero
+   weights: -0.5 and -1 gave 62.9-68.3 p99 (triplanar), 21.7-22.8 (triplanar-height). compare
+   called each correct group wrong. Now a CompareError (compare_settings.HONOURED_RANGES:
+   Sharpness 0 to 64) naming the range and the fix, before any bake. 0, 0.5 and 1e-30 agree
+   (0.0010-0.0018 p99): still compared; 1e6 agrees trivially (every weight 0 in both) and is
+   refused with the rest past 64.
+2. The noise reach limit's Scale rule (c819ad1) took the asked Scale as it came: a negative
+   Scale (the noise mirrored, its frequency the same) made Scale x 2^(Octaves-1) negative,
+   "not top > 0" returned no limit at all (meant for Scale 0). The 100 m sphere at Scale -16
+   was compared and the correct volume-noise group called wrong: p99 0.125, max 0.20 deg (bar
+   0.1; Scale +16 is refused since c819ad1, limit 62.5 m). Now |Scale|
+   (scale_limits.noise_reach_limit): refused as at +16, naming 62.5 m.
+
+Probed and right (5.2): bake-batch's asset list before Blender, with and without bpy: an
+empty list, a UTF-16 list, 3 kB of random bytes, a folder, a missing file each exit 2 with
+the list named and the fix, on a Python without bpy too (before the no-bpy line); a BOM/CRLF
+list with a comment, blank line and an entry with spaces, and a '~' entry, read and passed
+on (no-bpy line without bpy; the output pattern's refusal with it). The correct decal groups
+(six shapes) on the Sphere flattened to 1%, stretched 20x, scaled 0.01, moved to (5000,
+-3000, 200), mirrored (scale -1, 1, 1), the Torus rotated and scaled (1, 1, -2), the Plane
+stretched to 50 x 0.02: 0.0001-0.0006 p99, 0.0012 max. Sharpness 0, 0.5, 1e-30: agree.
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from surfgrad_addon.harness import scale_limits  # noqa: E402
+from surfgrad_addon.harness import scenes  # noqa: E402
+from surfgrad_addon.harness.compare import CompareError, compare_object  # noqa: E402
+from support.small_objects import scaled_test_object  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+
+P99_BAR, MAX_BAR = 0.1, 0.5
+RES = 32
+
+
+@pytest.fixture(scope="module")
+def objects():
+    objs = scenes.new_scene(["Torus", "Transformed"])
+    yield objs
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def test_listing_14s_weights_underflow_float32_past_the_range():
+    """The fact behind finding 1, independent of the product: at a diagonal normal's base
+    (1/sqrt(3) - 0.2) the weight is a normal float32 at k 64, zero at k 100 (float64 keeps
+    it), so normalising them is 0 / 0 in the bake alone."""
+    base = 1.0 / np.sqrt(3.0) - 0.2
+    assert np.float32(base) ** np.float32(64) > np.finfo(np.float32).tiny
+    assert np.float32(base) ** np.float32(100) < np.finfo(np.float32).tiny
+    assert base ** 100.0 > 1e-45
+
+
+@pytest.mark.parametrize("method", ["triplanar", "triplanar-height"])
+@pytest.mark.parametrize("sharpness", [100.0, 90.0, -0.5])
+def test_sharpness_past_the_groups_float32_range_is_refused(objects, method, sharpness):
+    """Before: compared, the correct group 9-68 deg p99 wrong on Torus or Transformed. Now
+    refused naming the setting and 0 to 64."""
+    with pytest.raises(CompareError, match=r"'sharpness' \(Sharpness\) is compared from 0 "
+                                           r"to 64"):
+        compare_object(objects["Transformed"], method, RES, log=None,
+                       settings={"sharpness": sharpness})
+
+
+@pytest.mark.parametrize("sharpness", [0.0, 0.5, 64.0])
+def test_sharpness_within_the_range_is_still_compared_and_agrees(objects, sharpness):
+    """The range refuses nothing the group honours: 0 (equal weights), 0.5 and 64."""
+    for name in ("Torus", "Transformed"):
+        r, _ = compare_object(objects[name], "triplanar", RES, log=None,
+                              settings={"sharpness": sharpness})
+        assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, (name, sharpness, r)
+
+
+def test_a_negative_noise_scale_has_the_reach_limit_of_its_size(objects):
+    """Before: no limit at Scale -16, the 100 m sphere compared and called 0.125 deg p99
+    wrong. Now the limit of |Scale|: 1000 m x (4 / 16)^2 = 62.5 m, refused as at +16."""
+    assert scale_limits.noise_reach_limit("volume-noise", {"scale": -16.0}) == \
+        pytest.approx(1000.0 * (4.0 / 16.0) ** 2)
+    assert scale_limits.noise_reach_limit("volume-noise", {"scale": -4.0}) == 1000.0
+    import mathutils
+    obj = scaled_test_object("Sphere", 1.0)
+    obj.data.transform(mathutils.Matrix.Scale(100.0 / scale_limits.object_reach(obj), 4))
+    bpy.context.view_layer.update()
+    with pytest.raises(CompareError, match=r"beyond 62\.5 m at Scale -16, Octaves 4"):
+        compare_object(obj, "volume-noise", RES, log=None, settings={"scale": -16.0})
