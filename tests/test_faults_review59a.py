@@ -22,6 +22,16 @@ limit's Scale rule, the decal PROJECTOR_OFFSET, Freeze's empty slots, 4.x's cut 
    was compared and the correct volume-noise group called wrong: p99 0.125, max 0.20 deg (bar
    0.1; Scale +16 is refused since c819ad1, limit 62.5 m). Now |Scale|
    (scale_limits.noise_reach_limit): refused as at +16, naming 62.5 m.
+3. displace-bump kept its measured 2000 m reach limit at every Scale (ca7fde8: "agrees far
+   past" volume-noise's rule, measured on unit objects only). Its error grows with the reach
+   and the Scale too (5.2, 32^2, the sphere's mesh scaled out, limit lifted): 100 m at Scale
+   100 p99 0.497 / max 0.677 deg, 30 m at 100 0.103, 10 m at Scale 100 Octaves 4 0.148 / 0.42,
+   60 m at Scale 40 Octaves 4 0.189: the correct group called wrong. About 3e-7 deg p99 per
+   metre of reach times Scale^2 x 2^(Octaves - 1) (SG Noise halves each octave's amplitude).
+   Now the limit shrinks by that curvature against the default's (Scale 8, Octaves 2):
+   12.8 m at Scale 100, 3.2 m at Scale 100 Octaves 4, 20 m at 40 Octaves 4; just inside
+   (12 m, 3 m, 16 m) 0.046-0.054 p99. The unit objects at Scale 100 Octaves 4 (58c's test)
+   stay compared.
 
 Probed and right (5.2): bake-batch's asset list before Blender, with and without bpy: an
 empty list, a UTF-16 list, 3 kB of random bytes, a folder, a missing file each exit 2 with
@@ -98,3 +108,33 @@ def test_a_negative_noise_scale_has_the_reach_limit_of_its_size(objects):
     bpy.context.view_layer.update()
     with pytest.raises(CompareError, match=r"beyond 62\.5 m at Scale -16, Octaves 4"):
         compare_object(obj, "volume-noise", RES, log=None, settings={"scale": -16.0})
+
+
+def _sphere_reaching(reach):
+    """The test sphere with its mesh scaled about its origin to reach `reach` metres."""
+    import mathutils
+    obj = scaled_test_object("Sphere", 1.0)
+    obj.data.transform(mathutils.Matrix.Scale(reach / scale_limits.object_reach(obj), 4))
+    bpy.context.view_layer.update()
+    return obj
+
+
+def test_displace_bumps_reach_limit_follows_its_scale(objects):
+    """Before: 2000 m at every Scale; a 100 m sphere at Scale 100 was compared and the correct
+    group called 0.50 deg p99 wrong. Now 2000 m x (8^2 x 2) / (100^2 x 2) = 12.8 m there
+    (Scale^2 x 2^(Octaves - 1) against the default Scale 8, Octaves 2): refused naming it;
+    a 12 m sphere is compared within the bars."""
+    from surfgrad_addon.harness.methods import unavailable_reason
+    if unavailable_reason("displace-bump"):
+        pytest.skip(unavailable_reason("displace-bump"))
+    settings = {"scale": 100.0}
+    assert scale_limits.noise_reach_limit("displace-bump", settings) == \
+        pytest.approx(2000.0 * (8.0 ** 2 * 2) / (100.0 ** 2 * 2))
+    assert scale_limits.noise_reach_limit("displace-bump", {"scale": 100.0, "octaves": 4}) \
+        == pytest.approx(2000.0 * (8.0 ** 2 * 2) / (100.0 ** 2 * 8))
+    with pytest.raises(CompareError, match=r"beyond 12\.8 m at Scale 100, Octaves 2"):
+        compare_object(_sphere_reaching(100.0), "displace-bump", RES, log=None,
+                       settings=settings)
+    r, _ = compare_object(_sphere_reaching(12.0), "displace-bump", RES, log=None,
+                          settings=settings)
+    assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, r

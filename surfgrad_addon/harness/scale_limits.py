@@ -186,8 +186,14 @@ def object_reach(obj):
     return float(np.abs(box).max()) if box.size else 0.0
 
 
-# Methods whose reach limit shrinks with the asked Scale (noise_reach_limit), as measured.
-SCALED_REACH = ("volume-noise",)
+# Methods whose reach limit shrinks with the asked Scale (noise_reach_limit), as measured:
+# {method: the power of 2^(Octaves - 1) in the curvature the rule scales by}. volume-noise's
+# rule takes the finest octave's frequency squared (red team 58c, measured at Octaves 4);
+# displace-bump's SG Noise halves each octave's amplitude, its curvature Scale^2 x
+# 2^(Octaves - 1) (red team 59a, 5.2, 32^2, Octaves 2: 30 m at Scale 100 0.103 deg p99,
+# 100 m at 40 0.098, 400 m at 16 0.061, 1500 m at 8 0.059; 3e-7 deg per metre of reach
+# times that curvature; Octaves 4 at Scale 100 on the unit objects 0.012-0.050).
+SCALED_REACH = {"volume-noise": 2, "displace-bump": 1}
 
 
 def noise_reach_limit(method, values=None):
@@ -198,22 +204,24 @@ def noise_reach_limit(method, values=None):
     the sphere's mesh scaled out, 32^2, p99 on 5.2: Scale 4 (the default) 100 m 0.010, 400 m
     0.039, 900 m 0.083; Scale 16: 100 m 0.127, 400 m 0.45, 900 m 1.1; Scale 40: 100 m 0.65
     (the error / (reach x Scale^2) 3e-6 to 6e-6 throughout). So the limit shrinks with that
-    frequency squared (never grows past the measured one). Only for the methods in
-    SCALED_REACH: displace-bump (its finer bump's Bump Scale 0.02, a rest position) agrees
-    far past that rule (Scale 100 and 200, Octaves 4, on the unit objects: p99 0.012-0.050),
-    so its limit stays the measured one."""
+    frequency squared (never grows past the measured one). displace-bump (its finer bump's
+    Bump Scale 0.02, a rest position) agrees far past that rule at Octaves 4 (Scale 100 and
+    200 on the unit objects: p99 0.012-0.050), so its Octaves count less (SCALED_REACH); it had
+    no Scale rule until rt59a (a 30 m sphere at Scale 100 was called 0.103 deg wrong)."""
     limit = NOISE_REACH_LIMITS.get(method)
     values = dict(values or {})
     if limit is None or method not in SCALED_REACH or "scale" not in values:
         return limit
     default = dict(SPECS[method].values())
-    # |Scale|: a negative Scale mirrors the noise, its frequency the same (a 100 m sphere at
-    # Scale -16 was compared and called the correct group 0.125 deg p99 wrong; rt59a).
-    top = abs(values["scale"]) * 2.0 ** (values.get("octaves", default["octaves"]) - 1)
-    top_default = default["scale"] * 2.0 ** (default["octaves"] - 1)
-    if not top > 0:
+    # Scale squared: a negative Scale mirrors the noise, its frequency the same (Scale -16
+    # had no limit: a 100 m sphere was compared, the correct group 0.125 deg p99 wrong; rt59a).
+    power = SCALED_REACH[method]
+    curvature = values["scale"] ** 2 * 2.0 ** (power * (values.get("octaves",
+                                                                   default["octaves"]) - 1))
+    at_default = default["scale"] ** 2 * 2.0 ** (power * (default["octaves"] - 1))
+    if not curvature > 0:
         return None                   # Scale 0: a constant noise, no bump to lose
-    return limit * min(1.0, (top_default / top) ** 2)
+    return limit * min(1.0, at_default / curvature)
 
 
 def noise_reach_problem(obj, method, values=None):
