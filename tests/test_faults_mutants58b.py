@@ -51,6 +51,7 @@ reads the displaced mesh's own normals, which SG Displace makes; tests/test_disp
 them); SG Noise's Gain and Turbulence (no method sets them).
 """
 
+import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
@@ -360,6 +361,9 @@ def test_a_mutant_compare_all_catches_is_called_wrong(monkeypatch, fresh_groups,
 
 def _old_projector(mp):
     mp.setattr(MS, "PROJECTOR_OFFSET", (0.0, 0.0, 0.0), raising=False)
+    # (and sized by the largest dimension on every axis, as before rt59a)
+    mp.setattr(MS, "_reach_along", lambda obj, centre, axes: np.full(
+        3, max(obj.dimensions) * 0.5), raising=False)
 
 
 def _old_combine(mp):

@@ -32,13 +32,27 @@ limit's Scale rule, the decal PROJECTOR_OFFSET, Freeze's empty slots, 4.x's cut 
    12.8 m at Scale 100, 3.2 m at Scale 100 Octaves 4, 20 m at 40 Octaves 4; just inside
    (12 m, 3 m, 16 m) 0.046-0.054 p99. The unit objects at Scale 100 Octaves 4 (58c's test)
    stay compared.
+4. The decal projector (ece1fb9, 2fc1944) was sized by the object's largest dimension on
+   all three axes: on a long or flat object the shapes' boundaries that PROJECTOR_OFFSET puts
+   on the unit objects fell off the surface again, and a group missing them was called right.
+   Mutants of test_faults_mutants58b, p99 / max deg, a Sphere stretched 20 x 1 x 1 (rod),
+   flattened to 1 x 1 x 0.01 (disc) and the Plane stretched to 50 x 0.02 (strip): the wedge
+   without its open end 0.000 / 0.00 on rod and strip; the depth fade dropped 0.000 on all
+   three; the capsule twice as long 0.000 on rod and strip, 0.016 / 0.09 on the disc. Now
+   each axis of the projector is the object's reach along it (method_scene._reach_along,
+   about the same tilt and offset; the unit Sphere's projector as it was): wedge 58.0 /
+   82.8 / 66.3 deg p99 on rod / strip / disc, depth fade 55.6 / 31.6 / 42.8, capsule 20.6 on
+   the rod, 3.8 on the disc (the strip, a line in the projector, still 0.001). The correct
+   six shapes on the objects listed below (Probed), with the new projector: 0.0001-0.0009
+   p99, 0.0022 max.
+   test_faults_mutants58b's "old harness" now also sizes the projector as before.
 
 Probed and right (5.2): bake-batch's asset list before Blender, with and without bpy: an
 empty list, a UTF-16 list, 3 kB of random bytes, a folder, a missing file each exit 2 with
 the list named and the fix, on a Python without bpy too (before the no-bpy line); a BOM/CRLF
 list with a comment, blank line and an entry with spaces, and a '~' entry, read and passed
 on (no-bpy line without bpy; the output pattern's refusal with it). The correct decal groups
-(six shapes) on the Sphere flattened to 1%, stretched 20x, scaled 0.01, moved to (5000,
+(six shapes, the projector as it was) on the Sphere flattened to 1%, stretched 20x, scaled 0.01, moved to (5000,
 -3000, 200), mirrored (scale -1, 1, 1), the Torus rotated and scaled (1, 1, -2), the Plane
 stretched to 50 x 0.02: 0.0001-0.0006 p99, 0.0012 max. Sharpness 0, 0.5, 1e-30: agree.
 """
@@ -138,3 +152,58 @@ def test_displace_bumps_reach_limit_follows_its_scale(objects):
     r, _ = compare_object(_sphere_reaching(12.0), "displace-bump", RES, log=None,
                           settings=settings)
     assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, r
+
+
+# Finding 4: the decal projector on long and flat objects ------------------------------------
+
+def _reshaped(name, diagonal, label):
+    """compare-all's `name` in a new scene, with its mesh scaled by `diagonal` (x, y, z)."""
+    import mathutils
+    src = scenes.new_scene([name])[name]
+    obj = src.copy()
+    obj.data = src.data.copy()
+    obj.name = label
+    bpy.context.scene.collection.objects.link(obj)
+    obj.data.transform(mathutils.Matrix.Diagonal((*diagonal, 1.0)))
+    bpy.context.view_layer.update()
+    return obj
+
+
+def _projector_q(obj):
+    """obj's vertices in the coordinates of the projector compare makes for it."""
+    from surfgrad_addon.harness import method_scene as MS
+    projector = MS.decal_projector(obj)
+    try:
+        to_q = np.linalg.inv(np.array(projector.matrix_world)) @ np.array(obj.matrix_world)
+        v = np.array([(*p.co, 1.0) for p in obj.data.vertices]) @ to_q.T
+        return v[:, :3]
+    finally:
+        bpy.data.objects.remove(projector)
+
+
+@pytest.mark.parametrize("label,name,diagonal", [("Rod", "Torus", (8.0, 0.5, 0.5)),
+                                                  ("Disc", "Torus", (1.0, 1.0, 0.02))])
+def test_every_shapes_boundary_lies_on_a_long_or_flat_object(label, name, diagonal):
+    """Each decal shape's boundaries as q-coordinates, independent of the groups: the wedge
+    open end y = -1 and the depth fade's |z| = 1 (cylinder, box, cone, wedge) each crossed by
+    the surface. Before (the object's largest size on every axis) the Torus stretched 8 x
+    0.5 x 0.5 reached q.y -0.52 to -0.38 and |q.z| 0.64 at most: neither crossed; the Torus
+    flattened to 2% |q.z| 0.80 at most. Now q.y -1.50 to 0.60, |q.z| up to 1.18 on both."""
+    q = _projector_q(_reshaped(name, diagonal, label))
+    assert q[:, 1].min() < -1.0 < q[:, 1].max(), (label, q[:, 1].min(), q[:, 1].max())
+    assert np.abs(q[:, 2]).max() > 1.0 > np.abs(q[:, 2]).min(), label
+    assert (np.abs(q).max(axis=1) < 1.0).any(), label        # and texels inside it
+
+
+def test_a_group_without_the_wedges_open_end_is_called_wrong_on_a_rod(monkeypatch):
+    """The wedge mutant of test_faults_mutants58b (the y > -1 cut dropped) on a rod: before,
+    0.000 deg p99 (called right); now 62.6 / 76.4. The correct wedge group within the bars
+    there (0.0003 p99)."""
+    import test_faults_mutants58b as M58
+    rod = _reshaped("Torus", (8.0, 0.5, 0.5), "Rod2")
+    r, _ = compare_object(rod, "decal", RES, variant="wedge", log=None)
+    assert r["p99_deg"] <= P99_BAR and r["max_deg"] <= MAX_BAR, r
+    M58._wedge_open_end(monkeypatch)
+    rod = _reshaped("Torus", (8.0, 0.5, 0.5), "Rod3")      # (its groups built anew)
+    r, _ = compare_object(rod, "decal", RES, variant="wedge", log=None)
+    assert r["p99_deg"] > 10 * P99_BAR and r["max_deg"] > MAX_BAR, r

@@ -11,24 +11,49 @@ DISPLACE = {"Amount": 0.1, "Scale": 2.0, "Octaves": 2}
 PROJECTOR_OFFSET = (0.25, -0.45, -0.35)
 
 
+# The projector's tilt, and its half-sizes over the object's reach along its axes.
+PROJECTOR_TILT = (0.5, 0.3, 0.2)
+PROJECTOR_SIZES = (1.1, 0.95, 1.2)
+
+
 def decal_projector(obj):
-    """A temporary empty projecting onto obj: about its size, tilted, its centre off obj's by
-    PROJECTOR_OFFSET (in the projector's units), so every shape's boundary and the region
-    outside the projector lie on the surface (the round shapes reach well into it: the cone
-    is half as wide at its centre). Centred, the wedge's open end (y < -1), the capsule's
-    rounded ends and the cylinder's depth fade lay off every object but a cap of the sphere,
-    and a group missing them passed compare (tests/test_faults_mutants58b.py)."""
+    """A temporary empty projecting onto obj: tilted, each axis about obj's reach along it,
+    its centre off obj's by PROJECTOR_OFFSET (in the projector's units), so every shape's
+    boundary and the region outside the projector lie on the surface (the round shapes reach
+    well into it: the cone is half as wide at its centre). Centred, the wedge's open end
+    (y < -1), the capsule's rounded ends and the cylinder's depth fade lay off every object
+    but a cap of the sphere, and a group missing them passed compare
+    (tests/test_faults_mutants58b.py). Sized by obj's largest dimension on every axis, they
+    lay off a long or flat object (a rod 20 x 1 x 1, a disc, a 50 x 0.02 strip): a group
+    without the wedge's open end, the depth fade or the capsule's length compared 0.000 deg
+    there (tests/test_faults_review59a.py)."""
     import bpy
     from mathutils import Euler, Matrix, Vector
     empty = bpy.data.objects.new("SG Decal Projector (temporary)", None)
     bpy.context.scene.collection.objects.link(empty)
     centre = obj.matrix_world @ Vector(np.mean(np.array(obj.bound_box), axis=0))
-    size = max(obj.dimensions) * 0.5
-    empty.matrix_world = (Matrix.Translation(centre) @ Euler((0.5, 0.3, 0.2)).to_matrix()
-                          .to_4x4() @ Matrix.Diagonal((1.1 * size, 0.95 * size, 1.2 * size, 1))
+    tilt = Euler(PROJECTOR_TILT).to_matrix()
+    reach = _reach_along(obj, np.array(centre), np.array(tilt))
+    empty.matrix_world = (Matrix.Translation(centre) @ tilt.to_4x4()
+                          @ Matrix.Diagonal((*(reach * PROJECTOR_SIZES), 1))
                           @ Matrix.Translation(-Vector(PROJECTOR_OFFSET)))
     bpy.context.view_layer.update()
     return empty
+
+
+def _reach_along(obj, centre, axes):
+    """obj's farthest point from `centre` along each column of `axes` (world metres; its
+    vertices, or its bounding box's corners), none under a thousandth of the largest."""
+    data = getattr(obj, "data", None)
+    co = np.zeros(len(getattr(data, "vertices", ())) * 3)
+    if co.size:
+        data.vertices.foreach_get("co", co)
+    points = co.reshape(-1, 3) if co.size else np.array(obj.bound_box, dtype=np.float64)
+    m = np.array(obj.matrix_world)
+    world = points @ m[:3, :3].T + m[:3, 3]
+    reach = np.abs((world - centre) @ axes).max(axis=0)
+    top = reach.max()
+    return np.maximum(reach, 1e-3 * top) if top > 0 else np.full(3, 1.0)
 
 
 def add_displace_modifier(obj, settings=None):
