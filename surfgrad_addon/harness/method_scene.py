@@ -43,8 +43,10 @@ def decal_projector(obj):
 
 def _reach_along(obj, centre, axes):
     """obj's farthest point from `centre` along each column of `axes` (world metres; its
-    vertices, or its bounding box's corners), none under a thousandth of the largest."""
-    data = getattr(obj, "data", None)
+    evaluated mesh's vertices, as baked: an Array modifier's copies too; or its bounding
+    box's corners), none under a thousandth of the largest."""
+    import bpy
+    data = getattr(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()), "data", None)
     co = np.zeros(len(getattr(data, "vertices", ())) * 3)
     if co.size:
         data.vertices.foreach_get("co", co)
