@@ -51,10 +51,15 @@ Probed and right (5.2): bake-batch's asset list before Blender, with and without
 empty list, a UTF-16 list, 3 kB of random bytes, a folder, a missing file each exit 2 with
 the list named and the fix, on a Python without bpy too (before the no-bpy line); a BOM/CRLF
 list with a comment, blank line and an entry with spaces, and a '~' entry, read and passed
-on (no-bpy line without bpy; the output pattern's refusal with it). The correct decal groups
-(six shapes, the projector as it was) on the Sphere flattened to 1%, stretched 20x, scaled 0.01, moved to (5000,
--3000, 200), mirrored (scale -1, 1, 1), the Torus rotated and scaled (1, 1, -2), the Plane
-stretched to 50 x 0.02: 0.0001-0.0006 p99, 0.0012 max. Sharpness 0, 0.5, 1e-30: agree.
+on (no-bpy line without bpy; the output pattern's refusal with it); compare-all, bake-batch
+without bpy: the no-bpy line, exit 2. The correct decal groups (six shapes) on the Sphere
+flattened to 1%, stretched 20x, scaled 0.01, moved to (5000, -3000, 200), mirrored (scale
+-1, 1, 1), the Torus rotated and scaled (1, 1, -2), the Plane stretched to 50 x 0.02, with
+the projector as it was: 0.0001-0.0006 p99, 0.0012 max; a Torus with a 5-copy Array
+modifier: 0.0001 p99, the wedge mutant 56.2. Sharpness 0, 0.5, 1e-30: agree; a triplanar
+bake at Sharpness -1 and 200 writes a finite map. 4.2 and 4.5: copies of per-UV-map groups
+whose UV map names are multi-byte (e, EUR, emoji, CJK; group names 60-63 bytes, Blender's
+cut at a character) are surfgrad's and Update rebuilds them (8 of 8 names, both lines).
 """
 
 import numpy as np
