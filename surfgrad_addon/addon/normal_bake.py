@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import interrupts
 from .bake_closures import diffuse_stand_ins, holds_stand_ins
@@ -300,7 +301,13 @@ def _linked_given(obj):
 
 def no_tile_problem(obj_name, uv_map, uvs=None):
     """Why a UV map whose faces lie in no UDIM tile bakes nothing, and the fix (whole_tile_move
-    where it lies whole in one square off the grid)."""
+    where it lies whole in one square off the grid). `uvs`: the UV triangles (T, 3, 2), or
+    just the UVs' span; triangles with no area at all (an importer's UVs on one line or
+    point, even inside the square) are refused as such: no move puts them in a tile."""
+    if uvs is not None and np.ndim(uvs) == 3:
+        collapsed = IC.collapsed_uv_problem(uv_map, obj_name, uvs)
+        if collapsed:
+            return collapsed
     text = f"UV map {uv_map!r} of object {obj_name!r} has no faces in any UDIM tile"
     fix = "move its islands into the 0-1 square (tile 1001) or onto UDIM tiles"
     uv = None if uvs is None else np.asarray(uvs, dtype=np.float64).reshape(-1, 2)
