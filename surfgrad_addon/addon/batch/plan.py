@@ -346,8 +346,7 @@ def asset_problem(scan, s, blend_name=""):
     uv = s["uv_map"] or scan["active_uv"] or next(iter(scan["uv_maps"]))
     outside = scan.get("outside", {}).get(uv, 0)
     if outside and not scan["uv_maps"].get(uv):       # --allow-partial would bake nothing
-        return scan.get("uv_refusals", {}).get(uv) or \
-            NB.no_tile_problem(name, uv, scan.get("uv_spans", {}).get(uv))
+        return NB.no_tile_problem(name, uv, scan.get("uv_spans", {}).get(uv))
     if outside and not s.get("allow_partial"):
         return (f"{outside} face(s) of UV map {uv!r} of object {name!r} lie outside the UDIM "
                 f"range ({T.UDIM_SPAN}) and would not be baked: move them into tiles, or "

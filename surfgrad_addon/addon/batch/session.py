@@ -83,14 +83,9 @@ def scan_open_file(objects=None, collections=None, everything=False):
                     if uv.active_render:
                         entry["active_uv"] = uv.name
                     if not entry["uv_maps"][uv.name] and entry["outside"][uv.name]:
-                        tri_uvs = NB.baked_mesh(obj).triangle_uvs[uv.name]
-                        uvs = tri_uvs.reshape(-1, 2)
+                        uvs = NB.baked_mesh(obj).triangle_uvs[uv.name].reshape(-1, 2)
                         entry.setdefault("uv_spans", {})[uv.name] = \
                             [uvs.min(0).tolist(), uvs.max(0).tolist()]   # (told in its refusal)
-                        # A layout with no UV area at all is refused as such, not as off the
-                        # tiles (its span alone cannot tell them apart).
-                        entry.setdefault("uv_refusals", {})[uv.name] = \
-                            NB.no_tile_problem(obj.name, uv.name, tri_uvs)
                 entry["modifier_uvs"] = sorted(set(layout) - set(entry["uv_maps"]))
                 entry["problems"] = _input_problems(obj)
             else:                   # (an Empty showing a collection names its meshes)
