@@ -19,6 +19,16 @@ fetched or imported file.
    in UV space), so the bake would cover no texel: unwrap it (UV > Unwrap)"
    (normal_bake.no_tile_problem, given the UV triangles, refuses a layout with no UV area
    as such; bake-batch fails the asset with those words).
+2. A small UV island compared on a handful of texels (the Sketchfab pigman of
+   gkjohnson/3d-demo-data: Object_24, 448 faces on an island 0.05 x 0.05 in UV, compared on 1
+   texel at 32^2 and 4 at 64^2): compare gave its p99 and max over those few texels with no
+   word, and a mistake that shows on part of the surface only can miss them all. A triplanar
+   group whose X plane reads (z, y) for (y, z) (test_faults_mutants57d's mutant) on a curved
+   8 x 8-quad patch with such an island: at 64^2 (compare's default) 9 texels, p99 0.0095 /
+   max 0.0097 degrees, under the bars (0.1 / 0.5), so a wrong group read as right; at 256^2
+   144 texels, p99 0.79 / max 1.44. Now below 100 compared texels (a p99 of fewer is their
+   max) compare warns, naming the count and the resolution that gives about 100
+   ("compare again at --resolution 256"; texel_report.sparse_warning).
 
 Probed and right on 5.2 (compare normal-map at 32^2 unless said, max error in degrees; bakes
 at 32^2 of the imported materials, every texel the UVs cover finite and unit): bevy's cube,
@@ -50,8 +60,10 @@ bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon import api  # noqa: E402
 from surfgrad_addon.addon import freeze  # noqa: E402
+from surfgrad_addon.harness.compare import compare_object  # noqa: E402
+from test_faults_mutants57d import MAX_BAR, P99_BAR, _x_plane_axes_swapped  # noqa: E402
 
-pytestmark = pytest.mark.tier("blender")
+pytestmark = pytest.mark.tier("bake")
 
 NO_AREA = ("UV map 'UVMap' of object 'Letters' has no area (every face collapsed to a point or "
            "a line in UV space), so the bake would cover no texel: unwrap it (UV > Unwrap)")
@@ -119,3 +131,62 @@ def test_a_layout_with_no_uv_area_is_refused_as_such_by_freeze():
         freeze.check(obj, 32)
     assert str(err.value) == NO_AREA, str(err.value)
     assert sorted(n.name for n in mat.node_tree.nodes) == nodes
+
+
+def _small_island(lo=0.53, size=0.05, n=8):
+    """A curved patch of n x n smooth quads (a tusk, a button) whose UVs fill the square
+    lo..lo+size on both axes, as an atlas gives a small part."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    xs = np.linspace(-1.0, 1.0, n + 1)
+    verts = [(x, y, 0.6 * np.cos(x) * np.cos(y)) for y in xs for x in xs]
+    faces = [(j * (n + 1) + i, j * (n + 1) + i + 1, (j + 1) * (n + 1) + i + 1,
+              (j + 1) * (n + 1) + i) for j in range(n) for i in range(n)]
+    me = bpy.data.meshes.new("Tusk")
+    me.from_pydata(verts, [], faces)
+    uv = me.uv_layers.new(name="UVMap")
+    for p in me.polygons:
+        p.use_smooth = True
+    for loop in me.loops:
+        co = me.vertices[loop.vertex_index].co
+        uv.data[loop.index].uv = (lo + size * (co.x + 1) / 2, lo + size * (co.y + 1) / 2)
+    obj = bpy.data.objects.new("Tusk", me)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def _centres_inside(lo, size, res):
+    """Texel centres (i + 0.5) / res inside lo..lo+size on one axis, counted here."""
+    c = (np.arange(res) + 0.5) / res
+    return int(np.count_nonzero((c > lo) & (c < lo + size)))
+
+
+def _sparse(report):
+    return [w for w in report["warnings"] if "texel(s) of 'Tusk' were compared" in w]
+
+
+def test_a_compare_on_few_texels_says_so_and_names_the_resolution(monkeypatch):
+    """Finding 2: the X-plane mutant on a 0.05 island passes the bars on its 9 texels at
+    64^2 (before: no word); the warning names 9 and --resolution 256, where the mutant is
+    caught and no warning is given. The correct group: warned at 64^2, not at 256^2."""
+    assert _centres_inside(0.53, 0.05, 64) ** 2 == 9
+    assert _centres_inside(0.53, 0.05, 256) ** 2 == 144
+    correct, _ = compare_object(_small_island(), "triplanar", 64, log=None)
+    assert correct["texels_compared"] == 9
+    (warning,) = _sparse(correct)
+    assert warning.startswith("only 9 texel(s) of 'Tusk' were compared at 64^2"), warning
+    assert warning.endswith("compare again at --resolution 256"), warning
+    fine, _ = compare_object(_small_island(), "triplanar", 256, log=None)
+    assert fine["texels_compared"] == 144 and not _sparse(fine)
+    assert fine["p99_deg"] <= P99_BAR and fine["max_deg"] <= MAX_BAR
+
+    _x_plane_axes_swapped(monkeypatch)
+    try:
+        few, _ = compare_object(_small_island(), "triplanar", 64, log=None)
+        many, _ = compare_object(_small_island(), "triplanar", 256, log=None)
+    finally:                        # no mutated group left for the tests after
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+    assert few["p99_deg"] <= P99_BAR and few["max_deg"] <= MAX_BAR     # passes on 9 texels
+    assert len(_sparse(few)) == 1                                      # ... with the word
+    assert many["p99_deg"] > P99_BAR and many["max_deg"] > MAX_BAR      # caught on 144
+    assert not _sparse(many)
+
