@@ -29,6 +29,15 @@ fetched or imported file.
    144 texels, p99 0.79 / max 1.44. Now below 100 compared texels (a p99 of fewer is their
    max) compare warns, naming the count and the resolution that gives about 100
    ("compare again at --resolution 256"; texel_report.sparse_warning).
+3. A layout with faces beyond the UDIM range (u < 0: AlienCake's alien, every part's UVs from
+   u -4 to -29 across tiles 1001 to 1058; the SheenChair's wood, u -1.8..2.1, v -2.2..1.2)
+   baked to a single image: bake-normal-map refused it for the tiles alone, "spans UDIM tiles
+   1001, 1002, 1003 but the output 'arm.png' has no <UDIM>: put <UDIM> in the name ..., or
+   ask for tile 1001 alone" (the wood: "puts nothing inside the 0-1 UV square ...: put
+   <UDIM> in the output name"), exit 2; both fixes were then refused in turn, "28 face(s) ...
+   lie outside the UDIM range ... --allow-partial", exit 2. Now the first refusal names both
+   problems (bake_request: a refusal of the tiles carries the layout's outside count), so
+   the fixes named, together, bake (with <UDIM> and --allow-partial: exit 0).
 
 Probed and right on 5.2 (compare normal-map at 32^2 unless said, max error in degrees; bakes
 at 32^2 of the imported materials, every texel the UVs cover finite and unit): bevy's cube,
@@ -190,3 +199,44 @@ def test_a_compare_on_few_texels_says_so_and_names_the_resolution(monkeypatch):
     assert many["p99_deg"] > P99_BAR and many["max_deg"] > MAX_BAR      # caught on 144
     assert not _sparse(many)
 
+
+def _strip_over_tiles():
+    """Three quads side by side in tiles 1001, 1002 and 1003, the last reaching past u = 3
+    and the first back past u = 0 (below the UDIM grid), with a material."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    me = bpy.data.meshes.new("Arm")
+    me.from_pydata([(x, y, 0.1 * x * x) for y in (0, 1) for x in range(4)], [],
+                   [(0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6)])
+    uv = me.uv_layers.new(name="UVMap")
+    u_of_x = {0: -0.2, 1: 1.1, 2: 2.1, 3: 2.9}         # face 0 spans u -0.2..1.1
+    for loop in me.loops:
+        co = me.vertices[loop.vertex_index].co
+        uv.data[loop.index].uv = (u_of_x[round(co.x)], 0.1 + 0.8 * co.y)
+    obj = bpy.data.objects.new("Arm", me)
+    bpy.context.scene.collection.objects.link(obj)
+    mat = bpy.data.materials.new("Arm")
+    mat.use_nodes = True
+    me.materials.append(mat)
+    return obj
+
+
+def test_a_tile_refusal_names_the_faces_beyond_the_grid_too(tmp_path):
+    """Finding 3: the single-image refusal lists both problems (before: the tiles alone),
+    nothing written; the two fixes named, together, bake every tile."""
+    obj = _strip_over_tiles()
+    uvs = np.array([d.uv[:] for d in obj.data.uv_layers["UVMap"].data]).reshape(-1, 4, 2)
+    outside = int(np.count_nonzero((uvs[..., 0] < 0).any(axis=1)))     # face 0
+    assert outside == 1
+    with pytest.raises(ValueError) as err:
+        api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=8, log=None)
+    problems = getattr(err.value, "problems", [str(err.value)])
+    assert len(problems) == 2, problems
+    assert "spans UDIM tiles 1001, 1002, 1003" in problems[0], problems
+    assert problems[1].startswith(f"{outside} face(s) of UV map 'UVMap' of object 'Arm' lie "
+                                  f"outside the UDIM range"), problems
+    assert "--allow-partial" in problems[1], problems
+    assert list(tmp_path.iterdir()) == []
+    api.bake_normal_map(obj, str(tmp_path / "n.<UDIM>.png"), resolution=8,    # both fixes
+                        allow_partial=True, log=None)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["n.1001.png", "n.1002.png",
+                                                          "n.1003.png"]

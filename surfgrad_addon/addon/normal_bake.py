@@ -81,7 +81,11 @@ def cycles_problem():
 
 
 class NormalBakeError(ValueError):
-    """Bad input: the message names the thing and the fix."""
+    """Bad input: the message names the thing and the fix. `outside`: for a refusal of the
+    tiles asked (plan_tile_layout), the faces of the layout beyond the UDIM range, which a
+    bake of any tiles refuses as well (the request names both, so one fix is not followed
+    by another refusal)."""
+    outside = 0
 
 
 tile_path = T.tile_path
@@ -386,6 +390,17 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     where = f"UV map {uv_map!r} of object {obj.name!r}"
     if not with_uvs:
         raise NormalBakeError(no_tile_problem(obj.name, uv_map, uvs))
+    try:
+        tiles = _chosen_tiles(output, tiles, with_uvs, where, empty_tiles)
+    except NormalBakeError as err:
+        err.outside = outside
+        raise
+    return uv_map, tiles, with_uvs, warnings, outside
+
+
+def _chosen_tiles(output, tiles, with_uvs, where, empty_tiles):
+    """The tiles to bake of a layout with UVs in tiles `with_uvs`: those asked, or every one
+    for an output with <UDIM>, or tile 1001 alone for a single image."""
     udim = UDIM_TOKEN in Path(output).name
     if tiles:
         tiles = sorted({int(t) for t in tiles})
@@ -417,7 +432,7 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
                                   f"{UDIM_TOKEN} in the name (one file per tile), or ask for "
                                   f"tile 1001 alone")
         tiles = [UDIM_FIRST]
-    return uv_map, tiles, with_uvs, warnings, outside
+    return tiles
 
 
 def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,
