@@ -193,7 +193,6 @@ def sparse_warning(name, compared, resolution, largest):
     more = (f"compare again at --resolution {needed}" if needed > resolution else
             "its UV islands are too small for any resolution compare takes: scale them up "
             "in UV space for the compare")
-    return (f"only {compared} texel(s) of {name!r} were compared at {resolution}^2 (its UV "
-            f"islands cover few texel centres): too few to judge the method on its surface, "
-            f"where a mistake on its other parts goes unseen; {more}")
-
+    return (f"only {compared} texel(s) of {name!r} were compared at {resolution}^2: too few "
+            f"to judge the method on its surface, where a mistake on its other parts goes "
+            f"unseen; {more}")
