@@ -238,7 +238,9 @@ def _check(request, obj, warn):
         uv_map, tiles, with_uvs, tile_warnings, outside = NB.plan_tile_layout(
             obj, request.output, request.uv_map, request.tiles, request.empty_tiles)
     except NB.NormalBakeError as err:
-        raise BakeRequestError(_only_instances(obj) or [str(err)]) from None
+        also = [outside_problem(err.outside, request.uv_map or _render_uv(obj), obj.name)] \
+            if err.outside and not request.allow_partial else []
+        raise BakeRequestError(_only_instances(obj) or [str(err)] + also) from None
     problems += mesh_problems(obj, uv_map, warnings, tiles, request.resolution,
                               tangent=request.space == "tangent")
     baked = baked_mesh(obj)
@@ -254,11 +256,7 @@ def _check(request, obj, warn):
     problems += more
     warnings += notes
     if outside and not request.allow_partial:
-        problems.append(f"{outside} face(s) of UV map {uv_map!r} of object {obj.name!r} lie "
-                        f"outside the UDIM range ({T.UDIM_SPAN}) and would not be baked: "
-                        f"move them into tiles (UV > Pack Islands), or bake the rest on "
-                        f"purpose with --allow-partial (api: allow_partial=True; settings "
-                        f"file: \"allow_partial\": true)")
+        problems.append(outside_problem(outside, uv_map, obj.name))
     else:
         warnings += tile_warnings
     if not any(s.material for s in obj.material_slots):
@@ -330,6 +328,20 @@ def bake(request, obj=None, log=print, warn=warn_stderr, before_publish=None):
             raise failed(f"the bake of {obj.name!r} failed: {err}") from None
     result["warnings"] = list(dict.fromkeys(checked.warnings + result.get("warnings", [])))
     return result
+
+
+def outside_problem(outside, uv_map, obj_name):
+    """The refusal of a layout with `outside` faces beyond the UDIM range."""
+    return (f"{outside} face(s) of UV map {uv_map!r} of object {obj_name!r} lie outside the "
+            f"UDIM range ({T.UDIM_SPAN}) and would not be baked: move them into tiles (UV > "
+            f"Pack Islands), or bake the rest on purpose with --allow-partial (api: "
+            f"allow_partial=True; settings file: \"allow_partial\": true)")
+
+
+def _render_uv(obj):
+    """The UV map a bake of obj takes when none is asked (plan_tile_layout's choice)."""
+    layers = obj.data.uv_layers
+    return next((uv.name for uv in layers if uv.active_render), layers[0].name)
 
 
 def _only_instances(obj):

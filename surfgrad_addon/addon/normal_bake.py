@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..reference import input_checks as IC
 from ..reference import tiles as T
 from . import interrupts
 from .bake_closures import diffuse_stand_ins, holds_stand_ins
@@ -80,7 +81,11 @@ def cycles_problem():
 
 
 class NormalBakeError(ValueError):
-    """Bad input: the message names the thing and the fix."""
+    """Bad input: the message names the thing and the fix. `outside`: for a refusal of the
+    tiles asked (plan_tile_layout), the faces of the layout beyond the UDIM range, which a
+    bake of any tiles refuses as well (the request names both, so one fix is not followed
+    by another refusal)."""
+    outside = 0
 
 
 tile_path = T.tile_path
@@ -300,7 +305,13 @@ def _linked_given(obj):
 
 def no_tile_problem(obj_name, uv_map, uvs=None):
     """Why a UV map whose faces lie in no UDIM tile bakes nothing, and the fix (whole_tile_move
-    where it lies whole in one square off the grid)."""
+    where it lies whole in one square off the grid). `uvs`: the UV triangles (T, 3, 2), or
+    just the UVs' span; triangles with no area at all (an importer's UVs on one line or
+    point, even inside the square) are refused as such: no move puts them in a tile."""
+    if uvs is not None and np.ndim(uvs) == 3:
+        collapsed = IC.collapsed_uv_problem(uv_map, obj_name, uvs)
+        if collapsed:
+            return collapsed
     text = f"UV map {uv_map!r} of object {obj_name!r} has no faces in any UDIM tile"
     fix = "move its islands into the 0-1 square (tile 1001) or onto UDIM tiles"
     uv = None if uvs is None else np.asarray(uvs, dtype=np.float64).reshape(-1, 2)
@@ -379,6 +390,17 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
     where = f"UV map {uv_map!r} of object {obj.name!r}"
     if not with_uvs:
         raise NormalBakeError(no_tile_problem(obj.name, uv_map, uvs))
+    try:
+        tiles = _chosen_tiles(output, tiles, with_uvs, where, empty_tiles)
+    except NormalBakeError as err:
+        err.outside = outside
+        raise
+    return uv_map, tiles, with_uvs, warnings, outside
+
+
+def _chosen_tiles(output, tiles, with_uvs, where, empty_tiles):
+    """The tiles to bake of a layout with UVs in tiles `with_uvs`: those asked, or every one
+    for an output with <UDIM>, or tile 1001 alone for a single image."""
     udim = UDIM_TOKEN in Path(output).name
     if tiles:
         tiles = sorted({int(t) for t in tiles})
@@ -410,7 +432,7 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
                                   f"{UDIM_TOKEN} in the name (one file per tile), or ask for "
                                   f"tile 1001 alone")
         tiles = [UDIM_FIRST]
-    return uv_map, tiles, with_uvs, warnings, outside
+    return tiles
 
 
 def bake_normal_tiles(obj, output, space="tangent", resolution=DEFAULT_RESOLUTION, uv_map=None,

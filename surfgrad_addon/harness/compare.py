@@ -64,7 +64,7 @@ from .kernel_warm_up import load_kernels
 # EXCLUSION_REASONS and CONTESTED (texel_report's) named here too for the tests that read them
 # as compare's (tests/test_bake_compare.py, tests/test_real_assets.py).
 from .texel_report import CONTESTED, EXCLUSION_REASONS  # noqa: F401
-from .texel_report import ErrorImage, compare_tile, merge
+from .texel_report import ErrorImage, compare_tile, merge, sparse_warning
 
 DETAIL_UV = "Detail"
 
@@ -526,7 +526,9 @@ def compare_graph(inp, obj, graph, reference, resolution, log=None, tiles=None, 
                             backfacing_warning(mesh, report),
                             grazing_warning(mesh, report),
                             degenerate_warning(mesh, degenerate, degenerate_texels),
-                            unsure_warning(mesh, unsure, unsure_texels, facts.line)] if w]
+                            unsure_warning(mesh, unsure, unsure_texels, facts.line),
+                            sparse_warning(obj.name, report["texels_compared"], resolution,
+                                           RESOLUTION_RANGE[1])] if w]
     for w in warnings:
         if log:
             log(f"warning: {w}")

@@ -173,3 +173,26 @@ def merge(tile_reports):
                  {k: report[k] for k in ("mean_deg", "p99_deg", "max_deg")})
         del t["_sums"]
     return report
+
+
+# Below this many compared texels a compare says little of the surface: its p99 is their
+# max, and a mistake that shows on part of the surface only (a triplanar plane's axes
+# swapped: p99 0.0095 on the 9 texels of a 0.05-wide island at 64^2, 0.79 on its 144 at
+# 256^2) can miss every one of them (red team 59b).
+SPARSE_TEXELS = 100
+
+
+def sparse_warning(name, compared, resolution, largest):
+    """None, or the warning that only `compared` texels of object `name` were compared at
+    resolution^2, with the resolution (a power of two, at most `largest`) that would give
+    about SPARSE_TEXELS (texels grow with its square)."""
+    if compared >= SPARSE_TEXELS:
+        return None
+    wanted = resolution * np.sqrt(SPARSE_TEXELS / max(int(compared), 1))
+    needed = int(min(largest, 2 ** int(np.ceil(np.log2(wanted)))))
+    more = (f"compare again at --resolution {needed}" if needed > resolution else
+            "its UV islands are too small for any resolution compare takes: scale them up "
+            "in UV space for the compare")
+    return (f"only {compared} texel(s) of {name!r} were compared at {resolution}^2: too few "
+            f"to judge the method on its surface, where a mistake on its other parts goes "
+            f"unseen; {more}")
