@@ -4,21 +4,22 @@ surfgrad_addon/reference/ or harness/ (a few edit both twins, numba and numpy, t
 the numpy-tier files that cover those modules (test_listings, _sampling, _compiled_sampling,
 _compiled_kernels, _compare_kernels, _noise, _decal_shapes, _raster, _faults_reference37,
 _gpu_texture_filter, _gpu_texture_unit, _fast_reference, _compositing_and_baselines,
-_height_blend; for compare's file read test_bake_compare, _bake_targets, _faults_images34)
-were run with it. 71 mutants: 59 caught by the existing tests, 9 survived (caught here), 3
-equivalent (below). No mutant showed a bug in the current code. The survivors, each now
-caught here (an independent expectation: a hand-worked texel, a closed-form plane, the
-listing's own definition):
+_height_blend; for compare's file read and tiles test_bake_compare, _bake_targets,
+_faults_images34, _faults_compare) were run with it. 75 mutants: 61 caught by the existing
+tests, 11 survived (caught here), 3 equivalent (below). No mutant showed a bug in the
+current code. The survivors, each now caught here (an independent expectation: a
+hand-worked texel, a closed-form plane, the listing's own definition):
 
 1. Listing 5's FLT_EPSILON at 1.19e-4 instead of 2^-23: nothing failed. At n.v = 1e-6 the
-   surface gradient was (-1e4, 0, 0.1) against the exact n - v / k = (-1e6, 0, 0).
+   surface gradient was (-8389, 0, 0) against the exact n - v / k = (-1e6, 0, 0).
 2. Listing 6's determinant floor (DET_EPSILON) at 1.19e-7 instead of 1.19e-15: nothing failed,
    yet a texel's det is h^2 (h the texel step): a 1 cm object at 64^2 has det 2.4e-8, and its
    height map's surface gradient came out 0.205 of the slope (5.7 deg of tilt read as 1.2).
 3. The listings' sign (`x < 0 ? -1 : 1`) counting zero as negative: nothing failed. Listing 4
    at det = 0 then turned t: (-2, 1, 0) for the hand-worked (2, -1, 0).
 4. Texel steps dP/ds / H, dP/dt / W (width and height swapped): nothing failed, every test
-   bakes square. A 64 x 32 bake's height ramp then gave half its slope (0.0005 for 0.001).
+   bakes square. A height ramp then gave half its slope on a 64 x 32 bake (0.00025 for
+   0.0005) and twice it on a 32 x 64 one (0.2 for 0.1).
 5. compare's backfacing bar (BACKFACING_DOT) at 0.3 instead of 1e-4: nothing failed; every
    compared texel whose shading normal was over 72.5 deg from its face was left out, wrong
    or not (a 90 deg error at 80 deg of smoothing: excluded). Now measured, 90 deg.
@@ -29,6 +30,10 @@ listing's own definition):
 7. Degenerate UV triangles at det <= 1e-6 of the edges' size (for 1e-14): nothing failed; a
    UV needle (0, 0), (1, 0), (1, 1e-7) lost its derivatives (zero), hand-worked (1, 0, 0),
    (0, 1000, 0).
+8. The report over several UDIM tiles: its p99 / max over the first tile's errors only, or
+   each tile's own figures replaced by the merged ones: nothing failed (the only multi-tile
+   compare test has a correct group, alike on both tiles). Two tiles 0.01 and 5 deg off
+   reported p99 0.01; now the union's p99 5 and each tile's own.
 Left as equivalent: Listing 5's facing-away branch at n.v < 0 instead of < FLT_EPSILON (the
 two branches agree within 1e-7 rad there); compare's float images not marked Non-Color, or
 marked Linear Rec.709, in a file switched to Linear Rec.2020 in-process (5.2: Cycles did not
@@ -225,3 +230,31 @@ def test_a_correct_group_is_within_the_bar_on_a_users_8_bit_png(tmp_path):
     # could not pass by being blind to it.
     assert 5.0 < report["tilt_mean_deg"] < 40.0, report
 
+
+
+# 6. The report over several UDIM tiles ------------------------------------------------------------
+
+def _tile(number, err):
+    from surfgrad_addon.harness import texel_report as TR
+    sums = dict.fromkeys(("tilt_bake", "tilt_ref", *COUNTS), 0)
+    sums.update(compared=len(err), both=len(err), finite_unit=len(err),
+                finite_unit_all=len(err), backfacing_triangles=set(), grazing_triangles=set())
+    return {"tile": number, "texels_covered": len(err), "texels_compared": len(err),
+            "texels_contested": 0, "contested_max_deg": None, "_err": np.asarray(err, float),
+            "_sums": sums, "excluded": {name: 0 for name, _ in
+                                        list(TR.EXCLUSION_REASONS.values())[:3]}}
+
+
+def test_the_report_over_tiles_holds_every_tiles_errors():
+    """Two tiles, 100 texels each: 1001 all 0.01 deg off, 1002 all 5 deg off (a group wrong
+    on the second tile only). Over the 200 errors (hand-worked): mean 2.505, p99 5, max 5, and
+    tile 1002's own p99 5. A report of the first tile's errors alone (p99 0.01) would call
+    the group right."""
+    from surfgrad_addon.harness import texel_report as TR
+    tiles = [_tile(1001, [0.01] * 100), _tile(1002, [5.0] * 100)]
+    report = TR.merge(tiles)
+    assert report["texels_compared"] == 200
+    assert report["mean_deg"] == pytest.approx(2.505, rel=1e-12)
+    assert report["p99_deg"] == pytest.approx(5.0, rel=1e-12)
+    assert report["max_deg"] == pytest.approx(5.0, rel=1e-12)
+    assert [t["p99_deg"] for t in tiles] == [pytest.approx(0.01), pytest.approx(5.0)]
