@@ -7,8 +7,9 @@ _gpu_texture_filter, _gpu_texture_unit, _fast_reference, _compositing_and_baseli
 _height_blend, _method_registry, _faults_reads53a; for compare's file read and tiles
 test_bake_compare, _bake_targets, _faults_images34, _faults_compare) were run with it.
 80 mutants: 66 caught by the existing tests, 11 survived (caught here), 3 equivalent (below).
-No mutant showed a bug in the current code. The survivors, each now caught here (an independent expectation: a
-hand-worked texel, a closed-form plane, the listing's own definition):
+No mutant showed a bug in the current code. The survivors, each now caught here (an
+independent expectation: a hand-worked texel, a closed-form plane, the listing's own
+definition):
 
 1. Listing 5's FLT_EPSILON at 1.19e-4 instead of 2^-23: nothing failed. At n.v = 1e-6 the
    surface gradient was (-8389, 0, 0) against the exact n - v / k = (-1e6, 0, 0).
