@@ -28,6 +28,24 @@ tests run on every line).
    puts with 'i', as NTFS's table does): refused on submission naming both objects; with
    {uv}, manifests apart.
 
+3. The output folder removed or renamed while a batch ran (a TD's clean-up of a folder a farm
+   job still writes, a share unmounted): where it went between a worker putting a map in place
+   and the batch reading the map back for its hash, the FileNotFoundError ended the thread
+   serving that worker with a raw traceback ("Exception in thread ... FileNotFoundError: ...
+   maps/Obj1.png"); the asset was left with no status in the manifest and counted nowhere
+   (8 assets, --workers 2: "6 baked, 0 skipped, 1 failed", exit 1); with --workers 0 the whole
+   batch ended in the traceback. Now that asset fails (kind "output") naming the map, what
+   happened and the fix; the others bake on (the folder made again), exit 1 (batch/run.py
+   _read_back). A rerun bakes the missing maps (as before).
+
+4. A batch killed with SIGKILL while its workers baked: a worker learns of it by its parent
+   going (watch_parent: SIGTERM, its folder removed) or by a broken pipe on its next line
+   (exit 141), and the second way left its empty surfgrad-worker-* folder in $TMPDIR: the
+   folder's clean-up was registered inside the stop's block and gone by the time the stop
+   ran. Measured (5.2, 8 assets, --workers 2, SIGKILL as the first map appeared): 7 of 8 runs
+   left one; now 0 of 8 (worker_main.serve registers it outside). (Round 30b fixed the idle
+   worker's case.)
+
 Probed and fine (not pinned here): two `bake-normal-map` runs into one output at once
 (different assets, no --overwrite, 3 rounds): one exit 0 with its own map, the other exit 2
 "exists", no temporary file left; with --overwrite both exit 0, the later map stays (each
@@ -37,9 +55,19 @@ refused, exit 2, "in use by another bake-batch run"; with their own --manifest a
 every map baked. SIGINT/SIGTERM to bake-batch --workers 2 at its start, during the scan (50 ms,
 0.5 s, 1 s after its workers started), during the bakes (after the 1st and 4th map) and as the
 manifest is written: exit 130 / 143, one line, no worker left, no temporary file or session
-folder left, nothing recorded before the first bake.
+folder left, nothing recorded before the first bake. A batch SIGKILLed mid-run (after the 1st
+map, at the manifest's write) and run again: the rerun bakes the rest and takes the killed
+run's maps as its own, exit 0, no temporary file left (round 44's pending record). The output
+folder made immutable mid-run: each later asset fails naming the folder, exit 1 (the temporary
+file of the bake under way cannot be removed from such a folder). An input .blend replaced
+(renamed over) mid-run: its map is of the new file, recorded with the old file's hash, so the
+next run bakes it again (never the reverse). A 5.2-saved .blend on 4.2: refused naming 5.2
+and the fix; on 4.5 and 5.0: baked with the warning, the map 0.0 deg from 5.2's (a Menu Switch
+is refused there: foreign_nodes.py).
 """
 
+import hashlib
+import json
 import os
 import signal
 import unicodedata
@@ -163,3 +191,102 @@ def test_flamenco_manifests_are_apart_under_full_case_folding():
     # Two names one casefold apart, such as the first finding's
     ms = _manifests(_job(["Straße", "STRASSE"], "/p/maps/{object}_{uv}.png"))
     assert ms == ["/p/m/Straße-1001.json", "/p/m/STRASSE_2-1001.json"], ms
+
+
+# 3. The output folder removed while a batch runs ---------------------------------------------
+
+# A batch of two assets (--workers 0) whose output folder is renamed away (a TD's clean-up, a
+# share unmounted) right after the first bake put its map in place: between the bake and the
+# batch reading the map back. Prints the exit code and the manifest as JSON lines.
+FOLDER_GONE = """
+import json, os, sys
+from surfgrad_addon.addon import commands
+from surfgrad_addon.addon.batch import workers
+real, moved = workers.run_request, []
+
+def run_request(req, **kw):
+    reply = real(req, **kw)
+    if req["op"] == "bake" and reply.get("status") == "ok" and not moved:
+        os.rename(sys.argv[2], sys.argv[2] + ".gone")
+        moved.append(req["object"])
+    return reply
+
+workers.run_request = run_request
+code = commands.execute(["bake-batch", *sys.argv[3:], "--output", sys.argv[2] + "/{object}.png",
+                         "--resolution", "%d", "--samples", "1", "--workers", "0"])
+print(json.dumps({"code": code, "moved": moved}))
+print(json.dumps(json.load(open(os.path.join(sys.argv[2], "surfgrad-bake-manifest.json")))))
+""" % SIZE
+
+
+@pytest.fixture(scope="module")
+def two_assets(tmp_path_factory):
+    pytest.importorskip("bpy")
+    folder = tmp_path_factory.mktemp("two")
+    out = run_python(["-c", "import sys; from surfgrad_addon.harness import batch_assets as BA\n"
+                      "for i, name in enumerate(('Rock', 'Tree')):\n"
+                      "    BA.write_asset(f'{sys.argv[1]}/{name.lower()}.blend', (name,),"
+                      f" tiles=(1001,), image_size={SIZE}, seed=i)", folder])
+    assert out.returncode == 0, out.stderr
+    return folder / "rock.blend", folder / "tree.blend"
+
+
+def test_a_map_gone_after_its_bake_fails_its_asset_by_name(two_assets, tmp_path):
+    maps = tmp_path / "maps"
+    out = run_python(["-c", FOLDER_GONE, "x", maps, *two_assets], timeout=240)
+    assert "Traceback" not in out.stderr, out.stderr[-2000:]
+    lines = out.stdout.strip().splitlines()
+    ran, manifest = json.loads(lines[-2]), json.loads(lines[-1])
+    gone = ran["moved"][0]
+    other = ({"Rock", "Tree"} - {gone}).pop()
+    assert ran["code"] == 1, (ran, out.stderr[-1500:])
+    # The map that was put in place and then went: failed, naming it and the fix.
+    (failed,) = [e for e in manifest["assets"].values() if e["object"] == gone]
+    assert failed["status"] == "failed", failed
+    assert (f"the map {maps / gone}.png was baked and put in place, then could not be read "
+            "back (No such file or directory)") in failed["error"]
+    assert "run the batch again" in failed["error"] and failed["error"] in out.stderr
+    assert "files" not in failed or failed["files"] == {}
+    # The other asset baked into the folder made again, recorded with its map's hash.
+    (baked,) = [e for e in manifest["assets"].values() if e["object"] == other]
+    assert baked["status"] == "baked", baked
+    assert baked["files"]["1001"]["sha256"] == hashlib.sha256(
+        (maps / f"{other}.png").read_bytes()).hexdigest()
+    assert (maps.parent / "maps.gone" / f"{gone}.png").is_file()
+    assert "1 baked, 0 skipped, 1 failed" in out.stdout + out.stderr
+
+
+# 4. A busy worker whose batch went ----------------------------------------------------------
+
+# A worker as the batch starts one (its own surfgrad-worker-* TMPDIR), whose reader goes (the
+# batch killed with SIGKILL: its end of the worker's output closes) while it has a request:
+# its next line meets a broken pipe. The batch stays alive here, so the worker's watch of its
+# parent (the other way it learns of a killed batch) does not fire first.
+READER_GONE = """
+import json, os, subprocess, sys, tempfile
+from surfgrad_addon.addon.batch import workers
+from surfgrad_addon.addon.batch.worker_main import OWN_TEMPDIR, TEMPDIR_PREFIX
+folder = tempfile.mkdtemp(prefix=TEMPDIR_PREFIX, dir=sys.argv[1])
+env = dict(os.environ, TMPDIR=folder, TEMP=folder, TMP=folder, **{OWN_TEMPDIR: folder})
+p = subprocess.Popen(workers.worker_command(), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                     stderr=subprocess.STDOUT, text=True, env=env)
+for line in p.stdout:
+    if '"ready"' in line:
+        break
+p.stdout.close()
+p.stdin.write(json.dumps({"op": "scan", "file": sys.argv[2], "blend": sys.argv[2],
+                          "timeout": 120, "objects": [], "collections": []}) + "\\n")
+p.stdin.flush()
+print(json.dumps({"code": p.wait(120), "left": os.path.exists(folder)}))
+"""
+
+
+def test_a_worker_whose_reader_went_removes_its_temp_folder(rock, tmp_path):
+    """Before: exit 141 and its empty surfgrad-worker-* folder stayed in $TMPDIR (a batch
+    SIGKILLed while 2 workers baked: 7 of 8 runs left one); Blender's folder in it went."""
+    out = run_python(["-c", READER_GONE, tmp_path, rock], timeout=240)
+    assert out.returncode == 0, out.stderr[-1500:]
+    ran = json.loads(out.stdout.strip().splitlines()[-1])
+    assert ran["code"] == 141, ran                  # as a SIGPIPE would (interrupts.py)
+    assert ran["left"] is False, ran
+    assert sorted(os.listdir(tmp_path)) == []
