@@ -62,7 +62,7 @@ folder made immutable mid-run: each later asset fails naming the folder, exit 1 
 file of the bake under way cannot be removed from such a folder). An input .blend replaced
 (renamed over) mid-run: its map is of the new file, recorded with the old file's hash, so the
 next run bakes it again (never the reverse). A 5.2-saved .blend on 4.2: refused naming 5.2
-and the fix; on 4.5 and 5.0: baked with the warning, the map 0.0 deg from 5.2's (a Menu Switch
+and the fix; on 4.5 and 5.0: baked with the warning (4.5: the map 0.0 deg from 5.2's; a Menu Switch
 is refused there: foreign_nodes.py).
 """
 
