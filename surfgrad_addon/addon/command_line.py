@@ -164,8 +164,11 @@ def leave(code):
     numba's type system and loaded kernels: 0.2 s of a 2048^2 compare's exit, 0.1 s of a
     bake's. Nothing of ours needs them: a command has written and closed its files before it
     returns, and weakref.finalize hooks (temporary folders) still run at exit. Call it only
-    where the process ends next (never in a test's process, which goes on)."""
+    where the process ends next (never in a test's process, which goes on).
+    The stop signals are ignored from here on (interrupts.ignore_at_exit)."""
     import gc
+    from . import interrupts
+    interrupts.ignore_at_exit()
     gc.freeze()
     return code
 

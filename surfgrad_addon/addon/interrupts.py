@@ -225,6 +225,22 @@ def stop(signum):
     os._exit(exit_code(signum))
 
 
+def ignore_at_exit():
+    """For a process whose command has ended (its files written, its stop gone) and which
+    exits next: SIGINT, SIGTERM and the others are ignored. Their default action ended it
+    during Python's and Blender's exit (about 50 ms), by the signal (exit 143, no line), and
+    left Blender's session folder ($TMPDIR/blender_XXXXXX) in about half of such runs, its
+    removal at exit never reached: a farm's cancel that comes as a task ends. The process
+    now ends with its command's code. Only in the main thread (elsewhere: as before)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for s in SIGNALS + OTHER_SIGNALS:
+        try:
+            signal.signal(s, signal.SIG_IGN)
+        except (OSError, ValueError):             # (one the platform does not let us set)
+            pass
+
+
 def remove_blender_tempdir():
     """os._exit skips Blender's own exit, which removes its session folder
     ($TMPDIR/blender_XXXXXX, bpy.app.tempdir): remove it here, but only a blender_* folder

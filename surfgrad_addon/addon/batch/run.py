@@ -297,6 +297,8 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
             log(f"[batch] {what}: {reply['error']} - retrying once in a fresh process")
             return []
         if reply["status"] == "ok":
+            reply = _read_back(reply)
+        if reply["status"] == "ok":
             entry.pop("pending", None)
             entry.update(status="baked", tiles=reply["tiles"], uv_map=reply["uv_map"],
                          depth=reply["depth"], warnings=reply["warnings"],
@@ -304,7 +306,7 @@ def bake_batch(blends=(), output="{file}_{object}.<UDIM>.png", objects=None, col
                                                             "total_s", "cpu_s")},
                          files={**P.same_bake_files(previous["assets"].get(req["id"], {}),
                                                     entry),
-                                **{t: {"path": p, "sha256": P.sha256_file(p)}
+                                **{t: {"path": p, "sha256": reply["sha256"][t]}
                                    for t, p in reply["paths"].items()}})
             f = files[req["file"]]
             if reply["dependencies"] != f["dependencies"]:
@@ -420,3 +422,23 @@ def _note_leftovers(folder, warn):
              + (f", except {', '.join(sole[:3])}{', ...' if len(sole) > 3 else ''}: the only "
                 f"copy of a map whose name is gone, rename it back to that name (without the "
                 f"leading '.' and the '.old-...' end)" if sole else ""))
+
+
+def _read_back(reply):
+    """A bake's reply with the hashes of the maps it put in place; a failure (kind "output")
+    where one cannot be read back. The output folder removed, renamed or unmounted while the
+    batch ran (a TD's clean-up, a share gone), or another process removing the map, between
+    the worker putting it in place and this read: the FileNotFoundError ended the thread that
+    served that worker, a raw traceback, and the asset was left with no status in the
+    manifest and counted nowhere (8 assets: "6 baked, 0 skipped, 1 failed")."""
+    hashes = {}
+    for tile, path in reply["paths"].items():
+        try:
+            hashes[tile] = P.sha256_file(path)
+        except OSError as err:
+            return dict(reply, status="error", kind="output", error=(
+                f"the map {path} was baked and put in place, then could not be read back "
+                f"({err.strerror}): its folder was removed, renamed or unmounted while the "
+                f"batch ran, or another process removed or replaced it; make sure nothing "
+                f"else writes there and run the batch again"))
+    return dict(reply, sha256=hashes)

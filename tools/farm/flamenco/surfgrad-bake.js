@@ -107,7 +107,7 @@ function manifestNames(objects, tiles) {
     let safe = name.replace(/[\/\\:*?"<>|\x00-\x1f]/g, "_");
     safe = safe.replace(/^\.+/, (dots) => "_".repeat(dots.length));   // not hidden, not '..'
     let base = safe;
-    const key = (t) => `${base}-${t}`.normalize("NFC").toLowerCase();   // (and forms)
+    const key = (t) => foldName(`${base}-${t}`);
     for (let k = 2; tiles.some((t) => used.has(key(t))); k++) {
       base = `${safe}_${k}`;
     }
@@ -115,6 +115,17 @@ function manifestNames(objects, tiles) {
     names.set(name, base);
   }
   return names;
+}
+
+// A name as a file system that ignores case and Unicode's normal forms may take it: one normal
+// form, then full case folding, as bake-batch folds names (Python's casefold) and as Linux's
+// case-insensitive folders (ext4, f2fs) and APFS do: 'Straße' and 'STRASSE', 'ﬁx' and 'FIX' are
+// one name there, where toLowerCase alone keeps them apart. JavaScript has no casefold; lower,
+// upper, lower again folds the same pairs (checked against Python's casefold over all of
+// Unicode), and one more: the dotless 'ı' meets 'i' (one file on NTFS too, whose table
+// upper-cases 'ı' to 'I'), so a pair is refused rather than let through.
+function foldName(name) {
+  return name.normalize("NFC").toLowerCase().toUpperCase().toLowerCase();
 }
 
 // An object's name as bake-batch puts it in a file name (plan._safe: folder separators and
@@ -139,7 +150,7 @@ function checkOutputsApart(objects, output) {
   const seen = new Map();
   for (const name of objects) {
     const safe = output.includes("{object}") ? safeName(name) : "";
-    const key = safe.normalize("NFC").toLowerCase();
+    const key = foldName(safe);
     if (seen.has(key)) {
       const [other, otherSafe] = seen.get(key);
       const why = !output.includes("{object}") ? "" : otherSafe === safe ?
