@@ -10,10 +10,12 @@
    6 x 5 grid at 32^2, `compare --blend sculpt.blend --method normal-map` gave p99 0.266 / max
    0.338 deg, exit 0 (the same file saved in Object Mode: 0.0003 / 0.0004; the bar is p99 0.1,
    max 0.5); api compare in Sculpt Mode, or in Object Mode after a sculpt (once a compare had
-   run earlier in the session), the same. Now compare takes the object out of Sculpt Mode and
-   has the mesh's normals recomputed for the comparison, and puts Sculpt Mode back
+   run earlier in the session), the same; a steeper 8 x 6 grid (bend 1.0): p99 1.42 deg.
+   Now compare takes the object out of Sculpt Mode, has the mesh's normals recomputed for
+   the comparison, and puts Sculpt Mode back
    (addon/sculpt_normals.py): the figures are Object Mode's; the object is in Sculpt Mode
-   after, its vertices and the active object as they were.
+   after, its vertices and the active object as they were. 5.0 and 4.5 as 5.2; on 4.2
+   Cycles shades Object Mode's normals in Sculpt Mode too (pinned), so its compare was right.
 
 Probed and fine on 5.2 (api.bake_normal_map's 32^2 map texel for texel the plain file's, and
 compare normal-map within p99 0.0003 / max 0.0004 deg, every scene, view layer, object and
@@ -47,6 +49,9 @@ pytestmark = pytest.mark.tier("bake")
 
 RES = 32
 BAR_P99, BAR_MAX = 0.1, 0.5          # compare-all's bar for a correct group
+# Sculpt Mode's own vertex normals reach Cycles from 4.5 (measured: 0.3-1.4 deg); on 4.2 the
+# shading normals in Sculpt Mode are Object Mode's (within 2e-6 deg), so its compare was right.
+SCULPT_NORMALS_OWN = bpy.app.version >= (4, 5, 0)
 
 
 @pytest.fixture
@@ -83,14 +88,17 @@ def _shading_normals(obj):
 
 @pytest.mark.parametrize("nx, ny, bend", [(6, 5, 0.35), (8, 6, 1.0)])
 def test_sculpt_mode_normals_are_not_object_modes(empty_file, nx, ny, bend):
-    """The fact behind finding 1 (so the test below can fail): Cycles shades an object in
-    Sculpt Mode with other normals than in Object Mode."""
+    """The fact behind finding 1 (so the test below can fail): from 4.5 Cycles shades an
+    object in Sculpt Mode with other normals than in Object Mode; not on 4.2."""
     obj = _grid(nx, ny, bend)
     plain = _shading_normals(obj)
     _sculpt(obj)
     sculpted = _shading_normals(obj)
     deg = np.degrees(np.arccos(np.clip((plain * sculpted).sum(1), -1, 1)))
-    assert deg.max() > 0.2, deg.max()
+    if SCULPT_NORMALS_OWN:
+        assert deg.max() > 0.2, deg.max()
+    else:
+        assert deg.max() < 0.001, deg.max()
 
 
 @pytest.mark.parametrize("nx, ny, bend", [(6, 5, 0.35), (8, 6, 1.0)])

@@ -2,7 +2,7 @@
 
 Sculpt Mode keeps an object's vertex normals its own way (each the normalised sum of its faces'
 normals, where Object Mode weights them by the faces' corner angles) in the mesh's normal
-cache, and Cycles shades and bakes those: while the object is in Sculpt Mode (in a script's
+cache, and Cycles (4.5 and later) shades and bakes those: while the object is in Sculpt Mode (in a script's
 session, or a .blend saved in Sculpt Mode, which opens in it, headless too), and in Object Mode
 after it in the same session, until something moves a vertex. The mesh read for `compare`'s
 reference has the mesh's own normals, so the two disagreed (red team 59e: a bent 6 x 5 grid,
