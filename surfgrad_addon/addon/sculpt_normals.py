@@ -6,9 +6,11 @@ cache, and Cycles (4.5 and later) shades and bakes those: while the object is in
 (in a script's session, or a .blend saved in Sculpt Mode, which opens in it, headless too), and
 in Object Mode after it in the same session, until something moves a vertex. The mesh read for
 `compare`'s reference has the mesh's own normals, so the two disagreed (red team 59e: a bent 6
-x 5 grid, the correct SG Normal Map 0.27 deg p99 wrong, over the 0.1 bar). A comparison runs
-with the object out of Sculpt Mode and the normal cache recomputed; Sculpt Mode is given back
-after.
+x 5 grid, the correct SG Normal Map 0.27 deg p99 wrong, over the 0.1 bar), and a normal-map
+bake (Freeze's too) wrote another map than the same mesh's out of Sculpt Mode (2.8 deg p99 on a
+bumpy grid), which the file, reopened in Object Mode, does not render with. A comparison and a
+bake run with the object out of Sculpt Mode and the normal cache recomputed; Sculpt Mode is
+given back after.
 """
 
 from contextlib import contextmanager
