@@ -14,14 +14,15 @@
    Now compare takes the object out of Sculpt Mode, has the mesh's normals recomputed for
    the comparison, and puts Sculpt Mode back
    (addon/sculpt_normals.py): the figures are Object Mode's; the object is in Sculpt Mode
-   after, its vertices and the active object as they were. 5.0 and 4.5 as 5.2; on 4.2
-   Cycles shades Object Mode's normals in Sculpt Mode too (pinned), so its compare was right.
+   after, its vertices and the active object as they were. On 5.0 and 4.5 compare was
+   right (its reference read the same normals as the bake there; finding 2 held); on 4.2
+   Cycles shades Object Mode's normals in Sculpt Mode too (pinned), so both were right.
 2. The same normals in bake-normal-map's route (api.bake_normal_map; Freeze and bake-batch
    bake through normal_bake.bake_normal_tiles too): an object baked once, then taken into
    Sculpt Mode with no stroke, baked again (in Sculpt Mode, or back in Object Mode in the same
    session) wrote another map with exit 0: on a 6 x 5 grid with a steep bump at 32^2, p99
    2.82 / max 3.48 deg off its own earlier map in tangent space, 2.72 / 3.42 in object space
-   (5.2; the mesh unchanged, and the file, saved and reopened in Object Mode, renders with the
+   (5.2; 5.0 and 4.5: 2.82 / 3.47 and 2.72 / 3.41; the mesh unchanged, and the file, saved and reopened in Object Mode, renders with the
    earlier map's normals). Now the bake runs with addon/sculpt_normals.own_normals as compare
    does: the map is the earlier one (within 0.01 deg), the mode given back.
 
