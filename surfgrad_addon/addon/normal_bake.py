@@ -46,6 +46,7 @@ from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
 from .publish_files import publish
 from .tangent_uv import tangents_of
+from .sculpt_normals import own_normals
 from .scene_state import NO_TEXTURE_LIMIT, SCENE_SETTINGS, restored, without_render_effects
 
 SPACES = {"tangent": "TANGENT", "object": "OBJECT"}
@@ -528,7 +529,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
             added.append((tree, node, tree.nodes.active))
             tree.nodes.active = node
         with restored(scene, settings), visible_for_bake(obj, bpy.context.view_layer), \
-                own_materials(bpy.context.view_layer), \
+                own_normals(obj), own_materials(bpy.context.view_layer), \
                 _stand_ins(obj, materials, copies or {}), \
                 tangents_of(obj, uv_map, space), \
                 precise_far(obj, log):           # far out: as precise as at the origin

@@ -45,6 +45,7 @@ from ..addon.normal_bake import (blend_relative_problem, cycles_problem, resolut
 from ..addon.number_options import COMPARE_RESOLUTION_RANGE
 from ..addon.object_names import missing_object_problem
 from ..addon.precise_bake import precise_far
+from ..addon.sculpt_normals import own_normals
 from ..reference import image_sampling as IS
 from ..reference import uv_overlap as UV
 from ..reference import methods as M
@@ -270,7 +271,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
         # A GPU bake's Linear lookups use the texture unit's 8-bit weights: so does its
         # reference (without, every normal-map method is ~0.2 degrees p99 off on the GPU).
         gpu = device == "GPU"
-        with m.scene(obj, inp), precise_far(obj, log), \
+        with own_normals(obj), m.scene(obj, inp), precise_far(obj, log), \
                 (IS.gpu_texture_filter() if gpu else nullcontext()):
             try:
                 report, heat = compare_graph(inp, obj, graph, m.reference, resolution, log=log,
