@@ -68,6 +68,37 @@ def file_facts(path, probe=None):
     return _pixels.get(("file", str(path)), lambda: _probe_read(path, probe))
 
 
+ALPHA_BELOW = 0.999             # a colour times this is bent under 0.1 degrees
+
+
+def alpha_facts(image):
+    """(texels, how many have alpha below ALPHA_BELOW, the lowest alpha) of `image`'s pixels
+    (byte or float; its first tile, for a tiled one), or None where it holds none. Freed
+    again if this loads it, as pixel_facts. Raises PixelsTooLarge as it does."""
+    return _pixels.get(("alpha", image.as_pointer()), lambda: _read_alpha(image))
+
+
+def _read_alpha(image):
+    had_data = image.has_data
+    try:
+        w, h = image.size
+        channels = image.channels
+        if w * h == 0 or channels < 4:
+            return None
+        try:
+            px = np.empty(w * h * channels, dtype=np.float32)
+            image.pixels.foreach_get(px)
+        except MemoryError:
+            raise PixelsTooLarge(image.name, w * h * channels * 4) from None
+    finally:
+        if not had_data and image.has_data:
+            image.buffers_free()
+    alpha = px[channels - 1::channels]
+    low = alpha < ALPHA_BELOW       # (NaN is refused by image_checks)
+    count = int(np.count_nonzero(low))
+    return w * h, count, float(alpha[low].min()) if count else 1.0
+
+
 def _probe_read(path, probe):
     import bpy
     if probe is not None:

@@ -30,7 +30,7 @@ now, and the warning names it.
 
 import re
 
-from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
+from .float_pixels import PixelsTooLarge, alpha_facts, file_facts, pixel_facts
 from .image_checks import (data_key, image_files, objects_nodes, packed_tile_files,
                            packed_tiled, sampler_textures, sequence_file, textures_feeding)
 from .header_reads import path_headers
@@ -120,6 +120,14 @@ def colour_space_warnings(obj, only=None):
     out, data = [], None
     for mat, node, image, _ in normal_map_images(obj, only, through=COLOUR_MATH):
         if unconverted(image.colorspace_settings):
+            problem = premultiplied_problem(image)
+            if problem:
+                data = data or data_space()
+                text = (f"image {image.name!r}, read by {node} (material {mat.name!r}), "
+                        f"{problem}; set the image's Color Space to {data} (or its Alpha to "
+                        f"Channel Packed)")
+                if text not in out:
+                    out.append(text)
             continue
         data = data or data_space()
         text = (f"image {image.name!r} is read in colour space "
@@ -130,6 +138,27 @@ def colour_space_warnings(obj, only=None):
         if text not in out:
             out.append(text)
     return out
+
+
+def premultiplied_problem(image):
+    """What Cycles does to an image in its working space (not data) whose Alpha is Straight
+    and whose alpha is below 1 in some texels, else None: it multiplies the colour by the
+    alpha, so those normals bend (measured on every line: a 0..1 PNG normal map, alpha 0.5,
+    74 degrees off; alpha 0 texels 101), where Non-Color, or Alpha Premultiplied, Channel
+    Packed or None, reads the colour as the file holds it. An EXR loads Premultiplied."""
+    if image.colorspace_settings.is_data or image.alpha_mode != "STRAIGHT":
+        return None
+    try:
+        facts = alpha_facts(image)
+    except PixelsTooLarge:
+        return None                 # (image_checks refuses the bake for it)
+    if facts is None or not facts[1]:
+        return None
+    texels, count, lowest = facts
+    return (f"has {count} of its {texels} texels with alpha below 1 (down to {lowest:.3g}) and "
+            f"is read in colour space {image.colorspace_settings.name!r} with Alpha "
+            f"'Straight': Cycles multiplies its colour by the alpha before the node decodes "
+            f"it, so those normals bend (the bake takes them as Cycles renders them)")
 
 
 # The inputs that take a world-space normal, on shading nodes and on the SG groups (their base

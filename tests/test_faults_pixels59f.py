@@ -1,0 +1,138 @@
+"""Red team 59f: bad pixels and unusual image files read as normal maps.
+
+1. A normal map with an alpha channel below 1 (a PNG or TGA whose alpha is a mask, a coverage
+   or a packed height; alpha 0 texels whose RGB is anything) read in the working colour space
+   (Linear Rec.709, which an artist picks as "linear, so no conversion") with Alpha 'Straight'
+   (a PNG's default): Cycles multiplies the colour by the alpha before the Normal Map node or
+   SG Normal Map decodes it. Measured on 5.2 and 4.2 with 16^2 bakes of a 16 x 16 PNG (alpha
+   0.5 in the middle 8 x 8, 0 in a 4 x 4 corner), against the normals its RGB holds: the
+   Normal Map node 73.7 degrees off at alpha 0.5 and 101.2 at alpha 0 (up to 106.1), SG
+   Normal Map 68.1 and 79.2 (up to 98.5); exit 0 and no word, since the colour-space warning
+   takes the working space as unconverted (true of colour, not of alpha). The same for an EXR
+   set to Straight (it loads Premultiplied: fine). Non-Color, or Alpha Premultiplied, Channel
+   Packed or None, reads the RGB as the file holds it (0.12 degrees, the PNG's rounding).
+   Now warned (stderr, so the api's, and Freeze's list: normal_map_checks.premultiplied_problem),
+   naming the image, the node, the count of texels, the lowest alpha and the fix; an RGBA
+   map whose alpha is all 1 is not warned about.
+
+Probed and fine (16^2 bakes through a Normal Map node, Non-Color, each against the RGB
+Pillow decodes from the file: at most 0.04 degrees, exit 0, no warning): palette PNGs (8-bit,
+4-bit, with a transparent entry), a 16-bit RGB PNG, a progressive JPEG, a CMYK JPEG, TGA
+(plain and RLE), BMP, TIFF (plain, deflate, RGBA) and lossless WebP; an RGBA PNG or EXR
+whose alpha is below 1 read as Non-Color under every Alpha mode.
+"""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+Image = pytest.importorskip("PIL.Image")
+
+from surfgrad_addon.addon import exit_codes, normal_map_checks  # noqa: E402
+from test_faults_images33 import _bake  # noqa: E402
+from test_faults_pipeline_leftovers import _normal_texels, _scene, _write_image  # noqa: E402
+
+pytestmark = pytest.mark.tier("bake")
+WARNING = ("has 80 of its 256 texels with alpha below 1 (down to 0) and is read in colour "
+           "space 'Linear Rec.709' with Alpha 'Straight': Cycles multiplies its colour by the "
+           "alpha")
+FIX = "set the image's Color Space to Non-Color (or its Alpha to Channel Packed)"
+
+
+def _alpha():
+    """16 x 16 alpha: 0.5 in the middle 8 x 8, 0 in a 4 x 4 corner, else 1 (80 below 1)."""
+    a = np.ones((16, 16))
+    a[4:12, 4:12] = 0.5
+    a[0:4, 0:4] = 0.0
+    return a
+
+
+def _png(path, alpha):
+    """An RGBA PNG written by Pillow (not Blender), and the unit normals its RGB holds (rows
+    bottom up, as Blender's pixels)."""
+    rgba = _normal_texels(16)
+    rgba[..., 3] = alpha
+    rgba[0:4, 0:4, :3] = (0.9, 0.1, 0.7)        # whatever lies under alpha 0
+    u8 = np.round(rgba * 255).astype(np.uint8)
+    Image.fromarray(u8[::-1], "RGBA").save(path)
+    n = u8[..., :3] / 255.0 * 2 - 1
+    return path, n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def _baked(path):
+    img = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        px = np.asarray(img.pixels[:], np.float64).reshape(16, 16, 4)[..., :3] * 2 - 1
+    finally:
+        bpy.data.images.remove(img)
+    return px
+
+
+def _degrees(a, b):
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    return np.degrees(np.arccos(np.clip((a * b).sum(-1), -1, 1)))
+
+
+def _set(blend, **settings):
+    img = bpy.data.images["n.png"]
+    for name, value in settings.items():
+        setattr(img, name, value)
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+
+
+@pytest.mark.parametrize("via, node", [("ShaderNodeNormalMap", "Normal Map node 'Normal Map'"),
+                                       ("SG Normal Map", "SG Normal Map node 'Group'")])
+def test_a_straight_alpha_map_in_the_working_space_is_warned_about(via, node, tmp_path,
+                                                                    capsys):
+    """Before: exit 0 and no word, the alpha 0.5 texels over 60 degrees off. Now warned,
+    naming the image, the node, the count and the fix (the map is Cycles' either way)."""
+    path, expected = _png(tmp_path / "n.png", _alpha())
+    blend = _scene(tmp_path / "s.blend", path, via=via, space="Linear Rec.709")
+    _set(blend, alpha_mode="STRAIGHT")
+    rc, err = _bake(blend, tmp_path / "m.exr", capsys)
+    assert rc == exit_codes.OK, err
+    assert f"image 'n.png', read by {node} (material 'Mat'), {WARNING}" in err, err
+    assert FIX in err and err.count("with alpha below 1") == 1, err
+    off = _degrees(_baked(tmp_path / "m.exr"), expected)
+    assert off[_alpha() == 1].max() < 0.5, off           # the bake is Cycles' render:
+    assert off[8, 8] > 60, off[8, 8]                     # the alpha bends those normals
+
+
+@pytest.mark.parametrize("settings", [dict(colorspace_settings__name="Non-Color"),
+                                      dict(alpha_mode="CHANNEL_PACKED"),
+                                      dict(alpha_mode="PREMUL")])
+def test_the_fixes_read_the_file_as_it_is_and_are_not_warned_about(settings, tmp_path, capsys):
+    """Non-Color, or an Alpha mode that leaves the colour alone: every texel its RGB's
+    normal (the PNG's 8-bit rounding only), no warning."""
+    path, expected = _png(tmp_path / "n.png", _alpha())
+    blend = _scene(tmp_path / "s.blend", path, space="Linear Rec.709")
+    img = bpy.data.images["n.png"]
+    for name, value in settings.items():
+        if name == "colorspace_settings__name":
+            img.colorspace_settings.name = value
+        else:
+            setattr(img, name, value)
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    rc, err = _bake(blend, tmp_path / "m.exr", capsys)
+    assert rc == exit_codes.OK, err
+    assert "alpha below 1" not in err, err
+    assert _degrees(_baked(tmp_path / "m.exr"), expected).max() < 0.5
+
+
+def test_freeze_warns_the_same_and_an_opaque_alpha_is_not_warned_about(tmp_path):
+    """The add-on's list (Freeze reports it) has the line for alpha below 1; none for an RGBA
+    map whose alpha is all 1, nor for an EXR with alpha below 1 (it loads Premultiplied)."""
+    for alpha, expected in ((_alpha(), [WARNING]), (np.ones((16, 16)), [])):
+        path, _ = _png(tmp_path / "n.png", alpha)
+        _scene(tmp_path / "s.blend", path, via="SG Normal Map", space="Linear Rec.709")
+        bpy.data.images["n.png"].alpha_mode = "STRAIGHT"
+        found = [w for w in normal_map_checks.input_warnings(bpy.data.objects["Plane"])
+                 if "alpha below 1" in w]
+        assert [WARNING for w in found if WARNING in w and FIX in w] == expected, found
+    rgba = _normal_texels(16)
+    rgba[..., 3] = _alpha()
+    _write_image(tmp_path / "n.exr", rgba, "OPEN_EXR", float_buffer=True, color_depth="32")
+    _scene(tmp_path / "s.blend", tmp_path / "n.exr", space="Linear Rec.709")
+    assert bpy.data.images["n.exr"].alpha_mode == "PREMUL"
+    assert not [w for w in normal_map_checks.input_warnings(bpy.data.objects["Plane"])
+                if "alpha below 1" in w]
