@@ -29,6 +29,7 @@ bpy = pytest.importorskip("bpy")
 Image = pytest.importorskip("PIL.Image")
 
 from surfgrad_addon.addon import exit_codes, normal_map_checks  # noqa: E402
+from surfgrad_addon.reference.blender_lines import facts_for  # noqa: E402
 from test_faults_images33 import _bake  # noqa: E402
 from test_faults_pipeline_leftovers import _normal_texels, _scene, _write_image  # noqa: E402
 
@@ -99,8 +100,7 @@ def test_a_straight_alpha_map_in_the_working_space_is_warned_about(via, node, tm
 
 
 @pytest.mark.parametrize("settings", [dict(colorspace_settings__name="Non-Color"),
-                                      dict(alpha_mode="CHANNEL_PACKED"),
-                                      dict(alpha_mode="PREMUL")])
+                                      dict(alpha_mode="CHANNEL_PACKED")])
 def test_the_fixes_read_the_file_as_it_is_and_are_not_warned_about(settings, tmp_path, capsys):
     """Non-Color, or an Alpha mode that leaves the colour alone: every texel its RGB's
     normal (the PNG's 8-bit rounding only), no warning."""
@@ -136,3 +136,77 @@ def test_freeze_warns_the_same_and_an_opaque_alpha_is_not_warned_about(tmp_path)
     assert bpy.data.images["n.exr"].alpha_mode == "PREMUL"
     assert not [w for w in normal_map_checks.input_warnings(bpy.data.objects["Plane"])
                 if "alpha below 1" in w]
+
+
+@pytest.mark.parametrize("kind, mode", [("png", "STRAIGHT"), ("png", "PREMUL"),
+                                        ("exr", "STRAIGHT"), ("exr", "PREMUL")])
+def test_which_alpha_modes_multiply_is_the_line_fact_and_is_warned_so(kind, mode, tmp_path,
+                                                                      capsys):
+    """LineFacts.byte_alpha_multiplied / float_alpha_multiplied: 5.2 multiplies a PNG's and
+    an EXR's colour by alpha under Straight only; up to 5.0 a PNG's under Straight and
+    Premultiplied, an EXR's never. Measured against the RGB the file holds (the alpha 0.5
+    texel: 73.7 degrees where multiplied), and the warning is given exactly there."""
+    if kind == "png":
+        path, expected = _png(tmp_path / "n.png", _alpha())
+    else:
+        rgba = _normal_texels(16)
+        rgba[..., 3] = _alpha()
+        path = tmp_path / "n.exr"
+        _write_image(path, rgba, "OPEN_EXR", float_buffer=True, color_depth="32")
+        expected = (rgba[..., :3] * 2 - 1) / np.linalg.norm(rgba[..., :3] * 2 - 1, axis=-1,
+                                                           keepdims=True)
+    blend = _scene(tmp_path / "s.blend", path, space="Linear Rec.709")
+    bpy.data.images[path.name].alpha_mode = mode
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), compress=False)
+    line = facts_for(bpy.app.version)
+    multiplied = mode in (line.byte_alpha_multiplied if kind == "png" else
+                          line.float_alpha_multiplied)
+    rc, err = _bake(blend, tmp_path / "m.exr", capsys)
+    assert rc == exit_codes.OK, err
+    off = _degrees(_baked(tmp_path / "m.exr"), expected)
+    assert (off[8, 8] > 60) == multiplied and off[_alpha() == 1].max() < 0.5, off[8, 8]
+    assert ("with alpha below 1" in err) == multiplied, err
+
+
+def _blue_png(path, blue):
+    """A 16 x 16 RGB PNG whose R and G hold _normal_texels' x and y and whose blue is `blue`
+    (0: a two-channel map saved without its blue); the normals R and G mean."""
+    rgb = np.round(_normal_texels(16)[..., :3] * 255).astype(np.uint8)
+    rgb[..., 2] = blue
+    Image.fromarray(rgb[::-1], "RGB").save(path)
+    xy = rgb[..., :2] / 255.0 * 2 - 1
+    return path, np.concatenate([xy, np.sqrt(1 - (xy * xy).sum(-1))[..., None]], -1)
+
+
+BLUE = ("has 256 of its 256 texels with blue at or below 0.5: their normals point along or "
+        "into the surface")
+BLUE_FIX = "rebuild blue as 0.5 + 0.5 * sqrt(1 - x^2 - y^2)"
+
+
+def test_a_two_channel_map_saved_with_blue_zero_is_warned_about(tmp_path, capsys):
+    """Before: exit 0 and no word; the Normal Map node baked every normal into the surface
+    (136 degrees off on average from what R and G mean). Now warned, naming the image, the
+    node, the count and the fix; Freeze's list the same."""
+    path, meant = _blue_png(tmp_path / "rg.png", 0)
+    blend = _scene(tmp_path / "s.blend", path)
+    rc, err = _bake(blend, tmp_path / "m.exr", capsys)
+    assert rc == exit_codes.OK, err
+    assert f"image 'rg.png', read by Normal Map node 'Normal Map' (material 'Mat'), {BLUE}" \
+        in err and BLUE_FIX in err, err
+    baked = _baked(tmp_path / "m.exr")
+    assert baked[..., 2].max() < -0.8                   # into the surface, as Cycles renders
+    assert _degrees(baked, meant).mean() > 120
+    found = normal_map_checks.input_warnings(bpy.data.objects["Plane"])
+    assert [w for w in found if BLUE in w and BLUE_FIX in w], found
+
+
+def test_a_real_map_and_a_black_background_are_not_warned_about_for_blue(tmp_path, capsys):
+    """The same map with its blue (z = sqrt(1 - x^2 - y^2)), and with a black quarter (a
+    bake's untouched background, never on the UVs a material reads): no blue warning."""
+    path, meant = _blue_png(tmp_path / "n.png", 0)
+    rgb = np.round((meant * 0.5 + 0.5) * 255).astype(np.uint8)
+    rgb[:8, :8] = 0
+    Image.fromarray(rgb[::-1], "RGB").save(path)
+    blend = _scene(tmp_path / "s.blend", path)
+    rc, err = _bake(blend, tmp_path / "m.exr", capsys)
+    assert rc == exit_codes.OK and "blue at or below" not in err, err

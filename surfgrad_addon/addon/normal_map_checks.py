@@ -30,7 +30,7 @@ now, and the warning names it.
 
 import re
 
-from .float_pixels import PixelsTooLarge, alpha_facts, file_facts, pixel_facts
+from .float_pixels import PixelsTooLarge, colour_facts, file_facts, pixel_facts
 from .image_checks import (data_key, image_files, objects_nodes, packed_tile_files,
                            packed_tiled, sampler_textures, sequence_file, textures_feeding)
 from .header_reads import path_headers
@@ -141,24 +141,58 @@ def colour_space_warnings(obj, only=None):
 
 
 def premultiplied_problem(image):
-    """What Cycles does to an image in its working space (not data) whose Alpha is Straight
-    and whose alpha is below 1 in some texels, else None: it multiplies the colour by the
-    alpha, so those normals bend (measured on every line: a 0..1 PNG normal map, alpha 0.5,
-    74 degrees off; alpha 0 texels 101), where Non-Color, or Alpha Premultiplied, Channel
-    Packed or None, reads the colour as the file holds it. An EXR loads Premultiplied."""
-    if image.colorspace_settings.is_data or image.alpha_mode != "STRAIGHT":
+    """What Cycles does to an image in its working space (not data) whose alpha is below 1
+    in some texels, under an Alpha mode that LineFacts.byte_alpha_multiplied (or
+    float_alpha_multiplied) names, else None: it multiplies the colour by the alpha, so those
+    normals bend (measured on every line: a 0..1 PNG normal map, Straight, alpha 0.5, 74
+    degrees off; alpha 0 texels 101), where Non-Color, or Alpha Channel Packed or None, reads
+    the colour as the file holds it. An EXR loads Premultiplied, which no line multiplies."""
+    import bpy
+    from ..reference.blender_lines import facts_for
+    line = facts_for(bpy.app.version)
+    if image.colorspace_settings.is_data or image.alpha_mode not in (
+            line.float_alpha_multiplied + line.byte_alpha_multiplied):
         return None
+    facts = _colour_facts(image)        # (is_float loads an image: this frees it again)
+    if facts is None or not facts.alpha_below or image.alpha_mode not in (
+            line.float_alpha_multiplied if facts.is_float else line.byte_alpha_multiplied):
+        return None
+    count, texels, lowest = facts.alpha_below, facts.texels, facts.lowest_alpha
+    mode = _ALPHA_MODES.get(image.alpha_mode, image.alpha_mode)
+    return (f"has {count} of its {texels} texels with alpha below 1 (down to {lowest:.3g}) and "
+            f"is read in colour space {image.colorspace_settings.name!r} with Alpha {mode!r}: "
+            f"Cycles multiplies its colour by the alpha before the node decodes it, so those "
+            f"normals bend (the bake takes them as Cycles renders them)")
+
+
+_ALPHA_MODES = {"STRAIGHT": "Straight", "PREMUL": "Premultiplied"}
+
+
+def _colour_facts(image):
     try:
-        facts = alpha_facts(image)
+        return colour_facts(image)
     except PixelsTooLarge:
         return None                 # (image_checks refuses the bake for it)
-    if facts is None or not facts[1]:
+
+
+def blue_problem(image):
+    """What is wrong with a normal map more than NEGATIVE_SHARE of whose texels hold blue at
+    or below 0.5 (float_pixels.FLAT_BLUE), normals at or past 90 degrees from the surface's,
+    else None. A tangent-space map's normals lean out of the surface (blue above 0.5); these
+    are a two-channel (RG, BC5) map saved with blue 0 or 0.5 (measured, a 16 x 16 map tilted
+    up to 24 degrees, blue 0: the Normal Map node baked every normal into the surface, 136
+    degrees off on average from what R and G mean, exit 0, no word; blue 0.5: 66). Of the
+    image's own pixels (its first tile); black texels (a bake's untouched background) and
+    the zero vector (0.5, 0.5, 0.5) are not counted."""
+    facts = _colour_facts(image)
+    if facts is None or facts.blue_flat <= NEGATIVE_SHARE * facts.texels:
         return None
-    texels, count, lowest = facts
-    return (f"has {count} of its {texels} texels with alpha below 1 (down to {lowest:.3g}) and "
-            f"is read in colour space {image.colorspace_settings.name!r} with Alpha "
-            f"'Straight': Cycles multiplies its colour by the alpha before the node decodes "
-            f"it, so those normals bend (the bake takes them as Cycles renders them)")
+    return (f"has {facts.blue_flat} of its {facts.texels} texels with blue at or below 0.5: "
+            f"their normals point along or into the surface, which no tangent-space normal "
+            f"map holds (its blue is above 0.5), so they bake wrong (the bake takes them as "
+            f"Cycles renders them); it looks like a two-channel (RG, BC5) map saved without "
+            f"its blue: rebuild blue as 0.5 + 0.5 * sqrt(1 - x^2 - y^2), x = 2 R - 1, "
+            f"y = 2 G - 1 (or re-export the map as RGB)")
 
 
 # The inputs that take a world-space normal, on shading nodes and on the SG groups (their base
@@ -216,6 +250,11 @@ def normal_map_warnings(obj, only=None, covered=()):
             if text not in out:
                 out.append(text)
             continue
+        problem = blue_problem(image)
+        if problem:
+            text = f"image {image.name!r}, read by {node} (material {mat.name!r}), {problem}"
+            if text not in out:
+                out.append(text)
         files = own_files(image, tex, covered)
         key = (data_key(image), tuple(files))   # a library's image may share a name
         if key not in seen:
