@@ -157,9 +157,9 @@ def premultiplied_problem(image):
     if facts is None or not facts.alpha_below or image.alpha_mode not in (
             line.float_alpha_multiplied if facts.is_float else line.byte_alpha_multiplied):
         return None
-    count, texels, lowest = facts.alpha_below, facts.texels, facts.lowest_alpha
     mode = _ALPHA_MODES.get(image.alpha_mode, image.alpha_mode)
-    return (f"has {count} of its {texels} texels with alpha below 1 (down to {lowest:.3g}) and "
+    return (f"has {facts.share(facts.alpha_below)} with alpha below 1 (down to "
+            f"{facts.lowest_alpha:.3g}) and "
             f"is read in colour space {image.colorspace_settings.name!r} with Alpha {mode!r}: "
             f"Cycles multiplies its colour by the alpha before the node decodes it, so those "
             f"normals bend (the bake takes them as Cycles renders them)")
@@ -187,7 +187,7 @@ def blue_problem(image):
     facts = _colour_facts(image)
     if facts is None or facts.blue_flat <= NEGATIVE_SHARE * facts.texels:
         return None
-    return (f"has {facts.blue_flat} of its {facts.texels} texels with blue at or below 0.5: "
+    return (f"has {facts.share(facts.blue_flat)} with blue at or below 0.5: "
             f"their normals point along or into the surface, which no tangent-space normal "
             f"map holds (its blue is above 0.5), so they bake wrong (the bake takes them as "
             f"Cycles renders them); it looks like a two-channel (RG, BC5) map saved without "
