@@ -2,24 +2,39 @@
 
 1. A normal map with an alpha channel below 1 (a PNG or TGA whose alpha is a mask, a coverage
    or a packed height; alpha 0 texels whose RGB is anything) read in the working colour space
-   (Linear Rec.709, which an artist picks as "linear, so no conversion") with Alpha 'Straight'
-   (a PNG's default): Cycles multiplies the colour by the alpha before the Normal Map node or
-   SG Normal Map decodes it. Measured on 5.2 and 4.2 with 16^2 bakes of a 16 x 16 PNG (alpha
-   0.5 in the middle 8 x 8, 0 in a 4 x 4 corner), against the normals its RGB holds: the
-   Normal Map node 73.7 degrees off at alpha 0.5 and 101.2 at alpha 0 (up to 106.1), SG
+   (Linear Rec.709, which an artist picks as "linear, so no conversion"): Cycles multiplies
+   the colour by the alpha before the Normal Map node or SG Normal Map decodes it, under
+   Straight (a PNG's default) on every line, and up to 5.0 a PNG's Premultiplied too; 5.2 an
+   EXR set to Straight too (it loads Premultiplied). Measured with 16^2 bakes of a 16 x 16 PNG
+   (alpha 0.5 in the middle 8 x 8, 0 in a 4 x 4 corner), against the normals its RGB holds:
+   the Normal Map node 73.7 degrees off at alpha 0.5 and 101.2 at alpha 0 (up to 106.1), SG
    Normal Map 68.1 and 79.2 (up to 98.5); exit 0 and no word, since the colour-space warning
-   takes the working space as unconverted (true of colour, not of alpha). The same for an EXR
-   set to Straight (it loads Premultiplied: fine). Non-Color, or Alpha Premultiplied, Channel
-   Packed or None, reads the RGB as the file holds it (0.12 degrees, the PNG's rounding).
-   Now warned (stderr, so the api's, and Freeze's list: normal_map_checks.premultiplied_problem),
-   naming the image, the node, the count of texels, the lowest alpha and the fix; an RGBA
-   map whose alpha is all 1 is not warned about.
+   took the working space as unconverted (true of colour, not of alpha). Non-Color, or Alpha
+   Channel Packed or None, reads the RGB as the file holds it (0.12 degrees, the PNG's
+   rounding). Now warned (stderr, so the api's, and Freeze's list:
+   normal_map_checks.premultiplied_problem, per line: LineFacts.byte_alpha_multiplied,
+   float_alpha_multiplied), naming the image, the node, the count, the lowest alpha and the
+   fix; an RGBA map whose alpha is all 1 is not warned about.
+2. A two-channel (RG, BC5-style) normal map saved as RGB with blue 0 (what a BC5 texture
+   converted back to PNG holds) or 0.5: exit 0, no word. Blue 0 through the Normal Map node
+   baked every normal into the surface (z -1.00 to -0.87), 136.3 degrees off on average (up
+   to 179.4) from what R and G mean; SG Normal Map (Listing 2's |z|) 2.0 (up to 5.1); blue
+   0.5, both 66.0 (up to 79.7). Now warned where more than 5% of a map's texels hold blue at
+   or below 0.5 (not counting black, a bake's untouched background, nor the zero vector),
+   naming the image, the node, the count and how to rebuild blue (normal_map_checks.
+   blue_problem). A byte map above 2048^2 texels is counted on a copy scaled down: read in
+   full, a 16384^2 PNG normal map took a 16^2 bake from 3.9 s to 18.5 s and 2.2 to 5.6 GB
+   (peak RSS); scaled, 12.7 s and 2.6 GB (the copy reloads the file).
 
 Probed and fine (16^2 bakes through a Normal Map node, Non-Color, each against the RGB
 Pillow decodes from the file: at most 0.04 degrees, exit 0, no warning): palette PNGs (8-bit,
 4-bit, with a transparent entry), a 16-bit RGB PNG, a progressive JPEG, a CMYK JPEG, TGA
 (plain and RLE), BMP, TIFF (plain, deflate, RGBA) and lossless WebP; an RGBA PNG or EXR
-whose alpha is below 1 read as Non-Color under every Alpha mode.
+whose alpha is below 1 read as Non-Color under every Alpha mode. `compare --image` (Torus,
+32^2, normal-map, triplanar, decal) with a 1 x 1, 1 x 16, 16 x 1 and 13 x 7 PNG, a blue 0 map
+and an RGBA map with alpha 0 and 0.5: max 6e-5 degrees, exit 0 (it reads its image as data).
+SG Height Map HQ (per image) over 1 x 1, 1 x 16, 16 x 1, 2 x 2 and 13 x 7 grey PNGs: finite
+unit normals, flat where the heights are.
 """
 
 import numpy as np

@@ -23,6 +23,12 @@ bends them, naming the image, the node and the fix.
 - A float image with texels above 1 in R, G or B (1e30 from a broken export, values of a
   height or world-space map): they hold no normal a 0..1 map can, and tilt as their values
   happen to point; the warning counts them and says the largest.
+- An image in the working space with alpha below 1 under an Alpha mode Cycles multiplies
+  the colour by (premultiplied_problem; per line: LineFacts.byte_alpha_multiplied): those
+  normals bend (74 degrees at alpha 0.5). Non-Color never is.
+- More than NEGATIVE_SHARE of a map's texels with blue at or below 0.5 (blue_problem): a
+  two-channel (RG, BC5) map saved without its blue; the Normal Map node bakes them into the
+  surface. These two judge the image's own pixels (float_pixels.colour_facts).
 Channels and range are judged in every file the bake reads: each UDIM tile's (of the tiles
 baked; of a packed UDIM image, each tile's packed data), the frame file an Image Sequence reads
 now, and the warning names it.
