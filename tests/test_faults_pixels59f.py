@@ -243,3 +243,20 @@ def test_a_large_byte_map_is_judged_on_a_scaled_copy_and_left_as_it_was(tmp_path
             and BLUE_FIX in w], found
     assert sorted(bpy.data.images.keys()) == before
     assert not bpy.data.images["rg.png"].has_data
+
+
+@pytest.mark.parametrize("space, warned", [("TANGENT", True), ("OBJECT", False),
+                                           ("WORLD", False)])
+def test_an_object_space_map_is_not_judged_by_its_blue(space, warned, tmp_path):
+    """An object- or world-space map holds normals facing -Z too (blue below 0.5 on half a
+    sphere): only a tangent-space read is judged by its blue."""
+    path, _ = _blue_png(tmp_path / "os.png", 0)
+    rgb = np.asarray(Image.open(path)).copy()
+    rgb[:8, :, 2] = 230                                 # the half facing +Z
+    Image.fromarray(rgb, "RGB").save(path)
+    _scene(tmp_path / "s.blend", path)
+    bpy.data.materials["Mat"].node_tree.nodes["Normal Map"].space = space
+    found = [w for w in normal_map_checks.input_warnings(bpy.data.objects["Plane"])
+             if "blue at or below 0.5" in w]
+    assert bool(found) == warned, found
+    assert not warned or "has 128 of its 256 texels with blue at or below 0.5" in found[0]

@@ -67,15 +67,19 @@ COLOUR_MATH = {"ShaderNodeVectorMath": None, "ShaderNodeMath": None,
 NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filtering, has any
 
 
-def normal_map_images(obj, only=None, through=None):
+def normal_map_images(obj, only=None, through=None, tangent_only=False):
     """[(material, what the node is and its path, image, its Image Texture node)] for every
     image node whose Color output is read (through reroutes, into node groups through their
     inputs, and through the nodes `through` names: image_checks.textures_feeding) into a
     normal map input (NORMAL_MAP_INPUTS: a Normal Map node's Color, SG Normal Map's, SG
-    Triplanar's Color X, ...) of a node the object's materials (or material `only`) reach."""
+    Triplanar's Color X, ...) of a node the object's materials (or material `only`) reach;
+    `tangent_only`: not a Normal Map node in Object or World Space (its map's blue may be
+    anything)."""
     out = []
     for mat, node, path, outer in objects_nodes(obj, only):
         kind = _normal_map_kind(node)
+        if tangent_only and kind == "Normal Map" and node.space != "TANGENT":
+            continue
         names = NORMAL_MAP_INPUTS.get(kind, ())
         for name in names:
             socket = node.inputs.get(name)
@@ -249,6 +253,8 @@ def normal_map_warnings(obj, only=None, covered=()):
     reads, or float pixels stored in -1..1 (of a tiled image, the UDIM tiles `covered`, all
     where empty). Each file is read once."""
     out, seen = [], {}
+    tangent = {(m.name, n, i.as_pointer()) for m, n, i, _ in
+               normal_map_images(obj, only, tangent_only=True)}
     for mat, node, image, tex in normal_map_images(obj, only):
         problem = generated_problem(image)
         if problem:
@@ -256,7 +262,8 @@ def normal_map_warnings(obj, only=None, covered=()):
             if text not in out:
                 out.append(text)
             continue
-        problem = blue_problem(image)
+        problem = blue_problem(image) if (mat.name, node, image.as_pointer()) in tangent \
+            else None
         if problem:
             text = f"image {image.name!r}, read by {node} (material {mat.name!r}), {problem}"
             if text not in out:
