@@ -71,7 +71,10 @@ def test_the_freeze_operator_reports_what_bends_the_normal_map_it_reads(r):
     said = ("image 'grey.png', read by SG Normal Map node 'Group' (material 'grey'), holds 1 "
             "channel in its file (grey.png: grey PNG)")
     assert [line for line in grey.splitlines() if "Warning" in line and said in line], grey
-    assert "Warning" not in rgb and "warning" not in rgb, rgb
+    # (its grey ramp as RGB puts 153 texels' normals into the surface: red team 59f warns of
+    # that, test_faults_pixels59f.py; no channel warning)
+    assert not [line for line in rgb.splitlines() if "arning" in line and
+                "153 of its 256 texels with blue at or below 0.5" not in line], rgb
 
 
 if __name__ == "__main__":

@@ -27,6 +27,7 @@ from .bake_request import _only_instances, mesh_problems
 from .bake_uvs import baked_mesh, one_read
 from .cache_files import unread_cache_problems
 from .empty_slots import empty_slot_problem
+from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
 from .image_memory import images_memory
@@ -412,8 +413,9 @@ def _outside_square_text(obj, uv_map):
 def freeze_warnings(obj, mat):
     """What the Freeze operator reports once the freeze is done, as bake-normal-map warns of
     it: what bends the normal maps the material reads, parallax heights, a small object."""
-    return (input_warnings(obj, mat) + parallax_height_warnings(obj, mat) +
-            small_object_messages(obj, only=mat)[1])
+    with one_pixel_read():          # (each image's pixels read once for all of them)
+        return (input_warnings(obj, mat) + parallax_height_warnings(obj, mat) +
+                small_object_messages(obj, only=mat)[1])
 
 
 def freeze_steps(obj, resolution=NB.DEFAULT_RESOLUTION, uv_map="", filepath="", overwrite=False,

@@ -23,6 +23,12 @@ bends them, naming the image, the node and the fix.
 - A float image with texels above 1 in R, G or B (1e30 from a broken export, values of a
   height or world-space map): they hold no normal a 0..1 map can, and tilt as their values
   happen to point; the warning counts them and says the largest.
+- An image in the working space with alpha below 1 under an Alpha mode Cycles multiplies
+  the colour by (premultiplied_problem; per line: LineFacts.byte_alpha_multiplied): those
+  normals bend (74 degrees at alpha 0.5). Non-Color never is.
+- More than NEGATIVE_SHARE of a map's texels with blue at or below 0.5 (blue_problem): a
+  two-channel (RG, BC5) map saved without its blue; the Normal Map node bakes them into the
+  surface. These two judge the image's own pixels (float_pixels.colour_facts).
 Channels and range are judged in every file the bake reads: each UDIM tile's (of the tiles
 baked; of a packed UDIM image, each tile's packed data), the frame file an Image Sequence reads
 now, and the warning names it.
@@ -30,7 +36,7 @@ now, and the warning names it.
 
 import re
 
-from .float_pixels import PixelsTooLarge, file_facts, pixel_facts
+from .float_pixels import PixelsTooLarge, colour_facts, file_facts, pixel_facts
 from .image_checks import (data_key, image_files, objects_nodes, packed_tile_files,
                            packed_tiled, sampler_textures, sequence_file, textures_feeding)
 from .header_reads import path_headers
@@ -61,15 +67,19 @@ COLOUR_MATH = {"ShaderNodeVectorMath": None, "ShaderNodeMath": None,
 NEGATIVE_SHARE = 0.05       # a few percent below 0: no 0..1 map, nor its filtering, has any
 
 
-def normal_map_images(obj, only=None, through=None):
+def normal_map_images(obj, only=None, through=None, tangent_only=False):
     """[(material, what the node is and its path, image, its Image Texture node)] for every
     image node whose Color output is read (through reroutes, into node groups through their
     inputs, and through the nodes `through` names: image_checks.textures_feeding) into a
     normal map input (NORMAL_MAP_INPUTS: a Normal Map node's Color, SG Normal Map's, SG
-    Triplanar's Color X, ...) of a node the object's materials (or material `only`) reach."""
+    Triplanar's Color X, ...) of a node the object's materials (or material `only`) reach;
+    `tangent_only`: not a Normal Map node in Object or World Space (its map's blue may be
+    anything)."""
     out = []
     for mat, node, path, outer in objects_nodes(obj, only):
         kind = _normal_map_kind(node)
+        if tangent_only and kind == "Normal Map" and node.space != "TANGENT":
+            continue
         names = NORMAL_MAP_INPUTS.get(kind, ())
         for name in names:
             socket = node.inputs.get(name)
@@ -120,6 +130,14 @@ def colour_space_warnings(obj, only=None):
     out, data = [], None
     for mat, node, image, _ in normal_map_images(obj, only, through=COLOUR_MATH):
         if unconverted(image.colorspace_settings):
+            problem = premultiplied_problem(image)
+            if problem:
+                data = data or data_space()
+                text = (f"image {image.name!r}, read by {node} (material {mat.name!r}), "
+                        f"{problem}; set the image's Color Space to {data} (or its Alpha to "
+                        f"Channel Packed)")
+                if text not in out:
+                    out.append(text)
             continue
         data = data or data_space()
         text = (f"image {image.name!r} is read in colour space "
@@ -130,6 +148,61 @@ def colour_space_warnings(obj, only=None):
         if text not in out:
             out.append(text)
     return out
+
+
+def premultiplied_problem(image):
+    """What Cycles does to an image in its working space (not data) whose alpha is below 1
+    in some texels, under an Alpha mode that LineFacts.byte_alpha_multiplied (or
+    float_alpha_multiplied) names, else None: it multiplies the colour by the alpha, so those
+    normals bend (measured on every line: a 0..1 PNG normal map, Straight, alpha 0.5, 74
+    degrees off; alpha 0 texels 101), where Non-Color, or Alpha Channel Packed or None, reads
+    the colour as the file holds it. An EXR loads Premultiplied, which no line multiplies."""
+    import bpy
+    from ..reference.blender_lines import facts_for
+    line = facts_for(bpy.app.version)
+    if image.colorspace_settings.is_data or image.alpha_mode not in (
+            line.float_alpha_multiplied + line.byte_alpha_multiplied):
+        return None
+    facts = _colour_facts(image)        # (is_float loads an image: this frees it again)
+    if facts is None or not facts.alpha_below or image.alpha_mode not in (
+            line.float_alpha_multiplied if facts.is_float else line.byte_alpha_multiplied):
+        return None
+    mode = _ALPHA_MODES.get(image.alpha_mode, image.alpha_mode)
+    return (f"has {facts.share(facts.alpha_below)} with alpha below 1 (down to "
+            f"{facts.lowest_alpha:.3g}) and "
+            f"is read in colour space {image.colorspace_settings.name!r} with Alpha {mode!r}: "
+            f"Cycles multiplies its colour by the alpha before the node decodes it, so those "
+            f"normals bend (the bake takes them as Cycles renders them)")
+
+
+_ALPHA_MODES = {"STRAIGHT": "Straight", "PREMUL": "Premultiplied"}
+
+
+def _colour_facts(image):
+    try:
+        return colour_facts(image)
+    except PixelsTooLarge:
+        return None                 # (image_checks refuses the bake for it)
+
+
+def blue_problem(image):
+    """What is wrong with a normal map more than NEGATIVE_SHARE of whose texels hold blue at
+    or below 0.5 (float_pixels.FLAT_BLUE), normals at or past 90 degrees from the surface's,
+    else None. A tangent-space map's normals lean out of the surface (blue above 0.5); these
+    are a two-channel (RG, BC5) map saved with blue 0 or 0.5 (measured, a 16 x 16 map tilted
+    up to 24 degrees, blue 0: the Normal Map node baked every normal into the surface, 136
+    degrees off on average from what R and G mean, exit 0, no word; blue 0.5: 66). Of the
+    image's own pixels (its first tile); black texels (a bake's untouched background) and
+    the zero vector (0.5, 0.5, 0.5) are not counted."""
+    facts = _colour_facts(image)
+    if facts is None or facts.blue_flat <= NEGATIVE_SHARE * facts.texels:
+        return None
+    return (f"has {facts.share(facts.blue_flat)} with blue at or below 0.5: "
+            f"their normals point along or into the surface, which no tangent-space normal "
+            f"map holds (its blue is above 0.5), so they bake wrong (the bake takes them as "
+            f"Cycles renders them); it looks like a two-channel (RG, BC5) map saved without "
+            f"its blue: rebuild blue as 0.5 + 0.5 * sqrt(1 - x^2 - y^2), x = 2 R - 1, "
+            f"y = 2 G - 1 (or re-export the map as RGB)")
 
 
 # The inputs that take a world-space normal, on shading nodes and on the SG groups (their base
@@ -180,6 +253,8 @@ def normal_map_warnings(obj, only=None, covered=()):
     reads, or float pixels stored in -1..1 (of a tiled image, the UDIM tiles `covered`, all
     where empty). Each file is read once."""
     out, seen = [], {}
+    tangent = {(m.name, n, i.as_pointer()) for m, n, i, _ in
+               normal_map_images(obj, only, tangent_only=True)}
     for mat, node, image, tex in normal_map_images(obj, only):
         problem = generated_problem(image)
         if problem:
@@ -187,6 +262,12 @@ def normal_map_warnings(obj, only=None, covered=()):
             if text not in out:
                 out.append(text)
             continue
+        problem = blue_problem(image) if (mat.name, node, image.as_pointer()) in tangent \
+            else None
+        if problem:
+            text = f"image {image.name!r}, read by {node} (material {mat.name!r}), {problem}"
+            if text not in out:
+                out.append(text)
         files = own_files(image, tex, covered)
         key = (data_key(image), tuple(files))   # a library's image may share a name
         if key not in seen:

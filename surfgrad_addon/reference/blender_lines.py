@@ -72,6 +72,13 @@ class LineFacts:
     # leave it uninitialised (other values on each load: tests/test_exr_channels.py). So
     # are R, G and B of an EXR with alpha and no colour (tests/test_faults_images33.py).
     exr_two_colours_fill_zero: bool = False
+    # The Alpha modes under which Cycles multiplies an image's colour by its alpha where the
+    # image is read in the working colour space (not data, which is never multiplied), for a
+    # byte image (PNG, TGA) and a float one (EXR): 5.2 under Straight only; up to 5.0 a byte
+    # image under Straight and Premultiplied, a float one never (measured on every line with
+    # a Normal Map node: tests/test_faults_pixels59f.py).
+    byte_alpha_multiplied: tuple = ("STRAIGHT",)
+    float_alpha_multiplied: tuple = ("STRAIGHT",)
     # A shader node group can have Menu sockets and a Menu Switch node (5.0 and later); 4.2 and
     # 4.5 refuse NodeSocketMenu in a shader tree, so an enumeration is an integer there.
     menu_sockets: bool = True
@@ -100,7 +107,8 @@ _UP_TO_5_0 = dict(bake_differential_scale=0.25, bump_filter_width=True, packed_n
                  modifier_properties=False, bake_applies_target_colorspace=False,
                  sharp_faces_give_corner_normals=False, corner_normals_keep_flat_faces=False,
                  free_corner_normals_split=False,
-                 triangle_normal_divides=False)
+                 triangle_normal_divides=False,
+                 byte_alpha_multiplied=("STRAIGHT", "PREMUL"), float_alpha_multiplied=())
 LINES = {
     "4.2": LineFacts(line="4.2", eevee_engine="BLENDER_EEVEE_NEXT",
                      **{**_UP_TO_5_0, "bump_filter_width": False,
