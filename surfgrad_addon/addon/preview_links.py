@@ -1,0 +1,52 @@
+"""A preview left in a material: Connect to Output (Ctrl+Shift+click in the Shader Editor,
+Node Wrangler's preview before 4.2) links the clicked node's output straight to the Material
+Output's Surface, a colour or a vector in place of the BSDF, and the BSDF is left unlinked
+beside it. Cycles renders that value as an emission: no closure, so a normal-map bake wrote
+the surface's own normal wherever the material's stack bent it (a plane whose SG stack leans
+up to 36 degrees baked flat, median 20.6 degrees off, exit 0; rt59h). The bake refuses it,
+naming the node and the fix; an emission-only material (no shader node left aside) bakes as
+before."""
+
+from .bake_closures import CARRIERS
+from .material_inputs import cycles_output, live_links, renders_nothing
+
+KINDS = {"RGBA": "colour", "VECTOR": "vector", "VALUE": "number", "INT": "whole number"}
+# Sockets that make a closure (or carry one, 5.0+) into the Surface: not a preview.
+SHADERS = ("SHADER", "CUSTOM") + CARRIERS
+
+
+def _surface_source(output):
+    """The (node, socket) feeding `output`'s Surface through reroutes, or None."""
+    links = live_links(output.inputs["Surface"])
+    while links:
+        node, socket = links[0].from_node, links[0].from_socket
+        if node.bl_idname != "NodeReroute":
+            return node, socket
+        links = live_links(node.inputs[0])
+    return None
+
+
+def preview_problem(materials):
+    """None, or the refusal for the first of `materials` whose rendered Material Output takes
+    a value, not a shader, into its Surface while a shader node of the tree is left out."""
+    for mat in materials:
+        tree = getattr(mat, "node_tree", None)
+        output = cycles_output(tree) if tree is not None else None
+        if output is None or renders_nothing(output):
+            continue
+        source = _surface_source(output)
+        if source is None or source[1].type in SHADERS:
+            continue
+        node, socket = source
+        aside = [n.name for n in tree.nodes if not n.mute and n != node and
+                 any(o.type == "SHADER" for o in n.outputs)]
+        if not aside:                   # an emission-only material: nothing was left out
+            continue
+        return (f"material {mat.name!r}: its Material Output {output.name!r} takes "
+                f"{node.name!r} {socket.name} (a {KINDS.get(socket.type, socket.type.lower())}, not a shader) "
+                f"into its Surface, as a preview (Ctrl+Shift+click, Connect to Output) leaves "
+                f"it, so Cycles renders no BSDF and the map would be the surface's own normal; "
+                f"{', '.join(repr(n) for n in aside[:3])} "
+                f"{'is' if len(aside) == 1 else 'are'} left unlinked: link the BSDF back to "
+                f"the Surface (Ctrl+Shift+click it), then bake")
+    return None
