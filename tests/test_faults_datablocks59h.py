@@ -13,6 +13,15 @@ result. Measured on 5.2 before the fix (main at b7cd287):
    (Ctrl+Shift+click the BSDF); no file written, the material as it was. A material that is
    only a colour into the Surface (no shader node anywhere) bakes as before: the surface's
    normal.
+2. The same preview of SG Resolve's Normal: Add Layer Stack wired a second stack (3 nodes)
+   into SG Resolve's Normal input (the previewed node has one), FINISHED, no word; Freeze
+   refused with "no surface-gradient stack feeds a BSDF Normal input: add one (Add > ...
+   Layer Stack)", a stack being there (its fix adds a second one). Now both name the preview
+   and its fix; the material as it was.
+
+Probed and fine (5.2): File > Clean Up > Purge Unused Data (recursive) after Add Layer Stack
+and Add of SG Height Map HQ, Triplanar Height, Decal, Parallax: nothing purged (every group,
+the hidden helpers ".SG Safe Normal", ".SG Surface Gradient", ".SG UV Gradients" too, in use).
 """
 
 import numpy as np
@@ -103,3 +112,19 @@ def test_a_colour_only_material_still_bakes_the_surface(tmp_path):
     obj.data.materials.append(mat)
     got = baked_normals(obj, tmp_path / "m.exr", "tangent", 32)
     assert _off_z(got).max() < 0.5
+
+
+def test_add_layer_stack_and_freeze_name_the_preview():
+    """The same preview of SG Resolve's Normal: Add Layer Stack wired a second stack into SG
+    Resolve's Normal input (the previewed node has one), 3 nodes added, no word; Freeze said
+    "no surface-gradient stack feeds a BSDF Normal input: add one", a stack being there."""
+    from surfgrad_addon.addon import freeze
+    obj, tree, _, nodes = _stack_plane()
+    tree.links.new(nodes["resolve"].outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    before = material_dump(obj.active_material)
+    with pytest.raises(freeze.FreezeError, match="preview.*'Diffuse BSDF' is left unlinked"):
+        freeze.find_stack(tree)
+    with pytest.raises(Exception, match="preview.*Ctrl\\+Shift\\+click") as err:
+        api.add_layer_stack(obj.active_material, uv_map="UVMap")
+    assert isinstance(err.value, ValueError)
+    assert material_dump(obj.active_material) == before

@@ -26,27 +26,34 @@ def _surface_source(output):
     return None
 
 
+def previewed(tree, output):
+    """The text naming the value `output`'s Surface takes in place of a shader while a shader
+    node of `tree` is left unlinked (a preview), or None."""
+    source = _surface_source(output) if output is not None else None
+    if source is None or source[1].type in SHADERS:
+        return None
+    node, socket = source
+    aside = [n.name for n in tree.nodes if not n.mute and n != node and
+             any(o.type == "SHADER" for o in n.outputs)]
+    if not aside:                       # an emission-only material: nothing was left out
+        return None
+    return (f"its Material Output {output.name!r} takes {node.name!r} {socket.name} (a "
+            f"{KINDS.get(socket.type, socket.type.lower())}, not a shader) into its Surface, as "
+            f"a preview (Ctrl+Shift+click, Connect to Output) leaves it, and "
+            f"{', '.join(repr(n) for n in aside[:3])} {'is' if len(aside) == 1 else 'are'} "
+            f"left unlinked: link the BSDF back to the Surface (Ctrl+Shift+click it)")
+
+
 def preview_problem(materials):
-    """None, or the refusal for the first of `materials` whose rendered Material Output takes
-    a value, not a shader, into its Surface while a shader node of the tree is left out."""
+    """None, or the bake's refusal for the first of `materials` whose rendered Material Output
+    holds a preview (previewed)."""
     for mat in materials:
         tree = getattr(mat, "node_tree", None)
         output = cycles_output(tree) if tree is not None else None
         if output is None or renders_nothing(output):
             continue
-        source = _surface_source(output)
-        if source is None or source[1].type in SHADERS:
-            continue
-        node, socket = source
-        aside = [n.name for n in tree.nodes if not n.mute and n != node and
-                 any(o.type == "SHADER" for o in n.outputs)]
-        if not aside:                   # an emission-only material: nothing was left out
-            continue
-        return (f"material {mat.name!r}: its Material Output {output.name!r} takes "
-                f"{node.name!r} {socket.name} (a {KINDS.get(socket.type, socket.type.lower())}, not a shader) "
-                f"into its Surface, as a preview (Ctrl+Shift+click, Connect to Output) leaves "
-                f"it, so Cycles renders no BSDF and the map would be the surface's own normal; "
-                f"{', '.join(repr(n) for n in aside[:3])} "
-                f"{'is' if len(aside) == 1 else 'are'} left unlinked: link the BSDF back to "
-                f"the Surface (Ctrl+Shift+click it), then bake")
+        text = previewed(tree, output)
+        if text:
+            return (f"material {mat.name!r}: Cycles renders no BSDF, so the map would be the "
+                    f"surface's own normal; {text}, then bake")
     return None
