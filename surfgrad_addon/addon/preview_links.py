@@ -5,12 +5,15 @@ beside it. Cycles renders that value as an emission: no closure, so a normal-map
 the surface's own normal wherever the material's stack bent it (a plane whose SG stack leans
 up to 36 degrees baked flat, median 20.6 degrees off, exit 0; rt59h). The bake refuses it,
 naming the node and the fix; an emission-only material (no shader node left aside) bakes as
-before."""
+before. Node Wrangler before 4.2 (Blender 2.8 to 4.1) previewed through an Emission node it
+named "Emission Viewer" into the Surface: a file saved so holds the same trap, a shader this
+time (it baked flat as well)."""
 
 from .bake_closures import CARRIERS
 from .material_inputs import cycles_output, live_links, renders_nothing
 
 KINDS = {"RGBA": "colour", "VECTOR": "vector", "VALUE": "number", "INT": "whole number"}
+VIEWER = "Emission Viewer"     # Node Wrangler's preview node before 4.2
 # Sockets that make a closure (or carry one, 5.0+) into the Surface: not a preview.
 SHADERS = ("SHADER", "CUSTOM") + CARRIERS
 
@@ -30,16 +33,21 @@ def previewed(tree, output):
     """The text naming the value `output`'s Surface takes in place of a shader while a shader
     node of `tree` is left unlinked (a preview), or None."""
     source = _surface_source(output) if output is not None else None
-    if source is None or source[1].type in SHADERS:
+    if source is None:
         return None
     node, socket = source
+    viewer = node.bl_idname == "ShaderNodeEmission" and node.name.startswith(VIEWER)
+    if socket.type in SHADERS and not viewer:
+        return None
     aside = [n.name for n in tree.nodes if not n.mute and n != node and
              any(o.type == "SHADER" for o in n.outputs)]
     if not aside:                       # an emission-only material: nothing was left out
         return None
-    return (f"its Material Output {output.name!r} takes {node.name!r} {socket.name} (a "
-            f"{KINDS.get(socket.type, socket.type.lower())}, not a shader) into its Surface, as "
-            f"a preview (Ctrl+Shift+click, Connect to Output) leaves it, and "
+    what = (f"Node Wrangler's preview node {node.name!r} (an older Blender's Ctrl+Shift+click)"
+            if viewer else
+            f"{node.name!r} {socket.name} (a {KINDS.get(socket.type, socket.type.lower())}, not "
+            f"a shader), as a preview (Ctrl+Shift+click, Connect to Output) leaves it,")
+    return (f"its Material Output {output.name!r} takes {what} into its Surface, and "
             f"{', '.join(repr(n) for n in aside[:3])} {'is' if len(aside) == 1 else 'are'} "
             f"left unlinked: link the BSDF back to the Surface (Ctrl+Shift+click it)")
 
