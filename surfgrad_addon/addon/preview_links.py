@@ -43,11 +43,12 @@ def previewed(tree, output):
              any(o.type == "SHADER" for o in n.outputs)]
     if not aside:                       # an emission-only material: nothing was left out
         return None
-    what = (f"Node Wrangler's preview node {node.name!r} (an older Blender's Ctrl+Shift+click)"
-            if viewer else
+    what = (f"Node Wrangler's preview node {node.name!r} into its Surface (an older "
+            f"Blender's Ctrl+Shift+click)" if viewer else
             f"{node.name!r} {socket.name} (a {KINDS.get(socket.type, socket.type.lower())}, not "
-            f"a shader), as a preview (Ctrl+Shift+click, Connect to Output) leaves it,")
-    return (f"its Material Output {output.name!r} takes {what} into its Surface, and "
+            f"a shader) into its Surface, as a preview (Ctrl+Shift+click, Connect to Output) "
+            f"leaves it")
+    return (f"its Material Output {output.name!r} takes {what}, and "
             f"{', '.join(repr(n) for n in aside[:3])} {'is' if len(aside) == 1 else 'are'} "
             f"left unlinked: link the BSDF back to the Surface (Ctrl+Shift+click it)")
 
