@@ -31,6 +31,7 @@ from .float_pixels import one_pixel_read
 from .foreign_nodes import foreign_node_problems
 from .image_checks import image_problems, output_input_problems
 from .image_memory import images_memory
+from .preview_links import previewed
 from .input_stamps import changed_problem, stamps
 from .memory_limit import bake_memory_problem
 from .normal_map_checks import input_warnings
@@ -144,6 +145,10 @@ def find_stack(tree):
         which = (f" of the shader Cycles renders (through {output.name!r}, targeted at "
                  f"{output.target.title()}: Cycles takes a Cycles output before an All one, "
                  f"then the active one)" if len(outputs) > 1 else "")
+        preview = previewed(tree, output)
+        if preview:
+            raise FreezeError(f"Cycles renders a preview, not the stack: {preview}, then "
+                              f"freeze")
         raise FreezeError(f"no surface-gradient stack feeds a BSDF Normal input{which}: add one "
                           f"(Add > Surface Gradient > Add Surface-Gradient Layer Stack) first")
     ends = {(_source(s).node.name, _source(s).identifier) for _, s in fed}

@@ -44,6 +44,7 @@ from .exit_codes import BakeFailed, MapNotWritten
 from .linked_materials import is_linked, linked_user_problem, local_copies
 from .material_inputs import missing_library_problem
 from .precise_bake import precise_far
+from .preview_links import preview_problem
 from .publish_files import publish
 from .tangent_uv import tangents_of
 from .sculpt_normals import own_normals
@@ -501,7 +502,7 @@ def _bake_tiles(obj, output, space, resolution, uv_map, margin, samples, depth, 
     problem = only is not None and unslotted_problem(obj, only)
     if problem:
         raise NormalBakeError(problem)
-    problem = linked_group_problem(obj)
+    problem = linked_group_problem(obj) or preview_problem(materials)
     if problem:
         raise NormalBakeError(problem)
     fmt, _, _ = FORMATS[output.suffix.lower()]

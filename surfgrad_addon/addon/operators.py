@@ -15,6 +15,7 @@ from . import groups as G
 from .enum_input import set_choice
 from .material_inputs import edits_lost, linked_text, nodes_off_problem, render_output
 from .node_vocabulary import Math
+from .preview_links import previewed
 from .all_or_nothing import all_or_nothing
 from .group_updates import draw_stale_warning, report_notes, take_notes
 from .far_precision import needs_precise_far, set_precise_far_on_node
@@ -150,6 +151,9 @@ def _surface_shader(tree):
     if output is None or not output.inputs["Surface"].is_linked:
         raise SurfgradError("The material has no shader linked to its Material Output's "
                             "Surface: link a BSDF first")
+    preview = previewed(tree, output)     # the stack would go into the previewed node
+    if preview:
+        raise SurfgradError(f"The material shows a preview: {preview}, then add the stack")
     shader = output.inputs["Surface"].links[0].from_node
     while shader.bl_idname == "NodeReroute" and shader.inputs[0].is_linked:   # pass-through
         shader = shader.inputs[0].links[0].from_node
