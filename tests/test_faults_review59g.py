@@ -16,7 +16,16 @@
    as they were and the SIGTERM ends it (exit -15). rt59d's case (the script last, -b) keeps
    the signals ignored.
 
-Probed and fine (not pinned here): see the report of rt59g.
+Probed and fine (not pinned here): leave's other callers (python -m surfgrad_addon, the
+harness's __main__, `blender -c surfgrad`, the batch worker) all end next, and the api, the
+add-on's UI and pytest never call it. batch/run._read_back hashes each map once where the
+files record hashed it before (on_pending's hash of the temporary file was there already): no
+second read added. The tile refusal with faces beyond the UDIM range names both fixes (ask for
+tiles that hold UVs; move the faces or --allow-partial), each needed. sparse_warning reaches
+stdout and the report JSON ("warnings"); a UDIM compare sums the tiles' texels.
+method_scene._reach_along: an Array modifier hidden in the viewport (shown in renders) sizes
+the projector to one copy (1.4 m against the render's 18 m) and centres it there, as for the
+single object, so its boundary and outside still lie on the surface.
 """
 
 import json
