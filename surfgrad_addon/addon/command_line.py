@@ -164,13 +164,29 @@ def leave(code):
     numba's type system and loaded kernels: 0.2 s of a 2048^2 compare's exit, 0.1 s of a
     bake's. Nothing of ours needs them: a command has written and closed its files before it
     returns, and weakref.finalize hooks (temporary folders) still run at exit. Call it only
-    where the process ends next (never in a test's process, which goes on).
-    The stop signals are ignored from here on (interrupts.ignore_at_exit)."""
+    where the process ends next (never in a test's process, which goes on; in a --python
+    script only where blender_exits_next). The stop signals are ignored from here on
+    (interrupts.ignore_at_exit)."""
     import gc
     from . import interrupts
     interrupts.ignore_at_exit()
     gc.freeze()
     return code
+
+
+def blender_exits_next(argv, background, script):
+    """Whether Blender exits once the --python `script` (blender_cli.py, bake_normal_map.py)
+    returns 0: under -b (`background`), the last of Blender's arguments (but
+    --python-exit-code N) before `--`. Elsewhere it goes on, with its UI or with the
+    arguments after the script (a render, another script), and must stay stoppable: leave()
+    would have ignored SIGTERM and Ctrl-C there for good (red team 59g)."""
+    if not background:
+        return False
+    head = list(argv[:argv.index("--")] if "--" in argv else argv)
+    while len(head) >= 2 and head[-2] == "--python-exit-code":
+        head = head[:-2]
+    return len(head) >= 2 and head[-2] in ("--python", "-P") \
+        and Path(head[-1]).resolve() == Path(script).resolve()
 
 
 def _run(command, args):
