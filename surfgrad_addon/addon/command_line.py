@@ -189,6 +189,17 @@ def blender_exits_next(argv, background, script):
         and Path(head[-1]).resolve() == Path(script).resolve()
 
 
+def end_script(code, script):
+    """The end of a --python script (blender_cli.py, bake_normal_map.py) whose command returned
+    `code`: a failure exits Blender with it; success leaves Blender to go on (its UI, the
+    arguments after the script), with leave() only where it exits next (blender_exits_next)."""
+    if code:
+        sys.exit(leave(code))
+    import bpy                                  # Blender's, as the script runs in it
+    if blender_exits_next(sys.argv, bpy.app.background, script):
+        leave(code)
+
+
 def _run(command, args):
     try:
         code = command.run(args)
