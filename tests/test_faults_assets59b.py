@@ -240,3 +240,23 @@ def test_a_tile_refusal_names_the_faces_beyond_the_grid_too(tmp_path):
                         allow_partial=True, log=None)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["n.1001.png", "n.1002.png",
                                                           "n.1003.png"]
+
+
+def test_a_no_area_refusal_names_another_uv_map_that_has_area(tmp_path):
+    """Noticed by 59b, mended by the coordinator: a glTF whose TEXCOORD_0 is collapsed and
+    TEXCOORD_1 unwrapped was told to unwrap the first; the refusal now names the second as
+    the other fix, and baking with it writes the map."""
+    obj = _squashed_uvs(LAYOUTS["on v = 0 (faces.glb)"])
+    good = obj.data.uv_layers.new(name="Unwrapped")
+    for loop in obj.data.loops:
+        co = obj.data.vertices[loop.vertex_index].co
+        good.data[loop.index].uv = (co.x / 2.0, co.y)      # the strip over the square
+    obj.data.uv_layers["UVMap"].active_render = True
+    with pytest.raises(ValueError) as err:
+        api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=32, log=None)
+    assert str(err.value) == NO_AREA + (", or bake with its UV map 'Unwrapped', which has "
+                                        "area (--uv-map 'Unwrapped'; api: uv_map=)")
+    assert list(tmp_path.iterdir()) == []
+    api.bake_normal_map(obj, str(tmp_path / "n.png"), resolution=32, uv_map="Unwrapped",
+                        log=None)
+    assert (tmp_path / "n.png").is_file()

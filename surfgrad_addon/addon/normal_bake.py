@@ -305,15 +305,20 @@ def _linked_given(obj):
             m.node_tree is not None and holds_stand_ins(m.node_tree)]
 
 
-def no_tile_problem(obj_name, uv_map, uvs=None):
+def no_tile_problem(obj_name, uv_map, uvs=None, others=None):
     """Why a UV map whose faces lie in no UDIM tile bakes nothing, and the fix (whole_tile_move
     where it lies whole in one square off the grid). `uvs`: the UV triangles (T, 3, 2), or
     just the UVs' span; triangles with no area at all (an importer's UVs on one line or
-    point, even inside the square) are refused as such: no move puts them in a tile."""
+    point, even inside the square) are refused as such: no move puts them in a tile.
+    `others`: {name: UV triangles} of the object's other UV maps; one with area is named as
+    the other fix (a glTF whose TEXCOORD_0 is collapsed and TEXCOORD_1 unwrapped)."""
     if uvs is not None and np.ndim(uvs) == 3:
         collapsed = IC.collapsed_uv_problem(uv_map, obj_name, uvs)
         if collapsed:
-            return collapsed
+            usable = [name for name, tris in (others or {}).items() if name != uv_map
+                      and tris is not None and not IC.collapsed_uv_problem(name, obj_name, tris)]
+            return collapsed + (f", or bake with its UV map {usable[0]!r}, which has area "
+                                f"(--uv-map {usable[0]!r}; api: uv_map=)" if usable else "")
     text = f"UV map {uv_map!r} of object {obj_name!r} has no faces in any UDIM tile"
     fix = "move its islands into the 0-1 square (tile 1001) or onto UDIM tiles"
     uv = None if uvs is None else np.asarray(uvs, dtype=np.float64).reshape(-1, 2)
@@ -380,7 +385,8 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
         raise NormalBakeError(problem)
     with uv_active(mesh, uv_map):       # read as the bake renders it (tangent_uv.py)
         layout = baked_uv_tiles(obj)
-        uvs = baked_mesh(obj).triangle_uvs.get(uv_map)
+        every_uv = baked_mesh(obj).triangle_uvs
+        uvs = every_uv.get(uv_map)
     if uv_map not in layout:
         raise NormalBakeError(not_rendered_problem(obj.name, uv_map, layout, obj,
                                                    len(baked_mesh(obj).face_materials)))
@@ -391,7 +397,7 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
                         f"({T.UDIM_SPAN}) and are not baked")
     where = f"UV map {uv_map!r} of object {obj.name!r}"
     if not with_uvs:
-        raise NormalBakeError(no_tile_problem(obj.name, uv_map, uvs))
+        raise NormalBakeError(no_tile_problem(obj.name, uv_map, uvs, every_uv))
     try:
         tiles = _chosen_tiles(output, tiles, with_uvs, where, empty_tiles)
     except NormalBakeError as err:
