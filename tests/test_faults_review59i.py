@@ -10,6 +10,13 @@ facts' scaled copy, preview_links, command_line.end_script).
    object first). Now own_normals shows the object for the mode switch alone: compare gives
    p99 0.0003 deg as in Object Mode, the object is in Sculpt Mode after and still disabled
    in viewports. (A .blend saved so opens in Object Mode: a live session's case only.)
+2. bake-normal-map (api, Freeze, bake-batch) of a material with a colour into the Surface and
+   a Principled Volume linked into the Volume (a glow/fog material; no BSDF anywhere):
+   preview_links (rt59h) counted every shader node as "left unlinked", the linked volume
+   too, and refused it as a preview ("'Principled Volume' is left unlinked: link the BSDF
+   back to the Surface"), a fix that does not exist (before rt59h it baked, exit 0, the
+   surface's own normal, which is what Cycles renders). Now only shader nodes whose shader
+   output goes nowhere are left aside: it bakes, every texel within 0.5 deg of flat.
 
 Probed and fine on 5.2 (compare normal-map of a bent 6 x 5 grid at 32^2, p99 0.0003 deg as
 the plain file's; mode, active object, data read back unchanged): the mesh shared with a
@@ -63,3 +70,36 @@ def test_compare_of_an_object_in_sculpt_mode_disabled_in_viewports(empty_file):
     after = np.empty_like(co)
     obj.data.vertices.foreach_get("co", after)
     assert np.array_equal(after, co)
+
+
+def test_a_colour_into_the_surface_beside_a_volume_is_no_preview(empty_file, tmp_path):
+    """Finding 2: a glow material (a colour into the Surface, a Principled Volume into the
+    Volume; no BSDF anywhere) bakes the surface's own normal, as Cycles renders it."""
+    from surfgrad_addon import api
+    obj = A._link("Grid", A._grid("Grid", nx=6, ny=5, bend=0.35))
+    mat = bpy.data.materials.new("Glow")
+    if bpy.app.version < (5, 0):
+        mat.use_nodes = True
+    nt = mat.node_tree
+    for n in list(nt.nodes):
+        if n.bl_idname != "ShaderNodeOutputMaterial":
+            nt.nodes.remove(n)
+    out = nt.nodes["Material Output"]
+    rgb, vol = nt.nodes.new("ShaderNodeRGB"), nt.nodes.new("ShaderNodeVolumePrincipled")
+    nt.links.new(rgb.outputs[0], out.inputs["Surface"])
+    nt.links.new(vol.outputs[0], out.inputs["Volume"])
+    obj.data.materials.append(mat)
+    path = tmp_path / "glow.exr"
+    # Before: NormalBakeError "... 'Principled Volume' is left unlinked: link the BSDF back".
+    api.bake_normal_map(obj, path, resolution=RES, samples=1, margin=0, log=None)
+    img = bpy.data.images.load(str(path))
+    try:
+        img.colorspace_settings.is_data = True
+        px = np.array(img.pixels[:], dtype=np.float64).reshape(-1, 4)[:, :3]
+    finally:
+        bpy.data.images.remove(img)
+    n = px[np.abs(px).sum(1) > 0] * 2 - 1
+    assert len(n) > 100
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    deg = np.degrees(np.arccos(np.clip(n[:, 2], -1, 1)))       # tangent space: +Z is flat
+    assert deg.max() < 0.5, deg.max()

@@ -39,8 +39,11 @@ def previewed(tree, output):
     viewer = node.bl_idname == "ShaderNodeEmission" and node.name.startswith(VIEWER)
     if socket.type in SHADERS and not viewer:
         return None
+    # Shader nodes whose shader goes nowhere (a shader linked on, into the Volume say, is not
+    # left aside: a colour into the Surface beside a volume is no preview).
     aside = [n.name for n in tree.nodes if not n.mute and n != node and
-             any(o.type == "SHADER" for o in n.outputs)]
+             any(o.type == "SHADER" for o in n.outputs) and
+             not any(o.is_linked for o in n.outputs if o.type == "SHADER")]
     if not aside:                       # an emission-only material: nothing was left out
         return None
     what = (f"Node Wrangler's preview node {node.name!r} into its Surface (an older "
