@@ -17,6 +17,14 @@ facts' scaled copy, preview_links, command_line.end_script).
    back to the Surface"), a fix that does not exist (before rt59h it baked, exit 0, the
    surface's own normal, which is what Cycles renders). Now only shader nodes whose shader
    output goes nowhere are left aside: it bakes, every texel within 0.5 deg of flat.
+3. The blue and alpha warnings of a byte map above 2048^2 texels (float_pixels.colour_facts,
+   rt59f) counted a copy (Image.copy, scaled), which reloads the image's file, packed data or
+   generator, not the pixels the image holds: a map painted or set by a script and not saved
+   (is_dirty) was judged by its old pixels, and Cycles bakes the new ones. A 4096 x 2048
+   UV Grid image filled with flat normals (0.5, 0.5, 1) warned "about 52% of its texels with
+   blue at or below 0.5 ... rebuild blue"; a PNG saved with blue 0.3, then painted flat,
+   "about 100%" (and the reverse: a flaw painted in, unsaved, went unseen). Now an image
+   with unsaved pixels is read in full (as below 2048^2): no warning; no image left behind.
 
 Probed and fine on 5.2 (compare normal-map of a bent 6 x 5 grid at 32^2, p99 0.0003 deg as
 the plain file's; mode, active object, data read back unchanged): the mesh shared with a
@@ -103,3 +111,30 @@ def test_a_colour_into_the_surface_beside_a_volume_is_no_preview(empty_file, tmp
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     deg = np.degrees(np.arccos(np.clip(n[:, 2], -1, 1)))       # tangent space: +Z is flat
     assert deg.max() < 0.5, deg.max()
+
+
+def _painted(img, rgb):
+    px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+    px.reshape(-1, 4)[:] = (*rgb, 1.0)
+    img.pixels.foreach_set(px)
+
+
+@pytest.mark.parametrize("source", ["generated uv grid", "saved file"])
+def test_a_large_byte_map_painted_unsaved_is_judged_by_its_pixels(empty_file, tmp_path, source):
+    """Finding 3: the colour facts of a byte map above 2048^2 (the blue and alpha warnings)
+    judge the pixels Cycles bakes, not a copy reloaded from the file or generator."""
+    from surfgrad_addon.addon import normal_map_checks as NC
+    img = bpy.data.images.new("Painted", 4096, 2048)
+    if source == "saved file":
+        _painted(img, (0.9, 0.2, 0.3))              # saved with blue 0.3: would warn
+        img.filepath_raw = str(tmp_path / "painted.png")
+        img.file_format = "PNG"
+        img.save()
+    else:
+        img.generated_type = "UV_GRID"              # about half its texels blue <= 0.5
+    _painted(img, (0.5, 0.5, 1.0))                  # flat normals, unsaved
+    assert img.is_dirty
+    # Before: "has about 50% (grid) / 100% (file) of its texels with blue at or below 0.5".
+    assert NC.blue_problem(img) is None
+    names = [i.name for i in bpy.data.images]
+    assert names == ["Painted"], names
