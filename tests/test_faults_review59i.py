@@ -15,8 +15,10 @@ facts' scaled copy, preview_links, command_line.end_script).
    preview_links (rt59h) counted every shader node as "left unlinked", the linked volume
    too, and refused it as a preview ("'Principled Volume' is left unlinked: link the BSDF
    back to the Surface"), a fix that does not exist (before rt59h it baked, exit 0, the
-   surface's own normal, which is what Cycles renders). Now only shader nodes whose shader
-   output goes nowhere are left aside: it bakes, every texel within 0.5 deg of flat.
+   surface's own normal, which is what Cycles renders). Now a shader node is left aside only
+   where the rendered Material Output does not read it: it bakes, every texel within 0.5 deg
+   of flat; a BSDF still linked into an EEVEE-only output, or into a dangling reroute, is
+   still a preview, refused (pinned too).
 3. The blue and alpha warnings of a byte map above 2048^2 texels (float_pixels.colour_facts,
    rt59f) counted a copy (Image.copy, scaled), which reloads the image's file, packed data or
    generator, not the pixels the image holds: a map painted or set by a script and not saved
@@ -138,3 +140,33 @@ def test_a_large_byte_map_painted_unsaved_is_judged_by_its_pixels(empty_file, tm
     assert NC.blue_problem(img) is None
     names = [i.name for i in bpy.data.images]
     assert names == ["Painted"], names
+
+
+@pytest.mark.parametrize("aside", ["bsdf linked to the eevee output", "through a reroute"])
+def test_a_preview_is_still_refused_where_the_bsdf_is_linked_elsewhere(empty_file, tmp_path,
+                                                                       aside):
+    """Finding 2's fix counts a shader as left aside unless the rendered output reads it: a
+    BSDF still linked into an EEVEE-only output, or left feeding a reroute, is a preview."""
+    from surfgrad_addon import api
+    obj = A._link("Grid", A._grid("Grid", nx=6, ny=5, bend=0.35))
+    mat = bpy.data.materials.new("Rock")
+    if bpy.app.version < (5, 0):
+        mat.use_nodes = True
+    nt = mat.node_tree
+    out, bsdf = nt.nodes["Material Output"], nt.nodes["Principled BSDF"]
+    if aside == "through a reroute":
+        reroute = nt.nodes.new("NodeReroute")
+        nt.links.new(bsdf.outputs[0], reroute.inputs[0])
+    else:
+        out.target = "CYCLES"
+        eevee = nt.nodes.new("ShaderNodeOutputMaterial")
+        eevee.target = "EEVEE"
+        nt.links.new(bsdf.outputs[0], eevee.inputs["Surface"])
+    rgb = nt.nodes.new("ShaderNodeRGB")
+    nt.links.new(rgb.outputs[0], out.inputs["Surface"])          # the preview
+    obj.data.materials.append(mat)
+    path = tmp_path / "m.exr"
+    with pytest.raises(ValueError) as err:
+        api.bake_normal_map(obj, path, resolution=RES, samples=1, margin=0, log=None)
+    assert "preview" in str(err.value) and "'Rock'" in str(err.value)
+    assert not path.exists()
