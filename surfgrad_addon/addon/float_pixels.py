@@ -104,7 +104,9 @@ def _read_colour(image):
         channels, is_float = image.channels, image.is_float
         if w * h == 0 or channels < 3:
             return None
-        if not is_float and w * h > COLOUR_TEXELS:
+        # A copy reads the image's file, packed data or generator, not pixels painted or
+        # set since (is_dirty): those are read in full, as Cycles bakes them.
+        if not is_float and w * h > COLOUR_TEXELS and not image.is_dirty:
             return _scaled_colour(image, w, h, channels)
         try:
             px = np.empty(w * h * channels, dtype=np.float32)

@@ -10,7 +10,7 @@ named "Emission Viewer" into the Surface: a file saved so holds the same trap, a
 time (it baked flat as well)."""
 
 from .bake_closures import CARRIERS
-from .material_inputs import cycles_output, live_links, renders_nothing
+from .material_inputs import cycles_output, live_links, renders_nothing, upstream_nodes
 
 KINDS = {"RGBA": "colour", "VECTOR": "vector", "VALUE": "number", "INT": "whole number"}
 VIEWER = "Emission Viewer"     # Node Wrangler's preview node before 4.2
@@ -39,8 +39,12 @@ def previewed(tree, output):
     viewer = node.bl_idname == "ShaderNodeEmission" and node.name.startswith(VIEWER)
     if socket.type in SHADERS and not viewer:
         return None
-    aside = [n.name for n in tree.nodes if not n.mute and n != node and
-             any(o.type == "SHADER" for o in n.outputs)]
+    # Shader nodes this output does not render: a shader it renders elsewhere (a volume into
+    # its Volume) is not left aside, a colour into the Surface beside it no preview; one
+    # linked only to another output (EEVEE's) is.
+    used = {name for sock in output.inputs for name in upstream_nodes(sock)}
+    aside = [n.name for n in tree.nodes if not n.mute and n != node and n.name not in used
+             and any(o.type == "SHADER" for o in n.outputs)]
     if not aside:                       # an emission-only material: nothing was left out
         return None
     what = (f"Node Wrangler's preview node {node.name!r} into its Surface (an older "

@@ -40,10 +40,16 @@ def own_normals(obj):
     active = view_layer.objects.active
 
     def switch(mode):
+        # An object disabled in viewports (hide_viewport, set in Sculpt Mode) fails
+        # mode_set's poll ('Cannot edit hidden object'): shown for the switch alone.
+        hidden, obj.hide_viewport = obj.hide_viewport, False
         view_layer.objects.active = obj
-        with bpy.context.temp_override(active_object=obj, object=obj):
-            bpy.ops.object.mode_set(mode=mode)
-        view_layer.objects.active = active
+        try:
+            with bpy.context.temp_override(active_object=obj, object=obj):
+                bpy.ops.object.mode_set(mode=mode)
+        finally:
+            view_layer.objects.active = active
+            obj.hide_viewport = hidden
 
     if sculpting:
         switch("OBJECT")
