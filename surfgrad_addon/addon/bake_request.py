@@ -565,8 +565,10 @@ def folder_problem(folder):
         return f"output folder {str(folder)!r}: {str(probe_in)!r} is a file, not a folder"
     try:
         fd, name = tempfile.mkstemp(prefix=".surfgrad-probe-", dir=probe_in)
-        os.close(fd)
-        os.unlink(name)
+        try:
+            os.close(fd)
+        finally:    # (Ctrl-C in a session between the two left the probe in the output folder)
+            os.unlink(name)
     except OSError as err:
         return (f"output folder {str(probe_in)!r} is not writable ({err.strerror}): pick a "
                 f"folder you can write to, or fix its permissions")

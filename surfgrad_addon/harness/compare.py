@@ -110,9 +110,13 @@ def bpy_float_image(name, pixels):
     if px.shape[2] == 3:
         px = np.concatenate([px, np.ones((h, w, 1), np.float32)], axis=-1)
     img = bpy.data.images.new(name, w, h, alpha=True, float_buffer=True)
-    img.colorspace_settings.is_data = True
-    img.pixels.foreach_set(px.ravel())
-    img.pack()
+    try:
+        img.colorspace_settings.is_data = True
+        img.pixels.foreach_set(px.ravel())
+        img.pack()
+    except BaseException:               # (Ctrl-C in a session: no half-made image left)
+        bpy.data.images.remove(img)
+        raise
     return img
 
 
@@ -171,6 +175,25 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
         raise CompareError(problem)
     detail = DETAIL_UV if DETAIL_UV in names else uv_map
     inp = Inputs(obj=obj, uv_map=uv_map, detail_uv=detail, variant=variant)
+    try:
+        _make_images(inp, image)
+    except BaseException:
+        # A failure or Ctrl-C (KeyboardInterrupt in a TD's session) while the images were
+        # made left those made so far in bpy.data, one more set per interrupted compare.
+        remove_images(inp)
+        raise
+    return inp
+
+
+def remove_images(inp):
+    """Remove the images prepare_inputs made (each once)."""
+    import bpy
+    images, inp.images = list(inp.images.values()), {}
+    for _, img in images:
+        bpy.data.images.remove(img)
+
+
+def _make_images(inp, image):
     if isinstance(image, np.ndarray):       # pixels given directly (the stability suite)
         # uint8 / uint16 (a PNG as imageio loads it) as Blender reads the file: both sides
         # took 0..255 before, agreeing about a map no file holds.
@@ -190,7 +213,6 @@ def prepare_inputs(obj, uv_map=None, image=None, variant="hq"):
     h = R.images.wave_height_image(HEIGHT_IMAGE_SIZE)
     inp.images["height"] = (h.astype(np.float32).astype(np.float64),
                             bpy_float_image("sg_height", h))
-    return inp
 
 
 # The comparison -----------------------------------------------------------------------------------
@@ -252,21 +274,20 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
     if problem:
         raise CompareError(problem)
     inp = prepare_inputs(obj, uv_map, image, variant)
-    if directx:
-        CS.turn_green(inp, m)
-    inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
-    m, inp.relief_scale = scale_limits.scaled_relief(obj, m)
-    # (After the relief is scaled: the graph binds the method's values as the reference does.)
-    graph = CS.with_directx_on(m.graph) if directx else m.graph
-    notes = [depth_note] if depth_note and m.reference is METHODS["parallax"].reference else []
-    if inp.relief_scale < 1.0:
-        notes.append(f"relief for the comparison: x {inp.relief_scale:.3g}, scaled to the "
-                     f"half-size of {obj.name!r} (a scaled copy of the unit object)")
-    for note in notes:
-        if log:
-            log(f"note: {note}")
-    import bpy
-    try:
+    try:      # (from here: a note's log that raises, Ctrl-C, all leave no image)
+        if directx:
+            CS.turn_green(inp, m)
+        inp.parallax_scale, depth_note = scale_limits.parallax_depth(obj, PARALLAX_SCALE)
+        m, inp.relief_scale = scale_limits.scaled_relief(obj, m)
+        # (After the relief is scaled: the graph binds the method's values as the reference does.)
+        graph = CS.with_directx_on(m.graph) if directx else m.graph
+        notes = [depth_note] if depth_note and m.reference is METHODS["parallax"].reference else []
+        if inp.relief_scale < 1.0:
+            notes.append(f"relief for the comparison: x {inp.relief_scale:.3g}, scaled to the "
+                         f"half-size of {obj.name!r} (a scaled copy of the unit object)")
+        for note in notes:
+            if log:
+                log(f"note: {note}")
         # Far out: a second user keeps the mesh in object space (before the mesh is read).
         # A GPU bake's Linear lookups use the texture unit's 8-bit weights: so does its
         # reference (without, every normal-map method is ~0.2 degrees p99 off on the GPU).
@@ -298,8 +319,7 @@ def compare_object(obj, method, resolution, uv_map=None, image=None, variant=Non
             report["settings"] = dict(settings)
         return report, heat
     finally:
-        for _, img in inp.images.values():
-            bpy.data.images.remove(img)
+        remove_images(inp)
 
 
 def asked_tiles(tiles):
