@@ -262,17 +262,16 @@ def normal_map_warnings(obj, only=None, covered=()):
             if text not in out:
                 out.append(text)
             continue
-        problem = blue_problem(image) if (mat.name, node, image.as_pointer()) in tangent \
-            else None
-        if problem:
-            text = f"image {image.name!r}, read by {node} (material {mat.name!r}), {problem}"
-            if text not in out:
-                out.append(text)
         files = own_files(image, tex, covered)
         key = (data_key(image), tuple(files))   # a library's image may share a name
         if key not in seen:
             seen[key] = _file_problems(image, files, covered)
-        for problem in seen[key]:
+        problems = [p for p in seen[key] if p]
+        # The blue of a file already warned of (a grey file spread over R, G and B; -1..1
+        # floats) is that fault's, said once.
+        if not problems and (mat.name, node, image.as_pointer()) in tangent:
+            problems = [blue_problem(image)]
+        for problem in problems:
             if problem:
                 text = (f"image {image.name!r}, read by {node} (material {mat.name!r}), "
                         f"{problem}")
