@@ -268,9 +268,11 @@ def normal_map_warnings(obj, only=None, covered=()):
             seen[key] = _file_problems(image, files, covered)
         problems = [p for p in seen[key] if p]
         # The blue of a file already warned of (a grey file spread over R, G and B; -1..1
-        # floats) is that fault's, said once.
-        if not problems and (mat.name, node, image.as_pointer()) in tangent:
-            problems = [blue_problem(image)]
+        # floats) is that fault's, said once; not texels above 1 (a few from a resize leave
+        # a blue-0 map 136 degrees off), nor another UDIM tile's fault (blue reads the first).
+        explained = [p for p in seen[key][:2] if p and _of_own_pixels(image, p)]
+        if not explained and (mat.name, node, image.as_pointer()) in tangent:
+            problems.append(blue_problem(image))
         for problem in problems:
             if problem:
                 text = (f"image {image.name!r}, read by {node} (material {mat.name!r}), "
@@ -278,6 +280,13 @@ def normal_map_warnings(obj, only=None, covered=()):
                 if text not in out:
                     out.append(text)
     return out
+
+
+def _of_own_pixels(image, problem):
+    """The file problem is of the pixels blue_problem reads: the image's own, of a UDIM image
+    its first tile's (a problem names the tile it is of)."""
+    return image.source != "TILED" or "(tile " not in problem or \
+        f"(tile {image.tiles[0].number}: " in problem
 
 
 GENERATED_FLAT_DEG = 1.0      # a Blank image's colour this near (0.5, 0.5, 1): a flat map
