@@ -12,6 +12,14 @@
      tile 1002's -1..1 warning; the blue of tile 1001 was not said.
    Now blue is left out only for a grey-channels or -1..1 warning of its own pixels (of a UDIM
    image, the first tile's); the grey PNG and -1..1 EXR said once, as 058c6b8 meant.
+2. normal_bake.no_tile_problem (27651ab), for a UV map with no area, named any other UV map
+   with area as the other fix, where the bake then refused it: a Geometry Nodes modifier's
+   map ('UVGen', stored on face corners: "has UV map 'UVGen' only from a modifier", exit 2),
+   a map whose name is longer than the bake takes (66 bytes: refused so), a map with area
+   only outside the UDIM range (u, v -0.9..-0.1: "has no faces in any UDIM tile", exit 2).
+   Three runs for one fault, each the advice of the last. Now only a map on the mesh data,
+   with a name the bake takes and faces in a UDIM tile, is named (a plain second unwrapped
+   map still is, and bakes).
 """
 
 import numpy as np
@@ -19,7 +27,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from surfgrad_addon.addon import normal_map_checks  # noqa: E402
+from surfgrad_addon.addon import commands, exit_codes, normal_map_checks  # noqa: E402
 from test_faults_pipeline_leftovers import _normal_texels, _scene, _write_image  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
@@ -73,3 +81,62 @@ def test_a_udim_map_whose_other_tile_is_minus_one_is_warned_of_its_first_tiles_b
     found = _warnings()
     assert [w for w in found if "it looks stored in -1..1" in w and "tile 1002" in w], found
     assert [w for w in found if f"has 256 of its 256 texels {BLUE}" in w], found
+
+
+def _gn_uv_map(obj, name):
+    """A Geometry Nodes modifier storing `name` on face corners (2D): position + (0.5, 0.5)."""
+    ng = bpy.data.node_groups.new("G", "GeometryNodeTree")
+    ng.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    ng.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    gi, go = ng.nodes.new("NodeGroupInput"), ng.nodes.new("NodeGroupOutput")
+    store = ng.nodes.new("GeometryNodeStoreNamedAttribute")
+    store.data_type, store.domain = "FLOAT2", "CORNER"
+    store.inputs["Name"].default_value = name
+    add = ng.nodes.new("ShaderNodeVectorMath")
+    add.inputs[1].default_value = (0.5, 0.5, 0.0)
+    ng.links.new(ng.nodes.new("GeometryNodeInputPosition").outputs[0], add.inputs[0])
+    ng.links.new(add.outputs[0], store.inputs["Value"])
+    ng.links.new(gi.outputs[0], store.inputs["Geometry"])
+    ng.links.new(store.outputs[0], go.inputs[0])
+    obj.modifiers.new("GN", "NODES").node_group = ng
+
+
+LONG = "L" * 66                                 # over the bake's 63 bytes, a UV map takes it
+
+
+def _second_map(obj, kind):
+    me = obj.data
+    if kind == "modifier":
+        _gn_uv_map(obj, "Second")
+        return
+    quad = {"outside": [(-0.9, -0.9), (-0.1, -0.9), (-0.1, -0.1), (-0.9, -0.1)],
+            "long": [(0, 0), (1, 0), (1, 1), (0, 1)], "plain": [(0, 0), (1, 0), (1, 1), (0, 1)]}
+    layer = me.uv_layers.new(name=LONG if kind == "long" else "Second")
+    assert layer is not None and len(me.polygons) == 1
+    layer.data.foreach_set("uv", np.array(quad[kind], np.float32).ravel())
+    me.uv_layers.active = me.uv_layers["UVMap"]
+
+
+@pytest.mark.tier("bake")                       # (the plain map's fix is baked)
+@pytest.mark.parametrize("kind, named", [("modifier", False), ("long", False),
+                                         ("outside", False), ("plain", True)])
+def test_a_collapsed_map_names_only_another_map_the_bake_can_use(kind, named, tmp_path, capsys):
+    path = tmp_path / "n.png"
+    _write_image(path, _normal_texels())
+    blend = tmp_path / "s.blend"
+    _scene(blend, path)
+    obj = bpy.data.objects["Plane"]
+    uv = obj.data.uv_layers["UVMap"]
+    uv.data.foreach_set("uv", np.zeros(len(uv.data) * 2, np.float32))   # collapsed
+    _second_map(obj, kind)
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    out = tmp_path / "m.png"
+    args = ["bake-normal-map", "--blend", str(blend), "--object", "Plane", "--output",
+            str(out), "--resolution", "16", "--samples", "1"]
+    rc = commands.execute(args)
+    err = capsys.readouterr().err
+    assert rc != exit_codes.OK and "'UVMap' of object 'Plane' has no area" in err, err
+    assert ("which has area" in err) == named, err
+    if named:                                   # the fix named works
+        rc = commands.execute(args + ["--uv-map", "Second"])
+        assert rc == exit_codes.OK and out.exists(), capsys.readouterr().err

@@ -397,7 +397,11 @@ def plan_tile_layout(obj, output, uv_map=None, tiles=None, empty_tiles="error"):
                         f"({T.UDIM_SPAN}) and are not baked")
     where = f"UV map {uv_map!r} of object {obj.name!r}"
     if not with_uvs:
-        raise NormalBakeError(no_tile_problem(obj.name, uv_map, uvs, every_uv))
+        # Another map named as the fix only where a bake with it goes on: on the mesh data
+        # (not a modifier's), a name the bake takes, faces in a UDIM tile.
+        others = {name: every_uv.get(name) for name in names if layout.get(name, ((),))[0]
+                  and not long_name_problem(obj.name, name)}
+        raise NormalBakeError(no_tile_problem(obj.name, uv_map, uvs, others))
     try:
         tiles = _chosen_tiles(output, tiles, with_uvs, where, empty_tiles)
     except NormalBakeError as err:
