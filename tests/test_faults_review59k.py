@@ -20,6 +20,12 @@
    Three runs for one fault, each the advice of the last. Now only a map on the mesh data,
    with a name the bake takes and faces in a UDIM tile, is named (a plain second unwrapped
    map still is, and bakes).
+3. compare --image (harness_api.compare(..., image=path)) interrupted (Ctrl-C, a kernel's
+   interrupt) while its image was read: rt59j's removal covers the images once
+   prepare_inputs holds them, but _load_image's own load was not: reading a 4096^2 PNG takes
+   2.0 s (load, foreach_get, finite check), and KeyboardInterrupt there left the image
+   ('n.png', 0 users) in the TD's bpy.data, one per interrupted call. Now removed on any
+   exception (compare._load_image).
 """
 
 import numpy as np
@@ -28,6 +34,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from surfgrad_addon.addon import commands, exit_codes, normal_map_checks  # noqa: E402
+from surfgrad_addon.harness import api as harness_api  # noqa: E402
+from surfgrad_addon.reference import input_checks  # noqa: E402
 from test_faults_pipeline_leftovers import _normal_texels, _scene, _write_image  # noqa: E402
 
 pytestmark = pytest.mark.tier("blender")
@@ -140,3 +148,17 @@ def test_a_collapsed_map_names_only_another_map_the_bake_can_use(kind, named, tm
     if named:                                   # the fix named works
         rc = commands.execute(args + ["--uv-map", "Second"])
         assert rc == exit_codes.OK and out.exists(), capsys.readouterr().err
+
+
+def _interrupt(*_args, **_kwargs):
+    raise KeyboardInterrupt
+
+
+def test_compare_interrupted_while_its_image_is_read_leaves_none(fresh, monkeypatch, tmp_path):
+    path = tmp_path / "n.png"
+    _write_image(path, _normal_texels(32))
+    fresh.ops.mesh.primitive_plane_add()
+    monkeypatch.setattr(input_checks, "pixels_problem", _interrupt)     # as the map is read
+    with pytest.raises(KeyboardInterrupt):
+        harness_api.compare(fresh.context.object, "normal-map", resolution=16, image=path)
+    assert sorted(i.name for i in bpy.data.images) == []                # before: ['n.png']

@@ -139,10 +139,17 @@ def _load_image(path):
         img = bpy.data.images.load(str(path.resolve()), check_existing=False)
     except RuntimeError as err:
         raise CompareError(f"image {str(path)!r} could not be read ({err})") from err
+    try:        # (Ctrl-C while a large map is read, 2 s at 4096^2, left it in bpy.data)
+        return _read_loaded(img, path)
+    except BaseException:
+        bpy.data.images.remove(img)
+        raise
+
+
+def _read_loaded(img, path):
     img.colorspace_settings.is_data = True
     w, h = img.size
     if w == 0 or h == 0:
-        bpy.data.images.remove(img)
         raise CompareError(f"image {str(path)!r} is empty or unreadable; give an image file "
                            f"Blender can open (PNG, EXR, ...)")
     px = np.empty(w * h * img.channels, dtype=np.float32)
@@ -150,7 +157,6 @@ def _load_image(path):
     px = px.reshape(h, w, img.channels).astype(np.float64)
     problem = R.input_checks.pixels_problem(f"image {str(path)!r}", px)
     if problem:
-        bpy.data.images.remove(img)
         raise CompareError(problem)
     return px[..., :3] if img.channels >= 3 else px[..., 0], img
 
