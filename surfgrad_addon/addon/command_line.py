@@ -164,7 +164,7 @@ def leave(code):
     numba's type system and loaded kernels: 0.2 s of a 2048^2 compare's exit, 0.1 s of a
     bake's. Nothing of ours needs them: a command has written and closed its files before it
     returns, and weakref.finalize hooks (temporary folders) still run at exit. Call it only
-    where the process ends next (never in a test's process, which goes on; in a --python
+    where the process ends next (never in a test's process, which goes on; in a Blender
     script only where blender_exits_next). The stop signals are ignored from here on
     (interrupts.ignore_at_exit)."""
     import gc
@@ -174,8 +174,12 @@ def leave(code):
     return code
 
 
+# Blender's arguments that may end its list after a script: the exit code's, then the script's.
+EXIT_CODE_ARG, SCRIPT_ARGS = "--python-exit-code", ("-P", "--python")
+
+
 def blender_exits_next(argv, background, script):
-    """Whether Blender exits once the --python `script` (blender_cli.py, bake_normal_map.py)
+    """Whether Blender exits once the script `script` (blender_cli.py, bake_normal_map.py)
     returns 0: under -b (`background`), the last of Blender's arguments (but
     --python-exit-code N) before `--`. Elsewhere it goes on, with its UI or with the
     arguments after the script (a render, another script), and must stay stoppable: leave()
@@ -183,14 +187,14 @@ def blender_exits_next(argv, background, script):
     if not background:
         return False
     head = list(argv[:argv.index("--")] if "--" in argv else argv)
-    while len(head) >= 2 and head[-2] == "--python-exit-code":
+    while len(head) >= 2 and head[-2] == EXIT_CODE_ARG:
         head = head[:-2]
-    return len(head) >= 2 and head[-2] in ("--python", "-P") \
+    return len(head) >= 2 and head[-2] in SCRIPT_ARGS \
         and Path(head[-1]).resolve() == Path(script).resolve()
 
 
 def end_script(code, script):
-    """The end of a --python script (blender_cli.py, bake_normal_map.py) whose command returned
+    """The end of a Blender script (blender_cli.py, bake_normal_map.py) whose command returned
     `code`: a failure exits Blender with it; success leaves Blender to go on (its UI, the
     arguments after the script), with leave() only where it exits next (blender_exits_next)."""
     if code:
